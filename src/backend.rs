@@ -1,0 +1,73 @@
+//! Robot bases: the [`Backend`] trait every base implements, and its implementations.
+//!
+//! A backend is a differential-drive base that accepts translational and rotational speed commands
+//! and reports its odometry, in the manner of the base-velocity and localization traits of Rust
+//! robotics code (openrr's `MoveBase` and `Localization`). Task logic (goals, balls, observations)
+//! lives in the tasks, not here: the same task runs on the in-process simulator and on a real Segway
+//! RMP. Backends never panic on link or device trouble; they return [`BackendError`].
+
+use miette::Diagnostic;
+use thiserror::Error;
+
+use crate::trace::Pose;
+
+/// What a base reports after a control step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BaseState {
+    /// Time since the last reset, seconds.
+    pub t_s: f64,
+    /// Odometry pose (dead-reckoned: it drifts from the true pose on a real base).
+    pub pose: Pose,
+    /// Measured translational speed, m/s.
+    pub speed_mps: f64,
+    /// Measured rotational speed, rad/s.
+    pub rot_radps: f64,
+}
+
+/// A robot base driven at a fixed control rate.
+pub trait Backend {
+    /// Human-readable name, e.g. `sim` or `rmp:192.168.0.40:8080`.
+    fn name(&self) -> String;
+
+    /// Control period in seconds (1/30 s for the paper's tasks).
+    fn period_s(&self) -> f64;
+
+    /// Bring the base to rest at `start` (the sim teleports; a real base re-zeroes its odometry
+    /// frame so that `start` is where it stands).
+    fn reset(&mut self, start: Pose) -> Result<BaseState, BackendError>;
+
+    /// Command speeds for the next control period. Values outside the base's limits are clamped.
+    fn command(&mut self, speed_mps: f64, rot_radps: f64) -> Result<(), BackendError>;
+
+    /// Advance one control period and report the new state.
+    fn step(&mut self) -> Result<BaseState, BackendError>;
+
+    /// Command zero speed and bring the base to rest (always safe to call).
+    fn stop(&mut self) -> Result<(), BackendError>;
+
+    /// The true pose when the backend knows it (the sim), else `None`: evaluation uses it to score
+    /// success honestly while the policy only ever sees odometry.
+    fn true_pose(&self) -> Option<Pose> {
+        None
+    }
+}
+
+/// Why a backend could not do what was asked.
+#[derive(Debug, Error, Diagnostic)]
+pub enum BackendError {
+    #[error("no feedback from the base for {waited_ms} ms")]
+    #[diagnostic(
+        code(advise::backend::link_lost),
+        help("check the cable or network and that the base is powered; the execution so far is kept")
+    )]
+    LinkLost { waited_ms: u64 },
+    #[error("the base reported a fault: {what}")]
+    #[diagnostic(code(advise::backend::fault))]
+    Fault { what: String },
+    #[error("network error talking to the base: {0}")]
+    #[diagnostic(code(advise::backend::io))]
+    Io(#[from] std::io::Error),
+    #[error("{0}")]
+    #[diagnostic(code(advise::backend::other))]
+    Other(String),
+}

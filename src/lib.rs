@@ -1,0 +1,11 @@
+//! `advise`: teach a robot's motion controller by critiquing and advising its executions.
+//!
+//! The phases, in order (see ARCHITECTURE.md): [`syntax`] (pest grammar to spanned AST),
+//! [`check`] (AST to a checked operator set), [`interp`] (apply operators to chunks),
+//! [`policy`] (dataset with provenance, BC 1-NN, A-OPI LWR), [`backend`] (sim and RMP bases).
+//! The shared data types are [`domain`] and [`trace`].
+
+pub mod backend;
+pub mod domain;
+pub mod policy;
+pub mod trace;
