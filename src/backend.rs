@@ -58,7 +58,9 @@ pub enum BackendError {
     #[error("no feedback from the base for {waited_ms} ms")]
     #[diagnostic(
         code(advise::backend::link_lost),
-        help("check the cable or network and that the base is powered; the execution so far is kept")
+        help(
+            "check the cable or network and that the base is powered; the execution so far is kept"
+        )
     )]
     LinkLost { waited_ms: u64 },
     #[error("the base reported a fault: {what}")]

@@ -129,8 +129,16 @@ impl Domain {
             name: "positioning".into(),
             observe: vec![
                 Dim::new("dist2", "m^2", Some((0.0, 100.0))),
-                Dim::new("bearing", "rad", Some((-std::f64::consts::PI, std::f64::consts::PI))),
-                Dim::new("dheading", "rad", Some((-std::f64::consts::PI, std::f64::consts::PI))),
+                Dim::new(
+                    "bearing",
+                    "rad",
+                    Some((-std::f64::consts::PI, std::f64::consts::PI)),
+                ),
+                Dim::new(
+                    "dheading",
+                    "rad",
+                    Some((-std::f64::consts::PI, std::f64::consts::PI)),
+                ),
             ],
             act: vec![
                 Dim::new("trans", "m/s", Some((-1.0, 1.0))),
@@ -148,7 +156,11 @@ impl Domain {
             name: "interception".into(),
             observe: vec![
                 Dim::new("ball_dist", "m", Some((0.0, 20.0))),
-                Dim::new("ball_angle", "rad", Some((-std::f64::consts::PI, std::f64::consts::PI))),
+                Dim::new(
+                    "ball_angle",
+                    "rad",
+                    Some((-std::f64::consts::PI, std::f64::consts::PI)),
+                ),
                 Dim::new("ball_dist_delta", "m", Some((-1.0, 1.0))),
                 Dim::new("ball_angle_delta", "rad", Some((-1.0, 1.0))),
                 Dim::new("travel_delta", "m", Some((-1.0, 1.0))),

@@ -27,7 +27,11 @@ pub struct Pose {
 
 impl Pose {
     pub fn new(x_m: f64, y_m: f64, theta_rad: f64) -> Self {
-        Pose { x_m, y_m, theta_rad }
+        Pose {
+            x_m,
+            y_m,
+            theta_rad,
+        }
     }
 }
 
@@ -225,12 +229,21 @@ impl Trace {
             if p.pose.is_some() != with_pose {
                 return Err(bad("some points have a `pose` and others do not".into()));
             }
-            let vals = std::iter::once(p.t).chain(p.z.iter().copied()).chain(p.a.iter().copied());
-            if vals.chain(p.pose.into_iter().flatten()).any(|v| !v.is_finite()) {
+            let vals = std::iter::once(p.t)
+                .chain(p.z.iter().copied())
+                .chain(p.a.iter().copied());
+            if vals
+                .chain(p.pose.into_iter().flatten())
+                .any(|v| !v.is_finite())
+            {
                 return Err(bad("a value is not a finite number".into()));
             }
             if i > 0 && p.t < trace.t[i - 1] {
-                return Err(bad(format!("time goes backwards ({} after {})", p.t, trace.t[i - 1])));
+                return Err(bad(format!(
+                    "time goes backwards ({} after {})",
+                    p.t,
+                    trace.t[i - 1]
+                )));
             }
             let pose = p.pose.map(|[x, y, th]| Pose::new(x, y, th));
             trace.push(p.t, &p.z, &p.a, pose);
@@ -247,7 +260,10 @@ impl Trace {
                     t: self.t[i],
                     z: self.z(i).to_vec(),
                     a: self.a(i).to_vec(),
-                    pose: self.pose.as_ref().map(|p| [p[i].x_m, p[i].y_m, p[i].theta_rad]),
+                    pose: self
+                        .pose
+                        .as_ref()
+                        .map(|p| [p[i].x_m, p[i].y_m, p[i].theta_rad]),
                 })
                 .collect(),
         }
@@ -260,7 +276,10 @@ impl Trace {
             source,
         })?;
         let name = path.display().to_string();
-        if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        {
             Trace::from_json_str(domain, &name, &text)
         } else {
             Trace::from_csv_str(domain, &name, &text)
@@ -356,7 +375,11 @@ pub enum ChunkError {
         code(advise::chunk::out_of_range),
         help("ranges are half-open and 0-based: the whole execution is 0..{len}")
     )]
-    OutOfRange { start: usize, end: usize, len: usize },
+    OutOfRange {
+        start: usize,
+        end: usize,
+        len: usize,
+    },
 }
 
 /// Everything that can be wrong with a trace file.
@@ -415,7 +438,10 @@ pub enum TraceError {
         span: SourceSpan,
     },
     #[error("line {line}, column `{column}`: `{value}` is not a number")]
-    #[diagnostic(code(advise::trace::not_a_number), help("write a decimal number such as 0.25"))]
+    #[diagnostic(
+        code(advise::trace::not_a_number),
+        help("write a decimal number such as 0.25")
+    )]
     NotANumber {
         line: u64,
         column: String,
@@ -440,7 +466,10 @@ pub enum TraceError {
         span: SourceSpan,
     },
     #[error("line {line}: time goes backwards ({t} after {prev})")]
-    #[diagnostic(code(advise::trace::time_backwards), help("rows must be in time order"))]
+    #[diagnostic(
+        code(advise::trace::time_backwards),
+        help("rows must be in time order")
+    )]
     TimeBackwards {
         line: u64,
         t: f64,
@@ -505,7 +534,9 @@ mod csv_load {
 
     /// Where each CSV line starts, so rows can be labelled in the source.
     fn line_span(text: &str, byte: usize) -> SourceSpan {
-        let end = text[byte..].find(['\n', '\r']).map_or(text.len(), |e| byte + e);
+        let end = text[byte..]
+            .find(['\n', '\r'])
+            .map_or(text.len(), |e| byte + e);
         SourceSpan::new(byte.into(), end - byte)
     }
 
@@ -533,7 +564,9 @@ mod csv_load {
         let mut records = rdr.records();
         let header = match records.next() {
             None => return Err(TraceError::Empty),
-            Some(r) => r.map_err(|e| TraceError::Csv { message: e.to_string() })?,
+            Some(r) => r.map_err(|e| TraceError::Csv {
+                message: e.to_string(),
+            })?,
         };
         let header_byte = header.position().map_or(0, |p| p.byte() as usize);
         let header_span = line_span(text, header_byte);
@@ -600,9 +633,15 @@ mod csv_load {
                 });
             }
         }
-        let pose_cols = seen.iter().filter(|h| ["x", "y", "theta"].contains(h)).count();
+        let pose_cols = seen
+            .iter()
+            .filter(|h| ["x", "y", "theta"].contains(h))
+            .count();
         if pose_cols != 0 && pose_cols != 3 {
-            let missing = ["x", "y", "theta"].into_iter().find(|p| !seen.contains(p)).unwrap_or("x");
+            let missing = ["x", "y", "theta"]
+                .into_iter()
+                .find(|p| !seen.contains(p))
+                .unwrap_or("x");
             return Err(TraceError::MissingColumn {
                 column: missing.into(),
                 domain: domain.name.clone(),
@@ -616,7 +655,9 @@ mod csv_load {
         let (mut z, mut a) = (vec![0.0; domain.obs_dim()], vec![0.0; domain.act_dim()]);
         let mut pose = [0.0; 3];
         for rec in records {
-            let rec = rec.map_err(|e| TraceError::Csv { message: e.to_string() })?;
+            let rec = rec.map_err(|e| TraceError::Csv {
+                message: e.to_string(),
+            })?;
             let byte = rec.position().map_or(0, |p| p.byte() as usize);
             let line = rec.position().map_or(0, |p| p.line());
             if rec.len() == 1 && rec.get(0) == Some("") {
@@ -735,8 +776,14 @@ mod tests {
     #[test]
     fn chunks_are_validated() {
         assert!(Chunk::new(2, 5, 10).is_ok());
-        assert_eq!(Chunk::new(5, 2, 10), Err(ChunkError::Reversed { start: 5, end: 2 }));
-        assert!(matches!(Chunk::new(0, 11, 10), Err(ChunkError::OutOfRange { .. })));
+        assert_eq!(
+            Chunk::new(5, 2, 10),
+            Err(ChunkError::Reversed { start: 5, end: 2 })
+        );
+        assert!(matches!(
+            Chunk::new(0, 11, 10),
+            Err(ChunkError::OutOfRange { .. })
+        ));
         assert!(Chunk::new(3, 3, 10).unwrap().is_empty());
     }
 }
