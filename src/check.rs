@@ -808,6 +808,7 @@ impl Checker<'_> {
                     }
                     assigned.push((space, idx));
                     if s.op == AssignOp::Set
+                        && ty == Ty::Num
                         && value.is_constant()
                         && let Some(l) = domain.dims(space)[idx].limits
                     {
@@ -1109,7 +1110,8 @@ impl Checker<'_> {
                 "",
             );
             ok &= self.expect(f, &a.value, ty, Ty::Num, None);
-            if ir.is_constant()
+            if ty == Ty::Num
+                && ir.is_constant()
                 && let Some(l) = cparams[slot].limits
             {
                 let v = ir.eval_uniform(&[], f64::NAN);
@@ -1482,7 +1484,7 @@ impl Checker<'_> {
                 what: if what.is_empty() {
                     "this".into()
                 } else {
-                    capitalise(what)
+                    what.into()
                 },
                 name: name.into(),
                 src: self.src(f),
@@ -1513,14 +1515,6 @@ fn other_domain_with_dim(name: &str, exclude: &str) -> Option<&'static str> {
 enum Body2 {
     Block(BlockIr),
     Pipeline(Vec<Stage>),
-}
-
-fn capitalise(s: &str) -> String {
-    let mut c = s.chars();
-    match c.next() {
-        Some(first) => first.to_uppercase().chain(c).collect(),
-        None => String::new(),
-    }
 }
 
 /// 1-based line of a byte offset.

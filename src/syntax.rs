@@ -290,6 +290,7 @@ fn expected_words(positives: &[Rule]) -> Vec<String> {
             r if infix.contains(r) => "an operator like `+`",
             r if value.contains(r) => "a value",
             Rule::name if has(Rule::number) || has(Rule::expr) => "a value",
+            Rule::name if has(Rule::rbrace) => "a statement such as `rot = 0`",
             Rule::name => "a name",
             Rule::doc | Rule::domain | Rule::operator | Rule::kw_domain => {
                 push("`domain`");
@@ -312,6 +313,7 @@ fn expected_words(positives: &[Rule]) -> Vec<String> {
             Rule::unit | Rule::quote => "a unit in quotes",
             Rule::lbrace | Rule::block_body => "`{`",
             Rule::rbrace => "`}`",
+            Rule::lparen if has(Rule::number) => "a value",
             Rule::lparen | Rule::params | Rule::call_args | Rule::inv_args => "`(`",
             Rule::rparen => "`)`",
             Rule::lbracket => "`[`",
