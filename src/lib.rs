@@ -6,6 +6,9 @@
 //! The shared data types are [`domain`] and [`trace`].
 
 pub mod backend;
+pub mod check;
 pub mod domain;
+pub mod interp;
 pub mod policy;
+pub mod syntax;
 pub mod trace;

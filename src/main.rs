@@ -1,7 +1,15 @@
 //! The `advise` command line: a thin layer over the library. Each subcommand parses its
 //! arguments, calls one library function, and renders errors as miette diagnostics.
 
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
 use clap::{Parser, Subcommand};
+use miette::{IntoDiagnostic, Report, WrapErr, miette};
+
+use advise::check::{self, OperatorSet, Source};
+use advise::domain::Domain;
+use advise::trace::{Chunk, Trace};
 
 #[derive(Parser)]
 #[command(
@@ -15,15 +23,222 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Check advice-operator files (on top of the standard operators); every error of every file
+    /// is reported, and the exit code is non-zero if there was any.
+    Check {
+        /// Operator files (`*.adv`).
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+    },
+    /// Apply an operator to a range of a trace and print the synthesized points as CSV.
+    Apply {
+        /// Extra operator files, checked on top of the standard operators (repeatable).
+        #[arg(long = "operators", value_name = "FILE")]
+        operators: Vec<PathBuf>,
+        /// The operator and its arguments: `speed_up`, `speed_up(0.5)`, `speed_up(rate = 0.5)`.
+        #[arg(long, value_name = "NAME[(ARGS)]")]
+        op: String,
+        /// The trace (CSV with a header, or JSON).
+        #[arg(long, value_name = "TRACE")]
+        trace: PathBuf,
+        /// Half-open, 0-based range of points: `A..B`.
+        #[arg(long, value_name = "A..B")]
+        range: String,
+        /// The trace's domain; by default it is recognised from the CSV header or JSON.
+        #[arg(long)]
+        domain: Option<String>,
+    },
+}
 
-fn main() -> std::process::ExitCode {
+fn main() -> ExitCode {
     let cli = Cli::parse();
-    match cli.command {
-        None => {
-            println!("advise: the operator checker lands with the language issue");
-            std::process::ExitCode::SUCCESS
+    let result = match cli.command {
+        None => check_standard(),
+        Some(Command::Check { files }) => check_files(&files),
+        Some(Command::Apply {
+            operators,
+            op,
+            trace,
+            range,
+            domain,
+        }) => apply(&operators, &op, &trace, &range, domain.as_deref()),
+    };
+    match result {
+        Ok(code) => code,
+        Err(report) => {
+            eprintln!("{report:?}");
+            ExitCode::FAILURE
         }
-        Some(c) => match c {},
     }
+}
+
+/// With no arguments (until the REPL exists): check the embedded standard operators.
+fn check_standard() -> miette::Result<ExitCode> {
+    let sources: Vec<Source> = check::STANDARD_SOURCES
+        .iter()
+        .map(|(n, t)| Source::new(*n, *t))
+        .collect();
+    match check::check(&sources) {
+        Ok(set) => {
+            println!(
+                "checked {} domains and {} operators in operators/: all good",
+                set.domains().len(),
+                set.operator_count()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(errors) => Ok(report_check_errors(errors, sources.len())),
+    }
+}
+
+fn read_sources(files: &[PathBuf]) -> miette::Result<Vec<Source>> {
+    files
+        .iter()
+        .map(|f| {
+            std::fs::read_to_string(f)
+                .into_diagnostic()
+                .wrap_err_with(|| format!("cannot read `{}`", f.display()))
+                .map(|text| Source::new(f.display().to_string(), text))
+        })
+        .collect()
+}
+
+fn check_files(files: &[PathBuf]) -> miette::Result<ExitCode> {
+    let sources = read_sources(files)?;
+    match OperatorSet::standard().merge(&sources) {
+        Ok(set) => {
+            let ops: usize = set.operator_count();
+            println!(
+                "checked {} file{}: {} domains and {} operators in all, no errors",
+                files.len(),
+                if files.len() == 1 { "" } else { "s" },
+                set.domains().len(),
+                ops
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(errors) => Ok(report_check_errors(errors, files.len())),
+    }
+}
+
+fn report_check_errors(errors: check::CheckErrors, files: usize) -> ExitCode {
+    let n = errors.errors.len();
+    for e in errors.errors {
+        eprintln!("{:?}", Report::new(e));
+    }
+    eprintln!(
+        "advise: {n} error{} in {files} file{}",
+        if n == 1 { "" } else { "s" },
+        if files == 1 { "" } else { "s" }
+    );
+    ExitCode::FAILURE
+}
+
+fn apply(
+    operators: &[PathBuf],
+    op: &str,
+    trace_path: &Path,
+    range: &str,
+    domain: Option<&str>,
+) -> miette::Result<ExitCode> {
+    let sources = read_sources(operators)?;
+    let set = match OperatorSet::standard().merge(&sources) {
+        Ok(set) => set,
+        Err(errors) => return Ok(report_check_errors(errors, sources.len())),
+    };
+    let inv = advise::syntax::parse_invocation(op)?;
+    let domain = trace_domain(&set, trace_path, domain)?;
+    let trace = Trace::load(&domain, trace_path)?;
+    let (a, b) = parse_range(range)?;
+    let chunk = Chunk::new(a, b, trace.len())?;
+    let out = advise::interp::apply(&set, &inv, &trace, chunk)?;
+    let mut stdout = std::io::stdout().lock();
+    out.points
+        .write_csv(&domain, &mut stdout)
+        .into_diagnostic()
+        .wrap_err("cannot write the points")?;
+    eprintln!(
+        "advise: {} synthesized {} of {} points ({} skipped by its guard)",
+        out.advice.invocation(),
+        out.points.len(),
+        chunk.len(),
+        chunk.len() - out.points.len()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `A..B` as two indices.
+fn parse_range(s: &str) -> miette::Result<(usize, usize)> {
+    let bad = || {
+        miette!(
+            code = "advise::cli::bad_range",
+            help = "write a half-open, 0-based range of points such as `0..20`",
+            "`{s}` is not a range"
+        )
+    };
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let a = a.trim().parse().map_err(|_| bad())?;
+    let b = b.trim().parse().map_err(|_| bad())?;
+    Ok((a, b))
+}
+
+/// The domain named on the command line, or the one whose dimensions the trace's header names.
+fn trace_domain(set: &OperatorSet, path: &Path, name: Option<&str>) -> miette::Result<Domain> {
+    let known = || {
+        set.domains()
+            .iter()
+            .map(|d| d.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if let Some(name) = name {
+        return set.domain(name).cloned().ok_or_else(|| {
+            miette!(
+                code = "advise::cli::unknown_domain",
+                help = format!("the known domains are: {}", known()),
+                "there is no domain `{name}`"
+            )
+        });
+    }
+    let text = std::fs::read_to_string(path)
+        .into_diagnostic()
+        .wrap_err_with(|| format!("cannot read `{}`", path.display()))?;
+    let is_json = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let found = if is_json {
+        serde_json::from_str::<serde_json::Value>(&text)
+            .ok()
+            .and_then(|v| v.get("domain")?.as_str().map(str::to_string))
+            .and_then(|d| set.domain(&d).cloned())
+    } else {
+        let header: Vec<&str> = text
+            .lines()
+            .next()
+            .unwrap_or("")
+            .split(',')
+            .map(str::trim)
+            .collect();
+        set.domains()
+            .iter()
+            .find(|d| {
+                d.observe
+                    .iter()
+                    .chain(&d.act)
+                    .all(|dim| header.contains(&dim.name.as_str()))
+            })
+            .cloned()
+    };
+    found.ok_or_else(|| {
+        miette!(
+            code = "advise::cli::unknown_trace_domain",
+            help = format!(
+                "name it with `--domain` (one of: {}), or give the trace a header with the domain's columns",
+                known()
+            ),
+            "cannot tell which domain `{}` belongs to",
+            path.display()
+        )
+    })
 }
