@@ -7,6 +7,7 @@
 //! meaning; that is [`crate::check`]. The grammar is `grammar/advice.pest`.
 
 pub mod ast;
+pub mod command;
 pub mod print;
 
 use miette::{Diagnostic, NamedSource, SourceSpan};
@@ -19,6 +20,7 @@ use ast::*;
 
 #[derive(pest_derive::Parser)]
 #[grammar = "../grammar/advice.pest"]
+#[grammar = "../grammar/session.pest"]
 struct AdviceParser;
 
 /// How deeply expressions may nest. Far beyond any operator a person writes, and it keeps every
@@ -329,6 +331,19 @@ fn expected_words(positives: &[Rule]) -> Vec<String> {
             }
             Rule::stmt => "a statement such as `rot = 0`",
             Rule::EOI => "the end of the input",
+            Rule::uint | Rule::range => "a whole number such as `40..70`",
+            Rule::path | Rule::bare_path | Rule::quoted_path => "a file path",
+            Rule::backend_spec => "`sim` or `rmp:HOST:PORT`",
+            Rule::inv_body => "an operator such as `speed_up(0.5)`",
+            Rule::dotdot => "`..`",
+            r if format!("{r:?}").starts_with("cw_") => {
+                let w = format!("`{}`", &format!("{r:?}")[3..]);
+                push(&w);
+                continue;
+            }
+            Rule::c_task | Rule::c_backend | Rule::c_run_goal | Rule::c_select | Rule::c_advise => {
+                "a command (try `help`)"
+            }
             _ => continue,
         };
         push(w);
