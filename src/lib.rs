@@ -7,5 +7,7 @@
 
 pub mod backend;
 pub mod domain;
+pub mod eval;
 pub mod policy;
+pub mod task;
 pub mod trace;
