@@ -8,7 +8,9 @@
 pub mod backend;
 pub mod check;
 pub mod domain;
+pub mod eval;
 pub mod interp;
 pub mod policy;
 pub mod syntax;
+pub mod task;
 pub mod trace;

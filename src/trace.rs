@@ -688,8 +688,14 @@ pub fn line_col_span(text: &str, line: usize, column: usize) -> SourceSpan {
     let mut offset = 0;
     for (i, l) in text.split_inclusive('\n').enumerate() {
         if i + 1 == line {
-            let col = column.saturating_sub(1).min(l.len());
-            return SourceSpan::new(offset.into(), if col < l.len() { 1 } else { 0 });
+            // serde counts columns in bytes; step back to a character boundary and cover one
+            // whole character.
+            let mut col = column.saturating_sub(1).min(l.len());
+            while !l.is_char_boundary(col) {
+                col -= 1;
+            }
+            let width = l[col..].chars().next().map_or(0, char::len_utf8);
+            return SourceSpan::new((offset + col).into(), width);
         }
         offset += l.len();
     }
