@@ -1,0 +1,4 @@
+//! The advising session (WIP): its parts.
+pub mod journal;
+pub mod plot;
+pub mod script;
