@@ -11,6 +11,7 @@ pub mod domain;
 pub mod eval;
 pub mod interp;
 pub mod policy;
+pub mod repl;
 pub mod session;
 pub mod syntax;
 pub mod task;

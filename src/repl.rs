@@ -1,0 +1,2 @@
+//! The terminal REPL (WIP): the rustyline helper.
+pub mod helper;
