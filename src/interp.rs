@@ -72,7 +72,7 @@ enum R {
 
 struct Compiler {
     uniforms: Vec<Ir>,
-    code: Vec<(InsR, ())>,
+    code: Vec<InsR>,
 }
 
 #[derive(Clone, Copy)]
@@ -90,7 +90,7 @@ enum InsR {
 
 impl Compiler {
     fn push(&mut self, i: InsR) -> R {
-        self.code.push((i, ()));
+        self.code.push(i);
         R::C(self.code.len() - 1)
     }
 
@@ -155,7 +155,7 @@ impl Program {
         let code = c
             .code
             .iter()
-            .map(|(i, ())| match *i {
+            .map(|i| match *i {
                 InsR::K => Ins::K,
                 InsR::Load(s, d) => Ins::Load(s, d),
                 InsR::LoadAt(s, d, o) => Ins::LoadAt(s, d, reg(o)),
