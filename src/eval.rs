@@ -170,7 +170,6 @@ where
         .map(|(i, start)| {
             let mut c = make();
             let exec = run_sim(
-                kind,
                 start,
                 c.controller(),
                 &opts.params,

@@ -72,7 +72,7 @@ enum R {
 
 struct Compiler {
     uniforms: Vec<Ir>,
-    code: Vec<(InsR, ())>,
+    code: Vec<InsR>,
 }
 
 #[derive(Clone, Copy)]
@@ -90,7 +90,7 @@ enum InsR {
 
 impl Compiler {
     fn push(&mut self, i: InsR) -> R {
-        self.code.push((i, ()));
+        self.code.push(i);
         R::C(self.code.len() - 1)
     }
 
@@ -155,7 +155,7 @@ impl Program {
         let code = c
             .code
             .iter()
-            .map(|(i, ())| match *i {
+            .map(|i| match *i {
                 InsR::K => Ins::K,
                 InsR::Load(s, d) => Ins::Load(s, d),
                 InsR::LoadAt(s, d, o) => Ins::LoadAt(s, d, reg(o)),
@@ -243,6 +243,95 @@ impl Program {
                         let v = v.clamp(lo, hi);
                         finite &= v.is_finite();
                         buf[(bs + i) * stride + d] = v;
+                    }
+                }
+                if !finite && bad.is_none() {
+                    let i = (0..m)
+                        .find(|&i| alive[i] && !vals[i].clamp(lo, hi).is_finite())
+                        .unwrap_or(0);
+                    bad = Some((bs + i, d, vals[i]));
+                }
+            }
+        }
+        bad
+    }
+
+    /// Run as the only stage: read the executed trace, append the surviving points to `o`.
+    fn run_single(
+        &self,
+        trace: &Trace,
+        chunk: Chunk,
+        params: &[f64],
+        o: &mut Out,
+    ) -> Option<(usize, usize, f64)> {
+        let (start, n) = (chunk.start, chunk.len());
+        let (od, ad) = (trace.obs_dim(), trace.act_dim());
+        let zs = &trace.z[start * od..chunk.end * od];
+        let as_ = &trace.a[start * ad..chunk.end * ad];
+        let src = Src {
+            trace,
+            start,
+            n,
+            z: zs,
+            a: as_,
+            od,
+            ad,
+        };
+        let mut regs = vec![0.0; self.n_regs() * BATCH];
+        for (i, u) in self.uniforms.iter().enumerate() {
+            regs[i * BATCH..(i + 1) * BATCH].fill(u.eval_uniform(params, n as f64));
+        }
+        o.z.reserve(n * od);
+        o.a.reserve(n * ad);
+        o.t.reserve(n);
+        o.idx.reserve(n);
+        let stride = match self.space {
+            Space::Observation => od,
+            Space::Action => ad,
+        };
+        let mut alive = [true; BATCH];
+        let mut bad = None;
+        for bs in (0..n).step_by(BATCH) {
+            let m = BATCH.min(n - bs);
+            self.eval_batch(&mut regs, &src, bs, m);
+            let alive = &mut alive[..m];
+            alive.fill(true);
+            if let Some(g) = self.guard {
+                for (al, gv) in alive.iter_mut().zip(&regs[g * BATCH..g * BATCH + m]) {
+                    *al = *gv != 0.0;
+                }
+            }
+            let first = o.idx.len();
+            if alive.iter().all(|a| *a) {
+                o.z.extend_from_slice(&zs[bs * od..(bs + m) * od]);
+                o.a.extend_from_slice(&as_[bs * ad..(bs + m) * ad]);
+                o.t.extend_from_slice(&trace.t[start + bs..start + bs + m]);
+                o.idx.extend(start + bs..start + bs + m);
+            } else {
+                for i in (0..m).filter(|&i| alive[i]) {
+                    let k = bs + i;
+                    o.z.extend_from_slice(&zs[k * od..(k + 1) * od]);
+                    o.a.extend_from_slice(&as_[k * ad..(k + 1) * ad]);
+                    o.t.push(trace.t[start + k]);
+                    o.idx.push(start + k);
+                }
+            }
+            let buf = match self.space {
+                Space::Observation => &mut o.z,
+                Space::Action => &mut o.a,
+            };
+            let rows = &mut buf[first * stride..];
+            for &(d, r) in &self.writes {
+                let (lo, hi) = self.limits[d];
+                let vals = &regs[r * BATCH..r * BATCH + m];
+                let mut finite = true;
+                let mut row = 0;
+                for (&v, &al) in vals.iter().zip(alive.iter()) {
+                    if al {
+                        let v = v.clamp(lo, hi);
+                        finite &= v.is_finite();
+                        rows[row * stride + d] = v;
+                        row += 1;
                     }
                 }
                 if !finite && bad.is_none() {
@@ -585,6 +674,31 @@ pub fn apply(
     trace: &Trace,
     chunk: Chunk,
 ) -> Result<Synthesized, ApplyError> {
+    let mut out = Synthesized {
+        points: Trace::with_dims(&trace.domain, 0, 0),
+        source_index: Vec::new(),
+        advice: AppliedAdvice {
+            operator: String::new(),
+            domain: String::new(),
+            params: Vec::new(),
+            chunk,
+            space: Space::Action,
+            definition: String::new(),
+        },
+    };
+    apply_into(set, inv, trace, chunk, &mut out)?;
+    Ok(out)
+}
+
+/// [`apply`], reusing the allocations of `out` (for loops that apply advice again and again, such
+/// as previews or re-synthesizing a dataset). On error `out` holds no meaningful points.
+pub fn apply_into(
+    set: &OperatorSet,
+    inv: &Invocation,
+    trace: &Trace,
+    chunk: Chunk,
+    out: &mut Synthesized,
+) -> Result<(), ApplyError> {
     let Some(domain) = set.domain(&trace.domain) else {
         let known: Vec<&str> = set.domains().iter().map(|d| d.name.as_str()).collect();
         return Err(ApplyError::UnknownDomain {
@@ -630,80 +744,95 @@ pub fn apply(
     flatten(set, index, values.clone(), n as f64, &mut stages)?;
 
     let (od, ad) = (domain.obs_dim(), domain.act_dim());
-    let r = chunk.range();
-    let mut w = Work {
-        trace,
-        start: chunk.start,
-        n,
-        od,
-        ad,
-        z: trace.z[r.start * od..r.end * od].to_vec(),
-        a: trace.a[r.start * ad..r.end * ad].to_vec(),
-        alive: vec![true; n],
+    let mut o = Out {
+        z: std::mem::take(&mut out.points.z),
+        a: std::mem::take(&mut out.points.a),
+        t: std::mem::take(&mut out.points.t),
+        idx: std::mem::take(&mut out.source_index),
     };
-    if n > 0 {
-        for (idx, params) in &stages {
-            let stage_op = set.op(*idx);
-            let OpBody::Block(prog) = &stage_op.body else {
-                unreachable!("flatten yields only per-point programs")
-            };
-            if let Some((k, d, value)) = prog.run(&mut w, params) {
-                return Err(ApplyError::NotFinite {
-                    operator: stage_op.name().to_string(),
-                    dim: domain.dims(prog.space)[d].name.clone(),
-                    point: chunk.start + k,
-                    value,
-                });
+    o.z.clear();
+    o.a.clear();
+    o.t.clear();
+    o.idx.clear();
+    let not_finite = |stage: usize, (k, d, value): (usize, usize, f64)| {
+        let stage_op = set.op(stages[stage].0);
+        let space = stage_op.space();
+        ApplyError::NotFinite {
+            operator: stage_op.name().to_string(),
+            dim: domain.dims(space)[d].name.clone(),
+            point: chunk.start + k,
+            value,
+        }
+    };
+    let program = |i: usize| match &set.op(stages[i].0).body {
+        OpBody::Block(prog) => prog,
+        OpBody::Pipeline(_) => unreachable!("flatten yields only per-point programs"),
+    };
+    if n > 0 && stages.len() == 1 {
+        // One stage reads the executed trace itself: stream it once, straight into the output.
+        if let Some(bad) = program(0).run_single(trace, chunk, &stages[0].1, &mut o) {
+            return Err(not_finite(0, bad));
+        }
+    } else if n > 0 {
+        let r = chunk.range();
+        let mut w = Work {
+            trace,
+            start: chunk.start,
+            n,
+            od,
+            ad,
+            z: trace.z[r.start * od..r.end * od].to_vec(),
+            a: trace.a[r.start * ad..r.end * ad].to_vec(),
+            alive: vec![true; n],
+        };
+        for (i, (_, params)) in stages.iter().enumerate() {
+            if let Some(bad) = program(i).run(&mut w, params) {
+                return Err(not_finite(i, bad));
             }
+        }
+        for k in (0..n).filter(|&k| w.alive[k]) {
+            o.idx.push(chunk.start + k);
+            o.t.push(trace.t[chunk.start + k]);
+            o.z.extend_from_slice(&w.z[k * od..(k + 1) * od]);
+            o.a.extend_from_slice(&w.a[k * ad..(k + 1) * ad]);
         }
     }
 
     let mut points = Trace::new(domain);
-    let source_index: Vec<usize>;
-    if w.alive.iter().all(|a| *a) {
-        source_index = r.clone().collect();
-        points.t = trace.t[r.clone()].to_vec();
-        points.z = w.z;
-        points.a = w.a;
-        points.pose = trace.pose.as_ref().map(|p| p[r].to_vec());
-    } else {
-        source_index = (0..n)
-            .filter(|&k| w.alive[k])
-            .map(|k| chunk.start + k)
-            .collect();
-        points.t = source_index.iter().map(|&i| trace.t[i]).collect();
-        points.z = Vec::with_capacity(source_index.len() * od);
-        points.a = Vec::with_capacity(source_index.len() * ad);
-        for &i in &source_index {
-            let k = i - chunk.start;
-            points.z.extend_from_slice(&w.z[k * od..(k + 1) * od]);
-            points.a.extend_from_slice(&w.a[k * ad..(k + 1) * ad]);
-        }
-        points.pose = trace
-            .pose
-            .as_ref()
-            .map(|p| source_index.iter().map(|&i| p[i]).collect());
-    }
-    Ok(Synthesized {
-        points,
-        source_index,
-        advice: AppliedAdvice {
-            operator: op.name().to_string(),
-            domain: domain.name.clone(),
-            params: op
-                .params()
-                .iter()
-                .zip(values)
-                .map(|(p, value)| ParamValue {
-                    name: p.name.clone(),
-                    value,
-                })
-                .collect(),
-            chunk,
-            space: op.space(),
-            definition: op.definition().to_string(),
-        },
-    })
+    points.pose = trace
+        .pose
+        .as_ref()
+        .map(|p| o.idx.iter().map(|&i| p[i]).collect());
+    points.t = o.t;
+    points.z = o.z;
+    points.a = o.a;
+    out.points = points;
+    out.source_index = o.idx;
+    out.advice = AppliedAdvice {
+        operator: op.name().to_string(),
+        domain: domain.name.clone(),
+        params: op
+            .params()
+            .iter()
+            .zip(values)
+            .map(|(p, value)| ParamValue {
+                name: p.name.clone(),
+                value,
+            })
+            .collect(),
+        chunk,
+        space: op.space(),
+        definition: op.definition().to_string(),
+    };
+    Ok(())
+}
+
+/// The output buffers of an application.
+struct Out {
+    z: Vec<f64>,
+    a: Vec<f64>,
+    t: Vec<f64>,
+    idx: Vec<usize>,
 }
 
 /// Re-synthesize the points of recorded advice from the trace it was given on.

@@ -370,22 +370,29 @@ impl TaskKind {
         }
     }
 
-    /// A task episode for a start of this kind. A start of the other kind is ignored and this
-    /// task's default start is used (the types keep the two apart in practice).
-    pub fn instantiate(self, start: &Start) -> Box<dyn Task> {
-        match (self, start) {
-            (TaskKind::Positioning, Start::Goal(g)) => Box::new(Positioning::new(*g)),
-            (TaskKind::Interception, Start::Ball(b)) => Box::new(Interception::new(*b)),
-            (TaskKind::Positioning, _) => Box::new(Positioning::new(Pose::default())),
-            (TaskKind::Interception, _) => Box::new(Interception::new(BallStart::default())),
-        }
-    }
-
     /// The task's teacher (the stand-in for teleoperation), for a base running at `period_s`.
     pub fn teacher(self, period_s: f64) -> Box<dyn Controller + Send> {
         match self {
             TaskKind::Positioning => Box::new(PositioningTeacher::new(period_s)),
             TaskKind::Interception => Box::new(InterceptionTeacher::new(period_s)),
+        }
+    }
+}
+
+impl Start {
+    /// The task this start belongs to.
+    pub fn kind(&self) -> TaskKind {
+        match self {
+            Start::Goal(_) => TaskKind::Positioning,
+            Start::Ball(_) => TaskKind::Interception,
+        }
+    }
+
+    /// A fresh episode of the task from this start.
+    pub fn task(&self) -> Box<dyn Task> {
+        match self {
+            Start::Goal(g) => Box::new(Positioning::new(*g)),
+            Start::Ball(b) => Box::new(Interception::new(*b)),
         }
     }
 }
@@ -398,14 +405,13 @@ impl std::fmt::Display for TaskKind {
 
 /// Run one episode from `start` on a fresh simulator seeded with `seed`.
 pub fn run_sim(
-    kind: TaskKind,
     start: &Start,
     controller: &mut dyn Controller,
     params: &SimParams,
     seed: u64,
 ) -> Execution {
     let mut backend = SimBackend::new(params.clone(), seed);
-    let mut task = kind.instantiate(start);
+    let mut task = start.task();
     match run_episode(&mut backend, task.as_mut(), controller, seed) {
         Ok(e) => e,
         // The simulator never fails; keep what was recorded if that ever changes.
@@ -429,7 +435,6 @@ pub fn record_demos(
         .map(|(i, start)| {
             let mut teacher = kind.teacher(params.period_s());
             let exec = run_sim(
-                kind,
                 start,
                 teacher.as_mut(),
                 params,

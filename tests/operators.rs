@@ -346,3 +346,24 @@ fn non_finite_results_are_errors_not_garbage() {
         "{err:?}"
     );
 }
+
+#[test]
+fn the_operator_readme_lists_every_standard_operator() {
+    let readme = include_str!("../operators/README.md");
+    let set = OperatorSet::standard();
+    for d in set.domains() {
+        let section = readme
+            .split(&format!("### `{}`", d.name))
+            .nth(1)
+            .unwrap_or_else(|| panic!("operators/README.md has no section for `{}`", d.name));
+        let section = section.split("\n### ").next().unwrap();
+        for op in set.operators(&d.name) {
+            assert!(
+                section.contains(&format!("| `{}` |", op.name())),
+                "operators/README.md does not table `{}` for `{}`",
+                op.name(),
+                d.name
+            );
+        }
+    }
+}

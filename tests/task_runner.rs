@@ -127,7 +127,7 @@ fn runs_are_deterministic_for_a_seed() {
     let params = SimParams::default();
     let run = |seed| {
         let mut teacher = kind.teacher(params.period_s());
-        run_sim(kind, start, teacher.as_mut(), &params, seed)
+        run_sim(start, teacher.as_mut(), &params, seed)
     };
     let (a, b, c) = (run(9), run(9), run(10));
     assert_eq!(a.trace, b.trace);
@@ -177,7 +177,7 @@ fn a_lost_link_returns_the_execution_so_far_and_stops_the_base() {
         stopped: false,
     };
     let kind = TaskKind::Positioning;
-    let mut task = kind.instantiate(&kind.test_set()[0]);
+    let mut task = kind.test_set()[0].task();
     let mut teacher = kind.teacher(backend.period_s());
     let err = run_episode(
         &mut backend,

@@ -112,7 +112,7 @@ fn reproduces(kind: TaskKind) {
     let starts = kind.practice_set(seed, 12);
     for (i, ((demo, outcome), start)) in demos.iter().zip(&starts).enumerate() {
         for p in [&policy as &dyn Policy, stand_in.as_ref()] {
-            let exec = run_sim(kind, start, &mut &*p, &params, episode_seed(seed, i as u64));
+            let exec = run_sim(start, &mut &*p, &params, episode_seed(seed, i as u64));
             assert_eq!(exec.trace, demo.trace, "{kind} demo {i}");
             assert_eq!(&exec.outcome, outcome, "{kind} demo {i}");
         }

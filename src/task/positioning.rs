@@ -89,12 +89,18 @@ fn sample_goals(rng: &mut ChaCha8Rng, n: usize) -> Vec<Pose> {
         .collect()
 }
 
-/// The observation of `goal` from `pose`: `[dist2, bearing, dheading]`.
+/// The observation of `goal` from `pose`: `[dist2, bearing, dheading]`. Exactly at the goal
+/// position the goal vector has no direction and the bearing is 0.
 pub fn observe(goal: Pose, pose: Pose) -> [f64; 3] {
     let (dx, dy) = (goal.x_m - pose.x_m, goal.y_m - pose.y_m);
+    let bearing = if dx == 0.0 && dy == 0.0 {
+        0.0
+    } else {
+        wrap_angle(dy.atan2(dx) - pose.theta_rad)
+    };
     [
         dx * dx + dy * dy,
-        wrap_angle(dy.atan2(dx) - pose.theta_rad),
+        bearing,
         wrap_angle(goal.theta_rad - pose.theta_rad),
     ]
 }
