@@ -20,6 +20,7 @@ use thiserror::Error;
 use crate::backend::sim::SimParams;
 use crate::domain::Domain;
 use crate::policy::Policy;
+use crate::policy::learner::{Learner, LearnerKind};
 use crate::task::{Controller, Ending, Outcome, TaskKind, episode_seed, run_sim};
 use crate::trace::Episode;
 
@@ -219,32 +220,37 @@ pub enum EvalError {
         help("record demonstrations first: `advise demo --task TASK --count 10 --out demos.csv`")
     )]
     EmptyDataset,
-    #[error("the `lwr` learner is not available yet")]
-    #[diagnostic(
-        code(advise::eval::lwr_unavailable),
-        help("use `--policy bc` for now; LWR arrives with the policy module")
-    )]
-    LwrUnavailable,
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Learner(Box<crate::policy::learner::LearnerError>),
 }
 
 /// Derive a policy of `kind` for `domain` from demonstration episodes: the one place the command
-/// line turns data into a controller.
-///
-/// `bc` is currently a brute-force 1-NN stand-in ([`NearestNeighbour`]) until the kd-tree BC
-/// learner of the policy module is merged; `lwr` is not available yet.
+/// line turns data into a controller. Both learners come from [`crate::policy::learner`]; LWR is
+/// tuned by seeded cross-validation.
 pub fn derive_policy(
     kind: PolicyKind,
     domain: &Domain,
     episodes: &[Episode],
 ) -> Result<Box<dyn Policy>, EvalError> {
-    match kind {
-        PolicyKind::Bc => Ok(Box::new(NearestNeighbour::new(domain, episodes)?)),
-        PolicyKind::Lwr => Err(EvalError::LwrUnavailable),
+    if episodes.iter().all(|e| e.trace.is_empty()) {
+        return Err(EvalError::EmptyDataset);
     }
+    let mut ds = crate::policy::dataset::Dataset::new(domain);
+    for e in episodes {
+        ds.add_demonstration(&e.name, &e.trace)
+            .map_err(|e| EvalError::Learner(Box::new(e.into())))?;
+    }
+    let learner_kind = match kind {
+        PolicyKind::Bc => LearnerKind::Bc,
+        PolicyKind::Lwr => LearnerKind::Lwr,
+    };
+    Ok(Box::new(Learner::with_dataset(ds, learner_kind, 0)))
 }
 
 /// Brute-force 1-nearest-neighbour over observations scaled inversely with each dimension's data
-/// range; the first of equally near points wins. A stand-in for the kd-tree BC learner.
+/// range; the first of equally near points wins. The reference the kd-tree BC learner is tested
+/// and benchmarked against.
 #[derive(Clone, Debug)]
 pub struct NearestNeighbour {
     obs_dim: usize,

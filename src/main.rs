@@ -15,6 +15,7 @@ use advise::trace::Episode;
 
 use advise::check::{self, OperatorSet, Source};
 use advise::domain::Domain;
+use advise::session::{Session, SessionOptions, journal, journal::Journal, script};
 use advise::trace::{Chunk, Trace};
 
 #[derive(Parser)]
@@ -33,8 +34,7 @@ enum Command {
     /// Check advice-operator files (on top of the standard operators); every error of every file
     /// is reported, and the exit code is non-zero if there was any.
     Check {
-        /// Operator files (`*.adv`).
-        #[arg(required = true)]
+        /// Operator files (`*.adv`); with none, the standard operators are checked.
         files: Vec<PathBuf>,
     },
     /// Apply an operator to a range of a trace and print the synthesized points as CSV.
@@ -59,6 +59,24 @@ enum Command {
     Demo(DemoArgs),
     /// Run a policy over the task's fixed test set and print the figures.
     Eval(EvalArgs),
+    /// Run a session script (the REPL's commands, one per line); stops at the first failing
+    /// statement unless `--keep-going`.
+    Run {
+        /// The script (`*.adv`).
+        script: PathBuf,
+        /// Report failing statements and go on.
+        #[arg(long)]
+        keep_going: bool,
+        #[command(flatten)]
+        session: SessionArgs,
+    },
+    /// Replay a session journal (the newest one by default) and continue in the REPL.
+    Resume {
+        /// The journal to replay; by default the newest in the journal folder.
+        journal: Option<PathBuf>,
+    },
+    /// Open the REPL (what `advise` with no arguments does).
+    Repl(SessionArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -150,10 +168,46 @@ enum CliError {
     NoDataset { policy: &'static str },
 }
 
+/// How a session starts.
+#[derive(Args, Clone)]
+struct SessionArgs {
+    /// The task to start on.
+    #[arg(long, default_value = "positioning")]
+    task: TaskArg,
+    /// Seeds the simulator, the practice starts and LWR tuning.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Teacher demonstrations recorded at start (0: start with an empty dataset).
+    #[arg(long, default_value_t = 9)]
+    demos: usize,
+    /// Do not keep a journal.
+    #[arg(long)]
+    no_journal: bool,
+}
+
+impl Default for SessionArgs {
+    fn default() -> Self {
+        SessionArgs {
+            task: TaskArg::Positioning,
+            seed: 0,
+            demos: 9,
+            no_journal: false,
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        None => check_standard(),
+        None => repl(SessionArgs::default()),
+        Some(Command::Repl(args)) => repl(args),
+        Some(Command::Run {
+            script,
+            keep_going,
+            session,
+        }) => run_script(&script, keep_going, &session),
+        Some(Command::Resume { journal }) => resume(journal),
+        Some(Command::Check { files }) if files.is_empty() => check_standard(),
         Some(Command::Check { files }) => check_files(&files),
         Some(Command::Apply {
             operators,
@@ -174,7 +228,159 @@ fn main() -> ExitCode {
     }
 }
 
-/// With no arguments (until the REPL exists): check the embedded standard operators.
+fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
+    let opts = SessionOptions {
+        task: args.task.into(),
+        seed: args.seed,
+        default_demos: demos,
+        progress: true,
+        ..SessionOptions::default()
+    };
+    Ok(Session::new(opts)?)
+}
+
+/// The main job: the REPL on the simulator with the default demonstrations loaded.
+fn repl(args: SessionArgs) -> miette::Result<ExitCode> {
+    let mut session = new_session(&args, args.demos)?;
+    if !args.no_journal {
+        start_journal(&mut session, &args)?;
+    }
+    advise::repl::run(&mut session).into_diagnostic()?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A journal starts with the statements that rebuild the session's starting point.
+fn start_journal(session: &mut Session, args: &SessionArgs) -> miette::Result<()> {
+    let path = advise::session::new_journal_path(&journal::default_dir());
+    let mut j = Journal::create(&path)
+        .into_diagnostic()
+        .wrap_err_with(|| format!("cannot create the journal {}", path.display()))?;
+    let header = format!(
+        "// started: --task {} --seed {} --demos {}",
+        TaskKind::from(args.task),
+        args.seed,
+        args.demos
+    );
+    j.record(&header).into_diagnostic()?;
+    session.set_journal(j);
+    Ok(())
+}
+
+/// Run a script; the first failing statement stops it (unless `keep_going`).
+fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Result<ExitCode> {
+    let text = std::fs::read_to_string(path)
+        .into_diagnostic()
+        .wrap_err_with(|| format!("cannot read the script {}", path.display()))?;
+    let mut session = new_session(args, 0)?;
+    let failures = replay(&mut session, path, &text, keep_going, true);
+    Ok(if failures == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// Run the statements of `text` on `session`, printing replies (when `echo`) and diagnostics;
+/// returns how many failed.
+fn replay(session: &mut Session, path: &Path, text: &str, keep_going: bool, echo: bool) -> usize {
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let mut failures = 0;
+    for st in script::statements(text) {
+        let origin = advise::session::origin(path, st.line);
+        match session.execute(&st.text, &origin) {
+            Ok(reply) => {
+                let comment_only = st.text.lines().all(|l| {
+                    let l = l.trim_start();
+                    l.is_empty() || (l.starts_with("//") && !l.starts_with("///"))
+                });
+                if echo && !comment_only {
+                    println!("advise> {}", st.text.trim_end());
+                    if !reply.text.is_empty() {
+                        println!("{}", reply.text.trim_end());
+                    }
+                }
+                if reply.quit {
+                    break;
+                }
+            }
+            Err(e) => {
+                failures += 1;
+                eprintln!("error at {origin}:");
+                eprint!("{}", advise::repl::render(&e, colour));
+                if !keep_going {
+                    break;
+                }
+            }
+        }
+    }
+    failures
+}
+
+/// Replay a journal, then continue in the REPL, appending to the same journal.
+fn resume(journal_path: Option<PathBuf>) -> miette::Result<ExitCode> {
+    let path = match journal_path {
+        Some(p) => p,
+        None => newest_journal(&journal::default_dir()).ok_or_else(|| {
+            miette!(
+                code = "advise::resume::no_journal",
+                help = "start a session with `advise` first; journals are kept in $ADVISE_HOME or ~/.advise",
+                "there is no session journal in {}",
+                journal::default_dir().display()
+            )
+        })?,
+    };
+    let text = std::fs::read_to_string(&path)
+        .into_diagnostic()
+        .wrap_err_with(|| format!("cannot read the journal {}", path.display()))?;
+    let args = journal_args(&text);
+    let mut session = new_session(&args, args.demos)?;
+    let failures = replay(&mut session, &path, &text, true, false);
+    println!(
+        "resumed {}: {}{}",
+        path.display(),
+        session.status(),
+        if failures > 0 {
+            format!(" ({failures} statements failed again and were skipped)")
+        } else {
+            String::new()
+        }
+    );
+    session.set_journal(Journal::append_to(&path).into_diagnostic()?);
+    advise::repl::run(&mut session).into_diagnostic()?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The starting options written at the head of a journal.
+fn journal_args(text: &str) -> SessionArgs {
+    let mut args = SessionArgs::default();
+    if let Some(line) = text.lines().find(|l| l.starts_with("// started:")) {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        for w in words.windows(2) {
+            match w[0] {
+                "--task" if w[1] == "interception" => args.task = TaskArg::Interception,
+                "--seed" => args.seed = w[1].parse().unwrap_or(0),
+                "--demos" => args.demos = w[1].parse().unwrap_or(9),
+                _ => {}
+            }
+        }
+    }
+    args
+}
+
+fn newest_journal(dir: &Path) -> Option<PathBuf> {
+    std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("session-") && n.ends_with(".adv"))
+        })
+        .max_by_key(|p| std::fs::metadata(p).and_then(|m| m.modified()).ok())
+}
+
+/// Check the embedded standard operators and say what was checked.
 fn check_standard() -> miette::Result<ExitCode> {
     let sources: Vec<Source> = check::STANDARD_SOURCES
         .iter()

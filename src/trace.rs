@@ -468,7 +468,7 @@ pub struct JsonTrace {
 }
 
 /// One point of a [`JsonTrace`]; `pose` is `[x_m, y_m, theta_rad]`.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct JsonPoint {
     pub t: f64,
