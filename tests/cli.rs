@@ -1,4 +1,5 @@
-//! The `check` and `apply` subcommands and the no-argument behaviour, run as a user would.
+//! The `check` and `apply` subcommands, and the no-argument REPL fed from a pipe, run as a user
+//! would.
 
 use std::process::Command;
 
@@ -16,12 +17,56 @@ fn advise(args: &[&str]) -> (i32, String, String) {
 }
 
 #[test]
-fn no_arguments_checks_the_standard_operators() {
-    let (code, out, _) = advise(&[]);
+fn check_without_files_checks_the_standard_operators() {
+    let (code, out, _) = advise(&["check"]);
     assert_eq!(code, 0);
     assert_eq!(
         out.trim(),
         "checked 2 domains and 25 operators in operators/: all good"
+    );
+}
+
+#[test]
+fn no_arguments_opens_a_session_with_the_default_demonstrations() {
+    use std::io::Write;
+    let home = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_advise"))
+        .env("NO_COLOR", "1")
+        .env("ADVISE_HOME", home.path())
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(b"run goal 2 -1 0\nselect 0..10\nadvise slow_down\nquit\n")
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("task positioning, backend sim"), "{stdout}");
+    assert!(stdout.contains("execution 0: run goal 2 -1 0"), "{stdout}");
+    assert!(
+        stdout.contains("advised 0..10 of execution 0 with slow_down"),
+        "{stdout}"
+    );
+    // The session was journalled where ADVISE_HOME points.
+    let journal = std::fs::read_dir(home.path())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .find(|e| e.file_name().to_string_lossy().starts_with("session-"))
+        .expect("a journal was written");
+    let text = std::fs::read_to_string(journal.path()).unwrap();
+    assert!(
+        text.contains("run goal 2 -1 0\nselect 0..10\nadvise slow_down\n"),
+        "{text}"
     );
 }
 
