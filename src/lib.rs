@@ -9,6 +9,7 @@ pub mod backend;
 pub mod check;
 pub mod domain;
 pub mod eval;
+pub mod experiment;
 pub mod interp;
 pub mod policy;
 pub mod repl;

@@ -77,6 +77,34 @@ enum Command {
     },
     /// Open the REPL (what `advise` with no arguments does).
     Repl(SessionArgs),
+    /// Reproduce one of the paper's studies with automated teachers and print its figures.
+    Experiment(ExperimentArgs),
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum StudyArg {
+    /// Binary Critiquing on ball interception (Table 1, Figure 5).
+    Bc,
+    /// Advice-Operator Policy Improvement on spatial positioning (Figures 8, 9, 11).
+    Aopi,
+}
+
+#[derive(Args)]
+struct ExperimentArgs {
+    /// Which study.
+    study: StudyArg,
+    /// Seeds everything: demonstrations, practice starts, simulator noise, LWR tuning.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Print the result as JSON on stdout (every figure, the seed and the parameters).
+    #[arg(long)]
+    json: bool,
+    /// Write the study's plots as SVG files into this folder (created if needed).
+    #[arg(long, value_name = "DIR")]
+    plot: Option<PathBuf>,
+    /// Simulator parameters (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    sim_params: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -218,6 +246,7 @@ fn main() -> ExitCode {
         }) => apply(&operators, &op, &trace, &range, domain.as_deref()),
         Some(Command::Demo(args)) => demo(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Eval(args)) => run_eval(args).map(|()| ExitCode::SUCCESS),
+        Some(Command::Experiment(args)) => experiment(args).map(|()| ExitCode::SUCCESS),
     };
     match result {
         Ok(code) => code,
@@ -622,6 +651,45 @@ fn run_eval(args: EvalArgs) -> miette::Result<()> {
         report.render()
     };
     print_stdout(&text)?;
+    Ok(())
+}
+
+fn experiment(args: ExperimentArgs) -> miette::Result<()> {
+    use advise::experiment::{bc, ensure_dir, plot};
+    let sim = sim_params(args.sim_params.as_deref())?;
+    let progress = true;
+    let (text, json, plots) = match args.study {
+        StudyArg::Bc => {
+            let params = bc::BcParams {
+                sim,
+                ..bc::BcParams::default()
+            };
+            let result = bc::run(args.seed, &params, progress);
+            let plots = match &args.plot {
+                Some(dir) => {
+                    ensure_dir(dir)?;
+                    plot::bc(&result, dir)?
+                }
+                None => Vec::new(),
+            };
+            (
+                result.render(),
+                serde_json::to_string_pretty(&result),
+                plots,
+            )
+        }
+        StudyArg::Aopi => return Err(miette::miette!("TEMP")),
+    };
+    if args.json {
+        let mut t = json.expect("a result is plain data");
+        t.push('\n');
+        print_stdout(&t)?;
+    } else {
+        print_stdout(&text)?;
+    }
+    for p in plots {
+        eprintln!("wrote {}", p.display());
+    }
     Ok(())
 }
 

@@ -1,0 +1,360 @@
+//! The BC study (the paper's "Empirical Validation: BC"): ball interception, a BC 1-NN learner
+//! derived from 100 teacher demonstrations, 120 critique rounds by the automated [`critic`],
+//! test-set evaluation every 20 rounds.
+//!
+//! Protocol, per seed: the interception teacher demonstrates from the first `demos` practice
+//! starts of the seed; the learner is derived; the learner, and the teacher, run the test set.
+//! Then each critique round runs the current policy from the next practice start (drawn without
+//! replacement, never a test start), the critic judges the execution from its trace, and every
+//! flagged chunk becomes a `critique` with `kappa` exactly as a teacher would type it in a
+//! session. Every `eval_every` rounds the policy runs the test set, which is never critiqued.
+//!
+//! Table 1's efficiency column compares path lengths only on test starts where the initial
+//! policy, the final policy and the teacher all succeeded (the paper compares only runs "in which
+//! both learner and teacher are successful"; one common set keeps the three lengths comparable).
+//!
+//! [`critic`]: crate::experiment::critic
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use serde::{Deserialize, Serialize};
+
+use crate::backend::sim::SimParams;
+use crate::eval::Report;
+use crate::experiment::critic::{self, CriticRules};
+use crate::experiment::{Progress, eval_seed, evaluate_starts, opt_m, pct, practice_seed};
+use crate::policy::Policy;
+use crate::policy::dataset::Dataset;
+use crate::policy::learner::{Learner, LearnerKind};
+use crate::task::{Controller, Start, TaskKind, record_demos, run_sim};
+use crate::trace::Episode;
+
+/// The paper's Table 1.
+pub const PAPER: PaperBc = PaperBc {
+    learner_initial_success: 0.56,
+    learner_initial_length: 2.73,
+    learner_final_success: 0.70,
+    learner_final_length: 1.96,
+    teacher_success: 0.62,
+    teacher_length: 2.87,
+};
+
+/// The paper's Table 1 figures (their length unit is not stated).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperBc {
+    pub learner_initial_success: f64,
+    pub learner_initial_length: f64,
+    pub learner_final_success: f64,
+    pub learner_final_length: f64,
+    pub teacher_success: f64,
+    pub teacher_length: f64,
+}
+
+/// The study's configuration. The defaults are the paper's protocol.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BcParams {
+    /// Teacher demonstrations the learner starts from (paper: 100).
+    pub demos: usize,
+    /// Critique rounds, one practice execution each (paper: 120).
+    pub rounds: usize,
+    /// Test-set evaluation every this many rounds (paper: 20).
+    pub eval_every: usize,
+    /// How many of the fixed test starts to use (paper: all 100).
+    pub test_starts: usize,
+    /// The critique constant kappa: a flagged point's supporting data point gets
+    /// `m += kappa / distance` (the paper leaves it open).
+    pub kappa: f64,
+    pub critic: CriticRules,
+    pub sim: SimParams,
+}
+
+impl Default for BcParams {
+    fn default() -> Self {
+        BcParams {
+            demos: 100,
+            rounds: 120,
+            eval_every: 20,
+            test_starts: crate::task::interception::TEST_STARTS,
+            kappa: 0.1,
+            critic: CriticRules::default(),
+            sim: SimParams::default(),
+        }
+    }
+}
+
+/// One policy's line of Table 1.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BcFigures {
+    /// Fraction of test starts intercepted, in [0, 1].
+    pub success_rate: f64,
+    pub successes: usize,
+    pub episodes: usize,
+    /// Mean path length over the paired test starts (all three policies succeeded), m; `None`
+    /// when there are none.
+    pub mean_length_m: Option<f64>,
+    /// Mean path length over this policy's own successes, m.
+    pub mean_length_own_successes_m: Option<f64>,
+}
+
+/// One point of Figure 5: the test set after `round` critique rounds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BcCurvePoint {
+    pub round: usize,
+    pub success_rate: f64,
+    /// Mean path length over this evaluation's successes, m.
+    pub mean_length_success_m: Option<f64>,
+    /// Chunks critiqued so far.
+    pub critiques: usize,
+}
+
+/// What the critic did over the practice rounds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CritiqueSummary {
+    pub rounds: usize,
+    /// Rounds in which at least one chunk was flagged.
+    pub rounds_flagged: usize,
+    pub chunks_flagged: usize,
+    pub points_flagged: usize,
+    /// Flagged chunks by reason.
+    pub flaws: BTreeMap<String, usize>,
+    /// Fraction of practice executions that intercepted the ball.
+    pub practice_success_rate: f64,
+}
+
+/// The study's result: Table 1, Figure 5, and how it came about.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BcResult {
+    pub experiment: String,
+    pub seed: u64,
+    pub params: BcParams,
+    pub learner_initial: BcFigures,
+    pub learner_final: BcFigures,
+    pub teacher: BcFigures,
+    /// Test starts on which all three succeeded (the length comparison's runs).
+    pub paired_runs: usize,
+    pub demo_points: usize,
+    /// Demonstrations that intercepted the ball.
+    pub demo_successes: usize,
+    pub curve: Vec<BcCurvePoint>,
+    pub critiques: CritiqueSummary,
+    pub paper: PaperBc,
+}
+
+/// Run the BC study. `progress` draws a bar on a terminal.
+pub fn run(seed: u64, params: &BcParams, progress: bool) -> BcResult {
+    let kind = TaskKind::Interception;
+    let sim = &params.sim;
+    let eval_every = params.eval_every.max(1);
+    let evals = params.rounds.div_ceil(eval_every) as u64;
+    let bar = Progress::new(progress, params.rounds as u64 + 2 + evals, "bc: demonstrations");
+
+    let recorded = record_demos(kind, params.demos, seed, sim);
+    let demo_successes = recorded.iter().filter(|(_, o)| o.success).count();
+    let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
+    let mut ds = Dataset::new(&kind.domain());
+    for e in &episodes {
+        // Recorded in the task's own domain: this cannot fail.
+        let _ = ds.add_demonstration(&e.name, &e.trace);
+    }
+    let demo_points = ds.len();
+    let mut learner = Learner::with_dataset(ds, LearnerKind::Bc, seed);
+    bar.inc(1);
+
+    let mut test: Vec<Start> = kind.test_set();
+    test.truncate(params.test_starts.max(1));
+    let eseed = eval_seed(seed);
+    let evaluate = |learner: &Learner| -> Report {
+        let policy: &dyn Policy = learner.policy();
+        evaluate_starts(kind, &test, || policy, sim, eseed)
+    };
+    bar.set_message("bc: teacher and initial policy");
+    let teacher = evaluate_starts(
+        kind,
+        &test,
+        || kind.teacher(sim.period_s()),
+        sim,
+        eseed,
+    );
+    let initial = evaluate(&learner);
+    bar.inc(1);
+
+    // Practice starts: after the demonstrations' in the same stream, so none repeats.
+    let practice: Vec<Start> = kind
+        .practice_set(seed, params.demos + params.rounds)
+        .split_off(params.demos);
+    let mut curve = vec![point(0, &initial, 0)];
+    let mut summary = CritiqueSummary {
+        rounds: params.rounds,
+        rounds_flagged: 0,
+        chunks_flagged: 0,
+        points_flagged: 0,
+        flaws: BTreeMap::new(),
+        practice_success_rate: 0.0,
+    };
+    let mut practice_successes = 0;
+    let mut last = initial.clone();
+    bar.set_message("bc: critique rounds");
+    for (r, start) in practice.iter().enumerate() {
+        let exec = {
+            let mut policy: &dyn Policy = learner.policy();
+            let controller: &mut dyn Controller = &mut policy;
+            run_sim(start, controller, sim, practice_seed(seed, r as u64))
+        };
+        practice_successes += usize::from(exec.outcome.success);
+        let flags = critic::critique(&exec.trace, &params.critic);
+        if !flags.is_empty() {
+            summary.rounds_flagged += 1;
+            let id = learner.add_execution(&exec.trace);
+            for f in &flags {
+                // The learner has data and the chunk lies within the trace: this cannot fail.
+                if learner
+                    .critique(id, &exec.trace, f.chunk, params.kappa)
+                    .is_ok()
+                {
+                    summary.chunks_flagged += 1;
+                    summary.points_flagged += f.chunk.len();
+                    *summary.flaws.entry(f.flaw.name().to_string()).or_insert(0) += 1;
+                }
+            }
+        }
+        bar.inc(1);
+        let round = r + 1;
+        if round % eval_every == 0 || round == params.rounds {
+            last = evaluate(&learner);
+            curve.push(point(round, &last, summary.chunks_flagged));
+            bar.inc(1);
+        }
+    }
+    bar.finish();
+    summary.practice_success_rate = if params.rounds == 0 {
+        0.0
+    } else {
+        practice_successes as f64 / params.rounds as f64
+    };
+
+    let paired: Vec<usize> = (0..test.len())
+        .filter(|&i| {
+            initial.outcomes[i].success && last.outcomes[i].success && teacher.outcomes[i].success
+        })
+        .collect();
+    let figures = |r: &Report| BcFigures {
+        success_rate: r.success_rate,
+        successes: r.successes,
+        episodes: r.episodes,
+        mean_length_m: (!paired.is_empty()).then(|| {
+            paired.iter().map(|&i| r.outcomes[i].length_m).sum::<f64>() / paired.len() as f64
+        }),
+        mean_length_own_successes_m: r.mean_length_success_m,
+    };
+    BcResult {
+        experiment: "bc".into(),
+        seed,
+        params: params.clone(),
+        learner_initial: figures(&initial),
+        learner_final: figures(&last),
+        teacher: figures(&teacher),
+        paired_runs: paired.len(),
+        demo_points,
+        demo_successes,
+        curve,
+        critiques: summary,
+        paper: PAPER,
+    }
+}
+
+fn point(round: usize, r: &Report, critiques: usize) -> BcCurvePoint {
+    BcCurvePoint {
+        round,
+        success_rate: r.success_rate,
+        mean_length_success_m: r.mean_length_success_m,
+        critiques,
+    }
+}
+
+impl BcResult {
+    /// Table 1 and Figure 5 as text.
+    pub fn render(&self) -> String {
+        let p = &self.params;
+        let mut s = format!(
+            "BC study (ball interception), seed {}: {} demonstrations ({} points), {} critique rounds, test set of {} starts\n\n",
+            self.seed, p.demos, self.demo_points, p.rounds, self.learner_initial.episodes
+        );
+        let _ = writeln!(
+            s,
+            "  {:<18} {:>8} {:>11}   {:>14} {:>13}",
+            "Table 1", "success", "length (m)", "paper success", "paper length"
+        );
+        let rows = [
+            (
+                "learner initial π",
+                &self.learner_initial,
+                PAPER.learner_initial_success,
+                PAPER.learner_initial_length,
+            ),
+            (
+                "learner final π",
+                &self.learner_final,
+                PAPER.learner_final_success,
+                PAPER.learner_final_length,
+            ),
+            (
+                "teacher",
+                &self.teacher,
+                PAPER.teacher_success,
+                PAPER.teacher_length,
+            ),
+        ];
+        for (name, f, ps, pl) in rows {
+            let _ = writeln!(
+                s,
+                "  {:<18} {:>8} {:>11}   {:>14} {:>13}",
+                name,
+                pct(f.success_rate),
+                opt_m(f.mean_length_m),
+                pct(ps),
+                format!("{pl:.2}")
+            );
+        }
+        let _ = writeln!(
+            s,
+            "  lengths: mean path over the {} test starts where all three succeeded\n",
+            self.paired_runs
+        );
+        let _ = writeln!(s, "  Figure 5: test-set success against critique rounds");
+        for c in &self.curve {
+            let _ = writeln!(
+                s,
+                "  round {:>4}  {:>5}  {}  ({} chunks critiqued)",
+                c.round,
+                pct(c.success_rate),
+                bar(c.success_rate, 40),
+                c.critiques
+            );
+        }
+        let _ = writeln!(s, "  {:<11} {:>5}", "teacher", pct(self.teacher.success_rate));
+        let c = &self.critiques;
+        let flaws: Vec<String> = c.flaws.iter().map(|(k, v)| format!("{k} {v}")).collect();
+        let _ = writeln!(
+            s,
+            "\n  critic: {} chunks ({} points) flagged in {} of {} rounds ({}); practice success {}",
+            c.chunks_flagged,
+            c.points_flagged,
+            c.rounds_flagged,
+            c.rounds,
+            if flaws.is_empty() {
+                "none".to_string()
+            } else {
+                flaws.join(", ")
+            },
+            pct(c.practice_success_rate)
+        );
+        s
+    }
+}
+
+/// A bar of `width` characters for a rate in [0, 1].
+pub(crate) fn bar(rate: f64, width: usize) -> String {
+    let full = (rate.clamp(0.0, 1.0) * width as f64).round() as usize;
+    format!("{}{}", "█".repeat(full), "·".repeat(width - full))
+}

@@ -1,0 +1,313 @@
+//! The automated critic of the BC study: it watches an interception execution and flags the chunks
+//! a human would call poor, the way the paper's teacher flagged the loop of its Figure 4.
+//!
+//! It sees only the execution's trace (the observations the robot recorded, which is what a
+//! person watching the robot and the ball sees, as numbers); it never looks at the policy, its
+//! data points or their weights. The rule, in full:
+//!
+//! 1. The execution is cut into consecutive chunks of [`CriticRules::chunk_len`] points (25, in
+//!    the paper's typical 20-30); a short remainder joins the chunk before it (so chunks hold
+//!    `chunk_len` to `2 * chunk_len - 1` points), and an execution shorter than one chunk is one
+//!    chunk. The first [`CriticRules::settle_points`] points are never judged: the robot starts
+//!    at rest and has to get going.
+//! 2. For each chunk it measures the robot's travel (the sum of `|travel_delta|`), its turning
+//!    (the sum of `|heading_delta|`) and its progress (the ball distance at the chunk's start
+//!    minus at its end).
+//! 3. A chunk is flagged as:
+//!    - **moving away** when the ball ends the chunk farther away than it started, by more than
+//!      [`CriticRules::away_m`], while the robot was driving (travel above
+//!      [`CriticRules::min_travel_m`]);
+//!    - **wasted turning** when the robot turned more than [`CriticRules::turn_rad`] but closed
+//!      less than [`CriticRules::min_efficiency`] of the distance it drove: it was circling, not
+//!      approaching;
+//!    - **loop** when the chunk lies inside a stretch of [`CriticRules::loop_window`] points over
+//!      which the heading turned through more than [`CriticRules::loop_rad`] in one direction
+//!      (a loop the robot drove around), however it fared on distance.
+//! 4. A straight approach closes the distance about as fast as it drives and turns little, so it
+//!    is never flagged.
+//!
+//! This module only judges; it does not touch the learner (see [`crate::experiment::bc`]).
+
+use serde::{Deserialize, Serialize};
+
+use crate::trace::{Chunk, Trace};
+
+/// The interception observation's columns the critic reads.
+const BALL_DIST: usize = 0;
+const TRAVEL_DELTA: usize = 4;
+const HEADING_DELTA: usize = 5;
+
+/// The numbers of the critic's rule (see the module docs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CriticRules {
+    /// Chunk length, points (the paper's chunks were 20-30 points).
+    pub chunk_len: usize,
+    /// Points at the start of an execution that are never judged (the robot starts at rest).
+    pub settle_points: usize,
+    /// Moving away: the ball distance grew over the chunk by more than this, m.
+    pub away_m: f64,
+    /// A chunk in which the robot drove less than this is not judged on distance, m.
+    pub min_travel_m: f64,
+    /// Wasted turning: the robot turned more than this within the chunk, rad ...
+    pub turn_rad: f64,
+    /// ... and closed less than this fraction of the distance it drove.
+    pub min_efficiency: f64,
+    /// Loop: the window over which the heading change is summed, points ...
+    pub loop_window: usize,
+    /// ... and the net heading change over it that makes a loop, rad.
+    pub loop_rad: f64,
+}
+
+impl Default for CriticRules {
+    fn default() -> Self {
+        CriticRules {
+            chunk_len: 25,
+            settle_points: 10,
+            away_m: 0.03,
+            min_travel_m: 0.05,
+            turn_rad: 0.35,
+            min_efficiency: 0.5,
+            loop_window: 300,
+            loop_rad: 1.5 * std::f64::consts::PI,
+        }
+    }
+}
+
+/// Why a chunk was flagged.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Flaw {
+    MovingAway,
+    WastedTurning,
+    Loop,
+}
+
+impl Flaw {
+    pub fn name(self) -> &'static str {
+        match self {
+            Flaw::MovingAway => "moving away",
+            Flaw::WastedTurning => "wasted turning",
+            Flaw::Loop => "loop",
+        }
+    }
+}
+
+/// One flagged chunk and the reason.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Flag {
+    pub chunk: Chunk,
+    pub flaw: Flaw,
+}
+
+/// What the critic measured on one chunk.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChunkMeasures {
+    pub travel_m: f64,
+    pub turning_rad: f64,
+    pub progress_m: f64,
+}
+
+/// Cut `len` points into the critic's chunks (see the module docs, step 1).
+pub fn chunks(len: usize, chunk_len: usize) -> Vec<Chunk> {
+    let chunk_len = chunk_len.max(1);
+    if len == 0 {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start < len {
+        let mut end = (start + chunk_len).min(len);
+        if len - end < chunk_len {
+            end = len;
+        }
+        out.push(Chunk { start, end });
+        start = end;
+    }
+    out
+}
+
+/// Measure one chunk of an interception trace.
+pub fn measure(trace: &Trace, chunk: Chunk) -> ChunkMeasures {
+    let mut m = ChunkMeasures {
+        travel_m: 0.0,
+        turning_rad: 0.0,
+        progress_m: 0.0,
+    };
+    if chunk.is_empty() {
+        return m;
+    }
+    for t in chunk.range() {
+        let z = trace.z(t);
+        m.travel_m += z[TRAVEL_DELTA].abs();
+        m.turning_rad += z[HEADING_DELTA].abs();
+    }
+    // The observation at a point is taken before its action; the distance after the chunk's last
+    // action is the next point's (or, at the very end, the last one's).
+    let after = chunk.end.min(trace.len() - 1);
+    m.progress_m = trace.z(chunk.start)[BALL_DIST] - trace.z(after)[BALL_DIST];
+    m
+}
+
+/// Judge an interception execution: the chunks a human would flag, in order, each once.
+pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
+    let n = trace.len();
+    if n == 0 || trace.obs_dim() <= HEADING_DELTA {
+        return Vec::new();
+    }
+    let in_loop = loop_points(trace, rules);
+    let mut flags = Vec::new();
+    for chunk in chunks(n, rules.chunk_len) {
+        // Only the part after the settling points is judged.
+        let judged = Chunk {
+            start: chunk.start.max(rules.settle_points.min(n)),
+            end: chunk.end,
+        };
+        if judged.len() < rules.chunk_len.div_ceil(2) {
+            continue;
+        }
+        let m = measure(trace, judged);
+        let driving = m.travel_m > rules.min_travel_m;
+        let flaw = if judged.range().filter(|&t| in_loop[t]).count() * 2 > judged.len() {
+            Some(Flaw::Loop)
+        } else if driving && -m.progress_m > rules.away_m {
+            Some(Flaw::MovingAway)
+        } else if m.turning_rad > rules.turn_rad && m.progress_m < rules.min_efficiency * m.travel_m
+        {
+            Some(Flaw::WastedTurning)
+        } else {
+            None
+        };
+        if let Some(flaw) = flaw {
+            flags.push(Flag { chunk, flaw });
+        }
+    }
+    flags
+}
+
+/// Which points lie inside a loop: a window of `loop_window` points whose net heading change
+/// exceeds `loop_rad` marks all its points.
+fn loop_points(trace: &Trace, rules: &CriticRules) -> Vec<bool> {
+    let n = trace.len();
+    let mut marked = vec![false; n];
+    let w = rules.loop_window.max(1);
+    if n == 0 {
+        return marked;
+    }
+    // Prefix sums of the signed heading change.
+    let mut prefix = Vec::with_capacity(n + 1);
+    prefix.push(0.0);
+    for t in 0..n {
+        let last = prefix[t];
+        prefix.push(last + trace.z(t)[HEADING_DELTA]);
+    }
+    let mut t = 0;
+    while t < n {
+        let end = (t + w).min(n);
+        // The furthest point within the window at which the turn already exceeds a loop.
+        if let Some(k) = (t + 1..=end).find(|&k| (prefix[k] - prefix[t]).abs() > rules.loop_rad) {
+            marked[t..k].iter_mut().for_each(|m| *m = true);
+        }
+        t += 1;
+    }
+    marked
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::domain::Domain;
+
+    /// A trace from per-point (ball distance, travel, heading change).
+    fn trace(points: &[(f64, f64, f64)]) -> Trace {
+        let mut t = Trace::new(&Domain::interception());
+        for (i, &(d, travel, dh)) in points.iter().enumerate() {
+            t.push(
+                i as f64 / 30.0,
+                &[d, 0.0, 0.0, 0.0, travel, dh],
+                &[0.0, 0.0],
+                None,
+            );
+        }
+        t
+    }
+
+    #[test]
+    fn chunks_cover_the_trace_in_20_to_30_point_pieces() {
+        for len in [0, 1, 24, 25, 49, 50, 51, 137, 400] {
+            let cs = chunks(len, 25);
+            assert_eq!(cs.iter().map(|c| c.len()).sum::<usize>(), len);
+            for w in cs.windows(2) {
+                assert_eq!(w[0].end, w[1].start);
+            }
+            if len >= 25 {
+                assert!(cs.iter().all(|c| (25..50).contains(&c.len())), "{len}: {cs:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_straight_approach_is_not_flagged() {
+        // 0.8 m/s straight at a still ball 3 m away: 0.0267 m per point, no turning.
+        let step = 0.8 / 30.0;
+        let pts: Vec<_> = (0..100)
+            .map(|i| (3.0 - step * i as f64, step, 0.0))
+            .collect();
+        assert!(critique(&trace(&pts), &CriticRules::default()).is_empty());
+    }
+
+    #[test]
+    fn a_looping_trace_is_flagged() {
+        // Approach, then a full circle at 0.6 rad/s (the ball distance swings out and back),
+        // then a straight final approach.
+        let step = 0.5 / 30.0;
+        let mut pts = Vec::new();
+        let mut d = 3.0;
+        for _ in 0..40 {
+            d -= step;
+            pts.push((d, step, 0.0));
+        }
+        let loop_pts = (2.0 * std::f64::consts::PI / (0.6 / 30.0)) as usize;
+        for i in 0..loop_pts {
+            let phase = i as f64 / loop_pts as f64 * std::f64::consts::TAU;
+            pts.push((d + 0.8 * phase.sin().abs(), step, 0.6 / 30.0));
+        }
+        for _ in 0..40 {
+            d -= step;
+            pts.push((d, step, 0.0));
+        }
+        let t = trace(&pts);
+        let flags = critique(&t, &CriticRules::default());
+        assert!(!flags.is_empty());
+        assert!(flags.iter().any(|f| f.flaw == Flaw::Loop));
+        // Every flag lies in or next to the loop (points 40 .. 40 + loop_pts), none in the
+        // final straight approach.
+        let loop_end = 40 + loop_pts;
+        for f in &flags {
+            assert!(
+                f.chunk.end > 40 && f.chunk.start < loop_end,
+                "{:?} outside the loop 40..{loop_end}",
+                f.chunk
+            );
+            assert!((20..=50).contains(&f.chunk.len()));
+        }
+    }
+
+    #[test]
+    fn driving_away_from_the_ball_is_flagged() {
+        let step = 0.6 / 30.0;
+        let pts: Vec<_> = (0..75)
+            .map(|i| (1.5 + step * i as f64, step, 0.0))
+            .collect();
+        let flags = critique(&trace(&pts), &CriticRules::default());
+        assert!(!flags.is_empty());
+        assert!(flags.iter().all(|f| f.flaw == Flaw::MovingAway));
+    }
+
+    #[test]
+    fn turning_on_the_spot_without_progress_is_wasted() {
+        // Creeping while turning hard for two chunks: little travel, no progress.
+        let pts: Vec<_> = (0..60).map(|_| (2.0, 0.004, 0.025)).collect();
+        let flags = critique(&trace(&pts), &CriticRules::default());
+        assert!(flags.iter().any(|f| f.flaw == Flaw::WastedTurning));
+    }
+}
