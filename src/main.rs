@@ -655,7 +655,7 @@ fn run_eval(args: EvalArgs) -> miette::Result<()> {
 }
 
 fn experiment(args: ExperimentArgs) -> miette::Result<()> {
-    use advise::experiment::{bc, ensure_dir, plot};
+    use advise::experiment::{aopi, bc, ensure_dir, plot};
     let sim = sim_params(args.sim_params.as_deref())?;
     let progress = true;
     let (text, json, plots) = match args.study {
@@ -678,7 +678,25 @@ fn experiment(args: ExperimentArgs) -> miette::Result<()> {
                 plots,
             )
         }
-        StudyArg::Aopi => return Err(miette::miette!("TEMP")),
+        StudyArg::Aopi => {
+            let params = aopi::AopiParams {
+                sim,
+                ..aopi::AopiParams::default()
+            };
+            let result = aopi::run(args.seed, &params, progress);
+            let plots = match &args.plot {
+                Some(dir) => {
+                    ensure_dir(dir)?;
+                    plot::aopi(&result, dir)?
+                }
+                None => Vec::new(),
+            };
+            (
+                result.render(),
+                serde_json::to_string_pretty(&result),
+                plots,
+            )
+        }
     };
     if args.json {
         let mut t = json.expect("a result is plain data");

@@ -1,1 +1,198 @@
-//! (in progress)
+//! The automated advisor of the A-OPI study: it watches a positioning execution and, when the
+//! execution is poor, names a standard advice operator and the chunk to apply it to, the way the
+//! paper's human advisor did. It never writes an action: what it returns is an operator name
+//! and a chunk, and the points come from [`crate::interp::apply`] of the checked operator from
+//! `operators/positioning.adv`, exactly as `advise OPERATOR` in a session.
+//!
+//! It sees what a person watching the robot sees: where the robot stopped relative to the goal
+//! (the true final pose, as [`Outcome`] records it) and the execution's trace (observations and
+//! the speeds the robot drove). It does not see the policy or its data. The rule:
+//!
+//! 1. An execution is **poor** when the robot ended farther than [`AdvisorRules::position_tol_m`]
+//!    from the goal or more than [`AdvisorRules::heading_tol_rad`] off the goal heading, or did not
+//!    come to rest. A good execution gets no advice.
+//! 2. Position first (a human fixes where the robot goes before how it faces):
+//!    - **stopped short** (the goal still ahead when it stopped, within pi/2 of the heading):
+//!      `translational_acceleration` on the last [`AdvisorRules::chunk_len`] points at which the
+//!      robot was still driving: "keep going here".
+//!    - **overshoot** (the goal ended behind the robot, and the robot had been closer to the goal
+//!      than where it stopped): `translational_deceleration` on the chunk leading up to the
+//!      closest approach: "slow down as you get there".
+//!    - **wandering** (the time limit passed with the robot far from the goal): `slow_down` on the
+//!      last chunk of driving.
+//! 3. Then heading, when the heading is off: over the last chunk in which the robot was turning,
+//!    if it turned toward the goal heading but stopped turning too soon (the remaining heading
+//!    error has the sign of the turn), `rotational_acceleration`; if it turned past it (opposite
+//!    sign), `rotational_deceleration`.
+//! 4. Close enough but never at rest (the time limit passed near the goal): `stop` on the last
+//!    chunk: "you were there; stop".
+//!
+//! So an execution gets one or two pieces of advice, each on one chunk of at most
+//! [`AdvisorRules::chunk_len`] points (the operators' guards may skip some of them).
+
+use serde::{Deserialize, Serialize};
+
+use crate::syntax::Invocation;
+use crate::task::{Ending, Execution, Outcome};
+use crate::trace::{Chunk, Trace};
+
+/// Positioning's columns: observation `[dist2, bearing, dheading]`, action `[trans, rot]`.
+const DIST2: usize = 0;
+const BEARING: usize = 1;
+const DHEADING: usize = 2;
+const TRANS: usize = 0;
+const ROT: usize = 1;
+
+/// A point counts as driving / turning above these speeds (m/s, rad/s).
+const MOVING_MPS: f64 = 0.02;
+const TURNING_RADPS: f64 = 0.02;
+
+/// The numbers of the advisor's rule (see the module docs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AdvisorRules {
+    /// A final position error above this is poor, m (stricter than success's 1.0 m: a person
+    /// advises a run that was clearly off, even if it would pass).
+    pub position_tol_m: f64,
+    /// A final heading error above this is poor, rad.
+    pub heading_tol_rad: f64,
+    /// Largest chunk advised, points.
+    pub chunk_len: usize,
+}
+
+impl Default for AdvisorRules {
+    fn default() -> Self {
+        AdvisorRules {
+            position_tol_m: 0.5,
+            heading_tol_rad: 0.5,
+            chunk_len: 25,
+        }
+    }
+}
+
+/// Why an execution was advised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Reason {
+    StoppedShort,
+    Overshoot,
+    Wandering,
+    TurnedTooLittle,
+    TurnedTooMuch,
+    NotStopping,
+}
+
+impl Reason {
+    pub fn name(self) -> &'static str {
+        match self {
+            Reason::StoppedShort => "stopped short",
+            Reason::Overshoot => "overshoot",
+            Reason::Wandering => "wandering",
+            Reason::TurnedTooLittle => "turned too little",
+            Reason::TurnedTooMuch => "turned too much",
+            Reason::NotStopping => "not stopping",
+        }
+    }
+}
+
+/// One piece of advice: an operator invocation and the chunk it applies to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Advice {
+    pub operator: Invocation,
+    pub chunk: Chunk,
+    pub reason: Reason,
+}
+
+/// Whether an execution is poor (rule 1).
+pub fn is_poor(outcome: &Outcome, rules: &AdvisorRules) -> bool {
+    outcome.position_error_m > rules.position_tol_m
+        || outcome.heading_error_rad.unwrap_or(0.0) > rules.heading_tol_rad
+        || outcome.ending != Ending::Rested
+}
+
+/// The advice for a positioning execution: empty when the execution is good.
+pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
+    let trace = &exec.trace;
+    let n = trace.len();
+    if n == 0 || trace.obs_dim() <= DHEADING || trace.act_dim() <= ROT {
+        return Vec::new();
+    }
+    let o = &exec.outcome;
+    if !is_poor(o, rules) {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    let advice = |name: &str, chunk: Chunk, reason: Reason| Advice {
+        operator: Invocation::bare(name),
+        chunk,
+        reason,
+    };
+    let far = o.position_error_m > rules.position_tol_m;
+    let last = trace.z(n - 1);
+    if far {
+        let goal_ahead = last[BEARING].abs() < std::f64::consts::FRAC_PI_2;
+        let closest = (0..n)
+            .min_by(|&i, &j| trace.z(i)[DIST2].total_cmp(&trace.z(j)[DIST2]))
+            .unwrap_or(n - 1);
+        let passed = trace.z(closest)[DIST2].sqrt() + 0.1 < last[DIST2].sqrt();
+        if o.ending != Ending::Rested && !passed {
+            if let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving) {
+                out.push(advice("slow_down", c, Reason::Wandering));
+            }
+        } else if goal_ahead && !passed {
+            if let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving) {
+                out.push(advice("translational_acceleration", c, Reason::StoppedShort));
+            }
+        } else if let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving) {
+            out.push(advice("translational_deceleration", c, Reason::Overshoot));
+        }
+    }
+    if o.heading_error_rad.unwrap_or(0.0) > rules.heading_tol_rad
+        && let Some(c) = last_chunk_where(trace, n, rules.chunk_len, turning)
+    {
+        // The turn's direction over the chunk, against the heading still to go at the end
+        // (`dheading` = theta_g - theta_r, odometry's view, which is what the robot turned on).
+        let turn: f64 = c.range().map(|t| trace.a(t)[ROT]).sum();
+        let to_go = last[DHEADING];
+        if turn * to_go > 0.0 {
+            out.push(advice("rotational_acceleration", c, Reason::TurnedTooLittle));
+        } else {
+            out.push(advice("rotational_deceleration", c, Reason::TurnedTooMuch));
+        }
+    }
+    if out.is_empty() && o.ending != Ending::Rested {
+        let start = n.saturating_sub(rules.chunk_len);
+        out.push(advice(
+            "stop",
+            Chunk { start, end: n },
+            Reason::NotStopping,
+        ));
+    }
+    out
+}
+
+fn driving(trace: &Trace, t: usize) -> bool {
+    trace.a(t)[TRANS].abs() > MOVING_MPS
+}
+
+fn turning(trace: &Trace, t: usize) -> bool {
+    trace.a(t)[ROT].abs() > TURNING_RADPS
+}
+
+/// The last run of up to `len` consecutive points before `end` that satisfy `pred` (the chunk a
+/// person would select: the latest stretch of the behaviour), or `None` if no point does.
+fn last_chunk_where(
+    trace: &Trace,
+    end: usize,
+    len: usize,
+    pred: fn(&Trace, usize) -> bool,
+) -> Option<Chunk> {
+    let last = (0..end.min(trace.len())).rev().find(|&t| pred(trace, t))?;
+    let mut start = last;
+    while start > 0 && last + 1 - start < len && pred(trace, start - 1) {
+        start -= 1;
+    }
+    Some(Chunk {
+        start,
+        end: last + 1,
+    })
+}

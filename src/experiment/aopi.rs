@@ -1,1 +1,489 @@
-//! (in progress)
+//! The A-OPI study (the paper's "Empirical Validation: A-OPI"): spatial positioning with an LWR
+//! learner, seeded with 9 teacher demonstrations (the baseline policy), then improved three ways
+//! from the same seed: advice only (A-OPI advised), more teleoperation then advice (A-OPI
+//! hybrid), and more teleoperation only.
+//!
+//! Protocol, per seed and arm: practice goals are drawn without replacement from the seed's
+//! practice stream (after the 9 demonstration goals, so none repeats and none is a test goal);
+//! the robot runs its current policy to the goal; the [`advisor`] judges the execution; if it is
+//! poor, the arm's improvement is given: advice (the advisor's operators on its chunks, added
+//! through [`Learner::add_advice`]) or a teleoperated demonstration of the same goal (the teacher
+//! drives it; a demonstration that is itself poor is not kept, as a person would redo it). The
+//! hybrid arm teleoperates for its first `hybrid_teleop` practice goals and advises after. Every
+//! `eval_every` practice goals the policy runs the 25 test goals, which are never advised.
+//! An arm stops when `patience` evaluations in a row did not improve on its best (more successes,
+//! or as many with a combined error at least 2% lower), or when its practice goals run out; its
+//! final policy is the one of its last improvement (the paper halted "once performance on the
+//! test set no longer improved"), and every arm is selected the same way.
+//!
+//! [`advisor`]: crate::experiment::advisor
+
+use std::collections::BTreeMap;
+use std::f64::consts::FRAC_PI_2;
+use std::fmt::Write as _;
+
+use serde::{Deserialize, Serialize};
+
+use crate::backend::sim::SimParams;
+use crate::check::OperatorSet;
+use crate::eval::Report;
+use crate::experiment::advisor::{self, AdvisorRules};
+use crate::experiment::{Progress, eval_seed, evaluate_starts, pct, practice_seed};
+use crate::interp;
+use crate::policy::Policy;
+use crate::policy::dataset::Dataset;
+use crate::policy::learner::{Learner, LearnerKind};
+use crate::task::{Controller, Start, TaskKind, record_demos, run_sim};
+use crate::trace::Episode;
+
+/// The paper's Figure 8 (success) and dataset sizes in executions (Figure 11's text).
+pub const PAPER: PaperAopi = PaperAopi {
+    baseline_success: 0.32,
+    advised_success: 0.88,
+    hybrid_success: 0.92,
+    teleop_success: 0.80,
+    advised_executions: 69,
+    hybrid_executions: 68,
+    teleop_executions: 60,
+};
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperAopi {
+    pub baseline_success: f64,
+    pub advised_success: f64,
+    pub hybrid_success: f64,
+    pub teleop_success: f64,
+    pub advised_executions: usize,
+    pub hybrid_executions: usize,
+    pub teleop_executions: usize,
+}
+
+/// The study's configuration. The defaults follow the paper's protocol.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AopiParams {
+    /// Teacher demonstrations that seed every arm (paper: 9).
+    pub seed_demos: usize,
+    /// Practice goals available to each arm (paper: about 60 executions per arm).
+    pub max_practice: usize,
+    /// The hybrid arm teleoperates for this many practice goals, then advises.
+    pub hybrid_teleop: usize,
+    /// Test-set evaluation every this many practice goals.
+    pub eval_every: usize,
+    /// Stop after this many evaluations in a row without improvement.
+    pub patience: usize,
+    /// How many of the fixed test goals to use (paper: all 25).
+    pub test_goals: usize,
+    pub advisor: AdvisorRules,
+    pub sim: SimParams,
+}
+
+impl Default for AopiParams {
+    fn default() -> Self {
+        AopiParams {
+            seed_demos: 9,
+            max_practice: 60,
+            hybrid_teleop: 10,
+            eval_every: 5,
+            patience: 3,
+            test_goals: crate::task::positioning::TEST_GOALS,
+            advisor: AdvisorRules::default(),
+            sim: SimParams::default(),
+        }
+    }
+}
+
+/// One point of an arm's history: the test set after `practice` practice goals.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ArmPoint {
+    pub practice: usize,
+    /// Executions whose data is in the dataset (demonstrations and advised executions).
+    pub executions: usize,
+    pub dataset_size: usize,
+    pub success_rate: f64,
+    pub mean_position_error_m: f64,
+    pub mean_heading_error_rad: f64,
+}
+
+/// One arm's final policy (Figures 8 and 9) and its history (Figures 10 and 11).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ArmFigures {
+    /// Fraction of test goals attained, in [0, 1].
+    pub success_rate: f64,
+    pub successes: usize,
+    pub episodes: usize,
+    pub mean_position_error_m: f64,
+    pub mean_heading_error_rad: f64,
+    /// Data points in the final policy's dataset.
+    pub dataset_size: usize,
+    /// Executions contributing to the final dataset (the 9 seed demonstrations included).
+    pub executions: usize,
+    /// Practice goals run by the final policy's time, and in all before the arm stopped.
+    pub practice_final: usize,
+    pub practice_run: usize,
+    /// Improvement given up to the final policy: teleoperated demonstrations kept, advised
+    /// executions, pieces of advice, advice points.
+    pub teleop_demos: usize,
+    pub advised_executions: usize,
+    pub advice_given: usize,
+    pub advice_points: usize,
+    /// Pieces of advice by operator, up to the final policy.
+    pub operators: BTreeMap<String, usize>,
+    pub curve: Vec<ArmPoint>,
+}
+
+/// The four policies.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Arms {
+    pub baseline: ArmFigures,
+    pub advised: ArmFigures,
+    pub hybrid: ArmFigures,
+    pub teleop: ArmFigures,
+}
+
+/// The study's result.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AopiResult {
+    pub experiment: String,
+    pub seed: u64,
+    pub params: AopiParams,
+    pub arms: Arms,
+    pub seed_demo_points: usize,
+    pub paper: PaperAopi,
+}
+
+/// How an arm improves the policy.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    Advised,
+    Hybrid,
+    Teleop,
+}
+
+impl Mode {
+    fn name(self) -> &'static str {
+        match self {
+            Mode::Advised => "advised",
+            Mode::Hybrid => "hybrid",
+            Mode::Teleop => "teleop",
+        }
+    }
+}
+
+/// Run the A-OPI study. `progress` draws a bar on a terminal.
+pub fn run(seed: u64, params: &AopiParams, progress: bool) -> AopiResult {
+    let mut test = TaskKind::Positioning.test_set();
+    test.truncate(params.test_goals.max(1));
+    run_on(seed, params, &test, progress)
+}
+
+/// Run the A-OPI study with `test` standing in for the test set (to tune the advisor on held-out
+/// practice goals without ever looking at the real test set).
+pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) -> AopiResult {
+    let kind = TaskKind::Positioning;
+    let sim = &params.sim;
+    let bar = Progress::new(
+        progress,
+        1 + 3 * params.max_practice as u64,
+        "a-opi: demonstrations",
+    );
+    let recorded = record_demos(kind, params.seed_demos, seed, sim);
+    let mut ds = Dataset::new(&kind.domain());
+    for (e, _) in &recorded {
+        // Recorded in the task's own domain: this cannot fail.
+        let _ = ds.add_demonstration(&e.name, &e.trace);
+    }
+    let seed_demo_points = ds.len();
+    let baseline_learner = Learner::with_dataset(ds.clone(), LearnerKind::Lwr, seed);
+    let eseed = eval_seed(seed);
+    let evaluate = |learner: &Learner| -> Report {
+        let policy: &dyn Policy = learner.policy();
+        evaluate_starts(kind, test, || policy, sim, eseed)
+    };
+    let base_report = evaluate(&baseline_learner);
+    let base_point = arm_point(0, params.seed_demos, seed_demo_points, &base_report);
+    let baseline = ArmFigures {
+        curve: vec![base_point.clone()],
+        ..figures(&base_report, &base_point, 0, 0, Tally::default())
+    };
+    bar.inc(1);
+
+    let goals: Vec<Start> = kind
+        .practice_set(seed, params.seed_demos + params.max_practice)
+        .split_off(params.seed_demos);
+    let ops = OperatorSet::standard();
+    let arm = |mode: Mode| {
+        bar.set_message(&format!("a-opi: {} arm", mode.name()));
+        let mut learner = Learner::with_dataset(ds.clone(), LearnerKind::Lwr, seed);
+        let mut tally = Tally::default();
+        let mut executions = params.seed_demos;
+        let mut best = (base_report.clone(), base_point.clone(), 0, tally.clone());
+        let mut curve = vec![base_point.clone()];
+        let mut since_best = 0;
+        let mut run = 0;
+        for (i, goal) in goals.iter().enumerate() {
+            run = i + 1;
+            let exec = {
+                let mut policy: &dyn Policy = learner.policy();
+                let controller: &mut dyn Controller = &mut policy;
+                run_sim(goal, controller, sim, practice_seed(seed, i as u64))
+            };
+            bar.inc(1);
+            if advisor::is_poor(&exec.outcome, &params.advisor) {
+                let teleop = match mode {
+                    Mode::Advised => false,
+                    Mode::Hybrid => i < params.hybrid_teleop,
+                    Mode::Teleop => true,
+                };
+                if teleop {
+                    let mut teacher = kind.teacher(sim.period_s());
+                    // The teacher's own run of this goal, on its own simulator noise.
+                    let demo = run_sim(
+                        goal,
+                        teacher.as_mut(),
+                        sim,
+                        practice_seed(seed, (1 << 32) + i as u64),
+                    );
+                    if !advisor::is_poor(&demo.outcome, &params.advisor) {
+                        let episode = Episode {
+                            name: format!("teleop-{i}"),
+                            trace: demo.trace,
+                        };
+                        if learner.add_demonstrations(&[episode]).is_ok() {
+                            tally.teleop_demos += 1;
+                            executions += 1;
+                        }
+                    }
+                } else {
+                    let advice = advisor::advise(&exec, &params.advisor);
+                    let mut id = None;
+                    for a in &advice {
+                        let Ok(syn) = interp::apply(&ops, &a.operator, &exec.trace, a.chunk)
+                        else {
+                            continue;
+                        };
+                        if syn.points.is_empty() {
+                            continue;
+                        }
+                        let exec_id = *id.get_or_insert_with(|| learner.add_execution(&exec.trace));
+                        if learner.add_advice(exec_id, &syn).is_ok() {
+                            tally.advice_given += 1;
+                            tally.advice_points += syn.points.len();
+                            *tally.operators.entry(a.operator.to_string()).or_insert(0) += 1;
+                        }
+                    }
+                    if id.is_some() {
+                        tally.advised_executions += 1;
+                        executions += 1;
+                    }
+                }
+            }
+            if run % params.eval_every.max(1) == 0 || run == goals.len() {
+                let report = evaluate(&learner);
+                let point = arm_point(run, executions, learner.len(), &report);
+                curve.push(point.clone());
+                if better(&report, &best.0) {
+                    best = (report, point, run, tally.clone());
+                    since_best = 0;
+                } else {
+                    since_best += 1;
+                    if since_best >= params.patience.max(1) {
+                        break;
+                    }
+                }
+            }
+        }
+        // Bars of arms that stopped early jump to their share.
+        bar.inc((goals.len() - run) as u64);
+        let (report, point, practice_final, tally) = best;
+        ArmFigures {
+            curve,
+            ..figures(&report, &point, practice_final, run, tally)
+        }
+    };
+    let advised = arm(Mode::Advised);
+    let hybrid = arm(Mode::Hybrid);
+    let teleop = arm(Mode::Teleop);
+    bar.finish();
+    AopiResult {
+        experiment: "aopi".into(),
+        seed,
+        params: params.clone(),
+        arms: Arms {
+            baseline,
+            advised,
+            hybrid,
+            teleop,
+        },
+        seed_demo_points,
+        paper: PAPER,
+    }
+}
+
+/// Improvement given by an arm so far.
+#[derive(Clone, Debug, Default)]
+struct Tally {
+    teleop_demos: usize,
+    advised_executions: usize,
+    advice_given: usize,
+    advice_points: usize,
+    operators: BTreeMap<String, usize>,
+}
+
+/// The combined test-set error, each error in units of its success threshold.
+fn combined_error(r: &Report) -> f64 {
+    r.mean_position_error_m / 1.0 + r.mean_heading_error_rad.unwrap_or(0.0) / FRAC_PI_2
+}
+
+/// Whether `a` improves on `b`: more successes, or as many with a combined error 2% lower.
+fn better(a: &Report, b: &Report) -> bool {
+    a.successes > b.successes
+        || (a.successes == b.successes && combined_error(a) < 0.98 * combined_error(b))
+}
+
+fn arm_point(practice: usize, executions: usize, dataset_size: usize, r: &Report) -> ArmPoint {
+    ArmPoint {
+        practice,
+        executions,
+        dataset_size,
+        success_rate: r.success_rate,
+        mean_position_error_m: r.mean_position_error_m,
+        mean_heading_error_rad: r.mean_heading_error_rad.unwrap_or(0.0),
+    }
+}
+
+fn figures(
+    r: &Report,
+    p: &ArmPoint,
+    practice_final: usize,
+    practice_run: usize,
+    t: Tally,
+) -> ArmFigures {
+    ArmFigures {
+        success_rate: r.success_rate,
+        successes: r.successes,
+        episodes: r.episodes,
+        mean_position_error_m: r.mean_position_error_m,
+        mean_heading_error_rad: r.mean_heading_error_rad.unwrap_or(0.0),
+        dataset_size: p.dataset_size,
+        executions: p.executions,
+        practice_final,
+        practice_run,
+        teleop_demos: t.teleop_demos,
+        advised_executions: t.advised_executions,
+        advice_given: t.advice_given,
+        advice_points: t.advice_points,
+        operators: t.operators,
+        curve: Vec::new(),
+    }
+}
+
+impl AopiResult {
+    /// Figures 8, 9 and 11 as text.
+    pub fn render(&self) -> String {
+        let p = &self.params;
+        let a = &self.arms;
+        let mut s = format!(
+            "A-OPI study (spatial positioning), seed {}: {} seed demonstrations ({} points), up to {} practice goals per arm, test set of {} goals\n\n",
+            self.seed, p.seed_demos, self.seed_demo_points, p.max_practice, a.baseline.episodes
+        );
+        let _ = writeln!(
+            s,
+            "  {:<16} {:>8} {:>8}  {:>13} {:>13}  {:>8} {:>11} {:>9}",
+            "policy",
+            "success",
+            "paper",
+            "pos. err (m)",
+            "head. err (rad)",
+            "dataset",
+            "executions",
+            "practice"
+        );
+        let rows = [
+            ("Baseline", &a.baseline, PAPER.baseline_success, None),
+            (
+                "A-OPI Advised",
+                &a.advised,
+                PAPER.advised_success,
+                Some(PAPER.advised_executions),
+            ),
+            (
+                "A-OPI Hybrid",
+                &a.hybrid,
+                PAPER.hybrid_success,
+                Some(PAPER.hybrid_executions),
+            ),
+            (
+                "Teleoperation",
+                &a.teleop,
+                PAPER.teleop_success,
+                Some(PAPER.teleop_executions),
+            ),
+        ];
+        for (name, f, paper, paper_exec) in rows {
+            let exec = match paper_exec {
+                Some(e) => format!("{} ({e})", f.executions),
+                None => format!("{}", f.executions),
+            };
+            let _ = writeln!(
+                s,
+                "  {:<16} {:>8} {:>8}  {:>13.3} {:>15.3}  {:>8} {:>11} {:>9}",
+                name,
+                pct(f.success_rate),
+                pct(paper),
+                f.mean_position_error_m,
+                f.mean_heading_error_rad,
+                f.dataset_size,
+                exec,
+                format!("{}/{}", f.practice_final, f.practice_run),
+            );
+        }
+        let _ = writeln!(
+            s,
+            "  (executions: in the final dataset, paper's in brackets; practice: goals run by the final policy / before stopping)\n"
+        );
+        let _ = writeln!(
+            s,
+            "  Figure 11: dataset size against executions in the dataset"
+        );
+        for (name, f) in [
+            ("advised", &a.advised),
+            ("hybrid", &a.hybrid),
+            ("teleop", &a.teleop),
+        ] {
+            let pts: Vec<String> = f
+                .curve
+                .iter()
+                .map(|c| format!("{}:{}", c.executions, c.dataset_size))
+                .collect();
+            let _ = writeln!(s, "  {:<8} {}", name, pts.join(" "));
+        }
+        let _ = writeln!(s, "\n  advice given (up to the final policy):");
+        for (name, f) in [("advised", &a.advised), ("hybrid", &a.hybrid)] {
+            let ops: Vec<String> = f.operators.iter().map(|(k, v)| format!("{k} {v}")).collect();
+            let _ = writeln!(
+                s,
+                "  {:<8} {} pieces on {} executions, {} points{}{}",
+                name,
+                f.advice_given,
+                f.advised_executions,
+                f.advice_points,
+                if f.teleop_demos > 0 {
+                    format!(", after {} teleoperated demonstrations", f.teleop_demos)
+                } else {
+                    String::new()
+                },
+                if ops.is_empty() {
+                    String::new()
+                } else {
+                    format!(": {}", ops.join(", "))
+                }
+            );
+        }
+        let _ = writeln!(
+            s,
+            "  teleop   {} demonstrations kept",
+            a.teleop.teleop_demos
+        );
+        s
+    }
+}

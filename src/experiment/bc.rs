@@ -143,6 +143,14 @@ pub struct BcResult {
 
 /// Run the BC study. `progress` draws a bar on a terminal.
 pub fn run(seed: u64, params: &BcParams, progress: bool) -> BcResult {
+    let mut test = TaskKind::Interception.test_set();
+    test.truncate(params.test_starts.max(1));
+    run_on(seed, params, &test, progress)
+}
+
+/// Run the BC study with `test` standing in for the test set (to tune the critic on held-out
+/// practice starts without ever looking at the real test set).
+pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> BcResult {
     let kind = TaskKind::Interception;
     let sim = &params.sim;
     let eval_every = params.eval_every.max(1);
@@ -161,17 +169,15 @@ pub fn run(seed: u64, params: &BcParams, progress: bool) -> BcResult {
     let mut learner = Learner::with_dataset(ds, LearnerKind::Bc, seed);
     bar.inc(1);
 
-    let mut test: Vec<Start> = kind.test_set();
-    test.truncate(params.test_starts.max(1));
     let eseed = eval_seed(seed);
     let evaluate = |learner: &Learner| -> Report {
         let policy: &dyn Policy = learner.policy();
-        evaluate_starts(kind, &test, || policy, sim, eseed)
+        evaluate_starts(kind, test, || policy, sim, eseed)
     };
     bar.set_message("bc: teacher and initial policy");
     let teacher = evaluate_starts(
         kind,
-        &test,
+        test,
         || kind.teacher(sim.period_s()),
         sim,
         eseed,

@@ -34,6 +34,7 @@ use crate::trace::{Chunk, Trace};
 
 /// The interception observation's columns the critic reads.
 const BALL_DIST: usize = 0;
+const BALL_ANGLE: usize = 1;
 const TRAVEL_DELTA: usize = 4;
 const HEADING_DELTA: usize = 5;
 
@@ -56,6 +57,9 @@ pub struct CriticRules {
     pub loop_window: usize,
     /// ... and the net heading change over it that makes a loop, rad.
     pub loop_rad: f64,
+    /// At most this many chunks are flagged per execution, the first ones: where the execution
+    /// began to go wrong (0: no limit).
+    pub max_flags: usize,
 }
 
 impl Default for CriticRules {
@@ -69,6 +73,7 @@ impl Default for CriticRules {
             min_efficiency: 0.5,
             loop_window: 300,
             loop_rad: 1.5 * std::f64::consts::PI,
+            max_flags: 2,
         }
     }
 }
@@ -105,6 +110,8 @@ pub struct ChunkMeasures {
     pub travel_m: f64,
     pub turning_rad: f64,
     pub progress_m: f64,
+    /// How far the robot's own driving took it toward the ball (negative: away), m.
+    pub toward_m: f64,
 }
 
 /// Cut `len` points into the critic's chunks (see the module docs, step 1).
@@ -132,6 +139,7 @@ pub fn measure(trace: &Trace, chunk: Chunk) -> ChunkMeasures {
         travel_m: 0.0,
         turning_rad: 0.0,
         progress_m: 0.0,
+        toward_m: 0.0,
     };
     if chunk.is_empty() {
         return m;
@@ -140,6 +148,7 @@ pub fn measure(trace: &Trace, chunk: Chunk) -> ChunkMeasures {
         let z = trace.z(t);
         m.travel_m += z[TRAVEL_DELTA].abs();
         m.turning_rad += z[HEADING_DELTA].abs();
+        m.toward_m += z[TRAVEL_DELTA] * z[BALL_ANGLE].cos();
     }
     // The observation at a point is taken before its action; the distance after the chunk's last
     // action is the next point's (or, at the very end, the last one's).
@@ -169,7 +178,7 @@ pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
         let driving = m.travel_m > rules.min_travel_m;
         let flaw = if judged.range().filter(|&t| in_loop[t]).count() * 2 > judged.len() {
             Some(Flaw::Loop)
-        } else if driving && -m.progress_m > rules.away_m {
+        } else if driving && -m.progress_m > rules.away_m && m.toward_m < 0.0 {
             Some(Flaw::MovingAway)
         } else if m.turning_rad > rules.turn_rad && m.progress_m < rules.min_efficiency * m.travel_m
         {
@@ -179,6 +188,9 @@ pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
         };
         if let Some(flaw) = flaw {
             flags.push(Flag { chunk, flaw });
+            if flags.len() == rules.max_flags {
+                break;
+            }
         }
     }
     flags
