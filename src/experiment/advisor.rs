@@ -75,7 +75,8 @@ impl Default for AdvisorRules {
 pub enum Reason {
     StoppedShort,
     Overshoot,
-    Wandering,
+    MissedTurningTooLittle,
+    MissedTurningAway,
     TurnedTooLittle,
     TurnedTooMuch,
     NotStopping,
@@ -86,7 +87,8 @@ impl Reason {
         match self {
             Reason::StoppedShort => "stopped short",
             Reason::Overshoot => "overshoot",
-            Reason::Wandering => "wandering",
+            Reason::MissedTurningTooLittle => "missed, turning too little",
+            Reason::MissedTurningAway => "missed, turning away",
             Reason::TurnedTooLittle => "turned too little",
             Reason::TurnedTooMuch => "turned too much",
             Reason::NotStopping => "not stopping",
@@ -121,29 +123,41 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         return Vec::new();
     }
     let mut out = Vec::new();
-    let advice = |name: &str, chunk: Chunk, reason: Reason| Advice {
-        operator: Invocation::bare(name),
+    let advice = |text: &str, chunk: Chunk, reason: Reason| Advice {
+        // The advisor's invocations are fixed, well-formed texts.
+        operator: crate::syntax::parse_invocation(text).unwrap_or_else(|_| Invocation::bare(text)),
         chunk,
         reason,
     };
     let far = o.position_error_m > rules.position_tol_m;
     let last = trace.z(n - 1);
     if far {
-        let goal_ahead = last[BEARING].abs() < std::f64::consts::FRAC_PI_2;
         let closest = (0..n)
             .min_by(|&i, &j| trace.z(i)[DIST2].total_cmp(&trace.z(j)[DIST2]))
             .unwrap_or(n - 1);
-        let passed = trace.z(closest)[DIST2].sqrt() + 0.1 < last[DIST2].sqrt();
-        if o.ending != Ending::Rested && !passed {
-            if let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving) {
-                out.push(advice("slow_down", c, Reason::Wandering));
+        let closest_m = trace.z(closest)[DIST2].sqrt();
+        let passed = closest_m <= rules.position_tol_m && closest_m + 0.1 < last[DIST2].sqrt();
+        let goal_ahead = last[BEARING].abs() < std::f64::consts::FRAC_PI_4;
+        if passed {
+            if let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving) {
+                out.push(advice("translational_deceleration", c, Reason::Overshoot));
             }
-        } else if goal_ahead && !passed {
+        } else if goal_ahead && o.ending == Ending::Rested {
             if let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving) {
                 out.push(advice("translational_acceleration", c, Reason::StoppedShort));
             }
         } else if let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving) {
-            out.push(advice("translational_deceleration", c, Reason::Overshoot));
+            // Missed to the side: over the approach's last chunk, was the robot turning toward
+            // the goal (too little) or away from it?
+            let toward: f64 = c
+                .range()
+                .map(|t| trace.a(t)[ROT] * trace.z(t)[BEARING].signum())
+                .sum();
+            if toward > 0.0 {
+                out.push(advice("turn_tighter(1)", c, Reason::MissedTurningTooLittle));
+            } else {
+                out.push(advice("no_turning", c, Reason::MissedTurningAway));
+            }
         }
     }
     if o.heading_error_rad.unwrap_or(0.0) > rules.heading_tol_rad
