@@ -144,7 +144,11 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
             }
         } else if goal_ahead && o.ending == Ending::Rested {
             if let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving) {
-                out.push(advice("translational_acceleration", c, Reason::StoppedShort));
+                out.push(advice(
+                    "translational_acceleration",
+                    c,
+                    Reason::StoppedShort,
+                ));
             }
         } else if let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving) {
             // Missed to the side: over the approach's last chunk, was the robot turning toward
@@ -168,18 +172,18 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         let turn: f64 = c.range().map(|t| trace.a(t)[ROT]).sum();
         let to_go = last[DHEADING];
         if turn * to_go > 0.0 {
-            out.push(advice("rotational_acceleration", c, Reason::TurnedTooLittle));
+            out.push(advice(
+                "rotational_acceleration",
+                c,
+                Reason::TurnedTooLittle,
+            ));
         } else {
             out.push(advice("rotational_deceleration", c, Reason::TurnedTooMuch));
         }
     }
     if out.is_empty() && o.ending != Ending::Rested {
         let start = n.saturating_sub(rules.chunk_len);
-        out.push(advice(
-            "stop",
-            Chunk { start, end: n },
-            Reason::NotStopping,
-        ));
+        out.push(advice("stop", Chunk { start, end: n }, Reason::NotStopping));
     }
     out
 }
@@ -209,4 +213,100 @@ fn last_chunk_where(
         start,
         end: last + 1,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check::OperatorSet;
+    use crate::domain::Domain;
+    use crate::task::Outcome;
+    use crate::trace::Pose;
+
+    /// A straight drive along +x toward a goal at (goal_x, 0) heading 0, at `speed` until
+    /// `stop_x`, then at rest; observations as the positioning task makes them.
+    fn drive(goal_x: f64, stop_x: f64, speed: f64) -> Execution {
+        let mut trace = Trace::new(&Domain::positioning());
+        let step = speed / 30.0;
+        let mut x = 0.0;
+        let mut t = 0.0;
+        loop {
+            let moving = x < stop_x;
+            let d = goal_x - x;
+            let bearing = if d >= 0.0 { 0.0 } else { std::f64::consts::PI };
+            trace.push(
+                t,
+                &[d * d, bearing, 0.0],
+                &[if moving { speed } else { 0.0 }, 0.0],
+                Some(Pose::new(x, 0.0, 0.0)),
+            );
+            if !moving {
+                break;
+            }
+            x += step;
+            t += 1.0 / 30.0;
+        }
+        let error = (goal_x - x).abs();
+        Execution {
+            outcome: Outcome {
+                success: error < 1.0,
+                ending: Ending::Rested,
+                position_error_m: error,
+                heading_error_rad: Some(0.0),
+                length_m: x,
+                steps: trace.len(),
+                duration_s: t,
+                final_pose: Pose::new(x, 0.0, 0.0),
+            },
+            trace,
+            true_poses: None,
+            ball: None,
+        }
+    }
+
+    #[test]
+    fn a_straight_approach_to_the_goal_gets_no_advice() {
+        let exec = drive(2.0, 2.0, 0.5);
+        assert!(exec.outcome.position_error_m < 0.05);
+        assert!(advise(&exec, &AdvisorRules::default()).is_empty());
+    }
+
+    #[test]
+    fn stopping_short_gets_translational_acceleration_on_the_last_driving_chunk() {
+        let exec = drive(3.0, 1.5, 0.5);
+        let advice = advise(&exec, &AdvisorRules::default());
+        assert_eq!(advice.len(), 1);
+        let a = &advice[0];
+        assert_eq!(a.operator.to_string(), "translational_acceleration");
+        assert_eq!(a.reason, Reason::StoppedShort);
+        assert_eq!(a.chunk.len(), 25);
+        // The chunk ends at the last driving point.
+        assert!(driving(&exec.trace, a.chunk.end - 1));
+        assert!(!driving(&exec.trace, a.chunk.end));
+    }
+
+    #[test]
+    fn overshooting_gets_deceleration_up_to_the_closest_approach() {
+        let exec = drive(1.5, 2.5, 0.5);
+        let advice = advise(&exec, &AdvisorRules::default());
+        assert_eq!(advice.len(), 1);
+        let a = &advice[0];
+        assert_eq!(a.operator.to_string(), "translational_deceleration");
+        assert_eq!(a.reason, Reason::Overshoot);
+        let closest_x = 1.5;
+        let end_pose = exec.trace.pose.as_ref().unwrap()[a.chunk.end - 1];
+        assert!((end_pose.x_m - closest_x).abs() < 0.05, "{end_pose:?}");
+    }
+
+    #[test]
+    fn advice_speaks_only_through_standard_operators() {
+        let ops = OperatorSet::standard();
+        for exec in [drive(3.0, 1.5, 0.5), drive(1.5, 2.5, 0.5)] {
+            for a in advise(&exec, &AdvisorRules::default()) {
+                let syn = crate::interp::apply(&ops, &a.operator, &exec.trace, a.chunk).unwrap();
+                assert!(!syn.points.is_empty());
+                assert!(syn.source_index.iter().all(|i| a.chunk.range().contains(i)));
+            }
+        }
+    }
 }

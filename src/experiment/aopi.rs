@@ -73,6 +73,9 @@ pub struct AopiParams {
     pub patience: usize,
     /// How many of the fixed test goals to use (paper: all 25).
     pub test_goals: usize,
+    /// Re-derive the policy from scratch (new scaling, re-tuned LWR) after each advised
+    /// execution, as after a demonstration; otherwise advice is added incrementally.
+    pub rederive_after_advice: bool,
     pub advisor: AdvisorRules,
     pub sim: SimParams,
 }
@@ -86,6 +89,7 @@ impl Default for AopiParams {
             eval_every: 5,
             patience: 3,
             test_goals: crate::task::positioning::TEST_GOALS,
+            rederive_after_advice: true,
             advisor: AdvisorRules::default(),
             sim: SimParams::default(),
         }
@@ -257,8 +261,7 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
                     let advice = advisor::advise(&exec, &params.advisor);
                     let mut id = None;
                     for a in &advice {
-                        let Ok(syn) = interp::apply(&ops, &a.operator, &exec.trace, a.chunk)
-                        else {
+                        let Ok(syn) = interp::apply(&ops, &a.operator, &exec.trace, a.chunk) else {
                             continue;
                         };
                         if syn.points.is_empty() {
@@ -272,6 +275,9 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
                         }
                     }
                     if id.is_some() {
+                        if params.rederive_after_advice {
+                            learner.rederive();
+                        }
                         tally.advised_executions += 1;
                         executions += 1;
                     }
@@ -459,7 +465,11 @@ impl AopiResult {
         }
         let _ = writeln!(s, "\n  advice given (up to the final policy):");
         for (name, f) in [("advised", &a.advised), ("hybrid", &a.hybrid)] {
-            let ops: Vec<String> = f.operators.iter().map(|(k, v)| format!("{k} {v}")).collect();
+            let ops: Vec<String> = f
+                .operators
+                .iter()
+                .map(|(k, v)| format!("{k} {v}"))
+                .collect();
             let _ = writeln!(
                 s,
                 "  {:<8} {} pieces on {} executions, {} points{}{}",

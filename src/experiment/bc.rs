@@ -155,7 +155,11 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
     let sim = &params.sim;
     let eval_every = params.eval_every.max(1);
     let evals = params.rounds.div_ceil(eval_every) as u64;
-    let bar = Progress::new(progress, params.rounds as u64 + 2 + evals, "bc: demonstrations");
+    let bar = Progress::new(
+        progress,
+        params.rounds as u64 + 2 + evals,
+        "bc: demonstrations",
+    );
 
     let recorded = record_demos(kind, params.demos, seed, sim);
     let demo_successes = recorded.iter().filter(|(_, o)| o.success).count();
@@ -175,13 +179,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         evaluate_starts(kind, test, || policy, sim, eseed)
     };
     bar.set_message("bc: teacher and initial policy");
-    let teacher = evaluate_starts(
-        kind,
-        test,
-        || kind.teacher(sim.period_s()),
-        sim,
-        eseed,
-    );
+    let teacher = evaluate_starts(kind, test, || kind.teacher(sim.period_s()), sim, eseed);
     let initial = evaluate(&learner);
     bar.inc(1);
 
@@ -338,7 +336,12 @@ impl BcResult {
                 c.critiques
             );
         }
-        let _ = writeln!(s, "  {:<11} {:>5}", "teacher", pct(self.teacher.success_rate));
+        let _ = writeln!(
+            s,
+            "  {:<11} {:>5}",
+            "teacher",
+            pct(self.teacher.success_rate)
+        );
         let c = &self.critiques;
         let flaws: Vec<String> = c.flaws.iter().map(|(k, v)| format!("{k} {v}")).collect();
         let _ = writeln!(

@@ -22,7 +22,11 @@
 //!      approaching;
 //!    - **loop** when the chunk lies inside a stretch of [`CriticRules::loop_window`] points over
 //!      which the heading turned through more than [`CriticRules::loop_rad`] in one direction
-//!      (a loop the robot drove around), however it fared on distance.
+//!      (a loop the robot drove around), however it fared on distance; only the points of
+//!      that stretch at which the robot was turning count as the loop.
+//!
+//!    At most [`CriticRules::max_flags`] chunks are flagged per execution, the first ones: the
+//!    paper's teacher marked where an execution "began to go wrong", not every bad second of it.
 //! 4. A straight approach closes the distance about as fast as it drives and turns little, so it
 //!    is never flagged.
 //!
@@ -37,6 +41,9 @@ const BALL_DIST: usize = 0;
 const BALL_ANGLE: usize = 1;
 const TRAVEL_DELTA: usize = 4;
 const HEADING_DELTA: usize = 5;
+
+/// A point turning less than this (rad per point, 0.15 rad/s at 30 Hz) is not part of a loop.
+const LOOP_TURN_RAD: f64 = 0.005;
 
 /// The numbers of the critic's rule (see the module docs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -217,7 +224,11 @@ fn loop_points(trace: &Trace, rules: &CriticRules) -> Vec<bool> {
         let end = (t + w).min(n);
         // The furthest point within the window at which the turn already exceeds a loop.
         if let Some(k) = (t + 1..=end).find(|&k| (prefix[k] - prefix[t]).abs() > rules.loop_rad) {
-            marked[t..k].iter_mut().for_each(|m| *m = true);
+            // Only the points where the robot was turning belong to the loop, not a straight
+            // approach that happens to lie in the same window.
+            for (j, m) in marked.iter_mut().enumerate().take(k).skip(t) {
+                *m |= trace.z(j)[HEADING_DELTA].abs() > LOOP_TURN_RAD;
+            }
         }
         t += 1;
     }
@@ -229,13 +240,18 @@ mod tests {
     use super::*;
     use crate::domain::Domain;
 
-    /// A trace from per-point (ball distance, travel, heading change).
+    /// A trace from per-point (ball distance, travel, heading change), the ball ahead.
     fn trace(points: &[(f64, f64, f64)]) -> Trace {
+        trace_at(points, 0.0)
+    }
+
+    /// The same with the ball at `angle` in the robot's frame.
+    fn trace_at(points: &[(f64, f64, f64)], angle: f64) -> Trace {
         let mut t = Trace::new(&Domain::interception());
         for (i, &(d, travel, dh)) in points.iter().enumerate() {
             t.push(
                 i as f64 / 30.0,
-                &[d, 0.0, 0.0, 0.0, travel, dh],
+                &[d, angle, 0.0, 0.0, travel, dh],
                 &[0.0, 0.0],
                 None,
             );
@@ -252,7 +268,10 @@ mod tests {
                 assert_eq!(w[0].end, w[1].start);
             }
             if len >= 25 {
-                assert!(cs.iter().all(|c| (25..50).contains(&c.len())), "{len}: {cs:?}");
+                assert!(
+                    cs.iter().all(|c| (25..50).contains(&c.len())),
+                    "{len}: {cs:?}"
+                );
             }
         }
     }
@@ -306,13 +325,33 @@ mod tests {
 
     #[test]
     fn driving_away_from_the_ball_is_flagged() {
+        // The ball behind the robot, which drives on forward.
         let step = 0.6 / 30.0;
         let pts: Vec<_> = (0..75)
             .map(|i| (1.5 + step * i as f64, step, 0.0))
             .collect();
-        let flags = critique(&trace(&pts), &CriticRules::default());
+        let flags = critique(&trace_at(&pts, 3.0), &CriticRules::default());
         assert!(!flags.is_empty());
         assert!(flags.iter().all(|f| f.flaw == Flaw::MovingAway));
+        // A ball rolling away from a robot chasing it is not the robot's fault.
+        assert!(critique(&trace(&pts), &CriticRules::default()).is_empty());
+    }
+
+    #[test]
+    fn at_most_max_flags_chunks_are_flagged_the_first_ones() {
+        let pts: Vec<_> = (0..200).map(|_| (2.0, 0.004, 0.025)).collect();
+        let rules = CriticRules::default();
+        let flags = critique(&trace(&pts), &rules);
+        assert_eq!(flags.len(), rules.max_flags);
+        assert_eq!(flags[0].chunk.start, 0);
+        let all = critique(
+            &trace(&pts),
+            &CriticRules {
+                max_flags: 0,
+                ..rules
+            },
+        );
+        assert_eq!(all.len(), chunks(200, 25).len());
     }
 
     #[test]

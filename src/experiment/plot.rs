@@ -31,7 +31,10 @@ fn bc_success(result: &BcResult, path: &Path) -> Result<(), ExperimentError> {
     let rounds = result.params.rounds.max(1) as f64;
     let mut chart = ChartBuilder::on(&root)
         .caption(
-            format!("BC: test-set success against critique rounds (seed {})", result.seed),
+            format!(
+                "BC: test-set success against critique rounds (seed {})",
+                result.seed
+            ),
             ("sans-serif", 18),
         )
         .margin(12)
@@ -79,6 +82,9 @@ fn bc_success(result: &BcResult, path: &Path) -> Result<(), ExperimentError> {
     root.present().map_err(|x| e(&x))
 }
 
+/// A bar chart's file stem, axis label and value per arm.
+type Bar = (&'static str, &'static str, fn(&ArmFigures) -> f64);
+
 /// Figures 8 and 9 (success, position and heading error per policy, as bars) and Figure 11
 /// (dataset size against executions, per arm). Returns the files written.
 pub fn aopi(result: &AopiResult, dir: &Path) -> Result<Vec<PathBuf>, ExperimentError> {
@@ -90,8 +96,10 @@ pub fn aopi(result: &AopiResult, dir: &Path) -> Result<Vec<PathBuf>, ExperimentE
         ("Teleop", &a.teleop, RGBColor(214, 39, 40)),
     ];
     let mut written = Vec::new();
-    let bars: [(&str, &str, fn(&ArmFigures) -> f64); 3] = [
-        ("success", "test set success (%)", |f| 100.0 * f.success_rate),
+    let bars: [Bar; 3] = [
+        ("success", "test set success (%)", |f| {
+            100.0 * f.success_rate
+        }),
         ("position-error", "mean position error (m)", |f| {
             f.mean_position_error_m
         }),

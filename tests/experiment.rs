@@ -1,0 +1,174 @@
+//! Reduced runs of both experiments: the JSON carries what the issue lists, with sane values.
+
+use advise::experiment::aopi::{self, AopiParams};
+use advise::experiment::bc::{self, BcParams};
+use serde_json::Value;
+
+fn rate(v: &Value, path: &str) -> f64 {
+    let r = v
+        .pointer(path)
+        .and_then(Value::as_f64)
+        .unwrap_or_else(|| panic!("{path} missing"));
+    assert!((0.0..=1.0).contains(&r), "{path} = {r}");
+    r
+}
+
+#[test]
+fn reduced_bc_study_reports_table_1() {
+    let params = BcParams {
+        demos: 15,
+        rounds: 12,
+        eval_every: 4,
+        test_starts: 20,
+        ..BcParams::default()
+    };
+    let result = bc::run(3, &params, false);
+    let v = serde_json::to_value(&result).unwrap();
+    assert_eq!(v["experiment"], "bc");
+    assert_eq!(v["seed"], 3);
+    assert_eq!(v["params"]["rounds"], 12);
+    for who in ["learner_initial", "learner_final", "teacher"] {
+        rate(&v, &format!("/{who}/success_rate"));
+        assert_eq!(v[who]["episodes"], 20);
+        // The length is compared on the paired runs only; present exactly when there are some.
+        let paired = v["paired_runs"].as_u64().unwrap();
+        assert_eq!(v[who]["mean_length_m"].is_f64(), paired > 0, "{who}");
+        if let Some(l) = v[who]["mean_length_m"].as_f64() {
+            assert!(l > 0.0 && l < 100.0);
+        }
+    }
+    // Figure 5: round 0, then every 4 rounds; the last point is the final policy.
+    let rounds: Vec<u64> = v["curve"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["round"].as_u64().unwrap())
+        .collect();
+    assert_eq!(rounds, [0, 4, 8, 12]);
+    assert_eq!(
+        v["curve"][0]["success_rate"],
+        v["learner_initial"]["success_rate"]
+    );
+    assert_eq!(
+        v["curve"][3]["success_rate"],
+        v["learner_final"]["success_rate"]
+    );
+    let c = &result.critiques;
+    assert!(c.rounds_flagged <= 12);
+    assert!(c.chunks_flagged <= c.rounds_flagged * params.critic.max_flags);
+    assert_eq!(c.flaws.values().sum::<usize>(), c.chunks_flagged);
+    // Same seed, same figures.
+    assert_eq!(bc::run(3, &params, false), result);
+    assert!(result.render().contains("learner final π"));
+}
+
+#[test]
+fn reduced_aopi_study_reports_every_arm() {
+    let params = AopiParams {
+        max_practice: 12,
+        hybrid_teleop: 4,
+        eval_every: 3,
+        patience: 10,
+        test_goals: 10,
+        ..AopiParams::default()
+    };
+    let result = aopi::run(5, &params, false);
+    let v = serde_json::to_value(&result).unwrap();
+    assert_eq!(v["experiment"], "aopi");
+    assert_eq!(v["seed"], 5);
+    let seed_points = v["seed_demo_points"].as_u64().unwrap();
+    for arm in ["baseline", "advised", "hybrid", "teleop"] {
+        rate(&v, &format!("/arms/{arm}/success_rate"));
+        let a = &v["arms"][arm];
+        assert!(a["mean_position_error_m"].as_f64().unwrap() >= 0.0);
+        let h = a["mean_heading_error_rad"].as_f64().unwrap();
+        assert!((0.0..=std::f64::consts::PI).contains(&h));
+        let size = a["dataset_size"].as_u64().unwrap();
+        assert!(size >= seed_points, "{arm}: {size} < {seed_points}");
+        assert_eq!(a["episodes"], 10);
+    }
+    let arms = &result.arms;
+    assert_eq!(arms.baseline.dataset_size, result.seed_demo_points);
+    assert_eq!(arms.baseline.executions, 9);
+    // Advice adds only the advised chunks; teleoperation adds whole executions.
+    assert_eq!(
+        arms.advised.dataset_size,
+        result.seed_demo_points + arms.advised.advice_points
+    );
+    assert_eq!(arms.advised.teleop_demos, 0);
+    assert_eq!(arms.teleop.advice_given, 0);
+    assert_eq!(arms.advised.executions, 9 + arms.advised.advised_executions);
+    assert_eq!(arms.teleop.executions, 9 + arms.teleop.teleop_demos);
+    if arms.advised.advised_executions > 0 && arms.teleop.teleop_demos > 0 {
+        let per_advised =
+            arms.advised.advice_points as f64 / arms.advised.advised_executions as f64;
+        let per_demo = (arms.teleop.dataset_size - result.seed_demo_points) as f64
+            / arms.teleop.teleop_demos as f64;
+        assert!(per_advised < per_demo, "{per_advised} vs {per_demo}");
+    }
+    // Figure 11's curves grow with the executions.
+    for arm in [&arms.advised, &arms.hybrid, &arms.teleop] {
+        for w in arm.curve.windows(2) {
+            assert!(w[1].executions >= w[0].executions);
+            assert!(w[1].dataset_size >= w[0].dataset_size);
+        }
+        assert!(arm.practice_final <= arm.practice_run && arm.practice_run <= 12);
+    }
+    assert_eq!(aopi::run(5, &params, false), result);
+}
+
+#[test]
+fn advised_arm_dataset_is_smaller_than_teleop_on_a_full_length_run() {
+    // With every practice goal used by both arms, advice grows the dataset less.
+    let params = AopiParams {
+        max_practice: 15,
+        eval_every: 15,
+        patience: 100,
+        test_goals: 5,
+        ..AopiParams::default()
+    };
+    let r = aopi::run(2, &params, false);
+    let (adv, tele) = (
+        r.arms.advised.curve.last().unwrap(),
+        r.arms.teleop.curve.last().unwrap(),
+    );
+    assert!(
+        adv.dataset_size < tele.dataset_size,
+        "{} vs {}",
+        adv.dataset_size,
+        tele.dataset_size
+    );
+}
+
+#[test]
+fn plots_are_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = bc::run(
+        1,
+        &BcParams {
+            demos: 5,
+            rounds: 2,
+            eval_every: 1,
+            test_starts: 5,
+            ..BcParams::default()
+        },
+        false,
+    );
+    let files = advise::experiment::plot::bc(&b, dir.path()).unwrap();
+    let a = aopi::run(
+        1,
+        &AopiParams {
+            max_practice: 3,
+            eval_every: 1,
+            test_goals: 3,
+            ..AopiParams::default()
+        },
+        false,
+    );
+    let more = advise::experiment::plot::aopi(&a, dir.path()).unwrap();
+    assert_eq!(files.len() + more.len(), 5);
+    for f in files.iter().chain(&more) {
+        let text = std::fs::read_to_string(f).unwrap();
+        assert!(text.starts_with("<svg"), "{}", f.display());
+    }
+}
