@@ -158,9 +158,13 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
                 .map(|t| trace.a(t)[ROT] * trace.z(t)[BEARING].signum())
                 .sum();
             if toward > 0.0 {
-                out.push(advice("turn_tighter(1)", c, Reason::MissedTurningTooLittle));
+                out.push(advice("turn_tighter(2)", c, Reason::MissedTurningTooLittle));
             } else {
-                out.push(advice("no_turning", c, Reason::MissedTurningAway));
+                out.push(advice(
+                    "translational_deceleration(0.5)",
+                    c,
+                    Reason::MissedTurningAway,
+                ));
             }
         }
     }

@@ -8,7 +8,7 @@
 //! the robot runs its current policy to the goal; the [`advisor`] judges the execution; if it is
 //! poor, the arm's improvement is given: advice (the advisor's operators on its chunks, added
 //! through [`Learner::add_advice`]) or a teleoperated demonstration of the same goal (the teacher
-//! drives it; a demonstration that is itself poor is not kept, as a person would redo it). The
+//! drives it, and its demonstration is kept as it came, like the seed demonstrations). The
 //! hybrid arm teleoperates for its first `hybrid_teleop` practice goals and advises after. Every
 //! `eval_every` practice goals the policy runs the 25 test goals, which are never advised.
 //! An arm stops when `patience` evaluations in a row did not improve on its best (more successes,
@@ -247,15 +247,13 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
                         sim,
                         practice_seed(seed, (1 << 32) + i as u64),
                     );
-                    if !advisor::is_poor(&demo.outcome, &params.advisor) {
-                        let episode = Episode {
-                            name: format!("teleop-{i}"),
-                            trace: demo.trace,
-                        };
-                        if learner.add_demonstrations(&[episode]).is_ok() {
-                            tally.teleop_demos += 1;
-                            executions += 1;
-                        }
+                    let episode = Episode {
+                        name: format!("teleop-{i}"),
+                        trace: demo.trace,
+                    };
+                    if learner.add_demonstrations(&[episode]).is_ok() {
+                        tally.teleop_demos += 1;
+                        executions += 1;
                     }
                 } else {
                     let advice = advisor::advise(&exec, &params.advisor);

@@ -95,6 +95,8 @@ pub struct BcFigures {
     pub mean_length_m: Option<f64>,
     /// Mean path length over this policy's own successes, m.
     pub mean_length_own_successes_m: Option<f64>,
+    /// How the test episodes ended (captured, ball_out, robot_out, time_limit).
+    pub endings: BTreeMap<String, usize>,
 }
 
 /// One point of Figure 5: the test set after `round` critique rounds.
@@ -250,6 +252,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
             paired.iter().map(|&i| r.outcomes[i].length_m).sum::<f64>() / paired.len() as f64
         }),
         mean_length_own_successes_m: r.mean_length_success_m,
+        endings: r.endings.clone(),
     };
     BcResult {
         experiment: "bc".into(),

@@ -20,10 +20,11 @@
 //!    - **wasted turning** when the robot turned more than [`CriticRules::turn_rad`] but closed
 //!      less than [`CriticRules::min_efficiency`] of the distance it drove: it was circling, not
 //!      approaching;
-//!    - **loop** when the chunk lies inside a stretch of [`CriticRules::loop_window`] points over
-//!      which the heading turned through more than [`CriticRules::loop_rad`] in one direction
-//!      (a loop the robot drove around), however it fared on distance; only the points of
-//!      that stretch at which the robot was turning count as the loop.
+//!    - **loop** when most of the chunk comes after the robot had already turned through
+//!      [`CriticRules::loop_rad`] (half a circle) one way and kept turning that way, however it
+//!      fared on distance: turning toward the ball is fine, going around is a loop. Straight
+//!      driving for more than [`CriticRules::loop_break_points`] points, or a turn the other
+//!      way, ends a turn.
 //!
 //!    At most [`CriticRules::max_flags`] chunks are flagged per execution, the first ones: the
 //!    paper's teacher marked where an execution "began to go wrong", not every bad second of it.
@@ -60,10 +61,10 @@ pub struct CriticRules {
     pub turn_rad: f64,
     /// ... and closed less than this fraction of the distance it drove.
     pub min_efficiency: f64,
-    /// Loop: the window over which the heading change is summed, points ...
-    pub loop_window: usize,
-    /// ... and the net heading change over it that makes a loop, rad.
+    /// Loop: once the robot has turned this far one way, rad, turning on is a loop ...
     pub loop_rad: f64,
+    /// ... unless it drove straight for more than this many points in between.
+    pub loop_break_points: usize,
     /// At most this many chunks are flagged per execution, the first ones: where the execution
     /// began to go wrong (0: no limit).
     pub max_flags: usize,
@@ -78,8 +79,8 @@ impl Default for CriticRules {
             min_travel_m: 0.05,
             turn_rad: 0.35,
             min_efficiency: 0.5,
-            loop_window: 300,
-            loop_rad: 1.5 * std::f64::consts::PI,
+            loop_rad: std::f64::consts::PI,
+            loop_break_points: 15,
             max_flags: 2,
         }
     }
@@ -203,34 +204,29 @@ pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
     flags
 }
 
-/// Which points lie inside a loop: a window of `loop_window` points whose net heading change
-/// exceeds `loop_rad` marks all its points.
+/// Which points lie inside a loop: while the robot keeps turning one way (a stretch of
+/// straight driving longer than `loop_break_points`, or a turn the other way, ends the turn),
+/// every point after the first `loop_rad` of the turn.
 fn loop_points(trace: &Trace, rules: &CriticRules) -> Vec<bool> {
     let n = trace.len();
     let mut marked = vec![false; n];
-    let w = rules.loop_window.max(1);
-    if n == 0 {
-        return marked;
-    }
-    // Prefix sums of the signed heading change.
-    let mut prefix = Vec::with_capacity(n + 1);
-    prefix.push(0.0);
-    for t in 0..n {
-        let last = prefix[t];
-        prefix.push(last + trace.z(t)[HEADING_DELTA]);
-    }
-    let mut t = 0;
-    while t < n {
-        let end = (t + w).min(n);
-        // The furthest point within the window at which the turn already exceeds a loop.
-        if let Some(k) = (t + 1..=end).find(|&k| (prefix[k] - prefix[t]).abs() > rules.loop_rad) {
-            // Only the points where the robot was turning belong to the loop, not a straight
-            // approach that happens to lie in the same window.
-            for (j, m) in marked.iter_mut().enumerate().take(k).skip(t) {
-                *m |= trace.z(j)[HEADING_DELTA].abs() > LOOP_TURN_RAD;
+    let mut turned = 0.0f64;
+    let mut straight = 0;
+    for (t, m) in marked.iter_mut().enumerate() {
+        let dh = trace.z(t)[HEADING_DELTA];
+        if dh.abs() <= LOOP_TURN_RAD {
+            straight += 1;
+            if straight > rules.loop_break_points {
+                turned = 0.0;
             }
+            continue;
         }
-        t += 1;
+        straight = 0;
+        if turned != 0.0 && dh.signum() != turned.signum() {
+            turned = 0.0;
+        }
+        turned += dh;
+        *m = turned.abs() > rules.loop_rad;
     }
     marked
 }
@@ -309,11 +305,18 @@ mod tests {
         let t = trace(&pts);
         let flags = critique(&t, &CriticRules::default());
         assert!(!flags.is_empty());
-        assert!(flags.iter().any(|f| f.flaw == Flaw::Loop));
+        let all = critique(
+            &t,
+            &CriticRules {
+                max_flags: 0,
+                ..CriticRules::default()
+            },
+        );
+        assert!(all.iter().any(|f| f.flaw == Flaw::Loop));
         // Every flag lies in or next to the loop (points 40 .. 40 + loop_pts), none in the
         // final straight approach.
         let loop_end = 40 + loop_pts;
-        for f in &flags {
+        for f in flags.iter().chain(&all) {
             assert!(
                 f.chunk.end > 40 && f.chunk.start < loop_end,
                 "{:?} outside the loop 40..{loop_end}",
