@@ -11,6 +11,8 @@ use thiserror::Error;
 
 use crate::trace::Pose;
 
+pub mod rmp;
+
 /// What a base reports after a control step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BaseState {
