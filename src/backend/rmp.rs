@@ -8,3 +8,5 @@
 //! address the user did not give.
 
 pub mod codec;
+pub mod config;
+pub mod emulator;
