@@ -9,4 +9,9 @@
 
 pub mod codec;
 pub mod config;
+pub mod driver;
 pub mod emulator;
+
+pub use config::{EmulatorConfig, RmpConfig};
+pub use driver::RmpBackend;
+pub use emulator::{Emulator, EmulatorHandle};
