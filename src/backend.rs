@@ -12,6 +12,7 @@ use thiserror::Error;
 use crate::trace::Pose;
 
 pub mod rmp;
+pub mod sim;
 
 /// What a base reports after a control step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -6,6 +6,13 @@
 //! The shared data types are [`domain`] and [`trace`].
 
 pub mod backend;
+pub mod check;
 pub mod domain;
+pub mod eval;
+pub mod interp;
 pub mod policy;
+pub mod repl;
+pub mod session;
+pub mod syntax;
+pub mod task;
 pub mod trace;

@@ -1,7 +1,22 @@
 //! The `advise` command line: a thin layer over the library. Each subcommand parses its
 //! arguments, calls one library function, and renders errors as miette diagnostics.
 
-use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use miette::{Diagnostic, IntoDiagnostic, Report, WrapErr, miette};
+use thiserror::Error;
+
+use advise::backend::sim::SimParams;
+use advise::eval::{self, EvalOptions, PolicyKind};
+use advise::task::TaskKind;
+use advise::trace::Episode;
+
+use advise::check::{self, OperatorSet, Source};
+use advise::domain::Domain;
+use advise::session::{Session, SessionOptions, journal, journal::Journal, script};
+use advise::trace::{Chunk, Trace};
 
 #[derive(Parser)]
 #[command(
@@ -15,15 +30,611 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Check advice-operator files (on top of the standard operators); every error of every file
+    /// is reported, and the exit code is non-zero if there was any.
+    Check {
+        /// Operator files (`*.adv`); with none, the standard operators are checked.
+        files: Vec<PathBuf>,
+    },
+    /// Apply an operator to a range of a trace and print the synthesized points as CSV.
+    Apply {
+        /// Extra operator files, checked on top of the standard operators (repeatable).
+        #[arg(long = "operators", value_name = "FILE")]
+        operators: Vec<PathBuf>,
+        /// The operator and its arguments: `speed_up`, `speed_up(0.5)`, `speed_up(rate = 0.5)`.
+        #[arg(long, value_name = "NAME[(ARGS)]")]
+        op: String,
+        /// The trace (CSV with a header, or JSON).
+        #[arg(long, value_name = "TRACE")]
+        trace: PathBuf,
+        /// Half-open, 0-based range of points: `A..B`.
+        #[arg(long, value_name = "A..B")]
+        range: String,
+        /// The trace's domain; by default it is recognised from the CSV header or JSON.
+        #[arg(long)]
+        domain: Option<String>,
+    },
+    /// Record teacher demonstrations in the simulator (one file, many episodes).
+    Demo(DemoArgs),
+    /// Run a policy over the task's fixed test set and print the figures.
+    Eval(EvalArgs),
+    /// Run a session script (the REPL's commands, one per line); stops at the first failing
+    /// statement unless `--keep-going`.
+    Run {
+        /// The script (`*.adv`).
+        script: PathBuf,
+        /// Report failing statements and go on.
+        #[arg(long)]
+        keep_going: bool,
+        #[command(flatten)]
+        session: SessionArgs,
+    },
+    /// Replay a session journal (the newest one by default) and continue in the REPL.
+    Resume {
+        /// The journal to replay; by default the newest in the journal folder.
+        journal: Option<PathBuf>,
+    },
+    /// Open the REPL (what `advise` with no arguments does).
+    Repl(SessionArgs),
+}
 
-fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
-    match cli.command {
-        None => {
-            println!("advise: the operator checker lands with the language issue");
-            std::process::ExitCode::SUCCESS
+#[derive(Clone, Copy, ValueEnum)]
+enum TaskArg {
+    Positioning,
+    Interception,
+}
+
+impl From<TaskArg> for TaskKind {
+    fn from(t: TaskArg) -> TaskKind {
+        match t {
+            TaskArg::Positioning => TaskKind::Positioning,
+            TaskArg::Interception => TaskKind::Interception,
         }
-        Some(c) => match c {},
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum PolicyArg {
+    /// 1-nearest-neighbour (BC)
+    Bc,
+    /// Locally weighted regression (A-OPI)
+    Lwr,
+    /// The task's own teacher (needs no dataset)
+    Teacher,
+}
+
+#[derive(Args)]
+struct DemoArgs {
+    /// The task to demonstrate.
+    #[arg(long)]
+    task: TaskArg,
+    /// How many demonstrations (episodes) to record.
+    #[arg(long, default_value_t = 9, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    count: u64,
+    /// Seeds the practice starts, the simulator noise and the teacher.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Output file: `.json` writes JSON episodes, anything else CSV with an `episode` column.
+    #[arg(long)]
+    out: PathBuf,
+    /// Simulator parameters (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    sim_params: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct EvalArgs {
+    /// The task whose test set to run.
+    #[arg(long)]
+    task: TaskArg,
+    /// Demonstrations to derive the policy from (a file written by `advise demo`).
+    #[arg(long, value_name = "FILE")]
+    dataset: Option<PathBuf>,
+    /// Which policy to derive (or `teacher` to evaluate the teacher itself).
+    #[arg(long, default_value = "bc")]
+    policy: PolicyArg,
+    /// Seeds the simulator noise; the test set itself is fixed.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Print the report as JSON on stdout.
+    #[arg(long)]
+    json: bool,
+    /// Simulator parameters (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    sim_params: Option<PathBuf>,
+}
+
+/// Errors that belong to the command line itself.
+#[derive(Debug, Error, Diagnostic)]
+enum CliError {
+    #[error("cannot write `{path}`")]
+    #[diagnostic(
+        code(advise::cli::write),
+        help("check that the directory exists and is writable")
+    )]
+    Write {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("`--policy {policy}` needs demonstrations to learn from")]
+    #[diagnostic(
+        code(advise::cli::no_dataset),
+        help(
+            "pass `--dataset FILE` (record one with `advise demo --task TASK --out FILE`), or use `--policy teacher`"
+        )
+    )]
+    NoDataset { policy: &'static str },
+}
+
+/// How a session starts.
+#[derive(Args, Clone)]
+struct SessionArgs {
+    /// The task to start on.
+    #[arg(long, default_value = "positioning")]
+    task: TaskArg,
+    /// Seeds the simulator, the practice starts and LWR tuning.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Teacher demonstrations recorded at start (0: start with an empty dataset).
+    #[arg(long, default_value_t = 9)]
+    demos: usize,
+    /// Do not keep a journal.
+    #[arg(long)]
+    no_journal: bool,
+}
+
+impl Default for SessionArgs {
+    fn default() -> Self {
+        SessionArgs {
+            task: TaskArg::Positioning,
+            seed: 0,
+            demos: 9,
+            no_journal: false,
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        None => repl(SessionArgs::default()),
+        Some(Command::Repl(args)) => repl(args),
+        Some(Command::Run {
+            script,
+            keep_going,
+            session,
+        }) => run_script(&script, keep_going, &session),
+        Some(Command::Resume { journal }) => resume(journal),
+        Some(Command::Check { files }) if files.is_empty() => check_standard(),
+        Some(Command::Check { files }) => check_files(&files),
+        Some(Command::Apply {
+            operators,
+            op,
+            trace,
+            range,
+            domain,
+        }) => apply(&operators, &op, &trace, &range, domain.as_deref()),
+        Some(Command::Demo(args)) => demo(args).map(|()| ExitCode::SUCCESS),
+        Some(Command::Eval(args)) => run_eval(args).map(|()| ExitCode::SUCCESS),
+    };
+    match result {
+        Ok(code) => code,
+        Err(report) => {
+            eprintln!("{report:?}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
+    let opts = SessionOptions {
+        task: args.task.into(),
+        seed: args.seed,
+        default_demos: demos,
+        progress: true,
+        ..SessionOptions::default()
+    };
+    Ok(Session::new(opts)?)
+}
+
+/// The main job: the REPL on the simulator with the default demonstrations loaded.
+fn repl(args: SessionArgs) -> miette::Result<ExitCode> {
+    let mut session = new_session(&args, args.demos)?;
+    if !args.no_journal {
+        start_journal(&mut session, &args)?;
+    }
+    advise::repl::run(&mut session).into_diagnostic()?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A journal starts with the statements that rebuild the session's starting point.
+fn start_journal(session: &mut Session, args: &SessionArgs) -> miette::Result<()> {
+    let path = advise::session::new_journal_path(&journal::default_dir());
+    let mut j = Journal::create(&path)
+        .into_diagnostic()
+        .wrap_err_with(|| format!("cannot create the journal {}", path.display()))?;
+    let header = format!(
+        "// started: --task {} --seed {} --demos {}",
+        TaskKind::from(args.task),
+        args.seed,
+        args.demos
+    );
+    j.record(&header).into_diagnostic()?;
+    session.set_journal(j);
+    Ok(())
+}
+
+/// Run a script; the first failing statement stops it (unless `keep_going`).
+fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Result<ExitCode> {
+    let text = std::fs::read_to_string(path)
+        .into_diagnostic()
+        .wrap_err_with(|| format!("cannot read the script {}", path.display()))?;
+    let mut session = new_session(args, 0)?;
+    let failures = replay(&mut session, path, &text, keep_going, true);
+    Ok(if failures == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// Run the statements of `text` on `session`, printing replies (when `echo`) and diagnostics;
+/// returns how many failed.
+fn replay(session: &mut Session, path: &Path, text: &str, keep_going: bool, echo: bool) -> usize {
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let mut failures = 0;
+    for st in script::statements(text) {
+        let origin = advise::session::origin(path, st.line);
+        match session.execute(&st.text, &origin) {
+            Ok(reply) => {
+                let comment_only = st.text.lines().all(|l| {
+                    let l = l.trim_start();
+                    l.is_empty() || (l.starts_with("//") && !l.starts_with("///"))
+                });
+                if echo && !comment_only {
+                    println!("advise> {}", st.text.trim_end());
+                    if !reply.text.is_empty() {
+                        println!("{}", reply.text.trim_end());
+                    }
+                }
+                if reply.quit {
+                    break;
+                }
+            }
+            Err(e) => {
+                failures += 1;
+                eprintln!("error at {origin}:");
+                eprint!("{}", advise::repl::render(&e, colour));
+                if !keep_going {
+                    break;
+                }
+            }
+        }
+    }
+    failures
+}
+
+/// Replay a journal, then continue in the REPL, appending to the same journal.
+fn resume(journal_path: Option<PathBuf>) -> miette::Result<ExitCode> {
+    let path = match journal_path {
+        Some(p) => p,
+        None => newest_journal(&journal::default_dir()).ok_or_else(|| {
+            miette!(
+                code = "advise::resume::no_journal",
+                help = "start a session with `advise` first; journals are kept in $ADVISE_HOME or ~/.advise",
+                "there is no session journal in {}",
+                journal::default_dir().display()
+            )
+        })?,
+    };
+    let text = std::fs::read_to_string(&path)
+        .into_diagnostic()
+        .wrap_err_with(|| format!("cannot read the journal {}", path.display()))?;
+    let args = journal_args(&text);
+    let mut session = new_session(&args, args.demos)?;
+    let failures = replay(&mut session, &path, &text, true, false);
+    println!(
+        "resumed {}: {}{}",
+        path.display(),
+        session.status(),
+        if failures > 0 {
+            format!(" ({failures} statements failed again and were skipped)")
+        } else {
+            String::new()
+        }
+    );
+    session.set_journal(Journal::append_to(&path).into_diagnostic()?);
+    advise::repl::run(&mut session).into_diagnostic()?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The starting options written at the head of a journal.
+fn journal_args(text: &str) -> SessionArgs {
+    let mut args = SessionArgs::default();
+    if let Some(line) = text.lines().find(|l| l.starts_with("// started:")) {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        for w in words.windows(2) {
+            match w[0] {
+                "--task" if w[1] == "interception" => args.task = TaskArg::Interception,
+                "--seed" => args.seed = w[1].parse().unwrap_or(0),
+                "--demos" => args.demos = w[1].parse().unwrap_or(9),
+                _ => {}
+            }
+        }
+    }
+    args
+}
+
+fn newest_journal(dir: &Path) -> Option<PathBuf> {
+    std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("session-") && n.ends_with(".adv"))
+        })
+        .max_by_key(|p| std::fs::metadata(p).and_then(|m| m.modified()).ok())
+}
+
+/// Check the embedded standard operators and say what was checked.
+fn check_standard() -> miette::Result<ExitCode> {
+    let sources: Vec<Source> = check::STANDARD_SOURCES
+        .iter()
+        .map(|(n, t)| Source::new(*n, *t))
+        .collect();
+    match check::check(&sources) {
+        Ok(set) => {
+            println!(
+                "checked {} domains and {} operators in operators/: all good",
+                set.domains().len(),
+                set.operator_count()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(errors) => Ok(report_check_errors(errors, sources.len())),
+    }
+}
+
+fn read_sources(files: &[PathBuf]) -> miette::Result<Vec<Source>> {
+    files
+        .iter()
+        .map(|f| {
+            std::fs::read_to_string(f)
+                .into_diagnostic()
+                .wrap_err_with(|| format!("cannot read `{}`", f.display()))
+                .map(|text| Source::new(f.display().to_string(), text))
+        })
+        .collect()
+}
+
+fn check_files(files: &[PathBuf]) -> miette::Result<ExitCode> {
+    let sources = read_sources(files)?;
+    match OperatorSet::standard().merge(&sources) {
+        Ok(set) => {
+            let ops: usize = set.operator_count();
+            println!(
+                "checked {} file{}: {} domains and {} operators in all, no errors",
+                files.len(),
+                if files.len() == 1 { "" } else { "s" },
+                set.domains().len(),
+                ops
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(errors) => Ok(report_check_errors(errors, files.len())),
+    }
+}
+
+fn report_check_errors(errors: check::CheckErrors, files: usize) -> ExitCode {
+    let n = errors.errors.len();
+    for e in errors.errors {
+        eprintln!("{:?}", Report::new(e));
+    }
+    eprintln!(
+        "advise: {n} error{} in {files} file{}",
+        if n == 1 { "" } else { "s" },
+        if files == 1 { "" } else { "s" }
+    );
+    ExitCode::FAILURE
+}
+
+fn apply(
+    operators: &[PathBuf],
+    op: &str,
+    trace_path: &Path,
+    range: &str,
+    domain: Option<&str>,
+) -> miette::Result<ExitCode> {
+    let sources = read_sources(operators)?;
+    let set = match OperatorSet::standard().merge(&sources) {
+        Ok(set) => set,
+        Err(errors) => return Ok(report_check_errors(errors, sources.len())),
+    };
+    let inv = advise::syntax::parse_invocation(op)?;
+    let domain = trace_domain(&set, trace_path, domain)?;
+    let trace = Trace::load(&domain, trace_path)?;
+    let (a, b) = parse_range(range)?;
+    let chunk = Chunk::new(a, b, trace.len())?;
+    let out = advise::interp::apply(&set, &inv, &trace, chunk)?;
+    let mut stdout = std::io::stdout().lock();
+    out.points
+        .write_csv(&domain, &mut stdout)
+        .into_diagnostic()
+        .wrap_err("cannot write the points")?;
+    eprintln!(
+        "advise: {} synthesized {} of {} points ({} skipped by its guard)",
+        out.advice.invocation(),
+        out.points.len(),
+        chunk.len(),
+        chunk.len() - out.points.len()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `A..B` as two indices.
+fn parse_range(s: &str) -> miette::Result<(usize, usize)> {
+    let bad = || {
+        miette!(
+            code = "advise::cli::bad_range",
+            help = "write a half-open, 0-based range of points such as `0..20`",
+            "`{s}` is not a range"
+        )
+    };
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let a = a.trim().parse().map_err(|_| bad())?;
+    let b = b.trim().parse().map_err(|_| bad())?;
+    Ok((a, b))
+}
+
+/// The domain named on the command line, or the one whose dimensions the trace's header names.
+fn trace_domain(set: &OperatorSet, path: &Path, name: Option<&str>) -> miette::Result<Domain> {
+    let known = || {
+        set.domains()
+            .iter()
+            .map(|d| d.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if let Some(name) = name {
+        return set.domain(name).cloned().ok_or_else(|| {
+            miette!(
+                code = "advise::cli::unknown_domain",
+                help = format!("the known domains are: {}", known()),
+                "there is no domain `{name}`"
+            )
+        });
+    }
+    let text = std::fs::read_to_string(path)
+        .into_diagnostic()
+        .wrap_err_with(|| format!("cannot read `{}`", path.display()))?;
+    let is_json = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let found = if is_json {
+        serde_json::from_str::<serde_json::Value>(&text)
+            .ok()
+            .and_then(|v| v.get("domain")?.as_str().map(str::to_string))
+            .and_then(|d| set.domain(&d).cloned())
+    } else {
+        let header: Vec<&str> = text
+            .lines()
+            .next()
+            .unwrap_or("")
+            .split(',')
+            .map(str::trim)
+            .collect();
+        set.domains()
+            .iter()
+            .find(|d| {
+                d.observe
+                    .iter()
+                    .chain(&d.act)
+                    .all(|dim| header.contains(&dim.name.as_str()))
+            })
+            .cloned()
+    };
+    found.ok_or_else(|| {
+        miette!(
+            code = "advise::cli::unknown_trace_domain",
+            help = format!(
+                "name it with `--domain` (one of: {}), or give the trace a header with the domain's columns",
+                known()
+            ),
+            "cannot tell which domain `{}` belongs to",
+            path.display()
+        )
+    })
+}
+
+fn sim_params(path: Option<&Path>) -> miette::Result<SimParams> {
+    Ok(match path {
+        Some(p) => SimParams::load(p)?,
+        None => SimParams::default(),
+    })
+}
+
+fn demo(args: DemoArgs) -> miette::Result<()> {
+    let kind = TaskKind::from(args.task);
+    let params = sim_params(args.sim_params.as_deref())?;
+    let domain = kind.domain();
+    let recorded = advise::task::record_demos(kind, args.count as usize, args.seed, &params);
+    let successes = recorded.iter().filter(|(_, o)| o.success).count();
+    let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
+    let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
+    let write_err = |source: std::io::Error| CliError::Write {
+        path: args.out.display().to_string(),
+        source,
+    };
+    let file = std::fs::File::create(&args.out).map_err(write_err)?;
+    let out = std::io::BufWriter::new(file);
+    let is_json = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    if is_json {
+        serde_json::to_writer(out, &Episode::to_json(&domain, &episodes))
+            .map_err(|e| write_err(e.into()))?;
+    } else {
+        Episode::write_csv(&domain, &episodes, out).map_err(write_err)?;
+    }
+    eprintln!(
+        "recorded {} {kind} demonstrations ({points} points) to {}; the teacher succeeded in {successes}",
+        episodes.len(),
+        args.out.display(),
+    );
+    Ok(())
+}
+
+fn run_eval(args: EvalArgs) -> miette::Result<()> {
+    let kind = TaskKind::from(args.task);
+    let opts = EvalOptions {
+        seed: args.seed,
+        params: sim_params(args.sim_params.as_deref())?,
+        progress: !args.json,
+    };
+    let report = match args.policy {
+        PolicyArg::Teacher => eval::evaluate_teacher(kind, &opts),
+        PolicyArg::Bc | PolicyArg::Lwr => {
+            let (learner, name) = if args.policy == PolicyArg::Bc {
+                (PolicyKind::Bc, "bc")
+            } else {
+                (PolicyKind::Lwr, "lwr")
+            };
+            let path = args
+                .dataset
+                .as_deref()
+                .ok_or(CliError::NoDataset { policy: name })?;
+            let domain = kind.domain();
+            let episodes = Episode::load_all(&domain, path)?;
+            let policy = eval::derive_policy(learner, &domain, &episodes)?;
+            eval::evaluate(kind, policy.as_ref(), &opts)
+        }
+    };
+    let text = if args.json {
+        let mut t = serde_json::to_string_pretty(&report).expect("a report is plain data");
+        t.push('\n');
+        t
+    } else {
+        report.render()
+    };
+    print_stdout(&text)?;
+    Ok(())
+}
+
+/// Print to stdout; a closed pipe (`advise eval --json | head`) is not an error.
+fn print_stdout(text: &str) -> miette::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(CliError::Write {
+            path: "standard output".into(),
+            source: e,
+        }
+        .into()),
+        _ => Ok(()),
     }
 }

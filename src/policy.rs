@@ -1,7 +1,16 @@
 //! Policies: mappings from observations to actions derived from a dataset.
 //!
-//! This module owns the [`Policy`] trait that tasks, the evaluation harness and backends run.
-//! Policies do no IO and print nothing.
+//! This module owns the [`Policy`] trait that tasks, the evaluation harness and backends run, the
+//! [`dataset`] with provenance, the two learners of the paper ([`bc`]: weighted 1-NN for Binary
+//! Critiquing; [`lwr`]: locally weighted regression for A-OPI), and the [`learner::Learner`] that
+//! keeps a dataset and its derived policy in step. Only [`index`] touches kiddo. Policies do no IO
+//! and print nothing; datasets load and save themselves.
+
+pub mod bc;
+pub mod dataset;
+pub mod index;
+pub mod learner;
+pub mod lwr;
 
 /// A controller: observation in, action out.
 ///

@@ -184,8 +184,15 @@ impl Trace {
     }
 
     /// Parse CSV text (`name` is used in diagnostics, usually the path).
+    /// A file with an `episode` column must hold a single episode; use [`Episode`]'s loaders for
+    /// demonstration files with many.
     pub fn from_csv_str(domain: &Domain, name: &str, text: &str) -> Result<Trace, TraceError> {
-        csv_load::parse(domain, name, text)
+        let mut eps = csv_load::parse(domain, name, text)?;
+        match eps.len() {
+            0 => Ok(Trace::new(domain)),
+            1 => Ok(eps.remove(0).trace),
+            n => Err(TraceError::ManyEpisodes { count: n }),
+        }
     }
 
     /// Parse JSON text (see [`JsonTrace`] for the format).
@@ -202,9 +209,20 @@ impl Trace {
                 found: doc.domain,
             });
         }
+        Trace::from_json_points(domain, name, text, &doc.points)
+    }
+
+    /// Validate parsed JSON points (dimensions, finiteness, time order) into a trace.
+    fn from_json_points(
+        domain: &Domain,
+        name: &str,
+        text: &str,
+        points: &[JsonPoint],
+    ) -> Result<Trace, TraceError> {
+        let src = || NamedSource::new(name, text.to_string());
         let mut trace = Trace::new(domain);
-        let with_pose = doc.points.first().is_some_and(|p| p.pose.is_some());
-        for (i, p) in doc.points.iter().enumerate() {
+        let with_pose = points.first().is_some_and(|p| p.pose.is_some());
+        for (i, p) in points.iter().enumerate() {
             let bad = |what: String| TraceError::JsonPoint {
                 index: i,
                 what,
@@ -293,6 +311,149 @@ pub fn fmt_num(v: f64) -> String {
     if s == "-0" { "0".into() } else { s }
 }
 
+/// One named trace of a file that holds several (a set of demonstrations).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Episode {
+    pub name: String,
+    pub trace: Trace,
+}
+
+impl Episode {
+    /// Load the episodes of a demonstration file.
+    ///
+    /// CSV: an optional `episode` column labels each row; consecutive rows with the same label form
+    /// one episode (no column: one episode named after the file). JSON: either one trace
+    /// ([`JsonTrace`]) or [`JsonEpisodes`].
+    pub fn load_all(domain: &Domain, path: &Path) -> Result<Vec<Episode>, TraceError> {
+        let text = std::fs::read_to_string(path).map_err(|source| TraceError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let name = path.display().to_string();
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        {
+            Episode::from_json_str(domain, &name, &text)
+        } else {
+            Episode::from_csv_str(domain, &name, &text)
+        }
+    }
+
+    pub fn from_csv_str(
+        domain: &Domain,
+        name: &str,
+        text: &str,
+    ) -> Result<Vec<Episode>, TraceError> {
+        csv_load::parse(domain, name, text)
+    }
+
+    pub fn from_json_str(
+        domain: &Domain,
+        name: &str,
+        text: &str,
+    ) -> Result<Vec<Episode>, TraceError> {
+        let src = || NamedSource::new(name, text.to_string());
+        let json_err = |e: serde_json::Error| TraceError::Json {
+            message: e.to_string(),
+            src: src(),
+            span: line_col_span(text, e.line(), e.column()),
+        };
+        // Peek at the top-level keys, then parse again with the typed form so errors keep their
+        // line and column.
+        let value: serde_json::Value = serde_json::from_str(text).map_err(json_err)?;
+        if value.get("episodes").is_none() {
+            return Ok(vec![Episode {
+                name: name.to_string(),
+                trace: Trace::from_json_str(domain, name, text)?,
+            }]);
+        }
+        let many: JsonEpisodes = serde_json::from_str(text).map_err(json_err)?;
+        if many.domain != domain.name {
+            return Err(TraceError::DomainMismatch {
+                expected: domain.name.clone(),
+                found: many.domain,
+            });
+        }
+        many.episodes
+            .into_iter()
+            .map(|e| {
+                let ep_name = format!("{name} [{}]", e.name);
+                let trace = Trace::from_json_points(domain, &ep_name, text, &e.points)?;
+                Ok(Episode {
+                    name: e.name,
+                    trace,
+                })
+            })
+            .collect()
+    }
+
+    /// Write episodes as one CSV with an `episode` column first.
+    pub fn write_csv<W: std::io::Write>(
+        domain: &Domain,
+        episodes: &[Episode],
+        w: W,
+    ) -> std::io::Result<()> {
+        let mut out = csv::Writer::from_writer(w);
+        let with_pose = episodes.iter().all(|e| e.trace.pose.is_some()) && !episodes.is_empty();
+        let mut header = vec!["episode".to_string()];
+        let mut h = episodes.first().map_or_else(
+            || Trace::new(domain).csv_header(domain),
+            |e| e.trace.csv_header(domain),
+        );
+        h.truncate(1 + domain.obs_dim() + domain.act_dim());
+        header.extend(h);
+        if with_pose {
+            header.extend(["x", "y", "theta"].map(String::from));
+        }
+        out.write_record(&header)?;
+        for e in episodes {
+            let tr = &e.trace;
+            for i in 0..tr.len() {
+                let mut row = vec![e.name.clone(), fmt_num(tr.t[i])];
+                row.extend(tr.z(i).iter().map(|v| fmt_num(*v)));
+                row.extend(tr.a(i).iter().map(|v| fmt_num(*v)));
+                if let (true, Some(p)) = (with_pose, &tr.pose) {
+                    row.extend([p[i].x_m, p[i].y_m, p[i].theta_rad].map(fmt_num));
+                }
+                out.write_record(&row)?;
+            }
+        }
+        out.flush()
+    }
+
+    /// The JSON form of several episodes.
+    pub fn to_json(domain: &Domain, episodes: &[Episode]) -> JsonEpisodes {
+        JsonEpisodes {
+            domain: domain.name.clone(),
+            episodes: episodes
+                .iter()
+                .map(|e| JsonEpisode {
+                    name: e.name.clone(),
+                    points: e.trace.to_json().points,
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The JSON file format of several episodes:
+/// `{"domain": "positioning", "episodes": [{"name": "demo-0", "points": [..]}]}`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JsonEpisodes {
+    pub domain: String,
+    pub episodes: Vec<JsonEpisode>,
+}
+
+/// One episode of [`JsonEpisodes`]; points as in [`JsonTrace`].
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JsonEpisode {
+    pub name: String,
+    pub points: Vec<JsonPoint>,
+}
+
 /// The JSON file format of a trace.
 ///
 /// ```json
@@ -307,7 +468,7 @@ pub struct JsonTrace {
 }
 
 /// One point of a [`JsonTrace`]; `pose` is `[x_m, y_m, theta_rad]`.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct JsonPoint {
     pub t: f64,
@@ -485,6 +646,12 @@ pub enum TraceError {
         help("a trace starts with a header line such as `t,dist2,bearing,dheading,trans,rot`")
     )]
     Empty,
+    #[error("the file holds {count} episodes where one trace was expected")]
+    #[diagnostic(
+        code(advise::trace::many_episodes),
+        help("load it as demonstrations (`load demos FILE`), or keep one episode's rows")
+    )]
+    ManyEpisodes { count: usize },
     #[error("the CSV is malformed: {message}")]
     #[diagnostic(code(advise::trace::csv))]
     Csv { message: String },
@@ -521,8 +688,14 @@ pub fn line_col_span(text: &str, line: usize, column: usize) -> SourceSpan {
     let mut offset = 0;
     for (i, l) in text.split_inclusive('\n').enumerate() {
         if i + 1 == line {
-            let col = column.saturating_sub(1).min(l.len());
-            return SourceSpan::new(offset.into(), if col < l.len() { 1 } else { 0 });
+            // serde counts columns in bytes; step back to a character boundary and cover one
+            // whole character.
+            let mut col = column.saturating_sub(1).min(l.len());
+            while !l.is_char_boundary(col) {
+                col -= 1;
+            }
+            let width = l[col..].chars().next().map_or(0, char::len_utf8);
+            return SourceSpan::new((offset + col).into(), width);
         }
         offset += l.len();
     }
@@ -554,7 +727,7 @@ mod csv_load {
         line
     }
 
-    pub fn parse(domain: &Domain, name: &str, text: &str) -> Result<Trace, TraceError> {
+    pub fn parse(domain: &Domain, name: &str, text: &str) -> Result<Vec<Episode>, TraceError> {
         let src = || NamedSource::new(name, text.to_string());
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(false)
@@ -574,6 +747,7 @@ mod csv_load {
         // Map each column to its slot: t, z[i], a[j], pose[k].
         #[derive(Clone, Copy)]
         enum Slot {
+            Episode,
             T,
             Z(usize),
             A(usize),
@@ -592,6 +766,8 @@ mod csv_load {
             seen.push(h);
             let slot = if h == "t" {
                 Slot::T
+            } else if h == "episode" {
+                Slot::Episode
             } else if let Some(i) = domain.index_of(crate::domain::Space::Observation, h) {
                 Slot::Z(i)
             } else if let Some(i) = domain.index_of(crate::domain::Space::Action, h) {
@@ -651,7 +827,7 @@ mod csv_load {
             });
         }
 
-        let mut trace = Trace::new(domain);
+        let mut episodes: Vec<Episode> = Vec::new();
         let (mut z, mut a) = (vec![0.0; domain.obs_dim()], vec![0.0; domain.act_dim()]);
         let mut pose = [0.0; 3];
         for rec in records {
@@ -673,7 +849,12 @@ mod csv_load {
                 });
             }
             let mut t = 0.0;
+            let mut label = "";
             for (col, (field, slot)) in rec.iter().zip(&slots).enumerate() {
+                if let Slot::Episode = slot {
+                    label = field;
+                    continue;
+                }
                 let column = || header.get(col).unwrap_or("?").to_string();
                 let v: f64 = field.parse().map_err(|_| TraceError::NotANumber {
                     line,
@@ -692,12 +873,22 @@ mod csv_load {
                     });
                 }
                 match *slot {
+                    Slot::Episode => {}
                     Slot::T => t = v,
                     Slot::Z(i) => z[i] = v,
                     Slot::A(i) => a[i] = v,
                     Slot::Pose(k) => pose[k] = v,
                 }
             }
+            if episodes.last().is_none_or(|e| e.name != label) {
+                episodes.push(Episode {
+                    name: label.to_string(),
+                    trace: Trace::new(domain),
+                });
+            }
+            let Some(Episode { trace, .. }) = episodes.last_mut() else {
+                unreachable!("an episode was pushed above")
+            };
             if let Some(&prev) = trace.t.last()
                 && t < prev
             {
@@ -713,14 +904,14 @@ mod csv_load {
             let p = (pose_cols == 3).then(|| Pose::new(pose[0], pose[1], pose[2]));
             trace.push(t, &z, &a, p);
         }
-        Ok(trace)
+        Ok(episodes)
     }
 
     fn known_columns(domain: &Domain) -> Vec<String> {
         std::iter::once("t".to_string())
             .chain(domain.observe.iter().map(|d| d.name.clone()))
             .chain(domain.act.iter().map(|d| d.name.clone()))
-            .chain(["x", "y", "theta"].map(String::from))
+            .chain(["x", "y", "theta", "episode"].map(String::from))
             .collect()
     }
 }
@@ -771,6 +962,32 @@ mod tests {
             Err(TraceError::UnknownColumn { help, .. }) => assert!(help.contains("`rot`")),
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn episodes_round_trip_through_csv_and_json() {
+        let d = Domain::positioning();
+        let tr = Trace::from_csv_str(&d, "t.csv", GOOD).unwrap();
+        let eps = vec![
+            Episode {
+                name: "a".into(),
+                trace: tr.clone(),
+            },
+            Episode {
+                name: "b".into(),
+                trace: tr.slice(Chunk::new(1, 2, 2).unwrap()),
+            },
+        ];
+        let mut out = Vec::new();
+        Episode::write_csv(&d, &eps, &mut out).unwrap();
+        let text = String::from_utf8(out).unwrap();
+        assert_eq!(Episode::from_csv_str(&d, "e.csv", &text).unwrap(), eps);
+        assert!(matches!(
+            Trace::from_csv_str(&d, "e.csv", &text),
+            Err(TraceError::ManyEpisodes { count: 2 })
+        ));
+        let json = serde_json::to_string(&Episode::to_json(&d, &eps)).unwrap();
+        assert_eq!(Episode::from_json_str(&d, "e.json", &json).unwrap(), eps);
     }
 
     #[test]

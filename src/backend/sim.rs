@@ -1,0 +1,516 @@
+//! The simulated base: a Segway-RMP-like differential drive, and the [`SimBackend`] over it.
+//!
+//! This module owns the base's physics and sensing model and every number in it, collected in
+//! [`SimParams`] (one documented struct with defaults, readable from a JSON file). [`SimBase`] is
+//! the model itself, also used behind the RMP emulator; [`SimBackend`] runs it as a
+//! [`Backend`](crate::backend::Backend) at the control rate. The model, per integration substep:
+//!
+//! 1. The speed command is clamped to the speed limits (a non-finite command counts as zero).
+//! 2. The true speeds follow the command through a first-order lag (the balancing base must pitch
+//!    before it accelerates), and each change is then clamped by the acceleration limits, so the
+//!    true speeds never leave the speed limits nor change faster than the acceleration limits.
+//! 3. The true pose moves along the exact arc of the true speeds.
+//! 4. Each wheel's encoder reads its true wheel speed with multiplicative noise (slip); odometry
+//!    dead-reckons from those readings with a systematic rotation scale error (the effective wheel
+//!    base is not what the odometry assumes) and a heading drift per metre driven (unequal wheel
+//!    radii). The odometry pose therefore drifts from the true pose, mostly in heading, as the
+//!    paper reports for the real RMP. A base at rest reads exactly zero and does not drift.
+//!
+//! Everything is deterministic for a seed (ChaCha8). Task logic (goals, balls) is not here.
+
+use std::path::Path;
+
+use miette::{Diagnostic, NamedSource, SourceSpan};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::backend::{Backend, BackendError, BaseState};
+use crate::trace::{Pose, line_col_span};
+
+/// Every parameter of the simulated base. The paper gives only the control rate (30 Hz); the rest
+/// are ours, chosen to resemble a Segway RMP 200 driven indoors at walking pace.
+///
+/// Read from JSON with [`SimParams::load`]; omitted fields keep their defaults, unknown fields are
+/// an error. Example: `{"lag_s": 0.4, "heading_drift_rad_per_m": 0.05}`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimParams {
+    /// Control rate, Hz: one command and one observation per period (the paper samples at 30 Hz).
+    pub rate_hz: f64,
+    /// Translational speed limit, m/s (both directions); matches the positioning domain's `trans`.
+    pub max_speed_mps: f64,
+    /// Rotational speed limit, rad/s (both directions); matches the positioning domain's `rot`.
+    pub max_rot_radps: f64,
+    /// Translational acceleration limit, m/s^2.
+    pub max_accel_mps2: f64,
+    /// Rotational acceleration limit, rad/s^2.
+    pub max_rot_accel_radps2: f64,
+    /// Time constant of the first-order response to a speed command, s (the balancing lag).
+    pub lag_s: f64,
+    /// Distance between the wheels, m.
+    pub track_width_m: f64,
+    /// Standard deviation of each wheel encoder's reading, as a fraction of the wheel's speed.
+    pub encoder_noise_frac: f64,
+    /// Odometry's systematic rotation error: it believes the base turned `1 + this` times the
+    /// true angle.
+    pub odom_rot_scale_error: f64,
+    /// Odometry heading drift per metre driven, rad/m (forward driving drifts one way, reverse the
+    /// other), as from slightly unequal wheel radii.
+    pub heading_drift_rad_per_m: f64,
+    /// Longest integration substep, s; a period is split into equal substeps no longer than this.
+    pub max_substep_s: f64,
+}
+
+impl Default for SimParams {
+    fn default() -> Self {
+        SimParams {
+            rate_hz: 30.0,
+            max_speed_mps: 1.0,
+            max_rot_radps: 1.0,
+            max_accel_mps2: 1.0,
+            max_rot_accel_radps2: 2.0,
+            lag_s: 0.25,
+            track_width_m: 0.53,
+            encoder_noise_frac: 0.03,
+            odom_rot_scale_error: 0.03,
+            heading_drift_rad_per_m: 0.02,
+            max_substep_s: 0.01,
+        }
+    }
+}
+
+impl SimParams {
+    /// The control period, s.
+    pub fn period_s(&self) -> f64 {
+        1.0 / self.rate_hz
+    }
+
+    /// Read parameters from a JSON file (see the struct's docs for the format).
+    pub fn load(path: &Path) -> Result<SimParams, SimError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        SimParams::from_json_str(&path.display().to_string(), &text)
+    }
+
+    /// Parse and validate JSON text; `name` is used in diagnostics, usually the path.
+    pub fn from_json_str(name: &str, text: &str) -> Result<SimParams, SimError> {
+        let params: SimParams = serde_json::from_str(text).map_err(|e| {
+            let message = e.to_string();
+            let help = unknown_field_help(&message);
+            SimError::Json {
+                message,
+                help,
+                src: NamedSource::new(name, text.to_string()),
+                span: line_col_span(text, e.line(), e.column()),
+            }
+        })?;
+        params.validate()?;
+        Ok(params)
+    }
+
+    /// Check every parameter is finite and in its range.
+    pub fn validate(&self) -> Result<(), SimError> {
+        let positive = [
+            ("rate_hz", self.rate_hz),
+            ("max_speed_mps", self.max_speed_mps),
+            ("max_rot_radps", self.max_rot_radps),
+            ("max_accel_mps2", self.max_accel_mps2),
+            ("max_rot_accel_radps2", self.max_rot_accel_radps2),
+            ("track_width_m", self.track_width_m),
+            ("max_substep_s", self.max_substep_s),
+        ];
+        for (field, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(SimError::Invalid {
+                    field,
+                    value,
+                    expected: "a finite number greater than zero",
+                });
+            }
+        }
+        let non_negative = [
+            ("lag_s", self.lag_s),
+            ("encoder_noise_frac", self.encoder_noise_frac),
+        ];
+        for (field, value) in non_negative {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(SimError::Invalid {
+                    field,
+                    value,
+                    expected: "a finite number, zero or more",
+                });
+            }
+        }
+        if !(self.odom_rot_scale_error.is_finite() && self.odom_rot_scale_error > -1.0) {
+            return Err(SimError::Invalid {
+                field: "odom_rot_scale_error",
+                value: self.odom_rot_scale_error,
+                expected: "a finite number greater than -1",
+            });
+        }
+        if !self.heading_drift_rad_per_m.is_finite() {
+            return Err(SimError::Invalid {
+                field: "heading_drift_rad_per_m",
+                value: self.heading_drift_rad_per_m,
+                expected: "a finite number",
+            });
+        }
+        Ok(())
+    }
+
+    /// The same base with perfect sensing: no encoder noise, no odometry error (for tests and for
+    /// separating control error from dead-reckoning error).
+    pub fn noiseless(&self) -> SimParams {
+        SimParams {
+            encoder_noise_frac: 0.0,
+            odom_rot_scale_error: 0.0,
+            heading_drift_rad_per_m: 0.0,
+            ..self.clone()
+        }
+    }
+}
+
+const FIELDS: [&str; 11] = [
+    "rate_hz",
+    "max_speed_mps",
+    "max_rot_radps",
+    "max_accel_mps2",
+    "max_rot_accel_radps2",
+    "lag_s",
+    "track_width_m",
+    "encoder_noise_frac",
+    "odom_rot_scale_error",
+    "heading_drift_rad_per_m",
+    "max_substep_s",
+];
+
+/// "did you mean" for serde's `unknown field `x`` message.
+fn unknown_field_help(message: &str) -> String {
+    let unknown = message
+        .strip_prefix("unknown field `")
+        .and_then(|rest| rest.split('`').next());
+    if let Some(name) = unknown {
+        let best = FIELDS
+            .iter()
+            .map(|f| (strsim::jaro_winkler(name, f), *f))
+            .max_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((score, f)) = best
+            && score > 0.8
+        {
+            return format!("did you mean `{f}`?");
+        }
+    }
+    format!(
+        "simulator parameters are a JSON object with any of: {}",
+        FIELDS.join(", ")
+    )
+}
+
+/// Why simulator parameters could not be read.
+#[derive(Debug, Error, Diagnostic)]
+pub enum SimError {
+    #[error("cannot read simulator parameters `{path}`")]
+    #[diagnostic(code(advise::sim::io))]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("the simulator parameters are malformed: {message}")]
+    #[diagnostic(code(advise::sim::params_json), help("{help}"))]
+    Json {
+        message: String,
+        help: String,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("here")]
+        span: SourceSpan,
+    },
+    #[error("simulator parameter `{field}` is {value}; it must be {expected}")]
+    #[diagnostic(
+        code(advise::sim::params_invalid),
+        help("remove the field to use the default")
+    )]
+    Invalid {
+        field: &'static str,
+        value: f64,
+        expected: &'static str,
+    },
+}
+
+/// The simulated differential-drive base: true state, odometry, and the seeded noise.
+#[derive(Clone, Debug)]
+pub struct SimBase {
+    params: SimParams,
+    rng: ChaCha8Rng,
+    t_s: f64,
+    truth: Pose,
+    odom: Pose,
+    /// True speeds.
+    speed_mps: f64,
+    rot_radps: f64,
+    /// Speeds as the encoders measured them over the last substep.
+    measured_speed_mps: f64,
+    measured_rot_radps: f64,
+    /// The clamped command in force.
+    cmd_speed_mps: f64,
+    cmd_rot_radps: f64,
+}
+
+impl SimBase {
+    /// A base at rest at the origin. `params` should be valid ([`SimParams::validate`]); invalid
+    /// values are not checked here, parameters from files are validated when loaded.
+    pub fn new(params: SimParams, seed: u64) -> SimBase {
+        SimBase {
+            params,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            t_s: 0.0,
+            truth: Pose::default(),
+            odom: Pose::default(),
+            speed_mps: 0.0,
+            rot_radps: 0.0,
+            measured_speed_mps: 0.0,
+            measured_rot_radps: 0.0,
+            cmd_speed_mps: 0.0,
+            cmd_rot_radps: 0.0,
+        }
+    }
+
+    pub fn params(&self) -> &SimParams {
+        &self.params
+    }
+
+    /// Teleport to `pose` at rest; odometry is re-zeroed there and the clock restarts. The noise
+    /// stream continues (it is not reseeded), so a run is reproducible from construction.
+    pub fn reset(&mut self, pose: Pose) -> BaseState {
+        self.t_s = 0.0;
+        self.truth = pose;
+        self.odom = pose;
+        self.speed_mps = 0.0;
+        self.rot_radps = 0.0;
+        self.measured_speed_mps = 0.0;
+        self.measured_rot_radps = 0.0;
+        self.cmd_speed_mps = 0.0;
+        self.cmd_rot_radps = 0.0;
+        self.state()
+    }
+
+    /// Command speeds; they are clamped to the speed limits, and a non-finite value counts as 0.
+    pub fn set_command(&mut self, speed_mps: f64, rot_radps: f64) {
+        let clamp = |v: f64, max: f64| {
+            if v.is_finite() {
+                v.clamp(-max, max)
+            } else {
+                0.0
+            }
+        };
+        self.cmd_speed_mps = clamp(speed_mps, self.params.max_speed_mps);
+        self.cmd_rot_radps = clamp(rot_radps, self.params.max_rot_radps);
+    }
+
+    /// The command in force, after clamping.
+    pub fn command(&self) -> (f64, f64) {
+        (self.cmd_speed_mps, self.cmd_rot_radps)
+    }
+
+    /// Advance the simulation by `dt_s` seconds (any length: it is split into substeps of at most
+    /// `max_substep_s`). A non-positive or non-finite `dt_s` changes nothing.
+    pub fn advance(&mut self, dt_s: f64) -> BaseState {
+        if !(dt_s.is_finite() && dt_s > 0.0) {
+            return self.state();
+        }
+        let n = (dt_s / self.params.max_substep_s).ceil().max(1.0) as usize;
+        let h = dt_s / n as f64;
+        for _ in 0..n {
+            self.substep(h);
+        }
+        self.t_s += dt_s;
+        self.state()
+    }
+
+    fn substep(&mut self, h: f64) {
+        let p = &self.params;
+        // Lag, then the acceleration clamp: the result is a convex combination of the old speed and
+        // the (clamped) command, so it stays within the speed limits.
+        let alpha = if p.lag_s > 0.0 {
+            1.0 - (-h / p.lag_s).exp()
+        } else {
+            1.0
+        };
+        let dv = (alpha * (self.cmd_speed_mps - self.speed_mps))
+            .clamp(-p.max_accel_mps2 * h, p.max_accel_mps2 * h);
+        let dw = (alpha * (self.cmd_rot_radps - self.rot_radps))
+            .clamp(-p.max_rot_accel_radps2 * h, p.max_rot_accel_radps2 * h);
+        self.speed_mps += dv;
+        self.rot_radps += dw;
+        self.truth = integrate(self.truth, self.speed_mps, self.rot_radps, h);
+
+        // Encoders: both normals are drawn every substep so the stream stays in step whatever
+        // the speeds are.
+        let (n_left, n_right) = normal_pair(&mut self.rng);
+        let half = 0.5 * p.track_width_m;
+        let left = (self.speed_mps - self.rot_radps * half) * (1.0 + p.encoder_noise_frac * n_left);
+        let right =
+            (self.speed_mps + self.rot_radps * half) * (1.0 + p.encoder_noise_frac * n_right);
+        let v_m = 0.5 * (left + right);
+        let w_m = (right - left) / p.track_width_m * (1.0 + p.odom_rot_scale_error)
+            + p.heading_drift_rad_per_m * v_m;
+        self.measured_speed_mps = v_m;
+        self.measured_rot_radps = w_m;
+        self.odom = integrate(self.odom, v_m, w_m, h);
+    }
+
+    /// What the base reports: odometry pose and measured speeds.
+    pub fn state(&self) -> BaseState {
+        BaseState {
+            t_s: self.t_s,
+            pose: self.odom,
+            speed_mps: self.measured_speed_mps,
+            rot_radps: self.measured_rot_radps,
+        }
+    }
+
+    /// Where the base really is.
+    pub fn true_pose(&self) -> Pose {
+        self.truth
+    }
+
+    /// The base's true speeds `(m/s, rad/s)`.
+    pub fn true_speeds(&self) -> (f64, f64) {
+        (self.speed_mps, self.rot_radps)
+    }
+}
+
+/// Move along the arc of constant speeds `v`, `w` for `h` seconds.
+fn integrate(p: Pose, v: f64, w: f64, h: f64) -> Pose {
+    let dth = w * h;
+    let (dx, dy) = if dth.abs() < 1e-9 {
+        // Straight line (second-order in the tiny turn).
+        let mid = p.theta_rad + 0.5 * dth;
+        (v * h * mid.cos(), v * h * mid.sin())
+    } else {
+        let r = v / w;
+        (
+            r * ((p.theta_rad + dth).sin() - p.theta_rad.sin()),
+            -r * ((p.theta_rad + dth).cos() - p.theta_rad.cos()),
+        )
+    };
+    Pose::new(p.x_m + dx, p.y_m + dy, wrap_angle(p.theta_rad + dth))
+}
+
+/// Two independent standard normal draws (Box-Muller).
+fn normal_pair(rng: &mut ChaCha8Rng) -> (f64, f64) {
+    // 1 - u keeps the logarithm's argument in (0, 1].
+    let u1: f64 = 1.0 - rng.random::<f64>();
+    let u2: f64 = rng.random::<f64>();
+    let r = (-2.0 * u1.ln()).sqrt();
+    let phi = std::f64::consts::TAU * u2;
+    (r * phi.cos(), r * phi.sin())
+}
+
+/// An angle in `(-pi, pi]`.
+pub fn wrap_angle(a: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    if a > -PI && a <= PI {
+        return a;
+    }
+    let w = a.rem_euclid(TAU);
+    if w > PI { w - TAU } else { w }
+}
+
+/// [`SimBase`] as a [`Backend`]: one `step` is one control period. It never fails.
+#[derive(Clone, Debug)]
+pub struct SimBackend {
+    base: SimBase,
+}
+
+impl SimBackend {
+    pub fn new(params: SimParams, seed: u64) -> SimBackend {
+        SimBackend {
+            base: SimBase::new(params, seed),
+        }
+    }
+
+    pub fn base(&self) -> &SimBase {
+        &self.base
+    }
+}
+
+impl Backend for SimBackend {
+    fn name(&self) -> String {
+        "sim".into()
+    }
+
+    fn period_s(&self) -> f64 {
+        self.base.params.period_s()
+    }
+
+    fn reset(&mut self, start: Pose) -> Result<BaseState, BackendError> {
+        Ok(self.base.reset(start))
+    }
+
+    fn command(&mut self, speed_mps: f64, rot_radps: f64) -> Result<(), BackendError> {
+        self.base.set_command(speed_mps, rot_radps);
+        Ok(())
+    }
+
+    fn step(&mut self) -> Result<BaseState, BackendError> {
+        let dt = self.period_s();
+        Ok(self.base.advance(dt))
+    }
+
+    fn stop(&mut self) -> Result<(), BackendError> {
+        self.base.set_command(0.0, 0.0);
+        Ok(())
+    }
+
+    fn true_pose(&self) -> Option<Pose> {
+        Some(self.base.true_pose())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wrap_angle_lands_in_range() {
+        use std::f64::consts::PI;
+        for a in [-10.0, -PI, -3.0, 0.0, 3.0, PI, 7.0, 100.0] {
+            let w = wrap_angle(a);
+            assert!(w > -PI && w <= PI, "{a} -> {w}");
+            assert!(((a - w) / std::f64::consts::TAU).fract().abs() < 1e-9 || (a - w).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn noiseless_odometry_equals_truth() {
+        let mut b = SimBase::new(SimParams::default().noiseless(), 1);
+        b.reset(Pose::new(1.0, 2.0, 0.5));
+        b.set_command(0.6, 0.4);
+        for _ in 0..90 {
+            b.advance(1.0 / 30.0);
+        }
+        let (o, t) = (b.state().pose, b.true_pose());
+        assert!((o.x_m - t.x_m).abs() < 1e-9 && (o.theta_rad - t.theta_rad).abs() < 1e-9);
+    }
+
+    #[test]
+    fn straight_drive_reaches_commanded_speed() {
+        let mut b = SimBase::new(SimParams::default().noiseless(), 1);
+        b.reset(Pose::default());
+        b.set_command(0.5, 0.0);
+        for _ in 0..150 {
+            b.advance(1.0 / 30.0);
+        }
+        let s = b.state();
+        assert!((s.speed_mps - 0.5).abs() < 1e-3, "{s:?}");
+        // 5 s at up to 0.5 m/s, less the time lost to the lag and the ramp.
+        assert!(s.pose.x_m > 2.0 && s.pose.x_m < 2.5, "{s:?}");
+        assert!(s.pose.y_m.abs() < 1e-9);
+    }
+}

@@ -1,0 +1,324 @@
+//! The evaluation harness: run a controller over a task's fixed test set and summarise.
+//!
+//! Each test start runs as its own episode on a fresh simulator seeded with
+//! [`episode_seed`]`(seed, index)`, in parallel with rayon, so a report depends only on the
+//! policy, the task, the simulator parameters and the seed, never on thread scheduling. The
+//! [`Report`] holds the paper's measures (success rate, mean position and heading errors, mean
+//! trajectory length) and every episode's [`Outcome`]. A progress bar is drawn only when asked and
+//! stderr is a terminal. [`derive_policy`] is the one place where a policy is derived from
+//! demonstrations for the command line. This module prints nothing but the progress bar.
+
+use std::collections::BTreeMap;
+use std::io::IsTerminal;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use miette::Diagnostic;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::backend::sim::SimParams;
+use crate::domain::Domain;
+use crate::policy::Policy;
+use crate::policy::learner::{Learner, LearnerKind};
+use crate::task::{Controller, Ending, Outcome, TaskKind, episode_seed, run_sim};
+use crate::trace::Episode;
+
+/// How to run an evaluation.
+#[derive(Clone, Debug, Default)]
+pub struct EvalOptions {
+    /// Seeds the simulator's noise (and a teacher's choices), episode by episode.
+    pub seed: u64,
+    pub params: SimParams,
+    /// Draw a progress bar on stderr (only if stderr is a terminal).
+    pub progress: bool,
+}
+
+/// The figures of one evaluation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Report {
+    pub task: TaskKind,
+    pub seed: u64,
+    pub episodes: usize,
+    pub successes: usize,
+    /// Fraction of episodes that succeeded, in [0, 1].
+    pub success_rate: f64,
+    /// Positioning: mean final distance to the goal. Interception: mean final distance to the ball.
+    pub mean_position_error_m: f64,
+    /// Positioning only: mean final heading error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mean_heading_error_rad: Option<f64>,
+    /// Mean path length over all episodes, m.
+    pub mean_length_m: f64,
+    /// Mean path length over the successful episodes (the paper's efficiency measure), m.
+    pub mean_length_success_m: Option<f64>,
+    /// How many episodes ended each way.
+    pub endings: BTreeMap<String, usize>,
+    /// Every episode, in test-set order.
+    pub outcomes: Vec<Outcome>,
+}
+
+impl Report {
+    /// Summarise outcomes.
+    pub fn from_outcomes(task: TaskKind, seed: u64, outcomes: Vec<Outcome>) -> Report {
+        let n = outcomes.len();
+        let mean = |f: &dyn Fn(&Outcome) -> Option<f64>| -> Option<f64> {
+            let vals: Vec<f64> = outcomes.iter().filter_map(f).collect();
+            (!vals.is_empty()).then(|| vals.iter().sum::<f64>() / vals.len() as f64)
+        };
+        let successes = outcomes.iter().filter(|o| o.success).count();
+        let mut endings = BTreeMap::new();
+        for o in &outcomes {
+            *endings
+                .entry(ending_name(o.ending).to_string())
+                .or_insert(0) += 1;
+        }
+        Report {
+            task,
+            seed,
+            episodes: n,
+            successes,
+            success_rate: if n == 0 {
+                0.0
+            } else {
+                successes as f64 / n as f64
+            },
+            mean_position_error_m: mean(&|o| Some(o.position_error_m)).unwrap_or(0.0),
+            mean_heading_error_rad: mean(&|o| o.heading_error_rad),
+            mean_length_m: mean(&|o| Some(o.length_m)).unwrap_or(0.0),
+            mean_length_success_m: mean(&|o| o.success.then_some(o.length_m)),
+            endings,
+            outcomes,
+        }
+    }
+
+    /// A few lines for a terminal.
+    pub fn render(&self) -> String {
+        let mut s = format!(
+            "{} test set, {} episodes, seed {}\n  success rate       {:5.1}% ({}/{})\n  mean position error {:.3} m\n",
+            self.task,
+            self.episodes,
+            self.seed,
+            100.0 * self.success_rate,
+            self.successes,
+            self.episodes,
+            self.mean_position_error_m,
+        );
+        if let Some(h) = self.mean_heading_error_rad {
+            s.push_str(&format!("  mean heading error  {h:.3} rad\n"));
+        }
+        s.push_str(&format!(
+            "  mean length         {:.3} m",
+            self.mean_length_m
+        ));
+        if let Some(l) = self.mean_length_success_m {
+            s.push_str(&format!(" ({l:.3} m over successes)"));
+        }
+        s.push('\n');
+        let endings: Vec<String> = self
+            .endings
+            .iter()
+            .map(|(k, v)| format!("{k} {v}"))
+            .collect();
+        s.push_str(&format!("  endings             {}\n", endings.join(", ")));
+        s
+    }
+}
+
+fn ending_name(e: Ending) -> &'static str {
+    match e {
+        Ending::Rested => "rested",
+        Ending::TimeLimit => "time_limit",
+        Ending::Captured => "captured",
+        Ending::BallOut => "ball_out",
+        Ending::RobotOut => "robot_out",
+        Ending::Interrupted => "interrupted",
+    }
+}
+
+/// Evaluate a (stateless) policy on the task's test set.
+pub fn evaluate(kind: TaskKind, policy: &dyn Policy, opts: &EvalOptions) -> Report {
+    evaluate_with(kind, || policy, opts)
+}
+
+/// Evaluate the task's own teacher on its test set.
+pub fn evaluate_teacher(kind: TaskKind, opts: &EvalOptions) -> Report {
+    let period = opts.params.period_s();
+    evaluate_with(kind, || kind.teacher(period), opts)
+}
+
+/// Evaluate controllers made by `make` (one per episode, so stateful teachers work) on the task's
+/// test set, in parallel.
+pub fn evaluate_with<C, F>(kind: TaskKind, make: F, opts: &EvalOptions) -> Report
+where
+    C: ControllerBox,
+    F: Fn() -> C + Sync,
+{
+    let starts = kind.test_set();
+    let bar = if opts.progress && std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(starts.len() as u64);
+        if let Ok(style) = ProgressStyle::with_template("{msg} {bar:40} {pos}/{len} [{elapsed}]") {
+            bar.set_style(style);
+        }
+        bar.set_message(format!("evaluating {kind}"));
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let outcomes: Vec<Outcome> = starts
+        .par_iter()
+        .enumerate()
+        .map(|(i, start)| {
+            let mut c = make();
+            let exec = run_sim(
+                start,
+                c.controller(),
+                &opts.params,
+                episode_seed(opts.seed, i as u64),
+            );
+            bar.inc(1);
+            exec.outcome
+        })
+        .collect();
+    bar.finish_and_clear();
+    Report::from_outcomes(kind, opts.seed, outcomes)
+}
+
+/// Anything that can lend a `&mut dyn Controller`: a `&dyn Policy`, a boxed teacher.
+pub trait ControllerBox {
+    fn controller(&mut self) -> &mut dyn Controller;
+}
+
+impl ControllerBox for &dyn Policy {
+    fn controller(&mut self) -> &mut dyn Controller {
+        self
+    }
+}
+
+impl ControllerBox for Box<dyn Controller + Send> {
+    fn controller(&mut self) -> &mut dyn Controller {
+        self.as_mut()
+    }
+}
+
+/// Which learner derives the policy.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PolicyKind {
+    /// 1-nearest-neighbour over range-scaled observations (the paper's BC learner).
+    Bc,
+    /// Locally weighted regression (the paper's A-OPI learner).
+    Lwr,
+}
+
+/// Why a policy could not be derived.
+#[derive(Debug, Error, Diagnostic)]
+pub enum EvalError {
+    #[error("the dataset has no points to derive a policy from")]
+    #[diagnostic(
+        code(advise::eval::empty_dataset),
+        help("record demonstrations first: `advise demo --task TASK --count 10 --out demos.csv`")
+    )]
+    EmptyDataset,
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Learner(Box<crate::policy::learner::LearnerError>),
+}
+
+/// Derive a policy of `kind` for `domain` from demonstration episodes: the one place the command
+/// line turns data into a controller. Both learners come from [`crate::policy::learner`]; LWR is
+/// tuned by seeded cross-validation.
+pub fn derive_policy(
+    kind: PolicyKind,
+    domain: &Domain,
+    episodes: &[Episode],
+) -> Result<Box<dyn Policy>, EvalError> {
+    if episodes.iter().all(|e| e.trace.is_empty()) {
+        return Err(EvalError::EmptyDataset);
+    }
+    let mut ds = crate::policy::dataset::Dataset::new(domain);
+    for e in episodes {
+        ds.add_demonstration(&e.name, &e.trace)
+            .map_err(|e| EvalError::Learner(Box::new(e.into())))?;
+    }
+    let learner_kind = match kind {
+        PolicyKind::Bc => LearnerKind::Bc,
+        PolicyKind::Lwr => LearnerKind::Lwr,
+    };
+    Ok(Box::new(Learner::with_dataset(ds, learner_kind, 0)))
+}
+
+/// Brute-force 1-nearest-neighbour over observations scaled inversely with each dimension's data
+/// range; the first of equally near points wins. The reference the kd-tree BC learner is tested
+/// and benchmarked against.
+#[derive(Clone, Debug)]
+pub struct NearestNeighbour {
+    obs_dim: usize,
+    act_dim: usize,
+    /// Scaled observations, row after row.
+    z: Vec<f64>,
+    a: Vec<f64>,
+    inv_range: Vec<f64>,
+}
+
+impl NearestNeighbour {
+    pub fn new(domain: &Domain, episodes: &[Episode]) -> Result<NearestNeighbour, EvalError> {
+        let (od, ad) = (domain.obs_dim(), domain.act_dim());
+        let mut z = Vec::new();
+        let mut a = Vec::new();
+        for e in episodes {
+            z.extend_from_slice(&e.trace.z);
+            a.extend_from_slice(&e.trace.a);
+        }
+        if z.is_empty() {
+            return Err(EvalError::EmptyDataset);
+        }
+        let inv_range: Vec<f64> = (0..od)
+            .map(|j| {
+                let (lo, hi) = z
+                    .iter()
+                    .skip(j)
+                    .step_by(od)
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                        (lo.min(*v), hi.max(*v))
+                    });
+                if hi > lo { 1.0 / (hi - lo) } else { 1.0 }
+            })
+            .collect();
+        for row in z.chunks_mut(od) {
+            row.iter_mut().zip(&inv_range).for_each(|(v, s)| *v *= s);
+        }
+        Ok(NearestNeighbour {
+            obs_dim: od,
+            act_dim: ad,
+            z,
+            a,
+            inv_range,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.z.len() / self.obs_dim
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.z.is_empty()
+    }
+}
+
+impl Policy for NearestNeighbour {
+    fn act(&self, z: &[f64], a: &mut [f64]) {
+        let mut best = (f64::INFINITY, 0);
+        for (i, row) in self.z.chunks_exact(self.obs_dim).enumerate() {
+            let d: f64 = row
+                .iter()
+                .zip(z.iter().zip(&self.inv_range))
+                .map(|(p, (q, s))| (p - q * s) * (p - q * s))
+                .sum();
+            if d < best.0 {
+                best = (d, i);
+            }
+        }
+        a.copy_from_slice(&self.a[best.1 * self.act_dim..(best.1 + 1) * self.act_dim]);
+    }
+}

@@ -1,0 +1,613 @@
+//! The dataset: points `(z, a)` with their provenance and BC weights, and the records from which
+//! advice and critiques can be undone exactly.
+//!
+//! Every point knows where it came from ([`Provenance`]): demonstration `d`, point `i`; or advice
+//! `k`, synthesized point `j`. Advice is kept as an [`AdviceRecord`] (the interpreter's
+//! [`AppliedAdvice`] plus the execution it was given on), so its points can be re-synthesized, and
+//! removing it removes exactly its points. BC weights are never edited in place: each critique
+//! keeps the increments it made (keyed by provenance, which survives removals), and the weights
+//! are the sum `m_i = 1 + sum of increments` recomputed in critique order, so undoing a critique
+//! gives bit for bit the weights that would exist without it. No IO here but [`Dataset::save`]
+//! and [`Dataset::load`].
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use miette::{Diagnostic, NamedSource, SourceSpan};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::domain::Domain;
+use crate::interp::AppliedAdvice;
+use crate::trace::{Chunk, JsonPoint, Trace, fmt_num, line_col_span};
+
+/// Ids are small integers, unique within a dataset and never reused.
+pub type DemoId = u32;
+pub type ExecutionId = u32;
+pub type AdviceId = u32;
+pub type CritiqueId = u32;
+
+/// Where a data point came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", deny_unknown_fields)]
+pub enum Provenance {
+    /// Point `index` of demonstration `demo`.
+    Demonstration { demo: DemoId, index: u32 },
+    /// Synthesized point `index` of advice `advice` (from execution point `source`).
+    Advice {
+        advice: AdviceId,
+        index: u32,
+        source: u32,
+    },
+}
+
+/// A demonstration as recorded in the dataset.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DemoRecord {
+    pub id: DemoId,
+    pub name: String,
+    pub points: u32,
+}
+
+/// An execution that advice or critique was given on, kept whole so advice can be re-synthesized.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExecutionRecord {
+    pub id: ExecutionId,
+    pub points: Vec<JsonPoint>,
+}
+
+/// A piece of advice: what was applied, on which execution.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AdviceRecord {
+    pub id: AdviceId,
+    pub execution: ExecutionId,
+    pub applied: AppliedAdvice,
+}
+
+/// A critique: the flagged chunk, kappa, and the weight increments it made.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CritiqueRecord {
+    pub id: CritiqueId,
+    pub execution: ExecutionId,
+    pub chunk: Chunk,
+    pub kappa: f64,
+    /// (point, increment of its m), in the order they were applied.
+    pub increments: Vec<(Provenance, f64)>,
+}
+
+/// Points with provenance and weights.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dataset {
+    domain: Domain,
+    /// Observations, `len * obs_dim`, row after row.
+    z: Vec<f64>,
+    /// Actions, `len * act_dim`.
+    a: Vec<f64>,
+    provenance: Vec<Provenance>,
+    /// BC weight `m_i >= 1` of each point.
+    m: Vec<f64>,
+    demos: Vec<DemoRecord>,
+    executions: Vec<ExecutionRecord>,
+    advice: Vec<AdviceRecord>,
+    critiques: Vec<CritiqueRecord>,
+    next_id: u32,
+}
+
+/// What can go wrong with a dataset.
+#[derive(Debug, Error, Diagnostic)]
+pub enum DatasetError {
+    #[error("no advice with id {0}")]
+    #[diagnostic(code(advise::dataset::unknown_advice))]
+    UnknownAdvice(AdviceId),
+    #[error("no critique with id {0}")]
+    #[diagnostic(code(advise::dataset::unknown_critique))]
+    UnknownCritique(CritiqueId),
+    #[error("no execution with id {0}")]
+    #[diagnostic(code(advise::dataset::unknown_execution))]
+    UnknownExecution(ExecutionId),
+    #[error("the points are for the `{found}` domain, the dataset is `{expected}`")]
+    #[diagnostic(code(advise::dataset::domain_mismatch))]
+    DomainMismatch { expected: String, found: String },
+    #[error("cannot read or write `{path}`")]
+    #[diagnostic(code(advise::dataset::io))]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("the dataset file is malformed: {message}")]
+    #[diagnostic(
+        code(advise::dataset::json),
+        help("dataset files are written by `save FILE.json`; a CSV export cannot be opened again")
+    )]
+    Json {
+        message: String,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("here")]
+        span: SourceSpan,
+    },
+    #[error("the dataset file is inconsistent: {what}")]
+    #[diagnostic(code(advise::dataset::inconsistent))]
+    Inconsistent { what: String },
+}
+
+impl Dataset {
+    pub fn new(domain: &Domain) -> Dataset {
+        Dataset {
+            domain: domain.clone(),
+            z: Vec::new(),
+            a: Vec::new(),
+            provenance: Vec::new(),
+            m: Vec::new(),
+            demos: Vec::new(),
+            executions: Vec::new(),
+            advice: Vec::new(),
+            critiques: Vec::new(),
+            next_id: 0,
+        }
+    }
+
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    /// Whether the learners' index supports this domain's observation dimension.
+    pub fn obs_dim_supported(&self) -> bool {
+        (1..=crate::policy::index::MAX_DIM).contains(&self.domain.obs_dim())
+    }
+
+    pub fn len(&self) -> usize {
+        self.provenance.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.provenance.is_empty()
+    }
+
+    #[inline]
+    pub fn z(&self, i: usize) -> &[f64] {
+        let d = self.domain.obs_dim();
+        &self.z[i * d..(i + 1) * d]
+    }
+
+    #[inline]
+    pub fn a(&self, i: usize) -> &[f64] {
+        let d = self.domain.act_dim();
+        &self.a[i * d..(i + 1) * d]
+    }
+
+    #[inline]
+    pub fn m(&self, i: usize) -> f64 {
+        self.m[i]
+    }
+
+    pub fn weights(&self) -> &[f64] {
+        &self.m
+    }
+
+    pub fn provenance(&self, i: usize) -> Provenance {
+        self.provenance[i]
+    }
+
+    pub fn demos(&self) -> &[DemoRecord] {
+        &self.demos
+    }
+
+    pub fn advice(&self) -> &[AdviceRecord] {
+        &self.advice
+    }
+
+    pub fn critiques(&self) -> &[CritiqueRecord] {
+        &self.critiques
+    }
+
+    fn fresh_id(&mut self) -> u32 {
+        self.next_id += 1;
+        self.next_id
+    }
+
+    fn check(&self, trace: &Trace) -> Result<(), DatasetError> {
+        if trace.domain != self.domain.name
+            || trace.obs_dim() != self.domain.obs_dim()
+            || trace.act_dim() != self.domain.act_dim()
+        {
+            return Err(DatasetError::DomainMismatch {
+                expected: self.domain.name.clone(),
+                found: trace.domain.clone(),
+            });
+        }
+        Ok(())
+    }
+
+    fn push(&mut self, z: &[f64], a: &[f64], p: Provenance) {
+        self.z.extend_from_slice(z);
+        self.a.extend_from_slice(a);
+        self.provenance.push(p);
+        self.m.push(1.0);
+    }
+
+    /// Add a demonstration; its points are appended in order.
+    pub fn add_demonstration(&mut self, name: &str, trace: &Trace) -> Result<DemoId, DatasetError> {
+        self.check(trace)?;
+        let id = self.fresh_id();
+        for i in 0..trace.len() {
+            self.push(
+                trace.z(i),
+                trace.a(i),
+                Provenance::Demonstration {
+                    demo: id,
+                    index: i as u32,
+                },
+            );
+        }
+        self.demos.push(DemoRecord {
+            id,
+            name: name.to_string(),
+            points: trace.len() as u32,
+        });
+        Ok(id)
+    }
+
+    /// Keep an execution that advice or critique may refer to (its points are not training data).
+    pub fn add_execution(&mut self, trace: &Trace) -> Result<ExecutionId, DatasetError> {
+        self.check(trace)?;
+        let id = self.fresh_id();
+        self.executions.push(ExecutionRecord {
+            id,
+            points: trace.to_json().points,
+        });
+        Ok(id)
+    }
+
+    /// The position of execution `id` among the dataset's executions (0 for the first recorded):
+    /// the number a teacher sees.
+    pub fn execution_number(&self, id: ExecutionId) -> Option<usize> {
+        self.executions.iter().position(|e| e.id == id)
+    }
+
+    /// The execution with id `id`, as a trace.
+    pub fn execution(&self, id: ExecutionId) -> Result<Trace, DatasetError> {
+        let rec = self
+            .executions
+            .iter()
+            .find(|e| e.id == id)
+            .ok_or(DatasetError::UnknownExecution(id))?;
+        let mut t = Trace::new(&self.domain);
+        let with_pose = rec.points.first().is_some_and(|p| p.pose.is_some());
+        for p in &rec.points {
+            let pose = if with_pose {
+                p.pose.map(|[x, y, th]| crate::trace::Pose::new(x, y, th))
+            } else {
+                None
+            };
+            t.push(p.t, &p.z, &p.a, pose);
+        }
+        Ok(t)
+    }
+
+    /// Add advice given on `execution`: `points` are the synthesized points, `source[j]` the
+    /// execution index point `j` came from. Returns the new advice id and the index of its first
+    /// point (points are appended).
+    pub fn add_advice(
+        &mut self,
+        execution: ExecutionId,
+        applied: AppliedAdvice,
+        points: &Trace,
+        source: &[usize],
+    ) -> Result<AdviceId, DatasetError> {
+        self.check(points)?;
+        if !self.executions.iter().any(|e| e.id == execution) {
+            return Err(DatasetError::UnknownExecution(execution));
+        }
+        let id = self.fresh_id();
+        for j in 0..points.len() {
+            self.push(
+                points.z(j),
+                points.a(j),
+                Provenance::Advice {
+                    advice: id,
+                    index: j as u32,
+                    source: source.get(j).copied().unwrap_or(0) as u32,
+                },
+            );
+        }
+        self.advice.push(AdviceRecord {
+            id,
+            execution,
+            applied,
+        });
+        // A critique made earlier may have raised the weight of a point that this advice
+        // re-creates only after an undo/redo; weights follow the records.
+        self.recompute_weights();
+        Ok(id)
+    }
+
+    /// Remove advice `id` and exactly its points.
+    pub fn remove_advice(&mut self, id: AdviceId) -> Result<AdviceRecord, DatasetError> {
+        let pos = self
+            .advice
+            .iter()
+            .position(|r| r.id == id)
+            .ok_or(DatasetError::UnknownAdvice(id))?;
+        let record = self.advice.remove(pos);
+        self.retain_points(|p| !matches!(p, Provenance::Advice { advice, .. } if *advice == id));
+        self.recompute_weights();
+        Ok(record)
+    }
+
+    fn retain_points(&mut self, keep: impl Fn(&Provenance) -> bool) {
+        let (od, ad) = (self.domain.obs_dim(), self.domain.act_dim());
+        let mut w = 0;
+        for r in 0..self.provenance.len() {
+            if keep(&self.provenance[r]) {
+                if w != r {
+                    self.provenance[w] = self.provenance[r];
+                    self.m[w] = self.m[r];
+                    self.z.copy_within(r * od..(r + 1) * od, w * od);
+                    self.a.copy_within(r * ad..(r + 1) * ad, w * ad);
+                }
+                w += 1;
+            }
+        }
+        self.provenance.truncate(w);
+        self.m.truncate(w);
+        self.z.truncate(w * od);
+        self.a.truncate(w * ad);
+    }
+
+    /// Record a critique whose increments were computed by the BC learner, and apply them.
+    pub fn add_critique(
+        &mut self,
+        execution: ExecutionId,
+        chunk: Chunk,
+        kappa: f64,
+        increments: Vec<(usize, f64)>,
+    ) -> Result<CritiqueId, DatasetError> {
+        if !self.executions.iter().any(|e| e.id == execution) {
+            return Err(DatasetError::UnknownExecution(execution));
+        }
+        let id = self.fresh_id();
+        let increments: Vec<(Provenance, f64)> = increments
+            .into_iter()
+            .filter(|(i, _)| *i < self.provenance.len())
+            .map(|(i, inc)| {
+                self.m[i] += inc;
+                (self.provenance[i], inc)
+            })
+            .collect();
+        self.critiques.push(CritiqueRecord {
+            id,
+            execution,
+            chunk,
+            kappa,
+            increments,
+        });
+        Ok(id)
+    }
+
+    /// Remove critique `id`; the weights become those the remaining critiques give.
+    pub fn remove_critique(&mut self, id: CritiqueId) -> Result<CritiqueRecord, DatasetError> {
+        let pos = self
+            .critiques
+            .iter()
+            .position(|c| c.id == id)
+            .ok_or(DatasetError::UnknownCritique(id))?;
+        let record = self.critiques.remove(pos);
+        self.recompute_weights();
+        Ok(record)
+    }
+
+    /// `m_i = 1 + increments`, summed in critique order, so the result depends only on the records.
+    fn recompute_weights(&mut self) {
+        self.m.iter_mut().for_each(|m| *m = 1.0);
+        if self.critiques.is_empty() {
+            return;
+        }
+        let index: HashMap<Provenance, usize> = self
+            .provenance
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (*p, i))
+            .collect();
+        for c in &self.critiques {
+            for (p, inc) in &c.increments {
+                if let Some(&i) = index.get(p) {
+                    self.m[i] += inc;
+                }
+            }
+        }
+    }
+
+    /// Save the full record as JSON, atomically (a temporary file in the same folder, then a
+    /// rename), so a crash mid-save never leaves a broken file.
+    pub fn save(&self, path: &Path) -> Result<(), DatasetError> {
+        let io = |source: std::io::Error| DatasetError::Io {
+            path: path.display().to_string(),
+            source,
+        };
+        let text = if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("csv"))
+        {
+            let mut out = Vec::new();
+            self.write_csv(&mut out).map_err(io)?;
+            out
+        } else {
+            serde_json::to_vec(&self.to_file()).map_err(|e| io(e.into()))?
+        };
+        let dir = path
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io)?;
+        std::io::Write::write_all(&mut tmp, &text).map_err(io)?;
+        tmp.as_file().sync_all().map_err(io)?;
+        tmp.persist(path).map_err(|e| io(e.error))?;
+        Ok(())
+    }
+
+    /// Points only, for other tools: `provenance`, observation and action columns, `m`.
+    pub fn write_csv<W: std::io::Write>(&self, w: W) -> std::io::Result<()> {
+        self.write_csv_filtered(w, |_| true)
+    }
+
+    /// Advised points only, with their provenance: operator, parameters, chunk, execution.
+    pub fn write_advice_csv<W: std::io::Write>(&self, w: W) -> std::io::Result<usize> {
+        let mut n = 0;
+        self.write_csv_filtered(w, |p| {
+            let keep = matches!(p, Provenance::Advice { .. });
+            n += keep as usize;
+            keep
+        })?;
+        Ok(n)
+    }
+
+    fn write_csv_filtered<W: std::io::Write>(
+        &self,
+        w: W,
+        mut keep: impl FnMut(&Provenance) -> bool,
+    ) -> std::io::Result<()> {
+        let mut out = csv::Writer::from_writer(w);
+        let mut header = vec!["source".to_string(), "detail".to_string()];
+        header.extend(self.domain.observe.iter().map(|d| d.name.clone()));
+        header.extend(self.domain.act.iter().map(|d| d.name.clone()));
+        header.push("m".into());
+        out.write_record(&header)?;
+        for i in 0..self.len() {
+            let p = self.provenance[i];
+            if !keep(&p) {
+                continue;
+            }
+            let (source, detail) = match p {
+                Provenance::Demonstration { demo, index } => {
+                    let name = self
+                        .demos
+                        .iter()
+                        .find(|d| d.id == demo)
+                        .map_or("?", |d| d.name.as_str());
+                    (format!("demo {demo}"), format!("{name} point {index}"))
+                }
+                Provenance::Advice {
+                    advice,
+                    index,
+                    source,
+                } => {
+                    let detail = self.advice.iter().find(|r| r.id == advice).map_or_else(
+                        || "?".to_string(),
+                        |r| {
+                            format!(
+                                "{} on {} of execution {}, point {source} (synthesized {index})",
+                                r.applied.invocation(),
+                                r.applied.chunk,
+                                self.execution_number(r.execution).unwrap_or(usize::MAX)
+                            )
+                        },
+                    );
+                    (format!("advice {advice}"), detail)
+                }
+            };
+            let mut row = vec![source, detail];
+            row.extend(self.z(i).iter().map(|v| fmt_num(*v)));
+            row.extend(self.a(i).iter().map(|v| fmt_num(*v)));
+            row.push(fmt_num(self.m[i]));
+            out.write_record(&row)?;
+        }
+        out.flush()
+    }
+
+    fn to_file(&self) -> DatasetFile {
+        DatasetFile {
+            format: "advise-dataset-1".into(),
+            domain: self.domain.clone(),
+            points: (0..self.len())
+                .map(|i| FilePoint {
+                    z: self.z(i).to_vec(),
+                    a: self.a(i).to_vec(),
+                    m: self.m[i],
+                    provenance: self.provenance[i],
+                })
+                .collect(),
+            demos: self.demos.clone(),
+            executions: self.executions.clone(),
+            advice: self.advice.clone(),
+            critiques: self.critiques.clone(),
+            next_id: self.next_id,
+        }
+    }
+
+    /// Load a dataset saved as JSON.
+    pub fn load(path: &Path) -> Result<Dataset, DatasetError> {
+        let text = std::fs::read_to_string(path).map_err(|source| DatasetError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Dataset::from_json_str(&path.display().to_string(), &text)
+    }
+
+    pub fn from_json_str(name: &str, text: &str) -> Result<Dataset, DatasetError> {
+        let file: DatasetFile = serde_json::from_str(text).map_err(|e| DatasetError::Json {
+            message: e.to_string(),
+            src: NamedSource::new(name, text.to_string()),
+            span: line_col_span(text, e.line(), e.column()),
+        })?;
+        let bad = |what: String| DatasetError::Inconsistent { what };
+        if file.format != "advise-dataset-1" {
+            return Err(bad(format!("unknown format `{}`", file.format)));
+        }
+        let mut d = Dataset::new(&file.domain);
+        for (i, p) in file.points.iter().enumerate() {
+            if p.z.len() != d.domain.obs_dim() || p.a.len() != d.domain.act_dim() {
+                return Err(bad(format!("point {i} has the wrong number of values")));
+            }
+            if p.z.iter().chain(&p.a).any(|v| !v.is_finite()) || !(p.m >= 1.0 && p.m.is_finite()) {
+                return Err(bad(format!(
+                    "point {i} has a value that is not finite (or m < 1)"
+                )));
+            }
+            d.z.extend_from_slice(&p.z);
+            d.a.extend_from_slice(&p.a);
+            d.provenance.push(p.provenance);
+            d.m.push(p.m);
+        }
+        d.demos = file.demos;
+        d.executions = file.executions;
+        d.advice = file.advice;
+        d.critiques = file.critiques;
+        d.next_id = file.next_id;
+        // The stored weights must be what the critique records say.
+        let stored = d.m.clone();
+        d.recompute_weights();
+        if stored != d.m {
+            return Err(bad("the weights do not match the critique records".into()));
+        }
+        Ok(d)
+    }
+}
+
+/// The JSON file of a dataset.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DatasetFile {
+    format: String,
+    domain: Domain,
+    points: Vec<FilePoint>,
+    demos: Vec<DemoRecord>,
+    executions: Vec<ExecutionRecord>,
+    advice: Vec<AdviceRecord>,
+    critiques: Vec<CritiqueRecord>,
+    next_id: u32,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilePoint {
+    z: Vec<f64>,
+    a: Vec<f64>,
+    m: f64,
+    provenance: Provenance,
+}

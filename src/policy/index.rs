@@ -1,0 +1,169 @@
+//! The spatial index behind both learners: the only code that touches kiddo.
+//!
+//! Observations are stored scaled (each dimension multiplied by a fixed factor chosen when the
+//! index is built), and identical scaled observations share one kd-tree entry: a *group* of
+//! dataset points. Grouping matters twice: kiddo's mutable trees cannot hold more than a bucket's
+//! worth of identical points, and advice routinely adds points whose observation repeats (advice on
+//! the same chunk twice, a robot at rest). The tree's dimension is a const generic, so the index
+//! dispatches over the dimensions it supports (1 to [`MAX_DIM`]).
+
+use std::collections::HashMap;
+
+use kiddo::{KdTree, SquaredEuclidean};
+
+/// The largest observation dimension the index supports.
+pub const MAX_DIM: usize = 8;
+
+enum Tree {
+    D1(KdTree<f64, 1>),
+    D2(KdTree<f64, 2>),
+    D3(KdTree<f64, 3>),
+    D4(KdTree<f64, 4>),
+    D5(KdTree<f64, 5>),
+    D6(KdTree<f64, 6>),
+    D7(KdTree<f64, 7>),
+    D8(KdTree<f64, 8>),
+}
+
+macro_rules! each_tree {
+    ($tree:expr, $t:ident => $body:expr) => {
+        match $tree {
+            Tree::D1($t) => $body,
+            Tree::D2($t) => $body,
+            Tree::D3($t) => $body,
+            Tree::D4($t) => $body,
+            Tree::D5($t) => $body,
+            Tree::D6($t) => $body,
+            Tree::D7($t) => $body,
+            Tree::D8($t) => $body,
+        }
+    };
+}
+
+impl Tree {
+    fn new(dim: usize) -> Option<Tree> {
+        Some(match dim {
+            1 => Tree::D1(KdTree::new()),
+            2 => Tree::D2(KdTree::new()),
+            3 => Tree::D3(KdTree::new()),
+            4 => Tree::D4(KdTree::new()),
+            5 => Tree::D5(KdTree::new()),
+            6 => Tree::D6(KdTree::new()),
+            7 => Tree::D7(KdTree::new()),
+            8 => Tree::D8(KdTree::new()),
+            _ => return None,
+        })
+    }
+
+    fn add(&mut self, q: &[f64], item: u64) {
+        each_tree!(self, t => t.add(q.try_into().expect("dimension checked at construction"), item))
+    }
+
+    fn nearest_one(&self, q: &[f64]) -> (f64, u64) {
+        each_tree!(self, t => {
+            let n = t.nearest_one::<SquaredEuclidean>(q.try_into().expect("dimension checked at construction"));
+            (n.distance, n.item)
+        })
+    }
+
+    fn within(&self, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
+        out.clear();
+        each_tree!(self, t => {
+            let found = t.within_unsorted::<SquaredEuclidean>(q.try_into().expect("dimension checked at construction"), r2);
+            out.extend(found.into_iter().map(|n| (n.distance, n.item)));
+        })
+    }
+}
+
+/// A kd-tree over scaled observations, grouping identical ones.
+pub struct Index {
+    dim: usize,
+    scale: Vec<f64>,
+    tree: Tree,
+    /// Dataset point indices of each group.
+    groups: Vec<Vec<u32>>,
+    /// Scaled observation of each group (row after row).
+    group_z: Vec<f64>,
+    by_key: HashMap<Vec<u64>, u32>,
+}
+
+impl Index {
+    /// An empty index for `dim`-dimensional observations multiplied by `scale`; `None` if the
+    /// dimension is unsupported.
+    pub fn new(scale: Vec<f64>) -> Option<Index> {
+        let dim = scale.len();
+        Some(Index {
+            dim,
+            tree: Tree::new(dim)?,
+            scale,
+            groups: Vec::new(),
+            group_z: Vec::new(),
+            by_key: HashMap::new(),
+        })
+    }
+
+    pub fn scale(&self) -> &[f64] {
+        &self.scale
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.groups.is_empty()
+    }
+
+    /// Scale a raw observation into `out`.
+    #[inline]
+    pub fn scaled(&self, z: &[f64], out: &mut [f64]) {
+        for ((o, v), s) in out.iter_mut().zip(z).zip(&self.scale) {
+            *o = v * s;
+        }
+    }
+
+    /// Add dataset point `point` with raw observation `z`.
+    pub fn add(&mut self, point: u32, z: &[f64]) {
+        let mut q = vec![0.0; self.dim];
+        self.scaled(z, &mut q);
+        // -0.0 and 0.0 are the same place.
+        let key: Vec<u64> = q.iter().map(|v| (v + 0.0).to_bits()).collect();
+        if let Some(&g) = self.by_key.get(&key) {
+            self.groups[g as usize].push(point);
+            return;
+        }
+        let g = self.groups.len() as u32;
+        self.groups.push(vec![point]);
+        self.group_z.extend_from_slice(&q);
+        self.by_key.insert(key, g);
+        self.tree.add(&q, g as u64);
+    }
+
+    /// The points of group `g`.
+    #[inline]
+    pub fn group(&self, g: u64) -> &[u32] {
+        &self.groups[g as usize]
+    }
+
+    /// Nearest group to scaled query `q`: (squared distance, group). `None` when empty.
+    #[inline]
+    pub fn nearest(&self, q: &[f64]) -> Option<(f64, u64)> {
+        if self.is_empty() {
+            return None;
+        }
+        Some(self.tree.nearest_one(q))
+    }
+
+    /// Every group within squared distance `r2` of scaled query `q`, unsorted.
+    #[inline]
+    pub fn within(&self, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
+        if self.is_empty() {
+            out.clear();
+            return;
+        }
+        self.tree.within(q, r2, out)
+    }
+
+    /// Scaled observation of group `g`.
+    #[inline]
+    pub fn group_z(&self, g: u64) -> &[f64] {
+        let g = g as usize;
+        &self.group_z[g * self.dim..(g + 1) * self.dim]
+    }
+}

@@ -1,0 +1,411 @@
+//! The learner a session (or an experiment) works with: a [`Dataset`] and the policy derived from
+//! it, kept in step.
+//!
+//! Re-deriving from scratch ([`Learner::rederive`]) recomputes the observation scaling from the
+//! data's ranges, rebuilds the index and re-tunes LWR by cross-validation. Advice is incremental:
+//! its points are added to the existing index under the existing scaling and parameters, so the
+//! policy is ready at once ([`Learner::add_advice`]). Undoing advice rebuilds the index under the
+//! same scaling, which gives the policy that would exist had the advice never been given.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use miette::Diagnostic;
+use thiserror::Error;
+
+use crate::domain::Domain;
+use crate::interp::Synthesized;
+use crate::policy::Policy;
+use crate::policy::bc;
+use crate::policy::dataset::{Dataset, DatasetError, Provenance};
+use crate::policy::index::{Index, MAX_DIM};
+use crate::policy::lwr::{self, LwrAnswer, LwrParams};
+use crate::task::TaskKind;
+use crate::trace::{Chunk, Episode, Trace};
+
+pub use crate::policy::dataset::{AdviceId, CritiqueId, DemoId, ExecutionId};
+
+/// Which policy the learner runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LearnerKind {
+    /// 1-NN with critique weights (the paper's BC).
+    Bc,
+    /// Locally weighted regression (the paper's A-OPI).
+    Lwr,
+}
+
+impl LearnerKind {
+    /// The paper's learner for a task: A-OPI (LWR) for positioning, BC (1-NN) for interception.
+    pub fn for_task(task: TaskKind) -> LearnerKind {
+        match task {
+            TaskKind::Positioning => LearnerKind::Lwr,
+            TaskKind::Interception => LearnerKind::Bc,
+        }
+    }
+}
+
+/// Why the learner could not do what was asked.
+#[derive(Debug, Error, Diagnostic)]
+pub enum LearnerError {
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Dataset(#[from] DatasetError),
+    #[error(
+        "the `{domain}` domain has {dim} observation dimensions; the learners support 1 to {MAX_DIM}"
+    )]
+    #[diagnostic(code(advise::learner::dimension))]
+    Dimension { domain: String, dim: usize },
+    #[error("the dataset is empty: there is no policy to critique")]
+    #[diagnostic(
+        code(advise::learner::empty),
+        help("load demonstrations first: `load demos FILE` or `load demos teacher:9`")
+    )]
+    Empty,
+}
+
+/// What a critique did.
+#[derive(Clone, Debug)]
+pub struct CritiqueResult {
+    pub id: CritiqueId,
+    pub summary: String,
+}
+
+/// A dataset and its derived policy.
+pub struct Learner {
+    kind: LearnerKind,
+    ds: Dataset,
+    index: Index,
+    lwr: LwrParams,
+    seed: u64,
+    /// Points added since the index was last brought up to date.
+    indexed: usize,
+}
+
+impl Learner {
+    pub fn new(domain: &Domain, task: TaskKind, seed: u64) -> Learner {
+        Learner::with_dataset(Dataset::new(domain), LearnerKind::for_task(task), seed)
+    }
+
+    /// A learner on an existing dataset (derived at once).
+    pub fn with_dataset(ds: Dataset, kind: LearnerKind, seed: u64) -> Learner {
+        let dim = ds.domain().obs_dim();
+        let mut l = Learner {
+            kind,
+            index: Index::new(vec![1.0; dim.clamp(1, MAX_DIM)]).expect("1..=MAX_DIM is supported"),
+            lwr: LwrParams::default_for(dim),
+            ds,
+            seed,
+            indexed: 0,
+        };
+        l.rederive();
+        l
+    }
+
+    pub fn kind(&self) -> LearnerKind {
+        self.kind
+    }
+
+    pub fn set_kind(&mut self, kind: LearnerKind) {
+        self.kind = kind;
+    }
+
+    pub fn kind_name(&self) -> &'static str {
+        match self.kind {
+            LearnerKind::Bc => "BC 1-NN",
+            LearnerKind::Lwr => "LWR",
+        }
+    }
+
+    pub fn dataset(&self) -> &Dataset {
+        &self.ds
+    }
+
+    pub fn domain(&self) -> &Domain {
+        self.ds.domain()
+    }
+
+    pub fn len(&self) -> usize {
+        self.ds.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.ds.is_empty()
+    }
+
+    pub fn lwr_params(&self) -> &LwrParams {
+        &self.lwr
+    }
+
+    fn check_dim(&self) -> Result<(), LearnerError> {
+        let dim = self.ds.domain().obs_dim();
+        if dim == 0 || dim > MAX_DIM {
+            return Err(LearnerError::Dimension {
+                domain: self.ds.domain().name.clone(),
+                dim,
+            });
+        }
+        Ok(())
+    }
+
+    /// Add demonstrations and re-derive from scratch (new scaling, re-tuned LWR).
+    pub fn add_demonstrations(
+        &mut self,
+        episodes: &[Episode],
+    ) -> Result<Vec<DemoId>, LearnerError> {
+        self.check_dim()?;
+        let ids = episodes
+            .iter()
+            .map(|e| self.ds.add_demonstration(&e.name, &e.trace))
+            .collect::<Result<Vec<_>, _>>()?;
+        self.rederive();
+        Ok(ids)
+    }
+
+    pub fn add_execution(&mut self, trace: &Trace) -> ExecutionId {
+        // The trace was recorded in this learner's domain; a mismatch is a programming error
+        // upstream, and the id is still unique.
+        self.ds.add_execution(trace).unwrap_or(u32::MAX)
+    }
+
+    /// Add synthesized advice points; the policy is updated incrementally.
+    pub fn add_advice(
+        &mut self,
+        execution: ExecutionId,
+        syn: &Synthesized,
+    ) -> Result<AdviceId, LearnerError> {
+        let id = self.ds.add_advice(
+            execution,
+            syn.advice.clone(),
+            &syn.points,
+            &syn.source_index,
+        )?;
+        self.ensure_derived();
+        Ok(id)
+    }
+
+    pub fn remove_advice(&mut self, id: AdviceId) -> Result<(), LearnerError> {
+        self.ds.remove_advice(id)?;
+        self.reindex();
+        Ok(())
+    }
+
+    /// Flag `chunk` of an execution: each flagged point's supporting data point gets
+    /// `m += kappa / max(d, MIN)` (see [`bc::MIN_CRITIQUE_DISTANCE`]).
+    pub fn critique(
+        &mut self,
+        execution: ExecutionId,
+        trace: &Trace,
+        chunk: Chunk,
+        kappa: f64,
+    ) -> Result<CritiqueResult, LearnerError> {
+        if self.ds.is_empty() {
+            return Err(LearnerError::Empty);
+        }
+        self.ensure_derived();
+        let zs = chunk.range().map(|t| trace.z(t).to_vec());
+        let increments = bc::critique_increments(&self.index, &self.ds, zs, kappa);
+        let mut points: Vec<usize> = increments.iter().map(|(i, _)| *i).collect();
+        points.sort_unstable();
+        points.dedup();
+        let id = self.ds.add_critique(execution, chunk, kappa, increments)?;
+        let max_m = points.iter().map(|&i| self.ds.m(i)).fold(1.0, f64::max);
+        let mut summary = format!(
+            "critiqued {chunk} ({} points): raised the weight of {} data points (largest m now {max_m:.2})",
+            chunk.len(),
+            points.len()
+        );
+        if self.kind == LearnerKind::Lwr {
+            summary.push_str("; note: weights steer the BC 1-NN policy, the running policy is LWR");
+        }
+        Ok(CritiqueResult { id, summary })
+    }
+
+    pub fn remove_critique(&mut self, id: CritiqueId) -> Result<(), LearnerError> {
+        self.ds.remove_critique(id)?;
+        Ok(())
+    }
+
+    /// Re-derive from scratch; returns a note on what was tuned.
+    pub fn rederive(&mut self) -> String {
+        let dim = self.ds.domain().obs_dim();
+        if dim == 0 || dim > MAX_DIM {
+            return String::new();
+        }
+        let n = self.ds.len();
+        let scale: Vec<f64> = (0..dim)
+            .map(|j| {
+                let (lo, hi) = (0..n).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), i| {
+                    (lo.min(self.ds.z(i)[j]), hi.max(self.ds.z(i)[j]))
+                });
+                if hi - lo > 1e-12 {
+                    1.0 / (hi - lo)
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        self.index = Index::new(scale).expect("dimension checked above");
+        self.indexed = 0;
+        self.ensure_derived();
+        if self.kind == LearnerKind::Lwr {
+            self.lwr = lwr::tune(&self.ds, self.index.scale(), 5, self.seed);
+            let scales: Vec<String> = self.lwr.scales.iter().map(|s| format!("{s}")).collect();
+            format!(
+                "; LWR tuned by 5-fold cross-validation: bandwidth {}, scales [{}]",
+                self.lwr.bandwidth,
+                scales.join(", ")
+            )
+        } else {
+            String::new()
+        }
+    }
+
+    /// Bring the index up to date with points added since (incremental).
+    pub fn ensure_derived(&mut self) {
+        if self.ds.obs_dim_supported() {
+            for i in self.indexed..self.ds.len() {
+                self.index.add(i as u32, self.ds.z(i));
+            }
+        }
+        self.indexed = self.ds.len();
+    }
+
+    /// Rebuild the index under the current scaling and parameters (after points were removed).
+    fn reindex(&mut self) {
+        if let Some(idx) = Index::new(self.index.scale().to_vec()) {
+            self.index = idx;
+            self.indexed = 0;
+            self.ensure_derived();
+        }
+    }
+
+    /// The policy to run.
+    pub fn policy(&self) -> &dyn Policy {
+        self
+    }
+
+    /// The BC answer for `z`: which point supported the action.
+    pub fn support(&self, z: &[f64]) -> Option<bc::Support> {
+        bc::query(&self.index, &self.ds, z, &mut bc::Scratch::default())
+    }
+
+    /// The LWR answer for `z`.
+    pub fn regress(&self, z: &[f64], a: &mut [f64]) -> LwrAnswer {
+        lwr::query(
+            &self.index,
+            &self.ds,
+            &self.lwr,
+            z,
+            a,
+            &mut lwr::Scratch::default(),
+        )
+    }
+
+    /// A readable account of which data points support the action at `z`.
+    pub fn why(&self, z: &[f64]) -> Result<String, LearnerError> {
+        if self.ds.is_empty() {
+            return Err(LearnerError::Empty);
+        }
+        let mut out = String::new();
+        if let Some(s) = self.support(z) {
+            let _ = writeln!(
+                out,
+                "nearest (BC): point {} at scaled distance {:.4}, m = {:.3} (weighted {:.4}), a = {:?}\n  from {}",
+                s.point,
+                s.distance,
+                self.ds.m(s.point),
+                s.weighted,
+                self.ds.a(s.point),
+                self.describe(s.point)
+            );
+        }
+        let mut a = vec![0.0; self.ds.domain().act_dim()];
+        let ans = self.regress(z, &mut a);
+        if ans.total_weight > 0.0 {
+            let _ = writeln!(
+                out,
+                "LWR: {} neighbours, total kernel weight {:.3}, a = [{}]",
+                ans.neighbours,
+                ans.total_weight,
+                a.iter()
+                    .map(|v| format!("{v:.4}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        } else {
+            let _ = writeln!(
+                out,
+                "LWR: no data point within the kernel: this observation is far from all data (the nearest point's action is used)"
+            );
+        }
+        Ok(out)
+    }
+
+    /// Where point `i` came from, in words.
+    pub fn describe(&self, i: usize) -> String {
+        match self.ds.provenance(i) {
+            Provenance::Demonstration { demo, index } => {
+                let name = self
+                    .ds
+                    .demos()
+                    .iter()
+                    .find(|d| d.id == demo)
+                    .map_or("?", |d| d.name.as_str());
+                format!("demonstration {demo} ({name}), point {index}")
+            }
+            Provenance::Advice {
+                advice,
+                index,
+                source,
+            } => match self.ds.advice().iter().find(|r| r.id == advice) {
+                Some(r) => format!(
+                    "advice {advice}: {} on {} of execution {}, from execution point {source} (synthesized point {index})",
+                    r.applied.invocation(),
+                    r.applied.chunk,
+                    self.ds.execution_number(r.execution).unwrap_or(usize::MAX)
+                ),
+                None => format!("advice {advice}, point {index}"),
+            },
+        }
+    }
+
+    pub fn save(&self, path: &Path) -> Result<(), LearnerError> {
+        Ok(self.ds.save(path)?)
+    }
+
+    pub fn open(path: &Path, task: TaskKind, seed: u64) -> Result<Learner, LearnerError> {
+        let ds = Dataset::load(path)?;
+        let l = Learner::with_dataset(ds, LearnerKind::for_task(task), seed);
+        l.check_dim()?;
+        Ok(l)
+    }
+
+    /// Write the advised points with their provenance as CSV; returns how many.
+    pub fn export_advice(&self, path: &Path) -> Result<usize, LearnerError> {
+        let io = |source: std::io::Error| DatasetError::Io {
+            path: path.display().to_string(),
+            source,
+        };
+        let file = std::fs::File::create(path).map_err(io)?;
+        Ok(self
+            .ds
+            .write_advice_csv(std::io::BufWriter::new(file))
+            .map_err(io)?)
+    }
+}
+
+impl Policy for Learner {
+    fn act(&self, z: &[f64], a: &mut [f64]) {
+        a.iter_mut().for_each(|v| *v = 0.0);
+        match self.kind {
+            LearnerKind::Bc => {
+                if let Some(s) = self.support(z) {
+                    a.copy_from_slice(self.ds.a(s.point));
+                }
+            }
+            LearnerKind::Lwr => {
+                self.regress(z, a);
+            }
+        }
+    }
+}

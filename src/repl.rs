@@ -1,0 +1,92 @@
+//! The terminal REPL: the only code that talks to a terminal. It reads lines with rustyline (with
+//! the [`helper::AdviseHelper`] for completion, hints and multi-line input), hands each statement to
+//! [`crate::session::Session::execute`], and prints the reply or the diagnostic. History is kept
+//! between sessions next to the journals. Ctrl-C stops the robot first and keeps the session;
+//! Ctrl-D or `quit` ends it.
+
+pub mod helper;
+
+use std::sync::{Arc, Mutex};
+
+use rustyline::error::ReadlineError;
+use rustyline::history::DefaultHistory;
+use rustyline::{CompletionType, Config, Editor};
+
+use crate::session::Session;
+use helper::{AdviseHelper, Facts};
+
+/// Render a diagnostic for the terminal (colour only when stdout is a terminal).
+pub fn render(diag: &dyn miette::Diagnostic, colour: bool) -> String {
+    let handler = if colour {
+        miette::GraphicalReportHandler::new()
+    } else {
+        miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
+    }
+    .with_width(100);
+    let mut out = String::new();
+    if handler.render_report(&mut out, diag).is_err() {
+        out = diag.to_string();
+    }
+    out
+}
+
+fn facts_of(session: &Session) -> Facts {
+    Facts {
+        operators: session.operator_signatures(),
+        tasks: vec!["positioning".into(), "interception".into()],
+    }
+}
+
+/// Run the REPL on `session` until `quit` or end of input.
+pub fn run(session: &mut Session) -> rustyline::Result<()> {
+    let config = Config::builder()
+        .completion_type(CompletionType::List)
+        .auto_add_history(true)
+        .max_history_size(10_000)?
+        .build();
+    let facts = Arc::new(Mutex::new(facts_of(session)));
+    let mut rl: Editor<AdviseHelper, DefaultHistory> = Editor::with_config(config)?;
+    rl.set_helper(Some(AdviseHelper::new(facts.clone())));
+    let history = crate::session::journal::default_dir().join("history.txt");
+    let _ = rl.load_history(&history);
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stdout());
+    println!("advise: {}", session.status());
+    if let Some(j) = session.journal_path() {
+        println!("journal: {} (replay with `advise resume`)", j.display());
+    }
+    println!(
+        "type `help` for the commands, Tab to complete; e.g. `run goal 2 -1 0`, then `select 40..70`, `advise slow_down`"
+    );
+    let mut n = 0;
+    loop {
+        match rl.readline("advise> ") {
+            Ok(line) => {
+                n += 1;
+                match session.execute(&line, &format!("<input {n}>")) {
+                    Ok(reply) => {
+                        if !reply.text.is_empty() {
+                            println!("{}", reply.text.trim_end());
+                        }
+                        if reply.quit {
+                            break;
+                        }
+                    }
+                    Err(e) => eprint!("{}", render(&e, colour)),
+                }
+                if let Ok(mut f) = facts.lock() {
+                    *f = facts_of(session);
+                }
+            }
+            Err(ReadlineError::Interrupted) => {
+                println!("^C {}; `quit` or Ctrl-D to leave", session.stop_robot());
+            }
+            Err(ReadlineError::Eof) => break,
+            Err(e) => return Err(e),
+        }
+    }
+    if let Some(dir) = history.parent() {
+        let _ = std::fs::create_dir_all(dir);
+    }
+    let _ = rl.save_history(&history);
+    Ok(())
+}

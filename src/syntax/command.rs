@@ -1,0 +1,308 @@
+//! Session statements: commands and items, one at a time, as typed at the REPL or read from a
+//! script. Built from the `session_line` rule of `grammar/session.pest`. What the commands do is
+//! [`crate::session`]'s business; this module only gives them shape and spans.
+
+use super::ast::{Ident, Item, Span};
+use super::{Builder, Invocation, ParseError, Rule, parse_invocation, run};
+use pest::iterators::Pair;
+
+/// One statement of a session.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Statement {
+    /// A blank or comment-only line.
+    Empty,
+    /// An operator or domain defined on the spot.
+    Item(Item),
+    /// A session command.
+    Command(Command, Span),
+}
+
+/// A session command, as the teacher wrote it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Command {
+    Task(Ident),
+    Backend(String),
+    LoadDemos(String),
+    LoadTrace(String),
+    Operators(String),
+    RunGoal {
+        x_m: f64,
+        y_m: f64,
+        theta_rad: f64,
+    },
+    RunStart(usize),
+    Show,
+    Select {
+        start: usize,
+        end: usize,
+        span: Span,
+    },
+    Critique(Option<f64>),
+    Advise(Invocation),
+    Preview(Invocation),
+    Undo,
+    Redo,
+    History,
+    Rederive,
+    Eval,
+    Why(usize),
+    Plot(String),
+    Save(String),
+    Open(String),
+    ExportAdvice(String),
+    Help(Option<Ident>),
+    Quit,
+}
+
+/// Every command word, for completion and help, with its signature.
+pub const COMMANDS: &[(&str, &str)] = &[
+    ("task", "task positioning|interception"),
+    ("backend", "backend sim|rmp:HOST:PORT"),
+    ("load", "load demos FILE | load trace FILE"),
+    ("operators", "operators FILE.adv"),
+    ("run", "run goal X Y THETA | run start N"),
+    ("show", "show"),
+    ("select", "select A..B"),
+    ("critique", "critique [KAPPA]"),
+    ("advise", "advise OP[(ARGS)]"),
+    ("preview", "preview OP[(ARGS)]"),
+    ("undo", "undo"),
+    ("redo", "redo"),
+    ("history", "history"),
+    ("rederive", "rederive"),
+    ("eval", "eval"),
+    ("why", "why T"),
+    ("plot", "plot FILE.svg"),
+    ("save", "save FILE.json|FILE.csv"),
+    ("open", "open FILE.json"),
+    ("export", "export advice FILE.csv"),
+    ("help", "help [COMMAND|OPERATOR]"),
+    ("quit", "quit"),
+];
+
+/// Parse one statement. `name` names the source in diagnostics (`<repl>`, or `script.adv:12`).
+pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
+    let mut pairs = run(Rule::session_line, name, src)?;
+    let line = pairs.next().expect("session_line always yields one pair");
+    let b = Builder { name, src };
+    let Some(p) = line.into_inner().find(|p| p.as_rule() != Rule::EOI) else {
+        return Ok(Statement::Empty);
+    };
+    let span = b.span(&p);
+    let rule = p.as_rule();
+    if matches!(rule, Rule::domain | Rule::operator) {
+        return b.item(p).map(Statement::Item);
+    }
+    let mut args = p
+        .into_inner()
+        .filter(|a| !format!("{:?}", a.as_rule()).starts_with("cw_"));
+    let mut next = || args.next();
+    let cmd = match rule {
+        Rule::c_task => Command::Task(b.ident(req(next()))),
+        Rule::c_backend => Command::Backend(req(next()).as_str().to_string()),
+        Rule::c_load_demos => Command::LoadDemos(path(req(next()))),
+        Rule::c_load_trace => Command::LoadTrace(path(req(next()))),
+        Rule::c_operators => Command::Operators(path(req(next()))),
+        Rule::c_run_goal => {
+            let mut v = [0.0; 3];
+            for slot in &mut v {
+                *slot = b.signed(req(next()))?;
+            }
+            Command::RunGoal {
+                x_m: v[0],
+                y_m: v[1],
+                theta_rad: v[2],
+            }
+        }
+        Rule::c_run_start => Command::RunStart(b.uint(req(next()))?),
+        Rule::c_show => Command::Show,
+        Rule::c_select => {
+            let range = req(next());
+            let rspan = b.span(&range);
+            let mut parts = range.into_inner().filter(|q| q.as_rule() == Rule::uint);
+            let start = b.uint(req(parts.next()))?;
+            let end = b.uint(req(parts.next()))?;
+            Command::Select {
+                start,
+                end,
+                span: rspan,
+            }
+        }
+        Rule::c_critique => Command::Critique(next().map(|k| b.signed(k)).transpose()?),
+        Rule::c_advise => Command::Advise(b.invocation(req(next()))?),
+        Rule::c_preview => Command::Preview(b.invocation(req(next()))?),
+        Rule::c_undo => Command::Undo,
+        Rule::c_redo => Command::Redo,
+        Rule::c_history => Command::History,
+        Rule::c_rederive => Command::Rederive,
+        Rule::c_eval => Command::Eval,
+        Rule::c_why => Command::Why(b.uint(req(next()))?),
+        Rule::c_plot => Command::Plot(path(req(next()))),
+        Rule::c_save => Command::Save(path(req(next()))),
+        Rule::c_open => Command::Open(path(req(next()))),
+        Rule::c_export_advice => Command::ExportAdvice(path(req(next()))),
+        Rule::c_help => Command::Help(next().map(|n| b.ident(n))),
+        Rule::c_quit => Command::Quit,
+        other => unreachable!("session_line yields no {other:?}"),
+    };
+    Ok(Statement::Command(cmd, span))
+}
+
+/// Whether `src` is an unfinished statement that more lines could complete (an open `{` or `(`,
+/// a composition ending in `then`, a doc comment waiting for its item): the REPL asks for another
+/// line, and a script reader joins the next line, instead of reporting an error.
+pub fn is_incomplete(src: &str) -> bool {
+    match parse_statement("<input>", src) {
+        Ok(_) => false,
+        Err(ParseError::Syntax { span, .. }) => {
+            span.offset() >= src.trim_end().len() && (open_brackets(src) || ends_open(src))
+        }
+        Err(_) => false,
+    }
+}
+
+fn open_brackets(src: &str) -> bool {
+    let (mut brace, mut paren) = (0i32, 0i32);
+    for line in src.lines() {
+        let code = line.split("//").next().unwrap_or("");
+        for c in code.chars() {
+            match c {
+                '{' => brace += 1,
+                '}' => brace -= 1,
+                '(' => paren += 1,
+                ')' => paren -= 1,
+                _ => {}
+            }
+        }
+    }
+    brace > 0 || paren > 0
+}
+
+fn ends_open(src: &str) -> bool {
+    let t = src.trim_end();
+    let last = t.lines().last().unwrap_or("").trim_start();
+    t.ends_with("then") || t.ends_with('=') || last.starts_with("///") || t.ends_with(',')
+}
+
+fn req(p: Option<Pair<'_, Rule>>) -> Pair<'_, Rule> {
+    p.expect("the grammar guarantees this argument")
+}
+
+fn path(p: Pair<'_, Rule>) -> String {
+    match p.clone().into_inner().next() {
+        Some(inner) if inner.as_rule() == Rule::quoted_path => inner
+            .into_inner()
+            .find(|q| q.as_rule() == Rule::path_text)
+            .map_or(String::new(), |q| q.as_str().to_string()),
+        _ => p.as_str().to_string(),
+    }
+}
+
+impl Builder<'_> {
+    fn signed(&self, p: Pair<'_, Rule>) -> Result<f64, ParseError> {
+        let text: String = p.as_str().chars().filter(|c| *c != '+').collect();
+        self.number_text(&text, self.span(&p))
+    }
+
+    fn uint(&self, p: Pair<'_, Rule>) -> Result<usize, ParseError> {
+        let span = self.span(&p);
+        p.as_str()
+            .parse::<usize>()
+            .map_err(|_| ParseError::NumberTooLarge {
+                text: p.as_str().to_string(),
+                src: miette::NamedSource::new(self.name, self.src.to_string()),
+                span: (span.start, span.len()).into(),
+            })
+    }
+
+    /// An invocation inside a command: parsed on its own text so its spans point into it, as
+    /// [`crate::interp`]'s diagnostics expect.
+    fn invocation(&self, p: Pair<'_, Rule>) -> Result<Invocation, ParseError> {
+        parse_invocation(p.as_str())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cmd(src: &str) -> Command {
+        match parse_statement("<test>", src) {
+            Ok(Statement::Command(c, _)) => c,
+            other => panic!("{src}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn commands_parse() {
+        assert_eq!(
+            cmd("run goal 2 -1 0.5"),
+            Command::RunGoal {
+                x_m: 2.0,
+                y_m: -1.0,
+                theta_rad: 0.5
+            }
+        );
+        assert!(matches!(
+            cmd("select 40..70"),
+            Command::Select {
+                start: 40,
+                end: 70,
+                ..
+            }
+        ));
+        assert_eq!(cmd("critique"), Command::Critique(None));
+        assert_eq!(cmd("critique 0.5"), Command::Critique(Some(0.5)));
+        assert_eq!(
+            cmd("load demos \"my runs/d.csv\""),
+            Command::LoadDemos("my runs/d.csv".into())
+        );
+        assert_eq!(
+            cmd("backend rmp:127.0.0.1:9000"),
+            Command::Backend("rmp:127.0.0.1:9000".into())
+        );
+        assert_eq!(
+            cmd("export advice a.csv"),
+            Command::ExportAdvice("a.csv".into())
+        );
+        match cmd("advise speed_up(rate = 0.5)") {
+            Command::Advise(inv) => assert_eq!(inv.to_string(), "speed_up(rate = 0.5)"),
+            c => panic!("{c:?}"),
+        }
+        assert!(matches!(cmd("help advise"), Command::Help(Some(_))));
+        assert_eq!(cmd("exit"), Command::Quit);
+    }
+
+    #[test]
+    fn items_and_blank_lines() {
+        assert_eq!(
+            parse_statement("<t>", "  // nothing").unwrap(),
+            Statement::Empty
+        );
+        let op = "operator creep for positioning on action { trans = 0.1 }";
+        assert!(matches!(
+            parse_statement("<t>", op).unwrap(),
+            Statement::Item(_)
+        ));
+    }
+
+    #[test]
+    fn unfinished_statements_are_recognised() {
+        assert!(is_incomplete("operator creep for positioning on action {"));
+        assert!(is_incomplete(
+            "operator b for positioning on action = slow_down then"
+        ));
+        assert!(is_incomplete("/// Creep forward."));
+        assert!(!is_incomplete("select 1..x"));
+        assert!(!is_incomplete("selec 1..2"));
+        assert!(!is_incomplete(
+            "operator creep for positioning on action { trans = 0.1 }"
+        ));
+    }
+
+    #[test]
+    fn errors_say_what_was_expected() {
+        let e = parse_statement("<t>", "select 5").unwrap_err();
+        assert!(e.to_string().contains("expected"), "{e}");
+    }
+}

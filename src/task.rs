@@ -1,0 +1,452 @@
+//! Tasks: what the base is asked to do, and the loop that runs a controller on a base.
+//!
+//! A [`Task`] turns base state (odometry) into the domain's observation, turns the controller's
+//! action into a speed command, simulates whatever else is in its world (the interception ball),
+//! decides when an episode ends, and scores it. [`run_episode`] is the one control loop: the same
+//! loop drives the simulator, the RMP, teachers and learned policies, and records the execution as
+//! a [`Trace`]. The controller only ever sees observations computed from odometry; scoring uses
+//! the true pose where the backend knows it (the sim), so dead-reckoning drift costs success
+//! honestly. [`TaskKind`] names the paper's two tasks and holds their fixed test sets and their
+//! teachers; [`record_demos`] records teacher demonstrations.
+//!
+//! This module does no file IO and prints nothing; it does not know how policies are derived.
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::backend::sim::{SimBackend, SimParams};
+use crate::backend::{Backend, BackendError, BaseState};
+use crate::domain::Domain;
+use crate::policy::Policy;
+use crate::trace::{Episode, Pose, Trace};
+
+pub mod interception;
+pub mod positioning;
+
+pub use interception::{BallStart, Interception, InterceptionRules, InterceptionTeacher};
+pub use positioning::{Positioning, PositioningRules, PositioningTeacher};
+
+/// One episode of a task: its world, its observation and its scoring.
+///
+/// Call order per episode (as [`run_episode`] does): [`Task::begin`] once with the state after
+/// the reset, then per control period [`Task::observe`], [`Task::command`], one backend step and
+/// [`Task::advance`], until `advance` reports an [`Ending`]; then [`Task::score`].
+pub trait Task: Send {
+    /// The domain of the observations and actions.
+    fn domain(&self) -> &Domain;
+
+    /// Where the base starts.
+    fn start(&self) -> Pose;
+
+    /// Start the episode's own world (place the ball, clear memories of earlier steps).
+    fn begin(&mut self, state: &BaseState);
+
+    /// The observation the controller sees, from odometry. `z.len()` is the domain's `obs_dim`.
+    fn observe(&self, state: &BaseState, z: &mut [f64]);
+
+    /// The speed command `(m/s, rad/s)` for an action (already clamped to the domain's limits).
+    fn command(&mut self, state: &BaseState, a: &[f64]) -> (f64, f64);
+
+    /// After the base advanced by `dt_s`: move the task's world and decide whether the episode is
+    /// over. `true_pose` is the backend's true pose when it knows it.
+    fn advance(&mut self, dt_s: f64, state: &BaseState, true_pose: Option<Pose>) -> Option<Ending>;
+
+    /// Score the final state; `pose` is the true pose where known, else odometry.
+    fn score(&self, ending: Ending, pose: Pose) -> Score;
+
+    /// The ball's position, for tasks that have one (recorded for plots).
+    fn ball_xy(&self) -> Option<[f64; 2]> {
+        None
+    }
+}
+
+/// Why an episode ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Ending {
+    /// The controller came to rest (positioning's stopping rule).
+    Rested,
+    /// The time limit passed.
+    TimeLimit,
+    /// The ball came within the capture distance (interception).
+    Captured,
+    /// The ball left the arena (interception).
+    BallOut,
+    /// The robot left the arena (interception).
+    RobotOut,
+    /// The backend failed (lost link, fault); the execution so far is kept.
+    Interrupted,
+}
+
+/// A task's verdict on a final state.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Score {
+    pub success: bool,
+    /// Positioning: distance to the goal. Interception: distance to the ball.
+    pub position_error_m: f64,
+    /// Positioning: `|theta_g - theta_r|`, wrapped. Interception: none.
+    pub heading_error_rad: Option<f64>,
+}
+
+/// The measures of one execution.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Outcome {
+    pub success: bool,
+    pub ending: Ending,
+    pub position_error_m: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub heading_error_rad: Option<f64>,
+    /// Path length driven, m (true path where known, else odometry).
+    pub length_m: f64,
+    /// Control steps taken (points in the trace).
+    pub steps: usize,
+    pub duration_s: f64,
+    /// Final pose: true where known, else odometry.
+    pub final_pose: Pose,
+}
+
+/// A recorded execution: the trace (odometry poses), the true path where known, and the outcome.
+#[derive(Clone, Debug)]
+pub struct Execution {
+    pub trace: Trace,
+    /// True pose at each trace point, when the backend knows it.
+    pub true_poses: Option<Vec<Pose>>,
+    /// Ball position at each trace point (interception).
+    pub ball: Option<Vec<[f64; 2]>>,
+    pub outcome: Outcome,
+}
+
+/// A backend error in the middle of an episode, with everything recorded up to it.
+#[derive(Debug, thiserror::Error, miette::Diagnostic)]
+#[error("the execution stopped after {} steps: the backend failed", .execution.outcome.steps)]
+#[diagnostic(
+    code(advise::task::interrupted),
+    help("the execution recorded so far is kept; fix the base and run again")
+)]
+pub struct Interrupted {
+    pub execution: Box<Execution>,
+    #[source]
+    #[diagnostic_source]
+    pub error: BackendError,
+}
+
+/// Something that chooses actions, possibly with memory within an episode.
+///
+/// Learned policies are stateless ([`Policy`], `&self`) and every `&P` is a `Controller`.
+/// Teachers that stand in for a human (reaction lag, per-episode misjudgements) keep state and
+/// implement this trait directly; [`Controller::begin`] resets that state for a new episode.
+pub trait Controller {
+    /// A new episode starts; `episode_seed` seeds any randomness of this episode.
+    fn begin(&mut self, episode_seed: u64) {
+        let _ = episode_seed;
+    }
+
+    /// The action for observation `z`, written into `a`.
+    fn act(&mut self, z: &[f64], a: &mut [f64]);
+}
+
+impl<P: Policy + ?Sized> Controller for &P {
+    fn act(&mut self, z: &[f64], a: &mut [f64]) {
+        (**self).act(z, a)
+    }
+}
+
+/// Run one episode of `task` on `backend` with `controller`, recording the execution.
+///
+/// Actions are sanitised before use and recorded as executed: a non-finite value becomes 0 and
+/// every value is clamped to the domain's action limits. A backend error stops the episode; the
+/// base is asked to stop and the execution so far comes back inside [`Interrupted`].
+pub fn run_episode(
+    backend: &mut dyn Backend,
+    task: &mut dyn Task,
+    controller: &mut dyn Controller,
+    episode_seed: u64,
+) -> Result<Execution, Interrupted> {
+    let domain = task.domain().clone();
+    let dt_s = backend.period_s();
+    let mut rec = Recorder {
+        trace: Trace::new(&domain),
+        true_poses: backend.true_pose().map(|_| Vec::new()),
+        ball: None,
+    };
+    let mut state = match backend.reset(task.start()) {
+        Ok(s) => s,
+        Err(error) => return Err(rec.interrupted(task, backend, BaseState::default(), error)),
+    };
+    task.begin(&state);
+    rec.ball = task.ball_xy().map(|_| Vec::new());
+    controller.begin(episode_seed);
+    let mut z = vec![0.0; domain.obs_dim()];
+    let mut a = vec![0.0; domain.act_dim()];
+    let ending = loop {
+        task.observe(&state, &mut z);
+        a.iter_mut().for_each(|v| *v = 0.0);
+        controller.act(&z, &mut a);
+        for (v, dim) in a.iter_mut().zip(&domain.act) {
+            if !v.is_finite() {
+                *v = 0.0;
+            }
+            if let Some(l) = dim.limits {
+                *v = l.clamp(*v);
+            }
+        }
+        let (speed_mps, rot_radps) = task.command(&state, &a);
+        rec.push(&state, &z, &a, backend.true_pose(), task.ball_xy());
+        if let Err(error) = backend.command(speed_mps, rot_radps) {
+            return Err(rec.interrupted(task, backend, state, error));
+        }
+        state = match backend.step() {
+            Ok(s) => s,
+            Err(error) => return Err(rec.interrupted(task, backend, state, error)),
+        };
+        if let Some(end) = task.advance(dt_s, &state, backend.true_pose()) {
+            break end;
+        }
+    };
+    // The episode is over; a failure to stop is still worth reporting.
+    if let Err(error) = backend.stop() {
+        return Err(rec.interrupted(task, backend, state, error));
+    }
+    Ok(rec.finish(task, backend, &state, ending))
+}
+
+struct Recorder {
+    trace: Trace,
+    true_poses: Option<Vec<Pose>>,
+    ball: Option<Vec<[f64; 2]>>,
+}
+
+impl Recorder {
+    fn push(
+        &mut self,
+        state: &BaseState,
+        z: &[f64],
+        a: &[f64],
+        truth: Option<Pose>,
+        ball: Option<[f64; 2]>,
+    ) {
+        self.trace.push(state.t_s, z, a, Some(state.pose));
+        if let (Some(v), Some(p)) = (&mut self.true_poses, truth) {
+            v.push(p);
+        }
+        if let (Some(v), Some(b)) = (&mut self.ball, ball) {
+            v.push(b);
+        }
+    }
+
+    fn finish(
+        self,
+        task: &dyn Task,
+        backend: &dyn Backend,
+        state: &BaseState,
+        ending: Ending,
+    ) -> Execution {
+        let final_pose = backend.true_pose().unwrap_or(state.pose);
+        let path = self
+            .true_poses
+            .as_deref()
+            .or(self.trace.pose.as_deref())
+            .unwrap_or(&[]);
+        let length_m = path_length(path.iter().chain(std::iter::once(&final_pose)));
+        let score = task.score(ending, final_pose);
+        Execution {
+            outcome: Outcome {
+                success: score.success,
+                ending,
+                position_error_m: score.position_error_m,
+                heading_error_rad: score.heading_error_rad,
+                length_m,
+                steps: self.trace.len(),
+                duration_s: state.t_s,
+                final_pose,
+            },
+            trace: self.trace,
+            true_poses: self.true_poses,
+            ball: self.ball,
+        }
+    }
+
+    fn interrupted(
+        self,
+        task: &dyn Task,
+        backend: &mut dyn Backend,
+        state: BaseState,
+        error: BackendError,
+    ) -> Interrupted {
+        // Best effort: the base may be unreachable, and the first error is the one to report.
+        let _ = backend.stop();
+        let mut execution = self.finish(task, backend, &state, Ending::Interrupted);
+        execution.outcome.success = false;
+        Interrupted {
+            execution: Box::new(execution),
+            error,
+        }
+    }
+}
+
+fn path_length<'a>(poses: impl Iterator<Item = &'a Pose>) -> f64 {
+    let mut len = 0.0;
+    let mut prev: Option<&Pose> = None;
+    for p in poses {
+        if let Some(q) = prev {
+            len += (p.x_m - q.x_m).hypot(p.y_m - q.y_m);
+        }
+        prev = Some(p);
+    }
+    len
+}
+
+/// A seed for episode `index` of a run seeded with `seed` (SplitMix64 of the pair), so episodes
+/// are independent of each other and of the order in which threads run them.
+pub fn episode_seed(seed: u64, index: u64) -> u64 {
+    let mut x = seed ^ index.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    x ^ (x >> 31)
+}
+
+/// The paper's two tasks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TaskKind {
+    /// Segway RMP spatial positioning (A-OPI).
+    Positioning,
+    /// Simulated ball interception (BC).
+    Interception,
+}
+
+/// The initial condition of one episode.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Start {
+    /// A positioning goal; the robot starts at the origin, heading 0.
+    Goal(Pose),
+    /// An interception start; the robot starts at the origin, heading 0.
+    Ball(BallStart),
+}
+
+impl TaskKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            TaskKind::Positioning => "positioning",
+            TaskKind::Interception => "interception",
+        }
+    }
+
+    pub fn domain(self) -> Domain {
+        match self {
+            TaskKind::Positioning => Domain::positioning(),
+            TaskKind::Interception => Domain::interception(),
+        }
+    }
+
+    /// The fixed test set (25 goals; 100 interception starts). It never depends on a user's seed
+    /// and never overlaps [`TaskKind::practice_set`].
+    pub fn test_set(self) -> Vec<Start> {
+        match self {
+            TaskKind::Positioning => positioning::test_goals()
+                .into_iter()
+                .map(Start::Goal)
+                .collect(),
+            TaskKind::Interception => interception::test_starts()
+                .into_iter()
+                .map(Start::Ball)
+                .collect(),
+        }
+    }
+
+    /// `n` practice/demonstration starts drawn from `seed` (a stream disjoint from the test set's).
+    pub fn practice_set(self, seed: u64, n: usize) -> Vec<Start> {
+        match self {
+            TaskKind::Positioning => positioning::practice_goals(seed, n)
+                .into_iter()
+                .map(Start::Goal)
+                .collect(),
+            TaskKind::Interception => interception::practice_starts(seed, n)
+                .into_iter()
+                .map(Start::Ball)
+                .collect(),
+        }
+    }
+
+    /// The task's teacher (the stand-in for teleoperation), for a base running at `period_s`.
+    pub fn teacher(self, period_s: f64) -> Box<dyn Controller + Send> {
+        match self {
+            TaskKind::Positioning => Box::new(PositioningTeacher::new(period_s)),
+            TaskKind::Interception => Box::new(InterceptionTeacher::new(period_s)),
+        }
+    }
+}
+
+impl Start {
+    /// The task this start belongs to.
+    pub fn kind(&self) -> TaskKind {
+        match self {
+            Start::Goal(_) => TaskKind::Positioning,
+            Start::Ball(_) => TaskKind::Interception,
+        }
+    }
+
+    /// A fresh episode of the task from this start.
+    pub fn task(&self) -> Box<dyn Task> {
+        match self {
+            Start::Goal(g) => Box::new(Positioning::new(*g)),
+            Start::Ball(b) => Box::new(Interception::new(*b)),
+        }
+    }
+}
+
+impl std::fmt::Display for TaskKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Run one episode from `start` on a fresh simulator seeded with `seed`.
+pub fn run_sim(
+    start: &Start,
+    controller: &mut dyn Controller,
+    params: &SimParams,
+    seed: u64,
+) -> Execution {
+    let mut backend = SimBackend::new(params.clone(), seed);
+    let mut task = start.task();
+    match run_episode(&mut backend, task.as_mut(), controller, seed) {
+        Ok(e) => e,
+        // The simulator never fails; keep what was recorded if that ever changes.
+        Err(i) => *i.execution,
+    }
+}
+
+/// Record `count` teacher demonstrations in the simulator from practice starts drawn from
+/// `seed`, in parallel. Episode `i` is named `demo-i` and runs on a simulator seeded with
+/// [`episode_seed`]`(seed, i)`, so the result does not depend on thread scheduling.
+pub fn record_demos(
+    kind: TaskKind,
+    count: usize,
+    seed: u64,
+    params: &SimParams,
+) -> Vec<(Episode, Outcome)> {
+    let starts = kind.practice_set(seed, count);
+    starts
+        .par_iter()
+        .enumerate()
+        .map(|(i, start)| {
+            let mut teacher = kind.teacher(params.period_s());
+            let exec = run_sim(
+                start,
+                teacher.as_mut(),
+                params,
+                episode_seed(seed, i as u64),
+            );
+            (
+                Episode {
+                    name: format!("demo-{i}"),
+                    trace: exec.trace,
+                },
+                exec.outcome,
+            )
+        })
+        .collect()
+}

@@ -1,0 +1,161 @@
+//! The `check` and `apply` subcommands, and the no-argument REPL fed from a pipe, run as a user
+//! would.
+
+use std::process::Command;
+
+fn advise(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_advise"))
+        .args(args)
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn check_without_files_checks_the_standard_operators() {
+    let (code, out, _) = advise(&["check"]);
+    assert_eq!(code, 0);
+    assert_eq!(
+        out.trim(),
+        "checked 2 domains and 25 operators in operators/: all good"
+    );
+}
+
+#[test]
+fn no_arguments_opens_a_session_with_the_default_demonstrations() {
+    use std::io::Write;
+    let home = tempfile::tempdir().unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_advise"))
+        .env("NO_COLOR", "1")
+        .env("ADVISE_HOME", home.path())
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(b"run goal 2 -1 0\nselect 0..10\nadvise slow_down\nquit\n")
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("task positioning, backend sim"), "{stdout}");
+    assert!(stdout.contains("execution 0: run goal 2 -1 0"), "{stdout}");
+    assert!(
+        stdout.contains("advised 0..10 of execution 0 with slow_down"),
+        "{stdout}"
+    );
+    // The session was journalled where ADVISE_HOME points.
+    let journal = std::fs::read_dir(home.path())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .find(|e| e.file_name().to_string_lossy().starts_with("session-"))
+        .expect("a journal was written");
+    let text = std::fs::read_to_string(journal.path()).unwrap();
+    assert!(
+        text.contains("run goal 2 -1 0\nselect 0..10\nadvise slow_down\n"),
+        "{text}"
+    );
+}
+
+#[test]
+fn check_exits_zero_on_good_files_and_reports_every_error_otherwise() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.adv");
+    std::fs::write(
+        &good,
+        "operator halt for positioning on action { trans = 0 }\n",
+    )
+    .unwrap();
+    let (code, out, _) = advise(&["check", good.to_str().unwrap()]);
+    assert_eq!(code, 0, "{out}");
+
+    let bad1 = dir.path().join("bad1.adv");
+    std::fs::write(&bad1, "operator a for positioning on action { rott = 0 }\n").unwrap();
+    let bad2 = dir.path().join("bad2.adv");
+    std::fs::write(&bad2, "operator b for positionin on action { trans = 0 }\n").unwrap();
+    let (code, _, err) = advise(&[
+        "check",
+        good.to_str().unwrap(),
+        bad1.to_str().unwrap(),
+        bad2.to_str().unwrap(),
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("advise::check::unknown_dimension"), "{err}");
+    assert!(err.contains("did you mean `rot`?"), "{err}");
+    assert!(err.contains("advise::check::unknown_domain"), "{err}");
+    assert!(err.contains("2 errors in 3 files"), "{err}");
+}
+
+#[test]
+fn apply_prints_the_synthesized_points_as_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("run.csv");
+    std::fs::write(
+        &trace,
+        "t,dist2,bearing,dheading,trans,rot\n0,4,0.1,0.2,0.5,0\n1,3,0.1,0.2,0.5,0.2\n2,2,0.1,0.2,0.5,-0.4\n3,1,0.1,0.2,0.5,0\n",
+    )
+    .unwrap();
+    let (code, out, err) = advise(&[
+        "apply",
+        "--op",
+        "turn_tighter(rate = 0.5)",
+        "--trace",
+        trace.to_str().unwrap(),
+        "--range",
+        "0..3",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(
+        out,
+        "t,dist2,bearing,dheading,trans,rot\n1,3,0.1,0.2,0.5,0.30000000000000004\n2,2,0.1,0.2,0.5,-0.6000000000000001\n"
+    );
+    assert!(
+        err.contains("synthesized 2 of 3 points (1 skipped by its guard)"),
+        "{err}"
+    );
+
+    let ops = dir.path().join("mine.adv");
+    std::fs::write(
+        &ops,
+        "operator creep for positioning on action { trans = 0.1 }\n",
+    )
+    .unwrap();
+    let (code, out, err) = advise(&[
+        "apply",
+        "--operators",
+        ops.to_str().unwrap(),
+        "--op",
+        "creep",
+        "--trace",
+        trace.to_str().unwrap(),
+        "--range",
+        "3..4",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(out.lines().nth(1), Some("3,1,0.1,0.2,0.1,0"));
+
+    let (code, _, err) = advise(&[
+        "apply",
+        "--op",
+        "speed_up",
+        "--trace",
+        trace.to_str().unwrap(),
+        "--range",
+        "2..9",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("advise::chunk::out_of_range"), "{err}");
+}
