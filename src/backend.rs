@@ -11,8 +11,13 @@ use thiserror::Error;
 
 use crate::trace::Pose;
 
+pub mod interrupt;
 pub mod rmp;
 pub mod sim;
+pub mod spec;
+
+pub use interrupt::{Interruptible, StopSignal};
+pub use spec::{BackendSpec, BackendSpecError};
 
 /// What a base reports after a control step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

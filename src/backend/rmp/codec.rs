@@ -315,6 +315,14 @@ pub enum WordOrder {
 }
 
 impl WordOrder {
+    /// `little-endian` or `big-endian`.
+    pub fn name(self) -> &'static str {
+        match self {
+            WordOrder::Little => "little-endian",
+            WordOrder::Big => "big-endian",
+        }
+    }
+
     fn read(self, c: &[u8]) -> u32 {
         let b = [c[0], c[1], c[2], c[3]];
         match self {

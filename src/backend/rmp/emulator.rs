@@ -4,9 +4,10 @@
 //!
 //! This module owns the emulated platform ([`Platform`], no sockets, stepped by the caller) and the
 //! socket loop around it ([`Emulator::bind`], a background thread with a clean shutdown). The
-//! physics of the base sits behind [`EmulatedBase`] so the team's simulator can replace the simple
-//! stand-in here ([`LagBase`]). It must not send anywhere but to the source of the last valid
-//! datagram it received, and it never panics on what arrives.
+//! physics of the base sits behind [`EmulatedBase`]: the team's simulator ([`SimBase`], what the
+//! CLI runs, [`Emulator::bind_sim`]) or a simple noiseless stand-in ([`LagBase`]). It must not
+//! send anywhere but to the source of the last valid datagram it received, and it never panics on
+//! what arrives.
 
 use std::collections::VecDeque;
 use std::net::{SocketAddr, UdpSocket};
@@ -24,12 +25,13 @@ use super::codec::{
 };
 use super::config::{BITMAP_BALANCE_ENABLED, EmulatorConfig, MachineConfig, RmpConfigError};
 use crate::backend::BaseState;
+use crate::backend::sim::{SimBase, SimParams};
 use crate::trace::Pose;
 
 const G_MPS2: f64 = 9.80665;
 
 /// The physics under the emulated platform: a differential-drive base that takes the platform's
-/// slewed speed commands. The team's simulator base implements this after merging.
+/// slewed speed commands ([`SimBase`] and [`LagBase`] implement it).
 pub trait EmulatedBase: Send {
     /// Put the base at rest at `pose`.
     fn reset(&mut self, pose: Pose);
@@ -93,6 +95,27 @@ impl EmulatedBase for LagBase {
 
     fn true_pose(&self) -> Pose {
         self.state.pose
+    }
+}
+
+/// The team's simulator behind the emulator: the same lag, acceleration limits, encoder noise and
+/// odometry drift as `advise eval` on `sim`, so a policy sees the same base over the wire. The
+/// platform's own limits and slew act first, as on the real RMP.
+impl EmulatedBase for SimBase {
+    fn reset(&mut self, pose: Pose) {
+        SimBase::reset(self, pose);
+    }
+
+    fn set_command(&mut self, speed_mps: f64, rot_radps: f64) {
+        SimBase::set_command(self, speed_mps, rot_radps);
+    }
+
+    fn advance(&mut self, dt_s: f64) -> BaseState {
+        SimBase::advance(self, dt_s)
+    }
+
+    fn true_pose(&self) -> Pose {
+        SimBase::true_pose(self)
     }
 }
 
@@ -590,6 +613,17 @@ impl Emulator {
     pub fn bind(addr: SocketAddr, cfg: EmulatorConfig) -> Result<EmulatorHandle, EmulatorError> {
         let base = Box::new(LagBase::new(cfg.base_lag_s));
         Emulator::bind_with(addr, cfg, base)
+    }
+
+    /// As [`Emulator::bind`], with the team's simulator ([`SimBase`]) as the base physics: what
+    /// `advise rmp-emulator` runs. `sim_seed` seeds the simulator's noise.
+    pub fn bind_sim(
+        addr: SocketAddr,
+        cfg: EmulatorConfig,
+        params: SimParams,
+        sim_seed: u64,
+    ) -> Result<EmulatorHandle, EmulatorError> {
+        Emulator::bind_with(addr, cfg, Box::new(SimBase::new(params, sim_seed)))
     }
 
     /// As [`Emulator::bind`], with the given base physics.
