@@ -741,10 +741,7 @@ where
     C: eval::ControllerBox,
     F: Fn() -> C,
 {
-    let rmp = RmpConfig {
-        period_s: opts.params.period_s(),
-        ..RmpConfig::default()
-    };
+    let rmp = RmpConfig::for_sim(&opts.params);
     let mut base = spec.open(&opts.params, opts.seed, &rmp)?;
     let signal = StopSignal::new();
     let mut guarded = advise::backend::Interruptible::new(base.as_mut(), signal.clone());

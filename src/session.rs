@@ -515,17 +515,14 @@ impl Session {
                     self.stop.set_base(None);
                     self.backend = BackendChoice::Sim(params.clone());
                 }
-                let rmp = RmpConfig {
-                    period_s: params.period_s(),
-                    ..RmpConfig::default()
-                };
-                let backend = RmpBackend::connect(addr, rmp).map_err(|error| {
-                    SessionError::BackendUnavailable {
-                        spec: spec.trim().to_string(),
-                        current: self.backend_name(),
-                        error,
-                    }
-                })?;
+                let backend =
+                    RmpBackend::connect(addr, RmpConfig::for_sim(&params)).map_err(|error| {
+                        SessionError::BackendUnavailable {
+                            spec: spec.trim().to_string(),
+                            current: self.backend_name(),
+                            error,
+                        }
+                    })?;
                 let platform = backend.platform().name();
                 let order = backend.status().map_or("unknown", |s| s.order.name());
                 self.stop.set_base(Some(backend.stop_handle()));

@@ -10,9 +10,13 @@
 //! a few more milliseconds. At the 1 m/s speed limit, 20 ms of skew is 2 cm of path per
 //! decision, and the stopping rule may fire one or two control steps earlier or later. Both runs
 //! use the noiseless simulator, so there is no noise stream to diverge; what remains is timing.
-//! The tolerance: final poses within 0.15 m and 0.15 rad of each other, final errors within
-//! 0.1 m, and both runs succeed. A protocol or frame error (a wrong sign, a wrong unit, odometry in
-//! the wrong frame) moves the end point by metres or radians, far outside it.
+//! The tolerance for the teacher (a smooth controller): final poses within 0.15 m and 0.15 rad of
+//! each other, final errors within 0.1 m, and both runs succeed (measured here: 3 mm, 0.000 rad).
+//! For the LWR policy twice that: its regression switches neighbourhoods as the base moves, so a
+//! few milliseconds of skew can pick a different set of neighbours and a different action, and the
+//! paths part further before the stopping rule ends them (measured here: 0.09 m, 0.11 rad). A
+//! protocol or frame error (a wrong sign, a wrong unit, odometry in the wrong frame) moves the end
+//! point by metres or radians, far outside either.
 //!
 //! Every socket binds 127.0.0.1 port 0; every wait is bounded.
 
@@ -90,7 +94,8 @@ fn over_the_wire(
     }
 }
 
-fn assert_close(label: &str, wire: &Execution, sim: &Execution) {
+/// `tol`: how far apart the final poses may be, in metres and radians (see the module docs).
+fn assert_close(label: &str, wire: &Execution, sim: &Execution, tol: f64) {
     let (w, s) = (&wire.outcome, &sim.outcome);
     let d = |a: Pose, b: Pose| ((a.x_m - b.x_m).powi(2) + (a.y_m - b.y_m).powi(2)).sqrt();
     let dtheta =
@@ -114,16 +119,16 @@ fn assert_close(label: &str, wire: &Execution, sim: &Execution) {
     assert!(w.success, "{label}: the run over the wire failed: {w:?}");
     assert_eq!(w.ending, s.ending, "{label}");
     assert!(
-        d(w.final_pose, s.final_pose) < 0.15,
+        d(w.final_pose, s.final_pose) < tol,
         "{label}: final poses apart"
     );
-    assert!(dtheta.abs() < 0.15, "{label}: final headings apart");
+    assert!(dtheta.abs() < tol, "{label}: final headings apart");
     assert!(
-        (w.position_error_m - s.position_error_m).abs() < 0.1,
+        (w.position_error_m - s.position_error_m).abs() < tol * 2.0 / 3.0,
         "{label}"
     );
     let (hw, hs) = (w.heading_error_rad.unwrap(), s.heading_error_rad.unwrap());
-    assert!((hw - hs).abs() < 0.15, "{label}");
+    assert!((hw - hs).abs() < tol, "{label}");
 }
 
 #[test]
@@ -141,7 +146,7 @@ fn the_teacher_and_an_lwr_policy_reach_a_goal_over_the_wire_as_in_the_simulator(
     let wire = over_the_wire(&mut rmp, &start, teacher.as_mut(), seed);
     let mut teacher = kind.teacher(params().period_s());
     let sim = run_sim(&start, teacher.as_mut(), &params(), seed);
-    assert_close("teacher", &wire, &sim);
+    assert_close("teacher", &wire, &sim, 0.15);
     // The emulator's base really went there: the driver's odometry in the start frame matches the
     // platform's true pose (noiseless odometry, and the base started at the origin).
     let truth = emu.snapshot().true_pose;
@@ -162,7 +167,7 @@ fn the_teacher_and_an_lwr_policy_reach_a_goal_over_the_wire_as_in_the_simulator(
     let mut c: &dyn advise::policy::Policy = policy.as_ref();
     let wire = over_the_wire(&mut rmp, &start, &mut c, seed);
     let sim = run_sim(&start, &mut c, &params(), seed);
-    assert_close("lwr", &wire, &sim);
+    assert_close("lwr", &wire, &sim, 0.3);
 
     // Between and after episodes the base is brought to rest.
     rmp.stop().unwrap();

@@ -16,7 +16,9 @@ use super::rmp::{RmpBackend, RmpConfig};
 use super::sim::{SimBackend, SimParams};
 use super::{Backend, BackendError};
 
-/// The port the vendor's RMP v3 firmware listens on out of the box.
+/// The address and port of an RMP v3 on the vendor's default network (Stanley Innovation
+/// segway_v3, `segway_config_RMP_220.bash`: `SEGWAY_IP_ADDRESS`, `SEGWAY_IP_PORT_NUM`).
+pub const RMP_DEFAULT_ADDRESS: &str = "10.66.171.5";
 pub const RMP_DEFAULT_PORT: u16 = 8080;
 
 /// A base to drive.
@@ -38,7 +40,7 @@ pub enum BackendSpecError {
     #[diagnostic(
         code(advise::backend::rmp_address),
         help(
-            "write `rmp:HOST:PORT`, e.g. `rmp:192.168.0.40:{RMP_DEFAULT_PORT}` (the RMP's factory address and port), or `rmp:127.0.0.1:PORT` for `advise rmp-emulator`"
+            "write `rmp:HOST:PORT`, e.g. `rmp:{RMP_DEFAULT_ADDRESS}:{RMP_DEFAULT_PORT}` (a v3 RMP's default address and port), or `rmp:127.0.0.1:PORT` for `advise rmp-emulator`"
         )
     )]
     MissingAddress { spec: String },
@@ -56,7 +58,7 @@ pub enum BackendSpecError {
     #[diagnostic(
         code(advise::backend::rmp_host),
         help(
-            "use the base's IP address (e.g. `rmp:192.168.0.40:{RMP_DEFAULT_PORT}`), or check the name"
+            "use the base's IP address (e.g. `rmp:{RMP_DEFAULT_ADDRESS}:{RMP_DEFAULT_PORT}`), or check the name"
         )
     )]
     Unresolved {

@@ -198,6 +198,34 @@ impl Default for RmpConfig {
 }
 
 impl RmpConfig {
+    /// The configuration the session and `advise eval` drive with: the platform's velocity,
+    /// acceleration and yaw limits loaded from the simulator's (clamped into the NVM ranges), and
+    /// its control rate, so that a policy learned from demonstrations in the simulator meets the
+    /// same limits on the base. DTZ decelerates at twice the acceleration limit (a stop is quicker
+    /// than a start). Everything else keeps the vendor's RMP 220 defaults.
+    pub fn for_sim(sim: &crate::backend::sim::SimParams) -> RmpConfig {
+        let f = |v: f64| v as f32;
+        let machine = MachineConfig {
+            velocity_limit_mps: f(sim.max_speed_mps),
+            accel_limit_mps2: f(sim.max_accel_mps2),
+            decel_limit_mps2: f(sim.max_accel_mps2),
+            dtz_decel_mps2: f(2.0 * sim.max_accel_mps2),
+            yaw_rate_limit_radps: f(sim.max_rot_radps),
+            yaw_accel_limit_radps2: f(sim.max_rot_accel_radps2),
+            ..MachineConfig::default()
+        }
+        .clamped_to_nvm();
+        RmpConfig {
+            machine,
+            max_speed_mps: sim.max_speed_mps.min(f64::from(machine.velocity_limit_mps)),
+            max_rot_radps: sim
+                .max_rot_radps
+                .min(f64::from(machine.yaw_rate_limit_radps)),
+            period_s: sim.period_s(),
+            ..RmpConfig::default()
+        }
+    }
+
     /// Check every field; the first problem becomes a diagnostic naming the field and its range.
     pub fn validate(&self) -> Result<(), RmpConfigError> {
         self.machine.validate()?;
@@ -397,6 +425,25 @@ mod tests {
         let c = m.clamped_to_nvm();
         assert_eq!(c.velocity_limit_mps, 8.047);
         assert_eq!(c.track_width_m, 0.506476);
+    }
+
+    #[test]
+    fn the_sessions_configuration_follows_the_simulator() {
+        let sim = crate::backend::sim::SimParams::default();
+        let c = RmpConfig::for_sim(&sim);
+        c.validate().unwrap();
+        assert_eq!(c.machine.accel_limit_mps2, 1.0);
+        assert_eq!(c.machine.yaw_accel_limit_radps2, 2.0);
+        assert_eq!(c.speed_limits(), (1.0, 1.0));
+        assert_eq!(c.period_s, 1.0 / 30.0);
+        let fast = crate::backend::sim::SimParams {
+            max_speed_mps: 20.0,
+            ..sim
+        };
+        assert_eq!(
+            RmpConfig::for_sim(&fast).speed_limits().0,
+            f64::from(8.047f32)
+        );
     }
 
     #[test]
