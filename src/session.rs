@@ -964,7 +964,15 @@ impl Session {
             progress: self.progress,
         };
         let report = eval::evaluate(self.task, self.learner.policy(), &opts);
-        report.render()
+        match &self.backend {
+            BackendChoice::Sim(_) => report.render(),
+            // The whole test set on a robot takes minutes and needs room: not from the prompt.
+            BackendChoice::Rmp { backend, .. } => format!(
+                "{}(in the simulator; `advise eval --backend {}` runs the test set on the robot)",
+                report.render(),
+                backend.name()
+            ),
+        }
     }
 
     fn why(&mut self, t: usize) -> Result<String, SessionError> {

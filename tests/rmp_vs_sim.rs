@@ -23,7 +23,7 @@
 use std::net::SocketAddr;
 
 use advise::backend::Backend;
-use advise::backend::rmp::config::MachineConfig;
+use advise::backend::rmp::config::{FaultInjection, MachineConfig};
 use advise::backend::rmp::{Emulator, EmulatorConfig, EmulatorHandle, RmpBackend, RmpConfig};
 use advise::backend::sim::SimParams;
 use advise::eval::{PolicyKind, derive_policy};
@@ -48,12 +48,14 @@ fn params() -> SimParams {
     SimParams::default().noiseless()
 }
 
-fn emulator() -> EmulatorHandle {
+fn emulator(faults: FaultInjection) -> EmulatorHandle {
     Emulator::bind_sim(
         "127.0.0.1:0".parse::<SocketAddr>().unwrap(),
         EmulatorConfig {
             init_s: 0.05,
             machine: machine(),
+            faults,
+            seed: 5,
             ..EmulatorConfig::default()
         },
         params(),
@@ -133,7 +135,7 @@ fn assert_close(label: &str, wire: &Execution, sim: &Execution, tol: f64) {
 
 #[test]
 fn the_teacher_and_an_lwr_policy_reach_a_goal_over_the_wire_as_in_the_simulator() {
-    let emu = emulator();
+    let emu = emulator(FaultInjection::default());
     let mut rmp = connect(&emu);
     let kind = TaskKind::Positioning;
     // The goal of the README's session, which the policy from the session's default demonstrations
@@ -173,4 +175,32 @@ fn the_teacher_and_an_lwr_policy_reach_a_goal_over_the_wire_as_in_the_simulator(
     rmp.stop().unwrap();
     assert!(emu.snapshot().speed_mps.abs() < 0.01);
     assert_eq!(rmp.name(), format!("rmp:{}", emu.addr()));
+}
+
+/// The lossy link: 10% of datagrams dropped and 1% corrupted, in both directions. A lost
+/// command leaves the previous one in force (the platform's timeout is 0.5 s); a lost or corrupted
+/// feedback leaves the driver on the one before, 10 ms older. The teacher still reaches the goal,
+/// within the LWR tolerance of the in-process run (the skew is larger, the controller as smooth).
+#[test]
+fn the_teacher_still_reaches_the_goal_with_10_percent_dropped_and_1_percent_corrupted() {
+    let emu = emulator(FaultInjection {
+        drop: 0.10,
+        corrupt: 0.01,
+        ..FaultInjection::default()
+    });
+    let mut rmp = connect(&emu);
+    let kind = TaskKind::Positioning;
+    let start = Start::Goal(Pose::new(2.0, -1.0, 0.5));
+    let mut teacher = kind.teacher(params().period_s());
+    let wire = over_the_wire(&mut rmp, &start, teacher.as_mut(), 7);
+    let mut teacher = kind.teacher(params().period_s());
+    let sim = run_sim(&start, teacher.as_mut(), &params(), 7);
+    assert_close("teacher, lossy link", &wire, &sim, 0.3);
+    let e = emu.snapshot().counts;
+    assert!(e.injected_drops > 50 && e.injected_corruptions > 0, "{e:?}");
+    let c = rmp.counts();
+    assert!(
+        c.bad_crc > 0 || e.bad_crc > 0,
+        "no corruption was seen: {c:?} {e:?}"
+    );
 }
