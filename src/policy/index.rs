@@ -66,6 +66,14 @@ impl Tree {
         })
     }
 
+    fn nearest_n(&self, q: &[f64], n: usize, out: &mut Vec<(f64, u64)>) {
+        out.clear();
+        each_tree!(self, t => {
+            let found = t.nearest_n::<SquaredEuclidean>(q.try_into().expect("dimension checked at construction"), n);
+            out.extend(found.into_iter().map(|n| (n.distance, n.item)));
+        })
+    }
+
     fn within(&self, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
         out.clear();
         each_tree!(self, t => {
@@ -148,6 +156,21 @@ impl Index {
             return None;
         }
         Some(self.tree.nearest_one(q))
+    }
+
+    /// The `n` nearest groups to scaled query `q`, nearest first: (squared distance, group).
+    #[inline]
+    pub fn nearest_n(&self, q: &[f64], n: usize, out: &mut Vec<(f64, u64)>) {
+        if self.is_empty() {
+            out.clear();
+            return;
+        }
+        self.tree.nearest_n(q, n, out)
+    }
+
+    /// How many groups (distinct observations) the index holds.
+    pub fn groups(&self) -> usize {
+        self.groups.len()
     }
 
     /// Every group within squared distance `r2` of scaled query `q`, unsorted.

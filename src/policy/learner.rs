@@ -132,6 +132,11 @@ impl Learner {
         self.ds.is_empty()
     }
 
+    /// The spatial index the policies query.
+    pub fn index(&self) -> &Index {
+        &self.index
+    }
+
     pub fn lwr_params(&self) -> &LwrParams {
         &self.lwr
     }
