@@ -97,8 +97,21 @@ fn bench(c: &mut Criterion) {
         })
     });
 
-    let lwr = learner(LearnerKind::Lwr, &data, &critiqued);
-    eprintln!("lwr tuned: {:?}", lwr.lwr_params());
+    let mut lwr = learner(LearnerKind::Lwr, &data, &critiqued);
+    let mut a = [0.0; 2];
+    let (mut neighbours, mut far) = (0usize, 0usize);
+    for q in &qs {
+        let ans = lwr.regress(q, &mut a);
+        neighbours += ans.neighbours;
+        far += usize::from(ans.total_weight == 0.0);
+    }
+    eprintln!(
+        "lwr tuned: {:?}; {} distinct observations; {:.1} neighbours per query, {far} of {} queries far from data",
+        lwr.lwr_params(),
+        lwr.index().groups(),
+        neighbours as f64 / qs.len() as f64,
+        qs.len()
+    );
     g.bench_function("lwr_query_100k", |b| {
         let mut a = [0.0; 2];
         b.iter(|| {
@@ -117,7 +130,8 @@ fn bench(c: &mut Criterion) {
     let set = advise::check::OperatorSet::standard();
     let inv = parse_invocation("speed_up(0.2)").unwrap();
     let syn = interp::apply(&set, &inv, &exec, Chunk::all(30)).unwrap();
-    let mut l = learner(LearnerKind::Bc, &data, &critiqued);
+    // A-OPI is the learner advice feeds: its points go into both the 1-NN and the LWR index.
+    let l = &mut lwr;
     let id = l.add_execution(&exec);
     g.throughput(Throughput::Elements(syn.points.len() as u64));
     g.bench_function("rederive_30", |b| {

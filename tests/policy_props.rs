@@ -147,6 +147,38 @@ proptest! {
     }
 
     #[test]
+    fn the_lwr_learner_answers_as_the_kernel_sum_with_its_tuned_parameters(
+        rows in rows_strategy(3),
+        extra in rows_strategy(3),
+        queries in prop::collection::vec(prop::collection::vec(-6.0f64..6.0, 3), 1..20),
+    ) {
+        // The LWR learner queries its own index in the kernel's space; after tuning and after
+        // incremental additions it must answer as the general query with its parameters does.
+        let d = domain(3);
+        let mut ds = Dataset::new(&d);
+        ds.add_demonstration("demo", &trace(&d, &rows)).unwrap();
+        let mut learner = Learner::with_dataset(ds, LearnerKind::Lwr, 7);
+        let exec = learner.add_execution(&trace(&d, &extra));
+        let chunk = Chunk::new(0, extra.len(), extra.len()).unwrap();
+        let source: Vec<usize> = chunk.range().collect();
+        let syn = advise::interp::Synthesized {
+            points: trace(&d, &extra),
+            source_index: source,
+            advice: applied(chunk, 0.5),
+        };
+        learner.add_advice(exec, &syn).unwrap();
+        let params = learner.lwr_params().clone();
+        for q in &queries {
+            let (mut a, mut b) = ([0.0; 2], [0.0; 2]);
+            let got = learner.regress(q, &mut a);
+            let want = advise::policy::lwr::query_with(&learner, &params, q, &mut b);
+            prop_assert_eq!(got.neighbours, want.neighbours);
+            prop_assert!((got.total_weight - want.total_weight).abs() <= 1e-9 * want.total_weight.max(1.0));
+            for j in 0..2 { prop_assert!((a[j] - b[j]).abs() < 1e-9, "{:?} vs {:?}", a, b); }
+        }
+    }
+
+    #[test]
     fn undoing_advice_restores_the_dataset_exactly(
         rows in rows_strategy(3),
         raises in prop::collection::vec((0usize..1000, 0.0f64..5.0), 0..10),

@@ -8,7 +8,7 @@ fn the_repl_completes_runs_advises_and_undoes() -> Result<(), rexpect::error::Er
     let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_advise"));
     cmd.env("ADVISE_HOME", home.path())
         .env("NO_COLOR", "1")
-        .env("TERM", "dumb");
+        .env("TERM", "xterm");
     let mut p = rexpect::session::spawn_command(cmd, Some(60_000))?;
     p.exp_string("type `help`")?;
     p.exp_string("advise> ")?;

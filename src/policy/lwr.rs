@@ -82,27 +82,46 @@ pub fn query(
     let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
     let mut total = 0.0;
     let mut count = 0;
-    for &(_, g) in &scratch.found {
-        let gz = index.group_z(g);
-        let d2: f64 = gz
-            .iter()
-            .zip(&scratch.q)
-            .zip(&params.scales)
-            .map(|((p, q), s)| {
-                let d = (p - q) * s;
-                d * d
-            })
-            .sum();
-        if d2 > r2 {
-            continue;
-        }
-        let w = (-d2 * inv).exp();
-        for &i in index.group(g) {
-            for (out, v) in a.iter_mut().zip(ds.a(i as usize)) {
-                *out += w * v;
+    if index.has_action_sums() && params.scales.iter().all(|s| *s == 1.0) {
+        // The index already measures the kernel's distance (its scale includes the tuned
+        // multipliers): kiddo's squared distance is the kernel's, and each group's action sum
+        // stands for its points.
+        for &(d2, g) in &scratch.found {
+            if d2 > r2 {
+                continue;
             }
-            total += w;
-            count += 1;
+            let w = (-d2 * inv).exp();
+            if let Some((sum, n)) = index.action_sum(g) {
+                for (out, v) in a.iter_mut().zip(sum) {
+                    *out += w * v;
+                }
+                total += w * f64::from(n);
+                count += n as usize;
+            }
+        }
+    } else {
+        for &(_, g) in &scratch.found {
+            let gz = index.group_z(g);
+            let d2: f64 = gz
+                .iter()
+                .zip(&scratch.q)
+                .zip(&params.scales)
+                .map(|((p, q), s)| {
+                    let d = (p - q) * s;
+                    d * d
+                })
+                .sum();
+            if d2 > r2 {
+                continue;
+            }
+            let w = (-d2 * inv).exp();
+            for &i in index.group(g) {
+                for (out, v) in a.iter_mut().zip(ds.a(i as usize)) {
+                    *out += w * v;
+                }
+                total += w;
+                count += 1;
+            }
         }
     }
     if total > 0.0 {
