@@ -155,7 +155,8 @@ pub fn is_incomplete(src: &str) -> bool {
     match parse_statement("<input>", src) {
         Ok(_) => false,
         Err(ParseError::Syntax { message, .. }) => {
-            message.ends_with("found the end of the input") && (open_brackets(src) || ends_open(src))
+            message.ends_with("found the end of the input")
+                && (open_brackets(src) || ends_open(src))
         }
         Err(_) => false,
     }
