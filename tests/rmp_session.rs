@@ -273,3 +273,51 @@ fn eval_runs_the_test_set_on_the_rmp() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("advise::backend::rmp_address"), "{stderr}");
 }
+
+/// The REPL itself through a pseudo-terminal: Ctrl-C typed while `run` drives the RMP reaches the
+/// process as SIGINT (the terminal is in cooked mode while a statement runs), stops the base, and
+/// keeps the session and the execution; Ctrl-C at the prompt stops the base and keeps the REPL.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_in_the_repl_stops_the_rmp_and_keeps_the_session() -> Result<(), rexpect::error::Error> {
+    let emu = emulator();
+    let home = tempfile::tempdir().unwrap();
+    let mut cmd = advise();
+    cmd.args(["repl", "--no-journal", "--backend"])
+        .arg(format!("rmp:{}", emu.addr()))
+        .env("ADVISE_HOME", home.path())
+        .env("NO_COLOR", "1")
+        .env("TERM", "xterm");
+    let mut p = rexpect::session::spawn_command(cmd, Some(60_000))?;
+    p.exp_string("advise> ")?;
+    p.send_line("run goal 3 1 0")?;
+    assert!(
+        wait_for(&emu, 30.0, |e| e.snapshot().speed_mps > 0.2),
+        "the base never got going: {:?}",
+        emu.snapshot()
+    );
+    p.send_control('c')?;
+    p.exp_string("^C: stopping the base")?;
+    p.exp_string("run goal 3 1 0 (interrupted)")?;
+    p.exp_string("advise> ")?;
+    assert!(
+        wait_for(&emu, 3.0, |e| {
+            let s = e.snapshot();
+            s.speed_mps.abs() < 0.01 && s.state != OpState::Tractor
+        }),
+        "still moving after Ctrl-C: {:?}",
+        emu.snapshot()
+    );
+    p.send_line("show")?;
+    p.exp_string("execution 0: run goal 3 1 0 (interrupted)")?;
+    p.exp_string("advise> ")?;
+    // At the prompt rustyline reads Ctrl-C as a key: the base is stopped, the REPL goes on.
+    p.send_control('c')?;
+    p.exp_string(&format!(
+        "^C rmp:{} stopped (decelerate-to-zero)",
+        emu.addr()
+    ))?;
+    p.send_line("quit")?;
+    p.exp_eof()?;
+    Ok(())
+}
