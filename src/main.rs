@@ -816,7 +816,8 @@ fn rmp_emulator(args: EmulatorArgs) -> miette::Result<()> {
     emu.shutdown();
     let c = s.counts;
     println!(
-        "stopped: {} datagrams received, {} accepted, {} bad CRC, {} bad length, {} unknown id, {} sent; injected {} drops, {} corruptions, {} delays",
+        "stopped in {}: {} datagrams received, {} accepted, {} bad CRC, {} bad length, {} unknown id, {} sent; injected {} drops, {} corruptions, {} delays",
+        s.state.name(),
         c.received,
         c.accepted,
         c.bad_crc,

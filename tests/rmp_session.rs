@@ -321,3 +321,95 @@ fn ctrl_c_in_the_repl_stops_the_rmp_and_keeps_the_session() -> Result<(), rexpec
     p.exp_eof()?;
     Ok(())
 }
+
+/// `advise rmp-emulator` as a user runs it: it says where it listens, the driver starts up against
+/// it (detecting the big-endian feedback it was asked for), Ctrl-C ends it with its counts, and a
+/// bad fraction is a diagnostic.
+#[test]
+fn the_emulator_command_serves_the_driver_until_ctrl_c() {
+    use std::io::{BufRead, BufReader};
+
+    use advise::backend::rmp::codec::WordOrder;
+    use advise::backend::rmp::{RmpBackend, RmpConfig};
+
+    let mut child = advise()
+        .args([
+            "rmp-emulator",
+            "--bind",
+            "127.0.0.1:0",
+            "--drop",
+            "0.05",
+            "--seed",
+            "3",
+            "--word-order",
+            "big",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut banner = String::new();
+    out.read_line(&mut banner).unwrap();
+    assert!(
+        banner.starts_with("RMP emulator: an RMP 220 with big-endian feedback on 127.0.0.1:"),
+        "{banner}"
+    );
+    assert!(banner.contains("dropping 0.05"), "{banner}");
+    let addr: SocketAddr = banner
+        .split_whitespace()
+        .find(|w| w.starts_with("127.0.0.1:"))
+        .map(|w| w.trim_end_matches(',').parse().unwrap())
+        .unwrap();
+    let driver = RmpBackend::connect(
+        addr,
+        RmpConfig {
+            step_timeout_s: 10.0,
+            link_timeout_s: 1.0,
+            ..RmpConfig::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(driver.status().unwrap().order, WordOrder::Big);
+    drop(driver);
+
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let t0 = Instant::now();
+    while child.try_wait().unwrap().is_none() && t0.elapsed() < Duration::from_secs(20) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    if child.try_wait().unwrap().is_none() {
+        let _ = child.kill();
+    }
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut out, &mut rest).unwrap();
+    let status = child.wait().unwrap();
+    assert!(status.success(), "{rest}");
+    // The driver left it in standby (it never drove); it counted what it received.
+    let counts = rest
+        .lines()
+        .find(|l| l.starts_with("stopped in standby: "))
+        .unwrap_or_else(|| panic!("{rest}"));
+    let received: u64 = counts["stopped in standby: ".len()..]
+        .split_whitespace()
+        .next()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(0);
+    assert!(received >= 3, "{rest}");
+
+    let out = advise()
+        .args(["rmp-emulator", "--bind", "127.0.0.1:0", "--drop", "1.5"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("advise::rmp::config_out_of_range"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("`drop` is 1.5, outside 0..=1"), "{stderr}");
+}
