@@ -11,7 +11,13 @@ use thiserror::Error;
 
 use crate::trace::Pose;
 
+pub mod interrupt;
+pub mod rmp;
 pub mod sim;
+pub mod spec;
+
+pub use interrupt::{Interruptible, StopSignal};
+pub use spec::{BackendSpec, BackendSpecError};
 
 /// What a base reports after a control step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -71,6 +77,41 @@ pub enum BackendError {
     #[error("network error talking to the base: {0}")]
     #[diagnostic(code(advise::backend::io))]
     Io(#[from] std::io::Error),
+    #[error("start-up failed at step `{step}`: {detail}")]
+    #[diagnostic(
+        code(advise::backend::startup_failed),
+        help(
+            "check the address, that the base is powered, its E-stop released, and that this computer is on the base's network"
+        )
+    )]
+    StartupFailed { step: String, detail: String },
+    #[error("the base did not enter {wanted} mode within {waited_ms} ms (it reports {reported})")]
+    #[diagnostic(
+        code(advise::backend::mode_change),
+        help(
+            "tractor mode needs the base in standby with its E-stop released; balance mode needs an operator to tip the base back past vertical"
+        )
+    )]
+    ModeChange {
+        wanted: String,
+        reported: String,
+        waited_ms: u64,
+    },
+    #[error("the base was stopped: {reason}")]
+    #[diagnostic(
+        code(advise::backend::stopped),
+        help("reset the backend to drive again")
+    )]
+    Stopped { reason: String },
+    #[error("command is not a number: speed {speed_mps} m/s, rotation {rot_radps} rad/s")]
+    #[diagnostic(
+        code(advise::backend::invalid_command),
+        help("zero was sent instead; the policy produced a NaN or infinite action")
+    )]
+    InvalidCommand { speed_mps: f64, rot_radps: f64 },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    RmpConfig(#[from] rmp::config::RmpConfigError),
     #[error("{0}")]
     #[diagnostic(code(advise::backend::other))]
     Other(String),

@@ -18,10 +18,11 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::backend::sim::SimParams;
+use crate::backend::{Backend, BackendError};
 use crate::domain::Domain;
 use crate::policy::Policy;
 use crate::policy::learner::{Learner, LearnerKind};
-use crate::task::{Controller, Ending, Outcome, TaskKind, episode_seed, run_sim};
+use crate::task::{Controller, Ending, Outcome, TaskKind, episode_seed, run_episode, run_sim};
 use crate::trace::Episode;
 
 /// How to run an evaluation.
@@ -182,6 +183,76 @@ where
         .collect();
     bar.finish_and_clear();
     Report::from_outcomes(kind, opts.seed, outcomes)
+}
+
+/// An evaluation on a real base that could not finish: the figures over the episodes that ran
+/// (the failed one included, as `interrupted`) and why it stopped.
+#[derive(Debug, Error, Diagnostic)]
+#[error("the evaluation stopped after {} of {planned} episodes: the base failed", .report.episodes)]
+#[diagnostic(
+    code(advise::eval::interrupted),
+    help(
+        "the figures so far are kept (the failed episode counts as `interrupted`); fix the base and run again"
+    )
+)]
+pub struct EvalInterrupted {
+    pub report: Report,
+    pub planned: usize,
+    #[source]
+    #[diagnostic_source]
+    pub error: BackendError,
+}
+
+/// Evaluate controllers made by `make` on one given base (a real robot), episode after episode in
+/// test-set order, in real time; `limit` runs only the first starts of the test set (a quick
+/// check). Episode `i` is seeded as in [`evaluate_with`]. The base is not reset between episodes
+/// beyond what [`Backend::reset`] does: a real base re-zeroes its odometry where it stands, so
+/// each goal is relative to where the previous episode ended. The first failing episode ends the
+/// evaluation ([`EvalInterrupted`]).
+pub fn evaluate_on<C, F>(
+    kind: TaskKind,
+    make: F,
+    backend: &mut dyn Backend,
+    opts: &EvalOptions,
+    limit: Option<usize>,
+) -> Result<Report, Box<EvalInterrupted>>
+where
+    C: ControllerBox,
+    F: Fn() -> C,
+{
+    let mut starts = kind.test_set();
+    starts.truncate(limit.unwrap_or(usize::MAX));
+    let bar = if opts.progress && std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(starts.len() as u64);
+        if let Ok(style) = ProgressStyle::with_template("{msg} {bar:40} {pos}/{len} [{elapsed}]") {
+            bar.set_style(style);
+        }
+        bar.set_message(format!("evaluating {kind} on {}", backend.name()));
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let mut outcomes = Vec::with_capacity(starts.len());
+    for (i, start) in starts.iter().enumerate() {
+        let mut c = make();
+        let mut task = start.task();
+        let seed = episode_seed(opts.seed, i as u64);
+        match run_episode(backend, task.as_mut(), c.controller(), seed) {
+            Ok(exec) => outcomes.push(exec.outcome),
+            Err(interrupted) => {
+                outcomes.push(interrupted.execution.outcome);
+                bar.finish_and_clear();
+                return Err(Box::new(EvalInterrupted {
+                    report: Report::from_outcomes(kind, opts.seed, outcomes),
+                    planned: starts.len(),
+                    error: interrupted.error,
+                }));
+            }
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    Ok(Report::from_outcomes(kind, opts.seed, outcomes))
 }
 
 /// Anything that can lend a `&mut dyn Controller`: a `&dyn Policy`, a boxed teacher.

@@ -8,7 +8,11 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use miette::{Diagnostic, IntoDiagnostic, Report, WrapErr, miette};
 use thiserror::Error;
 
+use advise::backend::rmp::codec::{Platform, WordOrder};
+use advise::backend::rmp::config::FaultInjection;
+use advise::backend::rmp::{Emulator, EmulatorConfig, RmpConfig};
 use advise::backend::sim::SimParams;
+use advise::backend::{BackendSpec, StopSignal};
 use advise::eval::{self, EvalOptions, PolicyKind};
 use advise::task::TaskKind;
 use advise::trace::Episode;
@@ -79,6 +83,9 @@ enum Command {
     Repl(SessionArgs),
     /// Reproduce one of the paper's studies with automated teachers and print its figures.
     Experiment(ExperimentArgs),
+    /// Emulate a Segway RMP v3 on a UDP port, with the simulator behind it: what `--backend
+    /// rmp:HOST:PORT` drives when no robot is at hand. Runs until Ctrl-C.
+    RmpEmulator(EmulatorArgs),
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -105,6 +112,55 @@ struct ExperimentArgs {
     /// Simulator parameters (JSON; omitted fields keep their defaults).
     #[arg(long, value_name = "FILE")]
     sim_params: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct EmulatorArgs {
+    /// Address to listen on (port 0 picks a free port; the real RMP listens on 8080).
+    #[arg(long, default_value = "127.0.0.1:8080", value_name = "HOST:PORT")]
+    bind: std::net::SocketAddr,
+    /// Fraction of datagrams (either way) silently dropped, 0..1.
+    #[arg(long, default_value_t = 0.0, value_name = "FRACTION")]
+    drop: f64,
+    /// Fraction of datagrams with one byte changed (the CRC catches every one), 0..1.
+    #[arg(long, default_value_t = 0.0, value_name = "FRACTION")]
+    corrupt: f64,
+    /// Fraction of datagrams held back by `--delay-ms` (so they also arrive out of order), 0..1.
+    #[arg(long, default_value_t = 0.0, value_name = "FRACTION")]
+    delay: f64,
+    /// How long a delayed datagram is held, ms.
+    #[arg(long, default_value_t = 30)]
+    delay_ms: u64,
+    /// Seeds the fault injection and the simulator's noise.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Byte order of the feedback words (the driver detects it; the real firmware is little).
+    #[arg(long, default_value = "little")]
+    word_order: WordOrderArg,
+    /// The platform it reports (balance mode needs an RMP 220).
+    #[arg(long, default_value = "rmp220")]
+    platform: PlatformArg,
+    /// Simulator parameters of the base behind it (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    sim_params: Option<PathBuf>,
+    /// Enter balance mode at once, without waiting for an operator to tip the base back.
+    #[arg(long)]
+    no_tip_back: bool,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum WordOrderArg {
+    Little,
+    Big,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PlatformArg {
+    Rmp220,
+    Rmp210,
+    Rmp440,
+    Omni,
+    Rmp110,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -171,6 +227,13 @@ struct EvalArgs {
     /// Simulator parameters (JSON; omitted fields keep their defaults).
     #[arg(long, value_name = "FILE")]
     sim_params: Option<PathBuf>,
+    /// The base: `sim` (the test set in parallel on fresh simulators) or `rmp:HOST:PORT` (a Segway
+    /// RMP or `advise rmp-emulator`, episode after episode in real time).
+    #[arg(long, default_value = "sim", value_name = "sim|rmp:HOST:PORT")]
+    backend: String,
+    /// Run only the first N starts of the test set (a quick check on a real base).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    limit: Option<u64>,
 }
 
 /// Errors that belong to the command line itself.
@@ -211,6 +274,10 @@ struct SessionArgs {
     /// Do not keep a journal.
     #[arg(long)]
     no_journal: bool,
+    /// The base to drive: `sim`, or `rmp:HOST:PORT` for a Segway RMP (or `advise rmp-emulator`);
+    /// the same as the session command `backend`.
+    #[arg(long, default_value = "sim", value_name = "sim|rmp:HOST:PORT")]
+    backend: String,
 }
 
 impl Default for SessionArgs {
@@ -220,6 +287,7 @@ impl Default for SessionArgs {
             seed: 0,
             demos: 9,
             no_journal: false,
+            backend: "sim".into(),
         }
     }
 }
@@ -247,6 +315,7 @@ fn main() -> ExitCode {
         Some(Command::Demo(args)) => demo(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Eval(args)) => run_eval(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Experiment(args)) => experiment(args).map(|()| ExitCode::SUCCESS),
+        Some(Command::RmpEmulator(args)) => rmp_emulator(args).map(|()| ExitCode::SUCCESS),
     };
     match result {
         Ok(code) => code,
@@ -274,8 +343,18 @@ fn repl(args: SessionArgs) -> miette::Result<ExitCode> {
     if !args.no_journal {
         start_journal(&mut session, &args)?;
     }
+    choose_backend(&mut session, &args)?;
     advise::repl::run(&mut session).into_diagnostic()?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// `--backend`: the same as the statement `backend SPEC` (journaled, so `resume` reconnects).
+fn choose_backend(session: &mut Session, args: &SessionArgs) -> miette::Result<()> {
+    if args.backend.trim() != "sim" {
+        let reply = session.execute(&format!("backend {}", args.backend.trim()), "--backend")?;
+        eprintln!("{}", reply.text);
+    }
+    Ok(())
 }
 
 /// A journal starts with the statements that rebuild the session's starting point.
@@ -301,6 +380,9 @@ fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Resu
         .into_diagnostic()
         .wrap_err_with(|| format!("cannot read the script {}", path.display()))?;
     let mut session = new_session(args, 0)?;
+    choose_backend(&mut session, args)?;
+    // A script that drives a real base is stopped by Ctrl-C like the REPL.
+    advise::repl::install_ctrl_c(&session.stop_signal());
     let failures = replay(&mut session, path, &text, keep_going, true);
     Ok(if failures == 0 {
         ExitCode::SUCCESS
@@ -313,9 +395,11 @@ fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Resu
 /// returns how many failed.
 fn replay(session: &mut Session, path: &Path, text: &str, keep_going: bool, echo: bool) -> usize {
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let signal = session.stop_signal();
     let mut failures = 0;
     for st in script::statements(text) {
         let origin = advise::session::origin(path, st.line);
+        signal.clear();
         match session.execute(&st.text, &origin) {
             Ok(reply) => {
                 let comment_only = st.text.lines().all(|l| {
@@ -620,12 +704,18 @@ fn demo(args: DemoArgs) -> miette::Result<()> {
 
 fn run_eval(args: EvalArgs) -> miette::Result<()> {
     let kind = TaskKind::from(args.task);
+    let backend: BackendSpec = args.backend.parse()?;
     let opts = EvalOptions {
         seed: args.seed,
         params: sim_params(args.sim_params.as_deref())?,
         progress: !args.json,
     };
+    let limit = args.limit.map(|n| n as usize);
     let report = match args.policy {
+        PolicyArg::Teacher if backend != BackendSpec::Sim => {
+            let period = opts.params.period_s();
+            eval_on_base(kind, backend, &opts, limit, || kind.teacher(period))?
+        }
         PolicyArg::Teacher => eval::evaluate_teacher(kind, &opts),
         PolicyArg::Bc | PolicyArg::Lwr => {
             let (learner, name) = if args.policy == PolicyArg::Bc {
@@ -640,8 +730,21 @@ fn run_eval(args: EvalArgs) -> miette::Result<()> {
             let domain = kind.domain();
             let episodes = Episode::load_all(&domain, path)?;
             let policy = eval::derive_policy(learner, &domain, &episodes)?;
-            eval::evaluate(kind, policy.as_ref(), &opts)
+            if backend == BackendSpec::Sim {
+                eval::evaluate(kind, policy.as_ref(), &opts)
+            } else {
+                let p: &dyn advise::policy::Policy = policy.as_ref();
+                eval_on_base(kind, backend, &opts, limit, || p)?
+            }
         }
+    };
+    let report = match (backend, limit) {
+        // The simulator runs the whole test set in parallel; `--limit` keeps the first episodes.
+        (BackendSpec::Sim, Some(n)) if n < report.episodes => {
+            let outcomes = report.outcomes.into_iter().take(n).collect();
+            eval::Report::from_outcomes(kind, args.seed, outcomes)
+        }
+        _ => report,
     };
     let text = if args.json {
         let mut t = serde_json::to_string_pretty(&report).expect("a report is plain data");
@@ -708,6 +811,109 @@ fn experiment(args: ExperimentArgs) -> miette::Result<()> {
     for p in plots {
         eprintln!("wrote {}", p.display());
     }
+    Ok(())
+}
+
+/// Evaluate on one real (or emulated) base, with Ctrl-C stopping it; an interrupted evaluation
+/// prints the figures so far before its diagnostic.
+fn eval_on_base<C, F>(
+    kind: TaskKind,
+    spec: BackendSpec,
+    opts: &EvalOptions,
+    limit: Option<usize>,
+    make: F,
+) -> miette::Result<eval::Report>
+where
+    C: eval::ControllerBox,
+    F: Fn() -> C,
+{
+    let rmp = RmpConfig::for_sim(&opts.params);
+    let mut base = spec.open(&opts.params, opts.seed, &rmp)?;
+    let signal = StopSignal::new();
+    let mut guarded = advise::backend::Interruptible::new(base.as_mut(), signal.clone());
+    advise::repl::install_ctrl_c(&signal);
+    eprintln!("evaluating {kind} on {spec} in real time; Ctrl-C stops the base");
+    match eval::evaluate_on(kind, make, &mut guarded, opts, limit) {
+        Ok(r) => Ok(r),
+        Err(e) => {
+            eprint!("{}", e.report.render());
+            Err((*e).into())
+        }
+    }
+}
+
+/// Run the RMP emulator until Ctrl-C, printing its state changes.
+fn rmp_emulator(args: EmulatorArgs) -> miette::Result<()> {
+    let params = sim_params(args.sim_params.as_deref())?;
+    let cfg = EmulatorConfig {
+        order: match args.word_order {
+            WordOrderArg::Little => WordOrder::Little,
+            WordOrderArg::Big => WordOrder::Big,
+        },
+        platform: match args.platform {
+            PlatformArg::Rmp220 => Platform::Rmp220,
+            PlatformArg::Rmp210 => Platform::Rmp210,
+            PlatformArg::Rmp440 => Platform::Rmp440,
+            PlatformArg::Omni => Platform::RmpOmni,
+            PlatformArg::Rmp110 => Platform::Rmp110,
+        },
+        faults: FaultInjection {
+            drop: args.drop,
+            corrupt: args.corrupt,
+            delay: args.delay,
+            delay_ms: args.delay_ms,
+        },
+        seed: args.seed,
+        balance_needs_tip_back: !args.no_tip_back,
+        ..EmulatorConfig::default()
+    };
+    let emu = Emulator::bind_sim(args.bind, cfg.clone(), params, args.seed)?;
+    let stop = StopSignal::new();
+    advise::repl::install_ctrl_c(&stop);
+    println!(
+        "RMP emulator: an {} with {} feedback on {}, the simulator behind it{}",
+        cfg.platform.name(),
+        cfg.order.name(),
+        emu.addr(),
+        if cfg.faults.drop + cfg.faults.corrupt + cfg.faults.delay == 0.0 {
+            String::new()
+        } else {
+            format!(
+                "; dropping {}, corrupting {}, delaying {} ({} ms) of datagrams",
+                cfg.faults.drop, cfg.faults.corrupt, cfg.faults.delay, cfg.faults.delay_ms
+            )
+        }
+    );
+    println!(
+        "drive it with `--backend rmp:{}` (or `backend rmp:{}` in the REPL); Ctrl-C stops it",
+        emu.addr(),
+        emu.addr()
+    );
+    let mut last = None;
+    while !stop.is_raised() {
+        let s = emu.snapshot();
+        if last != Some(s.state) {
+            println!("state: {}", s.state.name());
+            last = Some(s.state);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let s = emu.snapshot();
+    emu.shutdown();
+    let c = s.counts;
+    println!(
+        "stopped in {}: {} datagrams received, {} accepted, {} bad CRC, {} bad length, {} unknown id, {} sent; injected {} drops, {} corruptions, {} delays",
+        s.state.name(),
+        c.received,
+        c.accepted,
+        c.bad_crc,
+        c.bad_length,
+        c.unknown_id,
+        c.sent,
+        c.injected_drops,
+        c.injected_corruptions,
+        c.injected_delays
+    );
     Ok(())
 }
 

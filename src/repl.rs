@@ -1,17 +1,23 @@
 //! The terminal REPL: the only code that talks to a terminal. It reads lines with rustyline (with
 //! the [`helper::AdviseHelper`] for completion, hints and multi-line input), hands each statement to
 //! [`crate::session::Session::execute`], and prints the reply or the diagnostic. History is kept
-//! between sessions next to the journals. Ctrl-C stops the robot first and keeps the session;
-//! Ctrl-D or `quit` ends it.
+//! between sessions next to the journals. Ctrl-C stops the robot first and keeps the session: at
+//! the prompt rustyline reads it as a key; while a statement runs (an execution on a real base) it
+//! arrives as SIGINT, and [`install_ctrl_c`]'s handler raises the session's
+//! [`StopSignal`](crate::backend::StopSignal), which commands the base to zero and
+//! decelerate-to-zero from the handler thread and ends the execution at its next control step. A
+//! second Ctrl-C in the same statement leaves the program (after stopping the base again).
+//! Ctrl-D or `quit` ends the session.
 
 pub mod helper;
 
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use rustyline::error::ReadlineError;
 use rustyline::history::DefaultHistory;
 use rustyline::{CompletionType, Config, Editor};
 
+use crate::backend::StopSignal;
 use crate::session::Session;
 use helper::{AdviseHelper, Facts};
 
@@ -28,6 +34,45 @@ pub fn render(diag: &dyn miette::Diagnostic, colour: bool) -> String {
         out = diag.to_string();
     }
     out
+}
+
+/// The signal the process's SIGINT handler raises (one handler per process, so the signal it
+/// raises can be replaced).
+static CTRL_C: OnceLock<Mutex<Option<StopSignal>>> = OnceLock::new();
+
+/// Make Ctrl-C (SIGINT) raise `signal` instead of killing the process: the base is stopped first.
+/// A second Ctrl-C while the signal is still raised exits with status 130, after raising it again
+/// (so a base is told to stop once more). Returns false if no handler could be installed (then
+/// Ctrl-C kills the process as usual, and the platform's own 0.5 s command timeout and the
+/// driver's watchdog are what stop the base).
+pub fn install_ctrl_c(signal: &StopSignal) -> bool {
+    let slot = CTRL_C.get_or_init(|| Mutex::new(None));
+    *slot.lock().unwrap_or_else(|e| e.into_inner()) = Some(signal.clone());
+    static INSTALLED: OnceLock<bool> = OnceLock::new();
+    *INSTALLED.get_or_init(|| {
+        ctrlc::set_handler(|| {
+            let current = CTRL_C
+                .get()
+                .and_then(|m| m.lock().unwrap_or_else(|e| e.into_inner()).clone());
+            match current {
+                Some(s) if s.is_raised() => {
+                    s.raise();
+                    eprintln!("\n^C again: leaving");
+                    std::process::exit(130);
+                }
+                Some(s) => {
+                    s.raise();
+                    if s.has_base() {
+                        eprintln!("\n^C: stopping the base (zero, decelerate-to-zero)");
+                    } else {
+                        eprintln!("\n^C: stopping (Ctrl-C again to leave at once)");
+                    }
+                }
+                None => std::process::exit(130),
+            }
+        })
+        .is_ok()
+    })
 }
 
 fn facts_of(session: &Session) -> Facts {
@@ -57,11 +102,14 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
     println!(
         "type `help` for the commands, Tab to complete; e.g. `run goal 2 -1 0`, then `select 40..70`, `advise slow_down`"
     );
+    let signal = session.stop_signal();
+    install_ctrl_c(&signal);
     let mut n = 0;
     loop {
         match rl.readline("advise> ") {
             Ok(line) => {
                 n += 1;
+                signal.clear();
                 match session.execute(&line, &format!("<input {n}>")) {
                     Ok(reply) => {
                         if !reply.text.is_empty() {

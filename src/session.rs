@@ -18,7 +18,11 @@ use std::time::Instant;
 use miette::Diagnostic;
 use thiserror::Error;
 
-use crate::backend::sim::SimParams;
+use crate::backend::rmp::{RmpBackend, RmpConfig};
+use crate::backend::sim::{SimBackend, SimParams};
+use crate::backend::{
+    Backend, BackendError, BackendSpec, BackendSpecError, Interruptible, StopSignal,
+};
 use crate::check::{CheckErrors, OperatorSet, Source};
 use crate::domain::Domain;
 use crate::eval::{self, EvalOptions};
@@ -107,9 +111,40 @@ pub enum SessionError {
         help("redo puts back what `undo` took, until new advice is given")
     )]
     NothingToRedo,
-    #[error("unknown backend `{spec}`")]
-    #[diagnostic(code(advise::session::bad_backend), help("{help}"))]
-    Backend { spec: String, help: String },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Backend(#[from] BackendSpecError),
+    #[error("cannot drive `{spec}`")]
+    #[diagnostic(
+        code(advise::session::backend_unavailable),
+        help("the session stays on `{current}`; `backend sim` drives the simulator")
+    )]
+    BackendUnavailable {
+        spec: String,
+        current: String,
+        #[source]
+        #[diagnostic_source]
+        error: BackendError,
+    },
+    /// The one failure that changes the session: what the base recorded before it failed is kept
+    /// as an execution, as on a real robot it cannot be had again.
+    #[error(
+        "execution {index} ({label}) was interrupted after {steps} steps; what was recorded is kept"
+    )]
+    #[diagnostic(
+        code(advise::session::run_interrupted),
+        help(
+            "`show` it, and select, critique or advise it like any other; `run` again when the base is ready"
+        )
+    )]
+    RunInterrupted {
+        index: usize,
+        label: String,
+        steps: usize,
+        #[source]
+        #[diagnostic_source]
+        error: BackendError,
+    },
     #[error("nothing is known as `{topic}`")]
     #[diagnostic(code(advise::session::unknown_help), help("{help}"))]
     UnknownHelp { topic: String, help: String },
@@ -149,10 +184,16 @@ impl Reply {
 }
 
 /// How the session drives its robot.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Debug)]
 pub enum BackendChoice {
     /// The in-process simulator, seeded per run.
     Sim(SimParams),
+    /// A Segway RMP (or `advise rmp-emulator`), connected and in standby between runs. `sim` is
+    /// still what teacher demonstrations and `eval` use.
+    Rmp {
+        backend: Box<RmpBackend>,
+        sim: SimParams,
+    },
 }
 
 /// One recorded execution and what the session knows of it.
@@ -256,6 +297,8 @@ pub struct Session {
     redo: Vec<Edit>,
     journal: Option<Journal>,
     progress: bool,
+    /// Raised by Ctrl-C: stops the base and ends the running execution.
+    stop: StopSignal,
 }
 
 impl Session {
@@ -278,6 +321,7 @@ impl Session {
             redo: Vec::new(),
             journal: None,
             progress: opts.progress,
+            stop: StopSignal::new(),
         };
         if opts.default_demos > 0 {
             s.load_demos(&format!("teacher:{}", opts.default_demos))?;
@@ -333,14 +377,28 @@ impl Session {
     fn backend_name(&self) -> String {
         match &self.backend {
             BackendChoice::Sim(_) => "sim".into(),
+            BackendChoice::Rmp { backend, .. } => backend.name(),
         }
     }
 
-    /// Stop the robot (Ctrl-C at the REPL). The simulator needs nothing; a real base is brought
-    /// to rest by its driver.
+    /// The signal that stops the robot and the running execution from another thread (the REPL's
+    /// Ctrl-C handler holds a clone).
+    pub fn stop_signal(&self) -> StopSignal {
+        self.stop.clone()
+    }
+
+    /// Stop the robot (Ctrl-C at the REPL prompt). The simulator needs nothing; a real base is
+    /// commanded to zero and decelerate-to-zero, and this waits (bounded) until it is at rest.
     pub fn stop_robot(&mut self) -> String {
-        match &self.backend {
+        match &mut self.backend {
             BackendChoice::Sim(_) => "the simulated base is at rest".into(),
+            BackendChoice::Rmp { backend, .. } => match backend.stop() {
+                Ok(()) => format!("{} stopped (decelerate-to-zero)", backend.name()),
+                Err(e) => format!(
+                    "{} was told to stop (zero and decelerate-to-zero) but did not confirm it: {e}",
+                    backend.name()
+                ),
+            },
         }
     }
 
@@ -440,19 +498,43 @@ impl Session {
         )))
     }
 
+    /// `sim`, or `rmp:HOST:PORT`: the RMP is connected now (the vendor's start-up sequence), so a
+    /// base that does not answer is reported here and the session stays on its backend. A base
+    /// left behind is stopped (its driver stops it when dropped).
     fn set_backend(&mut self, spec: &str) -> Result<Reply, SessionError> {
-        match spec {
-            "sim" => {
-                let params = match &self.backend {
-                    BackendChoice::Sim(p) => p.clone(),
-                };
+        let params = self.sim_params();
+        match spec.parse::<BackendSpec>()? {
+            BackendSpec::Sim => {
+                self.stop.set_base(None);
                 self.backend = BackendChoice::Sim(params);
                 Ok(Reply::text("backend sim"))
             }
-            other => Err(SessionError::Backend {
-                spec: other.to_string(),
-                help: "this build drives the simulator (`backend sim`); the RMP driver (`backend rmp:HOST:PORT`) is not in it yet".into(),
-            }),
+            BackendSpec::Rmp(addr) => {
+                // One link to a base at a time: the old one is stopped and closed first.
+                if matches!(self.backend, BackendChoice::Rmp { .. }) {
+                    self.stop.set_base(None);
+                    self.backend = BackendChoice::Sim(params.clone());
+                }
+                let backend =
+                    RmpBackend::connect(addr, RmpConfig::for_sim(&params)).map_err(|error| {
+                        SessionError::BackendUnavailable {
+                            spec: spec.trim().to_string(),
+                            current: self.backend_name(),
+                            error,
+                        }
+                    })?;
+                let platform = backend.platform().name();
+                let order = backend.status().map_or("unknown", |s| s.order.name());
+                self.stop.set_base(Some(backend.stop_handle()));
+                let name = backend.name();
+                self.backend = BackendChoice::Rmp {
+                    backend: Box::new(backend),
+                    sim: params,
+                };
+                Ok(Reply::text(format!(
+                    "backend {name}: an {platform} in standby ({order} feedback); `run` drives it in tractor mode, Ctrl-C stops it"
+                )))
+            }
         }
     }
 
@@ -524,7 +606,7 @@ impl Session {
 
     fn sim_params(&self) -> SimParams {
         match &self.backend {
-            BackendChoice::Sim(p) => p.clone(),
+            BackendChoice::Sim(p) | BackendChoice::Rmp { sim: p, .. } => p.clone(),
         }
     }
 
@@ -563,10 +645,38 @@ impl Session {
         let seed = episode_seed(self.seed, 1_000_000 + self.runs);
         self.runs += 1;
         let params = self.sim_params();
-        let exec = {
-            let policy = self.learner.policy();
-            let mut controller = policy;
-            task::run_sim(&start, &mut controller, &params, seed)
+        // One control loop for every base: the simulator is made fresh per run (as `run_sim`
+        // does), a real base is the connected one. Ctrl-C reaches the loop through `stop`.
+        let mut sim;
+        let base: &mut dyn Backend = match &mut self.backend {
+            BackendChoice::Sim(_) => {
+                sim = SimBackend::new(params, seed);
+                &mut sim
+            }
+            BackendChoice::Rmp { backend, .. } => backend.as_mut(),
+        };
+        self.stop.clear();
+        let mut guarded = Interruptible::new(base, self.stop.clone());
+        let result = {
+            let mut controller = self.learner.policy();
+            let mut task = start.task();
+            task::run_episode(&mut guarded, task.as_mut(), &mut controller, seed)
+        };
+        let exec = match result {
+            Ok(exec) => exec,
+            Err(interrupted) => {
+                let task::Interrupted { execution, error } = interrupted;
+                let steps = execution.trace.len();
+                let label = format!("{label} (interrupted)");
+                let trace = execution.trace.clone();
+                self.record(label.clone(), trace, goal, Some(*execution));
+                return Err(SessionError::RunInterrupted {
+                    index: self.executions.len() - 1,
+                    label,
+                    steps,
+                    error,
+                });
+            }
         };
         let summary = outcome_line(&exec);
         let n = exec.trace.len();
@@ -854,7 +964,15 @@ impl Session {
             progress: self.progress,
         };
         let report = eval::evaluate(self.task, self.learner.policy(), &opts);
-        report.render()
+        match &self.backend {
+            BackendChoice::Sim(_) => report.render(),
+            // The whole test set on a robot takes minutes and needs room: not from the prompt.
+            BackendChoice::Rmp { backend, .. } => format!(
+                "{}(in the simulator; `advise eval --backend {}` runs the test set on the robot)",
+                report.render(),
+                backend.name()
+            ),
+        }
     }
 
     fn why(&mut self, t: usize) -> Result<String, SessionError> {

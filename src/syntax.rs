@@ -191,7 +191,17 @@ fn convert(e: pest::error::Error<Rule>, name: &str, src: &str) -> ParseError {
         pest::error::InputLocation::Span((s, _)) => s,
     }
     .min(src.len());
-    let (found, span) = token_at(src, pos);
+    let (mut found, mut span) = token_at(src, pos);
+    // A zero-width label at the very end draws nothing; point at the last character written
+    // instead, so the reader sees where the text stopped.
+    let at_end = src[pos..].trim().is_empty();
+    if at_end {
+        let end = src[..pos].trim_end().len();
+        if let Some(c) = src[..end].chars().next_back() {
+            span = Span::new(end - c.len_utf8(), end);
+        }
+        found = "the end of the input".into();
+    }
     let src_named = || NamedSource::new(name, src.to_string());
     match e.variant {
         pest::error::ErrorVariant::CustomError { .. } => ParseError::TooDeep {
@@ -209,10 +219,10 @@ fn convert(e: pest::error::Error<Rule>, name: &str, src: &str) -> ParseError {
                 message,
                 src: src_named(),
                 span: span.into(),
-                label: if expected.is_empty() {
-                    "not allowed here".into()
-                } else {
-                    format!("expected {} here", join_or(&expected))
+                label: match (expected.is_empty(), at_end) {
+                    (true, _) => "not allowed here".into(),
+                    (false, false) => format!("expected {} here", join_or(&expected)),
+                    (false, true) => "the input ends after this".into(),
                 },
                 help: help_for(&positives, src, pos),
             }

@@ -1,10 +1,12 @@
 //! Binary Critiquing's learner: 1-nearest-neighbour over range-scaled observations, each data point
 //! `i` with a weight `m_i >= 1` that multiplies its distance (the paper's equation 1).
 //!
-//! The query is exact under the weights without a linear scan: the unweighted nearest group gives
-//! a bound `best = m * d`; since every `m_i >= 1`, no point farther than `best` in raw distance can
-//! win, so one radius query of `best` settles it (and when the nearest point is unpenalised the
-//! first answer is already final). Ties go to the lower point index.
+//! The query is exact under the weights without a linear scan. Groups are visited nearest first,
+//! `k` at a time (4, then 16, 64, ...): since every `m_i >= 1`, a point whose raw distance is at
+//! least the best weighted distance found so far cannot win, so the search stops as soon as the
+//! `k`-th nearest is that far. When the nearest point is unpenalised the first group settles it;
+//! a heavily penalised neighbourhood costs a few more rounds, never a scan of the data (a single
+//! radius query of `m * d` would be one whenever `m` is large). Ties go to the lower point index.
 
 use crate::policy::dataset::Dataset;
 use crate::policy::index::Index;
@@ -25,20 +27,26 @@ pub fn query(index: &Index, ds: &Dataset, z: &[f64], scratch: &mut Scratch) -> O
     scratch.q.resize(z.len(), 0.0);
     index.scaled(z, &mut scratch.q);
     let (d2, g) = index.nearest(&scratch.q)?;
-    let d = d2.sqrt();
-    let mut best = best_in_group(index, ds, g, d, None);
-    if best.weighted <= d {
+    let mut best = best_in_group(index, ds, g, d2.sqrt(), None);
+    if best.weighted <= best.distance {
         return Some(best);
     }
-    index.within(
-        &scratch.q,
-        best.weighted * best.weighted,
-        &mut scratch.found,
-    );
-    for &(d2, g) in &scratch.found {
-        best = best_in_group(index, ds, g, d2.sqrt(), Some(best));
+    let mut k = 4;
+    loop {
+        index.nearest_n(&scratch.q, k, &mut scratch.found);
+        for &(d2, g) in &scratch.found {
+            best = best_in_group(index, ds, g, d2.sqrt(), Some(best));
+        }
+        let exhausted = scratch.found.len() < k;
+        let farthest = scratch
+            .found
+            .last()
+            .map_or(f64::INFINITY, |(d2, _)| d2.sqrt());
+        if exhausted || farthest >= best.weighted {
+            return Some(best);
+        }
+        k *= 4;
     }
-    Some(best)
 }
 
 fn best_in_group(

@@ -321,9 +321,8 @@ impl Dataset {
             execution,
             applied,
         });
-        // A critique made earlier may have raised the weight of a point that this advice
-        // re-creates only after an undo/redo; weights follow the records.
-        self.recompute_weights();
+        // New advice has a fresh id, so no critique record can refer to its points: their
+        // weights start at 1 and nothing else changes.
         Ok(id)
     }
 

@@ -66,6 +66,14 @@ impl Tree {
         })
     }
 
+    fn nearest_n(&self, q: &[f64], n: usize, out: &mut Vec<(f64, u64)>) {
+        out.clear();
+        each_tree!(self, t => {
+            let found = t.nearest_n::<SquaredEuclidean>(q.try_into().expect("dimension checked at construction"), n);
+            out.extend(found.into_iter().map(|n| (n.distance, n.item)));
+        })
+    }
+
     fn within(&self, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
         out.clear();
         each_tree!(self, t => {
@@ -85,6 +93,17 @@ pub struct Index {
     /// Scaled observation of each group (row after row).
     group_z: Vec<f64>,
     by_key: HashMap<Vec<u64>, u32>,
+    /// Per group, the sum of its points' actions (`act_dim` values) and their count, when the
+    /// index was built with [`Index::with_action_sums`]. A kernel weight is the same for every
+    /// point of a group, so LWR reads one contiguous row per neighbour instead of chasing each
+    /// point's action through the dataset.
+    sums: Option<ActionSums>,
+}
+
+struct ActionSums {
+    act_dim: usize,
+    a: Vec<f64>,
+    n: Vec<u32>,
 }
 
 impl Index {
@@ -99,7 +118,49 @@ impl Index {
             groups: Vec::new(),
             group_z: Vec::new(),
             by_key: HashMap::new(),
+            sums: None,
         })
+    }
+
+    /// Like [`Index::new`], also keeping each group's action sum; add points with
+    /// [`Index::add_with_action`].
+    pub fn with_action_sums(scale: Vec<f64>, act_dim: usize) -> Option<Index> {
+        let mut idx = Index::new(scale)?;
+        idx.sums = Some(ActionSums {
+            act_dim,
+            a: Vec::new(),
+            n: Vec::new(),
+        });
+        Some(idx)
+    }
+
+    /// Add dataset point `point` with raw observation `z` and action `a` (kept in the group's
+    /// action sum when the index keeps sums).
+    pub fn add_with_action(&mut self, point: u32, z: &[f64], a: &[f64]) {
+        let g = self.add(point, z) as usize;
+        if let Some(s) = &mut self.sums {
+            if s.n.len() <= g {
+                s.n.push(0);
+                s.a.resize(s.a.len() + s.act_dim, 0.0);
+            }
+            s.n[g] += 1;
+            for (t, v) in s.a[g * s.act_dim..(g + 1) * s.act_dim].iter_mut().zip(a) {
+                *t += v;
+            }
+        }
+    }
+
+    /// Group `g`'s action sum and point count, when the index keeps sums.
+    #[inline]
+    pub fn action_sum(&self, g: u64) -> Option<(&[f64], u32)> {
+        let s = self.sums.as_ref()?;
+        let g = g as usize;
+        Some((&s.a[g * s.act_dim..(g + 1) * s.act_dim], s.n[g]))
+    }
+
+    /// Whether the index keeps action sums.
+    pub fn has_action_sums(&self) -> bool {
+        self.sums.is_some()
     }
 
     pub fn scale(&self) -> &[f64] {
@@ -118,21 +179,22 @@ impl Index {
         }
     }
 
-    /// Add dataset point `point` with raw observation `z`.
-    pub fn add(&mut self, point: u32, z: &[f64]) {
+    /// Add dataset point `point` with raw observation `z`; returns its group.
+    pub fn add(&mut self, point: u32, z: &[f64]) -> u32 {
         let mut q = vec![0.0; self.dim];
         self.scaled(z, &mut q);
         // -0.0 and 0.0 are the same place.
         let key: Vec<u64> = q.iter().map(|v| (v + 0.0).to_bits()).collect();
         if let Some(&g) = self.by_key.get(&key) {
             self.groups[g as usize].push(point);
-            return;
+            return g;
         }
         let g = self.groups.len() as u32;
         self.groups.push(vec![point]);
         self.group_z.extend_from_slice(&q);
         self.by_key.insert(key, g);
         self.tree.add(&q, g as u64);
+        g
     }
 
     /// The points of group `g`.
@@ -148,6 +210,21 @@ impl Index {
             return None;
         }
         Some(self.tree.nearest_one(q))
+    }
+
+    /// The `n` nearest groups to scaled query `q`, nearest first: (squared distance, group).
+    #[inline]
+    pub fn nearest_n(&self, q: &[f64], n: usize, out: &mut Vec<(f64, u64)>) {
+        if self.is_empty() {
+            out.clear();
+            return;
+        }
+        self.tree.nearest_n(q, n, out)
+    }
+
+    /// How many groups (distinct observations) the index holds.
+    pub fn groups(&self) -> usize {
+        self.groups.len()
     }
 
     /// Every group within squared distance `r2` of scaled query `q`, unsorted.

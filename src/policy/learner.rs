@@ -70,12 +70,25 @@ pub struct CritiqueResult {
     pub summary: String,
 }
 
+thread_local! {
+    // Query buffers, one set per thread: a robot loop queries once per control step and the
+    // evaluation harness queries from several rayon threads; neither should allocate per query.
+    static BC_SCRATCH: std::cell::RefCell<bc::Scratch> = std::cell::RefCell::new(bc::Scratch::default());
+    static LWR_SCRATCH: std::cell::RefCell<lwr::Scratch> = std::cell::RefCell::new(lwr::Scratch::default());
+}
+
 /// A dataset and its derived policy.
 pub struct Learner {
     kind: LearnerKind,
     ds: Dataset,
     index: Index,
     lwr: LwrParams,
+    /// LWR's own index, in the space its kernel measures (range scale times
+    /// [`LwrParams::scales`]), so a query's radius search covers exactly the kernel's support
+    /// instead of a box inflated by the smallest scale. `None` for a BC learner.
+    lwr_index: Option<Index>,
+    /// [`Learner::lwr`] with unit scales: the parameters that query `lwr_index`.
+    lwr_unit: LwrParams,
     seed: u64,
     /// Points added since the index was last brought up to date.
     indexed: usize,
@@ -93,6 +106,8 @@ impl Learner {
             kind,
             index: Index::new(vec![1.0; dim.clamp(1, MAX_DIM)]).expect("1..=MAX_DIM is supported"),
             lwr: LwrParams::default_for(dim),
+            lwr_index: None,
+            lwr_unit: LwrParams::default_for(dim),
             ds,
             seed,
             indexed: 0,
@@ -130,6 +145,11 @@ impl Learner {
 
     pub fn is_empty(&self) -> bool {
         self.ds.is_empty()
+    }
+
+    /// The spatial index the policies query.
+    pub fn index(&self) -> &Index {
+        &self.index
     }
 
     pub fn lwr_params(&self) -> &LwrParams {
@@ -246,9 +266,11 @@ impl Learner {
             .collect();
         self.index = Index::new(scale).expect("dimension checked above");
         self.indexed = 0;
+        self.lwr_index = None;
         self.ensure_derived();
         if self.kind == LearnerKind::Lwr {
             self.lwr = lwr::tune(&self.ds, self.index.scale(), 5, self.seed);
+            self.build_lwr_index();
             let scales: Vec<String> = self.lwr.scales.iter().map(|s| format!("{s}")).collect();
             format!(
                 "; LWR tuned by 5-fold cross-validation: bandwidth {}, scales [{}]",
@@ -265,6 +287,9 @@ impl Learner {
         if self.ds.obs_dim_supported() {
             for i in self.indexed..self.ds.len() {
                 self.index.add(i as u32, self.ds.z(i));
+                if let Some(l) = &mut self.lwr_index {
+                    l.add_with_action(i as u32, self.ds.z(i), self.ds.a(i));
+                }
             }
         }
         self.indexed = self.ds.len();
@@ -275,8 +300,35 @@ impl Learner {
         if let Some(idx) = Index::new(self.index.scale().to_vec()) {
             self.index = idx;
             self.indexed = 0;
+            if self.lwr_index.is_some() {
+                // Empty now; `ensure_derived` fills both indexes.
+                self.build_lwr_index();
+            }
             self.ensure_derived();
         }
+    }
+
+    /// LWR's index for the current range scale and tuned parameters, holding the points indexed
+    /// so far (`ensure_derived` adds the rest).
+    fn build_lwr_index(&mut self) {
+        let scale: Vec<f64> = self
+            .index
+            .scale()
+            .iter()
+            .zip(&self.lwr.scales)
+            .map(|(r, s)| r * s)
+            .collect();
+        self.lwr_unit = LwrParams {
+            scales: vec![1.0; scale.len()],
+            ..self.lwr.clone()
+        };
+        let act_dim = self.ds.domain().act_dim();
+        self.lwr_index = Index::with_action_sums(scale, act_dim).map(|mut idx| {
+            for i in 0..self.indexed.min(self.ds.len()) {
+                idx.add_with_action(i as u32, self.ds.z(i), self.ds.a(i));
+            }
+            idx
+        });
     }
 
     /// The policy to run.
@@ -286,19 +338,15 @@ impl Learner {
 
     /// The BC answer for `z`: which point supported the action.
     pub fn support(&self, z: &[f64]) -> Option<bc::Support> {
-        bc::query(&self.index, &self.ds, z, &mut bc::Scratch::default())
+        BC_SCRATCH.with_borrow_mut(|scratch| bc::query(&self.index, &self.ds, z, scratch))
     }
 
     /// The LWR answer for `z`.
     pub fn regress(&self, z: &[f64], a: &mut [f64]) -> LwrAnswer {
-        lwr::query(
-            &self.index,
-            &self.ds,
-            &self.lwr,
-            z,
-            a,
-            &mut lwr::Scratch::default(),
-        )
+        LWR_SCRATCH.with_borrow_mut(|scratch| match &self.lwr_index {
+            Some(idx) => lwr::query(idx, &self.ds, &self.lwr_unit, z, a, scratch),
+            None => lwr::query(&self.index, &self.ds, &self.lwr, z, a, scratch),
+        })
     }
 
     /// A readable account of which data points support the action at `z`.

@@ -82,27 +82,46 @@ pub fn query(
     let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
     let mut total = 0.0;
     let mut count = 0;
-    for &(_, g) in &scratch.found {
-        let gz = index.group_z(g);
-        let d2: f64 = gz
-            .iter()
-            .zip(&scratch.q)
-            .zip(&params.scales)
-            .map(|((p, q), s)| {
-                let d = (p - q) * s;
-                d * d
-            })
-            .sum();
-        if d2 > r2 {
-            continue;
-        }
-        let w = (-d2 * inv).exp();
-        for &i in index.group(g) {
-            for (out, v) in a.iter_mut().zip(ds.a(i as usize)) {
-                *out += w * v;
+    if index.has_action_sums() && params.scales.iter().all(|s| *s == 1.0) {
+        // The index already measures the kernel's distance (its scale includes the tuned
+        // multipliers): kiddo's squared distance is the kernel's, and each group's action sum
+        // stands for its points.
+        for &(d2, g) in &scratch.found {
+            if d2 > r2 {
+                continue;
             }
-            total += w;
-            count += 1;
+            let w = (-d2 * inv).exp();
+            if let Some((sum, n)) = index.action_sum(g) {
+                for (out, v) in a.iter_mut().zip(sum) {
+                    *out += w * v;
+                }
+                total += w * f64::from(n);
+                count += n as usize;
+            }
+        }
+    } else {
+        for &(_, g) in &scratch.found {
+            let gz = index.group_z(g);
+            let d2: f64 = gz
+                .iter()
+                .zip(&scratch.q)
+                .zip(&params.scales)
+                .map(|((p, q), s)| {
+                    let d = (p - q) * s;
+                    d * d
+                })
+                .sum();
+            if d2 > r2 {
+                continue;
+            }
+            let w = (-d2 * inv).exp();
+            for &i in index.group(g) {
+                for (out, v) in a.iter_mut().zip(ds.a(i as usize)) {
+                    *out += w * v;
+                }
+                total += w;
+                count += 1;
+            }
         }
     }
     if total > 0.0 {
@@ -116,8 +135,9 @@ pub fn query(
     }
 }
 
-/// Choose scales and bandwidth by k-fold cross-validation (seeded): a grid over the bandwidth,
-/// then one pass of coordinate descent over each dimension's multiplier. The loss is the mean
+/// Choose scales and bandwidth by k-fold cross-validation (seeded): a grid over the bandwidth
+/// (the smallest within 5% of the best loss wins), then one pass of coordinate descent over each
+/// dimension's multiplier (kept only when it gains more than 1%). The loss is the mean
 /// squared action error, each action dimension divided by its data range. At most 2,000 held-out
 /// points are scored per fold, so tuning stays fast on large datasets.
 pub fn tune(ds: &Dataset, range_scale: &[f64], k: usize, seed: u64) -> LwrParams {
@@ -173,28 +193,52 @@ pub fn tune(ds: &Dataset, range_scale: &[f64], k: usize, seed: u64) -> LwrParams
         }
         total / count.max(1) as f64
     };
-    let mut best = loss(&params);
-    for h in [0.01, 0.02, 0.035, 0.05, 0.08, 0.12, 0.2] {
-        let cand = LwrParams {
-            bandwidth: h,
-            ..params.clone()
-        };
-        let l = loss(&cand);
-        if l < best {
-            best = l;
-            params = cand;
-        }
+    // Prefer locality: the smallest bandwidth whose loss is within 5% of the best, and a scale
+    // change only when it gains more than 1%. A wider kernel that is barely better costs a
+    // neighbourhood many times larger on every query (the volume grows as h^dim) and blurs the
+    // local corrections advice adds.
+    let grid = [0.01, 0.02, 0.035, 0.05, 0.08, 0.12, 0.2];
+    let losses: Vec<f64> = grid
+        .iter()
+        .map(|&h| {
+            loss(&LwrParams {
+                bandwidth: h,
+                ..params.clone()
+            })
+        })
+        .collect();
+    let min = losses.iter().copied().fold(f64::INFINITY, f64::min);
+    if let Some(i) = losses.iter().position(|l| *l <= min * 1.05) {
+        params.bandwidth = grid[i];
     }
+    let mut best = loss(&params);
     for d in 0..dim {
         for m in [0.5, 2.0] {
             let mut cand = params.clone();
             cand.scales[d] *= m;
             let l = loss(&cand);
-            if l < best {
+            if l < best * 0.99 {
                 best = l;
                 params = cand;
             }
         }
     }
     params
+}
+
+/// Query `learner`'s data with other parameters (for tests and tuning experiments).
+pub fn query_with(
+    learner: &crate::policy::learner::Learner,
+    params: &LwrParams,
+    z: &[f64],
+    a: &mut [f64],
+) -> LwrAnswer {
+    query(
+        learner.index(),
+        learner.dataset(),
+        params,
+        z,
+        a,
+        &mut Scratch::default(),
+    )
 }

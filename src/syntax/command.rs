@@ -154,8 +154,9 @@ pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
 pub fn is_incomplete(src: &str) -> bool {
     match parse_statement("<input>", src) {
         Ok(_) => false,
-        Err(ParseError::Syntax { span, .. }) => {
-            span.offset() >= src.trim_end().len() && (open_brackets(src) || ends_open(src))
+        Err(ParseError::Syntax { message, .. }) => {
+            message.ends_with("found the end of the input")
+                && (open_brackets(src) || ends_open(src))
         }
         Err(_) => false,
     }
