@@ -26,6 +26,7 @@ pub mod advisor;
 pub mod aopi;
 pub mod bc;
 pub mod critic;
+pub mod human;
 pub mod plot;
 
 /// Salts that keep the seed's streams apart: test-set noise, practice-execution noise.
@@ -123,11 +124,27 @@ where
     C: ControllerBox,
     F: Fn() -> C + Sync,
 {
+    evaluate_starts_indexed(kind, starts, |_| make(), params, eval_seed)
+}
+
+/// [`evaluate_starts`] with a controller made for each start's index (a teacher whose style
+/// depends on the episode).
+pub fn evaluate_starts_indexed<C, F>(
+    kind: TaskKind,
+    starts: &[Start],
+    make: F,
+    params: &SimParams,
+    eval_seed: u64,
+) -> Report
+where
+    C: ControllerBox,
+    F: Fn(usize) -> C + Sync,
+{
     let outcomes: Vec<Outcome> = starts
         .par_iter()
         .enumerate()
         .map(|(i, start)| {
-            let mut c = make();
+            let mut c = make(i);
             run_sim(
                 start,
                 c.controller(),
