@@ -28,6 +28,7 @@ pub mod bc;
 pub mod critic;
 pub mod human;
 pub mod plot;
+pub mod summary;
 
 /// Salts that keep the seed's streams apart: test-set noise, practice-execution noise.
 const EVAL_SALT: u64 = 0x7E57_0000_0000_0001;

@@ -101,9 +101,14 @@ struct ExperimentArgs {
     /// Which study.
     study: StudyArg,
     /// Seeds everything: demonstrations, practice starts, simulator noise, LWR tuning.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, conflicts_with = "seeds")]
     seed: u64,
-    /// Print the result as JSON on stdout (every figure, the seed and the parameters).
+    /// Run several seeds (`0..5`: 0 to 4) and print each figure's mean and spread beside the
+    /// paper's, and for how many seeds the paper's shape holds.
+    #[arg(long, value_name = "A..B")]
+    seeds: Option<String>,
+    /// Print the result as JSON on stdout (every figure, the seed and the parameters; with
+    /// `--seeds`, the summary and every run).
     #[arg(long)]
     json: bool,
     /// Write the study's plots as SVG files into this folder (created if needed).
@@ -758,47 +763,69 @@ fn run_eval(args: EvalArgs) -> miette::Result<()> {
 }
 
 fn experiment(args: ExperimentArgs) -> miette::Result<()> {
-    use advise::experiment::{aopi, bc, ensure_dir, plot};
+    use advise::experiment::{aopi, bc, ensure_dir, plot, summary};
     let sim = sim_params(args.sim_params.as_deref())?;
+    let seeds: Vec<u64> = match &args.seeds {
+        None => vec![args.seed],
+        Some(range) => {
+            let (a, b) = parse_seeds(range)?;
+            (a..b).collect()
+        }
+    };
+    let many = args.seeds.is_some();
     let progress = true;
-    let (text, json, plots) = match args.study {
+    let mut plots = Vec::new();
+    let plot_dir = || -> miette::Result<Option<&Path>> {
+        match &args.plot {
+            Some(dir) => {
+                ensure_dir(dir)?;
+                Ok(Some(dir.as_path()))
+            }
+            None => Ok(None),
+        }
+    };
+    let (text, json) = match args.study {
         StudyArg::Bc => {
             let params = bc::BcParams {
                 sim,
                 ..bc::BcParams::default()
             };
-            let result = bc::run(args.seed, &params, progress);
-            let plots = match &args.plot {
-                Some(dir) => {
-                    ensure_dir(dir)?;
-                    plot::bc(&result, dir)?
+            let mut runs = Vec::new();
+            for &seed in &seeds {
+                let result = bc::run(seed, &params, progress);
+                if let Some(dir) = plot_dir()? {
+                    plots.extend(plot::bc(&result, dir)?);
                 }
-                None => Vec::new(),
-            };
-            (
-                result.render(),
-                serde_json::to_string_pretty(&result),
-                plots,
-            )
+                runs.push(result);
+            }
+            if many {
+                let s = summary::bc(runs);
+                (s.render(), serde_json::to_string_pretty(&s))
+            } else {
+                let r = &runs[0];
+                (r.render(), serde_json::to_string_pretty(r))
+            }
         }
         StudyArg::Aopi => {
             let params = aopi::AopiParams {
                 sim,
                 ..aopi::AopiParams::default()
             };
-            let result = aopi::run(args.seed, &params, progress);
-            let plots = match &args.plot {
-                Some(dir) => {
-                    ensure_dir(dir)?;
-                    plot::aopi(&result, dir)?
+            let mut runs = Vec::new();
+            for &seed in &seeds {
+                let result = aopi::run(seed, &params, progress);
+                if let Some(dir) = plot_dir()? {
+                    plots.extend(plot::aopi(&result, dir)?);
                 }
-                None => Vec::new(),
-            };
-            (
-                result.render(),
-                serde_json::to_string_pretty(&result),
-                plots,
-            )
+                runs.push(result);
+            }
+            if many {
+                let s = summary::aopi(runs);
+                (s.render(), serde_json::to_string_pretty(&s))
+            } else {
+                let r = &runs[0];
+                (r.render(), serde_json::to_string_pretty(r))
+            }
         }
     };
     if args.json {
@@ -812,6 +839,24 @@ fn experiment(args: ExperimentArgs) -> miette::Result<()> {
         eprintln!("wrote {}", p.display());
     }
     Ok(())
+}
+
+/// `A..B` as a non-empty half-open range of seeds.
+fn parse_seeds(s: &str) -> miette::Result<(u64, u64)> {
+    let bad = || {
+        miette!(
+            code = "advise::cli::bad_seeds",
+            help = "write a half-open range of seeds such as `0..5` (seeds 0 to 4)",
+            "`{s}` is not a range of seeds"
+        )
+    };
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let a: u64 = a.trim().parse().map_err(|_| bad())?;
+    let b: u64 = b.trim().parse().map_err(|_| bad())?;
+    if b <= a {
+        return Err(bad());
+    }
+    Ok((a, b))
 }
 
 /// Evaluate on one real (or emulated) base, with Ctrl-C stopping it; an interrupted evaluation
