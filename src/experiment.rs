@@ -26,7 +26,6 @@ pub mod advisor;
 pub mod aopi;
 pub mod bc;
 pub mod critic;
-pub mod human;
 pub mod plot;
 pub mod summary;
 
@@ -125,27 +124,11 @@ where
     C: ControllerBox,
     F: Fn() -> C + Sync,
 {
-    evaluate_starts_indexed(kind, starts, |_| make(), params, eval_seed)
-}
-
-/// [`evaluate_starts`] with a controller made for each start's index (a teacher whose style
-/// depends on the episode).
-pub fn evaluate_starts_indexed<C, F>(
-    kind: TaskKind,
-    starts: &[Start],
-    make: F,
-    params: &SimParams,
-    eval_seed: u64,
-) -> Report
-where
-    C: ControllerBox,
-    F: Fn(usize) -> C + Sync,
-{
     let outcomes: Vec<Outcome> = starts
         .par_iter()
         .enumerate()
         .map(|(i, start)| {
-            let mut c = make(i);
+            let mut c = make();
             run_sim(
                 start,
                 c.controller(),

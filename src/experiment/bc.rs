@@ -23,16 +23,11 @@ use serde::{Deserialize, Serialize};
 use crate::backend::sim::SimParams;
 use crate::eval::Report;
 use crate::experiment::critic::{self, CriticRules};
-use crate::experiment::human::HumanStyle;
-use crate::experiment::{
-    Progress, eval_seed, evaluate_starts, evaluate_starts_indexed, opt_m, pct, practice_seed,
-};
+use crate::experiment::{Progress, eval_seed, evaluate_starts, opt_m, pct, practice_seed};
 use crate::policy::Policy;
 use crate::policy::dataset::Dataset;
 use crate::policy::learner::{Learner, LearnerKind};
-use rayon::prelude::*;
-
-use crate::task::{Controller, Outcome, Start, TaskKind, episode_seed, run_sim};
+use crate::task::{Controller, Start, TaskKind, record_demos, run_sim};
 use crate::trace::Episode;
 
 /// The paper's Table 1.
@@ -71,9 +66,6 @@ pub struct BcParams {
     /// `m += kappa / distance` (the paper leaves it open).
     pub kappa: f64,
     pub critic: CriticRules,
-    /// How the teleoperating person's style varies between episodes (demonstrations and the
-    /// teacher's test runs); [`HumanStyle::consistent`] is the hand-written teacher every time.
-    pub teacher: HumanStyle,
     pub sim: SimParams,
 }
 
@@ -86,7 +78,6 @@ impl Default for BcParams {
             test_starts: crate::task::interception::TEST_STARTS,
             kappa: 0.1,
             critic: CriticRules::default(),
-            teacher: HumanStyle::default(),
             sim: SimParams::default(),
         }
     }
@@ -172,7 +163,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         "bc: demonstrations",
     );
 
-    let recorded = record_human_demos(params, seed);
+    let recorded = record_demos(kind, params.demos, seed, sim);
     let demo_successes = recorded.iter().filter(|(_, o)| o.success).count();
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let mut ds = Dataset::new(&kind.domain());
@@ -190,15 +181,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         evaluate_starts(kind, test, || policy, sim, eseed)
     };
     bar.set_message("bc: teacher and initial policy");
-    let teacher = evaluate_starts_indexed(
-        kind,
-        test,
-        |i| -> Box<dyn Controller + Send> {
-            Box::new(params.teacher.teacher(eseed, i as u64, sim.period_s()))
-        },
-        sim,
-        eseed,
-    );
+    let teacher = evaluate_starts(kind, test, || kind.teacher(sim.period_s()), sim, eseed);
     let initial = evaluate(&learner);
     bar.inc(1);
 
@@ -285,28 +268,6 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         critiques: summary,
         paper: PAPER,
     }
-}
-
-/// The person's demonstrations: from the seed's first `demos` practice starts, demonstration `i`
-/// driven in the style drawn for it and on the simulator noise `record_demos` would use.
-fn record_human_demos(params: &BcParams, seed: u64) -> Vec<(Episode, Outcome)> {
-    let sim = &params.sim;
-    TaskKind::Interception
-        .practice_set(seed, params.demos)
-        .par_iter()
-        .enumerate()
-        .map(|(i, start)| {
-            let mut person = params.teacher.teacher(seed, i as u64, sim.period_s());
-            let exec = run_sim(start, &mut person, sim, episode_seed(seed, i as u64));
-            (
-                Episode {
-                    name: format!("demo-{i}"),
-                    trace: exec.trace,
-                },
-                exec.outcome,
-            )
-        })
-        .collect()
 }
 
 fn point(round: usize, r: &Report, critiques: usize) -> BcCurvePoint {
