@@ -172,3 +172,81 @@ fn plots_are_written() {
         assert!(text.starts_with("<svg"), "{}", f.display());
     }
 }
+
+#[test]
+fn summaries_count_the_shape_claims_seed_by_seed() {
+    use advise::experiment::summary;
+    let params = BcParams {
+        demos: 12,
+        rounds: 6,
+        eval_every: 3,
+        test_starts: 12,
+        ..BcParams::default()
+    };
+    let runs: Vec<_> = [4, 7].iter().map(|&s| bc::run(s, &params, false)).collect();
+    let s = summary::bc(runs.clone());
+    assert_eq!(s.seeds, [4, 7]);
+    assert_eq!(s.shape.seeds, 2);
+    assert_eq!(s.shape.claims.len(), summary::BC_CLAIMS.len());
+    for (c, claim) in s.shape.claims.iter().enumerate() {
+        let expect: Vec<u64> = runs
+            .iter()
+            .filter(|r| summary::bc_checks(r)[c])
+            .map(|r| r.seed)
+            .collect();
+        assert_eq!(claim.seeds_held, expect, "{}", claim.claim);
+    }
+    let all: Vec<u64> = runs
+        .iter()
+        .filter(|r| summary::bc_checks(r).iter().all(|&b| b))
+        .map(|r| r.seed)
+        .collect();
+    assert_eq!(s.shape.seeds_all_held, all);
+    let mean = (runs[0].teacher.success_rate + runs[1].teacher.success_rate) / 2.0;
+    assert!((s.teacher_success.mean - mean).abs() < 1e-12);
+    let text = s.render();
+    assert!(text.contains("final matches or beats the teacher on success"));
+    assert!(text.contains("of 2 seeds"));
+    let v = serde_json::to_value(&s).unwrap();
+    assert_eq!(v["runs"].as_array().unwrap().len(), 2);
+
+    let a = AopiParams {
+        max_practice: 4,
+        eval_every: 2,
+        test_goals: 4,
+        ..AopiParams::default()
+    };
+    let runs: Vec<_> = [1, 2].iter().map(|&s| aopi::run(s, &a, false)).collect();
+    let s = summary::aopi(runs.clone());
+    assert_eq!(s.shape.claims.len(), summary::AOPI_CLAIMS.len());
+    for (c, claim) in s.shape.claims.iter().enumerate() {
+        let expect: Vec<u64> = runs
+            .iter()
+            .filter(|r| summary::aopi_checks(r)[c])
+            .map(|r| r.seed)
+            .collect();
+        assert_eq!(claim.seeds_held, expect, "{}", claim.claim);
+    }
+    assert!(s.render().contains("A-OPI Hybrid"));
+}
+
+#[test]
+fn bad_seed_ranges_are_diagnostics() {
+    for (args, expect) in [
+        (&["experiment", "bc", "--seeds", "3..3"][..], "bad_seeds"),
+        (&["experiment", "bc", "--seeds", "five"][..], "bad_seeds"),
+        (
+            &["experiment", "aopi", "--seed", "1", "--seeds", "0..2"][..],
+            "cannot be used with",
+        ),
+    ] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_advise"))
+            .args(args)
+            .env("NO_COLOR", "1")
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(expect), "{args:?}: {err}");
+    }
+}
