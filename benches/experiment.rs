@@ -1,0 +1,31 @@
+//! Whole experiments at the paper's protocol, one seed each: the BC study (100 demonstrations,
+//! 120 critique rounds, 100 test starts every 20 rounds) and the A-OPI study (9 seed
+//! demonstrations, three arms of up to 60 practice goals, 25 test goals).
+//!
+//! Target: each under 60 s on the project's 2-core machine (the bound for
+//! `advise experiment bc|aopi`). Few samples: one iteration is a whole study.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use advise::experiment::{aopi, bc};
+use criterion::{Criterion, criterion_group, criterion_main};
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("experiment");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(1))
+        .measurement_time(Duration::from_secs(5));
+    let bc_params = bc::BcParams::default();
+    g.bench_function("bc_seed0", |b| {
+        b.iter(|| black_box(bc::run(0, &bc_params, false)))
+    });
+    let aopi_params = aopi::AopiParams::default();
+    g.bench_function("aopi_seed0", |b| {
+        b.iter(|| black_box(aopi::run(0, &aopi_params, false)))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
