@@ -27,6 +27,7 @@ pub mod aopi;
 pub mod bc;
 pub mod critic;
 pub mod human;
+pub mod pilot;
 pub mod plot;
 
 /// Salts that keep the seed's streams apart: test-set noise, practice-execution noise.
