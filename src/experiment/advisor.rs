@@ -57,6 +57,11 @@ pub struct AdvisorRules {
     pub heading_tol_rad: f64,
     /// Largest chunk advised, points.
     pub chunk_len: usize,
+    /// At most this many chunks of the approach are advised on one execution (rule 2).
+    pub approach_chunks: usize,
+    /// Shortest stretch of the approach worth advising, points (a person does not pick out a
+    /// fraction of a second).
+    pub min_chunk: usize,
 }
 
 impl Default for AdvisorRules {
@@ -65,6 +70,8 @@ impl Default for AdvisorRules {
             position_tol_m: 0.5,
             heading_tol_rad: 0.5,
             chunk_len: 25,
+            approach_chunks: 3,
+            min_chunk: 8,
         }
     }
 }
@@ -73,6 +80,9 @@ impl Default for AdvisorRules {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Reason {
+    ArcTooWide,
+    ArcTooTight,
+    TurningAway,
     StoppedShort,
     Overshoot,
     MissedTurningTooLittle,
@@ -85,6 +95,9 @@ pub enum Reason {
 impl Reason {
     pub fn name(self) -> &'static str {
         match self {
+            Reason::ArcTooWide => "arc too wide",
+            Reason::ArcTooTight => "arc too tight",
+            Reason::TurningAway => "turning away",
             Reason::StoppedShort => "stopped short",
             Reason::Overshoot => "overshoot",
             Reason::MissedTurningTooLittle => "missed, turning too little",
@@ -138,9 +151,12 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         let closest_m = trace.z(closest)[DIST2].sqrt();
         let passed = closest_m <= rules.position_tol_m && closest_m + 0.1 < last[DIST2].sqrt();
         let goal_ahead = last[BEARING].abs() < std::f64::consts::FRAC_PI_4;
+        // How it ended: overshoot or stopped short, on the chunk next to the end.
+        let mut end_chunk = None;
         if passed {
             if let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving) {
                 out.push(advice("translational_deceleration", c, Reason::Overshoot));
+                end_chunk = Some(c);
             }
         } else if goal_ahead && o.ending == Ending::Rested {
             if let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving) {
@@ -149,10 +165,23 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
                     c,
                     Reason::StoppedShort,
                 ));
+                end_chunk = Some(c);
             }
-        } else if let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving) {
-            // Missed to the side: over the approach's last chunk, was the robot turning toward
-            // the goal (too little) or away from it?
+        }
+        // How it got there: the arcs of the approach, up to the closest approach (or the end
+        // chunk, so that no point is advised twice).
+        let approach_end = end_chunk.map_or(closest + 1, |c| c.start.min(closest + 1));
+        let arcs = approach_advice(trace, approach_end, rules);
+        let had_arcs = !arcs.is_empty();
+        for (text, c, reason) in arcs {
+            out.push(advice(&text, c, reason));
+        }
+        if end_chunk.is_none()
+            && !had_arcs
+            && let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving)
+        {
+            // Missed to the side with no clear arc to correct: over the approach's last chunk,
+            // was the robot turning toward the goal (too little) or away from it?
             let toward: f64 = c
                 .range()
                 .map(|t| trace.a(t)[ROT] * trace.z(t)[BEARING].signum())
@@ -190,6 +219,139 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         out.push(advice("stop", Chunk { start, end: n }, Reason::NotStopping));
     }
     out
+}
+
+/// Advice is not given on arcs nearer the goal than this, m: there the robot should be turning
+/// onto the goal heading, not toward the goal position.
+const ARC_NEAR_M: f64 = 0.6;
+/// An arc is right when its curvature is within these factors of the arc that reaches the goal.
+const ARC_OK: (f64, f64) = (0.6, 1.7);
+/// With the goal this nearly straight ahead (curvature of the arc to it, 1/m), driving straight
+/// is right.
+const ARC_STRAIGHT: f64 = 0.12;
+
+/// How a point of the approach curves, against the arc that would reach the goal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Arc {
+    Right,
+    /// Turning toward the goal, too gently: the wanted curvature over the driven one.
+    Wide(f64),
+    /// Turning toward the goal, too sharply: the wanted curvature over the driven one.
+    Tight(f64),
+    /// Turning away from the goal.
+    Away,
+}
+
+/// The arc at point `t`, or `None` where the robot was not driving forward or was already near.
+/// The arc that reaches the goal from the robot's pose, tangent to its heading, has curvature
+/// `2 sin(bearing) / distance`; the driven arc has curvature `rot / trans`. This is what a
+/// person sees from the side: whether the robot is curving onto the goal, past it, or away.
+fn arc_at(trace: &Trace, t: usize) -> Option<Arc> {
+    let (z, a) = (trace.z(t), trace.a(t));
+    let d = z[DIST2].max(0.0).sqrt();
+    if a[TRANS] <= MOVING_MPS || d < ARC_NEAR_M {
+        return None;
+    }
+    let wanted = 2.0 * z[BEARING].sin() / d;
+    let driven = a[ROT] / a[TRANS];
+    if wanted.abs() < ARC_STRAIGHT && driven.abs() < ARC_STRAIGHT {
+        return Some(Arc::Right);
+    }
+    if wanted * driven < 0.0 && a[ROT].abs() > TURNING_RADPS && wanted.abs() >= ARC_STRAIGHT {
+        return Some(Arc::Away);
+    }
+    if a[ROT].abs() <= TURNING_RADPS {
+        // Scaling cannot make a turn out of driving straight.
+        return None;
+    }
+    let ratio = wanted.abs() / driven.abs().max(1e-9);
+    Some(if wanted * driven < 0.0 || ratio < 1.0 / ARC_OK.1 {
+        Arc::Tight(ratio)
+    } else if ratio > 1.0 / ARC_OK.0 {
+        Arc::Wide(ratio)
+    } else {
+        Arc::Right
+    })
+}
+
+/// The approach's arcs to correct (rule 2): runs of consecutive points before `end` that curve
+/// the same wrong way, the longest first, at most [`AdvisorRules::approach_chunks`] of them,
+/// each cut to its first [`AdvisorRules::chunk_len`] points (the earlier a correction comes, the
+/// more of the path it changes). The operator's rate is the run's median correction, rounded
+/// to the coarse values a person would choose.
+fn approach_advice(
+    trace: &Trace,
+    end: usize,
+    rules: &AdvisorRules,
+) -> Vec<(String, Chunk, Reason)> {
+    let kind = |a: Option<Arc>| match a {
+        Some(Arc::Wide(_)) => 1,
+        Some(Arc::Tight(_)) => 2,
+        Some(Arc::Away) => 3,
+        _ => 0,
+    };
+    let arcs: Vec<Option<Arc>> = (0..end.min(trace.len()))
+        .map(|t| arc_at(trace, t))
+        .collect();
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut t = 0;
+    while t < arcs.len() {
+        let k = kind(arcs[t]);
+        let mut e = t + 1;
+        while e < arcs.len() && kind(arcs[e]) == k {
+            e += 1;
+        }
+        if k != 0 && e - t >= rules.min_chunk.max(1) {
+            runs.push((t, e));
+        }
+        t = e;
+    }
+    runs.sort_by_key(|&(s, e)| std::cmp::Reverse(e - s));
+    runs.truncate(rules.approach_chunks);
+    runs.sort_unstable();
+    runs.into_iter()
+        .map(|(start, e)| {
+            let chunk = Chunk {
+                start,
+                end: e.min(start + rules.chunk_len.max(1)),
+            };
+            let mut ratios: Vec<f64> = chunk
+                .range()
+                .filter_map(|t| match arcs[t] {
+                    Some(Arc::Wide(r) | Arc::Tight(r)) => Some(r),
+                    _ => None,
+                })
+                .collect();
+            ratios.sort_by(f64::total_cmp);
+            let median = ratios.get(ratios.len() / 2).copied().unwrap_or(1.0);
+            match arcs[start] {
+                Some(Arc::Wide(_)) => {
+                    let rate = [0.5, 1.0, 2.0, 4.0]
+                        .into_iter()
+                        .min_by(|a, b| {
+                            ((1.0 + a) / median)
+                                .ln()
+                                .abs()
+                                .total_cmp(&((1.0 + b) / median).ln().abs())
+                        })
+                        .unwrap_or(1.0);
+                    (format!("turn_tighter({rate})"), chunk, Reason::ArcTooWide)
+                }
+                Some(Arc::Tight(_)) => {
+                    let rate = [0.25, 0.5, 0.75]
+                        .into_iter()
+                        .min_by(|a, b| {
+                            ((1.0 - a) - median)
+                                .abs()
+                                .total_cmp(&((1.0 - b) - median).abs())
+                        })
+                        .unwrap_or(0.5);
+                    (format!("turn_looser({rate})"), chunk, Reason::ArcTooTight)
+                }
+                _ => ("no_turning".to_string(), chunk, Reason::TurningAway),
+            }
+        })
+        .collect()
 }
 
 fn driving(trace: &Trace, t: usize) -> bool {

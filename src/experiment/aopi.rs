@@ -92,7 +92,7 @@ impl Default for AopiParams {
             max_practice: 60,
             hybrid_teleop: 10,
             eval_every: 5,
-            patience: 3,
+            patience: 6,
             test_goals: crate::task::positioning::TEST_GOALS,
             rederive_after_advice: true,
             teacher: PilotStyle::default(),

@@ -68,7 +68,11 @@ impl HumanStyle {
         let mut rng = ChaCha8Rng::seed_from_u64(episode_seed(seed ^ STYLE_SALT, index));
         let mut draw = |r: [f64; 2]| {
             let (lo, hi) = (r[0].min(r[1]), r[0].max(r[1]));
-            if hi > lo { rng.random_range(lo..=hi) } else { lo }
+            if hi > lo {
+                rng.random_range(lo..=hi)
+            } else {
+                lo
+            }
         };
         InterceptionTeacher {
             k_turn: draw(self.k_turn),
