@@ -158,15 +158,16 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
                 out.push(advice("translational_deceleration", c, Reason::Overshoot));
                 end_chunk = Some(c);
             }
-        } else if goal_ahead && o.ending == Ending::Rested {
-            if let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving) {
-                out.push(advice(
-                    "translational_acceleration",
-                    c,
-                    Reason::StoppedShort,
-                ));
-                end_chunk = Some(c);
-            }
+        } else if goal_ahead
+            && o.ending == Ending::Rested
+            && let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving)
+        {
+            out.push(advice(
+                "translational_acceleration",
+                c,
+                Reason::StoppedShort,
+            ));
+            end_chunk = Some(c);
         }
         // How it got there: the arcs of the approach, up to the closest approach (or the end
         // chunk, so that no point is advised twice).
