@@ -11,15 +11,34 @@
 //! 1. An execution is **poor** when the robot ended farther than [`AdvisorRules::position_tol_m`]
 //!    from the goal or more than [`AdvisorRules::heading_tol_rad`] off the goal heading, or did not
 //!    come to rest. A good execution gets no advice.
-//! 2. Position first (a human fixes where the robot goes before how it faces):
-//!    - **stopped short** (the goal still ahead when it stopped, within pi/2 of the heading):
-//!      `translational_acceleration` on the last [`AdvisorRules::chunk_len`] points at which the
-//!      robot was still driving: "keep going here".
-//!    - **overshoot** (the goal ended behind the robot, and the robot had been closer to the goal
-//!      than where it stopped): `translational_deceleration` on the chunk leading up to the
-//!      closest approach: "slow down as you get there".
-//!    - **wandering** (the time limit passed with the robot far from the goal): `slow_down` on the
-//!      last chunk of driving.
+//! 2. When it ended far from the goal, first how it ended, on the chunk next to the end:
+//!    - **overshoot** (the robot came within the tolerance, then stopped farther away):
+//!      `translational_deceleration` on the last [`AdvisorRules::chunk_len`] driving points
+//!      up to the closest approach: "slow down as you get there".
+//!    - **stopped short** (at rest with the goal still ahead, within pi/4 of the heading):
+//!      `translational_acceleration` on the last driving chunk: "keep going here".
+//!
+//!    Then how it got there: the **arcs of the approach**. A person watching from the side sees
+//!    whether the robot is curving onto the goal, past it, or away from it. At each driving
+//!    point of the approach (up to the closest approach or the end chunk, and farther than
+//!    0.6 m from the goal, where the robot should be lining up on the goal heading instead) the
+//!    arc that reaches the goal, tangent to the robot's heading, has curvature
+//!    `2 sin(bearing) / distance`; the driven arc has `rot / trans`. A point is **too wide**
+//!    when it turns toward the goal at less than 0.6 of the wanted curvature, **too tight** when
+//!    it turns at more than 1.7 of it (or turns while the goal is straight ahead), **away** when
+//!    it turns the other way; driving straight with the goal straight ahead is right, and
+//!    driving straight with the goal off to the side is left alone (scaling a zero turn cannot
+//!    make one). Runs of at least [`AdvisorRules::min_chunk`] consecutive points with the same
+//!    fault are the chunks a person would select; the longest [`AdvisorRules::approach_chunks`]
+//!    of them are advised, each cut to its first [`AdvisorRules::chunk_len`] points (the
+//!    earlier the correction, the more of the path it changes): too wide gets
+//!    `turn_tighter(rate)`, too tight `turn_looser(rate)`, away `no_turning`. The rate is the
+//!    chunk's median correction rounded to a coarse value a person would pick (tighter by 0.5,
+//!    1, 2 or 4; looser by 0.25, 0.5 or 0.75), never the exact number.
+//!
+//!    If neither found anything (missed to the side with no clear arc): over the last driving
+//!    chunk before the closest approach, `turn_tighter(2)` if the robot was turning toward the
+//!    goal, else `translational_deceleration(0.5)`.
 //! 3. Then heading, when the heading is off: over the last chunk in which the robot was turning,
 //!    if it turned toward the goal heading but stopped turning too soon (the remaining heading
 //!    error has the sign of the turn), `rotational_acceleration`; if it turned past it (opposite
@@ -27,8 +46,11 @@
 //! 4. Close enough but never at rest (the time limit passed near the goal): `stop` on the last
 //!    chunk: "you were there; stop".
 //!
-//! So an execution gets one or two pieces of advice, each on one chunk of at most
-//! [`AdvisorRules::chunk_len`] points (the operators' guards may skip some of them).
+//! So a poor execution gets up to five pieces of advice, each on one chunk of at most
+//! [`AdvisorRules::chunk_len`] points, and no point of an execution is advised twice by rule 2
+//! (the operators' guards may skip some points). Why several: the learner is local (LWR with a
+//! narrow kernel), so a correction holds only near the states it was given in; a person fixes
+//! the stretches of the path that went wrong, not one moment of it.
 
 use serde::{Deserialize, Serialize};
 
@@ -465,10 +487,90 @@ mod tests {
         assert!((end_pose.x_m - closest_x).abs() < 0.05, "{end_pose:?}");
     }
 
+    /// A constant arc (`speed` m/s, `rot` rad/s) from the origin for `steps` points, then at
+    /// rest, toward `goal`; observations as the positioning task makes them.
+    fn arc(goal: Pose, speed: f64, rot: f64, steps: usize) -> Execution {
+        let mut trace = Trace::new(&Domain::positioning());
+        let dt = 1.0 / 30.0;
+        let mut p = Pose::new(0.0, 0.0, 0.0);
+        for i in 0..steps + 16 {
+            let (v, w) = if i < steps { (speed, rot) } else { (0.0, 0.0) };
+            let z = crate::task::positioning::observe(goal, p);
+            trace.push(i as f64 * dt, &z, &[v, w], Some(p));
+            p = Pose::new(
+                p.x_m + v * p.theta_rad.cos() * dt,
+                p.y_m + v * p.theta_rad.sin() * dt,
+                p.theta_rad + w * dt,
+            );
+        }
+        let error = (goal.x_m - p.x_m).hypot(goal.y_m - p.y_m);
+        Execution {
+            outcome: Outcome {
+                success: error < 1.0,
+                ending: Ending::Rested,
+                position_error_m: error,
+                heading_error_rad: Some(0.0),
+                length_m: speed * steps as f64 * dt,
+                steps: trace.len(),
+                duration_s: trace.len() as f64 * dt,
+                final_pose: p,
+            },
+            trace,
+            true_poses: None,
+            ball: None,
+        }
+    }
+
+    #[test]
+    fn an_arc_too_wide_for_the_goal_gets_turn_tighter_on_the_approach() {
+        // The goal is 3 m off to the left; the robot curves left far too gently and passes it.
+        let exec = arc(Pose::new(2.0, 2.0, 0.0), 0.5, 0.08, 240);
+        assert!(exec.outcome.position_error_m > 1.0);
+        let advice = advise(&exec, &AdvisorRules::default());
+        let wide: Vec<_> = advice
+            .iter()
+            .filter(|a| a.reason == Reason::ArcTooWide)
+            .collect();
+        assert!(!wide.is_empty(), "{advice:?}");
+        for a in wide {
+            assert!(a.operator.to_string().starts_with("turn_tighter("));
+            assert!(a.chunk.len() <= 25 && a.chunk.len() >= 8);
+        }
+        // No point is advised twice by the position rules.
+        let mut seen = std::collections::HashSet::new();
+        for a in advice
+            .iter()
+            .filter(|a| a.reason != Reason::TurnedTooLittle)
+        {
+            for t in a.chunk.range() {
+                assert!(seen.insert(t), "point {t} advised twice: {advice:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn an_arc_turning_away_from_the_goal_gets_no_turning() {
+        // The goal is off to the left; the robot curves right.
+        let exec = arc(Pose::new(2.0, 2.0, 0.0), 0.5, -0.3, 150);
+        let advice = advise(&exec, &AdvisorRules::default());
+        assert!(
+            advice
+                .iter()
+                .any(|a| a.reason == Reason::TurningAway && a.operator.to_string() == "no_turning"),
+            "{advice:?}"
+        );
+    }
+
     #[test]
     fn advice_speaks_only_through_standard_operators() {
         let ops = OperatorSet::standard();
-        for exec in [drive(3.0, 1.5, 0.5), drive(1.5, 2.5, 0.5)] {
+        for exec in [
+            drive(3.0, 1.5, 0.5),
+            drive(1.5, 2.5, 0.5),
+            arc(Pose::new(2.0, 2.0, 0.0), 0.5, 0.08, 240),
+            arc(Pose::new(2.0, 2.0, 0.0), 0.5, -0.3, 150),
+            arc(Pose::new(3.0, 0.5, 0.0), 0.5, 0.6, 150),
+        ] {
             for a in advise(&exec, &AdvisorRules::default()) {
                 let syn = crate::interp::apply(&ops, &a.operator, &exec.trace, a.chunk).unwrap();
                 assert!(!syn.points.is_empty());
