@@ -7,16 +7,24 @@
 //! practice stream (after the 9 demonstration goals, so none repeats and none is a test goal);
 //! the robot runs its current policy to the goal; the [`advisor`] judges the execution; if it is
 //! poor, the arm's improvement is given: advice (the advisor's operators on its chunks, added
-//! through [`Learner::add_advice`]) or a teleoperated demonstration of the same goal (the teacher
-//! drives it, and its demonstration is kept as it came, like the seed demonstrations). The
+//! through [`Learner::add_advice`]) or a teleoperated demonstration of the same goal (the person
+//! drives it, and the demonstration is kept as it came, like the seed demonstrations). Every
+//! teleoperated demonstration, the 9 seed ones included, is driven by the [`pilot`] model of a
+//! human teleoperator, whose style varies from one run to the next (drawn per goal, so the
+//! hybrid and teleoperation arms meet the same person on the same goal). The
 //! hybrid arm teleoperates for its first `hybrid_teleop` practice goals and advises after. Every
 //! `eval_every` practice goals the policy runs the 25 test goals, which are never advised.
 //! An arm stops when `patience` evaluations in a row did not improve on its best (more successes,
 //! or as many with a combined error at least 2% lower), or when its practice goals run out; its
 //! final policy is the one of its last improvement (the paper halted "once performance on the
-//! test set no longer improved"), and every arm is selected the same way.
+//! test set no longer improved"), and every arm is selected the same way. The patience (6
+//! evaluations, 30 practice goals) is long enough that no arm is stopped by the noise of a
+//! 25-goal test set while it is still learning: the paper's arms ran 60 to 69 executions, and a
+//! local learner's curve under advice dips before it climbs (a new correction first sends the
+//! robot into states nobody has advised yet).
 //!
 //! [`advisor`]: crate::experiment::advisor
+//! [`pilot`]: crate::experiment::pilot
 
 use std::collections::BTreeMap;
 use std::f64::consts::FRAC_PI_2;
