@@ -46,7 +46,7 @@
 //! 4. Close enough but never at rest (the time limit passed near the goal): `stop` on the last
 //!    chunk: "you were there; stop".
 //!
-//! So a poor execution gets up to five pieces of advice, each on one chunk of at most
+//! So a poor execution gets up to eight pieces of advice, each on one chunk of at most
 //! [`AdvisorRules::chunk_len`] points, and no point of an execution is advised twice by rule 2
 //! (the operators' guards may skip some points). Why several: the learner is local (LWR with a
 //! narrow kernel), so a correction holds only near the states it was given in; a person fixes
@@ -92,7 +92,7 @@ impl Default for AdvisorRules {
             position_tol_m: 0.5,
             heading_tol_rad: 0.5,
             chunk_len: 25,
-            approach_chunks: 3,
+            approach_chunks: 6,
             min_chunk: 8,
         }
     }
