@@ -26,13 +26,18 @@
 //!    `2 sin(bearing) / distance`; the driven arc has `rot / trans`. A point is **too wide**
 //!    when it turns toward the goal at less than 0.6 of the wanted curvature, **too tight** when
 //!    it turns at more than 1.7 of it (or turns while the goal is straight ahead), **away** when
-//!    it turns the other way; driving straight with the goal straight ahead is right, and
-//!    driving straight with the goal off to the side is left alone (scaling a zero turn cannot
-//!    make one). Runs of at least [`AdvisorRules::min_chunk`] consecutive points with the same
+//!    it turns the other way, **straight** when it drives straight with the goal clearly off to
+//!    the side (wanted curvature above 0.24 1/m); driving straight with the goal straight ahead
+//!    is right. Runs of at least [`AdvisorRules::min_chunk`] consecutive points with the same
 //!    fault are the chunks a person would select; the longest [`AdvisorRules::approach_chunks`]
 //!    of them are advised, each cut to its first [`AdvisorRules::chunk_len`] points (the
 //!    earlier the correction, the more of the path it changes): too wide gets
-//!    `turn_tighter(rate)`, too tight `turn_looser(rate)`, away `no_turning`. The rate is the
+//!    `turn_tighter(rate)`, too tight `turn_looser(rate)`, away `no_turning`. Scaling cannot
+//!    make a turn out of a straight run, so a straight run that the robot ended by turning toward
+//!    the goal (within 10 points) gets `start_turning_earlier(steps)` on the first chunk of that
+//!    turn, `steps` the straight run's length rounded up to 5 points: "when you saw this, you
+//!    should already have been turning like that"; a straight run with no such turn after it
+//!    gets nothing. The rate is the
 //!    chunk's median correction rounded to a coarse value a person would pick (tighter by 0.5,
 //!    1, 2 or 4; looser by 0.25, 0.5 or 0.75), never the exact number.
 //!
@@ -105,6 +110,7 @@ pub enum Reason {
     ArcTooWide,
     ArcTooTight,
     TurningAway,
+    TurnedTooLate,
     StoppedShort,
     Overshoot,
     MissedTurningTooLittle,
@@ -120,6 +126,7 @@ impl Reason {
             Reason::ArcTooWide => "arc too wide",
             Reason::ArcTooTight => "arc too tight",
             Reason::TurningAway => "turning away",
+            Reason::TurnedTooLate => "turned too late",
             Reason::StoppedShort => "stopped short",
             Reason::Overshoot => "overshoot",
             Reason::MissedTurningTooLittle => "missed, turning too little",
@@ -263,6 +270,8 @@ enum Arc {
     Tight(f64),
     /// Turning away from the goal.
     Away,
+    /// Driving straight with the goal clearly off to the side.
+    Straight,
 }
 
 /// The arc at point `t`, or `None` where the robot was not driving forward or was already near.
@@ -284,8 +293,9 @@ fn arc_at(trace: &Trace, t: usize) -> Option<Arc> {
         return Some(Arc::Away);
     }
     if a[ROT].abs() <= TURNING_RADPS {
-        // Scaling cannot make a turn out of driving straight.
-        return None;
+        // Scaling cannot make a turn out of driving straight; the turn that came later can be
+        // moved earlier (see `approach_advice`).
+        return (wanted.abs() >= 2.0 * ARC_STRAIGHT).then_some(Arc::Straight);
     }
     let ratio = wanted.abs() / driven.abs().max(1e-9);
     Some(if wanted * driven < 0.0 || ratio < 1.0 / ARC_OK.1 {
@@ -311,6 +321,7 @@ fn approach_advice(
         Some(Arc::Wide(_)) => 1,
         Some(Arc::Tight(_)) => 2,
         Some(Arc::Away) => 3,
+        Some(Arc::Straight) => 4,
         _ => 0,
     };
     let arcs: Vec<Option<Arc>> = (0..end.min(trace.len()))
@@ -333,46 +344,81 @@ fn approach_advice(
     runs.truncate(rules.approach_chunks);
     runs.sort_unstable();
     runs.into_iter()
-        .map(|(start, e)| {
-            let chunk = Chunk {
-                start,
-                end: e.min(start + rules.chunk_len.max(1)),
-            };
-            let mut ratios: Vec<f64> = chunk
-                .range()
-                .filter_map(|t| match arcs[t] {
-                    Some(Arc::Wide(r) | Arc::Tight(r)) => Some(r),
-                    _ => None,
-                })
-                .collect();
-            ratios.sort_by(f64::total_cmp);
-            let median = ratios.get(ratios.len() / 2).copied().unwrap_or(1.0);
-            match arcs[start] {
-                Some(Arc::Wide(_)) => {
-                    let rate = [0.5, 1.0, 2.0, 4.0]
-                        .into_iter()
-                        .min_by(|a, b| {
-                            ((1.0 + a) / median)
-                                .ln()
-                                .abs()
-                                .total_cmp(&((1.0 + b) / median).ln().abs())
-                        })
-                        .unwrap_or(1.0);
-                    (format!("turn_tighter({rate})"), chunk, Reason::ArcTooWide)
+        .filter_map(|(start, e)| {
+            if arcs[start] == Some(Arc::Straight) {
+                // Drove straight past the moment to turn, then turned toward the goal: the turn
+                // should have begun when the straight stretch did. The chunk is the turn that
+                // followed; each of its points is paired with the observation `steps` earlier.
+                let wanted = trace.z(start)[BEARING].signum();
+                let toward = |t: usize| {
+                    t < trace.len()
+                        && turning(trace, t)
+                        && driving(trace, t)
+                        && trace.a(t)[ROT] * wanted > 0.0
+                };
+                let turn_start = (e..(e + 10).min(trace.len())).find(|&t| toward(t))?;
+                let mut turn_end = turn_start;
+                while turn_end < trace.len()
+                    && toward(turn_end)
+                    && turn_end - turn_start < rules.chunk_len.max(1)
+                {
+                    turn_end += 1;
                 }
-                Some(Arc::Tight(_)) => {
-                    let rate = [0.25, 0.5, 0.75]
-                        .into_iter()
-                        .min_by(|a, b| {
-                            ((1.0 - a) - median)
-                                .abs()
-                                .total_cmp(&((1.0 - b) - median).abs())
-                        })
-                        .unwrap_or(0.5);
-                    (format!("turn_looser({rate})"), chunk, Reason::ArcTooTight)
+                if turn_end - turn_start < rules.min_chunk.max(1) {
+                    return None;
                 }
-                _ => ("no_turning".to_string(), chunk, Reason::TurningAway),
+                // A person judges the delay coarsely: to the nearest 5 points (1/6 s).
+                let steps = ((turn_start - start).div_ceil(5) * 5).clamp(5, 300);
+                return Some((
+                    format!("start_turning_earlier(steps = {steps})"),
+                    Chunk {
+                        start: turn_start,
+                        end: turn_end,
+                    },
+                    Reason::TurnedTooLate,
+                ));
             }
+            Some((start, e)).map(|(start, e)| {
+                let chunk = Chunk {
+                    start,
+                    end: e.min(start + rules.chunk_len.max(1)),
+                };
+                let mut ratios: Vec<f64> = chunk
+                    .range()
+                    .filter_map(|t| match arcs[t] {
+                        Some(Arc::Wide(r) | Arc::Tight(r)) => Some(r),
+                        _ => None,
+                    })
+                    .collect();
+                ratios.sort_by(f64::total_cmp);
+                let median = ratios.get(ratios.len() / 2).copied().unwrap_or(1.0);
+                match arcs[start] {
+                    Some(Arc::Wide(_)) => {
+                        let rate = [0.5, 1.0, 2.0, 4.0]
+                            .into_iter()
+                            .min_by(|a, b| {
+                                ((1.0 + a) / median)
+                                    .ln()
+                                    .abs()
+                                    .total_cmp(&((1.0 + b) / median).ln().abs())
+                            })
+                            .unwrap_or(1.0);
+                        (format!("turn_tighter({rate})"), chunk, Reason::ArcTooWide)
+                    }
+                    Some(Arc::Tight(_)) => {
+                        let rate = [0.25, 0.5, 0.75]
+                            .into_iter()
+                            .min_by(|a, b| {
+                                ((1.0 - a) - median)
+                                    .abs()
+                                    .total_cmp(&((1.0 - b) - median).abs())
+                            })
+                            .unwrap_or(0.5);
+                        (format!("turn_looser({rate})"), chunk, Reason::ArcTooTight)
+                    }
+                    _ => ("no_turning".to_string(), chunk, Reason::TurningAway),
+                }
+            })
         })
         .collect()
 }
@@ -490,11 +536,21 @@ mod tests {
     /// A constant arc (`speed` m/s, `rot` rad/s) from the origin for `steps` points, then at
     /// rest, toward `goal`; observations as the positioning task makes them.
     fn arc(goal: Pose, speed: f64, rot: f64, steps: usize) -> Execution {
+        path(goal, &[(speed, rot, steps)])
+    }
+
+    /// Constant-speed legs `(speed, rot, steps)` from the origin, then at rest.
+    fn path(goal: Pose, legs: &[(f64, f64, usize)]) -> Execution {
         let mut trace = Trace::new(&Domain::positioning());
         let dt = 1.0 / 30.0;
         let mut p = Pose::new(0.0, 0.0, 0.0);
-        for i in 0..steps + 16 {
-            let (v, w) = if i < steps { (speed, rot) } else { (0.0, 0.0) };
+        let mut commands: Vec<(f64, f64)> = legs
+            .iter()
+            .flat_map(|&(v, w, n)| std::iter::repeat_n((v, w), n))
+            .collect();
+        let steps = commands.len();
+        commands.extend(std::iter::repeat_n((0.0, 0.0), 16));
+        for (i, &(v, w)) in commands.iter().enumerate() {
             let z = crate::task::positioning::observe(goal, p);
             trace.push(i as f64 * dt, &z, &[v, w], Some(p));
             p = Pose::new(
@@ -510,7 +566,7 @@ mod tests {
                 ending: Ending::Rested,
                 position_error_m: error,
                 heading_error_rad: Some(0.0),
-                length_m: speed * steps as f64 * dt,
+                length_m: legs.iter().map(|l| l.0 * l.2 as f64 * dt).sum(),
                 steps: trace.len(),
                 duration_s: trace.len() as f64 * dt,
                 final_pose: p,
@@ -549,6 +605,25 @@ mod tests {
     }
 
     #[test]
+    fn a_straight_run_past_the_goal_then_a_turn_gets_start_turning_earlier() {
+        // The goal is off to the left; the robot drives straight for 2 s, then turns left.
+        let exec = path(Pose::new(2.0, 2.0, 0.0), &[(0.5, 0.0, 60), (0.5, 0.8, 40)]);
+        let advice = advise(&exec, &AdvisorRules::default());
+        let late: Vec<_> = advice
+            .iter()
+            .filter(|a| a.reason == Reason::TurnedTooLate)
+            .collect();
+        assert_eq!(late.len(), 1, "{advice:?}");
+        assert_eq!(
+            late[0].operator.to_string(),
+            "start_turning_earlier(steps = 60)"
+        );
+        // The chunk is the turn that followed the straight stretch.
+        assert_eq!(late[0].chunk.start, 60);
+        assert_eq!(late[0].chunk.len(), 25);
+    }
+
+    #[test]
     fn an_arc_turning_away_from_the_goal_gets_no_turning() {
         // The goal is off to the left; the robot curves right.
         let exec = arc(Pose::new(2.0, 2.0, 0.0), 0.5, -0.3, 150);
@@ -570,6 +645,7 @@ mod tests {
             arc(Pose::new(2.0, 2.0, 0.0), 0.5, 0.08, 240),
             arc(Pose::new(2.0, 2.0, 0.0), 0.5, -0.3, 150),
             arc(Pose::new(3.0, 0.5, 0.0), 0.5, 0.6, 150),
+            path(Pose::new(2.0, 2.0, 0.0), &[(0.5, 0.0, 60), (0.5, 0.8, 40)]),
         ] {
             for a in advise(&exec, &AdvisorRules::default()) {
                 let syn = crate::interp::apply(&ops, &a.operator, &exec.trace, a.chunk).unwrap();
