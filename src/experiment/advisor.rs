@@ -548,7 +548,6 @@ mod tests {
             .iter()
             .flat_map(|&(v, w, n)| std::iter::repeat_n((v, w), n))
             .collect();
-        let steps = commands.len();
         commands.extend(std::iter::repeat_n((0.0, 0.0), 16));
         for (i, &(v, w)) in commands.iter().enumerate() {
             let z = crate::task::positioning::observe(goal, p);
