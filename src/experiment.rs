@@ -26,6 +26,7 @@ pub mod advisor;
 pub mod aopi;
 pub mod bc;
 pub mod critic;
+pub mod pilot;
 pub mod plot;
 pub mod summary;
 

@@ -11,15 +11,39 @@
 //! 1. An execution is **poor** when the robot ended farther than [`AdvisorRules::position_tol_m`]
 //!    from the goal or more than [`AdvisorRules::heading_tol_rad`] off the goal heading, or did not
 //!    come to rest. A good execution gets no advice.
-//! 2. Position first (a human fixes where the robot goes before how it faces):
-//!    - **stopped short** (the goal still ahead when it stopped, within pi/2 of the heading):
-//!      `translational_acceleration` on the last [`AdvisorRules::chunk_len`] points at which the
-//!      robot was still driving: "keep going here".
-//!    - **overshoot** (the goal ended behind the robot, and the robot had been closer to the goal
-//!      than where it stopped): `translational_deceleration` on the chunk leading up to the
-//!      closest approach: "slow down as you get there".
-//!    - **wandering** (the time limit passed with the robot far from the goal): `slow_down` on the
-//!      last chunk of driving.
+//! 2. When it ended far from the goal, first how it ended, on the chunk next to the end:
+//!    - **overshoot** (the robot came within the tolerance, then stopped farther away):
+//!      `translational_deceleration` on the last [`AdvisorRules::chunk_len`] driving points
+//!      up to the closest approach: "slow down as you get there".
+//!    - **stopped short** (at rest with the goal still ahead, within pi/4 of the heading):
+//!      `translational_acceleration` on the last driving chunk: "keep going here".
+//!
+//!    Then how it got there: the **arcs of the approach**. A person watching from the side sees
+//!    whether the robot is curving onto the goal, past it, or away from it. At each driving
+//!    point of the approach (up to the closest approach or the end chunk, and farther than
+//!    0.6 m from the goal, where the robot should be lining up on the goal heading instead) the
+//!    arc that reaches the goal, tangent to the robot's heading, has curvature
+//!    `2 sin(bearing) / distance`; the driven arc has `rot / trans`. A point is **too wide**
+//!    when it turns toward the goal at less than 0.6 of the wanted curvature, **too tight** when
+//!    it turns at more than 1.7 of it (or turns while the goal is straight ahead), **away** when
+//!    it turns the other way, **straight** when it drives straight with the goal clearly off to
+//!    the side (wanted curvature above 0.24 1/m); driving straight with the goal straight ahead
+//!    is right. Runs of at least [`AdvisorRules::min_chunk`] consecutive points with the same
+//!    fault are the chunks a person would select; the longest [`AdvisorRules::approach_chunks`]
+//!    of them are advised, each cut to its first [`AdvisorRules::chunk_len`] points (the
+//!    earlier the correction, the more of the path it changes): too wide gets
+//!    `turn_tighter(rate)`, too tight `turn_looser(rate)`, away `no_turning`. Scaling cannot
+//!    make a turn out of a straight run, so a straight run that the robot ended by turning toward
+//!    the goal (within 10 points) gets `start_turning_earlier(steps)` on the first chunk of that
+//!    turn, `steps` the straight run's length rounded up to 5 points: "when you saw this, you
+//!    should already have been turning like that"; a straight run with no such turn after it
+//!    gets nothing. The rate is the
+//!    chunk's median correction rounded to a coarse value a person would pick (tighter by 0.5,
+//!    1, 2 or 4; looser by 0.25, 0.5 or 0.75), never the exact number.
+//!
+//!    If neither found anything (missed to the side with no clear arc): over the last driving
+//!    chunk before the closest approach, `turn_tighter(2)` if the robot was turning toward the
+//!    goal, else `translational_deceleration(0.5)`.
 //! 3. Then heading, when the heading is off: over the last chunk in which the robot was turning,
 //!    if it turned toward the goal heading but stopped turning too soon (the remaining heading
 //!    error has the sign of the turn), `rotational_acceleration`; if it turned past it (opposite
@@ -27,8 +51,11 @@
 //! 4. Close enough but never at rest (the time limit passed near the goal): `stop` on the last
 //!    chunk: "you were there; stop".
 //!
-//! So an execution gets one or two pieces of advice, each on one chunk of at most
-//! [`AdvisorRules::chunk_len`] points (the operators' guards may skip some of them).
+//! So a poor execution gets up to eight pieces of advice, each on one chunk of at most
+//! [`AdvisorRules::chunk_len`] points, and no point of an execution is advised twice by rule 2
+//! (the operators' guards may skip some points). Why several: the learner is local (LWR with a
+//! narrow kernel), so a correction holds only near the states it was given in; a person fixes
+//! the stretches of the path that went wrong, not one moment of it.
 
 use serde::{Deserialize, Serialize};
 
@@ -57,6 +84,11 @@ pub struct AdvisorRules {
     pub heading_tol_rad: f64,
     /// Largest chunk advised, points.
     pub chunk_len: usize,
+    /// At most this many chunks of the approach are advised on one execution (rule 2).
+    pub approach_chunks: usize,
+    /// Shortest stretch of the approach worth advising, points (a person does not pick out a
+    /// fraction of a second).
+    pub min_chunk: usize,
 }
 
 impl Default for AdvisorRules {
@@ -65,6 +97,8 @@ impl Default for AdvisorRules {
             position_tol_m: 0.5,
             heading_tol_rad: 0.5,
             chunk_len: 25,
+            approach_chunks: 6,
+            min_chunk: 8,
         }
     }
 }
@@ -73,6 +107,10 @@ impl Default for AdvisorRules {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Reason {
+    ArcTooWide,
+    ArcTooTight,
+    TurningAway,
+    TurnedTooLate,
     StoppedShort,
     Overshoot,
     MissedTurningTooLittle,
@@ -85,6 +123,10 @@ pub enum Reason {
 impl Reason {
     pub fn name(self) -> &'static str {
         match self {
+            Reason::ArcTooWide => "arc too wide",
+            Reason::ArcTooTight => "arc too tight",
+            Reason::TurningAway => "turning away",
+            Reason::TurnedTooLate => "turned too late",
             Reason::StoppedShort => "stopped short",
             Reason::Overshoot => "overshoot",
             Reason::MissedTurningTooLittle => "missed, turning too little",
@@ -138,21 +180,38 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         let closest_m = trace.z(closest)[DIST2].sqrt();
         let passed = closest_m <= rules.position_tol_m && closest_m + 0.1 < last[DIST2].sqrt();
         let goal_ahead = last[BEARING].abs() < std::f64::consts::FRAC_PI_4;
+        // How it ended: overshoot or stopped short, on the chunk next to the end.
+        let mut end_chunk = None;
         if passed {
             if let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving) {
                 out.push(advice("translational_deceleration", c, Reason::Overshoot));
+                end_chunk = Some(c);
             }
-        } else if goal_ahead && o.ending == Ending::Rested {
-            if let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving) {
-                out.push(advice(
-                    "translational_acceleration",
-                    c,
-                    Reason::StoppedShort,
-                ));
-            }
-        } else if let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving) {
-            // Missed to the side: over the approach's last chunk, was the robot turning toward
-            // the goal (too little) or away from it?
+        } else if goal_ahead
+            && o.ending == Ending::Rested
+            && let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving)
+        {
+            out.push(advice(
+                "translational_acceleration",
+                c,
+                Reason::StoppedShort,
+            ));
+            end_chunk = Some(c);
+        }
+        // How it got there: the arcs of the approach, up to the closest approach (or the end
+        // chunk, so that no point is advised twice).
+        let approach_end = end_chunk.map_or(closest + 1, |c| c.start.min(closest + 1));
+        let arcs = approach_advice(trace, approach_end, rules);
+        let had_arcs = !arcs.is_empty();
+        for (text, c, reason) in arcs {
+            out.push(advice(&text, c, reason));
+        }
+        if end_chunk.is_none()
+            && !had_arcs
+            && let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving)
+        {
+            // Missed to the side with no clear arc to correct: over the approach's last chunk,
+            // was the robot turning toward the goal (too little) or away from it?
             let toward: f64 = c
                 .range()
                 .map(|t| trace.a(t)[ROT] * trace.z(t)[BEARING].signum())
@@ -190,6 +249,178 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         out.push(advice("stop", Chunk { start, end: n }, Reason::NotStopping));
     }
     out
+}
+
+/// Advice is not given on arcs nearer the goal than this, m: there the robot should be turning
+/// onto the goal heading, not toward the goal position.
+const ARC_NEAR_M: f64 = 0.6;
+/// An arc is right when its curvature is within these factors of the arc that reaches the goal.
+const ARC_OK: (f64, f64) = (0.6, 1.7);
+/// With the goal this nearly straight ahead (curvature of the arc to it, 1/m), driving straight
+/// is right.
+const ARC_STRAIGHT: f64 = 0.12;
+
+/// How a point of the approach curves, against the arc that would reach the goal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Arc {
+    Right,
+    /// Turning toward the goal, too gently: the wanted curvature over the driven one.
+    Wide(f64),
+    /// Turning toward the goal, too sharply: the wanted curvature over the driven one.
+    Tight(f64),
+    /// Turning away from the goal.
+    Away,
+    /// Driving straight with the goal clearly off to the side.
+    Straight,
+}
+
+/// The arc at point `t`, or `None` where the robot was not driving forward or was already near.
+/// The arc that reaches the goal from the robot's pose, tangent to its heading, has curvature
+/// `2 sin(bearing) / distance`; the driven arc has curvature `rot / trans`. This is what a
+/// person sees from the side: whether the robot is curving onto the goal, past it, or away.
+fn arc_at(trace: &Trace, t: usize) -> Option<Arc> {
+    let (z, a) = (trace.z(t), trace.a(t));
+    let d = z[DIST2].max(0.0).sqrt();
+    if a[TRANS] <= MOVING_MPS || d < ARC_NEAR_M {
+        return None;
+    }
+    let wanted = 2.0 * z[BEARING].sin() / d;
+    let driven = a[ROT] / a[TRANS];
+    if wanted.abs() < ARC_STRAIGHT && driven.abs() < ARC_STRAIGHT {
+        return Some(Arc::Right);
+    }
+    if wanted * driven < 0.0 && a[ROT].abs() > TURNING_RADPS && wanted.abs() >= ARC_STRAIGHT {
+        return Some(Arc::Away);
+    }
+    if a[ROT].abs() <= TURNING_RADPS {
+        // Scaling cannot make a turn out of driving straight; the turn that came later can be
+        // moved earlier (see `approach_advice`).
+        return (wanted.abs() >= 2.0 * ARC_STRAIGHT).then_some(Arc::Straight);
+    }
+    let ratio = wanted.abs() / driven.abs().max(1e-9);
+    Some(if wanted * driven < 0.0 || ratio < 1.0 / ARC_OK.1 {
+        Arc::Tight(ratio)
+    } else if ratio > 1.0 / ARC_OK.0 {
+        Arc::Wide(ratio)
+    } else {
+        Arc::Right
+    })
+}
+
+/// The approach's arcs to correct (rule 2): runs of consecutive points before `end` that curve
+/// the same wrong way, the longest first, at most [`AdvisorRules::approach_chunks`] of them,
+/// each cut to its first [`AdvisorRules::chunk_len`] points (the earlier a correction comes, the
+/// more of the path it changes). The operator's rate is the run's median correction, rounded
+/// to the coarse values a person would choose.
+fn approach_advice(
+    trace: &Trace,
+    end: usize,
+    rules: &AdvisorRules,
+) -> Vec<(String, Chunk, Reason)> {
+    let kind = |a: Option<Arc>| match a {
+        Some(Arc::Wide(_)) => 1,
+        Some(Arc::Tight(_)) => 2,
+        Some(Arc::Away) => 3,
+        Some(Arc::Straight) => 4,
+        _ => 0,
+    };
+    let arcs: Vec<Option<Arc>> = (0..end.min(trace.len()))
+        .map(|t| arc_at(trace, t))
+        .collect();
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut t = 0;
+    while t < arcs.len() {
+        let k = kind(arcs[t]);
+        let mut e = t + 1;
+        while e < arcs.len() && kind(arcs[e]) == k {
+            e += 1;
+        }
+        if k != 0 && e - t >= rules.min_chunk.max(1) {
+            runs.push((t, e));
+        }
+        t = e;
+    }
+    runs.sort_by_key(|&(s, e)| std::cmp::Reverse(e - s));
+    runs.truncate(rules.approach_chunks);
+    runs.sort_unstable();
+    runs.into_iter()
+        .filter_map(|(start, e)| {
+            if arcs[start] == Some(Arc::Straight) {
+                // Drove straight past the moment to turn, then turned toward the goal: the turn
+                // should have begun when the straight stretch did. The chunk is the turn that
+                // followed; each of its points is paired with the observation `steps` earlier.
+                let wanted = trace.z(start)[BEARING].signum();
+                let toward = |t: usize| {
+                    t < trace.len()
+                        && turning(trace, t)
+                        && driving(trace, t)
+                        && trace.a(t)[ROT] * wanted > 0.0
+                };
+                let turn_start = (e..(e + 10).min(trace.len())).find(|&t| toward(t))?;
+                let mut turn_end = turn_start;
+                while turn_end < trace.len()
+                    && toward(turn_end)
+                    && turn_end - turn_start < rules.chunk_len.max(1)
+                {
+                    turn_end += 1;
+                }
+                if turn_end - turn_start < rules.min_chunk.max(1) {
+                    return None;
+                }
+                // A person judges the delay coarsely: to the nearest 5 points (1/6 s).
+                let steps = ((turn_start - start).div_ceil(5) * 5).clamp(5, 300);
+                return Some((
+                    format!("start_turning_earlier(steps = {steps})"),
+                    Chunk {
+                        start: turn_start,
+                        end: turn_end,
+                    },
+                    Reason::TurnedTooLate,
+                ));
+            }
+            Some((start, e)).map(|(start, e)| {
+                let chunk = Chunk {
+                    start,
+                    end: e.min(start + rules.chunk_len.max(1)),
+                };
+                let mut ratios: Vec<f64> = chunk
+                    .range()
+                    .filter_map(|t| match arcs[t] {
+                        Some(Arc::Wide(r) | Arc::Tight(r)) => Some(r),
+                        _ => None,
+                    })
+                    .collect();
+                ratios.sort_by(f64::total_cmp);
+                let median = ratios.get(ratios.len() / 2).copied().unwrap_or(1.0);
+                match arcs[start] {
+                    Some(Arc::Wide(_)) => {
+                        let rate = [0.5, 1.0, 2.0, 4.0]
+                            .into_iter()
+                            .min_by(|a, b| {
+                                ((1.0 + a) / median)
+                                    .ln()
+                                    .abs()
+                                    .total_cmp(&((1.0 + b) / median).ln().abs())
+                            })
+                            .unwrap_or(1.0);
+                        (format!("turn_tighter({rate})"), chunk, Reason::ArcTooWide)
+                    }
+                    Some(Arc::Tight(_)) => {
+                        let rate = [0.25, 0.5, 0.75]
+                            .into_iter()
+                            .min_by(|a, b| {
+                                ((1.0 - a) - median)
+                                    .abs()
+                                    .total_cmp(&((1.0 - b) - median).abs())
+                            })
+                            .unwrap_or(0.5);
+                        (format!("turn_looser({rate})"), chunk, Reason::ArcTooTight)
+                    }
+                    _ => ("no_turning".to_string(), chunk, Reason::TurningAway),
+                }
+            })
+        })
+        .collect()
 }
 
 fn driving(trace: &Trace, t: usize) -> bool {
@@ -302,10 +533,119 @@ mod tests {
         assert!((end_pose.x_m - closest_x).abs() < 0.05, "{end_pose:?}");
     }
 
+    /// A constant arc (`speed` m/s, `rot` rad/s) from the origin for `steps` points, then at
+    /// rest, toward `goal`; observations as the positioning task makes them.
+    fn arc(goal: Pose, speed: f64, rot: f64, steps: usize) -> Execution {
+        path(goal, &[(speed, rot, steps)])
+    }
+
+    /// Constant-speed legs `(speed, rot, steps)` from the origin, then at rest.
+    fn path(goal: Pose, legs: &[(f64, f64, usize)]) -> Execution {
+        let mut trace = Trace::new(&Domain::positioning());
+        let dt = 1.0 / 30.0;
+        let mut p = Pose::new(0.0, 0.0, 0.0);
+        let mut commands: Vec<(f64, f64)> = legs
+            .iter()
+            .flat_map(|&(v, w, n)| std::iter::repeat_n((v, w), n))
+            .collect();
+        commands.extend(std::iter::repeat_n((0.0, 0.0), 16));
+        for (i, &(v, w)) in commands.iter().enumerate() {
+            let z = crate::task::positioning::observe(goal, p);
+            trace.push(i as f64 * dt, &z, &[v, w], Some(p));
+            p = Pose::new(
+                p.x_m + v * p.theta_rad.cos() * dt,
+                p.y_m + v * p.theta_rad.sin() * dt,
+                p.theta_rad + w * dt,
+            );
+        }
+        let error = (goal.x_m - p.x_m).hypot(goal.y_m - p.y_m);
+        Execution {
+            outcome: Outcome {
+                success: error < 1.0,
+                ending: Ending::Rested,
+                position_error_m: error,
+                heading_error_rad: Some(0.0),
+                length_m: legs.iter().map(|l| l.0 * l.2 as f64 * dt).sum(),
+                steps: trace.len(),
+                duration_s: trace.len() as f64 * dt,
+                final_pose: p,
+            },
+            trace,
+            true_poses: None,
+            ball: None,
+        }
+    }
+
+    #[test]
+    fn an_arc_too_wide_for_the_goal_gets_turn_tighter_on_the_approach() {
+        // The goal is 3 m off to the left; the robot curves left far too gently and passes it.
+        let exec = arc(Pose::new(2.0, 2.0, 0.0), 0.5, 0.08, 240);
+        assert!(exec.outcome.position_error_m > 1.0);
+        let advice = advise(&exec, &AdvisorRules::default());
+        let wide: Vec<_> = advice
+            .iter()
+            .filter(|a| a.reason == Reason::ArcTooWide)
+            .collect();
+        assert!(!wide.is_empty(), "{advice:?}");
+        for a in wide {
+            assert!(a.operator.to_string().starts_with("turn_tighter("));
+            assert!(a.chunk.len() <= 25 && a.chunk.len() >= 8);
+        }
+        // No point is advised twice by the position rules.
+        let mut seen = std::collections::HashSet::new();
+        for a in advice
+            .iter()
+            .filter(|a| a.reason != Reason::TurnedTooLittle)
+        {
+            for t in a.chunk.range() {
+                assert!(seen.insert(t), "point {t} advised twice: {advice:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_straight_run_past_the_goal_then_a_turn_gets_start_turning_earlier() {
+        // The goal is off to the left; the robot drives straight for 2 s, then turns left.
+        let exec = path(Pose::new(2.0, 2.0, 0.0), &[(0.5, 0.0, 60), (0.5, 0.8, 40)]);
+        let advice = advise(&exec, &AdvisorRules::default());
+        let late: Vec<_> = advice
+            .iter()
+            .filter(|a| a.reason == Reason::TurnedTooLate)
+            .collect();
+        assert_eq!(late.len(), 1, "{advice:?}");
+        assert_eq!(
+            late[0].operator.to_string(),
+            "start_turning_earlier(steps = 60)"
+        );
+        // The chunk is the turn that followed the straight stretch.
+        assert_eq!(late[0].chunk.start, 60);
+        assert_eq!(late[0].chunk.len(), 25);
+    }
+
+    #[test]
+    fn an_arc_turning_away_from_the_goal_gets_no_turning() {
+        // The goal is off to the left; the robot curves right.
+        let exec = arc(Pose::new(2.0, 2.0, 0.0), 0.5, -0.3, 150);
+        let advice = advise(&exec, &AdvisorRules::default());
+        assert!(
+            advice
+                .iter()
+                .any(|a| a.reason == Reason::TurningAway && a.operator.to_string() == "no_turning"),
+            "{advice:?}"
+        );
+    }
+
     #[test]
     fn advice_speaks_only_through_standard_operators() {
         let ops = OperatorSet::standard();
-        for exec in [drive(3.0, 1.5, 0.5), drive(1.5, 2.5, 0.5)] {
+        for exec in [
+            drive(3.0, 1.5, 0.5),
+            drive(1.5, 2.5, 0.5),
+            arc(Pose::new(2.0, 2.0, 0.0), 0.5, 0.08, 240),
+            arc(Pose::new(2.0, 2.0, 0.0), 0.5, -0.3, 150),
+            arc(Pose::new(3.0, 0.5, 0.0), 0.5, 0.6, 150),
+            path(Pose::new(2.0, 2.0, 0.0), &[(0.5, 0.0, 60), (0.5, 0.8, 40)]),
+        ] {
             for a in advise(&exec, &AdvisorRules::default()) {
                 let syn = crate::interp::apply(&ops, &a.operator, &exec.trace, a.chunk).unwrap();
                 assert!(!syn.points.is_empty());

@@ -7,16 +7,24 @@
 //! practice stream (after the 9 demonstration goals, so none repeats and none is a test goal);
 //! the robot runs its current policy to the goal; the [`advisor`] judges the execution; if it is
 //! poor, the arm's improvement is given: advice (the advisor's operators on its chunks, added
-//! through [`Learner::add_advice`]) or a teleoperated demonstration of the same goal (the teacher
-//! drives it, and its demonstration is kept as it came, like the seed demonstrations). The
+//! through [`Learner::add_advice`]) or a teleoperated demonstration of the same goal (the person
+//! drives it, and the demonstration is kept as it came, like the seed demonstrations). Every
+//! teleoperated demonstration, the 9 seed ones included, is driven by the [`pilot`] model of a
+//! human teleoperator, whose style varies from one run to the next (drawn per goal, so the
+//! hybrid and teleoperation arms meet the same person on the same goal). The
 //! hybrid arm teleoperates for its first `hybrid_teleop` practice goals and advises after. Every
 //! `eval_every` practice goals the policy runs the 25 test goals, which are never advised.
 //! An arm stops when `patience` evaluations in a row did not improve on its best (more successes,
 //! or as many with a combined error at least 2% lower), or when its practice goals run out; its
 //! final policy is the one of its last improvement (the paper halted "once performance on the
-//! test set no longer improved"), and every arm is selected the same way.
+//! test set no longer improved"), and every arm is selected the same way. The patience (6
+//! evaluations, 30 practice goals) is long enough that no arm is stopped by the noise of a
+//! 25-goal test set while it is still learning: the paper's arms ran 60 to 69 executions, and a
+//! local learner's curve under advice dips before it climbs (a new correction first sends the
+//! robot into states nobody has advised yet).
 //!
 //! [`advisor`]: crate::experiment::advisor
+//! [`pilot`]: crate::experiment::pilot
 
 use std::collections::BTreeMap;
 use std::f64::consts::FRAC_PI_2;
@@ -28,13 +36,15 @@ use crate::backend::sim::SimParams;
 use crate::check::OperatorSet;
 use crate::eval::Report;
 use crate::experiment::advisor::{self, AdvisorRules};
+use crate::experiment::pilot::PilotStyle;
 use crate::experiment::{Progress, eval_seed, evaluate_starts, pct, practice_seed};
 use crate::interp;
 use crate::policy::Policy;
 use crate::policy::dataset::Dataset;
 use crate::policy::learner::{Learner, LearnerKind};
-use crate::task::{Controller, Start, TaskKind, record_demos, run_sim};
+use crate::task::{Controller, Outcome, Start, TaskKind, episode_seed, run_sim};
 use crate::trace::Episode;
+use rayon::prelude::*;
 
 /// The paper's Figure 8 (success) and dataset sizes in executions (Figure 11's text).
 pub const PAPER: PaperAopi = PaperAopi {
@@ -76,6 +86,9 @@ pub struct AopiParams {
     /// Re-derive the policy from scratch (new scaling, re-tuned LWR) after each advised
     /// execution, as after a demonstration; otherwise advice is added incrementally.
     pub rederive_after_advice: bool,
+    /// The person teleoperating every demonstration (seed, hybrid and teleoperation arms alike):
+    /// see [`crate::experiment::pilot`].
+    pub teacher: PilotStyle,
     pub advisor: AdvisorRules,
     pub sim: SimParams,
 }
@@ -87,9 +100,10 @@ impl Default for AopiParams {
             max_practice: 60,
             hybrid_teleop: 10,
             eval_every: 5,
-            patience: 3,
+            patience: 6,
             test_goals: crate::task::positioning::TEST_GOALS,
             rederive_after_advice: true,
+            teacher: PilotStyle::default(),
             advisor: AdvisorRules::default(),
             sim: SimParams::default(),
         }
@@ -190,7 +204,7 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
         1 + 3 * params.max_practice as u64,
         "a-opi: demonstrations",
     );
-    let recorded = record_demos(kind, params.seed_demos, seed, sim);
+    let recorded = record_pilot_demos(params, seed);
     let mut ds = Dataset::new(&kind.domain());
     for (e, _) in &recorded {
         // Recorded in the task's own domain: this cannot fail.
@@ -239,11 +253,16 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
                     Mode::Teleop => true,
                 };
                 if teleop {
-                    let mut teacher = kind.teacher(sim.period_s());
-                    // The teacher's own run of this goal, on its own simulator noise.
+                    // The person's own run of this goal, in the style drawn for it (the same in
+                    // every arm), on its own simulator noise.
+                    let mut teacher = params.teacher.teacher(
+                        seed,
+                        (params.seed_demos + i) as u64,
+                        sim.period_s(),
+                    );
                     let demo = run_sim(
                         goal,
-                        teacher.as_mut(),
+                        &mut teacher,
                         sim,
                         practice_seed(seed, (1 << 32) + i as u64),
                     );
@@ -321,6 +340,29 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
         seed_demo_points,
         paper: PAPER,
     }
+}
+
+/// The person's seed demonstrations: from the seed's first `seed_demos` practice goals,
+/// demonstration `i` driven in the style drawn for it and on the simulator noise
+/// [`crate::task::record_demos`] would use.
+fn record_pilot_demos(params: &AopiParams, seed: u64) -> Vec<(Episode, Outcome)> {
+    let sim = &params.sim;
+    TaskKind::Positioning
+        .practice_set(seed, params.seed_demos)
+        .par_iter()
+        .enumerate()
+        .map(|(i, start)| {
+            let mut person = params.teacher.teacher(seed, i as u64, sim.period_s());
+            let exec = run_sim(start, &mut person, sim, episode_seed(seed, i as u64));
+            (
+                Episode {
+                    name: format!("demo-{i}"),
+                    trace: exec.trace,
+                },
+                exec.outcome,
+            )
+        })
+        .collect()
 }
 
 /// Improvement given by an arm so far.
