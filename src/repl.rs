@@ -99,6 +99,11 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
     if let Some(j) = session.journal_path() {
         println!("journal: {} (replay with `advise resume`)", j.display());
     }
+    if !session.learner().is_empty() {
+        println!(
+            "the starting policy comes from a few teacher demonstrations and is meant to be weak (the paper's baseline): run it, see where it goes wrong, advise it"
+        );
+    }
     println!(
         "type `help` for the commands, Tab to complete; e.g. `run goal 2 -1 0`, then `select 40..70`, `advise slow_down`"
     );
