@@ -5,9 +5,9 @@
 //! Protocol, per seed: the interception teacher demonstrates from the first `demos` practice
 //! starts of the seed; the learner is derived; the learner, and the teacher, run the test set.
 //! Then each critique round runs the current policy from the next practice start (drawn without
-//! replacement, never a test start), the critic judges the execution from its trace, and every
-//! flagged chunk becomes a `critique` with `kappa` exactly as a teacher would type it in a
-//! session. Every `eval_every` rounds the policy runs the test set, which is never critiqued.
+//! replacement, never a test start), the critic judges the execution as a person watching would
+//! (misses and detours only), and every flagged chunk becomes a `critique` with `kappa` exactly as
+//! a teacher would type it in a session. Every `eval_every` rounds the policy runs the test set, which is never critiqued.
 //!
 //! Table 1's efficiency column compares path lengths only on test starts where the initial
 //! policy, the final policy and the teacher all succeeded (the paper compares only runs "in which
@@ -208,7 +208,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
             run_sim(start, controller, sim, practice_seed(seed, r as u64))
         };
         practice_successes += usize::from(exec.outcome.success);
-        let flags = critic::critique(&exec.trace, &params.critic);
+        let flags = critic::critique_execution(&exec, &params.critic);
         if !flags.is_empty() {
             summary.rounds_flagged += 1;
             let id = learner.add_execution(&exec.trace);

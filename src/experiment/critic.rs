@@ -1,22 +1,30 @@
 //! The automated critic of the BC study: it watches an interception execution and flags the chunks
 //! a human would call poor, the way the paper's teacher flagged the loop of its Figure 4.
 //!
-//! It sees only the execution's trace (the observations the robot recorded, which is what a
-//! person watching the robot and the ball sees, as numbers); it never looks at the policy, its
-//! data points or their weights. The rule, in full:
+//! It sees what a person watching the robot and the ball sees: the execution's trace (the
+//! observations the robot recorded, as numbers), whether the ball was caught, and where. It never
+//! looks at the policy, its data points or their weights. The rule, in full:
 //!
+//! 0. **Only poor executions are critiqued.** The paper's teacher judged by "a combination of
+//!    ball interception success and human intuition": a miss is poor, and so is a catch by "a
+//!    very convoluted path". A catch whose path was at most [`CriticRules::detour_ratio`] times
+//!    the straight line from the start to where the ball was caught, plus
+//!    [`CriticRules::detour_slack_m`], is left alone ([`critique_execution`]).
 //! 1. The execution is cut into consecutive chunks of [`CriticRules::chunk_len`] points (25, in
 //!    the paper's typical 20-30); a short remainder joins the chunk before it (so chunks hold
 //!    `chunk_len` to `2 * chunk_len - 1` points), and an execution shorter than one chunk is one
-//!    chunk. The first [`CriticRules::settle_points`] points are never judged: the robot starts
-//!    at rest and has to get going.
+//!    chunk. The opening is never judged: the robot starts at rest, facing wherever it was put,
+//!    and has to get going and turn to the ball. Judging starts once the ball is within
+//!    [`CriticRules::face_rad`] of straight ahead, but not before [`CriticRules::settle_points`]
+//!    and not after [`CriticRules::max_settle_points`] (a robot that has not faced the ball by
+//!    then is doing something wrong).
 //! 2. For each chunk it measures the robot's travel (the sum of `|travel_delta|`), its turning
 //!    (the sum of `|heading_delta|`) and its progress (the ball distance at the chunk's start
 //!    minus at its end).
 //! 3. A chunk is flagged as:
 //!    - **moving away** when the ball ends the chunk farther away than it started, by more than
 //!      [`CriticRules::away_m`], while the robot was driving (travel above
-//!      [`CriticRules::min_travel_m`]);
+//!      [`CriticRules::min_travel_m`]) and its own driving took it away from the ball;
 //!    - **wasted turning** when the robot turned more than [`CriticRules::turn_rad`] but closed
 //!      less than [`CriticRules::min_efficiency`] of the distance it drove: it was circling, not
 //!      approaching;
@@ -35,6 +43,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::task::Execution;
 use crate::trace::{Chunk, Trace};
 
 /// The interception observation's columns the critic reads.
@@ -53,6 +62,16 @@ pub struct CriticRules {
     pub chunk_len: usize,
     /// Points at the start of an execution that are never judged (the robot starts at rest).
     pub settle_points: usize,
+    /// The opening turn to the ball is not judged: judging starts once the ball is within this
+    /// angle of straight ahead, rad ...
+    pub face_rad: f64,
+    /// ... or after this many points at the latest.
+    pub max_settle_points: usize,
+    /// A successful execution is critiqued only when its path was longer than this many times
+    /// the straight line from its start to where it caught the ball ...
+    pub detour_ratio: f64,
+    /// ... plus this, m.
+    pub detour_slack_m: f64,
     /// Moving away: the ball distance grew over the chunk by more than this, m.
     pub away_m: f64,
     /// A chunk in which the robot drove less than this is not judged on distance, m.
@@ -75,6 +94,10 @@ impl Default for CriticRules {
         CriticRules {
             chunk_len: 25,
             settle_points: 10,
+            face_rad: 0.5,
+            max_settle_points: 60,
+            detour_ratio: 1.6,
+            detour_slack_m: 0.5,
             away_m: 0.03,
             min_travel_m: 0.05,
             turn_rad: 0.35,
@@ -172,11 +195,12 @@ pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
         return Vec::new();
     }
     let in_loop = loop_points(trace, rules);
+    let settle = opening(trace, rules);
     let mut flags = Vec::new();
     for chunk in chunks(n, rules.chunk_len) {
-        // Only the part after the settling points is judged.
+        // Only the part after the opening is judged.
         let judged = Chunk {
-            start: chunk.start.max(rules.settle_points.min(n)),
+            start: chunk.start.max(settle).min(chunk.end),
             end: chunk.end,
         };
         if judged.len() < rules.chunk_len.div_ceil(2) {
@@ -202,6 +226,44 @@ pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
         }
     }
     flags
+}
+
+/// Judge an execution as a person would (rule 0 of the module docs, then [`critique`]): a catch
+/// by a path close to the straight line is left alone; a miss, or a catch by a detour, gets its
+/// poor chunks flagged.
+pub fn critique_execution(exec: &Execution, rules: &CriticRules) -> Vec<Flag> {
+    if exec.outcome.success && !is_detour(exec, rules) {
+        return Vec::new();
+    }
+    critique(&exec.trace, rules)
+}
+
+/// Whether a successful execution took "a very convoluted path": longer than `detour_ratio`
+/// times the straight line from its start (the first recorded pose; interception runs start at
+/// the origin) to where it ended, plus `detour_slack_m`.
+pub fn is_detour(exec: &Execution, rules: &CriticRules) -> bool {
+    let start = exec
+        .true_poses
+        .as_ref()
+        .and_then(|p| p.first().copied())
+        .or_else(|| exec.trace.pose.as_ref().and_then(|p| p.first().copied()))
+        .unwrap_or_default();
+    let end = exec.outcome.final_pose;
+    let straight = (end.x_m - start.x_m).hypot(end.y_m - start.y_m);
+    exec.outcome.length_m > rules.detour_ratio * straight + rules.detour_slack_m
+}
+
+/// The points of the opening that are not judged (rule 1): until the ball is first within
+/// `face_rad` of straight ahead, at least `settle_points`, at most `max_settle_points`.
+fn opening(trace: &Trace, rules: &CriticRules) -> usize {
+    let n = trace.len();
+    let faced = (0..n)
+        .find(|&t| trace.z(t)[BALL_ANGLE].abs() < rules.face_rad)
+        .unwrap_or(n);
+    faced
+        .min(rules.max_settle_points)
+        .max(rules.settle_points)
+        .min(n)
 }
 
 /// Which points lie inside a loop: while the robot keeps turning one way (a stretch of
@@ -363,5 +425,73 @@ mod tests {
         let pts: Vec<_> = (0..60).map(|_| (2.0, 0.004, 0.025)).collect();
         let flags = critique(&trace(&pts), &CriticRules::default());
         assert!(flags.iter().any(|f| f.flaw == Flaw::WastedTurning));
+    }
+
+    /// An interception run of the hand-written teacher from `start`.
+    fn teacher_run(start: crate::task::BallStart) -> Execution {
+        use crate::backend::sim::SimParams;
+        use crate::task::{Start, TaskKind};
+        let sim = SimParams::default();
+        let mut teacher = TaskKind::Interception.teacher(sim.period_s());
+        crate::task::run_sim(&Start::Ball(start), teacher.as_mut(), &sim, 1)
+    }
+
+    #[test]
+    fn a_quick_catch_is_left_alone_and_a_detour_is_judged() {
+        // The ball still, 2 m straight ahead: the teacher drives at it.
+        let quick = teacher_run(crate::task::BallStart::default());
+        assert!(quick.outcome.success);
+        let rules = CriticRules::default();
+        assert!(!is_detour(&quick, &rules));
+        assert!(critique_execution(&quick, &rules).is_empty());
+        // The same run held to a stricter standard than the straight line is a detour, and is
+        // judged chunk by chunk (a straight approach still has nothing to flag).
+        let strict = CriticRules {
+            detour_ratio: 0.5,
+            detour_slack_m: 0.0,
+            ..rules.clone()
+        };
+        assert!(is_detour(&quick, &strict));
+        assert!(critique_execution(&quick, &strict).is_empty());
+    }
+
+    #[test]
+    fn the_opening_turn_to_the_ball_is_not_judged() {
+        // The ball behind the robot: turning round to it at the start is not a flaw, and no
+        // flagged chunk ends before the robot first faced the ball.
+        let mut trace = Trace::new(&Domain::interception());
+        for i in 0..40 {
+            // Turning in place from the ball behind (pi) to ahead, then a straight approach.
+            let angle = (std::f64::consts::PI - 0.1 * i as f64).max(0.0);
+            trace.push(
+                i as f64 / 30.0,
+                &[2.0, angle, 0.0, 0.0, 0.004, 0.1],
+                &[0.0, 0.0],
+                None,
+            );
+        }
+        let step = 0.8 / 30.0;
+        for i in 0..60 {
+            trace.push(
+                (40 + i) as f64 / 30.0,
+                &[2.0 - step * i as f64, 0.0, -step, 0.0, step, 0.0],
+                &[0.0, 0.0],
+                None,
+            );
+        }
+        let rules = CriticRules::default();
+        assert_eq!(opening(&trace, &rules), 27);
+        assert!(critique(&trace, &rules).is_empty());
+        // Judged from the first point instead, the turn in place is wasted turning.
+        let eager = CriticRules {
+            face_rad: 10.0,
+            settle_points: 0,
+            ..rules
+        };
+        assert!(
+            critique(&trace, &eager)
+                .iter()
+                .any(|f| f.flaw == Flaw::WastedTurning)
+        );
     }
 }
