@@ -344,10 +344,9 @@ mod tests {
         assert!(critique(&trace(&pts), &CriticRules::default()).is_empty());
     }
 
-    #[test]
-    fn a_looping_trace_is_flagged() {
-        // Approach, then a full circle at 0.6 rad/s (the ball distance swings out and back),
-        // then a straight final approach.
+    /// Approach, then a full circle at 0.6 rad/s (the ball distance swings out and back), then a
+    /// straight final approach; and the number of points in the circle.
+    fn looping_trace() -> (Trace, usize) {
         let step = 0.5 / 30.0;
         let mut pts = Vec::new();
         let mut d = 3.0;
@@ -364,7 +363,12 @@ mod tests {
             d -= step;
             pts.push((d, step, 0.0));
         }
-        let t = trace(&pts);
+        (trace(&pts), loop_pts)
+    }
+
+    #[test]
+    fn a_looping_trace_is_flagged() {
+        let (t, loop_pts) = looping_trace();
         let flags = critique(&t, &CriticRules::default());
         assert!(!flags.is_empty());
         let all = critique(
@@ -456,9 +460,41 @@ mod tests {
     }
 
     #[test]
+    fn misses_and_detours_are_judged_quick_catches_are_not() {
+        // The looping trace, as a catch 2 m from the start by a path of `length_m`, or a miss.
+        let (trace, _) = looping_trace();
+        let exec = |success: bool, length_m: f64| Execution {
+            trace: trace.clone(),
+            true_poses: None,
+            ball: None,
+            outcome: crate::task::Outcome {
+                success,
+                ending: if success {
+                    crate::task::Ending::Captured
+                } else {
+                    crate::task::Ending::TimeLimit
+                },
+                position_error_m: 0.0,
+                heading_error_rad: None,
+                length_m,
+                steps: trace.len(),
+                duration_s: trace.len() as f64 / 30.0,
+                final_pose: crate::trace::Pose {
+                    x_m: 2.0,
+                    ..Default::default()
+                },
+            },
+        };
+        let rules = CriticRules::default();
+        // 1.6 * 2 m + 0.5 m = 3.7 m is the longest path left alone.
+        assert!(critique_execution(&exec(true, 3.6), &rules).is_empty());
+        assert!(!critique_execution(&exec(true, 3.8), &rules).is_empty());
+        assert!(!critique_execution(&exec(false, 3.6), &rules).is_empty());
+    }
+
+    #[test]
     fn the_opening_turn_to_the_ball_is_not_judged() {
-        // The ball behind the robot: turning round to it at the start is not a flaw, and no
-        // flagged chunk ends before the robot first faced the ball.
+        // The ball behind the robot: turning round to it at the start is not a flaw.
         let mut trace = Trace::new(&Domain::interception());
         for i in 0..40 {
             // Turning in place from the ball behind (pi) to ahead, then a straight approach.
