@@ -503,12 +503,14 @@ impl Chunk {
         Chunk { start: 0, end: len }
     }
 
+    /// Points in the chunk. The fields are public (and deserialised), so a reversed chunk can
+    /// exist; it holds no points, as its [`Chunk::range`] is empty.
     pub fn len(&self) -> usize {
-        self.end - self.start
+        self.end.saturating_sub(self.start)
     }
 
     pub fn is_empty(&self) -> bool {
-        self.start == self.end
+        self.start >= self.end
     }
 
     pub fn range(&self) -> Range<usize> {
@@ -1002,5 +1004,15 @@ mod tests {
             Err(ChunkError::OutOfRange { .. })
         ));
         assert!(Chunk::new(3, 3, 10).unwrap().is_empty());
+    }
+
+    #[test]
+    fn a_reversed_chunk_built_by_hand_holds_no_points() {
+        // The fields are public and deserialised: `Chunk::new` is not the only way in.
+        let c: Chunk = serde_json::from_str(r#"{"start": 7, "end": 3}"#).unwrap();
+        assert_eq!(c.len(), 0);
+        assert!(c.is_empty());
+        assert_eq!(c.range().count(), 0);
+        assert_eq!(Chunk { start: 2, end: 5 }.len(), 3);
     }
 }
