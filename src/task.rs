@@ -116,6 +116,18 @@ pub struct Execution {
     pub outcome: Outcome,
 }
 
+impl Execution {
+    /// The poses the path length was measured over: the true poses when the backend knew them,
+    /// otherwise the recorded odometry.
+    pub fn path(&self) -> &[Pose] {
+        measured_path(self.true_poses.as_deref(), &self.trace)
+    }
+}
+
+fn measured_path<'a>(true_poses: Option<&'a [Pose]>, trace: &'a Trace) -> &'a [Pose] {
+    true_poses.or(trace.pose.as_deref()).unwrap_or(&[])
+}
+
 /// A backend error in the middle of an episode, with everything recorded up to it.
 #[derive(Debug, thiserror::Error, miette::Diagnostic)]
 #[error("the execution stopped after {} steps: the backend failed", .execution.outcome.steps)]
@@ -242,11 +254,7 @@ impl Recorder {
         ending: Ending,
     ) -> Execution {
         let final_pose = backend.true_pose().unwrap_or(state.pose);
-        let path = self
-            .true_poses
-            .as_deref()
-            .or(self.trace.pose.as_deref())
-            .unwrap_or(&[]);
+        let path = measured_path(self.true_poses.as_deref(), &self.trace);
         let length_m = path_length(path.iter().chain(std::iter::once(&final_pose)));
         let score = task.score(ending, final_pose);
         Execution {

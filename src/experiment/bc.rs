@@ -7,7 +7,8 @@
 //! Then each critique round runs the current policy from the next practice start (drawn without
 //! replacement, never a test start), the critic judges the execution as a person watching would
 //! (misses and detours only), and every flagged chunk becomes a `critique` with `kappa` exactly as
-//! a teacher would type it in a session. Every `eval_every` rounds the policy runs the test set, which is never critiqued.
+//! a teacher would type it in a session. Every `eval_every` rounds the policy runs the test set,
+//! which is never critiqued.
 //!
 //! Table 1's efficiency column compares path lengths only on test starts where the initial
 //! policy, the final policy and the teacher all succeeded (the paper compares only runs "in which

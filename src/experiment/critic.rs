@@ -200,7 +200,7 @@ pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
     for chunk in chunks(n, rules.chunk_len) {
         // Only the part after the opening is judged.
         let judged = Chunk {
-            start: chunk.start.max(settle).min(chunk.end),
+            start: chunk.start.max(settle),
             end: chunk.end,
         };
         if judged.len() < rules.chunk_len.div_ceil(2) {
@@ -239,15 +239,10 @@ pub fn critique_execution(exec: &Execution, rules: &CriticRules) -> Vec<Flag> {
 }
 
 /// Whether a successful execution took "a very convoluted path": longer than `detour_ratio`
-/// times the straight line from its start (the first recorded pose; interception runs start at
-/// the origin) to where it ended, plus `detour_slack_m`.
+/// times the straight line from its start (the first pose of the path its length was measured
+/// over; interception runs start at the origin) to where it ended, plus `detour_slack_m`.
 pub fn is_detour(exec: &Execution, rules: &CriticRules) -> bool {
-    let start = exec
-        .true_poses
-        .as_ref()
-        .and_then(|p| p.first().copied())
-        .or_else(|| exec.trace.pose.as_ref().and_then(|p| p.first().copied()))
-        .unwrap_or_default();
+    let start = exec.path().first().copied().unwrap_or_default();
     let end = exec.outcome.final_pose;
     let straight = (end.x_m - start.x_m).hypot(end.y_m - start.y_m);
     exec.outcome.length_m > rules.detour_ratio * straight + rules.detour_slack_m
