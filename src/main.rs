@@ -19,7 +19,7 @@ use advise::trace::Episode;
 
 use advise::check::{self, OperatorSet, Source};
 use advise::domain::Domain;
-use advise::session::{Session, SessionOptions, journal, journal::Journal, script};
+use advise::session::{Session, SessionOptions, journal, script};
 use advise::trace::{Chunk, Trace};
 
 #[derive(Parser)]
@@ -345,15 +345,14 @@ fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
 /// The main job: the REPL on the simulator with the default demonstrations loaded.
 fn repl(args: SessionArgs) -> miette::Result<ExitCode> {
     let mut session = new_session(&args, args.demos)?;
-    if !args.no_journal {
-        start_journal(&mut session, &args)?;
-    }
+    start_journal(&mut session, &args)?;
     choose_backend(&mut session, &args)?;
     advise::repl::run(&mut session).into_diagnostic()?;
     Ok(ExitCode::SUCCESS)
 }
 
-/// `--backend`: the same as the statement `backend SPEC` (journaled, so `resume` reconnects).
+/// `--backend`: the same as the statement `backend SPEC` (journalled, so a resume can say which
+/// base the session was on; a resume never connects).
 fn choose_backend(session: &mut Session, args: &SessionArgs) -> miette::Result<()> {
     if args.backend.trim() != "sim" {
         let reply = session.execute(&format!("backend {}", args.backend.trim()), "--backend")?;
@@ -362,33 +361,34 @@ fn choose_backend(session: &mut Session, args: &SessionArgs) -> miette::Result<(
     Ok(())
 }
 
-/// A journal starts with the statements that rebuild the session's starting point.
+/// A new journal (unless `--no-journal`), starting with what the session already holds.
 fn start_journal(session: &mut Session, args: &SessionArgs) -> miette::Result<()> {
-    let path = advise::session::new_journal_path(&journal::default_dir());
-    let mut j = Journal::create(&path)
+    if args.no_journal {
+        return Ok(());
+    }
+    let dir = journal::default_dir();
+    session
+        .start_journal(&dir)
         .into_diagnostic()
-        .wrap_err_with(|| format!("cannot create the journal {}", path.display()))?;
-    let header = format!(
-        "// started: --task {} --seed {} --demos {}",
-        TaskKind::from(args.task),
-        args.seed,
-        args.demos
-    );
-    j.record(&header).into_diagnostic()?;
-    session.set_journal(j);
+        .wrap_err_with(|| format!("cannot create a journal in {}", dir.display()))?;
     Ok(())
 }
 
-/// Run a script; the first failing statement stops it (unless `keep_going`).
+/// Run a script as the REPL would run its lines: the same starting demonstrations (`--demos`),
+/// the same journal; the first failing statement stops it (unless `keep_going`).
 fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Result<ExitCode> {
     let text = std::fs::read_to_string(path)
         .into_diagnostic()
         .wrap_err_with(|| format!("cannot read the script {}", path.display()))?;
-    let mut session = new_session(args, 0)?;
+    let mut session = new_session(args, args.demos)?;
+    start_journal(&mut session, args)?;
+    if let Some(j) = session.journal_path() {
+        eprintln!("journal: {} (`advise resume` restores it)", j.display());
+    }
     choose_backend(&mut session, args)?;
     // A script that drives a real base is stopped by Ctrl-C like the REPL.
     advise::repl::install_ctrl_c(&session.stop_signal());
-    let failures = replay(&mut session, path, &text, keep_going, true);
+    let failures = replay(&mut session, path, &text, keep_going);
     Ok(if failures == 0 {
         ExitCode::SUCCESS
     } else {
@@ -396,9 +396,9 @@ fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Resu
     })
 }
 
-/// Run the statements of `text` on `session`, printing replies (when `echo`) and diagnostics;
-/// returns how many failed.
-fn replay(session: &mut Session, path: &Path, text: &str, keep_going: bool, echo: bool) -> usize {
+/// Run the statements of `text` on `session`, printing replies and diagnostics; returns how many
+/// failed.
+fn replay(session: &mut Session, path: &Path, text: &str, keep_going: bool) -> usize {
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let signal = session.stop_signal();
     let mut failures = 0;
@@ -411,7 +411,7 @@ fn replay(session: &mut Session, path: &Path, text: &str, keep_going: bool, echo
                     let l = l.trim_start();
                     l.is_empty() || (l.starts_with("//") && !l.starts_with("///"))
                 });
-                if echo && !comment_only {
+                if !comment_only {
                     println!("advise> {}", st.text.trim_end());
                     if !reply.text.is_empty() {
                         println!("{}", reply.text.trim_end());
@@ -434,71 +434,36 @@ fn replay(session: &mut Session, path: &Path, text: &str, keep_going: bool, echo
     failures
 }
 
-/// Replay a journal, then continue in the REPL, appending to the same journal.
+/// Restore a journalled session (the newest by default) and continue in the REPL. Nothing is
+/// re-run: no robot is connected or driven, no file but the journal is read.
 fn resume(journal_path: Option<PathBuf>) -> miette::Result<ExitCode> {
+    let dir = journal::default_dir();
     let path = match journal_path {
         Some(p) => p,
-        None => newest_journal(&journal::default_dir()).ok_or_else(|| {
+        None => journal::newest(&dir).ok_or_else(|| {
             miette!(
                 code = "advise::resume::no_journal",
                 help = "start a session with `advise` first; journals are kept in $ADVISE_HOME or ~/.advise",
                 "there is no session journal in {}",
-                journal::default_dir().display()
+                dir.display()
             )
         })?,
     };
-    let text = std::fs::read_to_string(&path)
-        .into_diagnostic()
-        .wrap_err_with(|| format!("cannot read the journal {}", path.display()))?;
-    let args = journal_args(&text);
-    let mut session = new_session(&args, args.demos)?;
-    let failures = replay(&mut session, &path, &text, true, false);
+    let restored = Session::restore(&path, &dir)?;
+    let mut session = restored.session;
     println!(
-        "resumed {}: {}{}",
+        "resumed {}: {} statements restored; {}",
         path.display(),
-        session.status(),
-        if failures > 0 {
-            format!(" ({failures} statements failed again and were skipped)")
-        } else {
-            String::new()
-        }
+        restored.entries,
+        session.status()
     );
-    session.set_journal(Journal::append_to(&path).into_diagnostic()?);
+    for note in &restored.notes {
+        println!("note: {note}");
+    }
     advise::repl::run(&mut session).into_diagnostic()?;
     Ok(ExitCode::SUCCESS)
 }
 
-/// The starting options written at the head of a journal.
-fn journal_args(text: &str) -> SessionArgs {
-    let mut args = SessionArgs::default();
-    if let Some(line) = text.lines().find(|l| l.starts_with("// started:")) {
-        let words: Vec<&str> = line.split_whitespace().collect();
-        for w in words.windows(2) {
-            match w[0] {
-                "--task" if w[1] == "interception" => args.task = TaskArg::Interception,
-                "--seed" => args.seed = w[1].parse().unwrap_or(0),
-                "--demos" => args.demos = w[1].parse().unwrap_or(9),
-                _ => {}
-            }
-        }
-    }
-    args
-}
-
-fn newest_journal(dir: &Path) -> Option<PathBuf> {
-    std::fs::read_dir(dir)
-        .ok()?
-        .filter_map(|e| e.ok())
-        .map(|e| e.path())
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with("session-") && n.ends_with(".adv"))
-        })
-        .max_by_key(|p| std::fs::metadata(p).and_then(|m| m.modified()).ok())
-}
-
-/// Check the embedded standard operators and say what was checked.
 fn check_standard() -> miette::Result<ExitCode> {
     let sources: Vec<Source> = check::STANDARD_SOURCES
         .iter()

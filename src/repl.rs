@@ -97,7 +97,7 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
     let colour = std::io::IsTerminal::is_terminal(&std::io::stdout());
     println!("advise: {}", session.status());
     if let Some(j) = session.journal_path() {
-        println!("journal: {} (replay with `advise resume`)", j.display());
+        println!("journal: {} (`advise resume` restores it)", j.display());
     }
     if !session.learner().is_empty() {
         println!(

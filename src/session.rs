@@ -1,12 +1,16 @@
 //! The advising session: the state a teacher works on and the commands that change it.
 //!
 //! A [`Session`] holds the task and its domain, the operator set (standard plus the teacher's own),
-//! the backend, the learner (dataset with provenance and the derived policy), the recorded
-//! executions, the selection, and the undo/redo stacks. [`Session::execute`] runs one statement
-//! (a command or an operator definition) and returns the text to show; the REPL and `advise run`
-//! are thin layers over it, so everything here is testable without a terminal. Successful
-//! statements that change the session are appended to the journal.
+//! the backend, and per task the learner (dataset with provenance and the derived policy), the
+//! recorded executions, the selection, and the undo/redo stacks. [`Session::execute`] runs one
+//! statement (a command or an operator definition) and returns the text to show; the REPL and
+//! `advise run` are thin layers over it, so everything here is testable without a terminal.
+//!
+//! A command does its work (drive, read, synthesize) and then commits an [`Effect`]: the effect
+//! is applied to the state and appended to the journal. [`Session::restore`] applies a journal's
+//! effects again, which re-runs nothing and never touches a robot.
 
+pub mod effect;
 pub mod journal;
 pub mod plot;
 pub mod script;
@@ -26,14 +30,17 @@ use crate::backend::{
 use crate::check::{CheckErrors, OperatorSet, Source};
 use crate::domain::Domain;
 use crate::eval::{self, EvalOptions};
-use crate::interp::{self, AppliedAdvice, ApplyError};
-use crate::policy::learner::{self, Learner, LearnerError};
+use crate::interp::{self, ApplyError, Synthesized};
+use crate::policy::dataset::{Dataset, Provenance};
+use crate::policy::learner::{self, Learner, LearnerError, LearnerKind};
 use crate::syntax::ParseError;
 use crate::syntax::ast::{Ident, Item};
 use crate::syntax::command::{COMMANDS, Command, Statement, parse_statement};
 use crate::task::{self, Execution, Start, TaskKind, episode_seed};
 use crate::trace::{Chunk, ChunkError, Episode, Pose, Trace, TraceError};
-use journal::Journal;
+use effect::{DemoEpisode, Effect, Entry, ExecutionEntry, Header, RunEntry};
+use journal::{Journal, JournalError};
+use std::f64::consts::PI;
 
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met
 /// at unit scaled distance).
@@ -93,15 +100,31 @@ pub enum SessionError {
         help("interception runs start from a ball: `run start N`")
     )]
     GoalForWrongTask,
-    #[error("the goal ({x:.2}, {y:.2}, {theta:.2}) is not a finite pose")]
-    #[diagnostic(code(advise::session::bad_goal))]
+    #[error("the goal ({x}, {y}, {theta}) is not a pose a run can reach")]
+    #[diagnostic(
+        code(advise::session::bad_goal),
+        help(
+            "x and y are metres from where the base stands, within ±{MAX_GOAL_M}; theta is radians within ±2π (±6.2832)"
+        )
+    )]
     BadGoal { x: f64, y: f64, theta: f64 },
-    #[error("kappa must be a positive number, not {kappa}")]
+    #[error("kappa must be a positive number up to {MAX_KAPPA}, not {kappa}")]
     #[diagnostic(
         code(advise::session::bad_kappa),
         help("the paper's kappa is a small positive constant, e.g. `critique 0.5`")
     )]
     BadKappa { kappa: f64 },
+    #[error("the {task} dataset is empty: there is no policy to run")]
+    #[diagnostic(
+        code(advise::session::empty_policy),
+        help(
+            "add demonstrations first: `load demos teacher:9` records nine teacher runs in the simulator, `load demos FILE` loads yours"
+        )
+    )]
+    EmptyPolicy { task: TaskKind },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    JournalRead(#[from] JournalError),
     #[error("nothing to undo")]
     #[diagnostic(code(advise::session::nothing_to_undo))]
     NothingToUndo,
@@ -204,6 +227,9 @@ pub struct Recorded {
     pub trace: Trace,
     pub goal: Option<Pose>,
     pub execution: Option<Execution>,
+    /// For each step of a run, the data point that recommended its action (what `critique`
+    /// penalises); `None` for a trace loaded from a file.
+    pub support: Option<Vec<Option<Provenance>>>,
     /// The learner's id for this execution (advice and critiques refer to it).
     pub id: learner::ExecutionId,
     /// Chunks critiqued and advised, for plots.
@@ -211,37 +237,35 @@ pub struct Recorded {
     pub advised: Vec<Chunk>,
 }
 
-/// An edit that `undo` can take back.
+/// An edit that `undo` can take back, holding everything `redo` needs to put it back exactly.
 #[derive(Clone, Debug)]
 enum Edit {
     Advice {
         id: learner::AdviceId,
         execution: usize,
-        advice: AppliedAdvice,
-        points: usize,
+        /// The synthesized points themselves: redo adds these, never a re-synthesis with an
+        /// operator that may have been redefined since.
+        syn: Synthesized,
     },
     Critique {
         id: learner::CritiqueId,
         execution: usize,
         chunk: Chunk,
         kappa: f64,
+        increments: Vec<(Provenance, f64)>,
     },
 }
 
 impl Edit {
     fn describe(&self, executions: &[Recorded]) -> String {
         match self {
-            Edit::Advice {
-                execution,
-                advice,
-                points,
-                ..
-            } => format!(
-                "advise {} on {} of execution {} ({}): {points} points",
-                advice.invocation(),
-                advice.chunk,
+            Edit::Advice { execution, syn, .. } => format!(
+                "advise {} on {} of execution {} ({}): {} points",
+                syn.advice.invocation(),
+                syn.advice.chunk,
                 execution,
                 executions.get(*execution).map_or("?", |e| e.label.as_str()),
+                syn.points.len()
             ),
             Edit::Critique {
                 execution,
@@ -281,6 +305,56 @@ impl Default for SessionOptions {
     }
 }
 
+/// What one task's work consists of. Each task keeps its own: switching task parks it and
+/// switching back restores it.
+struct TaskState {
+    learner: Learner,
+    /// Runs made so far (each run's simulator seed comes from this count).
+    runs: u64,
+    executions: Vec<Recorded>,
+    current: Option<usize>,
+    selection: Option<Chunk>,
+    undo: Vec<Edit>,
+    redo: Vec<Edit>,
+}
+
+impl TaskState {
+    fn new(task: TaskKind, seed: u64) -> TaskState {
+        TaskState::with_learner(Learner::new(&task.domain(), task, seed))
+    }
+
+    fn with_learner(learner: Learner) -> TaskState {
+        TaskState {
+            learner,
+            runs: 0,
+            executions: Vec::new(),
+            current: None,
+            selection: None,
+            undo: Vec::new(),
+            redo: Vec::new(),
+        }
+    }
+}
+
+/// What `Session::restore` did with a journal.
+#[derive(Debug)]
+pub struct Restored {
+    pub session: Session,
+    /// Entries restored.
+    pub entries: usize,
+    /// What the teacher must be told: a cut statement dropped, a damaged line, the backend the
+    /// session was on.
+    pub notes: Vec<String>,
+    /// Where the session journals from now on (the same journal, or a fresh one after damage).
+    pub journal: PathBuf,
+}
+
+/// The longest run a goal can ask for: within this many metres of the start, in x and y.
+pub const MAX_GOAL_M: f64 = 100.0;
+/// The largest `critique` kappa (the paper's kappa is a small constant; the experiments use up to
+/// 100).
+pub const MAX_KAPPA: f64 = 1000.0;
+
 /// The state of an advising session.
 pub struct Session {
     ops: OperatorSet,
@@ -288,50 +362,172 @@ pub struct Session {
     domain: Domain,
     backend: BackendChoice,
     seed: u64,
-    runs: u64,
-    learner: Learner,
-    executions: Vec<Recorded>,
-    current: Option<usize>,
-    selection: Option<Chunk>,
-    undo: Vec<Edit>,
-    redo: Vec<Edit>,
+    /// The current task's work.
+    state: TaskState,
+    /// The other tasks' work, parked.
+    parked: Vec<(TaskKind, TaskState)>,
     journal: Option<Journal>,
+    /// Set while restoring a journal: effects are applied without connecting to anything.
+    restoring: bool,
+    /// The backend a restored journal was on last (the session itself is on `sim`).
+    restored_backend: Option<String>,
     progress: bool,
     /// Raised by Ctrl-C: stops the base and ends the running execution.
     stop: StopSignal,
+    /// The statement being executed (journalled with its effect).
+    statement: Option<(String, String)>,
+    /// Effects made before a journal was started (the starting demonstrations), written first
+    /// into the journal when one is started; `None` once one was (or never will be).
+    preamble: Option<Vec<Entry>>,
+}
+
+impl std::fmt::Debug for Session {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Session")
+            .field("task", &self.task)
+            .field("seed", &self.seed)
+            .field("points", &self.state.learner.len())
+            .field("executions", &self.state.executions.len())
+            .finish_non_exhaustive()
+    }
 }
 
 impl Session {
     /// A session on the simulator; with `default_demos > 0` the task's teacher records that many
     /// demonstrations first and the policy is derived from them.
     pub fn new(opts: SessionOptions) -> Result<Session, SessionError> {
-        let domain = opts.task.domain();
-        let mut s = Session {
-            ops: OperatorSet::standard(),
-            task: opts.task,
-            learner: Learner::new(&domain, opts.task, opts.seed),
-            domain,
-            backend: BackendChoice::Sim(opts.sim),
-            seed: opts.seed,
-            runs: 0,
-            executions: Vec::new(),
-            current: None,
-            selection: None,
-            undo: Vec::new(),
-            redo: Vec::new(),
-            journal: None,
-            progress: opts.progress,
-            stop: StopSignal::new(),
-        };
+        let mut s = Session::empty(opts.task, opts.seed, opts.sim);
+        s.progress = opts.progress;
+        // What the session starts with is kept for a journal started later.
+        s.preamble = Some(Vec::new());
         if opts.default_demos > 0 {
-            s.load_demos(&format!("teacher:{}", opts.default_demos))?;
+            s.statement = Some((
+                format!("load demos teacher:{}", opts.default_demos),
+                "--demos".into(),
+            ));
+            let r = s.load_demos(&format!("teacher:{}", opts.default_demos));
+            s.statement = None;
+            r?;
         }
         Ok(s)
     }
 
-    /// Journal every successful statement that changes the session to `path`.
-    pub fn set_journal(&mut self, journal: Journal) {
-        self.journal = Some(journal);
+    fn empty(task: TaskKind, seed: u64, sim: SimParams) -> Session {
+        Session {
+            ops: OperatorSet::standard(),
+            task,
+            domain: task.domain(),
+            backend: BackendChoice::Sim(sim),
+            seed,
+            state: TaskState::new(task, seed),
+            parked: Vec::new(),
+            journal: None,
+            restoring: false,
+            restored_backend: None,
+            progress: false,
+            stop: StopSignal::new(),
+            statement: None,
+            preamble: None,
+        }
+    }
+
+    /// The header a journal of this session starts with.
+    pub fn journal_header(&self) -> Header {
+        Header {
+            format: effect::JOURNAL_FORMAT.into(),
+            task: self.task,
+            seed: self.seed,
+            sim: self.sim_params(),
+            started_unix_s: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs()),
+            pid: std::process::id(),
+        }
+    }
+
+    /// Start journalling into a new journal in `dir`. What the session already holds (the
+    /// starting demonstrations) is written first, so the journal alone restores it.
+    pub fn start_journal(&mut self, dir: &Path) -> std::io::Result<PathBuf> {
+        let mut j = Journal::create_in(dir, &self.journal_header())?;
+        for entry in self.preamble.take().unwrap_or_default() {
+            j.record(&entry)?;
+        }
+        let path = j.path().to_path_buf();
+        self.journal = Some(j);
+        Ok(path)
+    }
+
+    /// Restore a journalled session: every effect is applied as it was recorded; nothing is
+    /// re-run, no file but the journal is read, and no robot is connected or driven. The session
+    /// then journals into the same file (or, if it was damaged, a fresh one in `dir`).
+    pub fn restore(path: &Path, dir: &Path) -> Result<Restored, SessionError> {
+        let loaded = journal::read(path)?;
+        let h = &loaded.header;
+        let mut s = Session::empty(h.task, h.seed, h.sim.clone());
+        s.restoring = true;
+        let mut notes = Vec::new();
+        let mut damaged = loaded.damaged.clone();
+        let mut restored = 0;
+        for (line, entry) in &loaded.entries {
+            if let Err(e) = s.apply(&entry.effect) {
+                damaged = Some((
+                    *line,
+                    format!("`{}` could not be restored: {e}", entry.statement),
+                ));
+                break;
+            }
+            restored += 1;
+        }
+        s.restoring = false;
+        if let Some(cut) = &loaded.cut {
+            notes.push(format!(
+                "the last statement was cut off by the crash and is dropped ({} bytes: {})",
+                cut.len(),
+                first_chars(cut, 60)
+            ));
+        }
+        let journal = match &damaged {
+            None => Journal::append_to(path, loaded.good_len).map_err(|source| {
+                SessionError::Journal {
+                    path: path.display().to_string(),
+                    source,
+                }
+            })?,
+            Some((line, what)) => {
+                notes.push(format!(
+                    "line {line} of the journal is damaged ({what}): restored up to line {}, nothing after it; the journal is left as it was",
+                    line - 1
+                ));
+                let mut j = Journal::create_in(dir, h).map_err(|source| SessionError::Journal {
+                    path: dir.display().to_string(),
+                    source,
+                })?;
+                for (_, entry) in loaded.entries.iter().take(restored) {
+                    j.record(entry).map_err(|source| SessionError::Journal {
+                        path: j.path().display().to_string(),
+                        source,
+                    })?;
+                }
+                notes.push(format!(
+                    "this session continues in a new journal: {}",
+                    j.path().display()
+                ));
+                j
+            }
+        };
+        if let Some(spec) = s.restored_backend.as_deref().filter(|b| *b != "sim") {
+            notes.push(format!(
+                "the session was on `{spec}`; it is on `sim` now, and nothing was driven: `backend {spec}` connects again"
+            ));
+        }
+        let journal_path = journal.path().to_path_buf();
+        s.journal = Some(journal);
+        Ok(Restored {
+            session: s,
+            entries: restored,
+            notes,
+            journal: journal_path,
+        })
     }
 
     pub fn journal_path(&self) -> Option<&Path> {
@@ -351,7 +547,7 @@ impl Session {
     }
 
     pub fn learner(&self) -> &Learner {
-        &self.learner
+        &self.state.learner
     }
 
     /// Operators of the current domain with their signatures (for completion and hints).
@@ -368,9 +564,9 @@ impl Session {
             "task {}, backend {}, {} data points ({} learner), {} executions",
             self.task,
             self.backend_name(),
-            self.learner.len(),
-            self.learner.kind_name(),
-            self.executions.len()
+            self.state.learner.len(),
+            self.state.learner.kind_name(),
+            self.state.executions.len()
         )
     }
 
@@ -405,26 +601,198 @@ impl Session {
     /// Run one statement. `origin` names it in diagnostics (`<repl>`, `script.adv:12`).
     pub fn execute(&mut self, text: &str, origin: &str) -> Result<Reply, SessionError> {
         let statement = parse_statement(origin, text)?;
-        let (reply, changed) = match statement {
-            Statement::Empty => (Reply::default(), false),
-            Statement::Item(item) => (self.define(item, text, origin)?, true),
-            Statement::Command(cmd, _) => {
-                let changes = changes_session(&cmd);
-                (self.command(cmd)?, changes)
-            }
+        self.statement = Some((text.trim_end().to_string(), origin.to_string()));
+        let reply = match statement {
+            Statement::Empty => Ok(Reply::default()),
+            Statement::Item(item) => self.define(item, text, origin),
+            Statement::Command(cmd, _) => self.command(cmd),
         };
-        if changed && let Some(j) = &mut self.journal {
+        self.statement = None;
+        reply
+    }
+
+    /// Apply `effect` and journal it. The one way a command changes the session.
+    fn commit(&mut self, effect: Effect) -> Result<(), SessionError> {
+        self.apply(&effect)?;
+        self.journal_effect(effect)
+    }
+
+    fn journal_effect(&mut self, effect: Effect) -> Result<(), SessionError> {
+        let (statement, origin) = self
+            .statement
+            .clone()
+            .unwrap_or_else(|| (String::new(), String::new()));
+        let entry = Entry {
+            statement,
+            origin,
+            effect,
+        };
+        let Some(j) = &mut self.journal else {
+            if let Some(preamble) = &mut self.preamble {
+                preamble.push(entry);
+            }
+            return Ok(());
+        };
+        if let Err(source) = j.record(&entry) {
             let path = j.path().display().to_string();
-            if let Err(source) = j.record(text) {
-                self.journal = None;
-                return Err(SessionError::Journal { path, source });
+            self.journal = None;
+            return Err(SessionError::Journal { path, source });
+        }
+        Ok(())
+    }
+
+    /// Make the change an effect describes. Reads no file and drives no robot: a journal is
+    /// restored by calling this on each of its effects.
+    fn apply(&mut self, effect: &Effect) -> Result<(), SessionError> {
+        match effect {
+            Effect::Define { origin, text } => {
+                self.ops = self.ops.merge(&[Source::new(origin, text.clone())])?;
+            }
+            Effect::Task { task } => self.switch_task(*task),
+            Effect::Backend { spec } => {
+                if self.restoring {
+                    self.restored_backend = Some(spec.clone());
+                }
+            }
+            Effect::Demos { episodes, .. } => {
+                let episodes = episodes
+                    .iter()
+                    .map(|e| {
+                        Ok(Episode {
+                            name: e.name.clone(),
+                            trace: Trace::from_json(&self.domain, &e.trace)?,
+                        })
+                    })
+                    .collect::<Result<Vec<_>, TraceError>>()?;
+                self.state.learner.add_demonstrations(&episodes)?;
+            }
+            Effect::Execution(entry) => {
+                let trace = Trace::from_json(&self.domain, &entry.trace)?;
+                let (execution, support) = match &entry.run {
+                    Some(run) => {
+                        self.state.runs = run.number + 1;
+                        (
+                            Some(Execution {
+                                trace: trace.clone(),
+                                true_poses: run.true_poses.clone(),
+                                ball: run.ball.clone(),
+                                outcome: run.outcome.clone(),
+                            }),
+                            Some(run.support.clone()),
+                        )
+                    }
+                    None => (None, None),
+                };
+                let id = self.state.learner.add_execution(&trace);
+                let st = &mut self.state;
+                st.executions.push(Recorded {
+                    label: entry.label.clone(),
+                    trace,
+                    goal: entry.goal,
+                    execution,
+                    support,
+                    id,
+                    flagged: Vec::new(),
+                    advised: Vec::new(),
+                });
+                st.current = Some(st.executions.len() - 1);
+                st.selection = None;
+            }
+            Effect::Select { execution, chunk } => {
+                let rec = self.recorded(*execution)?;
+                let chunk = Chunk::new(chunk.start, chunk.end, rec.trace.len())?;
+                self.state.current = Some(*execution);
+                self.state.selection = Some(chunk);
+            }
+            Effect::Advice {
+                execution,
+                applied,
+                points,
+                source_index,
+            } => {
+                let syn = Synthesized {
+                    points: Trace::from_json(&self.domain, points)?,
+                    source_index: source_index.clone(),
+                    advice: applied.clone(),
+                };
+                self.add_advice(*execution, syn)?;
+                self.state.redo.clear();
+            }
+            Effect::Critique {
+                execution,
+                chunk,
+                kappa,
+                increments,
+            } => {
+                self.add_critique(*execution, *chunk, *kappa, increments.clone())?;
+                self.state.redo.clear();
+            }
+            Effect::Undo => self.undo_edit()?,
+            Effect::Redo => self.redo_edit()?,
+            Effect::Rederive => {
+                self.state.learner.rederive();
+            }
+            Effect::Open { path, dataset } => {
+                let ds = Dataset::from_json_str(path, dataset).map_err(LearnerError::from)?;
+                let learner =
+                    Learner::with_dataset(ds, LearnerKind::for_task(self.task), self.seed);
+                self.take_learner(learner);
             }
         }
-        Ok(reply)
+        Ok(())
+    }
+
+    /// Work on an opened dataset from now on (its executions and history start empty).
+    fn take_learner(&mut self, learner: Learner) {
+        self.domain = learner.domain().clone();
+        self.state = TaskState::with_learner(learner);
+    }
+
+    fn recorded(&self, execution: usize) -> Result<&Recorded, SessionError> {
+        self.state
+            .executions
+            .get(execution)
+            .ok_or(SessionError::NoExecution)
+    }
+
+    fn add_advice(&mut self, execution: usize, syn: Synthesized) -> Result<(), SessionError> {
+        let rec = self.recorded(execution)?;
+        let id = self.state.learner.add_advice(rec.id, &syn)?;
+        let st = &mut self.state;
+        st.executions[execution].advised.push(syn.advice.chunk);
+        st.undo.push(Edit::Advice { id, execution, syn });
+        Ok(())
+    }
+
+    fn add_critique(
+        &mut self,
+        execution: usize,
+        chunk: Chunk,
+        kappa: f64,
+        increments: Vec<(Provenance, f64)>,
+    ) -> Result<(), SessionError> {
+        let rec = self.recorded(execution)?;
+        let id = self
+            .state
+            .learner
+            .restore_critique(rec.id, chunk, kappa, increments.clone())?;
+        let st = &mut self.state;
+        st.executions[execution].flagged.push(chunk);
+        st.undo.push(Edit::Critique {
+            id,
+            execution,
+            chunk,
+            kappa,
+            increments,
+        });
+        Ok(())
     }
 
     fn define(&mut self, item: Item, text: &str, origin: &str) -> Result<Reply, SessionError> {
-        self.ops = self.ops.merge(&[Source::new(origin, text)])?;
+        self.commit(Effect::Define {
+            origin: origin.to_string(),
+            text: text.to_string(),
+        })?;
         Ok(Reply::text(match item {
             Item::Operator(op) => format!(
                 "defined operator `{}` for {} (on {})",
@@ -457,7 +825,7 @@ impl Session {
             Command::Undo => self.undo().map(Reply::text),
             Command::Redo => self.redo().map(Reply::text),
             Command::History => Ok(Reply::text(self.history())),
-            Command::Rederive => Ok(Reply::text(self.rederive())),
+            Command::Rederive => self.rederive().map(Reply::text),
             Command::Eval => Ok(Reply::text(self.eval())),
             Command::Why(t) => self.why(t).map(Reply::text),
             Command::Plot(path) => self.plot(&path).map(Reply::text),
@@ -484,18 +852,44 @@ impl Session {
                 });
             }
         };
+        if task == self.task {
+            return Ok(Reply::text(format!(
+                "already on task {task}: nothing changed ({} data points, {} executions)",
+                self.state.learner.len(),
+                self.state.executions.len()
+            )));
+        }
+        let fresh = !self.parked.iter().any(|(t, _)| *t == task);
+        self.commit(Effect::Task { task })?;
+        let st = &self.state;
+        Ok(Reply::text(if fresh {
+            format!(
+                "task {task}: an empty {} dataset; add demonstrations with `load demos FILE` or `load demos teacher:N`",
+                st.learner.kind_name()
+            )
+        } else {
+            format!(
+                "task {task}: back to its {} data points and {} executions ({} learner)",
+                st.learner.len(),
+                st.executions.len(),
+                st.learner.kind_name()
+            )
+        }))
+    }
+
+    /// Park the current task's work and take up `task`'s (new if it has none yet).
+    fn switch_task(&mut self, task: TaskKind) {
+        if task == self.task {
+            return;
+        }
+        let next = match self.parked.iter().position(|(t, _)| *t == task) {
+            Some(i) => self.parked.swap_remove(i).1,
+            None => TaskState::new(task, self.seed),
+        };
+        let previous = std::mem::replace(&mut self.state, next);
+        self.parked.push((self.task, previous));
         self.task = task;
-        self.domain = task.domain();
-        self.learner = Learner::new(&self.domain, task, self.seed);
-        self.executions.clear();
-        self.current = None;
-        self.selection = None;
-        self.undo.clear();
-        self.redo.clear();
-        Ok(Reply::text(format!(
-            "task {task}: an empty {} dataset; add demonstrations with `load demos FILE` or `load demos teacher:N`",
-            self.learner.kind_name()
-        )))
+        self.domain = self.state.learner.domain().clone();
     }
 
     /// `sim`, or `rmp:HOST:PORT`: the RMP is connected now (the vendor's start-up sequence), so a
@@ -503,11 +897,11 @@ impl Session {
     /// left behind is stopped (its driver stops it when dropped).
     fn set_backend(&mut self, spec: &str) -> Result<Reply, SessionError> {
         let params = self.sim_params();
-        match spec.parse::<BackendSpec>()? {
+        let reply = match spec.parse::<BackendSpec>()? {
             BackendSpec::Sim => {
                 self.stop.set_base(None);
                 self.backend = BackendChoice::Sim(params);
-                Ok(Reply::text("backend sim"))
+                "backend sim".to_string()
             }
             BackendSpec::Rmp(addr) => {
                 // One link to a base at a time: the old one is stopped and closed first.
@@ -531,11 +925,16 @@ impl Session {
                     backend: Box::new(backend),
                     sim: params,
                 };
-                Ok(Reply::text(format!(
+                format!(
                     "backend {name}: an {platform} in standby ({order} feedback); `run` drives it in tractor mode, Ctrl-C stops it"
-                )))
+                )
             }
-        }
+        };
+        // Journalled so a resume can say which base the session was on; a resume never connects.
+        self.commit(Effect::Backend {
+            spec: spec.trim().to_string(),
+        })?;
+        Ok(Reply::text(reply))
     }
 
     /// `teacher:N` records N demonstrations by the task's teacher in the simulator; anything else
@@ -565,12 +964,21 @@ impl Session {
             None => Episode::load_all(&self.domain, Path::new(path))?,
         };
         let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
-        self.learner.add_demonstrations(&episodes)?;
+        let count = episodes.len();
+        self.commit(Effect::Demos {
+            source: path.to_string(),
+            episodes: episodes
+                .into_iter()
+                .map(|e| DemoEpisode {
+                    name: e.name,
+                    trace: e.trace.to_json(),
+                })
+                .collect(),
+        })?;
         Ok(format!(
-            "loaded {} demonstrations ({points} points) from {path}; the {} policy now has {} points ({} ms)",
-            episodes.len(),
-            self.learner.kind_name(),
-            self.learner.len(),
+            "loaded {count} demonstrations ({points} points) from {path}; the {} policy now has {} points ({} ms)",
+            self.state.learner.kind_name(),
+            self.state.learner.len(),
             started.elapsed().as_millis()
         ))
     }
@@ -578,10 +986,15 @@ impl Session {
     fn load_trace(&mut self, path: &str) -> Result<String, SessionError> {
         let trace = Trace::load(&self.domain, Path::new(path))?;
         let n = trace.len();
-        self.record(path.to_string(), trace, None, None);
+        self.commit(Effect::Execution(Box::new(ExecutionEntry {
+            label: path.to_string(),
+            trace: trace.to_json(),
+            goal: None,
+            run: None,
+        })))?;
         Ok(format!(
             "loaded execution {} from {path}: {n} points",
-            self.executions.len() - 1
+            self.state.executions.len() - 1
         ))
     }
 
@@ -591,7 +1004,10 @@ impl Session {
             source,
         })?;
         let before = self.ops.operator_count();
-        self.ops = self.ops.merge(&[Source::new(path, text)])?;
+        self.commit(Effect::Define {
+            origin: path.to_string(),
+            text,
+        })?;
         Ok(format!(
             "checked {path}: {} operators now ({} for {})",
             self.ops.operator_count(),
@@ -614,7 +1030,8 @@ impl Session {
         if self.task != TaskKind::Positioning {
             return Err(SessionError::GoalForWrongTask);
         }
-        if !(x.is_finite() && y.is_finite() && theta.is_finite()) {
+        let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
+        if !(within(x, MAX_GOAL_M) && within(y, MAX_GOAL_M) && within(theta, 2.0 * PI)) {
             return Err(SessionError::BadGoal { x, y, theta });
         }
         let goal = Pose::new(x, y, theta);
@@ -641,9 +1058,12 @@ impl Session {
         label: String,
         goal: Option<Pose>,
     ) -> Result<String, SessionError> {
-        self.learner.ensure_derived();
-        let seed = episode_seed(self.seed, 1_000_000 + self.runs);
-        self.runs += 1;
+        if self.state.learner.is_empty() {
+            return Err(SessionError::EmptyPolicy { task: self.task });
+        }
+        self.state.learner.ensure_derived();
+        let number = self.state.runs;
+        let seed = episode_seed(self.seed, 1_000_000 + number);
         let params = self.sim_params();
         // One control loop for every base: the simulator is made fresh per run (as `run_sim`
         // does), a real base is the connected one. Ctrl-C reaches the loop through `stop`.
@@ -658,62 +1078,57 @@ impl Session {
         self.stop.clear();
         let mut guarded = Interruptible::new(base, self.stop.clone());
         let result = {
-            let mut controller = self.learner.policy();
+            let mut controller = self.state.learner.policy();
             let mut task = start.task();
             task::run_episode(&mut guarded, task.as_mut(), &mut controller, seed)
         };
-        let exec = match result {
-            Ok(exec) => exec,
+        let (exec, failure) = match result {
+            Ok(exec) => (exec, None),
             Err(interrupted) => {
                 let task::Interrupted { execution, error } = interrupted;
-                let steps = execution.trace.len();
-                let label = format!("{label} (interrupted)");
-                let trace = execution.trace.clone();
-                self.record(label.clone(), trace, goal, Some(*execution));
-                return Err(SessionError::RunInterrupted {
-                    index: self.executions.len() - 1,
-                    label,
-                    steps,
-                    error,
-                });
+                (*execution, Some(error))
             }
         };
+        let label = match failure {
+            Some(_) => format!("{label} (interrupted)"),
+            None => label,
+        };
+        // The dataset has not changed during the run: the points nearest now are the ones that
+        // recommended each action, kept for `critique`.
+        let support = self.state.learner.support_provenance(&exec.trace);
         let summary = outcome_line(&exec);
         let n = exec.trace.len();
-        let trace = exec.trace.clone();
-        self.record(label.clone(), trace, goal, Some(exec));
+        let hint = n.saturating_sub(n.min(30));
+        // What the base did is kept even when the run failed: on a robot it cannot be had again.
+        self.commit(Effect::Execution(Box::new(ExecutionEntry {
+            label: label.clone(),
+            trace: exec.trace.to_json(),
+            goal,
+            run: Some(RunEntry {
+                number,
+                outcome: exec.outcome,
+                true_poses: exec.true_poses,
+                ball: exec.ball,
+                support,
+            }),
+        })))?;
+        let index = self.state.executions.len() - 1;
+        if let Some(error) = failure {
+            return Err(SessionError::RunInterrupted {
+                index,
+                label,
+                steps: n,
+                error,
+            });
+        }
         Ok(format!(
-            "execution {}: {label}: {n} points; {summary}\nselect a range to critique or advise, e.g. `select {}..{}`",
-            self.executions.len() - 1,
-            n.saturating_sub(n.min(30)),
-            n
+            "execution {index}: {label}: {n} points; {summary}\nselect a range to critique or advise, e.g. `select {hint}..{n}`"
         ))
     }
 
-    fn record(
-        &mut self,
-        label: String,
-        trace: Trace,
-        goal: Option<Pose>,
-        execution: Option<Execution>,
-    ) {
-        let id = self.learner.add_execution(&trace);
-        self.executions.push(Recorded {
-            label,
-            trace,
-            goal,
-            execution,
-            id,
-            flagged: Vec::new(),
-            advised: Vec::new(),
-        });
-        self.current = Some(self.executions.len() - 1);
-        self.selection = None;
-    }
-
     fn current(&self) -> Result<(usize, &Recorded), SessionError> {
-        let i = self.current.ok_or(SessionError::NoExecution)?;
-        Ok((i, &self.executions[i]))
+        let i = self.state.current.ok_or(SessionError::NoExecution)?;
+        Ok((i, &self.state.executions[i]))
     }
 
     fn show(&self) -> Result<String, SessionError> {
@@ -726,7 +1141,7 @@ impl Session {
         if let Some(e) = &rec.execution {
             let _ = writeln!(out, "{}", outcome_line(e));
         }
-        if let Some(sel) = self.selection {
+        if let Some(sel) = self.state.selection {
             let _ = writeln!(out, "selected {sel} ({} points)", sel.len());
         }
         if let Some(poses) = self.plot_poses(rec) {
@@ -751,71 +1166,70 @@ impl Session {
             path: poses,
             goal: rec.goal,
             ball: rec.execution.as_ref().and_then(|e| e.ball.as_deref()),
-            selection: self.selection,
+            selection: self.state.selection,
             flagged: rec.flagged.clone(),
             advised: rec.advised.clone(),
         }
     }
 
     fn select(&mut self, start: usize, end: usize) -> Result<String, SessionError> {
-        let (_, rec) = self.current()?;
+        let (i, rec) = self.current()?;
         let chunk = Chunk::new(start, end, rec.trace.len())?;
-        self.selection = Some(chunk);
+        self.commit(Effect::Select {
+            execution: i,
+            chunk,
+        })?;
         Ok(format!("selected {chunk} ({} points)", chunk.len()))
     }
 
     fn selection(&self) -> Result<(usize, Chunk), SessionError> {
         let (i, _) = self.current()?;
-        let chunk = self.selection.ok_or(SessionError::NoSelection)?;
+        let chunk = self.state.selection.ok_or(SessionError::NoSelection)?;
         Ok((i, chunk))
     }
 
     fn critique(&mut self, kappa: f64) -> Result<String, SessionError> {
-        if !(kappa.is_finite() && kappa > 0.0) {
+        if !(kappa.is_finite() && kappa > 0.0 && kappa <= MAX_KAPPA) {
             return Err(SessionError::BadKappa { kappa });
         }
         let (i, chunk) = self.selection()?;
-        let rec = &self.executions[i];
-        let result = self.learner.critique(rec.id, &rec.trace, chunk, kappa)?;
-        self.executions[i].flagged.push(chunk);
-        self.undo.push(Edit::Critique {
-            id: result.id,
+        let st = &mut self.state;
+        let rec = &st.executions[i];
+        let plan = st
+            .learner
+            .plan_critique(&rec.trace, chunk, kappa, rec.support.as_deref())?;
+        self.commit(Effect::Critique {
             execution: i,
             chunk,
             kappa,
-        });
-        self.redo.clear();
-        Ok(result.summary)
+            increments: plan.increments.clone(),
+        })?;
+        Ok(self.state.learner.critique_summary(chunk, &plan))
     }
 
     fn advise(&mut self, inv: &crate::syntax::Invocation) -> Result<String, SessionError> {
         let (i, chunk) = self.selection()?;
         let started = Instant::now();
-        let rec = &self.executions[i];
+        let rec = &self.state.executions[i];
         let syn = interp::apply(&self.ops, inv, &rec.trace, chunk)?;
         let points = syn.points.len();
         let skipped = chunk.len() - points;
-        let id = self.learner.add_advice(rec.id, &syn)?;
-        let advice = syn.advice.clone();
-        self.executions[i].advised.push(chunk);
-        self.undo.push(Edit::Advice {
-            id,
+        let invocation = syn.advice.invocation();
+        self.commit(Effect::Advice {
             execution: i,
-            advice: advice.clone(),
-            points,
-        });
-        self.redo.clear();
-        let mut out = format!(
-            "advised {chunk} of execution {i} with {}: {points} points added",
-            advice.invocation()
-        );
+            points: syn.points.to_json(),
+            source_index: syn.source_index,
+            applied: syn.advice,
+        })?;
+        let mut out =
+            format!("advised {chunk} of execution {i} with {invocation}: {points} points added");
         if skipped > 0 {
             let _ = write!(out, " ({skipped} skipped by the operator's guard)");
         }
         let _ = write!(
             out,
             "; the policy has {} points, ready in {:.1} ms",
-            self.learner.len(),
+            self.state.learner.len(),
             started.elapsed().as_secs_f64() * 1e3
         );
         Ok(out)
@@ -823,7 +1237,7 @@ impl Session {
 
     fn preview(&self, inv: &crate::syntax::Invocation) -> Result<String, SessionError> {
         let (i, chunk) = self.selection()?;
-        let rec = &self.executions[i];
+        let rec = &self.state.executions[i];
         let syn = interp::apply(&self.ops, inv, &rec.trace, chunk)?;
         let space = syn.advice.space;
         let dims = self.domain.dims(space);
@@ -858,112 +1272,111 @@ impl Session {
     }
 
     fn undo(&mut self) -> Result<String, SessionError> {
-        let edit = self.undo.pop().ok_or(SessionError::NothingToUndo)?;
-        let text = edit.describe(&self.executions);
-        match &edit {
-            Edit::Advice {
-                id,
-                execution,
-                advice,
-                ..
-            } => {
-                self.learner.remove_advice(*id)?;
-                remove_chunk(&mut self.executions[*execution].advised, advice.chunk);
-            }
+        let edit = self.state.undo.last().ok_or(SessionError::NothingToUndo)?;
+        let text = edit.describe(&self.state.executions);
+        self.commit(Effect::Undo)?;
+        Ok(format!(
+            "undid: {text}; the policy has {} points",
+            self.state.learner.len()
+        ))
+    }
+
+    fn undo_edit(&mut self) -> Result<(), SessionError> {
+        let st = &mut self.state;
+        let edit = st.undo.pop().ok_or(SessionError::NothingToUndo)?;
+        let result = match &edit {
+            Edit::Advice { id, execution, syn } => st
+                .learner
+                .remove_advice(*id)
+                .map(|()| remove_chunk(&mut st.executions[*execution].advised, syn.advice.chunk)),
             Edit::Critique {
                 id,
                 execution,
                 chunk,
                 ..
-            } => {
-                self.learner.remove_critique(*id)?;
-                remove_chunk(&mut self.executions[*execution].flagged, *chunk);
+            } => st
+                .learner
+                .remove_critique(*id)
+                .map(|()| remove_chunk(&mut st.executions[*execution].flagged, *chunk)),
+        };
+        match result {
+            Ok(()) => {
+                st.redo.push(edit);
+                Ok(())
+            }
+            Err(e) => {
+                st.undo.push(edit);
+                Err(e.into())
             }
         }
-        self.redo.push(edit);
-        Ok(format!(
-            "undid: {text}; the policy has {} points",
-            self.learner.len()
-        ))
     }
 
     fn redo(&mut self) -> Result<String, SessionError> {
-        let edit = self.redo.pop().ok_or(SessionError::NothingToRedo)?;
-        let text = edit.describe(&self.executions);
-        let redone = match edit {
-            Edit::Advice {
-                execution, advice, ..
-            } => {
-                let rec = &self.executions[execution];
-                // Re-synthesized from the record, so the points are exactly the undone ones.
-                let syn = interp::reapply(&self.ops, &advice, &rec.trace)?;
-                let points = syn.points.len();
-                let id = self.learner.add_advice(rec.id, &syn)?;
-                self.executions[execution].advised.push(advice.chunk);
-                Edit::Advice {
-                    id,
-                    execution,
-                    advice,
-                    points,
-                }
-            }
+        let edit = self.state.redo.last().ok_or(SessionError::NothingToRedo)?;
+        let text = edit.describe(&self.state.executions);
+        self.commit(Effect::Redo)?;
+        Ok(format!(
+            "redid: {text}; the policy has {} points",
+            self.state.learner.len()
+        ))
+    }
+
+    /// Put back exactly what the last undo took: the same points, the same increments.
+    fn redo_edit(&mut self) -> Result<(), SessionError> {
+        let edit = self.state.redo.pop().ok_or(SessionError::NothingToRedo)?;
+        let result = match edit.clone() {
+            Edit::Advice { execution, syn, .. } => self.add_advice(execution, syn),
             Edit::Critique {
                 execution,
                 chunk,
                 kappa,
+                increments,
                 ..
-            } => {
-                let rec = &self.executions[execution];
-                let result = self.learner.critique(rec.id, &rec.trace, chunk, kappa)?;
-                self.executions[execution].flagged.push(chunk);
-                Edit::Critique {
-                    id: result.id,
-                    execution,
-                    chunk,
-                    kappa,
-                }
-            }
+            } => self.add_critique(execution, chunk, kappa, increments),
         };
-        self.undo.push(redone);
-        Ok(format!(
-            "redid: {text}; the policy has {} points",
-            self.learner.len()
-        ))
+        if result.is_err() {
+            self.state.redo.push(edit);
+        }
+        result
     }
 
     fn history(&self) -> String {
-        if self.undo.is_empty() && self.redo.is_empty() {
+        let st = &self.state;
+        if st.undo.is_empty() && st.redo.is_empty() {
             return "no advice or critiques yet".into();
         }
         let mut out = String::new();
-        for (n, e) in self.undo.iter().enumerate() {
-            let _ = writeln!(out, "{:>3}  {}", n + 1, e.describe(&self.executions));
+        for (n, e) in st.undo.iter().enumerate() {
+            let _ = writeln!(out, "{:>3}  {}", n + 1, e.describe(&st.executions));
         }
-        for e in self.redo.iter().rev() {
-            let _ = writeln!(out, "  -  (undone) {}", e.describe(&self.executions));
+        for e in st.redo.iter().rev() {
+            let _ = writeln!(out, "  -  (undone) {}", e.describe(&st.executions));
         }
         out
     }
 
-    fn rederive(&mut self) -> String {
+    fn rederive(&mut self) -> Result<String, SessionError> {
         let started = Instant::now();
-        let what = self.learner.rederive();
-        format!(
+        // Re-derivation is deterministic for the session's seed, so the journal keeps the fact,
+        // not the tuned numbers (`apply` makes the same call on restore).
+        let what = self.state.learner.rederive();
+        self.journal_effect(Effect::Rederive)?;
+        Ok(format!(
             "re-derived the {} policy from {} points in {:.1} ms{what}",
-            self.learner.kind_name(),
-            self.learner.len(),
+            self.state.learner.kind_name(),
+            self.state.learner.len(),
             started.elapsed().as_secs_f64() * 1e3
-        )
+        ))
     }
 
     fn eval(&mut self) -> String {
-        self.learner.ensure_derived();
+        self.state.learner.ensure_derived();
         let opts = EvalOptions {
             seed: self.seed,
             params: self.sim_params(),
             progress: self.progress,
         };
-        let report = eval::evaluate(self.task, self.learner.policy(), &opts);
+        let report = eval::evaluate(self.task, self.state.learner.policy(), &opts);
         match &self.backend {
             BackendChoice::Sim(_) => report.render(),
             // The whole test set on a robot takes minutes and needs room: not from the prompt.
@@ -985,13 +1398,13 @@ impl Session {
         }
         let z = rec.trace.z(t).to_vec();
         let a = rec.trace.a(t).to_vec();
-        self.learner.ensure_derived();
+        self.state.learner.ensure_derived();
         let mut out = format!(
             "point {t} of execution {i}: z = {}, executed a = {}\n",
             fmt_vec(&z),
             fmt_vec(&a)
         );
-        out.push_str(&self.learner.why(&z)?);
+        out.push_str(&self.state.learner.why(&z)?);
         Ok(out)
     }
 
@@ -1008,27 +1421,31 @@ impl Session {
     }
 
     fn save(&self, path: &str) -> Result<String, SessionError> {
-        self.learner.save(Path::new(path))?;
+        self.state.learner.save(Path::new(path))?;
         Ok(format!(
             "saved {} points with their provenance to {path}",
-            self.learner.len()
+            self.state.learner.len()
         ))
     }
 
     fn open(&mut self, path: &str) -> Result<String, SessionError> {
+        // Validated whole before anything changes; the journal keeps the dataset itself.
         let learner = Learner::open(Path::new(path), self.task, self.seed)?;
-        self.domain = learner.domain().clone();
-        self.learner = learner;
-        self.executions.clear();
-        self.current = None;
-        self.selection = None;
-        self.undo.clear();
-        self.redo.clear();
-        Ok(format!("opened {path}: {} points", self.learner.len()))
+        let dataset = learner.dataset().to_json_string();
+        self.take_learner(learner);
+        // Applied above without deriving the policy twice; `apply` does the same on restore.
+        self.journal_effect(Effect::Open {
+            path: path.to_string(),
+            dataset,
+        })?;
+        Ok(format!(
+            "opened {path}: {} points",
+            self.state.learner.len()
+        ))
     }
 
     fn export_advice(&self, path: &str) -> Result<String, SessionError> {
-        let n = self.learner.export_advice(Path::new(path))?;
+        let n = self.state.learner.export_advice(Path::new(path))?;
         Ok(format!(
             "wrote {n} advised points with their provenance to {path}"
         ))
@@ -1071,23 +1488,6 @@ impl Session {
                 .unwrap_or_else(|| "`help` lists every command and operator".into()),
         })
     }
-}
-
-/// Whether a command changes the session (and so belongs in the journal).
-fn changes_session(cmd: &Command) -> bool {
-    !matches!(
-        cmd,
-        Command::Show
-            | Command::History
-            | Command::Help(_)
-            | Command::Why(_)
-            | Command::Preview(_)
-            | Command::Plot(_)
-            | Command::Save(_)
-            | Command::ExportAdvice(_)
-            | Command::Eval
-            | Command::Quit
-    )
 }
 
 fn command_doc(name: &str) -> &'static str {
@@ -1171,10 +1571,9 @@ pub fn origin(path: &Path, line: usize) -> String {
     format!("{}:{line}", path.display())
 }
 
-/// The path of a new journal in `dir`, named by the time the session started.
-pub fn new_journal_path(dir: &Path) -> PathBuf {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs());
-    dir.join(format!("session-{secs}.adv"))
+fn first_chars(s: &str, n: usize) -> String {
+    match s.char_indices().nth(n) {
+        Some((i, _)) => format!("{}...", &s[..i]),
+        None => s.to_string(),
+    }
 }

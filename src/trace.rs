@@ -212,6 +212,17 @@ impl Trace {
         Trace::from_json_points(domain, name, text, &doc.points)
     }
 
+    /// A trace from its JSON form, validated as a file's would be (a journal's traces).
+    pub fn from_json(domain: &Domain, json: &JsonTrace) -> Result<Trace, TraceError> {
+        if json.domain != domain.name {
+            return Err(TraceError::DomainMismatch {
+                expected: domain.name.clone(),
+                found: json.domain.clone(),
+            });
+        }
+        Trace::from_json_points(domain, "<journal>", "", &json.points)
+    }
+
     /// Validate parsed JSON points (dimensions, finiteness, time order) into a trace.
     fn from_json_points(
         domain: &Domain,
@@ -460,7 +471,7 @@ pub struct JsonEpisode {
 /// {"domain": "positioning",
 ///  "points": [{"t": 0.0, "z": [4.0, 0.1, 0.3], "a": [0.5, 0.0], "pose": [0.0, 0.0, 0.0]}]}
 /// ```
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct JsonTrace {
     pub domain: String,

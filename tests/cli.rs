@@ -64,8 +64,22 @@ fn no_arguments_opens_a_session_with_the_default_demonstrations() {
         .find(|e| e.file_name().to_string_lossy().starts_with("session-"))
         .expect("a journal was written");
     let text = std::fs::read_to_string(journal.path()).unwrap();
-    assert!(
-        text.contains("run goal 2 -1 0\nselect 0..10\nadvise slow_down\n"),
+    let statements: Vec<String> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: serde_json::Value = serde_json::from_str(l).expect("one JSON entry per line");
+            v["statement"].as_str().unwrap().to_string()
+        })
+        .collect();
+    assert_eq!(
+        statements,
+        [
+            "load demos teacher:9",
+            "run goal 2 -1 0",
+            "select 0..10",
+            "advise slow_down"
+        ],
         "{text}"
     );
 }

@@ -71,7 +71,10 @@ fn weighted(d: &Domain, rows: &[(Vec<f64>, [f64; 2])], raises: &[(usize, f64)]) 
     let mut ds = Dataset::new(d);
     ds.add_demonstration("demo", &trace(d, rows)).unwrap();
     let ex = ds.add_execution(&trace(d, &rows[..1])).unwrap();
-    let raises: Vec<(usize, f64)> = raises.iter().map(|(i, m)| (i % rows.len(), *m)).collect();
+    let raises: Vec<_> = raises
+        .iter()
+        .map(|(i, m)| (ds.provenance(i % rows.len()), *m))
+        .collect();
     ds.add_critique(ex, Chunk { start: 0, end: 0 }, 1.0, raises)
         .unwrap();
     ds
@@ -200,7 +203,7 @@ proptest! {
         // A critique that touches the advised points, then the advice is undone.
         let n = ds.len();
         let ex2 = ds.add_execution(&trace(&d, &rows[..1])).unwrap();
-        ds.add_critique(ex2, Chunk { start: 0, end: 0 }, 1.0, vec![(n - 1, 2.5), (0, 1.5)]).unwrap();
+        ds.add_critique(ex2, Chunk { start: 0, end: 0 }, 1.0, vec![(ds.provenance(n - 1), 2.5), (ds.provenance(0), 1.5)]).unwrap();
         ds.remove_advice(id).unwrap();
         ds.remove_critique(ds.critiques().last().unwrap().id).unwrap();
         prop_assert_eq!(ds.len(), ds0.len());

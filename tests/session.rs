@@ -140,7 +140,8 @@ fn every_example_session_runs() {
         }
         count += 1;
         let text = std::fs::read_to_string(&path).unwrap();
-        let mut s = Session::new(SessionOptions::default()).unwrap();
+        // As `advise run` starts it: the REPL's starting demonstrations.
+        let mut s = positioning(9);
         for st in script::statements(&text) {
             if let Err(e) = s.execute(&st.text, &format!("{}:{}", path.display(), st.line)) {
                 panic!("{}", advise::repl::render(&e, false));

@@ -131,6 +131,12 @@ pub enum DatasetError {
         #[label("here")]
         span: SourceSpan,
     },
+    #[error("refused to add a value that is not finite: {what}")]
+    #[diagnostic(
+        code(advise::dataset::non_finite),
+        help("every value in a dataset must be a finite number; nothing was added")
+    )]
+    NonFinite { what: String },
     #[error("the dataset file is inconsistent: {what}")]
     #[diagnostic(code(advise::dataset::inconsistent))]
     Inconsistent { what: String },
@@ -234,6 +240,7 @@ impl Dataset {
     /// Add a demonstration; its points are appended in order.
     pub fn add_demonstration(&mut self, name: &str, trace: &Trace) -> Result<DemoId, DatasetError> {
         self.check(trace)?;
+        check_finite(trace, || format!("demonstration `{name}`"))?;
         let id = self.fresh_id();
         for i in 0..trace.len() {
             self.push(
@@ -304,6 +311,7 @@ impl Dataset {
         if !self.executions.iter().any(|e| e.id == execution) {
             return Err(DatasetError::UnknownExecution(execution));
         }
+        check_finite(points, || format!("advice `{}`", applied.operator))?;
         let id = self.fresh_id();
         for j in 0..points.len() {
             self.push(
@@ -359,26 +367,28 @@ impl Dataset {
         self.a.truncate(w * ad);
     }
 
-    /// Record a critique whose increments were computed by the BC learner, and apply them.
+    /// Record a critique and make its increments: each applies to the point of that provenance if
+    /// it is still in the dataset. The weights are recomputed from the records in critique order,
+    /// so a critique made, redone or restored from the journal gives bit for bit the same weights.
     pub fn add_critique(
         &mut self,
         execution: ExecutionId,
         chunk: Chunk,
         kappa: f64,
-        increments: Vec<(usize, f64)>,
+        increments: Vec<(Provenance, f64)>,
     ) -> Result<CritiqueId, DatasetError> {
         if !self.executions.iter().any(|e| e.id == execution) {
             return Err(DatasetError::UnknownExecution(execution));
         }
+        if let Some((p, inc)) = increments
+            .iter()
+            .find(|(_, inc)| !(inc.is_finite() && *inc >= 0.0))
+        {
+            return Err(DatasetError::NonFinite {
+                what: format!("the critique's increment for {p:?} is {inc}"),
+            });
+        }
         let id = self.fresh_id();
-        let increments: Vec<(Provenance, f64)> = increments
-            .into_iter()
-            .filter(|(i, _)| *i < self.provenance.len())
-            .map(|(i, inc)| {
-                self.m[i] += inc;
-                (self.provenance[i], inc)
-            })
-            .collect();
         self.critiques.push(CritiqueRecord {
             id,
             execution,
@@ -386,7 +396,17 @@ impl Dataset {
             kappa,
             increments,
         });
+        self.recompute_weights();
         Ok(id)
+    }
+
+    /// Where each point is, by provenance (provenance survives removals; positions do not).
+    pub fn positions(&self) -> HashMap<Provenance, usize> {
+        self.provenance
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (*p, i))
+            .collect()
     }
 
     /// Remove critique `id`; the weights become those the remaining critiques give.
@@ -539,6 +559,12 @@ impl Dataset {
         }
     }
 
+    /// The dataset as the JSON text `save` writes.
+    pub fn to_json_string(&self) -> String {
+        serde_json::to_string(&self.to_file())
+            .expect("a dataset's values are finite and its keys strings")
+    }
+
     /// Load a dataset saved as JSON.
     pub fn load(path: &Path) -> Result<Dataset, DatasetError> {
         let text = std::fs::read_to_string(path).map_err(|source| DatasetError::Io {
@@ -586,6 +612,19 @@ impl Dataset {
         }
         Ok(d)
     }
+}
+
+/// Refuse a trace with a value that is not finite (a point that cannot be saved as JSON, and
+/// that would poison every distance it enters).
+fn check_finite(trace: &Trace, what: impl Fn() -> String) -> Result<(), DatasetError> {
+    for i in 0..trace.len() {
+        if let Some(v) = trace.z(i).iter().chain(trace.a(i)).find(|v| !v.is_finite()) {
+            return Err(DatasetError::NonFinite {
+                what: format!("{} has {v} at point {i}", what()),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The JSON file of a dataset.

@@ -63,11 +63,23 @@ pub enum LearnerError {
     Empty,
 }
 
+/// The increments a critique would make ([`Learner::plan_critique`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CritiquePlan {
+    /// (supporting point, increment of its m), in step order.
+    pub increments: Vec<(Provenance, f64)>,
+    /// Steps whose supporting point was removed since the run; `None` when the supporting points
+    /// were not recorded and the nearest ones now were used.
+    pub gone: Option<usize>,
+}
+
 /// What a critique did.
 #[derive(Clone, Debug)]
 pub struct CritiqueResult {
     pub id: CritiqueId,
     pub summary: String,
+    /// The weight increments it made, by provenance (what a redo or the journal puts back).
+    pub increments: Vec<(Provenance, f64)>,
 }
 
 thread_local! {
@@ -210,7 +222,9 @@ impl Learner {
     }
 
     /// Flag `chunk` of an execution: each flagged point's supporting data point gets
-    /// `m += kappa / max(d, MIN)` (see [`bc::MIN_CRITIQUE_DISTANCE`]).
+    /// `m += kappa / max(d, MIN)` (see [`bc::MIN_CRITIQUE_DISTANCE`]). The supporting points are
+    /// the nearest now, which is what acted only when nothing was added since the run; a session
+    /// records what acted when it ran and uses [`Learner::plan_critique`] with it.
     pub fn critique(
         &mut self,
         execution: ExecutionId,
@@ -218,26 +232,128 @@ impl Learner {
         chunk: Chunk,
         kappa: f64,
     ) -> Result<CritiqueResult, LearnerError> {
+        let plan = self.plan_critique(trace, chunk, kappa, None)?;
+        let id = self.restore_critique(execution, chunk, kappa, plan.increments.clone())?;
+        Ok(CritiqueResult {
+            id,
+            summary: self.critique_summary(chunk, &plan),
+            increments: plan.increments,
+        })
+    }
+
+    /// The increments a critique of `chunk` makes, without making them.
+    ///
+    /// With `support` (for each step, the provenance of the data point that recommended its action
+    /// when it ran: [`Learner::support_provenance`]), the paper's rule holds exactly: the points
+    /// that acted are penalised, never data added after the run; a supporting point removed since
+    /// (undone advice) is skipped and counted. Without it (a trace loaded from a file), the
+    /// points nearest now are penalised.
+    pub fn plan_critique(
+        &mut self,
+        trace: &Trace,
+        chunk: Chunk,
+        kappa: f64,
+        support: Option<&[Option<Provenance>]>,
+    ) -> Result<CritiquePlan, LearnerError> {
         if self.ds.is_empty() {
             return Err(LearnerError::Empty);
         }
         self.ensure_derived();
-        let zs = chunk.range().map(|t| trace.z(t).to_vec());
-        let increments = bc::critique_increments(&self.index, &self.ds, zs, kappa);
-        let mut points: Vec<usize> = increments.iter().map(|(i, _)| *i).collect();
+        let Some(support) = support else {
+            let zs = chunk.range().map(|t| trace.z(t).to_vec());
+            let increments = bc::critique_increments(&self.index, &self.ds, zs, kappa)
+                .into_iter()
+                .map(|(i, inc)| (self.ds.provenance(i), inc))
+                .collect();
+            return Ok(CritiquePlan {
+                increments,
+                gone: None,
+            });
+        };
+        let positions = self.ds.positions();
+        let scale = self.index.scale();
+        let mut gone = 0;
+        let mut increments = Vec::with_capacity(chunk.len());
+        for t in chunk.range() {
+            let Some(p) = support.get(t).copied().flatten() else {
+                continue;
+            };
+            let Some(&i) = positions.get(&p) else {
+                gone += 1;
+                continue;
+            };
+            let d = trace
+                .z(t)
+                .iter()
+                .zip(self.ds.z(i))
+                .zip(scale)
+                .map(|((zt, zi), s)| ((zt - zi) * s).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            increments.push((p, kappa / d.max(bc::MIN_CRITIQUE_DISTANCE)));
+        }
+        Ok(CritiquePlan {
+            increments,
+            gone: Some(gone),
+        })
+    }
+
+    /// What a planned critique did, in words (after [`Learner::restore_critique`] made it).
+    pub fn critique_summary(&self, chunk: Chunk, plan: &CritiquePlan) -> String {
+        let positions = self.ds.positions();
+        let mut points: Vec<usize> = plan
+            .increments
+            .iter()
+            .filter_map(|(p, _)| positions.get(p).copied())
+            .collect();
         points.sort_unstable();
         points.dedup();
-        let id = self.ds.add_critique(execution, chunk, kappa, increments)?;
         let max_m = points.iter().map(|&i| self.ds.m(i)).fold(1.0, f64::max);
         let mut summary = format!(
             "critiqued {chunk} ({} points): raised the weight of {} data points (largest m now {max_m:.2})",
             chunk.len(),
             points.len()
         );
+        match plan.gone {
+            None => summary.push_str(
+                "; the points that drove this execution were not recorded (a loaded trace), so the points nearest now were penalised",
+            ),
+            Some(0) => {}
+            Some(n) => {
+                let _ = write!(
+                    summary,
+                    "; {n} steps were driven by data removed since (undone advice) and were skipped"
+                );
+            }
+        }
         if self.kind == LearnerKind::Lwr {
             summary.push_str("; note: weights steer the BC 1-NN policy, the running policy is LWR");
         }
-        Ok(CritiqueResult { id, summary })
+        summary
+    }
+
+    /// Make a critique's increments exactly (a new critique, a redo, or a journal being restored).
+    pub fn restore_critique(
+        &mut self,
+        execution: ExecutionId,
+        chunk: Chunk,
+        kappa: f64,
+        increments: Vec<(Provenance, f64)>,
+    ) -> Result<CritiqueId, LearnerError> {
+        Ok(self.ds.add_critique(execution, chunk, kappa, increments)?)
+    }
+
+    /// For each observation of `trace`, the provenance of the data point the BC 1-NN picks now:
+    /// recorded right after a run (the dataset does not change during one), it says which points
+    /// acted, whatever is added or removed later.
+    pub fn support_provenance(&mut self, trace: &Trace) -> Vec<Option<Provenance>> {
+        self.ensure_derived();
+        (0..trace.len())
+            .map(|t| {
+                self.support(trace.z(t))
+                    .map(|s| self.ds.provenance(s.point))
+            })
+            .collect()
     }
 
     pub fn remove_critique(&mut self, id: CritiqueId) -> Result<(), LearnerError> {

@@ -1,13 +1,23 @@
-//! The session journal: every statement that changed the session, appended and flushed as it
-//! succeeds, so that a crash loses nothing and `advise resume` can replay it.
+//! The session journal: a record of effects, appended and flushed as each statement succeeds, so a
+//! crash loses nothing and `advise resume` restores the session without re-running anything.
 //!
-//! The journal is plain session script (one statement per entry, multi-line definitions kept
-//! whole), headed by a comment: it can be read, edited and run with `advise run`. Statements that
-//! only look (`show`, `history`, `help`, `why`, `preview`) are not journalled.
+//! The file is JSON Lines: a [`Header`] (task, seed, simulator parameters, who started it), then
+//! one [`Entry`] per statement that changed the session: the statement as typed and its
+//! [`Effect`](super::effect::Effect). Every line ends with a newline and is flushed to disk before
+//! the statement's reply is shown. A journal is created with create-new semantics under a name
+//! unique to the process (time, process id, a counter), so two sessions never share one and
+//! nothing is ever truncated. A line cut by a crash is reported and dropped on resume; a damaged
+//! line in the middle stops the restore there, and the session continues in a fresh journal
+//! holding what was restored, leaving the damaged one as it was.
 
 use std::fs::{File, OpenOptions};
-use std::io::{self, Write};
+use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
+
+use miette::Diagnostic;
+use thiserror::Error;
+
+use super::effect::{Entry, Header, JOURNAL_FORMAT};
 
 /// An append-only journal file.
 #[derive(Debug)]
@@ -16,28 +26,88 @@ pub struct Journal {
     file: File,
 }
 
+/// Why a journal could not be read.
+#[derive(Debug, Error, Diagnostic)]
+pub enum JournalError {
+    #[error("cannot read the journal `{path}`")]
+    #[diagnostic(code(advise::journal::io))]
+    Io {
+        path: String,
+        #[source]
+        source: io::Error,
+    },
+    #[error("`{path}` is not a regular file")]
+    #[diagnostic(
+        code(advise::journal::not_a_file),
+        help("journals are files in $ADVISE_HOME (default ~/.advise) named session-*.jsonl")
+    )]
+    NotAFile { path: String },
+    #[error("`{path}` is a journal of an earlier version of advise (a script of commands)")]
+    #[diagnostic(
+        code(advise::journal::old_format),
+        help(
+            "it holds commands, not their effects: `advise run {path} --demos 0` re-runs them in the simulator (a script that says `backend rmp:...` would drive that robot again: remove that line first)"
+        )
+    )]
+    OldFormat { path: String },
+    #[error("`{path}` does not start with a journal header: {message}")]
+    #[diagnostic(
+        code(advise::journal::header),
+        help(
+            "a journal's first line is written by `advise` when a session starts; this file is not one, or its first line was edited"
+        )
+    )]
+    Header { path: String, message: String },
+}
+
+/// A journal read back: its header, the entries in order (with their 1-based line numbers), and
+/// what could not be read.
+#[derive(Debug)]
+pub struct Loaded {
+    pub header: Header,
+    pub entries: Vec<(usize, Entry)>,
+    /// A last line with no newline: a statement cut by a crash (its text, for the report).
+    pub cut: Option<String>,
+    /// The first damaged complete line (line number, what is wrong); nothing after it is read.
+    pub damaged: Option<(usize, String)>,
+    /// The length in bytes of the complete lines before any cut or damage.
+    pub good_len: u64,
+}
+
+/// Longest journal `read` accepts (a session that loaded 10,000 teacher runs is some hundreds of
+/// MiB; anything larger is not a journal this program wrote).
+pub const MAX_JOURNAL_BYTES: u64 = 2 << 30;
+
 impl Journal {
-    /// Start a new journal at `path` (truncating an old one).
-    pub fn create(path: &Path) -> io::Result<Journal> {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir)?;
+    /// Start a new journal in `dir` under a name no other session has, headed by `header`.
+    pub fn create_in(dir: &Path, header: &Header) -> io::Result<Journal> {
+        std::fs::create_dir_all(dir)?;
+        let mut last = None;
+        // A name is unique to this process and time; create-new refuses a name that exists, so
+        // the worst a collision costs is another try.
+        for attempt in 0..64u32 {
+            let path = dir.join(journal_name(header, attempt));
+            match OpenOptions::new().append(true).create_new(true).open(&path) {
+                Ok(file) => {
+                    let mut j = Journal { path, file };
+                    j.write_line(&serde_json::to_string(header).map_err(io::Error::other)?)?;
+                    return Ok(j);
+                }
+                Err(e) if e.kind() == io::ErrorKind::AlreadyExists => last = Some(e),
+                Err(e) => return Err(e),
+            }
         }
-        let mut file = File::create(path)?;
-        writeln!(
-            file,
-            "// advise session journal: replay with `advise resume` or `advise run {}`",
-            path.display()
-        )?;
-        file.sync_data()?;
-        Ok(Journal {
-            path: path.to_path_buf(),
-            file,
-        })
+        Err(last.unwrap_or_else(|| io::Error::other("no free journal name")))
     }
 
-    /// Continue an existing journal (after `advise resume` replayed it).
-    pub fn append_to(path: &Path) -> io::Result<Journal> {
+    /// Continue an existing journal (after `advise resume` restored it). Anything past `good_len`
+    /// (a line cut by a crash) is cut off first, so the next entry starts on a line of its own.
+    pub fn append_to(path: &Path, good_len: u64) -> io::Result<Journal> {
         let file = OpenOptions::new().append(true).open(path)?;
+        if file.metadata()?.len() > good_len {
+            file.set_len(good_len)?;
+            file.sync_data()?;
+        }
         Ok(Journal {
             path: path.to_path_buf(),
             file,
@@ -48,12 +118,119 @@ impl Journal {
         &self.path
     }
 
-    /// Append one statement and flush it to disk before returning.
-    pub fn record(&mut self, statement: &str) -> io::Result<()> {
-        writeln!(self.file, "{}", statement.trim_end())?;
+    /// Append one entry and flush it to disk before returning.
+    pub fn record(&mut self, entry: &Entry) -> io::Result<()> {
+        self.write_line(&serde_json::to_string(entry).map_err(io::Error::other)?)
+    }
+
+    fn write_line(&mut self, line: &str) -> io::Result<()> {
+        let mut buf = Vec::with_capacity(line.len() + 1);
+        buf.extend_from_slice(line.as_bytes());
+        buf.push(b'\n');
+        // One write call for the whole line, so a crash leaves at most one cut line at the end.
+        self.file.write_all(&buf)?;
         self.file.flush()?;
         self.file.sync_data()
     }
+}
+
+fn journal_name(header: &Header, attempt: u32) -> String {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    format!(
+        "session-{}-{}-{:08x}{}.jsonl",
+        header.started_unix_s,
+        header.pid,
+        nanos,
+        if attempt == 0 {
+            String::new()
+        } else {
+            format!("-{attempt}")
+        }
+    )
+}
+
+/// Read a journal back. Never panics on any file content.
+pub fn read(path: &Path) -> Result<Loaded, JournalError> {
+    let shown = path.display().to_string();
+    let io = |source| JournalError::Io {
+        path: shown.clone(),
+        source,
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(JournalError::NotAFile { path: shown });
+    }
+    let mut bytes = Vec::new();
+    File::open(path)
+        .map_err(io)?
+        .take(MAX_JOURNAL_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io)?;
+    if bytes.len() as u64 > MAX_JOURNAL_BYTES {
+        return Err(JournalError::Io {
+            path: shown,
+            source: io::Error::other(format!(
+                "it is over {} MiB, more than any session writes",
+                MAX_JOURNAL_BYTES >> 20
+            )),
+        });
+    }
+    if bytes.starts_with(b"// advise session journal") {
+        return Err(JournalError::OldFormat { path: shown });
+    }
+    let mut lines = bytes.split_inclusive(|b| *b == b'\n');
+    let first = lines.next().unwrap_or_default();
+    let header: Header = std::str::from_utf8(first)
+        .map_err(|e| e.to_string())
+        .and_then(|l| serde_json::from_str(l.trim_end()).map_err(|e| e.to_string()))
+        .and_then(|h: Header| {
+            if h.format == JOURNAL_FORMAT {
+                Ok(h)
+            } else {
+                Err(format!(
+                    "format `{}`, this version reads `{JOURNAL_FORMAT}`",
+                    h.format
+                ))
+            }
+        })
+        .map_err(|message| JournalError::Header {
+            path: shown.clone(),
+            message,
+        })?;
+    let mut loaded = Loaded {
+        header,
+        entries: Vec::new(),
+        cut: None,
+        damaged: None,
+        good_len: first.len() as u64,
+    };
+    if !first.ends_with(b"\n") {
+        // Only a header, cut: nothing after it.
+        return Ok(loaded);
+    }
+    for (i, line) in lines.enumerate() {
+        let number = i + 2;
+        if !line.ends_with(b"\n") {
+            loaded.cut = Some(String::from_utf8_lossy(line).into_owned());
+            break;
+        }
+        let parsed = std::str::from_utf8(line)
+            .map_err(|e| e.to_string())
+            .and_then(|l| serde_json::from_str::<Entry>(l).map_err(|e| e.to_string()));
+        match parsed {
+            Ok(entry) => {
+                loaded.entries.push((number, entry));
+                loaded.good_len += line.len() as u64;
+            }
+            Err(message) => {
+                loaded.damaged = Some((number, message));
+                break;
+            }
+        }
+    }
+    Ok(loaded)
 }
 
 /// Where journals live by default: `$ADVISE_HOME`, else `$HOME/.advise`, else `.advise`.
@@ -67,22 +244,113 @@ pub fn default_dir() -> PathBuf {
     }
 }
 
+/// The most recently written journal in `dir`.
+pub fn newest(dir: &Path) -> Option<PathBuf> {
+    std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("session-") && n.ends_with(".jsonl"))
+        })
+        .filter_map(|p| Some((std::fs::metadata(&p).and_then(|m| m.modified()).ok()?, p)))
+        .max()
+        .map(|(_, p)| p)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::backend::sim::SimParams;
+    use crate::session::effect::Effect;
+    use crate::task::TaskKind;
+
+    fn header() -> Header {
+        Header {
+            format: JOURNAL_FORMAT.into(),
+            task: TaskKind::Positioning,
+            seed: 3,
+            sim: SimParams::default(),
+            started_unix_s: 1_700_000_000,
+            pid: 42,
+        }
+    }
+
+    fn entry(s: &str) -> Entry {
+        Entry {
+            statement: s.into(),
+            origin: "<repl>".into(),
+            effect: Effect::Undo,
+        }
+    }
 
     #[test]
-    fn records_are_on_disk_at_once() {
+    fn entries_are_on_disk_at_once_and_read_back() {
         let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("j.adv");
-        let mut j = Journal::create(&p).unwrap();
-        j.record("select 1..4").unwrap();
-        j.record("advise speed_up\n").unwrap();
-        let text = std::fs::read_to_string(&p).unwrap();
-        assert!(text.ends_with("select 1..4\nadvise speed_up\n"), "{text}");
+        let mut j = Journal::create_in(dir.path(), &header()).unwrap();
+        j.record(&entry("undo")).unwrap();
+        let loaded = read(j.path()).unwrap();
+        assert_eq!(loaded.header, header());
+        assert_eq!(loaded.entries, vec![(2, entry("undo"))]);
+        assert!(loaded.cut.is_none() && loaded.damaged.is_none());
+    }
+
+    #[test]
+    fn two_journals_started_in_the_same_second_by_one_process_differ() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = Journal::create_in(dir.path(), &header()).unwrap();
+        let b = Journal::create_in(dir.path(), &header()).unwrap();
+        assert_ne!(a.path(), b.path());
+        assert_eq!(read(a.path()).unwrap().header, header());
+        assert_eq!(read(b.path()).unwrap().header, header());
+    }
+
+    #[test]
+    fn a_cut_line_is_reported_and_cut_off_before_appending() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut j = Journal::create_in(dir.path(), &header()).unwrap();
+        j.record(&entry("undo")).unwrap();
+        let path = j.path().to_path_buf();
         drop(j);
-        let mut j = Journal::append_to(&p).unwrap();
-        j.record("undo").unwrap();
-        assert!(std::fs::read_to_string(&p).unwrap().ends_with("undo\n"));
+        let mut f = OpenOptions::new().append(true).open(&path).unwrap();
+        f.write_all(br#"{"statement":"advise spe"#).unwrap();
+        let loaded = read(&path).unwrap();
+        assert_eq!(loaded.entries.len(), 1);
+        assert_eq!(loaded.cut.as_deref(), Some(r#"{"statement":"advise spe"#));
+        let mut j = Journal::append_to(&path, loaded.good_len).unwrap();
+        j.record(&entry("redo")).unwrap();
+        let again = read(&path).unwrap();
+        assert_eq!(again.entries.len(), 2);
+        assert_eq!(again.entries[1].1, entry("redo"));
+        assert!(again.cut.is_none() && again.damaged.is_none());
+    }
+
+    #[test]
+    fn a_damaged_line_stops_the_read_there() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut j = Journal::create_in(dir.path(), &header()).unwrap();
+        j.record(&entry("undo")).unwrap();
+        j.write_line("not json").unwrap();
+        j.record(&entry("redo")).unwrap();
+        let loaded = read(j.path()).unwrap();
+        assert_eq!(loaded.entries.len(), 1);
+        assert_eq!(loaded.damaged.as_ref().map(|d| d.0), Some(3));
+    }
+
+    #[test]
+    fn old_journals_and_other_files_are_refused_with_a_reason() {
+        let dir = tempfile::tempdir().unwrap();
+        let old = dir.path().join("session-1.adv");
+        std::fs::write(&old, "// advise session journal: replay\nrun goal 1 1 0\n").unwrap();
+        assert!(matches!(read(&old), Err(JournalError::OldFormat { .. })));
+        let other = dir.path().join("x.jsonl");
+        std::fs::write(&other, "{}\n").unwrap();
+        assert!(matches!(read(&other), Err(JournalError::Header { .. })));
+        assert!(matches!(
+            read(dir.path()),
+            Err(JournalError::NotAFile { .. })
+        ));
     }
 }

@@ -1,0 +1,150 @@
+//! What a statement did to a session: the unit of the journal.
+//!
+//! A command does its work (drives the base, reads a file, synthesizes advice) and then hands the
+//! session an [`Effect`]: the recorded execution, the points an advice added, the weights a
+//! critique changed, the operator text a definition checked. Applying an effect is a pure state
+//! change: it never reads a file, never connects to or drives a robot. The live session and
+//! `advise resume` apply effects through the same code ([`crate::session::Session`]'s `apply`), so
+//! a resumed session is the session that was journalled, not a re-run of its commands.
+//!
+//! Numbers are stored with serde_json's exact float round trip, so a restored dataset is bit for
+//! bit the one that was saved.
+
+use serde::{Deserialize, Serialize};
+
+use crate::backend::sim::SimParams;
+use crate::interp::AppliedAdvice;
+use crate::policy::dataset::Provenance;
+use crate::task::{Outcome, TaskKind};
+use crate::trace::{Chunk, JsonTrace, Pose};
+
+/// The first line of a journal: how the session started.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Header {
+    /// Always [`JOURNAL_FORMAT`].
+    pub format: String,
+    pub task: TaskKind,
+    pub seed: u64,
+    pub sim: SimParams,
+    /// When the session started (seconds since the Unix epoch) and which process wrote it.
+    pub started_unix_s: u64,
+    pub pid: u32,
+}
+
+/// The journal's format name; a journal of another format is refused with a diagnostic.
+pub const JOURNAL_FORMAT: &str = "advise-journal-1";
+
+/// One line of a journal after the header: the statement as typed, where it came from, and what
+/// it did.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Entry {
+    pub statement: String,
+    pub origin: String,
+    pub effect: Effect,
+}
+
+/// What one statement changed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Effect {
+    /// Operator or domain definitions, checked on top of the session's operators: typed at the
+    /// prompt (`origin` is the REPL line) or read from a file by `operators FILE` (the file's
+    /// text as it was then).
+    Define {
+        origin: String,
+        text: String,
+    },
+    /// The session switched task (each task keeps its own dataset and executions).
+    Task {
+        task: TaskKind,
+    },
+    /// The session connected to a base. Restoring it does not connect: the session is on `sim`
+    /// until the teacher connects again.
+    Backend {
+        spec: String,
+    },
+    /// Demonstrations added, with every point (a file may change, a teacher run is not re-run).
+    Demos {
+        source: String,
+        episodes: Vec<DemoEpisode>,
+    },
+    /// An execution recorded: run on a base, interrupted, or loaded from a file.
+    Execution(Box<ExecutionEntry>),
+    /// The selection.
+    Select {
+        execution: usize,
+        chunk: Chunk,
+    },
+    /// Advice: the synthesized points themselves, with the record they came from.
+    Advice {
+        execution: usize,
+        applied: AppliedAdvice,
+        points: JsonTrace,
+        source_index: Vec<usize>,
+    },
+    /// A critique: the weight increments it made, by provenance.
+    Critique {
+        execution: usize,
+        chunk: Chunk,
+        kappa: f64,
+        increments: Vec<(Provenance, f64)>,
+    },
+    Undo,
+    Redo,
+    /// The policy re-derived from scratch (deterministic for the session's seed).
+    Rederive,
+    /// A dataset opened from a file, whole.
+    Open {
+        path: String,
+        dataset: String,
+    },
+}
+
+/// A demonstration as journalled.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DemoEpisode {
+    pub name: String,
+    pub trace: JsonTrace,
+}
+
+/// An execution as journalled.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExecutionEntry {
+    pub label: String,
+    pub trace: JsonTrace,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal: Option<Pose>,
+    /// What the run measured (absent for a trace loaded from a file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub run: Option<RunEntry>,
+}
+
+/// The parts of an execution only a run has.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunEntry {
+    /// The session's run counter for this run (it seeds the simulator of the next run).
+    pub number: u64,
+    pub outcome: Outcome,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub true_poses: Option<Vec<Pose>>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ball: Option<Vec<[f64; 2]>>,
+    /// For each step, the data point that recommended the action (BC 1-NN): what a critique
+    /// penalises.
+    pub support: Vec<Option<Provenance>>,
+}
+
+impl Effect {
+    /// Whether restoring this effect is a change of backend (which a restore never performs).
+    pub fn backend(&self) -> Option<&str> {
+        match self {
+            Effect::Backend { spec } => Some(spec),
+            _ => None,
+        }
+    }
+}
