@@ -100,20 +100,20 @@ pub enum SessionError {
         help("interception runs start from a ball: `run start N`")
     )]
     GoalForWrongTask,
-    #[error("the goal ({x}, {y}, {theta}) is not a pose a run can reach")]
+    #[error("the goal ({goal}) is not a pose a run can reach")]
     #[diagnostic(
         code(advise::session::bad_goal),
         help(
             "x and y are metres from where the base stands, within ±{MAX_GOAL_M}; theta is radians within ±2π (±6.2832)"
         )
     )]
-    BadGoal { x: f64, y: f64, theta: f64 },
+    BadGoal { goal: String },
     #[error("kappa must be a positive number up to {MAX_KAPPA}, not {kappa}")]
     #[diagnostic(
         code(advise::session::bad_kappa),
         help("the paper's kappa is a small positive constant, e.g. `critique 0.5`")
     )]
-    BadKappa { kappa: f64 },
+    BadKappa { kappa: String },
     #[error("the {task} dataset is empty: there is no policy to run")]
     #[diagnostic(
         code(advise::session::empty_policy),
@@ -245,7 +245,7 @@ enum Edit {
         execution: usize,
         /// The synthesized points themselves: redo adds these, never a re-synthesis with an
         /// operator that may have been redefined since.
-        syn: Synthesized,
+        syn: Box<Synthesized>,
     },
     Critique {
         id: learner::CritiqueId,
@@ -715,7 +715,7 @@ impl Session {
                     source_index: source_index.clone(),
                     advice: applied.clone(),
                 };
-                self.add_advice(*execution, syn)?;
+                self.add_advice(*execution, Box::new(syn))?;
                 self.state.redo.clear();
             }
             Effect::Critique {
@@ -755,7 +755,7 @@ impl Session {
             .ok_or(SessionError::NoExecution)
     }
 
-    fn add_advice(&mut self, execution: usize, syn: Synthesized) -> Result<(), SessionError> {
+    fn add_advice(&mut self, execution: usize, syn: Box<Synthesized>) -> Result<(), SessionError> {
         let rec = self.recorded(execution)?;
         let id = self.state.learner.add_advice(rec.id, &syn)?;
         let st = &mut self.state;
@@ -1032,7 +1032,9 @@ impl Session {
         }
         let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
         if !(within(x, MAX_GOAL_M) && within(y, MAX_GOAL_M) && within(theta, 2.0 * PI)) {
-            return Err(SessionError::BadGoal { x, y, theta });
+            return Err(SessionError::BadGoal {
+                goal: [x, y, theta].map(short_num).join(", "),
+            });
         }
         let goal = Pose::new(x, y, theta);
         self.run(
@@ -1190,7 +1192,9 @@ impl Session {
 
     fn critique(&mut self, kappa: f64) -> Result<String, SessionError> {
         if !(kappa.is_finite() && kappa > 0.0 && kappa <= MAX_KAPPA) {
-            return Err(SessionError::BadKappa { kappa });
+            return Err(SessionError::BadKappa {
+                kappa: short_num(kappa),
+            });
         }
         let (i, chunk) = self.selection()?;
         let st = &mut self.state;
@@ -1569,6 +1573,16 @@ fn did_you_mean(name: &str, known: &[&str]) -> Option<String> {
 /// Where a script line came from, for diagnostics: `path:line`.
 pub fn origin(path: &Path, line: usize) -> String {
     format!("{}:{line}", path.display())
+}
+
+/// A number as a teacher typed it, unless it is huge or tiny: then in exponent form, so a
+/// diagnostic never prints hundreds of digits.
+fn short_num(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
 }
 
 fn first_chars(s: &str, n: usize) -> String {

@@ -150,3 +150,24 @@ fn every_example_session_runs() {
     }
     assert!(count >= 2, "examples/sessions holds the example scripts");
 }
+
+#[test]
+fn each_task_keeps_its_work_and_switching_to_the_current_one_changes_nothing() {
+    let mut s = positioning(9);
+    let t = transcript(
+        &mut s,
+        "task positioning\nrun goal 2 -1 0\ntask interception\nload demos teacher:3\nrun start 0\ntask positioning\nshow\nhistory\ntask interception\nselect 0..10\n",
+    );
+    insta::assert_snapshot!(t);
+}
+
+#[test]
+fn an_empty_policy_and_unbounded_numbers_are_refused() {
+    let mut s = positioning(0);
+    let t = transcript(
+        &mut s,
+        "run goal 2 -1 0\nrun start 0\nload demos teacher:1\nrun goal 1e200 0 0\nrun goal 2 -1 7\nrun goal 2 -1 0\nselect 0..10\ncritique 1e308\ncritique 0\n",
+    );
+    assert_eq!(s.learner().dataset().critiques().len(), 0);
+    insta::assert_snapshot!(t);
+}
