@@ -23,13 +23,14 @@ use miette::Diagnostic;
 use thiserror::Error;
 
 use crate::backend::rmp::{RmpBackend, RmpConfig};
+use crate::backend::sim::wrap_angle;
 use crate::backend::sim::{SimBackend, SimParams};
 use crate::backend::{
     Backend, BackendError, BackendSpec, BackendSpecError, Interruptible, StopSignal,
 };
 use crate::check::{CheckErrors, OperatorSet, Source};
 use crate::domain::Domain;
-use crate::eval::{self, EvalOptions};
+use crate::eval::{self, EvalOptions, Report};
 use crate::interp::{self, ApplyError, Synthesized};
 use crate::policy::dataset::{Dataset, Provenance};
 use crate::policy::learner::{self, Learner, LearnerError, LearnerKind};
@@ -82,6 +83,22 @@ pub enum SessionError {
         help("run the policy first (`run goal 2 -1 0` or `run start 0`), or `load trace FILE`")
     )]
     NoExecution,
+    #[error("there is no execution {n}: this task has {count}")]
+    #[diagnostic(
+        code(advise::session::no_such_execution),
+        help(
+            "executions are numbered from 0 in the order they were recorded; `history` and `show` name them"
+        )
+    )]
+    NoSuchExecution { n: usize, count: usize },
+    #[error("unknown learner `{name}`")]
+    #[diagnostic(
+        code(advise::session::unknown_learner),
+        help(
+            "the learners are `bc` (1-NN with critique weights, the paper's BC) and `lwr` (locally weighted regression, the paper's A-OPI){hint}"
+        )
+    )]
+    UnknownLearner { name: String, hint: String },
     #[error("nothing is selected")]
     #[diagnostic(
         code(advise::session::no_selection),
@@ -241,6 +258,8 @@ pub struct Recorded {
 #[derive(Clone, Debug)]
 enum Edit {
     Advice {
+        /// The number `history` and `why` show (kept by undo and redo).
+        number: usize,
         id: learner::AdviceId,
         execution: usize,
         /// The synthesized points themselves: redo adds these, never a re-synthesis with an
@@ -248,6 +267,7 @@ enum Edit {
         syn: Box<Synthesized>,
     },
     Critique {
+        number: usize,
         id: learner::CritiqueId,
         execution: usize,
         chunk: Chunk,
@@ -257,10 +277,17 @@ enum Edit {
 }
 
 impl Edit {
+    fn number(&self) -> usize {
+        match self {
+            Edit::Advice { number, .. } | Edit::Critique { number, .. } => *number,
+        }
+    }
+
     fn describe(&self, executions: &[Recorded]) -> String {
         match self {
             Edit::Advice { execution, syn, .. } => format!(
-                "advise {} on {} of execution {} ({}): {} points",
+                "#{} advise {} on {} of execution {} ({}): {} points",
+                self.number(),
                 syn.advice.invocation(),
                 syn.advice.chunk,
                 execution,
@@ -273,7 +300,8 @@ impl Edit {
                 kappa,
                 ..
             } => format!(
-                "critique {chunk} of execution {execution} ({}) with kappa {kappa}",
+                "#{} critique {chunk} of execution {execution} ({}) with kappa {kappa}",
+                self.number(),
                 executions.get(*execution).map_or("?", |e| e.label.as_str()),
             ),
         }
@@ -316,6 +344,10 @@ struct TaskState {
     selection: Option<Chunk>,
     undo: Vec<Edit>,
     redo: Vec<Edit>,
+    /// The number the next advice or critique gets.
+    next_edit: usize,
+    /// The last evaluation, to report what changed since.
+    last_eval: Option<Report>,
 }
 
 impl TaskState {
@@ -332,7 +364,14 @@ impl TaskState {
             selection: None,
             undo: Vec::new(),
             redo: Vec::new(),
+            next_edit: 1,
+            last_eval: None,
         }
+    }
+
+    fn take_number(&mut self) -> usize {
+        self.next_edit += 1;
+        self.next_edit - 1
     }
 }
 
@@ -715,7 +754,8 @@ impl Session {
                     source_index: source_index.clone(),
                     advice: applied.clone(),
                 };
-                self.add_advice(*execution, Box::new(syn))?;
+                let number = self.state.take_number();
+                self.add_advice(*execution, Box::new(syn), number)?;
                 self.state.redo.clear();
             }
             Effect::Critique {
@@ -724,7 +764,8 @@ impl Session {
                 kappa,
                 increments,
             } => {
-                self.add_critique(*execution, *chunk, *kappa, increments.clone())?;
+                let number = self.state.take_number();
+                self.add_critique(*execution, *chunk, *kappa, increments.clone(), number)?;
                 self.state.redo.clear();
             }
             Effect::Undo => self.undo_edit()?,
@@ -732,6 +773,11 @@ impl Session {
             Effect::Rederive => {
                 self.state.learner.rederive();
             }
+            Effect::Learner { learner } => {
+                self.state.learner.set_kind(*learner);
+                self.state.learner.rederive();
+            }
+            Effect::Evaluated { report } => self.state.last_eval = Some((**report).clone()),
             Effect::Open { path, dataset } => {
                 let ds = Dataset::from_json_str(path, dataset).map_err(LearnerError::from)?;
                 let learner =
@@ -755,12 +801,22 @@ impl Session {
             .ok_or(SessionError::NoExecution)
     }
 
-    fn add_advice(&mut self, execution: usize, syn: Box<Synthesized>) -> Result<(), SessionError> {
+    fn add_advice(
+        &mut self,
+        execution: usize,
+        syn: Box<Synthesized>,
+        number: usize,
+    ) -> Result<(), SessionError> {
         let rec = self.recorded(execution)?;
         let id = self.state.learner.add_advice(rec.id, &syn)?;
         let st = &mut self.state;
         st.executions[execution].advised.push(syn.advice.chunk);
-        st.undo.push(Edit::Advice { id, execution, syn });
+        st.undo.push(Edit::Advice {
+            number,
+            id,
+            execution,
+            syn,
+        });
         Ok(())
     }
 
@@ -770,6 +826,7 @@ impl Session {
         chunk: Chunk,
         kappa: f64,
         increments: Vec<(Provenance, f64)>,
+        number: usize,
     ) -> Result<(), SessionError> {
         let rec = self.recorded(execution)?;
         let id = self
@@ -779,6 +836,7 @@ impl Session {
         let st = &mut self.state;
         st.executions[execution].flagged.push(chunk);
         st.undo.push(Edit::Critique {
+            number,
             id,
             execution,
             chunk,
@@ -815,8 +873,13 @@ impl Session {
                 theta_rad,
             } => self.run_goal(x_m, y_m, theta_rad).map(Reply::text),
             Command::RunStart(n) => self.run_start(n).map(Reply::text),
-            Command::Show => self.show().map(Reply::text),
-            Command::Select { start, end, .. } => self.select(start, end).map(Reply::text),
+            Command::Show(n) => self.show(n).map(Reply::text),
+            Command::Select {
+                start,
+                end,
+                execution,
+                ..
+            } => self.select(start, end, execution).map(Reply::text),
             Command::Critique(kappa) => self
                 .critique(kappa.unwrap_or(DEFAULT_KAPPA))
                 .map(Reply::text),
@@ -826,7 +889,8 @@ impl Session {
             Command::Redo => self.redo().map(Reply::text),
             Command::History => Ok(Reply::text(self.history())),
             Command::Rederive => self.rederive().map(Reply::text),
-            Command::Eval => Ok(Reply::text(self.eval())),
+            Command::Eval { detail } => self.eval(detail).map(Reply::text),
+            Command::Learner(name) => self.set_learner(&name).map(Reply::text),
             Command::Why(t) => self.why(t).map(Reply::text),
             Command::Plot(path) => self.plot(&path).map(Reply::text),
             Command::Save(path) => self.save(&path).map(Reply::text),
@@ -1100,7 +1164,7 @@ impl Session {
         let support = self.state.learner.support_provenance(&exec.trace);
         let summary = outcome_line(&exec);
         let n = exec.trace.len();
-        let hint = n.saturating_sub(n.min(30));
+        let hint = worth_a_look(exec.path(), &exec.trace.t, 30);
         // What the base did is kept even when the run failed: on a robot it cannot be had again.
         self.commit(Effect::Execution(Box::new(ExecutionEntry {
             label: label.clone(),
@@ -1123,9 +1187,14 @@ impl Session {
                 error,
             });
         }
-        Ok(format!(
-            "execution {index}: {label}: {n} points; {summary}\nselect a range to critique or advise, e.g. `select {hint}..{n}`"
-        ))
+        let mut out = format!("execution {index}: {label}: {n} points; {summary}");
+        if let Some((chunk, what)) = hint {
+            let _ = write!(
+                out,
+                "\nthe robot {what} most over {chunk}: `select {chunk}` to critique or advise it"
+            );
+        }
+        Ok(out)
     }
 
     fn current(&self) -> Result<(usize, &Recorded), SessionError> {
@@ -1133,8 +1202,11 @@ impl Session {
         Ok((i, &self.state.executions[i]))
     }
 
-    fn show(&self) -> Result<String, SessionError> {
-        let (i, rec) = self.current()?;
+    fn show(&self, n: Option<usize>) -> Result<String, SessionError> {
+        let (i, rec) = match n {
+            Some(n) => (n, self.numbered(n)?),
+            None => self.current()?,
+        };
         let mut out = format!("execution {i}: {} ({} points", rec.label, rec.trace.len());
         if let (Some(first), Some(last)) = (rec.trace.t.first(), rec.trace.t.last()) {
             let _ = write!(out, ", {:.2} s", last - first);
@@ -1143,7 +1215,11 @@ impl Session {
         if let Some(e) = &rec.execution {
             let _ = writeln!(out, "{}", outcome_line(e));
         }
-        if let Some(sel) = self.state.selection {
+        if let Some(sel) = self
+            .state
+            .selection
+            .filter(|_| self.state.current == Some(i))
+        {
             let _ = writeln!(out, "selected {sel} ({} points)", sel.len());
         }
         if let Some(poses) = self.plot_poses(rec) {
@@ -1168,20 +1244,51 @@ impl Session {
             path: poses,
             goal: rec.goal,
             ball: rec.execution.as_ref().and_then(|e| e.ball.as_deref()),
-            selection: self.state.selection,
+            selection: self
+                .state
+                .selection
+                .filter(|_| self.state.current == Some(i)),
             flagged: rec.flagged.clone(),
             advised: rec.advised.clone(),
         }
     }
 
-    fn select(&mut self, start: usize, end: usize) -> Result<String, SessionError> {
-        let (i, rec) = self.current()?;
+    /// `select A..B` selects in the latest execution, `select A..B in N` in execution N; the
+    /// selected execution is what `advise`, `critique`, `preview`, `why` and `plot` act on.
+    fn select(
+        &mut self,
+        start: usize,
+        end: usize,
+        execution: Option<usize>,
+    ) -> Result<String, SessionError> {
+        let i = match execution {
+            Some(n) => n,
+            None => self
+                .state
+                .executions
+                .len()
+                .checked_sub(1)
+                .ok_or(SessionError::NoExecution)?,
+        };
+        let rec = self.numbered(i)?;
         let chunk = Chunk::new(start, end, rec.trace.len())?;
         self.commit(Effect::Select {
             execution: i,
             chunk,
         })?;
-        Ok(format!("selected {chunk} ({} points)", chunk.len()))
+        Ok(format!(
+            "selected {chunk} of execution {i} ({} points)",
+            chunk.len()
+        ))
+    }
+
+    /// Execution `n`, or a diagnostic naming the executions there are.
+    fn numbered(&self, n: usize) -> Result<&Recorded, SessionError> {
+        let count = self.state.executions.len();
+        self.state
+            .executions
+            .get(n)
+            .ok_or(SessionError::NoSuchExecution { n, count })
     }
 
     fn selection(&self) -> Result<(usize, Chunk), SessionError> {
@@ -1289,7 +1396,9 @@ impl Session {
         let st = &mut self.state;
         let edit = st.undo.pop().ok_or(SessionError::NothingToUndo)?;
         let result = match &edit {
-            Edit::Advice { id, execution, syn } => st
+            Edit::Advice {
+                id, execution, syn, ..
+            } => st
                 .learner
                 .remove_advice(*id)
                 .map(|()| remove_chunk(&mut st.executions[*execution].advised, syn.advice.chunk)),
@@ -1328,15 +1437,16 @@ impl Session {
     /// Put back exactly what the last undo took: the same points, the same increments.
     fn redo_edit(&mut self) -> Result<(), SessionError> {
         let edit = self.state.redo.pop().ok_or(SessionError::NothingToRedo)?;
+        let number = edit.number();
         let result = match edit.clone() {
-            Edit::Advice { execution, syn, .. } => self.add_advice(execution, syn),
+            Edit::Advice { execution, syn, .. } => self.add_advice(execution, syn, number),
             Edit::Critique {
                 execution,
                 chunk,
                 kappa,
                 increments,
                 ..
-            } => self.add_critique(execution, chunk, kappa, increments),
+            } => self.add_critique(execution, chunk, kappa, increments, number),
         };
         if result.is_err() {
             self.state.redo.push(edit);
@@ -1350,11 +1460,11 @@ impl Session {
             return "no advice or critiques yet".into();
         }
         let mut out = String::new();
-        for (n, e) in st.undo.iter().enumerate() {
-            let _ = writeln!(out, "{:>3}  {}", n + 1, e.describe(&st.executions));
+        for e in &st.undo {
+            let _ = writeln!(out, "  {}", e.describe(&st.executions));
         }
         for e in st.redo.iter().rev() {
-            let _ = writeln!(out, "  -  (undone) {}", e.describe(&st.executions));
+            let _ = writeln!(out, "  (undone) {}", e.describe(&st.executions));
         }
         out
     }
@@ -1373,7 +1483,10 @@ impl Session {
         ))
     }
 
-    fn eval(&mut self) -> String {
+    fn eval(&mut self, detail: bool) -> Result<String, SessionError> {
+        if self.state.learner.is_empty() {
+            return Err(SessionError::EmptyPolicy { task: self.task });
+        }
         self.state.learner.ensure_derived();
         let opts = EvalOptions {
             seed: self.seed,
@@ -1381,15 +1494,53 @@ impl Session {
             progress: self.progress,
         };
         let report = eval::evaluate(self.task, self.state.learner.policy(), &opts);
-        match &self.backend {
-            BackendChoice::Sim(_) => report.render(),
-            // The whole test set on a robot takes minutes and needs room: not from the prompt.
-            BackendChoice::Rmp { backend, .. } => format!(
-                "{}(in the simulator; `advise eval --backend {}` runs the test set on the robot)",
-                report.render(),
-                backend.name()
-            ),
+        let mut out = report.render();
+        match &self.state.last_eval {
+            Some(before) => out.push_str(&eval_change(before, &report, detail)),
+            None => out.push_str("  (the first evaluation of this task in the session: the next `eval` says what changed)\n"),
         }
+        // The whole test set on a robot takes minutes and needs room: not from the prompt.
+        if let BackendChoice::Rmp { backend, .. } = &self.backend {
+            let _ = writeln!(
+                out,
+                "(in the simulator; `advise eval --backend {}` runs the test set on the robot)",
+                backend.name()
+            );
+        }
+        // Kept (and journalled) so the next `eval` can say what changed, after a resume too.
+        self.commit(Effect::Evaluated {
+            report: Box::new(report),
+        })?;
+        Ok(out)
+    }
+
+    fn set_learner(&mut self, name: &Ident) -> Result<String, SessionError> {
+        let kind = match name.name.as_str() {
+            "bc" => LearnerKind::Bc,
+            "lwr" => LearnerKind::Lwr,
+            other => {
+                return Err(SessionError::UnknownLearner {
+                    name: other.to_string(),
+                    hint: did_you_mean(other, &["bc", "lwr"])
+                        .map(|h| format!("; {h}"))
+                        .unwrap_or_default(),
+                });
+            }
+        };
+        if kind == self.state.learner.kind() {
+            return Ok(format!(
+                "the running learner is already {}: nothing changed",
+                self.state.learner.kind_name()
+            ));
+        }
+        let started = Instant::now();
+        self.commit(Effect::Learner { learner: kind })?;
+        Ok(format!(
+            "the running learner is now {} on {} points (re-derived in {:.1} ms); critique weights steer BC, advice points feed both",
+            self.state.learner.kind_name(),
+            self.state.learner.len(),
+            started.elapsed().as_secs_f64() * 1e3
+        ))
     }
 
     fn why(&mut self, t: usize) -> Result<String, SessionError> {
@@ -1408,7 +1559,19 @@ impl Session {
             fmt_vec(&z),
             fmt_vec(&a)
         );
-        out.push_str(&self.state.learner.why(&z)?);
+        let name = |id: learner::AdviceId| {
+            self.state
+                .undo
+                .iter()
+                .find_map(|e| match e {
+                    Edit::Advice { number, id: a, .. } if *a == id => {
+                        Some(format!("advice #{number}"))
+                    }
+                    _ => None,
+                })
+                .unwrap_or_else(|| format!("advice (dataset id {id})"))
+        };
+        out.push_str(&self.state.learner.why(&z, &name)?);
         Ok(out)
     }
 
@@ -1507,8 +1670,10 @@ fn command_doc(name: &str) -> &'static str {
         "run" => {
             "Run the current policy to a goal (positioning) or from the N-th practice start, and record it."
         }
-        "show" => "Summarise the current execution, with a small plot.",
-        "select" => "Select points A (inclusive) to B (exclusive) of the current execution.",
+        "show" => "Summarise the selected execution (or execution N), with a small plot.",
+        "select" => {
+            "Select points A (inclusive) to B (exclusive) of the latest execution, or of execution N with `in N`; advise, critique, preview, why and plot act on it."
+        }
         "critique" => {
             "Flag the selection as poor: the data points that recommended its actions are pushed away (BC)."
         }
@@ -1520,7 +1685,12 @@ fn command_doc(name: &str) -> &'static str {
         "redo" => "Put back what `undo` took.",
         "history" => "List the advice and critiques given so far.",
         "rederive" => "Re-derive the policy from scratch (LWR is re-tuned by cross-validation).",
-        "eval" => "Evaluate the policy on the task's fixed test set (never advised).",
+        "eval" => {
+            "Evaluate the policy on the task's fixed test set (never advised) and say what changed since the last eval; `--detail` lists the tests that changed outcome."
+        }
+        "learner" => {
+            "Switch the running learner: `bc` (1-NN with critique weights) or `lwr` (locally weighted regression); the dataset is shared."
+        }
         "why" => "Show which data points supported the action at point T, with their provenance.",
         "plot" => {
             "Write the current execution as SVG, with the selection and advised/critiqued chunks marked."
@@ -1538,6 +1708,56 @@ fn remove_chunk(chunks: &mut Vec<Chunk>, chunk: Chunk) {
     if let Some(pos) = chunks.iter().rposition(|c| *c == chunk) {
         chunks.remove(pos);
     }
+}
+
+/// What changed between two evaluations of the same test set; with `detail`, the goals whose
+/// outcome changed.
+fn eval_change(before: &Report, now: &Report, detail: bool) -> String {
+    let mut out = format!(
+        "  since the last eval: success {:.1}% -> {:.1}% ({:+.1} points), mean position error {:.3} -> {:.3} m ({:+.3}), mean length {:.3} -> {:.3} m ({:+.3})\n",
+        100.0 * before.success_rate,
+        100.0 * now.success_rate,
+        100.0 * (now.success_rate - before.success_rate),
+        before.mean_position_error_m,
+        now.mean_position_error_m,
+        now.mean_position_error_m - before.mean_position_error_m,
+        before.mean_length_m,
+        now.mean_length_m,
+        now.mean_length_m - before.mean_length_m,
+    );
+    let changed: Vec<String> = before
+        .outcomes
+        .iter()
+        .zip(&now.outcomes)
+        .enumerate()
+        .filter(|(_, (b, n))| b.success != n.success)
+        .map(|(i, (b, n))| {
+            format!(
+                "    test {i}: {} -> {} (position error {:.2} -> {:.2} m)",
+                if b.success { "success" } else { "failure" },
+                if n.success { "success" } else { "failure" },
+                b.position_error_m,
+                n.position_error_m
+            )
+        })
+        .collect();
+    if detail {
+        if changed.is_empty() {
+            out.push_str("  no test changed outcome\n");
+        } else {
+            let _ = writeln!(out, "  {} tests changed outcome:", changed.len());
+            for c in changed {
+                let _ = writeln!(out, "{c}");
+            }
+        }
+    } else if !changed.is_empty() {
+        let _ = writeln!(
+            out,
+            "  {} tests changed outcome (`eval --detail` lists them)",
+            changed.len()
+        );
+    }
+    out
 }
 
 fn outcome_line(e: &Execution) -> String {
@@ -1573,6 +1793,48 @@ fn did_you_mean(name: &str, known: &[&str]) -> Option<String> {
 /// Where a script line came from, for diagnostics: `path:line`.
 pub fn origin(path: &Path, line: usize) -> String {
     format!("{}:{line}", path.display())
+}
+
+/// The stretch of `w` points of a path where the robot turned or slowed the most (what a teacher
+/// most likely wants to look at), and which of the two it did; `None` if it never moved.
+fn worth_a_look(path: &[Pose], t: &[f64], w: usize) -> Option<(Chunk, &'static str)> {
+    let n = path.len().min(t.len());
+    if n < 3 {
+        return None;
+    }
+    let w = w.clamp(2, n);
+    let speed: Vec<f64> = (0..n - 1)
+        .map(|i| {
+            let (a, b) = (path[i], path[i + 1]);
+            let dt = (t[i + 1] - t[i]).max(1e-6);
+            (b.x_m - a.x_m).hypot(b.y_m - a.y_m) / dt
+        })
+        .collect();
+    // Per step: how much it turned (rad) and how much it slowed (m/s), both at least 0.
+    let turn: Vec<f64> = (0..n - 1)
+        .map(|i| wrap_angle(path[i + 1].theta_rad - path[i].theta_rad).abs())
+        .collect();
+    let slow: Vec<f64> = (0..n - 1)
+        .map(|i| (speed[i.saturating_sub(1)] - speed[i]).max(0.0))
+        .collect();
+    let mut best: Option<(f64, usize, &'static str)> = None;
+    for start in 0..=(n - w) {
+        let steps = start..(start + w - 1);
+        let moving = steps.clone().map(|i| speed[i]).sum::<f64>() / (w - 1) as f64;
+        if moving < 0.02 {
+            continue;
+        }
+        let turned: f64 = steps.clone().map(|i| turn[i]).sum();
+        let slowed: f64 = steps.map(|i| slow[i]).sum();
+        // A radian of turning and a metre per second of slowing weigh alike.
+        let score = turned + slowed;
+        if best.is_none_or(|(b, _, _)| score > b) {
+            let what = if turned >= slowed { "turned" } else { "slowed" };
+            best = Some((score, start, what));
+        }
+    }
+    let (_, start, what) = best?;
+    Some((Chunk::new(start, start + w, n).ok()?, what))
 }
 
 /// A number as a teacher typed it, unless it is huge or tiny: then in exponent form, so a

@@ -171,3 +171,23 @@ fn an_empty_policy_and_unbounded_numbers_are_refused() {
     assert_eq!(s.learner().dataset().critiques().len(), 0);
     insta::assert_snapshot!(t);
 }
+
+#[test]
+fn any_execution_can_be_shown_selected_and_advised_and_numbers_agree() {
+    let mut s = positioning(9);
+    let t = transcript(
+        &mut s,
+        "run goal 2 -1 0.5\nrun goal 1 -2 0\nselect 20..40 in 0\nadvise slow_down(0.3)\nwhy 30\nselect 10..20\ncritique\nhistory\nshow 5\nselect 0..10 in 7\nlearner bc\nrun goal 2 -1 0.5\nlearner lwr\nlearner knn\n",
+    );
+    insta::assert_snapshot!(t);
+}
+
+#[test]
+fn eval_says_what_changed_since_the_last_one() {
+    let mut s = positioning(9);
+    let t = transcript(
+        &mut s,
+        "eval\nrun goal 2 -1 0.5\nselect 20..60\nadvise slow_down(0.5)\neval --detail\nundo\neval\n",
+    );
+    insta::assert_snapshot!(t);
+}

@@ -26,7 +26,8 @@ use crate::trace::{Chunk, Episode, Trace};
 pub use crate::policy::dataset::{AdviceId, CritiqueId, DemoId, ExecutionId};
 
 /// Which policy the learner runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum LearnerKind {
     /// 1-NN with critique weights (the paper's BC).
     Bc,
@@ -465,8 +466,13 @@ impl Learner {
         })
     }
 
-    /// A readable account of which data points support the action at `z`.
-    pub fn why(&self, z: &[f64]) -> Result<String, LearnerError> {
+    /// A readable account of which data points support the action at `z`. `advice_name` names
+    /// a piece of advice as the teacher knows it (the session's history number).
+    pub fn why(
+        &self,
+        z: &[f64],
+        advice_name: &dyn Fn(AdviceId) -> String,
+    ) -> Result<String, LearnerError> {
         if self.ds.is_empty() {
             return Err(LearnerError::Empty);
         }
@@ -474,13 +480,13 @@ impl Learner {
         if let Some(s) = self.support(z) {
             let _ = writeln!(
                 out,
-                "nearest (BC): point {} at scaled distance {:.4}, m = {:.3} (weighted {:.4}), a = {:?}\n  from {}",
+                "nearest (BC): point {} at scaled distance {:.4}, m = {:.4} (weighted {:.4}), a = [{}]\n  from {}",
                 s.point,
                 s.distance,
                 self.ds.m(s.point),
                 s.weighted,
-                self.ds.a(s.point),
-                self.describe(s.point)
+                fmt4(self.ds.a(s.point)),
+                self.describe(s.point, advice_name)
             );
         }
         let mut a = vec![0.0; self.ds.domain().act_dim()];
@@ -488,13 +494,10 @@ impl Learner {
         if ans.total_weight > 0.0 {
             let _ = writeln!(
                 out,
-                "LWR: {} neighbours, total kernel weight {:.3}, a = [{}]",
+                "LWR: {} neighbours, total kernel weight {:.4}, a = [{}]",
                 ans.neighbours,
                 ans.total_weight,
-                a.iter()
-                    .map(|v| format!("{v:.4}"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
+                fmt4(&a)
             );
         } else {
             let _ = writeln!(
@@ -506,7 +509,7 @@ impl Learner {
     }
 
     /// Where point `i` came from, in words.
-    pub fn describe(&self, i: usize) -> String {
+    pub fn describe(&self, i: usize, advice_name: &dyn Fn(AdviceId) -> String) -> String {
         match self.ds.provenance(i) {
             Provenance::Demonstration { demo, index } => {
                 let name = self
@@ -523,12 +526,13 @@ impl Learner {
                 source,
             } => match self.ds.advice().iter().find(|r| r.id == advice) {
                 Some(r) => format!(
-                    "advice {advice}: {} on {} of execution {}, from execution point {source} (synthesized point {index})",
+                    "{}: {} on {} of execution {}, from execution point {source} (synthesized point {index})",
+                    advice_name(advice),
                     r.applied.invocation(),
                     r.applied.chunk,
                     self.ds.execution_number(r.execution).unwrap_or(usize::MAX)
                 ),
-                None => format!("advice {advice}, point {index}"),
+                None => format!("{}, point {index}", advice_name(advice)),
             },
         }
     }
@@ -572,4 +576,12 @@ impl Policy for Learner {
             }
         }
     }
+}
+
+/// Numbers as the session prints them: 4 decimals.
+fn fmt4(v: &[f64]) -> String {
+    v.iter()
+        .map(|x| format!("{x:.4}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }

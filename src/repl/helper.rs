@@ -228,8 +228,8 @@ mod tests {
     #[test]
     fn hints_show_signatures() {
         let h = helper();
-        assert_eq!(h.hint_for("sel").as_deref(), Some("ect A..B"));
-        assert_eq!(h.hint_for("select ").as_deref(), Some("A..B"));
+        assert_eq!(h.hint_for("sel").as_deref(), Some("ect A..B [in N]"));
+        assert_eq!(h.hint_for("select ").as_deref(), Some("A..B [in N]"));
         assert_eq!(
             h.hint_for("advise speed_up").as_deref(),
             Some("(rate = 0.2)")

@@ -13,8 +13,10 @@
 use serde::{Deserialize, Serialize};
 
 use crate::backend::sim::SimParams;
+use crate::eval::Report;
 use crate::interp::AppliedAdvice;
 use crate::policy::dataset::Provenance;
+use crate::policy::learner::LearnerKind;
 use crate::task::{Outcome, TaskKind};
 use crate::trace::{Chunk, JsonTrace, Pose};
 
@@ -95,6 +97,14 @@ pub enum Effect {
     Redo,
     /// The policy re-derived from scratch (deterministic for the session's seed).
     Rederive,
+    /// The running learner switched (and re-derived).
+    Learner {
+        learner: LearnerKind,
+    },
+    /// A test-set evaluation, kept so the next one can say what changed.
+    Evaluated {
+        report: Box<Report>,
+    },
     /// A dataset opened from a file, whole.
     Open {
         path: String,

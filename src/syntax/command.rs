@@ -31,11 +31,14 @@ pub enum Command {
         theta_rad: f64,
     },
     RunStart(usize),
-    Show,
+    /// `show` (the selected execution) or `show N`.
+    Show(Option<usize>),
+    /// `select A..B` (of the latest execution) or `select A..B in N`.
     Select {
         start: usize,
         end: usize,
         span: Span,
+        execution: Option<usize>,
     },
     Critique(Option<f64>),
     Advise(Invocation),
@@ -44,7 +47,10 @@ pub enum Command {
     Redo,
     History,
     Rederive,
-    Eval,
+    Eval {
+        detail: bool,
+    },
+    Learner(Ident),
     Why(usize),
     Plot(String),
     Save(String),
@@ -61,8 +67,8 @@ pub const COMMANDS: &[(&str, &str)] = &[
     ("load", "load demos FILE | load trace FILE"),
     ("operators", "operators FILE.adv"),
     ("run", "run goal X Y THETA | run start N"),
-    ("show", "show"),
-    ("select", "select A..B"),
+    ("show", "show [N]"),
+    ("select", "select A..B [in N]"),
     ("critique", "critique [KAPPA]"),
     ("advise", "advise OP[(ARGS)]"),
     ("preview", "preview OP[(ARGS)]"),
@@ -70,7 +76,8 @@ pub const COMMANDS: &[(&str, &str)] = &[
     ("redo", "redo"),
     ("history", "history"),
     ("rederive", "rederive"),
-    ("eval", "eval"),
+    ("eval", "eval [--detail]"),
+    ("learner", "learner bc|lwr"),
     ("why", "why T"),
     ("plot", "plot FILE.svg"),
     ("save", "save FILE.json|FILE.csv"),
@@ -115,7 +122,7 @@ pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
             }
         }
         Rule::c_run_start => Command::RunStart(b.uint(req(next()))?),
-        Rule::c_show => Command::Show,
+        Rule::c_show => Command::Show(next().map(|n| b.uint(n)).transpose()?),
         Rule::c_select => {
             let range = req(next());
             let rspan = b.span(&range);
@@ -126,6 +133,7 @@ pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
                 start,
                 end,
                 span: rspan,
+                execution: next().map(|n| b.uint(n)).transpose()?,
             }
         }
         Rule::c_critique => Command::Critique(next().map(|k| b.signed(k)).transpose()?),
@@ -135,7 +143,10 @@ pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
         Rule::c_redo => Command::Redo,
         Rule::c_history => Command::History,
         Rule::c_rederive => Command::Rederive,
-        Rule::c_eval => Command::Eval,
+        Rule::c_eval => Command::Eval {
+            detail: next().is_some(),
+        },
+        Rule::c_learner => Command::Learner(b.ident(req(next()))),
         Rule::c_why => Command::Why(b.uint(req(next()))?),
         Rule::c_plot => Command::Plot(path(req(next()))),
         Rule::c_save => Command::Save(path(req(next()))),
