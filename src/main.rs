@@ -58,6 +58,9 @@ enum Command {
         /// The trace's domain; by default it is recognised from the CSV header or JSON.
         #[arg(long)]
         domain: Option<String>,
+        /// For a demonstrations file of many episodes: which one (0-based, in file order).
+        #[arg(long, value_name = "K")]
+        episode: Option<usize>,
     },
     /// Record teacher demonstrations in the simulator (one file, many episodes).
     Demo(DemoArgs),
@@ -316,7 +319,8 @@ fn main() -> ExitCode {
             trace,
             range,
             domain,
-        }) => apply(&operators, &op, &trace, &range, domain.as_deref()),
+            episode,
+        }) => apply(&operators, &op, &trace, &range, domain.as_deref(), episode),
         Some(Command::Demo(args)) => demo(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Eval(args)) => run_eval(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Experiment(args)) => experiment(args).map(|()| ExitCode::SUCCESS),
@@ -389,6 +393,18 @@ fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Resu
     // A script that drives a real base is stopped by Ctrl-C like the REPL.
     advise::repl::install_ctrl_c(&session.stop_signal());
     let failures = replay(&mut session, path, &text, keep_going);
+    if failures > 0 {
+        eprintln!(
+            "advise: {failures} statement{} of {} failed{}",
+            if failures == 1 { "" } else { "s" },
+            path.display(),
+            if keep_going {
+                ""
+            } else {
+                " (the script stopped there; `--keep-going` runs the rest)"
+            }
+        );
+    }
     Ok(if failures == 0 {
         ExitCode::SUCCESS
     } else {
@@ -531,6 +547,7 @@ fn apply(
     trace_path: &Path,
     range: &str,
     domain: Option<&str>,
+    episode: Option<usize>,
 ) -> miette::Result<ExitCode> {
     let sources = read_sources(operators)?;
     let set = match OperatorSet::standard().merge(&sources) {
@@ -539,7 +556,22 @@ fn apply(
     };
     let inv = advise::syntax::parse_invocation(op)?;
     let domain = trace_domain(&set, trace_path, domain)?;
-    let trace = Trace::load(&domain, trace_path)?;
+    let trace = match episode {
+        None => Trace::load(&domain, trace_path)?,
+        Some(k) => {
+            let mut episodes = Episode::load_all(&domain, trace_path)?;
+            let count = episodes.len();
+            if k >= count {
+                return Err(miette!(
+                    code = "advise::cli::no_such_episode",
+                    help = "episodes are numbered from 0 in file order",
+                    "`{}` has {count} episodes, so there is no episode {k}",
+                    trace_path.display()
+                ));
+            }
+            episodes.swap_remove(k).trace
+        }
+    };
     let (a, b) = parse_range(range)?;
     let chunk = Chunk::new(a, b, trace.len())?;
     let out = advise::interp::apply(&set, &inv, &trace, chunk)?;

@@ -1620,9 +1620,14 @@ impl Session {
 
     fn help(&self, topic: Option<&Ident>) -> Result<String, SessionError> {
         let Some(topic) = topic else {
-            let mut out = String::from("commands:\n");
-            for (_, sig) in COMMANDS {
-                let _ = writeln!(out, "  {sig}");
+            let mut out = String::from("commands, by the steps of the teacher's workflow:\n");
+            for (step, words) in WORKFLOW {
+                let _ = writeln!(out, "  {step}");
+                for w in *words {
+                    if let Some((_, sig)) = COMMANDS.iter().find(|(c, _)| c == w) {
+                        let _ = writeln!(out, "    {sig:<34} {}", command_doc(w));
+                    }
+                }
             }
             let names = self.ops.operator_names(&self.domain.name);
             let _ = writeln!(
@@ -1657,10 +1662,22 @@ impl Session {
     }
 }
 
+/// The commands grouped by the steps of the teacher's workflow, in `help`'s order.
+const WORKFLOW: &[(&str, &[&str])] = &[
+    ("demonstrate", &["task", "load", "operators"]),
+    ("run", &["backend", "run", "show", "plot"]),
+    ("select", &["select"]),
+    ("correct", &["advise", "preview", "critique", "why"]),
+    ("take back", &["undo", "redo", "history"]),
+    ("measure", &["eval", "rederive", "learner"]),
+    ("keep", &["save", "open", "export"]),
+    ("session", &["help", "quit"]),
+];
+
 fn command_doc(name: &str) -> &'static str {
     match name {
         "task" => {
-            "Switch task (positioning: A-OPI with LWR; interception: BC with 1-NN). Starts an empty dataset."
+            "Switch task (positioning: A-OPI with LWR; interception: BC with 1-NN). Each task keeps its own dataset, executions and history."
         }
         "backend" => "Choose the robot: the simulator, or a Segway RMP at an address.",
         "load" => {

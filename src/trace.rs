@@ -662,7 +662,9 @@ pub enum TraceError {
     #[error("the file holds {count} episodes where one trace was expected")]
     #[diagnostic(
         code(advise::trace::many_episodes),
-        help("load it as demonstrations (`load demos FILE`), or keep one episode's rows")
+        help(
+            "load it as demonstrations (`load demos FILE`), pick one with `advise apply --episode K`, or keep one episode's rows"
+        )
     )]
     ManyEpisodes { count: usize },
     #[error("the CSV is malformed: {message}")]

@@ -173,3 +173,66 @@ fn apply_prints_the_synthesized_points_as_csv() {
     assert_ne!(code, 0);
     assert!(err.contains("advise::chunk::out_of_range"), "{err}");
 }
+
+#[test]
+fn apply_takes_one_episode_of_a_demonstrations_file_and_run_counts_failures() {
+    let dir = tempfile::tempdir().unwrap();
+    let demos = dir.path().join("d.csv");
+    let (code, _, err) = advise(&[
+        "demo",
+        "--task",
+        "positioning",
+        "--count",
+        "2",
+        "--out",
+        demos.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let d = demos.to_str().unwrap();
+    let (code, _, err) = advise(&["apply", "--op", "stop", "--trace", d, "--range", "0..3"]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--episode K"), "{err}");
+    let (code, out, err) = advise(&[
+        "apply",
+        "--op",
+        "stop",
+        "--trace",
+        d,
+        "--range",
+        "0..3",
+        "--episode",
+        "1",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(out.lines().count(), 4, "{out}");
+    let (code, _, err) = advise(&[
+        "apply",
+        "--op",
+        "stop",
+        "--trace",
+        d,
+        "--range",
+        "0..3",
+        "--episode",
+        "2",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("advise::cli::no_such_episode"), "{err}");
+
+    let script = dir.path().join("s.adv");
+    std::fs::write(&script, "select 0..1\nrun goal 2 -1 0\nwhy 100000\n").unwrap();
+    let (code, _, err) = advise(&[
+        "run",
+        script.to_str().unwrap(),
+        "--demos",
+        "1",
+        "--no-journal",
+        "--keep-going",
+    ]);
+    assert_ne!(code, 0);
+    assert!(
+        err.trim_end()
+            .ends_with(&format!("2 statements of {} failed", script.display())),
+        "{err}"
+    );
+}

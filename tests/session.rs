@@ -191,3 +191,9 @@ fn eval_says_what_changed_since_the_last_one() {
     );
     insta::assert_snapshot!(t);
 }
+
+#[test]
+fn help_groups_the_commands_by_the_workflow() {
+    let mut s = positioning(0);
+    insta::assert_snapshot!(transcript(&mut s, "help\n"));
+}
