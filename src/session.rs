@@ -32,7 +32,7 @@ use crate::syntax::ParseError;
 use crate::syntax::ast::{Ident, Item};
 use crate::syntax::command::{COMMANDS, Command, Statement, parse_statement};
 use crate::task::{self, Execution, Start, TaskKind, episode_seed};
-use crate::trace::{Chunk, ChunkError, Episode, Pose, Trace, TraceError};
+use crate::trace::{Chunk, ChunkError, Pose, Trace, TraceError};
 use journal::Journal;
 
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met
@@ -63,6 +63,9 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Plot(#[from] plot::PlotError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    File(#[from] crate::files::FileError),
     #[error(transparent)]
     #[diagnostic(transparent)]
     Interrupted(Box<task::Interrupted>),
@@ -542,6 +545,7 @@ impl Session {
     /// is a demonstrations file.
     fn load_demos(&mut self, path: &str) -> Result<String, SessionError> {
         let started = Instant::now();
+        let mut from_dataset = String::new();
         let episodes = match path.strip_prefix("teacher:") {
             Some(n) => {
                 let count: usize = n
@@ -562,12 +566,22 @@ impl Session {
                     .map(|(e, _)| e)
                     .collect()
             }
-            None => Episode::load_all(&self.domain, Path::new(path))?,
+            None => {
+                let demos =
+                    crate::policy::dataset::load_demonstrations(&self.domain, Path::new(path))
+                        .map_err(LearnerError::from)?;
+                if let Some((d, a)) = demos.from_dataset {
+                    from_dataset = format!(
+                        ": a saved dataset's {d} demonstrations and {a} pieces of advice, each as one demonstration (critique weights are not carried)"
+                    );
+                }
+                demos.episodes
+            }
         };
         let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
         self.learner.add_demonstrations(&episodes)?;
         Ok(format!(
-            "loaded {} demonstrations ({points} points) from {path}; the {} policy now has {} points ({} ms)",
+            "loaded {} demonstrations ({points} points) from {path}{from_dataset}; the {} policy now has {} points ({} ms)",
             episodes.len(),
             self.learner.kind_name(),
             self.learner.len(),
@@ -586,10 +600,7 @@ impl Session {
     }
 
     fn load_operators(&mut self, path: &str) -> Result<String, SessionError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SessionError::Io {
-            path: path.to_string(),
-            source,
-        })?;
+        let text = crate::files::read_text(Path::new(path))?;
         let before = self.ops.operator_count();
         self.ops = self.ops.merge(&[Source::new(path, text)])?;
         Ok(format!(
@@ -1008,10 +1019,11 @@ impl Session {
     }
 
     fn save(&self, path: &str) -> Result<String, SessionError> {
-        self.learner.save(Path::new(path))?;
+        let format = self.learner.save(Path::new(path))?;
         Ok(format!(
-            "saved {} points with their provenance to {path}",
-            self.learner.len()
+            "saved {} points to {path} ({})",
+            self.learner.len(),
+            format.describe()
         ))
     }
 

@@ -289,10 +289,7 @@ impl Trace {
 
     /// Load a trace from a file; `.json` is JSON, anything else is CSV.
     pub fn load(domain: &Domain, path: &Path) -> Result<Trace, TraceError> {
-        let text = std::fs::read_to_string(path).map_err(|source| TraceError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = crate::files::read_text(path)?;
         let name = path.display().to_string();
         if path
             .extension()
@@ -325,10 +322,7 @@ impl Episode {
     /// one episode (no column: one episode named after the file). JSON: either one trace
     /// ([`JsonTrace`]) or [`JsonEpisodes`].
     pub fn load_all(domain: &Domain, path: &Path) -> Result<Vec<Episode>, TraceError> {
-        let text = std::fs::read_to_string(path).map_err(|source| TraceError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = crate::files::read_text(path)?;
         let name = path.display().to_string();
         if path
             .extension()
@@ -548,13 +542,9 @@ pub enum ChunkError {
 /// Everything that can be wrong with a trace file.
 #[derive(Debug, Error, Diagnostic)]
 pub enum TraceError {
-    #[error("cannot read `{path}`")]
-    #[diagnostic(code(advise::trace::io))]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    File(#[from] crate::files::FileError),
     #[error("the trace has no column `{column}`")]
     #[diagnostic(
         code(advise::trace::missing_column),
