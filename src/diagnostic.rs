@@ -15,7 +15,7 @@ use miette::{
 };
 
 /// Bytes of a long line shown on each side of a label.
-pub const SIDE_BYTES: usize = 240;
+pub const SIDE_BYTES: usize = 160;
 
 /// Render a diagnostic as the terminal shows it, 100 columns wide; colour only if asked.
 pub fn render(diag: &dyn Diagnostic, colour: bool) -> String {

@@ -572,7 +572,9 @@ impl Session {
                         .map_err(LearnerError::from)?;
                 if let Some((d, a)) = demos.from_dataset {
                     from_dataset = format!(
-                        ": a saved dataset's {d} demonstrations and {a} pieces of advice, each as one demonstration (critique weights are not carried)"
+                        ": a saved dataset's {d} demonstration{} and {a} piece{} of advice, each as one demonstration (critique weights are not carried)",
+                        if d == 1 { "" } else { "s" },
+                        if a == 1 { "" } else { "s" },
                     );
                 }
                 demos.episodes

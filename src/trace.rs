@@ -263,6 +263,12 @@ impl Trace {
                     trace.t[i - 1]
                 )));
             }
+            if i > 0 && p.t == trace.t[i - 1] {
+                return Err(bad(format!(
+                    "the time {} repeats the point before; each point is one control step",
+                    p.t
+                )));
+            }
             let pose = p.pose.map(|[x, y, th]| Pose::new(x, y, th));
             trace.push(p.t, &p.z, &p.a, pose);
         }
@@ -339,7 +345,13 @@ impl Episode {
         name: &str,
         text: &str,
     ) -> Result<Vec<Episode>, TraceError> {
-        csv_load::parse(domain, name, text)
+        let episodes = csv_load::parse(domain, name, text)?;
+        if episodes.is_empty() {
+            return Err(TraceError::NoDemonstrations {
+                name: name.to_string(),
+            });
+        }
+        Ok(episodes)
     }
 
     pub fn from_json_str(
@@ -368,6 +380,50 @@ impl Episode {
                 expected: domain.name.clone(),
                 found: many.domain,
             });
+        }
+        if many.episodes.is_empty() {
+            return Err(TraceError::NoDemonstrations {
+                name: name.to_string(),
+            });
+        }
+        // Where the n-th `"name": "NAME"` is in the text, for a label (serde keeps no positions).
+        let name_span = |episode: &str, nth: usize| {
+            let quoted = serde_json::to_string(episode).ok()?;
+            let mut at = 0;
+            let mut seen = 0;
+            while let Some(i) = text[at..].find(&quoted) {
+                let start = at + i;
+                let before = text[..start].trim_end();
+                if before.ends_with(':')
+                    && before[..before.len() - 1].trim_end().ends_with("\"name\"")
+                {
+                    if seen == nth {
+                        return Some(SourceSpan::new(start.into(), quoted.len()));
+                    }
+                    seen += 1;
+                }
+                at = start + quoted.len();
+            }
+            None
+        };
+        let mut seen: Vec<&str> = Vec::new();
+        for e in &many.episodes {
+            let nth = seen.iter().filter(|n| **n == e.name).count();
+            if nth > 0 {
+                return Err(TraceError::DuplicateEpisode {
+                    episode: e.name.clone(),
+                    src: src(),
+                    span: name_span(&e.name, nth),
+                });
+            }
+            if e.points.is_empty() {
+                return Err(TraceError::EmptyEpisode {
+                    episode: e.name.clone(),
+                    src: src(),
+                    span: name_span(&e.name, 0),
+                });
+            }
+            seen.push(&e.name);
         }
         many.episodes
             .into_iter()
@@ -632,6 +688,67 @@ pub enum TraceError {
         #[label("earlier than the row before")]
         span: SourceSpan,
     },
+    #[error("line {line}: the time {t} repeats the row before")]
+    #[diagnostic(
+        code(advise::trace::time_repeated),
+        help("each row is one control step, later than the one before; remove the repeated row")
+    )]
+    TimeRepeated {
+        line: u64,
+        t: f64,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("same time as the row before")]
+        span: SourceSpan,
+    },
+    #[error("line {line}: episode `{episode}` started before, on line {first_line}")]
+    #[diagnostic(
+        code(advise::trace::episode_split),
+        help(
+            "the rows of one episode are contiguous; move them together, or give this run of rows its own name"
+        )
+    )]
+    EpisodeSplit {
+        line: u64,
+        first_line: u64,
+        episode: String,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("`{episode}` again, after other episodes")]
+        span: SourceSpan,
+    },
+    #[error("episode `{episode}` has no points")]
+    #[diagnostic(
+        code(advise::trace::empty_episode),
+        help("remove the episode, or record its points")
+    )]
+    EmptyEpisode {
+        episode: String,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("no points")]
+        span: Option<SourceSpan>,
+    },
+    #[error("two episodes are named `{episode}`")]
+    #[diagnostic(
+        code(advise::trace::duplicate_episode),
+        help("episode names tell demonstrations apart in provenance; rename one")
+    )]
+    DuplicateEpisode {
+        episode: String,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("second `{episode}`")]
+        span: Option<SourceSpan>,
+    },
+    #[error("`{name}` holds no demonstrations")]
+    #[diagnostic(
+        code(advise::trace::no_demonstrations),
+        help(
+            "a demonstrations file has at least one row after its header (CSV) or one episode (JSON)"
+        )
+    )]
+    NoDemonstrations { name: String },
     #[error("the file is empty: it has no header")]
     #[diagnostic(
         code(advise::trace::empty),
@@ -820,6 +937,8 @@ mod csv_load {
         }
 
         let mut episodes: Vec<Episode> = Vec::new();
+        // Each episode's label and first line: an episode's rows are contiguous.
+        let mut starts: std::collections::HashMap<String, u64> = Default::default();
         let (mut z, mut a) = (vec![0.0; domain.obs_dim()], vec![0.0; domain.act_dim()]);
         let mut pose = [0.0; 3];
         for rec in records {
@@ -873,6 +992,20 @@ mod csv_load {
                 }
             }
             if episodes.last().is_none_or(|e| e.name != label) {
+                if let Some(&first_line) = starts.get(label) {
+                    let col = slots
+                        .iter()
+                        .position(|s| matches!(s, Slot::Episode))
+                        .unwrap_or(0);
+                    return Err(TraceError::EpisodeSplit {
+                        line,
+                        first_line,
+                        episode: label.to_string(),
+                        src: src(),
+                        span: field_span(text, byte, col),
+                    });
+                }
+                starts.insert(label.to_string(), line);
                 episodes.push(Episode {
                     name: label.to_string(),
                     trace: Trace::new(domain),
@@ -882,15 +1015,25 @@ mod csv_load {
                 unreachable!("an episode was pushed above")
             };
             if let Some(&prev) = trace.t.last()
-                && t < prev
+                && t <= prev
             {
                 let tcol = slots.iter().position(|s| matches!(s, Slot::T)).unwrap_or(0);
-                return Err(TraceError::TimeBackwards {
-                    line,
-                    t,
-                    prev,
-                    src: src(),
-                    span: field_span(text, byte, tcol),
+                let span = field_span(text, byte, tcol);
+                return Err(if t == prev {
+                    TraceError::TimeRepeated {
+                        line,
+                        t,
+                        src: src(),
+                        span,
+                    }
+                } else {
+                    TraceError::TimeBackwards {
+                        line,
+                        t,
+                        prev,
+                        src: src(),
+                        span,
+                    }
                 });
             }
             let p = (pose_cols == 3).then(|| Pose::new(pose[0], pose[1], pose[2]));

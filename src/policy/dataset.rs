@@ -149,6 +149,19 @@ pub enum DatasetError {
         what: String,
         expected: String,
     },
+    #[error("a number of the dataset is `null`, not a finite number")]
+    #[diagnostic(
+        code(advise::dataset::not_finite),
+        help(
+            "JSON writes NaN and infinity as `null`; a dataset holds finite numbers only, so the point must be repaired or removed"
+        )
+    )]
+    Null {
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("not a number")]
+        span: SourceSpan,
+    },
     #[error("`{at}` is {value}, not a finite number")]
     #[diagnostic(
         code(advise::dataset::not_finite),
@@ -606,13 +619,17 @@ impl Dataset {
     }
 
     /// Whether JSON text is a saved dataset (rather than a trace or demonstrations): its top
-    /// level has the `format` key.
+    /// level has the `format` key. Malformed JSON counts as a dataset when it names the dataset
+    /// format (`"advise-dataset-`), so that its error is the dataset's.
     pub fn is_dataset_json(text: &str) -> bool {
         #[derive(Deserialize)]
         struct Probe {
             format: Option<serde::de::IgnoredAny>,
         }
-        serde_json::from_str::<Probe>(text).is_ok_and(|p| p.format.is_some())
+        match serde_json::from_str::<Probe>(text) {
+            Ok(p) => p.format.is_some(),
+            Err(_) => text.contains("\"advise-dataset-"),
+        }
     }
 
     /// Parse and validate a saved dataset; the first problem found is the error. A dataset that
@@ -620,10 +637,20 @@ impl Dataset {
     /// reference resolved, every point of the domain's shape, finite and within its limits, and
     /// the weights what the critiques say.
     pub fn from_json_str(name: &str, text: &str) -> Result<Dataset, DatasetError> {
-        let file: DatasetFile = serde_json::from_str(text).map_err(|e| DatasetError::Json {
-            message: e.to_string(),
-            src: NamedSource::new(name, text.to_string()),
-            span: line_col_span(text, e.line(), e.column()),
+        let file: DatasetFile = serde_json::from_str(text).map_err(|e| {
+            let src = NamedSource::new(name, text.to_string());
+            let span = line_col_span(text, e.line(), e.column());
+            let message = e.to_string();
+            // NaN and infinity were saved as `null` by earlier versions.
+            if message.starts_with("invalid type: null, expected f64") {
+                // serde points after the value; cover the `null` itself.
+                let end = span.offset();
+                let start = text[..end].rfind("null").filter(|s| s + 4 >= end);
+                let span = start.map_or(span, |s| SourceSpan::new(s.into(), 4));
+                DatasetError::Null { src, span }
+            } else {
+                DatasetError::Json { message, src, span }
+            }
         })?;
         if file.format != "advise-dataset-1" {
             return Err(DatasetError::Inconsistent {
