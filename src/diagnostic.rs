@@ -19,13 +19,18 @@ pub const SIDE_BYTES: usize = 160;
 
 /// Render a diagnostic as the terminal shows it, 100 columns wide; colour only if asked.
 pub fn render(diag: &dyn Diagnostic, colour: bool) -> String {
+    render_with_width(diag, colour, 100)
+}
+
+/// [`render`] at another width (the command line keeps miette's 80 columns).
+pub fn render_with_width(diag: &dyn Diagnostic, colour: bool, width: usize) -> String {
     let theme = if colour {
         miette::GraphicalTheme::unicode()
     } else {
         miette::GraphicalTheme::unicode_nocolor()
     };
     let handler = miette::GraphicalReportHandler::new_themed(theme)
-        .with_width(100)
+        .with_width(width)
         .with_links(false);
     let bounded = Bounded::new(diag);
     let mut out = String::new();

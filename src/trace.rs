@@ -187,7 +187,7 @@ impl Trace {
     /// A file with an `episode` column must hold a single episode; use [`Episode`]'s loaders for
     /// demonstration files with many.
     pub fn from_csv_str(domain: &Domain, name: &str, text: &str) -> Result<Trace, TraceError> {
-        let mut eps = csv_load::parse(domain, name, text)?;
+        let mut eps = csv_load::parse(domain, name, text, false)?;
         match eps.len() {
             0 => Ok(Trace::new(domain)),
             1 => Ok(eps.remove(0).trace),
@@ -209,15 +209,17 @@ impl Trace {
                 found: doc.domain,
             });
         }
-        Trace::from_json_points(domain, name, text, &doc.points)
+        Trace::from_json_points(domain, name, text, &doc.points, false)
     }
 
-    /// Validate parsed JSON points (dimensions, finiteness, time order) into a trace.
+    /// Validate parsed JSON points (dimensions, finiteness, time order, and for demonstrations
+    /// the action limits) into a trace.
     fn from_json_points(
         domain: &Domain,
         name: &str,
         text: &str,
         points: &[JsonPoint],
+        demo: bool,
     ) -> Result<Trace, TraceError> {
         let src = || NamedSource::new(name, text.to_string());
         let mut trace = Trace::new(domain);
@@ -261,6 +263,15 @@ impl Trace {
                     "time goes backwards ({} after {})",
                     p.t,
                     trace.t[i - 1]
+                )));
+            }
+            if demo && let Some((k, v, l)) = outside_action_limits(domain, &p.a) {
+                return Err(bad(format!(
+                    "the action `{}` is {}, outside its limits [{}, {}]; a demonstration's actions are ones the robot can execute",
+                    domain.act[k].name,
+                    fmt_num(v),
+                    fmt_num(l.lo),
+                    fmt_num(l.hi)
                 )));
             }
             if i > 0 && p.t == trace.t[i - 1] {
@@ -308,6 +319,17 @@ impl Trace {
     }
 }
 
+/// The first action value outside its dimension's limits: (dimension, value, limits).
+fn outside_action_limits(
+    domain: &Domain,
+    a: &[f64],
+) -> Option<(usize, f64, crate::domain::Limits)> {
+    a.iter()
+        .zip(&domain.act)
+        .enumerate()
+        .find_map(|(k, (v, dim))| dim.limits.filter(|l| !l.contains(*v)).map(|l| (k, *v, l)))
+}
+
 /// Shortest text that reads back as the same `f64`.
 pub fn fmt_num(v: f64) -> String {
     let s = format!("{v}");
@@ -345,7 +367,7 @@ impl Episode {
         name: &str,
         text: &str,
     ) -> Result<Vec<Episode>, TraceError> {
-        let episodes = csv_load::parse(domain, name, text)?;
+        let episodes = csv_load::parse(domain, name, text, true)?;
         if episodes.is_empty() {
             return Err(TraceError::NoDemonstrations {
                 name: name.to_string(),
@@ -369,9 +391,21 @@ impl Episode {
         // line and column.
         let value: serde_json::Value = serde_json::from_str(text).map_err(json_err)?;
         if value.get("episodes").is_none() {
+            let doc: JsonTrace = serde_json::from_str(text).map_err(json_err)?;
+            if doc.domain != domain.name {
+                return Err(TraceError::DomainMismatch {
+                    expected: domain.name.clone(),
+                    found: doc.domain,
+                });
+            }
+            if doc.points.is_empty() {
+                return Err(TraceError::NoDemonstrations {
+                    name: name.to_string(),
+                });
+            }
             return Ok(vec![Episode {
                 name: name.to_string(),
-                trace: Trace::from_json_str(domain, name, text)?,
+                trace: Trace::from_json_points(domain, name, text, &doc.points, true)?,
             }]);
         }
         let many: JsonEpisodes = serde_json::from_str(text).map_err(json_err)?;
@@ -429,7 +463,7 @@ impl Episode {
             .into_iter()
             .map(|e| {
                 let ep_name = format!("{name} [{}]", e.name);
-                let trace = Trace::from_json_points(domain, &ep_name, text, &e.points)?;
+                let trace = Trace::from_json_points(domain, &ep_name, text, &e.points, true)?;
                 Ok(Episode {
                     name: e.name,
                     trace,
@@ -688,6 +722,26 @@ pub enum TraceError {
         #[label("earlier than the row before")]
         span: SourceSpan,
     },
+    #[error(
+        "line {line}, column `{column}`: the action {value} is outside its limits [{lo}, {hi}]"
+    )]
+    #[diagnostic(
+        code(advise::trace::action_out_of_limits),
+        help(
+            "a demonstration's actions are ones the robot can execute; clamp the value into [{lo}, {hi}]"
+        )
+    )]
+    ActionOutOfLimits {
+        line: u64,
+        column: String,
+        value: String,
+        lo: String,
+        hi: String,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("outside [{lo}, {hi}]")]
+        span: SourceSpan,
+    },
     #[error("line {line}: the time {t} repeats the row before")]
     #[diagnostic(
         code(advise::trace::time_repeated),
@@ -836,7 +890,13 @@ mod csv_load {
         line
     }
 
-    pub fn parse(domain: &Domain, name: &str, text: &str) -> Result<Vec<Episode>, TraceError> {
+    /// `demo`: the rows are demonstrations, whose actions must be within the domain's limits.
+    pub fn parse(
+        domain: &Domain,
+        name: &str,
+        text: &str,
+        demo: bool,
+    ) -> Result<Vec<Episode>, TraceError> {
         let src = || NamedSource::new(name, text.to_string());
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(false)
@@ -979,6 +1039,20 @@ mod csv_load {
                         line,
                         column: column(),
                         value: field.to_string(),
+                        src: src(),
+                        span: field_span(text, byte, col),
+                    });
+                }
+                if let (true, Slot::A(i)) = (demo, *slot)
+                    && let Some(l) = domain.act[i].limits
+                    && !l.contains(v)
+                {
+                    return Err(TraceError::ActionOutOfLimits {
+                        line,
+                        column: column(),
+                        value: field.to_string(),
+                        lo: fmt_num(l.lo),
+                        hi: fmt_num(l.hi),
                         src: src(),
                         span: field_span(text, byte, col),
                     });

@@ -308,7 +308,7 @@ fn a_saved_dataset_is_demonstrations_for_load_demos_and_eval() {
 }
 
 #[test]
-fn demonstration_files_with_split_repeated_or_empty_episodes_are_refused() {
+fn demonstration_files_with_split_repeated_or_empty_episodes_or_impossible_actions_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let h = "episode,t,dist2,bearing,dheading,trans,rot\n";
@@ -322,6 +322,10 @@ fn demonstration_files_with_split_repeated_or_empty_episodes_are_refused() {
             format!("{h}a,0,4,0,0,0.5,0\na,0.1,3.9,0,0,0.5,0\na,0.1,3.8,0,0,0.5,0\n"),
         ),
         ("header_only.csv", h.to_string()),
+        (
+            "beyond_limits.csv",
+            format!("{h}a,0,4,0,0,0.5,0\na,0.1,3.9,0,0,1.5,0\n"),
+        ),
         (
             "empty.json",
             r#"{"domain": "positioning", "episodes": [

@@ -834,7 +834,10 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
                         value: v.to_string(),
                     });
                 }
-                if let Some(l) = dim.limits
+                // Actions are clamped to their limits wherever they enter a dataset (recorded
+                // runs, operators, demonstration files); observations are what the robot saw,
+                // and may lie beyond (a goal 20 m away).
+                if let (true, Some(l)) = (space == "a", dim.limits)
                     && !l.contains(*v)
                 {
                     return Err(DatasetError::OutOfLimits {
