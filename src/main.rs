@@ -334,7 +334,10 @@ fn main() -> ExitCode {
 /// Print a diagnostic on stderr, showing a bounded window of its source (never a whole file).
 fn print_report(diag: &dyn Diagnostic) {
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    eprintln!("{}", advise::diagnostic::render_with_width(diag, colour, 80));
+    eprintln!(
+        "{}",
+        advise::diagnostic::render_with_width(diag, colour, 80)
+    );
 }
 
 fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {

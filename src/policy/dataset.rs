@@ -634,7 +634,8 @@ impl Dataset {
 
     /// Parse and validate a saved dataset; the first problem found is the error. A dataset that
     /// loads is one the session could have built: every id unique and below `next_id`, every
-    /// reference resolved, every point of the domain's shape, finite and within its limits, and
+    /// reference resolved, every point of the domain's shape and finite, every action within its
+    /// limits, and
     /// the weights what the critiques say.
     pub fn from_json_str(name: &str, text: &str) -> Result<Dataset, DatasetError> {
         let file: DatasetFile = serde_json::from_str(text).map_err(|e| {
