@@ -361,3 +361,54 @@ fn demonstration_files_with_split_repeated_or_empty_episodes_or_impossible_actio
     insta::assert_snapshot!(t);
     assert!(s.learner().is_empty());
 }
+
+#[test]
+fn the_command_line_refuses_special_files_and_reads_a_script_with_a_byte_order_mark() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fifo = d.join("pipe.adv");
+    mkfifo(&fifo);
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_advise"))
+            .args(args)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    // Each of these used to wait forever for a writer on the FIFO.
+    for args in [
+        &["run", "pipe.adv"][..],
+        &["check", "pipe.adv"],
+        &[
+            "eval",
+            "--task",
+            "positioning",
+            "--policy",
+            "teacher",
+            "--sim-params",
+            "pipe.adv",
+        ],
+        &[
+            "demo",
+            "--task",
+            "positioning",
+            "--count",
+            "1",
+            "--out",
+            "pipe.adv",
+        ],
+    ] {
+        let (ok, stderr) = run(args);
+        assert!(
+            !ok && stderr.contains("advise::file::not_regular"),
+            "{args:?}: {stderr}"
+        );
+    }
+    std::fs::write(d.join("bom.adv"), b"\xEF\xBB\xBFtask interception\n").unwrap();
+    let (ok, stderr) = run(&["run", "bom.adv"]);
+    assert!(ok, "{stderr}");
+}
