@@ -308,15 +308,7 @@ pub fn render_all(errors: &CheckErrors) -> String {
 
 /// Render one diagnostic as the terminal shows it, without colour, 100 columns wide.
 pub fn render(diag: &dyn miette::Diagnostic) -> String {
-    let handler =
-        miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
-            .with_width(100)
-            .with_links(false);
-    let mut out = String::new();
-    handler
-        .render_report(&mut out, diag)
-        .expect("writing to a String cannot fail");
-    out
+    crate::diagnostic::render(diag, false)
 }
 
 /// The best "did you mean" among `candidates`, if any is close.

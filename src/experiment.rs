@@ -65,6 +65,9 @@ pub enum ExperimentError {
         help("check that the folder is writable")
     )]
     Plot { path: String, message: String },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    File(#[from] crate::files::FileError),
 }
 
 /// Create the plot folder if needed.

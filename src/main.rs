@@ -329,10 +329,19 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(report) => {
-            eprintln!("{report:?}");
+            print_report(report.as_ref());
             ExitCode::FAILURE
         }
     }
+}
+
+/// Print a diagnostic on stderr, showing a bounded window of its source (never a whole file).
+fn print_report(diag: &dyn Diagnostic) {
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    eprintln!(
+        "{}",
+        advise::diagnostic::render_with_width(diag, colour, 80)
+    );
 }
 
 fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
@@ -381,9 +390,7 @@ fn start_journal(session: &mut Session, args: &SessionArgs) -> miette::Result<()
 /// Run a script as the REPL would run its lines: the same starting demonstrations (`--demos`),
 /// the same journal; the first failing statement stops it (unless `keep_going`).
 fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Result<ExitCode> {
-    let text = std::fs::read_to_string(path)
-        .into_diagnostic()
-        .wrap_err_with(|| format!("cannot read the script {}", path.display()))?;
+    let text = advise::files::read_text(path)?;
     let mut session = new_session(args, args.demos)?;
     start_journal(&mut session, args)?;
     if let Some(j) = session.journal_path() {
@@ -502,10 +509,9 @@ fn read_sources(files: &[PathBuf]) -> miette::Result<Vec<Source>> {
     files
         .iter()
         .map(|f| {
-            std::fs::read_to_string(f)
-                .into_diagnostic()
-                .wrap_err_with(|| format!("cannot read `{}`", f.display()))
+            advise::files::read_text(f)
                 .map(|text| Source::new(f.display().to_string(), text))
+                .map_err(Report::from)
         })
         .collect()
 }
@@ -530,8 +536,8 @@ fn check_files(files: &[PathBuf]) -> miette::Result<ExitCode> {
 
 fn report_check_errors(errors: check::CheckErrors, files: usize) -> ExitCode {
     let n = errors.errors.len();
-    for e in errors.errors {
-        eprintln!("{:?}", Report::new(e));
+    for e in &errors.errors {
+        print_report(e);
     }
     eprintln!(
         "advise: {n} error{} in {files} file{}",
@@ -623,9 +629,7 @@ fn trace_domain(set: &OperatorSet, path: &Path, name: Option<&str>) -> miette::R
             )
         });
     }
-    let text = std::fs::read_to_string(path)
-        .into_diagnostic()
-        .wrap_err_with(|| format!("cannot read `{}`", path.display()))?;
+    let text = advise::files::read_text(path)?;
     let is_json = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
@@ -680,22 +684,17 @@ fn demo(args: DemoArgs) -> miette::Result<()> {
     let successes = recorded.iter().filter(|(_, o)| o.success).count();
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
-    let write_err = |source: std::io::Error| CliError::Write {
-        path: args.out.display().to_string(),
-        source,
-    };
-    let file = std::fs::File::create(&args.out).map_err(write_err)?;
-    let out = std::io::BufWriter::new(file);
     let is_json = args
         .out
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    if is_json {
-        serde_json::to_writer(out, &Episode::to_json(&domain, &episodes))
-            .map_err(|e| write_err(e.into()))?;
-    } else {
-        Episode::write_csv(&domain, &episodes, out).map_err(write_err)?;
-    }
+    advise::files::write_atomic(&args.out, |out| {
+        if is_json {
+            serde_json::to_writer(out, &Episode::to_json(&domain, &episodes)).map_err(Into::into)
+        } else {
+            Episode::write_csv(&domain, &episodes, out)
+        }
+    })?;
     eprintln!(
         "recorded {} {kind} demonstrations ({points} points) to {}; the teacher succeeded in {successes}",
         episodes.len(),
@@ -730,8 +729,8 @@ fn run_eval(args: EvalArgs) -> miette::Result<()> {
                 .as_deref()
                 .ok_or(CliError::NoDataset { policy: name })?;
             let domain = kind.domain();
-            let episodes = Episode::load_all(&domain, path)?;
-            let policy = eval::derive_policy(learner, &domain, &episodes)?;
+            let demos = advise::policy::dataset::load_demonstrations(&domain, path)?;
+            let policy = eval::derive_policy(learner, &domain, &demos.episodes)?;
             if backend == BackendSpec::Sim {
                 eval::evaluate(kind, policy.as_ref(), &opts)
             } else {

@@ -21,19 +21,10 @@ use crate::backend::StopSignal;
 use crate::session::Session;
 use helper::{AdviseHelper, Facts};
 
-/// Render a diagnostic for the terminal (colour only when stdout is a terminal).
+/// Render a diagnostic for the terminal (colour only when asked), showing a bounded window of
+/// its source ([`crate::diagnostic::render`]).
 pub fn render(diag: &dyn miette::Diagnostic, colour: bool) -> String {
-    let handler = if colour {
-        miette::GraphicalReportHandler::new()
-    } else {
-        miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
-    }
-    .with_width(100);
-    let mut out = String::new();
-    if handler.render_report(&mut out, diag).is_err() {
-        out = diag.to_string();
-    }
-    out
+    crate::diagnostic::render(diag, colour)
 }
 
 /// The signal the process's SIGINT handler raises (one handler per process, so the signal it

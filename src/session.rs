@@ -73,6 +73,9 @@ pub enum SessionError {
     Plot(#[from] plot::PlotError),
     #[error(transparent)]
     #[diagnostic(transparent)]
+    File(#[from] crate::files::FileError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
     Interrupted(Box<task::Interrupted>),
     #[error("unknown task `{name}`")]
     #[diagnostic(code(advise::session::unknown_task), help("{help}"))]
@@ -1005,6 +1008,7 @@ impl Session {
     /// is a demonstrations file.
     fn load_demos(&mut self, path: &str) -> Result<String, SessionError> {
         let started = Instant::now();
+        let mut from_dataset = String::new();
         let episodes = match path.strip_prefix("teacher:") {
             Some(n) => {
                 let count: usize = n
@@ -1025,7 +1029,19 @@ impl Session {
                     .map(|(e, _)| e)
                     .collect()
             }
-            None => Episode::load_all(&self.domain, Path::new(path))?,
+            None => {
+                let demos =
+                    crate::policy::dataset::load_demonstrations(&self.domain, Path::new(path))
+                        .map_err(LearnerError::from)?;
+                if let Some((d, a)) = demos.from_dataset {
+                    from_dataset = format!(
+                        ": a saved dataset's {d} demonstration{} and {a} piece{} of advice, each as one demonstration (critique weights are not carried)",
+                        if d == 1 { "" } else { "s" },
+                        if a == 1 { "" } else { "s" },
+                    );
+                }
+                demos.episodes
+            }
         };
         let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
         let count = episodes.len();
@@ -1040,7 +1056,7 @@ impl Session {
                 .collect(),
         })?;
         Ok(format!(
-            "loaded {count} demonstrations ({points} points) from {path}; the {} policy now has {} points ({} ms)",
+            "loaded {count} demonstrations ({points} points) from {path}{from_dataset}; the {} policy now has {} points ({} ms)",
             self.state.learner.kind_name(),
             self.state.learner.len(),
             started.elapsed().as_millis()
@@ -1063,10 +1079,7 @@ impl Session {
     }
 
     fn load_operators(&mut self, path: &str) -> Result<String, SessionError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SessionError::Io {
-            path: path.to_string(),
-            source,
-        })?;
+        let text = crate::files::read_text(Path::new(path))?;
         let before = self.ops.operator_count();
         self.commit(Effect::Define {
             origin: path.to_string(),
@@ -1588,10 +1601,11 @@ impl Session {
     }
 
     fn save(&self, path: &str) -> Result<String, SessionError> {
-        self.state.learner.save(Path::new(path))?;
+        let format = self.state.learner.save(Path::new(path))?;
         Ok(format!(
-            "saved {} points with their provenance to {path}",
-            self.state.learner.len()
+            "saved {} points to {path} ({})",
+            self.state.learner.len(),
+            format.describe()
         ))
     }
 

@@ -187,7 +187,7 @@ impl Trace {
     /// A file with an `episode` column must hold a single episode; use [`Episode`]'s loaders for
     /// demonstration files with many.
     pub fn from_csv_str(domain: &Domain, name: &str, text: &str) -> Result<Trace, TraceError> {
-        let mut eps = csv_load::parse(domain, name, text)?;
+        let mut eps = csv_load::parse(domain, name, text, false)?;
         match eps.len() {
             0 => Ok(Trace::new(domain)),
             1 => Ok(eps.remove(0).trace),
@@ -209,7 +209,7 @@ impl Trace {
                 found: doc.domain,
             });
         }
-        Trace::from_json_points(domain, name, text, &doc.points)
+        Trace::from_json_points(domain, name, text, &doc.points, false)
     }
 
     /// A trace from its JSON form, validated as a file's would be (a journal's traces).
@@ -220,15 +220,17 @@ impl Trace {
                 found: json.domain.clone(),
             });
         }
-        Trace::from_json_points(domain, "<journal>", "", &json.points)
+        Trace::from_json_points(domain, "<journal>", "", &json.points, false)
     }
 
-    /// Validate parsed JSON points (dimensions, finiteness, time order) into a trace.
+    /// Validate parsed JSON points (dimensions, finiteness, time order, and for demonstrations
+    /// the action limits) into a trace.
     fn from_json_points(
         domain: &Domain,
         name: &str,
         text: &str,
         points: &[JsonPoint],
+        demo: bool,
     ) -> Result<Trace, TraceError> {
         let src = || NamedSource::new(name, text.to_string());
         let mut trace = Trace::new(domain);
@@ -274,6 +276,21 @@ impl Trace {
                     trace.t[i - 1]
                 )));
             }
+            if demo && let Some((k, v, l)) = outside_action_limits(domain, &p.a) {
+                return Err(bad(format!(
+                    "the action `{}` is {}, outside its limits [{}, {}]; a demonstration's actions are ones the robot can execute",
+                    domain.act[k].name,
+                    fmt_num(v),
+                    fmt_num(l.lo),
+                    fmt_num(l.hi)
+                )));
+            }
+            if i > 0 && p.t == trace.t[i - 1] {
+                return Err(bad(format!(
+                    "the time {} repeats the point before; each point is one control step",
+                    p.t
+                )));
+            }
             let pose = p.pose.map(|[x, y, th]| Pose::new(x, y, th));
             trace.push(p.t, &p.z, &p.a, pose);
         }
@@ -300,10 +317,7 @@ impl Trace {
 
     /// Load a trace from a file; `.json` is JSON, anything else is CSV.
     pub fn load(domain: &Domain, path: &Path) -> Result<Trace, TraceError> {
-        let text = std::fs::read_to_string(path).map_err(|source| TraceError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = crate::files::read_text(path)?;
         let name = path.display().to_string();
         if path
             .extension()
@@ -314,6 +328,17 @@ impl Trace {
             Trace::from_csv_str(domain, &name, &text)
         }
     }
+}
+
+/// The first action value outside its dimension's limits: (dimension, value, limits).
+fn outside_action_limits(
+    domain: &Domain,
+    a: &[f64],
+) -> Option<(usize, f64, crate::domain::Limits)> {
+    a.iter()
+        .zip(&domain.act)
+        .enumerate()
+        .find_map(|(k, (v, dim))| dim.limits.filter(|l| !l.contains(*v)).map(|l| (k, *v, l)))
 }
 
 /// Shortest text that reads back as the same `f64`.
@@ -336,10 +361,7 @@ impl Episode {
     /// one episode (no column: one episode named after the file). JSON: either one trace
     /// ([`JsonTrace`]) or [`JsonEpisodes`].
     pub fn load_all(domain: &Domain, path: &Path) -> Result<Vec<Episode>, TraceError> {
-        let text = std::fs::read_to_string(path).map_err(|source| TraceError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = crate::files::read_text(path)?;
         let name = path.display().to_string();
         if path
             .extension()
@@ -356,7 +378,13 @@ impl Episode {
         name: &str,
         text: &str,
     ) -> Result<Vec<Episode>, TraceError> {
-        csv_load::parse(domain, name, text)
+        let episodes = csv_load::parse(domain, name, text, true)?;
+        if episodes.is_empty() {
+            return Err(TraceError::NoDemonstrations {
+                name: name.to_string(),
+            });
+        }
+        Ok(episodes)
     }
 
     pub fn from_json_str(
@@ -374,9 +402,21 @@ impl Episode {
         // line and column.
         let value: serde_json::Value = serde_json::from_str(text).map_err(json_err)?;
         if value.get("episodes").is_none() {
+            let doc: JsonTrace = serde_json::from_str(text).map_err(json_err)?;
+            if doc.domain != domain.name {
+                return Err(TraceError::DomainMismatch {
+                    expected: domain.name.clone(),
+                    found: doc.domain,
+                });
+            }
+            if doc.points.is_empty() {
+                return Err(TraceError::NoDemonstrations {
+                    name: name.to_string(),
+                });
+            }
             return Ok(vec![Episode {
                 name: name.to_string(),
-                trace: Trace::from_json_str(domain, name, text)?,
+                trace: Trace::from_json_points(domain, name, text, &doc.points, true)?,
             }]);
         }
         let many: JsonEpisodes = serde_json::from_str(text).map_err(json_err)?;
@@ -386,11 +426,55 @@ impl Episode {
                 found: many.domain,
             });
         }
+        if many.episodes.is_empty() {
+            return Err(TraceError::NoDemonstrations {
+                name: name.to_string(),
+            });
+        }
+        // Where the n-th `"name": "NAME"` is in the text, for a label (serde keeps no positions).
+        let name_span = |episode: &str, nth: usize| {
+            let quoted = serde_json::to_string(episode).ok()?;
+            let mut at = 0;
+            let mut seen = 0;
+            while let Some(i) = text[at..].find(&quoted) {
+                let start = at + i;
+                let before = text[..start].trim_end();
+                if before.ends_with(':')
+                    && before[..before.len() - 1].trim_end().ends_with("\"name\"")
+                {
+                    if seen == nth {
+                        return Some(SourceSpan::new(start.into(), quoted.len()));
+                    }
+                    seen += 1;
+                }
+                at = start + quoted.len();
+            }
+            None
+        };
+        let mut seen: Vec<&str> = Vec::new();
+        for e in &many.episodes {
+            let nth = seen.iter().filter(|n| **n == e.name).count();
+            if nth > 0 {
+                return Err(TraceError::DuplicateEpisode {
+                    episode: e.name.clone(),
+                    src: src(),
+                    span: name_span(&e.name, nth),
+                });
+            }
+            if e.points.is_empty() {
+                return Err(TraceError::EmptyEpisode {
+                    episode: e.name.clone(),
+                    src: src(),
+                    span: name_span(&e.name, 0),
+                });
+            }
+            seen.push(&e.name);
+        }
         many.episodes
             .into_iter()
             .map(|e| {
                 let ep_name = format!("{name} [{}]", e.name);
-                let trace = Trace::from_json_points(domain, &ep_name, text, &e.points)?;
+                let trace = Trace::from_json_points(domain, &ep_name, text, &e.points, true)?;
                 Ok(Episode {
                     name: e.name,
                     trace,
@@ -559,13 +643,9 @@ pub enum ChunkError {
 /// Everything that can be wrong with a trace file.
 #[derive(Debug, Error, Diagnostic)]
 pub enum TraceError {
-    #[error("cannot read `{path}`")]
-    #[diagnostic(code(advise::trace::io))]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    File(#[from] crate::files::FileError),
     #[error("the trace has no column `{column}`")]
     #[diagnostic(
         code(advise::trace::missing_column),
@@ -653,6 +733,87 @@ pub enum TraceError {
         #[label("earlier than the row before")]
         span: SourceSpan,
     },
+    #[error(
+        "line {line}, column `{column}`: the action {value} is outside its limits [{lo}, {hi}]"
+    )]
+    #[diagnostic(
+        code(advise::trace::action_out_of_limits),
+        help(
+            "a demonstration's actions are ones the robot can execute; clamp the value into [{lo}, {hi}]"
+        )
+    )]
+    ActionOutOfLimits {
+        line: u64,
+        column: String,
+        value: String,
+        lo: String,
+        hi: String,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("outside [{lo}, {hi}]")]
+        span: SourceSpan,
+    },
+    #[error("line {line}: the time {t} repeats the row before")]
+    #[diagnostic(
+        code(advise::trace::time_repeated),
+        help("each row is one control step, later than the one before; remove the repeated row")
+    )]
+    TimeRepeated {
+        line: u64,
+        t: f64,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("same time as the row before")]
+        span: SourceSpan,
+    },
+    #[error("line {line}: episode `{episode}` started before, on line {first_line}")]
+    #[diagnostic(
+        code(advise::trace::episode_split),
+        help(
+            "the rows of one episode are contiguous; move them together, or give this run of rows its own name"
+        )
+    )]
+    EpisodeSplit {
+        line: u64,
+        first_line: u64,
+        episode: String,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("`{episode}` again, after other episodes")]
+        span: SourceSpan,
+    },
+    #[error("episode `{episode}` has no points")]
+    #[diagnostic(
+        code(advise::trace::empty_episode),
+        help("remove the episode, or record its points")
+    )]
+    EmptyEpisode {
+        episode: String,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("no points")]
+        span: Option<SourceSpan>,
+    },
+    #[error("two episodes are named `{episode}`")]
+    #[diagnostic(
+        code(advise::trace::duplicate_episode),
+        help("episode names tell demonstrations apart in provenance; rename one")
+    )]
+    DuplicateEpisode {
+        episode: String,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("second `{episode}`")]
+        span: Option<SourceSpan>,
+    },
+    #[error("`{name}` holds no demonstrations")]
+    #[diagnostic(
+        code(advise::trace::no_demonstrations),
+        help(
+            "a demonstrations file has at least one row after its header (CSV) or one episode (JSON)"
+        )
+    )]
+    NoDemonstrations { name: String },
     #[error("the file is empty: it has no header")]
     #[diagnostic(
         code(advise::trace::empty),
@@ -742,7 +903,13 @@ mod csv_load {
         line
     }
 
-    pub fn parse(domain: &Domain, name: &str, text: &str) -> Result<Vec<Episode>, TraceError> {
+    /// `demo`: the rows are demonstrations, whose actions must be within the domain's limits.
+    pub fn parse(
+        domain: &Domain,
+        name: &str,
+        text: &str,
+        demo: bool,
+    ) -> Result<Vec<Episode>, TraceError> {
         let src = || NamedSource::new(name, text.to_string());
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(false)
@@ -843,6 +1010,8 @@ mod csv_load {
         }
 
         let mut episodes: Vec<Episode> = Vec::new();
+        // Each episode's label and first line: an episode's rows are contiguous.
+        let mut starts: std::collections::HashMap<String, u64> = Default::default();
         let (mut z, mut a) = (vec![0.0; domain.obs_dim()], vec![0.0; domain.act_dim()]);
         let mut pose = [0.0; 3];
         for rec in records {
@@ -887,6 +1056,20 @@ mod csv_load {
                         span: field_span(text, byte, col),
                     });
                 }
+                if let (true, Slot::A(i)) = (demo, *slot)
+                    && let Some(l) = domain.act[i].limits
+                    && !l.contains(v)
+                {
+                    return Err(TraceError::ActionOutOfLimits {
+                        line,
+                        column: column(),
+                        value: field.to_string(),
+                        lo: fmt_num(l.lo),
+                        hi: fmt_num(l.hi),
+                        src: src(),
+                        span: field_span(text, byte, col),
+                    });
+                }
                 match *slot {
                     Slot::Episode => {}
                     Slot::T => t = v,
@@ -896,6 +1079,20 @@ mod csv_load {
                 }
             }
             if episodes.last().is_none_or(|e| e.name != label) {
+                if let Some(&first_line) = starts.get(label) {
+                    let col = slots
+                        .iter()
+                        .position(|s| matches!(s, Slot::Episode))
+                        .unwrap_or(0);
+                    return Err(TraceError::EpisodeSplit {
+                        line,
+                        first_line,
+                        episode: label.to_string(),
+                        src: src(),
+                        span: field_span(text, byte, col),
+                    });
+                }
+                starts.insert(label.to_string(), line);
                 episodes.push(Episode {
                     name: label.to_string(),
                     trace: Trace::new(domain),
@@ -905,15 +1102,25 @@ mod csv_load {
                 unreachable!("an episode was pushed above")
             };
             if let Some(&prev) = trace.t.last()
-                && t < prev
+                && t <= prev
             {
                 let tcol = slots.iter().position(|s| matches!(s, Slot::T)).unwrap_or(0);
-                return Err(TraceError::TimeBackwards {
-                    line,
-                    t,
-                    prev,
-                    src: src(),
-                    span: field_span(text, byte, tcol),
+                let span = field_span(text, byte, tcol);
+                return Err(if t == prev {
+                    TraceError::TimeRepeated {
+                        line,
+                        t,
+                        src: src(),
+                        span,
+                    }
+                } else {
+                    TraceError::TimeBackwards {
+                        line,
+                        t,
+                        prev,
+                        src: src(),
+                        span,
+                    }
                 });
             }
             let p = (pose_cols == 3).then(|| Pose::new(pose[0], pose[1], pose[2]));

@@ -25,7 +25,7 @@ fn the_repl_completes_runs_advises_and_undoes() -> Result<(), rexpect::error::Er
     p.send_line("")?;
     p.exp_string("advised 20..40 of execution 0 with slow_down")?;
     p.send_line("undo")?;
-    p.exp_string("undid: advise slow_down")?;
+    p.exp_string("undid: #1 advise slow_down")?;
     p.send_line("quit")?;
     p.exp_eof()?;
     Ok(())

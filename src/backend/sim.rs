@@ -89,10 +89,7 @@ impl SimParams {
 
     /// Read parameters from a JSON file (see the struct's docs for the format).
     pub fn load(path: &Path) -> Result<SimParams, SimError> {
-        let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
+        let text = crate::files::read_text(path)?;
         SimParams::from_json_str(&path.display().to_string(), &text)
     }
 
@@ -213,13 +210,9 @@ fn unknown_field_help(message: &str) -> String {
 /// Why simulator parameters could not be read.
 #[derive(Debug, Error, Diagnostic)]
 pub enum SimError {
-    #[error("cannot read simulator parameters `{path}`")]
-    #[diagnostic(code(advise::sim::io))]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    File(#[from] crate::files::FileError),
     #[error("the simulator parameters are malformed: {message}")]
     #[diagnostic(code(advise::sim::params_json), help("{help}"))]
     Json {

@@ -17,7 +17,7 @@ use crate::domain::Domain;
 use crate::interp::Synthesized;
 use crate::policy::Policy;
 use crate::policy::bc;
-use crate::policy::dataset::{Dataset, DatasetError, Provenance};
+use crate::policy::dataset::{Dataset, DatasetError, Provenance, SavedFormat};
 use crate::policy::index::{Index, MAX_DIM};
 use crate::policy::lwr::{self, LwrAnswer, LwrParams};
 use crate::task::TaskKind;
@@ -56,6 +56,21 @@ pub enum LearnerError {
     )]
     #[diagnostic(code(advise::learner::dimension))]
     Dimension { domain: String, dim: usize },
+    #[error("the dataset is for the `{found}` domain; this session's task is `{task}`")]
+    #[diagnostic(code(advise::learner::other_task), help("{help}"))]
+    OtherTask {
+        found: String,
+        task: TaskKind,
+        help: String,
+    },
+    #[error("the dataset's `{domain}` domain has other dimensions or limits than the task's")]
+    #[diagnostic(
+        code(advise::learner::domain_changed),
+        help(
+            "the file's `domain` was edited or comes from another version; save the dataset again from a session"
+        )
+    )]
+    DomainChanged { domain: String },
     #[error("the dataset is empty: there is no policy to critique")]
     #[diagnostic(
         code(advise::learner::empty),
@@ -537,12 +552,35 @@ impl Learner {
         }
     }
 
-    pub fn save(&self, path: &Path) -> Result<(), LearnerError> {
+    /// Save the dataset; `.json` or `.csv` ([`Dataset::save`]).
+    pub fn save(&self, path: &Path) -> Result<SavedFormat, LearnerError> {
         Ok(self.ds.save(path)?)
     }
 
+    /// Open a saved dataset for `task`: a dataset of another task's domain (or of a domain with
+    /// other dimensions or limits under the same name) is refused.
     pub fn open(path: &Path, task: TaskKind, seed: u64) -> Result<Learner, LearnerError> {
         let ds = Dataset::load(path)?;
+        let want = task.domain();
+        let found = ds.domain();
+        if found.name != want.name {
+            let other = [TaskKind::Positioning, TaskKind::Interception]
+                .into_iter()
+                .find(|t| t.domain().name == found.name);
+            return Err(LearnerError::OtherTask {
+                found: found.name.clone(),
+                task,
+                help: match other {
+                    Some(t) => format!("switch to its task first with `task {t}`, then `open` it"),
+                    None => format!("no task uses the `{}` domain", found.name),
+                },
+            });
+        }
+        if *found != want {
+            return Err(LearnerError::DomainChanged {
+                domain: want.name.clone(),
+            });
+        }
         let l = Learner::with_dataset(ds, LearnerKind::for_task(task), seed);
         l.check_dim()?;
         Ok(l)
@@ -550,15 +588,13 @@ impl Learner {
 
     /// Write the advised points with their provenance as CSV; returns how many.
     pub fn export_advice(&self, path: &Path) -> Result<usize, LearnerError> {
-        let io = |source: std::io::Error| DatasetError::Io {
-            path: path.display().to_string(),
-            source,
-        };
-        let file = std::fs::File::create(path).map_err(io)?;
-        Ok(self
-            .ds
-            .write_advice_csv(std::io::BufWriter::new(file))
-            .map_err(io)?)
+        let mut n = 0;
+        crate::files::write_atomic(path, |w| {
+            n = self.ds.write_advice_csv(w)?;
+            Ok(())
+        })
+        .map_err(DatasetError::from)?;
+        Ok(n)
     }
 }
 

@@ -11,7 +11,7 @@
 //! holding what was restored, leaving the damaged one as it was.
 
 use std::fs::{File, OpenOptions};
-use std::io::{self, Read, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use miette::Diagnostic;
@@ -29,19 +29,9 @@ pub struct Journal {
 /// Why a journal could not be read.
 #[derive(Debug, Error, Diagnostic)]
 pub enum JournalError {
-    #[error("cannot read the journal `{path}`")]
-    #[diagnostic(code(advise::journal::io))]
-    Io {
-        path: String,
-        #[source]
-        source: io::Error,
-    },
-    #[error("`{path}` is not a regular file")]
-    #[diagnostic(
-        code(advise::journal::not_a_file),
-        help("journals are files in $ADVISE_HOME (default ~/.advise) named session-*.jsonl")
-    )]
-    NotAFile { path: String },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    File(#[from] crate::files::FileError),
     #[error("`{path}` is a journal of an earlier version of advise (a script of commands)")]
     #[diagnostic(
         code(advise::journal::old_format),
@@ -154,29 +144,7 @@ fn journal_name(header: &Header, attempt: u32) -> String {
 /// Read a journal back. Never panics on any file content.
 pub fn read(path: &Path) -> Result<Loaded, JournalError> {
     let shown = path.display().to_string();
-    let io = |source| JournalError::Io {
-        path: shown.clone(),
-        source,
-    };
-    let meta = std::fs::metadata(path).map_err(io)?;
-    if !meta.is_file() {
-        return Err(JournalError::NotAFile { path: shown });
-    }
-    let mut bytes = Vec::new();
-    File::open(path)
-        .map_err(io)?
-        .take(MAX_JOURNAL_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(io)?;
-    if bytes.len() as u64 > MAX_JOURNAL_BYTES {
-        return Err(JournalError::Io {
-            path: shown,
-            source: io::Error::other(format!(
-                "it is over {} MiB, more than any session writes",
-                MAX_JOURNAL_BYTES >> 20
-            )),
-        });
-    }
+    let bytes = crate::files::read_bytes_limited(path, MAX_JOURNAL_BYTES)?;
     if bytes.starts_with(b"// advise session journal") {
         return Err(JournalError::OldFormat { path: shown });
     }
@@ -348,9 +316,6 @@ mod tests {
         let other = dir.path().join("x.jsonl");
         std::fs::write(&other, "{}\n").unwrap();
         assert!(matches!(read(&other), Err(JournalError::Header { .. })));
-        assert!(matches!(
-            read(dir.path()),
-            Err(JournalError::NotAFile { .. })
-        ));
+        assert!(matches!(read(dir.path()), Err(JournalError::File(_))));
     }
 }

@@ -111,122 +111,130 @@ pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
     out
 }
 
-/// Why a plot could not be written.
+/// Why a plot could not be drawn or written.
 #[derive(Debug, thiserror::Error, miette::Diagnostic)]
-#[error("cannot write the plot `{path}`: {message}")]
-#[diagnostic(
-    code(advise::plot::write),
-    help("check that the folder exists and is writable; plots are SVG files")
-)]
-pub struct PlotError {
-    pub path: String,
-    pub message: String,
+pub enum PlotError {
+    #[error("cannot draw the plot `{path}`: {message}")]
+    #[diagnostic(code(advise::plot::draw))]
+    Draw { path: String, message: String },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    File(#[from] crate::files::FileError),
 }
 
 /// Write the execution as an SVG file.
 pub fn svg(view: &PlotView<'_>, path: &Path) -> Result<(), PlotError> {
-    let err = |e: &dyn std::fmt::Display| PlotError {
+    let err = |e: &dyn std::fmt::Display| PlotError::Draw {
         path: path.display().to_string(),
         message: e.to_string(),
     };
-    let root = SVGBackend::new(path, (800, 640)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| err(&e))?;
-    let (x0, x1, y0, y1) = view.bounds();
-    let mut chart = ChartBuilder::on(&root)
-        .caption(&view.title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(36)
-        .y_label_area_size(44)
-        .build_cartesian_2d(x0..x1, y0..y1)
-        .map_err(|e| err(&e))?;
-    chart
-        .configure_mesh()
-        .x_desc("x (m)")
-        .y_desc("y (m)")
-        .draw()
-        .map_err(|e| err(&e))?;
-    let xy = |p: &Pose| (p.x_m, p.y_m);
-    chart
-        .draw_series(LineSeries::new(
-            view.path.iter().map(xy),
-            BLUE.stroke_width(2),
-        ))
-        .map_err(|e| err(&e))?
-        .label("path")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLUE));
-    if let Some(ball) = view.ball {
+    // Drawn into memory and written at once: a failed plot leaves no file.
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (800, 640)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let (x0, x1, y0, y1) = view.bounds();
+        let mut chart = ChartBuilder::on(&root)
+            .caption(&view.title, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(44)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("x (m)")
+            .y_desc("y (m)")
+            .draw()
+            .map_err(|e| err(&e))?;
+        let xy = |p: &Pose| (p.x_m, p.y_m);
         chart
             .draw_series(LineSeries::new(
-                ball.iter().map(|b| (b[0], b[1])),
-                RGBColor(230, 140, 0).stroke_width(1),
+                view.path.iter().map(xy),
+                BLUE.stroke_width(2),
             ))
             .map_err(|e| err(&e))?
-            .label("ball")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], RGBColor(230, 140, 0)));
-    }
-    let segment = |c: &Chunk| -> Vec<(f64, f64)> {
-        let end = c.end.min(view.path.len());
-        view.path[c.start.min(end)..end].iter().map(xy).collect()
-    };
-    for (chunks, color, label) in [
-        (&view.advised, GREEN, "advised"),
-        (&view.flagged, RED, "critiqued"),
-    ] {
-        for (i, c) in chunks.iter().enumerate() {
-            let s = chart
-                .draw_series(LineSeries::new(segment(c), color.stroke_width(5)))
-                .map_err(|e| err(&e))?;
-            if i == 0 {
-                s.label(label).legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(5))
+            .label("path")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLUE));
+        if let Some(ball) = view.ball {
+            chart
+                .draw_series(LineSeries::new(
+                    ball.iter().map(|b| (b[0], b[1])),
+                    RGBColor(230, 140, 0).stroke_width(1),
+                ))
+                .map_err(|e| err(&e))?
+                .label("ball")
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], RGBColor(230, 140, 0))
                 });
+        }
+        let segment = |c: &Chunk| -> Vec<(f64, f64)> {
+            let end = c.end.min(view.path.len());
+            view.path[c.start.min(end)..end].iter().map(xy).collect()
+        };
+        for (chunks, color, label) in [
+            (&view.advised, GREEN, "advised"),
+            (&view.flagged, RED, "critiqued"),
+        ] {
+            for (i, c) in chunks.iter().enumerate() {
+                let s = chart
+                    .draw_series(LineSeries::new(segment(c), color.stroke_width(5)))
+                    .map_err(|e| err(&e))?;
+                if i == 0 {
+                    s.label(label).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(5))
+                    });
+                }
             }
         }
-    }
-    if let Some(sel) = view.selection {
-        chart
-            .draw_series(LineSeries::new(segment(&sel), MAGENTA.stroke_width(7)))
-            .map_err(|e| err(&e))?
-            .label(format!("selected {sel}"))
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], MAGENTA.stroke_width(7)));
-    }
-    if let Some(first) = view.path.first() {
-        chart
-            .draw_series(std::iter::once(Circle::new(xy(first), 5, BLACK.filled())))
-            .map_err(|e| err(&e))?;
-    }
-    if let Some(g) = view.goal {
-        let (gx, gy) = (g.x_m, g.y_m);
-        let arrow = 0.3;
-        chart
-            .draw_series(std::iter::once(Cross::new(
-                (gx, gy),
-                8,
-                BLACK.stroke_width(2),
-            )))
-            .map_err(|e| err(&e))?
-            .label("goal")
-            .legend(|(x, y)| Cross::new((x + 8, y), 5, BLACK));
-        chart
-            .draw_series(LineSeries::new(
-                [
+        if let Some(sel) = view.selection {
+            chart
+                .draw_series(LineSeries::new(segment(&sel), MAGENTA.stroke_width(7)))
+                .map_err(|e| err(&e))?
+                .label(format!("selected {sel}"))
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], MAGENTA.stroke_width(7))
+                });
+        }
+        if let Some(first) = view.path.first() {
+            chart
+                .draw_series(std::iter::once(Circle::new(xy(first), 5, BLACK.filled())))
+                .map_err(|e| err(&e))?;
+        }
+        if let Some(g) = view.goal {
+            let (gx, gy) = (g.x_m, g.y_m);
+            let arrow = 0.3;
+            chart
+                .draw_series(std::iter::once(Cross::new(
                     (gx, gy),
-                    (
-                        gx + arrow * g.theta_rad.cos(),
-                        gy + arrow * g.theta_rad.sin(),
-                    ),
-                ],
-                BLACK.stroke_width(2),
-            ))
+                    8,
+                    BLACK.stroke_width(2),
+                )))
+                .map_err(|e| err(&e))?
+                .label("goal")
+                .legend(|(x, y)| Cross::new((x + 8, y), 5, BLACK));
+            chart
+                .draw_series(LineSeries::new(
+                    [
+                        (gx, gy),
+                        (
+                            gx + arrow * g.theta_rad.cos(),
+                            gy + arrow * g.theta_rad.sin(),
+                        ),
+                    ],
+                    BLACK.stroke_width(2),
+                ))
+                .map_err(|e| err(&e))?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
             .map_err(|e| err(&e))?;
+        root.present().map_err(|e| err(&e))?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| err(&e))?;
-    root.present().map_err(|e| err(&e))?;
+    crate::files::write_bytes(path, svg.as_bytes())?;
     Ok(())
 }
 
@@ -276,5 +284,19 @@ mod tests {
         let text = std::fs::read_to_string(&p).unwrap();
         assert!(text.starts_with("<svg") && text.contains("selected 2..9"));
         assert!(svg(&view, &dir.path().join("no/such/dir/p.svg")).is_err());
+        // A failed plot leaves nothing behind: no empty file, no temporary.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        let fifo = dir.path().join("fifo.svg");
+        assert!(
+            std::process::Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap()
+                .success()
+        );
+        assert!(matches!(
+            svg(&view, &fifo),
+            Err(PlotError::File(crate::files::FileError::NotRegular { .. }))
+        ));
     }
 }

@@ -1,0 +1,480 @@
+//! Every file `advise` reads or writes goes through here: [`read_text`] and [`write_atomic`].
+//!
+//! Reading refuses anything that is not a regular file before opening it (`open` on a FIFO blocks
+//! until a writer comes; `/dev/zero` never ends), reads at most a limit ([`MAX_READ_BYTES`]
+//! unless the caller asks for less), accepts a UTF-8 byte-order mark, and names the line and byte
+//! of invalid UTF-8. Writing goes to a temporary file in the destination's folder (created anew,
+//! so it gets the umask's usual permissions, or the replaced file's), is flushed to disk, then
+//! renamed over the destination: a failed write leaves the old file untouched and no temporary
+//! behind. A symbolic link as destination is followed, so its target is replaced and the link
+//! kept; an existing destination that is not a regular file (a folder, a FIFO, a device) is
+//! refused. This module knows no file format; it must not parse what it reads.
+
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use miette::{Diagnostic, NamedSource, SourceSpan};
+use thiserror::Error;
+
+/// The most any loader reads from one file: 256 MiB. A saved dataset of 100,000 points with
+/// its executions is some tens of MiB.
+pub const MAX_READ_BYTES: u64 = 256 * 1024 * 1024;
+
+/// How many symbolic links a destination may pass through before it is refused (Linux's own
+/// limit is 40).
+const MAX_LINKS: usize = 40;
+
+/// What can go wrong reading or writing a file.
+#[derive(Debug, Error, Diagnostic)]
+pub enum FileError {
+    #[error("cannot read `{path}`")]
+    #[diagnostic(code(advise::file::read))]
+    Read {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("`{path}` is {kind}, not a regular file")]
+    #[diagnostic(
+        code(advise::file::not_regular),
+        help("name a regular file; {kind} cannot be read or replaced as a whole")
+    )]
+    NotRegular { path: String, kind: &'static str },
+    #[error("`{path}` is larger than {limit}")]
+    #[diagnostic(
+        code(advise::file::too_large),
+        help("`advise` reads at most {limit} from one file; split the data into several files")
+    )]
+    TooLarge { path: String, limit: String },
+    #[error("`{path}` is not UTF-8 text: line {line}, column {column} (byte offset {byte})")]
+    #[diagnostic(
+        code(advise::file::not_utf8),
+        help("save the file as UTF-8 text; the mark shows the first byte that is not")
+    )]
+    NotUtf8 {
+        path: String,
+        line: usize,
+        column: usize,
+        byte: usize,
+        #[source_code]
+        src: NamedSource<String>,
+        #[label("not UTF-8")]
+        span: SourceSpan,
+    },
+    #[error("cannot write `{path}`")]
+    #[diagnostic(
+        code(advise::file::write),
+        help(
+            "check that the folder exists, is writable and the disk has room; nothing was changed"
+        )
+    )]
+    Write {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("`{path}` passes through more than {MAX_LINKS} symbolic links")]
+    #[diagnostic(
+        code(advise::file::link_loop),
+        help("the links form a loop; name the file itself")
+    )]
+    LinkLoop { path: String },
+}
+
+/// Read a whole text file of at most [`MAX_READ_BYTES`]; see [`read_text_limited`].
+pub fn read_text(path: &Path) -> Result<String, FileError> {
+    read_text_limited(path, MAX_READ_BYTES)
+}
+
+/// Read a whole text file of at most `limit` bytes. Refuses anything that is not a regular file
+/// (without opening it), a longer file, and text that is not UTF-8 (naming its line and byte); a
+/// UTF-8 byte-order mark is dropped.
+pub fn read_text_limited(path: &Path, limit: u64) -> Result<String, FileError> {
+    let bytes = read_bytes_limited(path, limit)?;
+    let (bom, text) = match bytes.strip_prefix(b"\xEF\xBB\xBF") {
+        Some(rest) => (3, rest),
+        None => (0, &bytes[..]),
+    };
+    match std::str::from_utf8(text) {
+        Ok(text) => Ok(text.to_string()),
+        Err(e) => Err(not_utf8(path, text, e.valid_up_to(), bom)),
+    }
+}
+
+/// Read a whole file of at most `limit` bytes, refusing anything that is not a regular file.
+pub fn read_bytes_limited(path: &Path, limit: u64) -> Result<Vec<u8>, FileError> {
+    let name = || path.display().to_string();
+    let read_err = |source| FileError::Read {
+        path: name(),
+        source,
+    };
+    // `metadata` follows links and never opens the file: a FIFO is refused before `open` could
+    // block on it.
+    let meta = std::fs::metadata(path).map_err(read_err)?;
+    if let Some(kind) = special_kind(&meta) {
+        return Err(FileError::NotRegular { path: name(), kind });
+    }
+    let too_large = || FileError::TooLarge {
+        path: name(),
+        limit: fmt_bytes(limit),
+    };
+    if meta.len() > limit {
+        return Err(too_large());
+    }
+    let file = File::open(path).map_err(read_err)?;
+    // The file may have been swapped between the check and the open.
+    let meta = file.metadata().map_err(read_err)?;
+    if let Some(kind) = special_kind(&meta) {
+        return Err(FileError::NotRegular { path: name(), kind });
+    }
+    // Files under /proc say they are empty and may be endless: the `take` bounds every file.
+    let mut out = Vec::with_capacity(meta.len().min(limit) as usize);
+    file.take(limit.saturating_add(1))
+        .read_to_end(&mut out)
+        .map_err(read_err)?;
+    if out.len() as u64 > limit {
+        return Err(too_large());
+    }
+    Ok(out)
+}
+
+/// `bytes` follow a byte-order mark of `bom` bytes, which the message counts and the shown text
+/// leaves out.
+fn not_utf8(path: &Path, bytes: &[u8], valid: usize, bom: usize) -> FileError {
+    let before = &bytes[..valid];
+    let line = before.iter().filter(|b| **b == b'\n').count() + 1;
+    let line_start = before
+        .iter()
+        .rposition(|b| *b == b'\n')
+        .map_or(0, |p| p + 1);
+    // The valid prefix reads back unchanged, so the offset holds in the lossy text; the bad
+    // byte becomes one U+FFFD (3 bytes).
+    let shown = String::from_utf8_lossy(bytes).into_owned();
+    let column = String::from_utf8_lossy(&before[line_start..])
+        .chars()
+        .count()
+        + 1;
+    FileError::NotUtf8 {
+        path: path.display().to_string(),
+        line,
+        column,
+        byte: valid + bom,
+        src: NamedSource::new(path.display().to_string(), shown),
+        span: SourceSpan::new(valid.into(), '\u{FFFD}'.len_utf8()),
+    }
+}
+
+/// What a file is, in words, when it is not a regular file.
+fn special_kind(meta: &std::fs::Metadata) -> Option<&'static str> {
+    use std::os::unix::fs::FileTypeExt;
+    let t = meta.file_type();
+    if t.is_file() {
+        None
+    } else if t.is_dir() {
+        Some("a folder")
+    } else if t.is_fifo() {
+        Some("a FIFO (named pipe)")
+    } else if t.is_char_device() || t.is_block_device() {
+        Some("a device")
+    } else if t.is_socket() {
+        Some("a socket")
+    } else {
+        Some("a special file")
+    }
+}
+
+/// `268435456` as `256 MiB`.
+fn fmt_bytes(n: u64) -> String {
+    const MIB: u64 = 1024 * 1024;
+    if n >= MIB && n.is_multiple_of(MIB) {
+        format!("{} MiB", n / MIB)
+    } else if n >= 1024 && n.is_multiple_of(1024) {
+        format!("{} KiB", n / 1024)
+    } else {
+        format!("{n} bytes")
+    }
+}
+
+/// Write `bytes` to `path` atomically; see [`write_atomic`].
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
+    write_atomic(path, |w| w.write_all(bytes))
+}
+
+/// Write a file atomically: `write` fills a new temporary file beside the destination, which is
+/// flushed to disk and renamed over it. The destination's link (if it is one) is followed and
+/// kept; an existing destination that is not a regular file is refused. On any error the
+/// temporary file is removed and the destination is as it was.
+pub fn write_atomic(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), FileError> {
+    let name = || path.display().to_string();
+    let write_err = |source| FileError::Write {
+        path: name(),
+        source,
+    };
+    let target = resolve_links(path)?;
+    let existing = match std::fs::metadata(&target) {
+        Ok(meta) => {
+            if let Some(kind) = special_kind(&meta) {
+                return Err(FileError::NotRegular { path: name(), kind });
+            }
+            Some(meta.permissions())
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(write_err(e)),
+    };
+    let (tmp_path, file) = create_temp(&target).map_err(write_err)?;
+    let result = (|| {
+        let mut out = std::io::BufWriter::new(file);
+        write(&mut out)?;
+        let file = out.into_inner().map_err(|e| e.into_error())?;
+        if let Some(perm) = existing {
+            // Replacing a file keeps its permissions (the umask applied when it was made).
+            file.set_permissions(perm)?;
+        }
+        file.sync_all()?;
+        drop(file);
+        std::fs::rename(&tmp_path, &target)?;
+        // The rename itself is durable once the folder is flushed; not every filesystem allows
+        // syncing a folder, and the file is in place either way.
+        if let Ok(dir) = File::open(parent_dir(&target)) {
+            let _ = dir.sync_all();
+        }
+        Ok(())
+    })();
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp_path);
+        write_err(e)
+    })
+}
+
+/// The file a path finally names, following symbolic links (relative links are relative to the
+/// link's folder). A dangling link gives the path it points to, so writing creates the target.
+fn resolve_links(path: &Path) -> Result<PathBuf, FileError> {
+    let mut current = path.to_path_buf();
+    for _ in 0..=MAX_LINKS {
+        match std::fs::symlink_metadata(&current) {
+            Ok(meta) if meta.file_type().is_symlink() => {
+                let to = std::fs::read_link(&current).map_err(|source| FileError::Write {
+                    path: path.display().to_string(),
+                    source,
+                })?;
+                current = if to.is_absolute() {
+                    to
+                } else {
+                    parent_dir(&current).join(to)
+                };
+            }
+            _ => return Ok(current),
+        }
+    }
+    Err(FileError::LinkLoop {
+        path: path.display().to_string(),
+    })
+}
+
+fn parent_dir(path: &Path) -> &Path {
+    path.parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."))
+}
+
+/// A new file `.NAME.PID-N.tmp` beside `target`, created exclusively with mode 0666 (less the
+/// umask), unlike `tempfile`'s 0600.
+fn create_temp(target: &Path) -> std::io::Result<(PathBuf, File)> {
+    use std::os::unix::fs::OpenOptionsExt;
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let base = target
+        .file_name()
+        .map_or_else(|| "advise".into(), |n| n.to_string_lossy().into_owned());
+    let dir = parent_dir(target);
+    let mut last = None;
+    for _ in 0..16 {
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let tmp = dir.join(format!(".{base}.{}-{n}.tmp", std::process::id()));
+        match OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .mode(0o666)
+            .open(&tmp)
+        {
+            Ok(f) => return Ok((tmp, f)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => last = Some(e),
+            Err(e) => return Err(e),
+        }
+    }
+    Err(last.unwrap_or_else(|| std::io::Error::other("no free temporary name")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::PermissionsExt;
+
+    fn mode(p: &Path) -> u32 {
+        std::fs::metadata(p).unwrap().permissions().mode() & 0o777
+    }
+
+    fn leftovers(dir: &Path) -> Vec<String> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.ends_with(".tmp"))
+            .collect()
+    }
+
+    #[test]
+    fn a_new_file_gets_the_umask_permissions_not_0600() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.txt");
+        write_bytes(&p, b"hello").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"hello");
+        // 0666 less whatever the umask takes: the group and others keep read access under the
+        // usual umasks (022, 002), and never get execute.
+        let m = mode(&p);
+        assert_eq!(m & 0o600, 0o600);
+        assert_eq!(m & 0o111, 0);
+        assert_ne!(m, 0o600, "a temporary file's 0600 leaked through");
+    }
+
+    #[test]
+    fn replacing_a_file_keeps_its_permissions() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.txt");
+        std::fs::write(&p, "old").unwrap();
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o640)).unwrap();
+        write_bytes(&p, b"new").unwrap();
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "new");
+        assert_eq!(mode(&p), 0o640);
+    }
+
+    #[test]
+    fn a_failed_write_leaves_the_old_file_and_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.txt");
+        std::fs::write(&p, "good").unwrap();
+        let err = write_atomic(&p, |w| {
+            w.write_all(b"half")?;
+            Err(std::io::Error::other("disk full"))
+        })
+        .unwrap_err();
+        assert!(matches!(err, FileError::Write { .. }));
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "good");
+        assert!(leftovers(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn a_link_is_kept_and_its_target_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("real")).unwrap();
+        let target = dir.path().join("real/data.json");
+        std::fs::write(&target, "old").unwrap();
+        let link = dir.path().join("link.json");
+        std::os::unix::fs::symlink("real/data.json", &link).unwrap();
+        write_bytes(&link, b"new").unwrap();
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .unwrap()
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(std::fs::read_to_string(&target).unwrap(), "new");
+        // A dangling link creates its target.
+        let dangling = dir.path().join("d.json");
+        std::os::unix::fs::symlink("real/new.json", &dangling).unwrap();
+        write_bytes(&dangling, b"x").unwrap();
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("real/new.json")).unwrap(),
+            "x"
+        );
+        // A loop is refused.
+        let a = dir.path().join("loop-a");
+        std::os::unix::fs::symlink("loop-b", &a).unwrap();
+        std::os::unix::fs::symlink("loop-a", dir.path().join("loop-b")).unwrap();
+        assert!(matches!(
+            write_bytes(&a, b"x"),
+            Err(FileError::LinkLoop { .. })
+        ));
+    }
+
+    fn mkfifo(p: &Path) {
+        let ok = std::process::Command::new("mkfifo")
+            .arg(p)
+            .status()
+            .unwrap()
+            .success();
+        assert!(ok, "mkfifo failed");
+    }
+
+    #[test]
+    fn special_files_are_refused_both_ways() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe");
+        mkfifo(&fifo);
+        // Returns at once: the FIFO is never opened.
+        assert!(matches!(
+            read_text(&fifo),
+            Err(FileError::NotRegular { kind, .. }) if kind.contains("FIFO")
+        ));
+        assert!(matches!(
+            write_bytes(&fifo, b"x"),
+            Err(FileError::NotRegular { .. })
+        ));
+        assert!(matches!(
+            read_text(Path::new("/dev/zero")),
+            Err(FileError::NotRegular {
+                kind: "a device",
+                ..
+            })
+        ));
+        assert!(matches!(
+            write_bytes(Path::new("/dev/null"), b"x"),
+            Err(FileError::NotRegular {
+                kind: "a device",
+                ..
+            })
+        ));
+        assert!(matches!(
+            write_bytes(dir.path(), b"x"),
+            Err(FileError::NotRegular {
+                kind: "a folder",
+                ..
+            })
+        ));
+        assert!(leftovers(dir.path()).is_empty());
+    }
+
+    #[test]
+    fn reads_are_capped() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("big");
+        std::fs::write(&p, vec![b'a'; 2048]).unwrap();
+        assert_eq!(read_text_limited(&p, 2048).unwrap().len(), 2048);
+        let err = read_text_limited(&p, 1024).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            format!("`{}` is larger than 1 KiB", p.display())
+        );
+        // A /proc file says it is empty; the cap holds while reading.
+        let status = read_text_limited(Path::new("/proc/self/status"), 16);
+        assert!(matches!(status, Err(FileError::TooLarge { .. })));
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_dropped_and_bad_utf8_is_located() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("bom");
+        std::fs::write(&p, b"\xEF\xBB\xBFhello\n").unwrap();
+        assert_eq!(read_text(&p).unwrap(), "hello\n");
+        std::fs::write(&p, b"ok\nab\xFFcd\n").unwrap();
+        match read_text(&p) {
+            Err(FileError::NotUtf8 {
+                line, column, byte, ..
+            }) => assert_eq!((line, column, byte), (2, 3, 5)),
+            other => panic!("{other:?}"),
+        }
+    }
+}

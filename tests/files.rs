@@ -1,0 +1,414 @@
+//! Reading and writing files, as a teacher meets it in a session: special files refused at once,
+//! reads capped, a byte-order mark accepted and bad UTF-8 located; saves atomic, through links,
+//! with the umask's permissions and a named format; a saved dataset validated whole when opened
+//! and usable as demonstrations; demonstration files whose episodes are split, repeated or empty
+//! refused; and no diagnostic printing a whole file. Transcripts are snapshotted (insta).
+
+use std::os::unix::fs::PermissionsExt;
+use std::path::Path;
+use std::process::Command;
+
+use advise::session::{Session, SessionOptions, script};
+use advise::task::TaskKind;
+use serde_json::Value;
+
+/// Run `lines` and return the transcript, with `dir` written as `<dir>` and timings as `<t>`.
+fn transcript(session: &mut Session, dir: &Path, lines: &str) -> String {
+    let mut out = String::new();
+    for st in script::statements(lines) {
+        out.push_str(&format!("advise> {}\n", st.text));
+        match session.execute(&st.text, &format!("<line {}>", st.line)) {
+            Ok(r) => {
+                if !r.text.is_empty() {
+                    out.push_str(r.text.trim_end());
+                    out.push('\n');
+                }
+            }
+            Err(e) => out.push_str(&advise::repl::render(&e, false)),
+        }
+    }
+    let out = out.replace(&dir.display().to_string(), "<dir>");
+    out.lines()
+        .map(|l| match (l.rfind(" ("), l.rfind(" ms)")) {
+            (Some(a), Some(b)) if b > a => format!("{} (<t>){}", &l[..a], &l[b + 4..]),
+            _ => l.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+        + "\n"
+}
+
+fn session(task: TaskKind, demos: usize) -> Session {
+    Session::new(SessionOptions {
+        task,
+        default_demos: demos,
+        ..SessionOptions::default()
+    })
+    .unwrap()
+}
+
+fn mkfifo(p: &Path) {
+    let ok = Command::new("mkfifo").arg(p).status().unwrap().success();
+    assert!(ok, "mkfifo {} failed", p.display());
+}
+
+#[test]
+fn special_files_are_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    mkfifo(&d.join("pipe.csv"));
+    mkfifo(&d.join("pipe.json"));
+    mkfifo(&d.join("pipe.svg"));
+    let mut s = session(TaskKind::Positioning, 1);
+    // Before, each of these blocked on the FIFO or read /dev/zero until memory ran out.
+    let t = transcript(
+        &mut s,
+        d,
+        &format!(
+            "load demos {0}/pipe.csv\nload trace {0}/pipe.csv\nopen {0}/pipe.json\noperators {0}/pipe.csv\n\
+             load demos /dev/zero\nrun goal 2 -1 0\nsave {0}/pipe.json\nexport advice {0}/pipe.csv\n\
+             plot {0}/pipe.svg\nplot {0}\n",
+            d.display()
+        ),
+    );
+    insta::assert_snapshot!(t);
+}
+
+#[test]
+fn text_files_may_start_with_a_byte_order_mark_and_bad_utf8_is_located() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ops = "operator crawl for positioning on action { trans = trans * 0.5 }\n";
+    std::fs::write(
+        d.join("bom.adv"),
+        [b"\xEF\xBB\xBF".as_slice(), ops.as_bytes()].concat(),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("latin1.adv"),
+        b"// caf\xE9 au lait\noperator crawl for positioning on action { trans = 0 }\n",
+    )
+    .unwrap();
+    let csv = "t,dist2,bearing,dheading,trans,rot\n0,4,0.1,0.2,0.5,0\n0.1,3.9,0.1,0.2,0.5,0\n";
+    std::fs::write(
+        d.join("bom.csv"),
+        [b"\xEF\xBB\xBF".as_slice(), csv.as_bytes()].concat(),
+    )
+    .unwrap();
+    let mut s = session(TaskKind::Positioning, 0);
+    let t = transcript(
+        &mut s,
+        d,
+        &format!(
+            "operators {0}/bom.adv\noperators {0}/latin1.adv\nload demos {0}/bom.csv\n",
+            d.display()
+        ),
+    );
+    insta::assert_snapshot!(t);
+}
+
+#[test]
+fn saves_name_their_format_keep_links_and_use_the_umask() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("real")).unwrap();
+    std::fs::write(d.join("real/data.json"), "old").unwrap();
+    std::os::unix::fs::symlink("real/data.json", d.join("link.json")).unwrap();
+    let mut s = session(TaskKind::Positioning, 1);
+    let t = transcript(
+        &mut s,
+        d,
+        &format!(
+            "save {0}/x.txt\nsave {0}/x\nsave {0}/x.csv\nsave {0}/link.json\nopen {0}/link.json\n",
+            d.display()
+        ),
+    );
+    insta::assert_snapshot!(t);
+    assert!(!d.join("x.txt").exists() && !d.join("x").exists());
+    let link = std::fs::symlink_metadata(d.join("link.json")).unwrap();
+    assert!(link.file_type().is_symlink(), "the link was replaced");
+    let saved = std::fs::read_to_string(d.join("real/data.json")).unwrap();
+    assert!(saved.starts_with("{\"format\":\"advise-dataset-1\""));
+    // The old code wrote through `tempfile`, which makes files 0600.
+    let mode = std::fs::metadata(d.join("x.csv"))
+        .unwrap()
+        .permissions()
+        .mode()
+        & 0o777;
+    assert_ne!(mode, 0o600);
+    assert_eq!(mode & 0o600, 0o600);
+    let leftovers: Vec<_> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+/// A saved positioning dataset with one demonstration and one piece of advice, as JSON.
+fn saved_dataset(d: &Path) -> Value {
+    let mut s = session(TaskKind::Positioning, 1);
+    transcript(
+        &mut s,
+        d,
+        &format!(
+            "run goal 2 -1 0\nselect 5..25\nadvise speed_up\nsave {}/base.json\n",
+            d.display()
+        ),
+    );
+    serde_json::from_str(&std::fs::read_to_string(d.join("base.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn a_corrupted_long_one_line_dataset_renders_a_short_diagnostic() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut v = saved_dataset(d);
+    // Grow it past 200 KB with copies of its execution (one JSON line, as `save` writes).
+    let exec = v["executions"][0].clone();
+    let mut id = v["next_id"].as_u64().unwrap();
+    let mut text = String::new();
+    while text.len() < 200_000 {
+        id += 1;
+        let mut e = exec.clone();
+        e["id"] = id.into();
+        v["executions"].as_array_mut().unwrap().push(e);
+        v["next_id"] = id.into();
+        text = serde_json::to_string(&v).unwrap();
+    }
+    assert!(!text.contains('\n'));
+    // A stray character far past column 65,535 (miette alone panicked on such a span).
+    let at = text.len() - 5_000;
+    let at = (at..).find(|&i| text.as_bytes()[i] == b',').unwrap();
+    text.insert(at, '#');
+    std::fs::write(d.join("long.json"), &text).unwrap();
+
+    let mut s = session(TaskKind::Positioning, 1);
+    let before = s.status();
+    let t = transcript(&mut s, d, &format!("open {}/long.json\n", d.display()));
+    assert!(t.len() < 2_500, "{} bytes:\n{t}", t.len());
+    assert_eq!(s.status(), before);
+    insta::assert_snapshot!(t);
+
+    // The command line prints the same short diagnostic.
+    let out = Command::new(env!("CARGO_BIN_EXE_advise"))
+        .args([
+            "eval",
+            "--task",
+            "positioning",
+            "--policy",
+            "bc",
+            "--dataset",
+        ])
+        .arg(d.join("long.json"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("advise::dataset::json"), "{stderr}");
+    assert!(stderr.len() < 2_500, "{} bytes", stderr.len());
+}
+
+#[test]
+fn open_validates_the_whole_file_and_a_failed_open_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let base = saved_dataset(d);
+    let write = |name: &str, edit: &dyn Fn(&mut Value)| {
+        let mut v = base.clone();
+        edit(&mut v);
+        std::fs::write(d.join(name), serde_json::to_string(&v).unwrap()).unwrap();
+        name.to_string()
+    };
+    let advice_id = base["advice"][0]["id"].clone();
+    let cases = [
+        write("duplicate_id.json", &|v| {
+            v["demos"][0]["id"] = advice_id.clone()
+        }),
+        write("dangling.json", &|v| {
+            v["points"][0]["provenance"]["demonstration"]["demo"] = 99.into()
+        }),
+        write("next_id.json", &|v| v["next_id"] = 1.into()),
+        write("dimension.json", &|v| {
+            v["points"][3]["z"].as_array_mut().unwrap().pop();
+        }),
+        write("null.json", &|v| v["points"][2]["a"][0] = Value::Null),
+        write("limits.json", &|v| v["points"][4]["a"][0] = 5.0.into()),
+        write("count.json", &|v| v["demos"][0]["points"] = 1.into()),
+        write("chunk.json", &|v| {
+            v["advice"][0]["applied"]["chunk"]["end"] = 100_000.into()
+        }),
+        write("domain.json", &|v| {
+            v["domain"]["act"][0]["limits"]["hi"] = 9.0.into()
+        }),
+    ];
+    let mut inter = session(TaskKind::Interception, 1);
+    transcript(
+        &mut inter,
+        d,
+        &format!("save {}/interception.json\n", d.display()),
+    );
+
+    let mut s = session(TaskKind::Positioning, 2);
+    transcript(&mut s, d, "run goal 1 1 0\n");
+    let before = (s.status(), s.learner().len());
+    let mut lines = format!("open {}/interception.json\n", d.display());
+    for c in &cases {
+        lines.push_str(&format!("open {}/{c}\n", d.display()));
+    }
+    lines.push_str("show\n");
+    let t = transcript(&mut s, d, &lines);
+    insta::assert_snapshot!(t);
+    assert_eq!((s.status(), s.learner().len()), before);
+    // Every case was refused, the untouched file opens.
+    assert_eq!(t.matches("advise::").count(), cases.len() + 1, "{t}");
+    let t = transcript(&mut s, d, &format!("open {}/base.json\n", d.display()));
+    assert!(t.contains("opened <dir>/base.json"), "{t}");
+}
+
+#[test]
+fn a_saved_dataset_is_demonstrations_for_load_demos_and_eval() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    saved_dataset(d);
+    let mut s = session(TaskKind::Positioning, 0);
+    let t = transcript(
+        &mut s,
+        d,
+        &format!("load demos {0}/base.json\nhistory\n", d.display()),
+    );
+    insta::assert_snapshot!(t);
+    // Another task refuses it.
+    let mut i = session(TaskKind::Interception, 0);
+    let t = transcript(
+        &mut i,
+        d,
+        &format!("load demos {}/base.json\n", d.display()),
+    );
+    assert!(t.contains("advise::trace::domain_mismatch"), "{t}");
+
+    // `eval` used to refuse it: "unknown field `format`".
+    let out = Command::new(env!("CARGO_BIN_EXE_advise"))
+        .args([
+            "eval",
+            "--task",
+            "positioning",
+            "--policy",
+            "bc",
+            "--json",
+            "--dataset",
+        ])
+        .arg(d.join("base.json"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["episodes"], 25);
+}
+
+#[test]
+fn demonstration_files_with_split_repeated_or_empty_episodes_or_impossible_actions_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let h = "episode,t,dist2,bearing,dheading,trans,rot\n";
+    let files = [
+        (
+            "split.csv",
+            format!("{h}a,0,4,0,0,0.5,0\nb,0,3,0,0,0.5,0\na,0.1,3.9,0,0,0.5,0\n"),
+        ),
+        (
+            "repeated.csv",
+            format!("{h}a,0,4,0,0,0.5,0\na,0.1,3.9,0,0,0.5,0\na,0.1,3.8,0,0,0.5,0\n"),
+        ),
+        ("header_only.csv", h.to_string()),
+        (
+            "beyond_limits.csv",
+            format!("{h}a,0,4,0,0,0.5,0\na,0.1,3.9,0,0,1.5,0\n"),
+        ),
+        (
+            "empty.json",
+            r#"{"domain": "positioning", "episodes": [
+  {"name": "a", "points": [{"t": 0, "z": [4, 0, 0], "a": [0.5, 0]}]},
+  {"name": "b", "points": []}
+]}"#
+            .to_string(),
+        ),
+        (
+            "twice.json",
+            r#"{"domain": "positioning", "episodes": [
+  {"name": "a", "points": [{"t": 0, "z": [4, 0, 0], "a": [0.5, 0]}]},
+  {"name": "a", "points": [{"t": 0, "z": [3, 0, 0], "a": [0.5, 0]}]}
+]}"#
+            .to_string(),
+        ),
+        ("none.json", r#"{"domain": "positioning", "episodes": []}"#.to_string()),
+        (
+            "same_time.json",
+            r#"{"domain": "positioning", "episodes": [
+  {"name": "a", "points": [{"t": 0, "z": [4, 0, 0], "a": [0.5, 0]}, {"t": 0, "z": [3, 0, 0], "a": [0.5, 0]}]}
+]}"#
+            .to_string(),
+        ),
+    ];
+    let mut lines = String::new();
+    for (name, text) in &files {
+        std::fs::write(d.join(name), text).unwrap();
+        lines.push_str(&format!("load demos {}/{name}\n", d.display()));
+    }
+    let mut s = session(TaskKind::Positioning, 0);
+    let t = transcript(&mut s, d, &lines);
+    insta::assert_snapshot!(t);
+    assert!(s.learner().is_empty());
+}
+
+#[test]
+fn the_command_line_refuses_special_files_and_reads_a_script_with_a_byte_order_mark() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fifo = d.join("pipe.adv");
+    mkfifo(&fifo);
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_advise"))
+            .args(args)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    // Each of these used to wait forever for a writer on the FIFO.
+    for args in [
+        &["run", "pipe.adv"][..],
+        &["check", "pipe.adv"],
+        &[
+            "eval",
+            "--task",
+            "positioning",
+            "--policy",
+            "teacher",
+            "--sim-params",
+            "pipe.adv",
+        ],
+        &[
+            "demo",
+            "--task",
+            "positioning",
+            "--count",
+            "1",
+            "--out",
+            "pipe.adv",
+        ],
+    ] {
+        let (ok, stderr) = run(args);
+        assert!(
+            !ok && stderr.contains("advise::file::not_regular"),
+            "{args:?}: {stderr}"
+        );
+    }
+    std::fs::write(d.join("bom.adv"), b"\xEF\xBB\xBFtask interception\n").unwrap();
+    let (ok, stderr) = run(&["run", "bom.adv"]);
+    assert!(ok, "{stderr}");
+}
