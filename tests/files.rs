@@ -8,25 +8,15 @@ use std::os::unix::fs::PermissionsExt;
 use std::path::Path;
 use std::process::Command;
 
-use advise::session::{Session, SessionOptions, script};
+use advise::session::{Session, SessionOptions};
 use advise::task::TaskKind;
 use serde_json::Value;
 
+mod common;
+
 /// Run `lines` and return the transcript, with `dir` written as `<dir>` and timings as `<t>`.
 fn transcript(session: &mut Session, dir: &Path, lines: &str) -> String {
-    let mut out = String::new();
-    for st in script::statements(lines) {
-        out.push_str(&format!("advise> {}\n", st.text));
-        match session.execute(&st.text, &format!("<line {}>", st.line)) {
-            Ok(r) => {
-                if !r.text.is_empty() {
-                    out.push_str(r.text.trim_end());
-                    out.push('\n');
-                }
-            }
-            Err(e) => out.push_str(&advise::repl::render(&e, false)),
-        }
-    }
+    let out = common::raw_transcript(session, lines);
     let out = out.replace(&dir.display().to_string(), "<dir>");
     out.lines()
         .map(|l| match (l.rfind(" ("), l.rfind(" ms)")) {

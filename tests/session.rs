@@ -4,24 +4,13 @@
 use advise::session::{Session, SessionOptions, script};
 use advise::task::TaskKind;
 
-/// Run `lines` and return the transcript: each statement, then its reply or its diagnostic.
+mod common;
+use common::{positioning, raw_transcript};
+
+/// Run `lines` and return the transcript, timings written as `<t>`.
 fn transcript(session: &mut Session, lines: &str) -> String {
-    let mut out = String::new();
-    for st in script::statements(lines) {
-        out.push_str(&format!("advise> {}\n", st.text));
-        match session.execute(&st.text, &format!("<line {}>", st.line)) {
-            Ok(r) => {
-                if !r.text.is_empty() {
-                    out.push_str(r.text.trim_end());
-                    out.push('\n');
-                }
-            }
-            Err(e) => out.push_str(&advise::repl::render(&e, false)),
-        }
-    }
     // Timings vary from run to run; everything else is deterministic.
-    let re = regex_lite_ms();
-    re(&out)
+    regex_lite_ms()(&raw_transcript(session, lines))
 }
 
 fn regex_lite_ms() -> impl Fn(&str) -> String {
@@ -41,15 +30,6 @@ fn regex_lite_ms() -> impl Fn(&str) -> String {
             .join("\n")
             + "\n"
     }
-}
-
-fn positioning(demos: usize) -> Session {
-    Session::new(SessionOptions {
-        task: TaskKind::Positioning,
-        default_demos: demos,
-        ..SessionOptions::default()
-    })
-    .unwrap()
 }
 
 #[test]

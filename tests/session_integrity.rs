@@ -15,16 +15,9 @@ use advise::backend::rmp::{Emulator, EmulatorConfig};
 use advise::backend::sim::SimParams;
 use advise::policy::dataset::Provenance;
 use advise::session::{Session, SessionOptions, script};
-use advise::task::TaskKind;
 
-fn positioning(demos: usize) -> Session {
-    Session::new(SessionOptions {
-        task: TaskKind::Positioning,
-        default_demos: demos,
-        ..SessionOptions::default()
-    })
-    .unwrap()
-}
+mod common;
+use common::positioning;
 
 fn run(s: &mut Session, lines: &str) {
     for st in script::statements(lines) {
