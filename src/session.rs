@@ -424,14 +424,17 @@ impl Session {
     }
 
     fn define(&mut self, item: Item, text: &str, origin: &str) -> Result<Reply, SessionError> {
-        self.ops = self.ops.merge(&[Source::new(origin, text)])?;
-        Ok(Reply::text(match item {
-            Item::Operator(op) => format!(
-                "defined operator `{}` for {} (on {})",
-                op.name.name, op.domain.name, op.space
-            ),
-            Item::Domain(d) => format!("defined domain `{}`", d.name.name),
-        }))
+        let checked = self.ops.merge_with_warnings(&[Source::new(origin, text)])?;
+        self.ops = checked.set;
+        Ok(Reply::text(
+            match item {
+                Item::Operator(op) => format!(
+                    "defined operator `{}` for {} (on {})",
+                    op.name.name, op.domain.name, op.space
+                ),
+                Item::Domain(d) => format!("defined domain `{}`", d.name.name),
+            } + &warnings_text(&checked.warnings),
+        ))
     }
 
     fn command(&mut self, cmd: Command) -> Result<Reply, SessionError> {
@@ -591,7 +594,9 @@ impl Session {
             source,
         })?;
         let before = self.ops.operator_count();
-        self.ops = self.ops.merge(&[Source::new(path, text)])?;
+        let checked = self.ops.merge_with_warnings(&[Source::new(path, text)])?;
+        self.ops = checked.set;
+        let warnings = warnings_text(&checked.warnings);
         Ok(format!(
             "checked {path}: {} operators now ({} for {})",
             self.ops.operator_count(),
@@ -601,7 +606,7 @@ impl Session {
             " (the file replaced existing operators)".to_string()
         } else {
             String::new()
-        })
+        } + &warnings)
     }
 
     fn sim_params(&self) -> SimParams {
@@ -1177,4 +1182,12 @@ pub fn new_journal_path(dir: &Path) -> PathBuf {
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
     dir.join(format!("session-{secs}.adv"))
+}
+
+/// Check warnings as a reply shows them, after a blank line; empty when there are none.
+fn warnings_text(warnings: &[crate::check::CheckWarning]) -> String {
+    warnings
+        .iter()
+        .map(|w| format!("\n\n{}", crate::check::render(w).trim_end()))
+        .collect()
 }

@@ -1,6 +1,8 @@
 //! Check diagnostics: one variant per mistake, each with a stable code, the source, a label and,
 //! where there is an obvious fix, a hint.
 
+use std::sync::Arc;
+
 use miette::{Diagnostic, NamedSource, SourceSpan};
 use thiserror::Error;
 
@@ -16,7 +18,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("unknown domain")]
         span: SourceSpan,
     },
@@ -28,7 +30,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("unknown dimension")]
         span: SourceSpan,
     },
@@ -39,7 +41,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("unknown name")]
         span: SourceSpan,
     },
@@ -50,7 +52,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("unknown function")]
         span: SourceSpan,
     },
@@ -62,7 +64,7 @@ pub enum CheckError {
         found: usize,
         signature: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("{found} argument{}", if *found == 1 { "" } else { "s" })]
         span: SourceSpan,
     },
@@ -74,7 +76,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("unknown operator")]
         span: SourceSpan,
     },
@@ -90,7 +92,7 @@ pub enum CheckError {
         op_domain: String,
         domain: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("an operator for `{op_domain}`")]
         span: SourceSpan,
     },
@@ -102,7 +104,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("unknown parameter")]
         span: SourceSpan,
     },
@@ -114,7 +116,7 @@ pub enum CheckError {
         found: usize,
         signature: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("one too many")]
         span: SourceSpan,
     },
@@ -129,7 +131,7 @@ pub enum CheckError {
         operator: String,
         param: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("`{param}` is not given")]
         span: SourceSpan,
     },
@@ -138,7 +140,7 @@ pub enum CheckError {
     DuplicateArgument {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("given again here")]
         span: SourceSpan,
     },
@@ -155,7 +157,7 @@ pub enum CheckError {
         op_space: String,
         dim_space: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("an {dim_space} dimension")]
         span: SourceSpan,
     },
@@ -170,7 +172,7 @@ pub enum CheckError {
         op_space: String,
         callee_space: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("modifies {callee_space}s")]
         span: SourceSpan,
     },
@@ -186,7 +188,7 @@ pub enum CheckError {
         hi: f64,
         clamped: f64,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("outside [{lo}, {hi}]")]
         span: SourceSpan,
     },
@@ -202,7 +204,7 @@ pub enum CheckError {
         lo: f64,
         hi: f64,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("outside [{lo}, {hi}]")]
         span: SourceSpan,
     },
@@ -212,7 +214,7 @@ pub enum CheckError {
         name: String,
         first: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("declared again here")]
         span: SourceSpan,
     },
@@ -227,7 +229,7 @@ pub enum CheckError {
         name: String,
         difference: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("differs from the standard `{name}`")]
         span: SourceSpan,
     },
@@ -239,7 +241,7 @@ pub enum CheckError {
     DuplicateDimension {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("declared again here")]
         span: SourceSpan,
     },
@@ -250,7 +252,7 @@ pub enum CheckError {
         domain: String,
         first: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("defined again here")]
         span: SourceSpan,
     },
@@ -262,7 +264,7 @@ pub enum CheckError {
     DuplicateParameter {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("declared again here")]
         span: SourceSpan,
     },
@@ -276,7 +278,7 @@ pub enum CheckError {
     DuplicateAssignment {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("assigned again here")]
         span: SourceSpan,
     },
@@ -286,7 +288,7 @@ pub enum CheckError {
         name: String,
         meaning: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("reserved")]
         span: SourceSpan,
     },
@@ -301,7 +303,7 @@ pub enum CheckError {
         name: String,
         domain: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("also a dimension")]
         span: SourceSpan,
     },
@@ -314,7 +316,7 @@ pub enum CheckError {
         lo: f64,
         hi: f64,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("lower limit above upper limit")]
         span: SourceSpan,
     },
@@ -326,7 +328,7 @@ pub enum CheckError {
     NotConstant {
         what: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("`{name}` is not a constant")]
         span: SourceSpan,
         name: String,
@@ -336,7 +338,7 @@ pub enum CheckError {
     NotFinite {
         value: f64,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("not finite")]
         span: SourceSpan,
     },
@@ -348,7 +350,7 @@ pub enum CheckError {
         #[help]
         help: Option<String>,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("this is {found}")]
         span: SourceSpan,
     },
@@ -360,7 +362,7 @@ pub enum CheckError {
     OffsetNeedsDimension {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("not a dimension")]
         span: SourceSpan,
     },
@@ -373,7 +375,7 @@ pub enum CheckError {
         name: String,
         cycle: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("this call leads back to `{name}`")]
         span: SourceSpan,
     },
@@ -387,7 +389,7 @@ pub enum CheckError {
     PerPointArgument {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("differs from point to point")]
         span: SourceSpan,
     },
@@ -399,10 +401,49 @@ pub enum CheckError {
     EmptyOperator {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<Arc<str>>,
         #[label("no statements")]
         span: SourceSpan,
     },
+    #[error("`{name}` expands to {stages} per-point stages, more than {limit}")]
+    #[diagnostic(
+        code(advise::check::composition_too_large),
+        help(
+            "every application runs each stage a composition expands to over the whole chunk, so compositions may expand to at most {limit} stages; {chain}. Compose fewer times, or advise with the parts one after another"
+        )
+    )]
+    CompositionTooLarge {
+        name: String,
+        stages: String,
+        limit: usize,
+        chain: String,
+        #[source_code]
+        src: NamedSource<Arc<str>>,
+        #[label("expands to {stages} stages")]
+        span: SourceSpan,
+    },
+    #[error("`{name}` declares {count} parameters, more than {limit}")]
+    #[diagnostic(
+        code(advise::check::too_many_parameters),
+        help(
+            "an operator may declare at most {limit} parameters; split it into several operators"
+        )
+    )]
+    TooManyParameters {
+        name: String,
+        count: usize,
+        limit: usize,
+        #[source_code]
+        src: NamedSource<Arc<str>>,
+        #[label("parameter {} of {count}", limit + 1)]
+        span: SourceSpan,
+    },
+    #[error("stopped after {shown} errors; there are more")]
+    #[diagnostic(
+        code(advise::check::too_many_errors),
+        help("fix these and check again to see the rest")
+    )]
+    TooManyErrors { shown: usize },
 }
 
 /// A diagnostic from either front-end phase, so one list can hold all of a check's errors.
@@ -430,4 +471,26 @@ fn summary(errors: &[FileError]) -> String {
         1 => "1 error".into(),
         n => format!("{n} errors"),
     }
+}
+
+/// Something legal that may not be what the author meant; reported, never refused.
+#[derive(Debug, Error, Diagnostic, Clone)]
+pub enum CheckWarning {
+    #[error("`{name}` shadows the standard operator `{name}` for `{domain}`")]
+    #[diagnostic(
+        code(advise::check::shadows_standard),
+        severity(Warning),
+        help(
+            "the standard `{name}` is defined in {origin}; from here on `{name}` means this one (standard compositions keep using theirs). Rename it to keep both"
+        )
+    )]
+    ShadowsStandard {
+        name: String,
+        domain: String,
+        origin: String,
+        #[source_code]
+        src: NamedSource<Arc<str>>,
+        #[label("shadows the standard `{name}`")]
+        span: SourceSpan,
+    },
 }
