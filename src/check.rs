@@ -364,7 +364,7 @@ pub fn check_with_warnings(
         })
     } else {
         let mut errors: Vec<FileError> = errors.into_iter().map(|(_, _, e)| e).collect();
-        if c.dropped > 0 {
+        if errors.len() >= MAX_ERRORS {
             errors.push(
                 CheckError::TooManyErrors {
                     shown: errors.len(),

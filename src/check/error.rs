@@ -438,7 +438,7 @@ pub enum CheckError {
         #[label("parameter {} of {count}", limit + 1)]
         span: SourceSpan,
     },
-    #[error("stopped after {shown} errors; there are more")]
+    #[error("stopped after {shown} errors; there may be more")]
     #[diagnostic(
         code(advise::check::too_many_errors),
         help("fix these and check again to see the rest")
