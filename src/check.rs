@@ -56,6 +56,10 @@ pub const STANDARD_SOURCES: [(&str, &str); 2] = [
 /// reaches 4^k).
 pub const MAX_STAGES: usize = 1024;
 
+/// How many expression nodes an operator's body may hold: each becomes an instruction whose
+/// register holds a batch of points, so this bounds an application's memory (a few MB).
+pub const MAX_NODES: usize = 4096;
+
 /// How many parameters an operator may declare (every composition stage binds them all).
 pub const MAX_PARAMS: usize = 64;
 
@@ -421,9 +425,9 @@ pub(crate) fn hint(name: &str, what: &str, candidates: &[&str]) -> String {
     }
 }
 
-/// Names for a help text: all of a few, or the first dozen and how many more.
+/// Names for a help text: all of a few, or the first twenty and how many more.
 fn listing(names: &[&str]) -> String {
-    const SHOWN: usize = 12;
+    const SHOWN: usize = 20;
     let mut out = names
         .iter()
         .take(SHOWN)
@@ -704,8 +708,17 @@ impl Checker<'_> {
                 continue;
             };
             let domain = &set.domains[d];
+            let body = match body {
+                Body2::Block(b) => OpBody::Block(Program::compile(&b, domain)),
+                Body2::Pipeline(stages) => OpBody::Pipeline(stages),
+            };
+            let mut def = sig.decl.clone();
+            def.doc.clear();
+            let definition = def.to_string();
             if let Some(shadowed) = base.and_then(|b| b.operator(&domain.name, &sig.decl.name.name))
                 && shadowed.standard
+                // The standard file itself, checked again, shadows nothing new.
+                && shadowed.definition != definition
             {
                 let span = sig.decl.name.span;
                 self.warnings.push((
@@ -720,12 +733,6 @@ impl Checker<'_> {
                     },
                 ));
             }
-            let body = match body {
-                Body2::Block(b) => OpBody::Block(Program::compile(&b, domain)),
-                Body2::Pipeline(stages) => OpBody::Pipeline(stages),
-            };
-            let mut def = sig.decl.clone();
-            def.doc.clear();
             let source = &self.sources[sig.file];
             set.ops.push(Operator {
                 name: sig.decl.name.name.clone(),
@@ -733,7 +740,7 @@ impl Checker<'_> {
                 space: sig.decl.space,
                 doc: sig.decl.doc.join("\n"),
                 params: sig.params.clone(),
-                definition: def.to_string(),
+                definition,
                 origin: format!(
                     "{} at line {}",
                     source.name,
@@ -1172,6 +1179,21 @@ impl Checker<'_> {
                         AssignOp::Div => Ir::Bin(BinOp::Div, cur, v),
                     };
                     writes.push((idx, ir));
+                }
+                let nodes = guard.iter().map(Ir::size).sum::<usize>()
+                    + writes.iter().map(|(_, ir)| ir.size()).sum::<usize>();
+                if nodes > MAX_NODES {
+                    self.err(
+                        f,
+                        o.name.span,
+                        CheckError::OperatorTooLarge {
+                            name: o.name.name.clone(),
+                            nodes,
+                            limit: MAX_NODES,
+                            src: self.src(f),
+                            span: o.name.span.into(),
+                        },
+                    );
                 }
                 Body2::Block(BlockIr {
                     space: o.space,

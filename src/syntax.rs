@@ -254,7 +254,7 @@ fn convert(
             span: span.into(),
         },
         pest::error::ErrorVariant::ParsingError { positives, .. } => {
-            if let Some(blame) = unclosed_here(src, pos, &positives, brackets) {
+            if let Some(blame) = unclosed_here(src, pos, at_end, &positives, brackets) {
                 return unclosed(blame, name, src, span, at_end, &found);
             }
             let expected = expected_words(&positives);
@@ -279,15 +279,17 @@ fn convert(
 }
 
 /// The bracket to blame for a parse error at `pos`, and where its closing bracket belonged (when
-/// the layout says), or `None` when the error is the parser's own. A lost `}` is noticed only at
-/// the next item or at the end of the input, sometimes as something else entirely (`/// doc` after
-/// a number reads as a division); the mistake is where the bracket was opened. So the innermost
-/// bracket open at `pos` is blamed when the text never closes it and either the parser would have
-/// accepted its closing bracket at `pos`, or the parser ran past a line indented no deeper than
-/// the bracket's own line, where the closing bracket belonged (rustc's guess, too).
+/// the text says), or `None` when the error is the parser's own. A lost `}` is noticed only at
+/// the next item or at the end of the input, sometimes as something else entirely (`/// doc`
+/// after a number reads as a division); the mistake is where the bracket was opened. So the
+/// innermost bracket open at `pos` is blamed when the text never closes it and either the parser
+/// would have accepted its closing bracket at `pos`, or the input ended inside it, or the parser
+/// ran past the start of an item (a doc comment, `operator`, `domain`), which no bracket can hold:
+/// the closing bracket belonged before it.
 fn unclosed_here(
     src: &str,
     pos: usize,
+    at_end: bool,
     positives: &[Rule],
     brackets: &delims::Scan,
 ) -> Option<(delims::Open, Option<usize>)> {
@@ -301,22 +303,27 @@ fn unclosed_here(
         _ => Rule::rbrace,
     };
     let guess = close_guess(src, open.at, pos);
-    (positives.contains(&closer) || guess.is_some()).then_some((open, guess))
+    (at_end || positives.contains(&closer) || guess.is_some()).then_some((open, guess))
 }
 
-/// The first token, at or before `pos`, of a line after the bracket's line that is indented no
-/// deeper than the bracket's line.
+/// The start of the first line after the bracket's own that begins an item, at or before `pos`.
 fn close_guess(src: &str, open_at: usize, pos: usize) -> Option<usize> {
-    let indent = |line: &str| line.len() - line.trim_start().len();
-    let line_start = src[..open_at].rfind('\n').map_or(0, |i| i + 1);
-    let own = indent(&src[line_start..]);
+    let starts_item = |t: &str| {
+        t.starts_with("///")
+            || ["operator", "domain"].iter().any(|kw| {
+                t.strip_prefix(kw).is_some_and(|rest| {
+                    !rest.starts_with(|c: char| c.is_alphanumeric() || c == '_')
+                })
+            })
+    };
     let mut off = open_at + src[open_at..].find('\n')? + 1;
     for line in src[off..].split_inclusive('\n') {
         if off > pos {
             break;
         }
-        if !line.trim().is_empty() && indent(line) <= own {
-            return Some(off + indent(line));
+        let t = line.trim_start();
+        if starts_item(t) {
+            return Some(off + line.len() - t.len());
         }
         off += line.len();
     }

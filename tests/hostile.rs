@@ -164,6 +164,25 @@ fn expressions_at_the_limit_check_print_and_apply_and_one_more_level_is_refused(
 }
 
 #[test]
+fn wide_expressions_are_refused_before_they_cost_memory() {
+    // Within both depth limits, 2^16 terms (half a megabyte): compiled, every term would hold a
+    // register of a batch of points.
+    let mut e = String::from("trans");
+    for _ in 0..16 {
+        e = format!("({e} + {e})");
+    }
+    let err = OperatorSet::standard()
+        .merge(&[Source::new("wide.adv", op(&e))])
+        .unwrap_err();
+    let text = check::render_all(&err);
+    assert!(text.contains("advise::check::operator_too_large"), "{text}");
+    assert!(
+        text.contains("computes 131071 terms, more than 4096"),
+        "{text}"
+    );
+}
+
+#[test]
 fn the_binary_checks_expressions_at_the_limit() {
     // The unoptimised binary has the largest stack frames; it must still walk the deepest tree.
     let dir = tempfile::tempdir().unwrap();
@@ -289,11 +308,11 @@ fn many_mistakes_stop_at_the_error_limit() {
     assert_eq!(err.errors.len(), check::MAX_ERRORS + 1);
     let last = check::render(err.errors.last().unwrap());
     assert!(last.contains("advise::check::too_many_errors"), "{last}");
-    // 40,001 dimensions, `k`, `n` and `pi`: the first 12 are named.
+    // 40,001 dimensions, `k`, `n` and `pi`: the first 20 are named.
     let help = miette::Diagnostic::help(&err.errors[0])
         .unwrap()
         .to_string();
-    assert!(help.ends_with("`d10`, `d11` and 39992 more"), "{help}");
+    assert!(help.ends_with("`d18`, `d19` and 39984 more"), "{help}");
 }
 
 #[test]

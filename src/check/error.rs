@@ -422,6 +422,22 @@ pub enum CheckError {
         #[label("expands to {stages} stages")]
         span: SourceSpan,
     },
+    #[error("`{name}` computes {nodes} terms, more than {limit}")]
+    #[diagnostic(
+        code(advise::check::operator_too_large),
+        help(
+            "an operator's guard and statements may hold at most {limit} numbers, names and operators in all; split it into several operators and compose them"
+        )
+    )]
+    OperatorTooLarge {
+        name: String,
+        nodes: usize,
+        limit: usize,
+        #[source_code]
+        src: NamedSource<Arc<str>>,
+        #[label("{nodes} terms")]
+        span: SourceSpan,
+    },
     #[error("`{name}` declares {count} parameters, more than {limit}")]
     #[diagnostic(
         code(advise::check::too_many_parameters),

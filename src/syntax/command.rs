@@ -287,6 +287,17 @@ mod tests {
             "operator b for positioning on action = slow_down then"
         ));
         assert!(is_incomplete("/// Creep forward."));
+        // However the body is indented, and whatever comes after a number.
+        assert!(is_incomplete(
+            "operator creep for positioning on action {\ntrans = 0.1\n"
+        ));
+        assert!(is_incomplete(
+            "operator creep for positioning on action {\n  trans = 0.1 / 2 // half\n"
+        ));
+        // An item where the body should have ended is a mistake, not more to come.
+        assert!(!is_incomplete(
+            "operator a for positioning on action {\n  trans = 0\noperator b for positioning on action {"
+        ));
         assert!(!is_incomplete("select 1..x"));
         assert!(!is_incomplete("selec 1..2"));
         assert!(!is_incomplete(
