@@ -679,8 +679,8 @@ impl Checker<'_> {
                 base_ops,
             };
             let mut bodies: Vec<Option<Body2>> = Vec::with_capacity(sigs.len());
-            for i in 0..sigs.len() {
-                let body = match sigs[i].domain {
+            for (i, sig) in sigs.iter().enumerate() {
+                let body = match sig.domain {
                     Some(d) if !self.full() => self.body(&known, i, &doms[d]),
                     _ => None,
                 };
@@ -1152,22 +1152,21 @@ impl Checker<'_> {
                     } else if s.op == AssignOp::Set
                         && let Some(v) = constant
                         && let Some(l) = domain.dims(space)[idx].limits
+                        && !l.contains(v)
                     {
-                        if !l.contains(v) {
-                            self.err(
-                                f,
-                                s.value.span,
-                                CheckError::LiteralOutOfRange {
-                                    dim: s.target.name.clone(),
-                                    value: v,
-                                    lo: l.lo,
-                                    hi: l.hi,
-                                    clamped: l.clamp(v),
-                                    src: self.src(f),
-                                    span: s.value.span.into(),
-                                },
-                            );
-                        }
+                        self.err(
+                            f,
+                            s.value.span,
+                            CheckError::LiteralOutOfRange {
+                                dim: s.target.name.clone(),
+                                value: v,
+                                lo: l.lo,
+                                hi: l.hi,
+                                clamped: l.clamp(v),
+                                src: self.src(f),
+                                span: s.value.span.into(),
+                            },
+                        );
                     }
                     let cur = Box::new(Ir::Dim(space, idx));
                     let v = Box::new(value);

@@ -121,11 +121,7 @@ fn at_the_limit() -> Vec<String> {
     vec![
         vec!["trans"; MAX_DEPTH].join(" + "),
         format!("{}trans", "-".repeat(MAX_DEPTH - 1)),
-        format!(
-            "{}({})",
-            "-".repeat(MAX_DEPTH - 2),
-            vec!["trans"; 2].join(" * ")
-        ),
+        format!("{}({})", "-".repeat(MAX_DEPTH - 2), "trans * trans"),
         format!(
             "min({}, {})",
             vec!["trans"; MAX_DEPTH - 1].join(" - "),
