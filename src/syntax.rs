@@ -26,8 +26,8 @@ struct AdviceParser;
 
 pub use delims::MAX_NESTING;
 
-/// How deep an expression's tree may be: every operator, prefix and function call is one level,
-/// so a chain `a + b + c` of 129 terms is 128 levels. Far beyond any operator a person writes, and
+/// How deep an expression's tree may be: every operand, operator, prefix and function call is one
+/// level, so a chain `a + b + c ...` may have 128 terms. Far beyond any operator a person writes, and
 /// it keeps every recursive pass over the tree (check, print, compile, drop) well inside a
 /// thread's stack. Brackets are limited separately, before parsing ([`MAX_NESTING`]).
 pub const MAX_DEPTH: usize = 128;
@@ -849,7 +849,7 @@ impl<'a> Builder<'a> {
         ParseError::TooDeep {
             what: "the expression is nested".into(),
             help: format!(
-                "an expression may be at most {MAX_DEPTH} operators deep (a chain `a + b + c` counts one per operator); split it into several operators or statements"
+                "an expression may be at most {MAX_DEPTH} levels deep, and every term of a chain `a + b + c` is one more; split it into several operators or statements"
             ),
             src: self.src(),
             span: span.into(),
