@@ -13,13 +13,13 @@ pub mod ir;
 
 use std::collections::{HashMap, HashSet};
 use std::ops::Deref;
-use std::sync::{Arc, OnceLock};
+use std::sync::OnceLock;
 
 use miette::NamedSource;
 
 use crate::domain::{Dim, Domain, Limits, Space};
 use crate::interp::Program;
-use crate::syntax::{self, ast::*};
+use crate::syntax::{self, SourceText, ast::*};
 pub use error::{CheckError, CheckErrors, CheckWarning, FileError};
 use ir::{BlockIr, Func, Ir};
 
@@ -340,7 +340,10 @@ pub fn check_with_warnings(
 ) -> Result<Checked, CheckErrors> {
     let mut c = Checker {
         sources,
-        texts: sources.iter().map(|s| Arc::from(s.text.as_str())).collect(),
+        texts: sources
+            .iter()
+            .map(|s| SourceText::from(s.text.as_str()))
+            .collect(),
         newlines: sources
             .iter()
             .map(|s| s.text.match_indices('\n').map(|(i, _)| i).collect())
@@ -539,7 +542,7 @@ struct CalleeInfo<'x> {
 struct Checker<'s> {
     sources: &'s [Source],
     /// The texts, shared by every diagnostic instead of copied into each.
-    texts: Vec<Arc<str>>,
+    texts: Vec<SourceText>,
     /// Byte offsets of each text's newlines, to turn offsets into lines without rescanning.
     newlines: Vec<Vec<usize>>,
     errors: Vec<(usize, usize, FileError)>,
@@ -549,7 +552,7 @@ struct Checker<'s> {
 }
 
 impl Checker<'_> {
-    fn src(&self, file: usize) -> NamedSource<Arc<str>> {
+    fn src(&self, file: usize) -> NamedSource<SourceText> {
         NamedSource::new(&self.sources[file].name, self.texts[file].clone())
     }
 

@@ -10,6 +10,7 @@ pub mod ast;
 pub mod command;
 pub mod delims;
 pub mod print;
+pub mod source;
 
 use miette::{Diagnostic, NamedSource, SourceSpan};
 use pest::Parser;
@@ -18,6 +19,7 @@ use thiserror::Error;
 
 use crate::domain::Space;
 use ast::*;
+pub use source::SourceText;
 
 #[derive(pest_derive::Parser)]
 #[grammar = "../grammar/advice.pest"]
@@ -40,7 +42,7 @@ pub enum ParseError {
     Syntax {
         message: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("{label}")]
         span: SourceSpan,
         label: String,
@@ -55,7 +57,7 @@ pub enum ParseError {
     NumberTooLarge {
         text: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("overflows")]
         span: SourceSpan,
     },
@@ -65,7 +67,7 @@ pub enum ParseError {
         what: String,
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("too deep from here")]
         span: SourceSpan,
     },
@@ -74,7 +76,7 @@ pub enum ParseError {
     Unclosed {
         open: char,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("unclosed `{open}`")]
         span: SourceSpan,
         /// Where the parser expected the closing bracket.
@@ -95,7 +97,7 @@ fn nesting_too_deep(name: &str, src: &str, at: usize) -> ParseError {
         help: format!(
             "brackets may nest at most {MAX_NESTING} deep; name a part of the computation as its own operator"
         ),
-        src: NamedSource::new(name, src.to_string()),
+        src: NamedSource::new(name, SourceText::from(src)),
         span: Span::new(at, at + 1).into(),
     }
 }
@@ -245,7 +247,7 @@ fn convert(
         }
         found = "the end of the input".into();
     }
-    let src_named = || NamedSource::new(name, src.to_string());
+    let src_named = || NamedSource::new(name, SourceText::from(src));
     match e.variant {
         pest::error::ErrorVariant::CustomError { message } => ParseError::TooDeep {
             what: "the input is nested".into(),
@@ -374,7 +376,7 @@ fn unclosed(
     };
     ParseError::Unclosed {
         open: open.ch,
-        src: NamedSource::new(name, src.to_string()),
+        src: NamedSource::new(name, SourceText::from(src)),
         span: Span::new(open.at, open.at + 1).into(),
         expected: expected.into(),
         expected_label,
@@ -605,8 +607,8 @@ impl<'a> Builder<'a> {
         Span::new(s.start(), s.end())
     }
 
-    fn src(&self) -> NamedSource<String> {
-        NamedSource::new(self.name, self.src.to_string())
+    fn src(&self) -> NamedSource<SourceText> {
+        NamedSource::new(self.name, SourceText::from(self.src))
     }
 
     fn ident(&self, p: Pair<'_, Rule>) -> Ident {

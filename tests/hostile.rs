@@ -93,6 +93,30 @@ fn deep_and_long_expressions_are_refused_by_check_without_a_crash() {
 }
 
 #[test]
+fn diagnostics_on_a_one_megabyte_line_show_a_window_of_it() {
+    // 18,000 operators on one line, each with an unknown name: each diagnostic used to draw the
+    // whole line (a megabyte) and took more than a second.
+    let dir = tempfile::tempdir().unwrap();
+    let text: String = (0..18_000)
+        .map(|i| format!("operator o{i} for positioning on action {{ trans = x{i} }} "))
+        .collect();
+    assert!(text.len() > 1 << 20);
+    let path = dir.path().join("oneline.adv");
+    std::fs::write(&path, text).unwrap();
+    let (status, _, err) = advise(&["check", path.to_str().unwrap()]);
+    assert_eq!(status, Some(1));
+    assert_eq!(err.matches("advise::check::unknown_name").count(), 100);
+    assert!(
+        err.contains("advise::check::too_many_errors"),
+        "{}",
+        &err[err.len() - 500..]
+    );
+    // A window of about 2 KB of the line per diagnostic, with the right column.
+    assert!(err.len() < 100 * 8 * 1024, "{}", err.len());
+    assert!(err.contains("oneline.adv:1:49]"), "{}", &err[..3000]);
+}
+
+#[test]
 fn a_deep_chain_at_the_prompt_and_through_operators_file_is_a_diagnostic() {
     let dir = tempfile::tempdir().unwrap();
     let chain = op(&vec!["1"; 9500].join(" + "));

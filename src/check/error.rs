@@ -1,12 +1,10 @@
 //! Check diagnostics: one variant per mistake, each with a stable code, the source, a label and,
 //! where there is an obvious fix, a hint.
 
-use std::sync::Arc;
-
 use miette::{Diagnostic, NamedSource, SourceSpan};
 use thiserror::Error;
 
-use crate::syntax::ParseError;
+use crate::syntax::{ParseError, SourceText};
 
 /// Something wrong with a program that parsed.
 #[derive(Debug, Error, Diagnostic, Clone)]
@@ -18,7 +16,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("unknown domain")]
         span: SourceSpan,
     },
@@ -30,7 +28,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("unknown dimension")]
         span: SourceSpan,
     },
@@ -41,7 +39,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("unknown name")]
         span: SourceSpan,
     },
@@ -52,7 +50,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("unknown function")]
         span: SourceSpan,
     },
@@ -64,7 +62,7 @@ pub enum CheckError {
         found: usize,
         signature: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("{found} argument{}", if *found == 1 { "" } else { "s" })]
         span: SourceSpan,
     },
@@ -76,7 +74,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("unknown operator")]
         span: SourceSpan,
     },
@@ -92,7 +90,7 @@ pub enum CheckError {
         op_domain: String,
         domain: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("an operator for `{op_domain}`")]
         span: SourceSpan,
     },
@@ -104,7 +102,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("unknown parameter")]
         span: SourceSpan,
     },
@@ -116,7 +114,7 @@ pub enum CheckError {
         found: usize,
         signature: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("one too many")]
         span: SourceSpan,
     },
@@ -131,7 +129,7 @@ pub enum CheckError {
         operator: String,
         param: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("`{param}` is not given")]
         span: SourceSpan,
     },
@@ -140,7 +138,7 @@ pub enum CheckError {
     DuplicateArgument {
         name: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("given again here")]
         span: SourceSpan,
     },
@@ -157,7 +155,7 @@ pub enum CheckError {
         op_space: String,
         dim_space: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("an {dim_space} dimension")]
         span: SourceSpan,
     },
@@ -172,7 +170,7 @@ pub enum CheckError {
         op_space: String,
         callee_space: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("modifies {callee_space}s")]
         span: SourceSpan,
     },
@@ -188,7 +186,7 @@ pub enum CheckError {
         hi: f64,
         clamped: f64,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("outside [{lo}, {hi}]")]
         span: SourceSpan,
     },
@@ -204,7 +202,7 @@ pub enum CheckError {
         lo: f64,
         hi: f64,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("outside [{lo}, {hi}]")]
         span: SourceSpan,
     },
@@ -214,7 +212,7 @@ pub enum CheckError {
         name: String,
         first: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("declared again here")]
         span: SourceSpan,
     },
@@ -229,7 +227,7 @@ pub enum CheckError {
         name: String,
         difference: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("differs from the standard `{name}`")]
         span: SourceSpan,
     },
@@ -241,7 +239,7 @@ pub enum CheckError {
     DuplicateDimension {
         name: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("declared again here")]
         span: SourceSpan,
     },
@@ -252,7 +250,7 @@ pub enum CheckError {
         domain: String,
         first: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("defined again here")]
         span: SourceSpan,
     },
@@ -264,7 +262,7 @@ pub enum CheckError {
     DuplicateParameter {
         name: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("declared again here")]
         span: SourceSpan,
     },
@@ -278,7 +276,7 @@ pub enum CheckError {
     DuplicateAssignment {
         name: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("assigned again here")]
         span: SourceSpan,
     },
@@ -288,7 +286,7 @@ pub enum CheckError {
         name: String,
         meaning: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("reserved")]
         span: SourceSpan,
     },
@@ -303,7 +301,7 @@ pub enum CheckError {
         name: String,
         domain: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("also a dimension")]
         span: SourceSpan,
     },
@@ -316,7 +314,7 @@ pub enum CheckError {
         lo: f64,
         hi: f64,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("lower limit above upper limit")]
         span: SourceSpan,
     },
@@ -328,7 +326,7 @@ pub enum CheckError {
     NotConstant {
         what: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("`{name}` is not a constant")]
         span: SourceSpan,
         name: String,
@@ -338,7 +336,7 @@ pub enum CheckError {
     NotFinite {
         value: f64,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("not finite")]
         span: SourceSpan,
     },
@@ -350,7 +348,7 @@ pub enum CheckError {
         #[help]
         help: Option<String>,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("this is {found}")]
         span: SourceSpan,
     },
@@ -362,7 +360,7 @@ pub enum CheckError {
     OffsetNeedsDimension {
         name: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("not a dimension")]
         span: SourceSpan,
     },
@@ -375,7 +373,7 @@ pub enum CheckError {
         name: String,
         cycle: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("this call leads back to `{name}`")]
         span: SourceSpan,
     },
@@ -389,7 +387,7 @@ pub enum CheckError {
     PerPointArgument {
         name: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("differs from point to point")]
         span: SourceSpan,
     },
@@ -401,7 +399,7 @@ pub enum CheckError {
     EmptyOperator {
         name: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("no statements")]
         span: SourceSpan,
     },
@@ -418,7 +416,7 @@ pub enum CheckError {
         limit: usize,
         chain: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("expands to {stages} stages")]
         span: SourceSpan,
     },
@@ -434,7 +432,7 @@ pub enum CheckError {
         nodes: usize,
         limit: usize,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("{nodes} terms")]
         span: SourceSpan,
     },
@@ -450,7 +448,7 @@ pub enum CheckError {
         count: usize,
         limit: usize,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("parameter {} of {count}", limit + 1)]
         span: SourceSpan,
     },
@@ -505,7 +503,7 @@ pub enum CheckWarning {
         domain: String,
         origin: String,
         #[source_code]
-        src: NamedSource<Arc<str>>,
+        src: NamedSource<SourceText>,
         #[label("shadows the standard `{name}`")]
         span: SourceSpan,
     },

@@ -204,7 +204,7 @@ impl Builder<'_> {
             .parse::<usize>()
             .map_err(|_| ParseError::NumberTooLarge {
                 text: p.as_str().to_string(),
-                src: miette::NamedSource::new(self.name, self.src.to_string()),
+                src: miette::NamedSource::new(self.name, super::SourceText::from(self.src)),
                 span: (span.start, span.len()).into(),
             })
     }
