@@ -621,11 +621,24 @@ impl<'a> Builder<'a> {
     fn number_text(&self, text: &str, span: Span) -> Result<f64, ParseError> {
         match text.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
-            _ => Err(ParseError::NumberTooLarge {
-                text: text.to_string(),
-                src: self.src(),
-                span: span.into(),
-            }),
+            _ => {
+                // A number of a million digits is named by its first few.
+                const SHOWN: usize = 24;
+                let (text, span) = if text.len() > SHOWN {
+                    let cut = Span::new(span.start, span.start + SHOWN.min(span.len()));
+                    (
+                        format!("{}... ({} digits)", &text[..SHOWN], text.len()),
+                        cut,
+                    )
+                } else {
+                    (text.to_string(), span)
+                };
+                Err(ParseError::NumberTooLarge {
+                    text,
+                    src: self.src(),
+                    span: span.into(),
+                })
+            }
         }
     }
 

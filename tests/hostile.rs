@@ -117,6 +117,18 @@ fn diagnostics_on_a_one_megabyte_line_show_a_window_of_it() {
 }
 
 #[test]
+fn a_number_of_a_million_digits_is_named_by_its_first_few() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("number.adv");
+    std::fs::write(&path, op(&"9".repeat(1_000_000))).unwrap();
+    let (status, _, err) = advise(&["check", path.to_str().unwrap()]);
+    assert_eq!(status, Some(1));
+    assert!(err.contains("advise::parse::number_too_large"), "{err}");
+    assert!(err.contains("(1000000 digits)"), "{err}");
+    assert!(err.len() < 8 * 1024, "{}", err.len());
+}
+
+#[test]
 fn a_deep_chain_at_the_prompt_and_through_operators_file_is_a_diagnostic() {
     let dir = tempfile::tempdir().unwrap();
     let chain = op(&vec!["1"; 9500].join(" + "));
