@@ -621,24 +621,24 @@ impl<'a> Builder<'a> {
     fn number_text(&self, text: &str, span: Span) -> Result<f64, ParseError> {
         match text.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
-            _ => {
-                // A number of a million digits is named by its first few.
-                const SHOWN: usize = 24;
-                let (text, span) = if text.len() > SHOWN {
-                    let cut = Span::new(span.start, span.start + SHOWN.min(span.len()));
-                    (
-                        format!("{}... ({} digits)", &text[..SHOWN], text.len()),
-                        cut,
-                    )
-                } else {
-                    (text.to_string(), span)
-                };
-                Err(ParseError::NumberTooLarge {
-                    text,
-                    src: self.src(),
-                    span: span.into(),
-                })
-            }
+            _ => Err(self.too_large(text, span)),
+        }
+    }
+
+    /// `text` does not fit a number; a number of a million digits is named by its first few.
+    fn too_large(&self, text: &str, span: Span) -> ParseError {
+        const SHOWN: usize = 24;
+        let (text, span) = match text.get(..SHOWN) {
+            Some(head) if text.len() > SHOWN => (
+                format!("{head}... ({} digits)", text.len()),
+                Span::new(span.start, span.start + SHOWN.min(span.len())),
+            ),
+            _ => (text.to_string(), span),
+        };
+        ParseError::NumberTooLarge {
+            text,
+            src: self.src(),
+            span: span.into(),
         }
     }
 

@@ -202,11 +202,7 @@ impl Builder<'_> {
         let span = self.span(&p);
         p.as_str()
             .parse::<usize>()
-            .map_err(|_| ParseError::NumberTooLarge {
-                text: p.as_str().to_string(),
-                src: miette::NamedSource::new(self.name, super::SourceText::from(self.src)),
-                span: (span.start, span.len()).into(),
-            })
+            .map_err(|_| self.too_large(p.as_str(), span))
     }
 
     /// An invocation inside a command: parsed on its own text so its spans point into it, as
