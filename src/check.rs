@@ -11,15 +11,16 @@
 pub mod error;
 pub mod ir;
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
+use std::ops::Deref;
 use std::sync::OnceLock;
 
 use miette::NamedSource;
 
 use crate::domain::{Dim, Domain, Limits, Space};
 use crate::interp::Program;
-use crate::syntax::{self, ast::*};
-pub use error::{CheckError, CheckErrors, FileError};
+use crate::syntax::{self, SourceText, ast::*};
+pub use error::{CheckError, CheckErrors, CheckWarning, FileError};
 use ir::{BlockIr, Func, Ir};
 
 /// A named source text: a file, a REPL line, an embedded standard file.
@@ -49,6 +50,22 @@ pub const STANDARD_SOURCES: [(&str, &str); 2] = [
         include_str!("../operators/interception.adv"),
     ),
 ];
+
+/// How many per-point stages a composition may expand to (each stage runs over the whole chunk,
+/// so this bounds an application's work; a composition that composes the one before it four times
+/// reaches 4^k).
+pub const MAX_STAGES: usize = 1024;
+
+/// How many expression nodes an operator's body may hold: each becomes an instruction whose
+/// register holds a batch of points, so this bounds an application's memory (a few MB).
+pub const MAX_NODES: usize = 4096;
+
+/// How many parameters an operator may declare (every composition stage binds them all).
+pub const MAX_PARAMS: usize = 64;
+
+/// How many errors one check reports before it stops looking: each costs work in proportion to
+/// the text (hints compare names), so an input of many mistakes would otherwise cost its square.
+pub const MAX_ERRORS: usize = 100;
 
 /// A parameter of a checked operator.
 #[derive(Clone, Debug, PartialEq)]
@@ -87,6 +104,12 @@ pub struct Operator {
     doc: String,
     params: Vec<Param>,
     definition: String,
+    /// Where it was defined: `operators/positioning.adv at line 12`.
+    origin: String,
+    /// Whether it comes from the standard library (`operators/*.adv`).
+    standard: bool,
+    /// The per-point stages it expands to (1 for a block), at most [`MAX_STAGES`].
+    stages: u64,
     pub(crate) body: OpBody,
 }
 
@@ -159,6 +182,16 @@ impl Operator {
             .collect()
     }
 
+    /// Where it was defined, e.g. `operators/positioning.adv at line 12`.
+    pub fn origin(&self) -> &str {
+        &self.origin
+    }
+
+    /// How many per-point stages applying it runs (1 unless it is a composition).
+    pub fn stage_count(&self) -> u64 {
+        self.stages
+    }
+
     /// Whether this operator is a composition of others.
     pub fn is_composition(&self) -> bool {
         matches!(self.body, OpBody::Pipeline(_))
@@ -172,6 +205,15 @@ pub struct OperatorSet {
     /// In definition order; a later operator with the same domain and name shadows an earlier one
     /// (a user's file over the standard library) while compositions keep what they were built on.
     ops: Vec<Operator>,
+    /// `(domain, name)` to the index of the visible operator of that name.
+    visible: HashMap<(String, String), usize>,
+}
+
+/// A checked set with what the check found worth saying but not refusing.
+#[derive(Clone, Debug)]
+pub struct Checked {
+    pub set: OperatorSet,
+    pub warnings: Vec<CheckWarning>,
 }
 
 impl OperatorSet {
@@ -199,6 +241,23 @@ impl OperatorSet {
         check_with(Some(self), sources)
     }
 
+    /// [`OperatorSet::merge`], with the warnings (a standard operator shadowed, say).
+    pub fn merge_with_warnings(&self, sources: &[Source]) -> Result<Checked, CheckErrors> {
+        check_with_warnings(Some(self), sources)
+    }
+
+    fn reindex(&mut self) {
+        self.visible.clear();
+        for (i, o) in self.ops.iter().enumerate() {
+            self.visible.insert((o.domain.clone(), o.name.clone()), i);
+        }
+    }
+
+    fn is_visible(&self, i: usize) -> bool {
+        let o = &self.ops[i];
+        self.find(&o.domain, &o.name) == Some(i)
+    }
+
     pub fn domains(&self) -> &[Domain] {
         &self.domains
     }
@@ -209,9 +268,9 @@ impl OperatorSet {
 
     /// Index of the visible operator `name` of `domain`.
     pub(crate) fn find(&self, domain: &str, name: &str) -> Option<usize> {
-        self.ops
-            .iter()
-            .rposition(|o| o.domain == domain && o.name == name)
+        self.visible
+            .get(&(domain.to_string(), name.to_string()))
+            .copied()
     }
 
     pub(crate) fn op(&self, index: usize) -> &Operator {
@@ -228,7 +287,7 @@ impl OperatorSet {
         self.ops
             .iter()
             .enumerate()
-            .filter(move |(i, o)| o.domain == domain && self.find(domain, &o.name) == Some(*i))
+            .filter(move |(i, o)| o.domain == domain && self.is_visible(*i))
             .map(|(_, o)| o)
     }
 
@@ -237,17 +296,14 @@ impl OperatorSet {
         self.ops
             .iter()
             .enumerate()
-            .filter(|(i, o)| o.domain == domain && self.find(domain, &o.name) == Some(*i))
+            .filter(|(i, o)| o.domain == domain && self.is_visible(*i))
             .map(|(_, o)| o.name.as_str())
             .collect()
     }
 
     /// Number of visible operators over all domains.
     pub fn operator_count(&self) -> usize {
-        self.domains
-            .iter()
-            .map(|d| self.operators(&d.name).count())
-            .sum()
+        self.visible.len()
     }
 
     /// Domains other than `domain` that define an operator called `name`.
@@ -258,6 +314,7 @@ impl OperatorSet {
             .filter(|o| o.name == name)
             .map(|o| o.domain.as_str())
             .collect();
+        v.sort_unstable();
         v.dedup();
         v
     }
@@ -273,9 +330,27 @@ pub fn check_with(
     base: Option<&OperatorSet>,
     sources: &[Source],
 ) -> Result<OperatorSet, CheckErrors> {
+    check_with_warnings(base, sources).map(|c| c.set)
+}
+
+/// [`check_with`], keeping the warnings.
+pub fn check_with_warnings(
+    base: Option<&OperatorSet>,
+    sources: &[Source],
+) -> Result<Checked, CheckErrors> {
     let mut c = Checker {
         sources,
+        texts: sources
+            .iter()
+            .map(|s| SourceText::from(s.text.as_str()))
+            .collect(),
+        newlines: sources
+            .iter()
+            .map(|s| s.text.match_indices('\n').map(|(i, _)| i).collect())
+            .collect(),
         errors: Vec::new(),
+        dropped: 0,
+        warnings: Vec::new(),
     };
     let mut files = Vec::new();
     for (i, s) in sources.iter().enumerate() {
@@ -288,11 +363,23 @@ pub fn check_with(
     let mut errors = c.errors;
     errors.sort_by_key(|(f, pos, _)| (*f, *pos));
     if errors.is_empty() {
-        Ok(result)
-    } else {
-        Err(CheckErrors {
-            errors: errors.into_iter().map(|(_, _, e)| e).collect(),
+        let mut warnings = c.warnings;
+        warnings.sort_by_key(|(f, pos, _)| (*f, *pos));
+        Ok(Checked {
+            set: result,
+            warnings: warnings.into_iter().map(|(_, _, w)| w).collect(),
         })
+    } else {
+        let mut errors: Vec<FileError> = errors.into_iter().map(|(_, _, e)| e).collect();
+        if errors.len() >= MAX_ERRORS {
+            errors.push(
+                CheckError::TooManyErrors {
+                    shown: errors.len(),
+                }
+                .into(),
+            );
+        }
+        Err(CheckErrors { errors })
     }
 }
 
@@ -329,15 +416,23 @@ pub(crate) fn hint(name: &str, what: &str, candidates: &[&str]) -> String {
     match suggest(name, candidates.iter().copied()) {
         Some(s) => format!("did you mean `{s}`?"),
         None if candidates.is_empty() => format!("there are no {what}"),
-        None => format!(
-            "the {what} are: {}",
-            candidates
-                .iter()
-                .map(|c| format!("`{c}`"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
+        None => format!("the {what} are: {}", listing(candidates)),
     }
+}
+
+/// Names for a help text: all of a few, or the first twenty and how many more.
+fn listing(names: &[&str]) -> String {
+    const SHOWN: usize = 20;
+    let mut out = names
+        .iter()
+        .take(SHOWN)
+        .map(|c| format!("`{c}`"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    if names.len() > SHOWN {
+        out.push_str(&format!(" and {} more", names.len() - SHOWN));
+    }
+    out
 }
 
 const RESERVED: [(&str, &str); 3] = [
@@ -371,14 +466,45 @@ enum Scope<'a> {
     Const,
     /// An operator body: dimensions, parameters, `k`, `n`.
     Point {
-        domain: &'a Domain,
+        domain: &'a Dom<'a>,
         params: &'a [Param],
     },
     /// An argument in a composition: the caller's parameters and `n`.
     Arg {
-        domain: &'a Domain,
+        domain: &'a Dom<'a>,
         params: &'a [Param],
     },
+}
+
+/// A domain with its dimensions indexed by name, so that resolving a name does not scan them.
+struct Dom<'d> {
+    domain: &'d Domain,
+    names: HashMap<&'d str, (Space, usize)>,
+}
+
+impl<'d> Dom<'d> {
+    fn new(domain: &'d Domain) -> Dom<'d> {
+        let mut names = HashMap::new();
+        for space in [Space::Observation, Space::Action] {
+            for (i, d) in domain.dims(space).iter().enumerate() {
+                names.entry(d.name.as_str()).or_insert((space, i));
+            }
+        }
+        Dom { domain, names }
+    }
+
+    /// The space and index of the dimension `name` (as [`Domain::find`], by hashing).
+    fn find(&self, name: &str) -> Option<(Space, usize)> {
+        self.names.get(name).copied()
+    }
+}
+
+impl Deref for Dom<'_> {
+    type Target = Domain;
+
+    fn deref(&self) -> &Domain {
+        self.domain
+    }
 }
 
 /// The signature of an operator being checked, before its body is known to be good.
@@ -387,6 +513,15 @@ struct Sig<'f> {
     decl: &'f OperatorDecl,
     domain: Option<usize>,
     params: Vec<Param>,
+}
+
+/// The operators a composition may call: those being checked and those of the base set.
+struct Known<'k, 'f> {
+    sigs: &'k [Sig<'f>],
+    /// `(domain, name)` to the first signature of that name.
+    first: &'k HashMap<(usize, &'f str), usize>,
+    base: Option<&'k OperatorSet>,
+    base_ops: usize,
 }
 
 /// What a composition needs to know about an operator it calls.
@@ -398,32 +533,64 @@ struct CalleeInfo<'x> {
 
 struct Checker<'s> {
     sources: &'s [Source],
+    /// The texts, shared by every diagnostic instead of copied into each.
+    texts: Vec<SourceText>,
+    /// Byte offsets of each text's newlines, to turn offsets into lines without rescanning.
+    newlines: Vec<Vec<usize>>,
     errors: Vec<(usize, usize, FileError)>,
+    /// Errors found past [`MAX_ERRORS`], not reported.
+    dropped: usize,
+    warnings: Vec<(usize, usize, CheckWarning)>,
 }
 
 impl Checker<'_> {
-    fn src(&self, file: usize) -> NamedSource<String> {
-        let s = &self.sources[file];
-        NamedSource::new(&s.name, s.text.clone())
+    fn src(&self, file: usize) -> NamedSource<SourceText> {
+        NamedSource::new(&self.sources[file].name, self.texts[file].clone())
     }
 
     fn err(&mut self, file: usize, span: Span, e: CheckError) {
+        if self.full() {
+            self.dropped += 1;
+            return;
+        }
         self.errors.push((file, span.start, e.into()));
+    }
+
+    /// 1-based line of a byte offset of file `file`.
+    fn line(&self, file: usize, byte: usize) -> usize {
+        self.newlines[file].partition_point(|&nl| nl < byte) + 1
+    }
+
+    fn error_count(&self) -> usize {
+        self.errors.len() + self.dropped
+    }
+
+    /// Whether enough errors were found: the rest of the check skips work that only finds more.
+    fn full(&self) -> bool {
+        self.errors.len() >= MAX_ERRORS
     }
 
     fn run(&mut self, base: Option<&OperatorSet>, files: &[(usize, File)]) -> OperatorSet {
         let mut domains: Vec<Domain> = base.map(|b| b.domains.clone()).unwrap_or_default();
         let base_domains = domains.len();
-        let mut declared: Vec<(String, usize, Span)> = Vec::new();
+        let mut by_name: HashMap<String, usize> = domains
+            .iter()
+            .enumerate()
+            .map(|(i, d)| (d.name.clone(), i))
+            .collect();
+        let mut declared: HashMap<String, (usize, Span)> = HashMap::new();
         for (f, file) in files {
             for item in &file.items {
                 if let Item::Domain(d) = item {
+                    if self.full() {
+                        continue;
+                    }
                     let dom = self.domain(*f, d);
-                    if let Some((_, ff, fs)) = declared.iter().find(|(n, ..)| *n == dom.name) {
+                    if let Some(&(ff, fs)) = declared.get(&dom.name) {
                         let first = format!(
                             "the first declaration is in {} at line {}",
-                            self.sources[*ff].name,
-                            line_of(&self.sources[*ff].text, fs.start)
+                            self.sources[ff].name,
+                            self.line(ff, fs.start)
                         );
                         self.err(
                             *f,
@@ -437,11 +604,9 @@ impl Checker<'_> {
                         );
                         continue;
                     }
-                    declared.push((dom.name.clone(), *f, d.name.span));
-                    if let Some(existing) =
-                        domains[..base_domains].iter().find(|b| b.name == dom.name)
-                    {
-                        if let Some(difference) = domain_difference(existing, &dom) {
+                    declared.insert(dom.name.clone(), (*f, d.name.span));
+                    if let Some(&existing) = by_name.get(&dom.name).filter(|&&i| i < base_domains) {
+                        if let Some(difference) = domain_difference(&domains[existing], &dom) {
                             self.err(
                                 *f,
                                 d.name.span,
@@ -455,64 +620,85 @@ impl Checker<'_> {
                         }
                         continue;
                     }
+                    by_name.insert(dom.name.clone(), domains.len());
                     domains.push(dom);
                 }
             }
         }
 
-        // Signatures first, so compositions may name operators defined later in any file.
         let base_ops = base.map_or(0, |b| b.ops.len());
-        let mut sigs: Vec<Sig<'_>> = Vec::new();
-        for (f, file) in files {
-            for item in &file.items {
-                if let Item::Operator(o) = item {
-                    let sig = self.signature(*f, o, &domains);
-                    if let Some(d) = sig.domain {
-                        let dup = sigs
-                            .iter()
-                            .find(|s| s.domain == Some(d) && s.decl.name.name == o.name.name);
-                        if let Some(first) = dup {
-                            let msg = format!(
-                                "the first definition is in {} at line {}",
-                                self.sources[first.file].name,
-                                line_of(&self.sources[first.file].text, first.decl.name.span.start)
-                            );
-                            self.err(
-                                *f,
-                                o.name.span,
-                                CheckError::DuplicateOperator {
-                                    name: o.name.name.clone(),
-                                    domain: domains[d].name.clone(),
-                                    first: msg,
-                                    src: self.src(*f),
-                                    span: o.name.span.into(),
-                                },
-                            );
+        let (sigs, bodies) = {
+            let doms: Vec<Dom<'_>> = domains.iter().map(Dom::new).collect();
+            // Signatures first, so compositions may name operators defined later in any file.
+            let mut sigs: Vec<Sig<'_>> = Vec::new();
+            // `(domain, name)` to the first signature of that name.
+            let mut first: HashMap<(usize, &str), usize> = HashMap::new();
+            for (f, file) in files {
+                for item in &file.items {
+                    if let Item::Operator(o) = item {
+                        let sig = self.signature(*f, o, &by_name, &doms);
+                        if let Some(d) = sig.domain {
+                            match first.get(&(d, o.name.name.as_str())) {
+                                Some(&j) => {
+                                    let first = &sigs[j];
+                                    let msg = format!(
+                                        "the first definition is in {} at line {}",
+                                        self.sources[first.file].name,
+                                        self.line(first.file, first.decl.name.span.start)
+                                    );
+                                    self.err(
+                                        *f,
+                                        o.name.span,
+                                        CheckError::DuplicateOperator {
+                                            name: o.name.name.clone(),
+                                            domain: domains[d].name.clone(),
+                                            first: msg,
+                                            src: self.src(*f),
+                                            span: o.name.span.into(),
+                                        },
+                                    );
+                                }
+                                None => {
+                                    first.insert((d, o.name.name.as_str()), sigs.len());
+                                }
+                            }
                         }
+                        sigs.push(sig);
                     }
-                    sigs.push(sig);
                 }
             }
-        }
-
-        let mut bodies: Vec<Option<Body2>> = Vec::with_capacity(sigs.len());
-        for i in 0..sigs.len() {
-            let body = match sigs[i].domain {
-                Some(d) => self.body(&sigs, i, &domains[d], base, base_ops),
-                None => None,
+            let known = Known {
+                sigs: &sigs,
+                first: &first,
+                base,
+                base_ops,
             };
-            bodies.push(body);
-        }
+            let mut bodies: Vec<Option<Body2>> = Vec::with_capacity(sigs.len());
+            for (i, sig) in sigs.iter().enumerate() {
+                let body = match sig.domain {
+                    Some(d) if !self.full() => self.body(&known, i, &doms[d]),
+                    _ => None,
+                };
+                bodies.push(body);
+            }
+            (sigs, bodies)
+        };
         self.cycles(&sigs, &bodies, base_ops);
+        let stages = if self.errors.is_empty() {
+            self.expansions(&sigs, &bodies, base)
+        } else {
+            Vec::new()
+        };
 
         let mut set = OperatorSet {
             domains,
             ops: base.map(|b| b.ops.clone()).unwrap_or_default(),
+            visible: HashMap::new(),
         };
         if !self.errors.is_empty() {
             return set;
         }
-        for (sig, body) in sigs.iter().zip(bodies) {
+        for ((sig, body), stages) in sigs.iter().zip(bodies).zip(stages) {
             let (Some(d), Some(body)) = (sig.domain, body) else {
                 continue;
             };
@@ -523,17 +709,150 @@ impl Checker<'_> {
             };
             let mut def = sig.decl.clone();
             def.doc.clear();
+            let definition = def.to_string();
+            if let Some(shadowed) = base.and_then(|b| b.operator(&domain.name, &sig.decl.name.name))
+                && shadowed.standard
+                // The standard file itself, checked again, shadows nothing new.
+                && shadowed.definition != definition
+            {
+                let span = sig.decl.name.span;
+                self.warnings.push((
+                    sig.file,
+                    span.start,
+                    CheckWarning::ShadowsStandard {
+                        name: sig.decl.name.name.clone(),
+                        domain: domain.name.clone(),
+                        origin: shadowed.origin.clone(),
+                        src: self.src(sig.file),
+                        span: span.into(),
+                    },
+                ));
+            }
+            let source = &self.sources[sig.file];
             set.ops.push(Operator {
                 name: sig.decl.name.name.clone(),
                 domain: domain.name.clone(),
                 space: sig.decl.space,
                 doc: sig.decl.doc.join("\n"),
                 params: sig.params.clone(),
-                definition: def.to_string(),
+                definition,
+                origin: format!(
+                    "{} at line {}",
+                    source.name,
+                    self.line(sig.file, sig.decl.name.span.start)
+                ),
+                standard: STANDARD_SOURCES.iter().any(|(n, _)| *n == source.name),
+                stages,
                 body,
             });
         }
+        set.reindex();
         set
+    }
+
+    /// How many per-point stages each operator of `sigs` expands to; reports those past
+    /// [`MAX_STAGES`] whose callees are all within it (the rest only inherit the excess). Needs
+    /// bodies without cycles. Iterative: a chain of compositions may be as long as the file.
+    fn expansions(
+        &mut self,
+        sigs: &[Sig<'_>],
+        bodies: &[Option<Body2>],
+        base: Option<&OperatorSet>,
+    ) -> Vec<u64> {
+        let base_ops = base.map_or(0, |b| b.ops.len());
+        let mut count: Vec<Option<u64>> = vec![None; sigs.len()];
+        let known = |count: &[Option<u64>], op: usize| {
+            if op < base_ops {
+                base.map(|b| b.ops[op].stages)
+            } else {
+                count[op - base_ops]
+            }
+        };
+        for start in 0..sigs.len() {
+            let mut stack = vec![start];
+            while let Some(&i) = stack.last() {
+                if count[i].is_some() {
+                    stack.pop();
+                    continue;
+                }
+                let pending: Vec<usize> = stages_of(&bodies[i])
+                    .iter()
+                    .filter(|st| known(&count, st.op).is_none())
+                    .map(|st| st.op - base_ops)
+                    .collect();
+                if pending.is_empty() {
+                    let n = match &bodies[i] {
+                        Some(Body2::Pipeline(st)) => st
+                            .iter()
+                            .map(|st| known(&count, st.op).unwrap_or(1))
+                            .fold(0u64, u64::saturating_add),
+                        _ => 1,
+                    };
+                    count[i] = Some(n);
+                    stack.pop();
+                } else {
+                    stack.extend(pending);
+                }
+            }
+        }
+        let count: Vec<u64> = count.into_iter().map(|c| c.unwrap_or(1)).collect();
+        let name_of = |op: usize| -> &str {
+            if op < base_ops {
+                base.map_or("", |b| b.ops[op].name.as_str())
+            } else {
+                &sigs[op - base_ops].decl.name.name
+            }
+        };
+        let stages_at = |op: usize| {
+            if op < base_ops {
+                base.map_or(1, |b| b.ops[op].stages)
+            } else {
+                count[op - base_ops]
+            }
+        };
+        let limit = MAX_STAGES as u64;
+        for (i, sig) in sigs.iter().enumerate() {
+            let own = stages_of(&bodies[i]);
+            if count[i] <= limit || own.iter().any(|st| stages_at(st.op) > limit) {
+                continue;
+            }
+            // The chain that grows: from this operator down through its largest callee.
+            let mut chain = vec![format!(
+                "`{}` ({})",
+                sig.decl.name.name,
+                count_text(count[i])
+            )];
+            let mut at = own.iter().max_by_key(|st| stages_at(st.op)).map(|st| st.op);
+            while let Some(op) = at {
+                if chain.len() == 8 {
+                    chain.push("...".into());
+                    break;
+                }
+                chain.push(format!("`{}` ({})", name_of(op), count_text(stages_at(op))));
+                at = if op < base_ops {
+                    None
+                } else {
+                    stages_of(&bodies[op - base_ops])
+                        .iter()
+                        .max_by_key(|st| stages_at(st.op))
+                        .map(|st| st.op)
+                };
+            }
+            let f = sig.file;
+            self.err(
+                f,
+                sig.decl.name.span,
+                CheckError::CompositionTooLarge {
+                    name: sig.decl.name.name.clone(),
+                    stages: count_text(count[i]),
+                    limit: MAX_STAGES,
+                    chain: format!("stages per operator: {}", chain.join(" -> ")),
+                    src: self.src(f),
+                    span: sig.decl.name.span.into(),
+                },
+            );
+        }
+        count
     }
 
     fn domain(&mut self, f: usize, d: &DomainDecl) -> Domain {
@@ -605,9 +924,9 @@ impl Checker<'_> {
 
     /// Evaluate a constant expression, reporting why it is not one.
     fn constant(&mut self, f: usize, e: &Expr, what: &str) -> Option<f64> {
-        let before = self.errors.len();
+        let before = self.error_count();
         let (ir, ty) = self.resolve(f, Scope::Const, e, what);
-        if self.errors.len() > before {
+        if self.error_count() > before {
             return None;
         }
         if !self.expect(f, e, ty, Ty::Num, None) {
@@ -629,9 +948,15 @@ impl Checker<'_> {
         Some(v)
     }
 
-    fn signature<'f>(&mut self, f: usize, o: &'f OperatorDecl, domains: &[Domain]) -> Sig<'f> {
-        let domain = domains.iter().position(|d| d.name == o.domain.name);
-        if domain.is_none() {
+    fn signature<'f>(
+        &mut self,
+        f: usize,
+        o: &'f OperatorDecl,
+        by_name: &HashMap<String, usize>,
+        domains: &[Dom<'_>],
+    ) -> Sig<'f> {
+        let domain = by_name.get(&o.domain.name).copied();
+        if domain.is_none() && !self.full() {
             let names: Vec<&str> = domains.iter().map(|d| d.name.as_str()).collect();
             let help = match suggest(&o.domain.name, names.iter().copied()) {
                 Some(s) => format!("did you mean `{s}`?"),
@@ -657,7 +982,20 @@ impl Checker<'_> {
             );
         }
         let mut params: Vec<Param> = Vec::new();
-        for p in &o.params {
+        if let Some(extra) = o.params.get(MAX_PARAMS) {
+            self.err(
+                f,
+                extra.name.span,
+                CheckError::TooManyParameters {
+                    name: o.name.name.clone(),
+                    count: o.params.len(),
+                    limit: MAX_PARAMS,
+                    src: self.src(f),
+                    span: extra.name.span.into(),
+                },
+            );
+        }
+        for p in o.params.iter().take(MAX_PARAMS) {
             let name = p.name.name.as_str();
             if let Some((_, meaning)) = RESERVED.iter().find(|(r, _)| *r == name) {
                 self.err(
@@ -732,18 +1070,11 @@ impl Checker<'_> {
         }
     }
 
-    fn body(
-        &mut self,
-        sigs: &[Sig<'_>],
-        i: usize,
-        domain: &Domain,
-        base: Option<&OperatorSet>,
-        base_ops: usize,
-    ) -> Option<Body2> {
-        let sig = &sigs[i];
+    fn body(&mut self, known: &Known<'_, '_>, i: usize, domain: &Dom<'_>) -> Option<Body2> {
+        let sig = &known.sigs[i];
         let f = sig.file;
         let o = sig.decl;
-        let before = self.errors.len();
+        let before = self.error_count();
         let scope = Scope::Point {
             domain,
             params: &sig.params,
@@ -773,8 +1104,11 @@ impl Checker<'_> {
                     );
                 }
                 let mut writes: Vec<(usize, Ir)> = Vec::new();
-                let mut assigned: Vec<(Space, usize)> = Vec::new();
+                let mut assigned: HashSet<(Space, usize)> = HashSet::new();
                 for s in stmts {
+                    if self.full() {
+                        break;
+                    }
                     let (value, ty) = self.resolve(f, scope, &s.value, "");
                     self.expect(
                         f,
@@ -786,7 +1120,7 @@ impl Checker<'_> {
                     let Some((space, idx)) = self.target(f, &s.target, sig, domain) else {
                         continue;
                     };
-                    if assigned.contains(&(space, idx)) {
+                    if !assigned.insert((space, idx)) {
                         self.err(
                             f,
                             s.target.span,
@@ -798,28 +1132,36 @@ impl Checker<'_> {
                         );
                         continue;
                     }
-                    assigned.push((space, idx));
-                    if s.op == AssignOp::Set
-                        && ty == Ty::Num
-                        && value.is_constant()
+                    let constant = (ty == Ty::Num && value.is_constant())
+                        .then(|| value.eval_uniform(&[], f64::NAN));
+                    if let Some(v) = constant.filter(|v| !v.is_finite()) {
+                        self.err(
+                            f,
+                            s.value.span,
+                            CheckError::NotFinite {
+                                value: v,
+                                src: self.src(f),
+                                span: s.value.span.into(),
+                            },
+                        );
+                    } else if s.op == AssignOp::Set
+                        && let Some(v) = constant
                         && let Some(l) = domain.dims(space)[idx].limits
+                        && !l.contains(v)
                     {
-                        let v = value.eval_uniform(&[], f64::NAN);
-                        if !l.contains(v) {
-                            self.err(
-                                f,
-                                s.value.span,
-                                CheckError::LiteralOutOfRange {
-                                    dim: s.target.name.clone(),
-                                    value: v,
-                                    lo: l.lo,
-                                    hi: l.hi,
-                                    clamped: l.clamp(v),
-                                    src: self.src(f),
-                                    span: s.value.span.into(),
-                                },
-                            );
-                        }
+                        self.err(
+                            f,
+                            s.value.span,
+                            CheckError::LiteralOutOfRange {
+                                dim: s.target.name.clone(),
+                                value: v,
+                                lo: l.lo,
+                                hi: l.hi,
+                                clamped: l.clamp(v),
+                                src: self.src(f),
+                                span: s.value.span.into(),
+                            },
+                        );
                     }
                     let cur = Box::new(Ir::Dim(space, idx));
                     let v = Box::new(value);
@@ -832,6 +1174,21 @@ impl Checker<'_> {
                     };
                     writes.push((idx, ir));
                 }
+                let nodes = guard.iter().map(Ir::size).sum::<usize>()
+                    + writes.iter().map(|(_, ir)| ir.size()).sum::<usize>();
+                if nodes > MAX_NODES {
+                    self.err(
+                        f,
+                        o.name.span,
+                        CheckError::OperatorTooLarge {
+                            name: o.name.name.clone(),
+                            nodes,
+                            limit: MAX_NODES,
+                            src: self.src(f),
+                            span: o.name.span.into(),
+                        },
+                    );
+                }
                 Body2::Block(BlockIr {
                     space: o.space,
                     guard,
@@ -841,14 +1198,17 @@ impl Checker<'_> {
             Body::Pipeline(calls) => {
                 let mut stages = Vec::new();
                 for c in calls {
-                    if let Some(st) = self.stage(sigs, i, c, domain, base, base_ops) {
+                    if self.full() {
+                        break;
+                    }
+                    if let Some(st) = self.stage(known, i, c, domain) {
                         stages.push(st);
                     }
                 }
                 Body2::Pipeline(stages)
             }
         };
-        (self.errors.len() == before).then_some(body)
+        (self.error_count() == before).then_some(body)
     }
 
     /// Resolve the dimension a statement assigns to.
@@ -857,7 +1217,7 @@ impl Checker<'_> {
         f: usize,
         t: &Ident,
         sig: &Sig<'_>,
-        domain: &Domain,
+        domain: &Dom<'_>,
     ) -> Option<(Space, usize)> {
         let o = sig.decl;
         match domain.find(&t.name) {
@@ -914,21 +1274,16 @@ impl Checker<'_> {
     }
 
     fn callee<'x>(
-        &self,
-        sigs: &'x [Sig<'_>],
-        base: Option<&'x OperatorSet>,
-        base_ops: usize,
+        known: &Known<'x, '_>,
         domain: &Domain,
         d_idx: Option<usize>,
         name: &str,
     ) -> Option<(usize, CalleeInfo<'x>)> {
-        if let Some(j) = sigs
-            .iter()
-            .position(|s| s.domain == d_idx && s.domain.is_some() && s.decl.name.name == name)
-        {
+        let (sigs, base) = (known.sigs, known.base);
+        if let Some(&j) = d_idx.and_then(|d| known.first.get(&(d, name))) {
             let s = &sigs[j];
             return Some((
-                base_ops + j,
+                known.base_ops + j,
                 CalleeInfo {
                     name: &s.decl.name.name,
                     space: s.decl.space,
@@ -951,19 +1306,16 @@ impl Checker<'_> {
 
     fn stage(
         &mut self,
-        sigs: &[Sig<'_>],
+        known: &Known<'_, '_>,
         i: usize,
         c: &Call,
-        domain: &Domain,
-        base: Option<&OperatorSet>,
-        base_ops: usize,
+        domain: &Dom<'_>,
     ) -> Option<Stage> {
+        let (sigs, base) = (known.sigs, known.base);
         let sig = &sigs[i];
         let f = sig.file;
         let o = sig.decl;
-        let Some((idx, callee)) =
-            self.callee(sigs, base, base_ops, domain, sig.domain, &c.name.name)
-        else {
+        let Some((idx, callee)) = Self::callee(known, domain, sig.domain, &c.name.name) else {
             let mut others: Vec<&str> = sigs
                 .iter()
                 .filter(|s| s.decl.name.name == c.name.name && s.domain != sig.domain)
@@ -1165,32 +1517,39 @@ impl Checker<'_> {
             .collect();
         // 0 = unvisited, 1 = on the current path, 2 = done.
         let mut state = vec![0u8; sigs.len()];
+        // Where each operator on the current path is on it.
+        let mut on_path = vec![0usize; sigs.len()];
         for start in 0..sigs.len() {
             if state[start] != 0 {
                 continue;
             }
             let mut path: Vec<(usize, usize)> = vec![(start, 0)];
             state[start] = 1;
+            on_path[start] = 0;
             while let Some(&mut (node, ref mut next)) = path.last_mut() {
                 if let Some(&(to, span)) = edges[node].get(*next) {
                     *next += 1;
                     match state[to] {
                         0 => {
                             state[to] = 1;
+                            on_path[to] = path.len();
                             path.push((to, 0));
                         }
+                        1 if self.full() => {}
                         1 => {
-                            let from = path.iter().position(|(n, _)| *n == to).unwrap_or(0);
-                            let mut names: Vec<&str> = path[from..]
+                            let from = on_path[to];
+                            let mut names: Vec<String> = path[from..]
                                 .iter()
-                                .map(|(n, _)| sigs[*n].decl.name.name.as_str())
+                                .map(|(n, _)| format!("`{}`", sigs[*n].decl.name.name))
                                 .collect();
-                            names.push(&sigs[to].decl.name.name);
-                            let cycle = names
-                                .iter()
-                                .map(|n| format!("`{n}`"))
-                                .collect::<Vec<_>>()
-                                .join(" -> ");
+                            // A long loop is named by its ends.
+                            if names.len() > 8 {
+                                let more = names.len() - 6;
+                                names.drain(3..names.len() - 3);
+                                names.insert(3, format!("({more} more)"));
+                            }
+                            names.push(format!("`{}`", sigs[to].decl.name.name));
+                            let cycle = names.join(" -> ");
                             let f = sigs[node].file;
                             self.err(
                                 f,
@@ -1234,6 +1593,9 @@ impl Checker<'_> {
 
     fn resolve(&mut self, f: usize, scope: Scope<'_>, e: &Expr, what: &str) -> (Ir, Ty) {
         let bad = (Ir::Num(f64::NAN), Ty::Err);
+        if self.full() {
+            return bad;
+        }
         match &e.kind {
             ExprKind::Num(v) => (Ir::Num(*v), Ty::Num),
             ExprKind::Var(name) => self.var(f, scope, name, e.span, what),
@@ -1243,13 +1605,28 @@ impl Checker<'_> {
                     return bad;
                 };
                 let (off, ty) = self.resolve(f, scope, offset, what);
-                self.expect(
+                let num = self.expect(
                     f,
                     offset,
                     ty,
                     Ty::Num,
                     Some("an offset counts points, e.g. `bearing[-3]`"),
                 );
+                if num && ty == Ty::Num && off.is_constant() {
+                    let v = off.eval_uniform(&[], f64::NAN);
+                    if !v.is_finite() {
+                        self.err(
+                            f,
+                            offset.span,
+                            CheckError::NotFinite {
+                                value: v,
+                                src: self.src(f),
+                                span: offset.span.into(),
+                            },
+                        );
+                        return bad;
+                    }
+                }
                 match domain.find(&dim.name) {
                     Some((space, idx)) => (Ir::At(space, idx, Box::new(off)), Ty::Num),
                     None if params.iter().any(|p| p.name == dim.name)
@@ -1435,11 +1812,7 @@ impl Checker<'_> {
                 }
                 Scope::Point { .. } => format!(
                     "the names here are the domain's dimensions, the parameters, `k` (the point's index in the chunk), `n` (the chunk length) and `pi`: {}",
-                    candidates
-                        .iter()
-                        .map(|c| format!("`{c}`"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    listing(&candidates)
                 ),
             },
         };
@@ -1509,9 +1882,20 @@ enum Body2 {
     Pipeline(Vec<Stage>),
 }
 
-/// 1-based line of a byte offset.
-fn line_of(text: &str, byte: usize) -> usize {
-    text[..byte.min(text.len())].matches('\n').count() + 1
+fn stages_of(b: &Option<Body2>) -> &[Stage] {
+    match b {
+        Some(Body2::Pipeline(st)) => st.as_slice(),
+        _ => &[],
+    }
+}
+
+/// A stage count for a message (a saturated count is "more than 10^19").
+fn count_text(n: u64) -> String {
+    if n == u64::MAX {
+        "more than 10^19".into()
+    } else {
+        n.to_string()
+    }
 }
 
 /// How two declarations of a domain differ, in words; `None` when they agree.

@@ -41,6 +41,8 @@ pub struct Program {
     /// Instruction `i` writes register `uniforms.len() + i`.
     code: Vec<Ins>,
     guard: Option<usize>,
+    /// Instructions `..guard_code` compute the guard; the rest, the written values.
+    guard_code: usize,
     /// `(dimension in the target space, register)`.
     writes: Vec<(usize, usize)>,
     /// Clamp interval of each target dimension (infinite when unbounded).
@@ -94,12 +96,24 @@ impl Compiler {
         R::C(self.code.len() - 1)
     }
 
+    /// Compile `ir` into a register. Uniform parts become uniform registers, found bottom-up in
+    /// one pass (asking `is_uniform` at every level would cost the tree's size times its depth).
     fn emit(&mut self, ir: &Ir) -> R {
-        if ir.is_uniform() {
-            self.uniforms.push(ir.clone());
-            return R::U(self.uniforms.len() - 1);
+        match self.emit_varying(ir) {
+            Some(r) => r,
+            None => self.uniform(ir),
         }
-        match ir {
+    }
+
+    fn uniform(&mut self, ir: &Ir) -> R {
+        self.uniforms.push(ir.clone());
+        R::U(self.uniforms.len() - 1)
+    }
+
+    /// Emit `ir` when it varies from point to point; `None` (emitting nothing) when it is uniform.
+    fn emit_varying(&mut self, ir: &Ir) -> Option<R> {
+        Some(match ir {
+            Ir::Num(_) | Ir::Param(_) | Ir::N => return None,
             Ir::K => self.push(InsR::K),
             Ir::Dim(s, d) => self.push(InsR::Load(*s, *d)),
             Ir::At(s, d, off) => {
@@ -107,20 +121,32 @@ impl Compiler {
                 self.push(InsR::LoadAt(*s, *d, o))
             }
             Ir::Neg(e) => {
-                let x = self.emit(e);
+                let x = self.emit_varying(e)?;
                 self.push(InsR::Neg(x))
             }
             Ir::Not(e) => {
-                let x = self.emit(e);
+                let x = self.emit_varying(e)?;
                 self.push(InsR::Not(x))
             }
             Ir::Bin(op, a, b) => {
-                let x = self.emit(a);
-                let y = self.emit(b);
+                let (x, y) = match (self.emit_varying(a), self.emit_varying(b)) {
+                    (None, None) => return None,
+                    (Some(x), None) => (x, self.uniform(b)),
+                    (None, Some(y)) => (self.uniform(a), y),
+                    (Some(x), Some(y)) => (x, y),
+                };
                 self.push(InsR::Bin(*op, x, y))
             }
             Ir::Func(f, args) => {
-                let rs: Vec<R> = args.iter().map(|a| self.emit(a)).collect();
+                let varying: Vec<Option<R>> = args.iter().map(|a| self.emit_varying(a)).collect();
+                if varying.iter().all(Option::is_none) {
+                    return None;
+                }
+                let rs: Vec<R> = varying
+                    .into_iter()
+                    .zip(args)
+                    .map(|(r, a)| r.unwrap_or_else(|| self.uniform(a)))
+                    .collect();
                 match (f, rs.as_slice()) {
                     (Func::Clamp, [x, lo, hi]) => self.push(InsR::Clamp(*x, *lo, *hi)),
                     (_, [x, y]) => self.push(InsR::Func2(*f, *x, *y)),
@@ -128,9 +154,7 @@ impl Compiler {
                     _ => unreachable!("the checker verified the arity of `{}`", f.name()),
                 }
             }
-            // Uniform expressions were handled above.
-            Ir::Num(_) | Ir::Param(_) | Ir::N => unreachable!("uniform"),
-        }
+        })
     }
 }
 
@@ -142,6 +166,7 @@ impl Program {
             code: Vec::new(),
         };
         let guard = block.guard.as_ref().map(|g| c.emit(g));
+        let guard_code = c.code.len();
         let writes: Vec<(usize, R)> = block
             .writes
             .iter()
@@ -185,6 +210,7 @@ impl Program {
             uniforms: c.uniforms,
             code,
             guard: guard.map(reg),
+            guard_code,
             writes: writes.into_iter().map(|(d, r)| (d, reg(r))).collect(),
             snapshot,
         }
@@ -196,7 +222,7 @@ impl Program {
 
     /// Run one stage over the chunk held in `w`. Returns the first non-finite result, if any, as
     /// `(chunk index, target dimension, value)`.
-    fn run(&self, w: &mut Work<'_>, params: &[f64]) -> Option<(usize, usize, f64)> {
+    fn run(&self, w: &mut Work<'_>, params: &[f64]) -> Option<Fault> {
         let n = w.n;
         let mut regs = vec![0.0; self.n_regs() * BATCH];
         for (i, u) in self.uniforms.iter().enumerate() {
@@ -204,7 +230,7 @@ impl Program {
         }
         let snap = self.snapshot.then(|| w.buf(self.space).to_vec());
         let stride = w.dim(self.space);
-        let mut bad = None;
+        let mut offs = Vec::new();
         for bs in (0..n).step_by(BATCH) {
             let m = BATCH.min(n - bs);
             {
@@ -222,13 +248,19 @@ impl Program {
                     od: w.od,
                     ad: w.ad,
                 };
-                self.eval_batch(&mut regs, &src, bs, m);
+                self.eval_batch(&mut regs, &src, bs, m, &mut offs);
             }
             let alive = &mut w.alive[bs..bs + m];
+            if let Some(f) = self.offset_fault(&offs, alive, bs, true) {
+                return Some(f);
+            }
             if let Some(g) = self.guard {
                 for (al, gv) in alive.iter_mut().zip(&regs[g * BATCH..g * BATCH + m]) {
                     *al = *al && *gv != 0.0;
                 }
+            }
+            if let Some(f) = self.offset_fault(&offs, alive, bs, false) {
+                return Some(f);
             }
             let buf = match self.space {
                 Space::Observation => &mut w.z,
@@ -237,23 +269,21 @@ impl Program {
             for &(d, r) in &self.writes {
                 let (lo, hi) = self.limits[d];
                 let vals = &regs[r * BATCH..r * BATCH + m];
+                // Finiteness before clamping: a division by zero must not pass as a full-scale
+                // value.
                 let mut finite = true;
                 for (i, (&v, &al)) in vals.iter().zip(alive.iter()).enumerate() {
                     if al {
-                        let v = v.clamp(lo, hi);
                         finite &= v.is_finite();
-                        buf[(bs + i) * stride + d] = v;
+                        buf[(bs + i) * stride + d] = v.clamp(lo, hi);
                     }
                 }
-                if !finite && bad.is_none() {
-                    let i = (0..m)
-                        .find(|&i| alive[i] && !vals[i].clamp(lo, hi).is_finite())
-                        .unwrap_or(0);
-                    bad = Some((bs + i, d, vals[i]));
+                if !finite {
+                    return Some(not_finite(vals, alive, bs, d));
                 }
             }
         }
-        bad
+        None
     }
 
     /// Run as the only stage: read the executed trace, append the surviving points to `o`.
@@ -263,7 +293,7 @@ impl Program {
         chunk: Chunk,
         params: &[f64],
         o: &mut Out,
-    ) -> Option<(usize, usize, f64)> {
+    ) -> Option<Fault> {
         let (start, n) = (chunk.start, chunk.len());
         let (od, ad) = (trace.obs_dim(), trace.act_dim());
         let zs = &trace.z[start * od..chunk.end * od];
@@ -290,16 +320,22 @@ impl Program {
             Space::Action => ad,
         };
         let mut alive = [true; BATCH];
-        let mut bad = None;
+        let mut offs = Vec::new();
         for bs in (0..n).step_by(BATCH) {
             let m = BATCH.min(n - bs);
-            self.eval_batch(&mut regs, &src, bs, m);
+            self.eval_batch(&mut regs, &src, bs, m, &mut offs);
             let alive = &mut alive[..m];
             alive.fill(true);
+            if let Some(f) = self.offset_fault(&offs, alive, bs, true) {
+                return Some(f);
+            }
             if let Some(g) = self.guard {
                 for (al, gv) in alive.iter_mut().zip(&regs[g * BATCH..g * BATCH + m]) {
                     *al = *gv != 0.0;
                 }
+            }
+            if let Some(f) = self.offset_fault(&offs, alive, bs, false) {
+                return Some(f);
             }
             let first = o.idx.len();
             if alive.iter().all(|a| *a) {
@@ -328,25 +364,46 @@ impl Program {
                 let mut row = 0;
                 for (&v, &al) in vals.iter().zip(alive.iter()) {
                     if al {
-                        let v = v.clamp(lo, hi);
                         finite &= v.is_finite();
-                        rows[row * stride + d] = v;
+                        rows[row * stride + d] = v.clamp(lo, hi);
                         row += 1;
                     }
                 }
-                if !finite && bad.is_none() {
-                    let i = (0..m)
-                        .find(|&i| alive[i] && !vals[i].clamp(lo, hi).is_finite())
-                        .unwrap_or(0);
-                    bad = Some((bs + i, d, vals[i]));
+                if !finite {
+                    return Some(not_finite(vals, alive, bs, d));
                 }
             }
         }
-        bad
+        None
     }
 
-    /// Evaluate every instruction for points `bs..bs + m` of the chunk.
-    fn eval_batch(&self, regs: &mut [f64], src: &Src<'_>, bs: usize, m: usize) {
+    /// The first point in play that read another point at an offset that is not a finite number:
+    /// among the guard's own reads (`guard_part`, points in play before the guard) or the written
+    /// values' (points the guard kept).
+    fn offset_fault(
+        &self,
+        offs: &[(usize, usize, f64)],
+        alive: &[bool],
+        bs: usize,
+        guard_part: bool,
+    ) -> Option<Fault> {
+        offs.iter()
+            .find(|(i, ins, _)| (*ins < self.guard_code) == guard_part && alive[*i])
+            .map(|&(i, _, value)| Fault::Offset { k: bs + i, value })
+    }
+
+    /// Evaluate every instruction for points `bs..bs + m` of the chunk. Offsets that are not
+    /// finite numbers read NaN and are listed in `offs` as `(point in batch, instruction, offset)`
+    /// for the caller to refuse if the point is in play.
+    fn eval_batch(
+        &self,
+        regs: &mut [f64],
+        src: &Src<'_>,
+        bs: usize,
+        m: usize,
+        offs: &mut Vec<(usize, usize, f64)>,
+    ) {
+        offs.clear();
         let base = self.uniforms.len();
         for (ci, ins) in self.code.iter().enumerate() {
             let dst = base + ci;
@@ -368,7 +425,12 @@ impl Program {
                 }
                 Ins::LoadAt(space, dim, off) => {
                     for (i, (v, o)) in d.iter_mut().zip(r(off)).enumerate() {
-                        *v = src.at(space, dim, bs + i, *o);
+                        if o.is_finite() {
+                            *v = src.at(space, dim, bs + i, *o);
+                        } else {
+                            offs.push((i, ci, *o));
+                            *v = f64::NAN;
+                        }
                     }
                 }
                 Ins::Neg(x) => {
@@ -419,6 +481,27 @@ impl Program {
     }
 }
 
+/// Why a stage stopped, at chunk point `k`.
+#[derive(Clone, Copy, Debug)]
+enum Fault {
+    /// A written value (of target dimension `dim`) that is not a finite number.
+    NotFinite { k: usize, dim: usize, value: f64 },
+    /// A read of another point at an offset that is not a finite number.
+    Offset { k: usize, value: f64 },
+}
+
+/// The fault for the first point in play whose value in `vals` is not finite.
+fn not_finite(vals: &[f64], alive: &[bool], bs: usize, dim: usize) -> Fault {
+    let i = (0..alive.len())
+        .find(|&i| alive[i] && !vals[i].is_finite())
+        .unwrap_or(0);
+    Fault::NotFinite {
+        k: bs + i,
+        dim,
+        value: vals[i],
+    }
+}
+
 /// What a batch reads: the stage's input inside the chunk, the executed trace outside it.
 struct Src<'a> {
     trace: &'a Trace,
@@ -440,18 +523,11 @@ impl Src<'_> {
     }
 
     /// Dimension `dim` of the point `round(off)` places from chunk point `k`, clamped to the trace.
+    /// `off` is finite (the caller refuses the rest).
     fn at(&self, space: Space, dim: usize, k: usize, off: f64) -> f64 {
         let here = self.start + k;
         let last = self.trace.len() - 1; // the chunk is not empty, so neither is the trace
-        let j = if off.is_finite() {
-            (here as f64 + off.round()).clamp(0.0, last as f64) as usize
-        } else if off > 0.0 {
-            last
-        } else if off < 0.0 {
-            0
-        } else {
-            here
-        };
+        let j = (here as f64 + off.round()).clamp(0.0, last as f64) as usize;
         if j >= self.start && j < self.start + self.n {
             let (buf, stride) = self.space(space);
             buf[(j - self.start) * stride + dim]
@@ -665,6 +741,18 @@ pub enum ApplyError {
         point: usize,
         value: f64,
     },
+    #[error(
+        "`{operator}` read another point at offset {value} from point {point}, which is not a finite number"
+    )]
+    #[diagnostic(
+        code(advise::apply::offset_not_finite),
+        help("an offset counts points, e.g. `bearing[-3]`; a division by zero in the offset?")
+    )]
+    OffsetNotFinite {
+        operator: String,
+        point: usize,
+        value: f64,
+    },
 }
 
 /// Apply the operator named by `inv` to `chunk` of `trace`.
@@ -754,14 +842,21 @@ pub fn apply_into(
     o.a.clear();
     o.t.clear();
     o.idx.clear();
-    let not_finite = |stage: usize, (k, d, value): (usize, usize, f64)| {
+    let not_finite = |stage: usize, fault: Fault| {
         let stage_op = set.op(stages[stage].0);
-        let space = stage_op.space();
-        ApplyError::NotFinite {
-            operator: stage_op.name().to_string(),
-            dim: domain.dims(space)[d].name.clone(),
-            point: chunk.start + k,
-            value,
+        let operator = stage_op.name().to_string();
+        match fault {
+            Fault::NotFinite { k, dim, value } => ApplyError::NotFinite {
+                operator,
+                dim: domain.dims(stage_op.space())[dim].name.clone(),
+                point: chunk.start + k,
+                value,
+            },
+            Fault::Offset { k, value } => ApplyError::OffsetNotFinite {
+                operator,
+                point: chunk.start + k,
+                value,
+            },
         }
     };
     let program = |i: usize| match &set.op(stages[i].0).body {
@@ -913,7 +1008,9 @@ fn bind(op: &Operator, inv: &Invocation) -> Result<Vec<f64>, ApplyError> {
         .collect()
 }
 
-/// Expand a composition into its per-point stages with their parameter values.
+/// Expand a composition into its per-point stages with their parameter values, in order. The
+/// checker bounds how many there are ([`crate::check::MAX_STAGES`]), not how deeply compositions
+/// nest, so this walks with its own stack rather than recursing.
 fn flatten(
     set: &OperatorSet,
     index: usize,
@@ -921,41 +1018,49 @@ fn flatten(
     n: f64,
     out: &mut Vec<(usize, Vec<f64>)>,
 ) -> Result<(), ApplyError> {
-    let op = set.op(index);
-    match &op.body {
-        OpBody::Block(_) => out.push((index, values)),
-        OpBody::Pipeline(stages) => {
-            for st in stages {
-                let callee = set.op(st.op);
-                let mut vals = Vec::with_capacity(callee.params().len());
-                for (p, arg) in callee.params().iter().zip(&st.args) {
-                    let v = match arg {
-                        Some(ir) => ir.eval_uniform(&values, n),
-                        // The checker guaranteed a default for every parameter left unbound.
-                        None => p.default.unwrap_or(f64::NAN),
-                    };
-                    let out_of_range = match p.limits {
-                        Some(l) => !l.contains(v),
-                        None => !v.is_finite(),
-                    };
-                    if out_of_range {
-                        let (lo, hi) = p
-                            .limits
-                            .map_or((f64::NEG_INFINITY, f64::INFINITY), |l| (l.lo, l.hi));
-                        return Err(ApplyError::BoundOutOfRange {
-                            via: op.name().into(),
-                            operator: callee.name().into(),
-                            param: p.name.clone(),
-                            value: v,
-                            lo,
-                            hi,
-                        });
-                    }
-                    vals.push(v);
-                }
-                flatten(set, st.op, vals, n, out)?;
+    // Each entry: a composition, its parameter values, and its next stage.
+    let mut stack: Vec<(usize, Vec<f64>, usize)> = vec![(index, values, 0)];
+    while let Some((index, values, next)) = stack.pop() {
+        let op = set.op(index);
+        let stages = match &op.body {
+            OpBody::Block(_) => {
+                out.push((index, values));
+                continue;
             }
+            OpBody::Pipeline(stages) => stages,
+        };
+        let Some(st) = stages.get(next) else {
+            continue;
+        };
+        let callee = set.op(st.op);
+        let mut vals = Vec::with_capacity(callee.params().len());
+        for (p, arg) in callee.params().iter().zip(&st.args) {
+            let v = match arg {
+                Some(ir) => ir.eval_uniform(&values, n),
+                // The checker guaranteed a default for every parameter left unbound.
+                None => p.default.unwrap_or(f64::NAN),
+            };
+            let out_of_range = match p.limits {
+                Some(l) => !l.contains(v),
+                None => !v.is_finite(),
+            };
+            if out_of_range {
+                let (lo, hi) = p
+                    .limits
+                    .map_or((f64::NEG_INFINITY, f64::INFINITY), |l| (l.lo, l.hi));
+                return Err(ApplyError::BoundOutOfRange {
+                    via: op.name().into(),
+                    operator: callee.name().into(),
+                    param: p.name.clone(),
+                    value: v,
+                    lo,
+                    hi,
+                });
+            }
+            vals.push(v);
         }
+        stack.push((index, values, next + 1));
+        stack.push((st.op, vals, 0));
     }
     Ok(())
 }

@@ -518,15 +518,24 @@ fn read_sources(files: &[PathBuf]) -> miette::Result<Vec<Source>> {
 
 fn check_files(files: &[PathBuf]) -> miette::Result<ExitCode> {
     let sources = read_sources(files)?;
-    match OperatorSet::standard().merge(&sources) {
-        Ok(set) => {
+    match OperatorSet::standard().merge_with_warnings(&sources) {
+        Ok(check::Checked { set, warnings }) => {
+            let n = warnings.len();
+            for w in warnings {
+                eprintln!("{:?}", Report::new(w));
+            }
             let ops: usize = set.operator_count();
             println!(
-                "checked {} file{}: {} domains and {} operators in all, no errors",
+                "checked {} file{}: {} domains and {} operators in all, no errors{}",
                 files.len(),
                 if files.len() == 1 { "" } else { "s" },
                 set.domains().len(),
-                ops
+                ops,
+                match n {
+                    0 => String::new(),
+                    1 => ", 1 warning".into(),
+                    n => format!(", {n} warnings"),
+                }
             );
             Ok(ExitCode::SUCCESS)
         }

@@ -418,6 +418,8 @@ pub struct Session {
     stop: StopSignal,
     /// The statement being executed (journalled with its effect).
     statement: Option<(String, String)>,
+    /// Warnings of the last definition checked (shadowed standard operators), for its reply.
+    warnings: Vec<crate::check::CheckWarning>,
     /// Effects made before a journal was started (the starting demonstrations), written first
     /// into the journal when one is started; `None` once one was (or never will be).
     preamble: Option<Vec<Entry>>,
@@ -469,6 +471,7 @@ impl Session {
             progress: false,
             stop: StopSignal::new(),
             statement: None,
+            warnings: Vec::new(),
             preamble: None,
         }
     }
@@ -688,7 +691,11 @@ impl Session {
     fn apply(&mut self, effect: &Effect) -> Result<(), SessionError> {
         match effect {
             Effect::Define { origin, text } => {
-                self.ops = self.ops.merge(&[Source::new(origin, text.clone())])?;
+                let checked = self
+                    .ops
+                    .merge_with_warnings(&[Source::new(origin, text.clone())])?;
+                self.ops = checked.set;
+                self.warnings = checked.warnings;
             }
             Effect::Task { task } => self.switch_task(*task),
             Effect::Backend { spec } => {
@@ -854,13 +861,15 @@ impl Session {
             origin: origin.to_string(),
             text: text.to_string(),
         })?;
-        Ok(Reply::text(match item {
-            Item::Operator(op) => format!(
-                "defined operator `{}` for {} (on {})",
-                op.name.name, op.domain.name, op.space
-            ),
-            Item::Domain(d) => format!("defined domain `{}`", d.name.name),
-        }))
+        Ok(Reply::text(
+            match item {
+                Item::Operator(op) => format!(
+                    "defined operator `{}` for {} (on {})",
+                    op.name.name, op.domain.name, op.space
+                ),
+                Item::Domain(d) => format!("defined domain `{}`", d.name.name),
+            } + &warnings_text(&std::mem::take(&mut self.warnings)),
+        ))
     }
 
     fn command(&mut self, cmd: Command) -> Result<Reply, SessionError> {
@@ -1085,6 +1094,7 @@ impl Session {
             origin: path.to_string(),
             text,
         })?;
+        let warnings = warnings_text(&std::mem::take(&mut self.warnings));
         Ok(format!(
             "checked {path}: {} operators now ({} for {})",
             self.ops.operator_count(),
@@ -1094,7 +1104,7 @@ impl Session {
             " (the file replaced existing operators)".to_string()
         } else {
             String::new()
-        })
+        } + &warnings)
     }
 
     fn sim_params(&self) -> SimParams {
@@ -1883,4 +1893,12 @@ fn first_chars(s: &str, n: usize) -> String {
         Some((i, _)) => format!("{}...", &s[..i]),
         None => s.to_string(),
     }
+}
+
+/// Check warnings as a reply shows them, after a blank line; empty when there are none.
+fn warnings_text(warnings: &[crate::check::CheckWarning]) -> String {
+    warnings
+        .iter()
+        .map(|w| format!("\n\n{}", crate::check::render(w).trim_end()))
+        .collect()
 }

@@ -8,7 +8,9 @@
 
 pub mod ast;
 pub mod command;
+pub mod delims;
 pub mod print;
+pub mod source;
 
 use miette::{Diagnostic, NamedSource, SourceSpan};
 use pest::Parser;
@@ -17,15 +19,20 @@ use thiserror::Error;
 
 use crate::domain::Space;
 use ast::*;
+pub use source::SourceText;
 
 #[derive(pest_derive::Parser)]
 #[grammar = "../grammar/advice.pest"]
 #[grammar = "../grammar/session.pest"]
 struct AdviceParser;
 
-/// How deeply expressions may nest. Far beyond any operator a person writes, and it keeps every
-/// recursive pass over the tree (check, print, compile) well inside a thread's stack.
-pub const MAX_DEPTH: usize = 64;
+pub use delims::MAX_NESTING;
+
+/// How deep an expression's tree may be: every operand, operator, prefix and function call is one
+/// level, so a chain `a + b + c ...` may have 128 terms. Far beyond any operator a person writes, and
+/// it keeps every recursive pass over the tree (check, print, compile, drop) well inside a
+/// thread's stack. Brackets are limited separately, before parsing ([`MAX_NESTING`]).
+pub const MAX_DEPTH: usize = 128;
 
 /// Text that does not parse.
 #[derive(Debug, Error, Diagnostic, Clone)]
@@ -35,7 +42,7 @@ pub enum ParseError {
     Syntax {
         message: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("{label}")]
         span: SourceSpan,
         label: String,
@@ -50,21 +57,49 @@ pub enum ParseError {
     NumberTooLarge {
         text: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("overflows")]
         span: SourceSpan,
     },
-    #[error("the expression is nested too deeply")]
-    #[diagnostic(
-        code(advise::parse::too_deep),
-        help("expressions may nest at most {MAX_DEPTH} levels; split the computation")
-    )]
+    #[error("{what} too deeply")]
+    #[diagnostic(code(advise::parse::too_deep), help("{help}"))]
     TooDeep {
+        what: String,
+        help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("too deep from here")]
         span: SourceSpan,
     },
+    #[error("this `{open}` is never closed")]
+    #[diagnostic(code(advise::parse::unclosed_delimiter))]
+    Unclosed {
+        open: char,
+        #[source_code]
+        src: NamedSource<SourceText>,
+        #[label("unclosed `{open}`")]
+        span: SourceSpan,
+        /// Where the parser expected the closing bracket.
+        #[label("{expected_label}")]
+        expected: SourceSpan,
+        expected_label: String,
+        /// The parser stopped at the end of the input (more lines could close it).
+        at_end: bool,
+        #[help]
+        help: String,
+    },
+}
+
+/// Why brackets nested too deeply are refused, for [`ParseError::TooDeep`].
+fn nesting_too_deep(name: &str, src: &str, at: usize) -> ParseError {
+    ParseError::TooDeep {
+        what: "brackets are nested".into(),
+        help: format!(
+            "brackets may nest at most {MAX_NESTING} deep; name a part of the computation as its own operator"
+        ),
+        src: NamedSource::new(name, SourceText::from(src)),
+        span: Span::new(at, at + 1).into(),
+    }
 }
 
 /// Parse a whole file. `name` is used in diagnostics, usually the path.
@@ -181,11 +216,21 @@ pub fn parse_invocation(src: &str) -> Result<Invocation, ParseError> {
 }
 
 fn run<'i>(rule: Rule, name: &str, src: &'i str) -> Result<Pairs<'i, Rule>, ParseError> {
-    AdviceParser::parse(rule, src).map_err(|e| convert(e, name, src))
+    // pest recurses once per bracket; refuse deep nesting before it can exhaust the stack.
+    let brackets = delims::scan(src);
+    if let Some(at) = brackets.too_deep {
+        return Err(nesting_too_deep(name, src, at));
+    }
+    AdviceParser::parse(rule, src).map_err(|e| convert(e, name, src, &brackets))
 }
 
 /// Turn a pest error into a diagnostic that names what was expected in words.
-fn convert(e: pest::error::Error<Rule>, name: &str, src: &str) -> ParseError {
+fn convert(
+    e: pest::error::Error<Rule>,
+    name: &str,
+    src: &str,
+    brackets: &delims::Scan,
+) -> ParseError {
     let pos = match e.location {
         pest::error::InputLocation::Pos(p) => p,
         pest::error::InputLocation::Span((s, _)) => s,
@@ -202,13 +247,18 @@ fn convert(e: pest::error::Error<Rule>, name: &str, src: &str) -> ParseError {
         }
         found = "the end of the input".into();
     }
-    let src_named = || NamedSource::new(name, src.to_string());
+    let src_named = || NamedSource::new(name, SourceText::from(src));
     match e.variant {
-        pest::error::ErrorVariant::CustomError { .. } => ParseError::TooDeep {
+        pest::error::ErrorVariant::CustomError { message } => ParseError::TooDeep {
+            what: "the input is nested".into(),
+            help: message,
             src: src_named(),
             span: span.into(),
         },
         pest::error::ErrorVariant::ParsingError { positives, .. } => {
+            if let Some(blame) = unclosed_here(src, pos, at_end, &positives, brackets) {
+                return unclosed(blame, name, src, span, at_end, &found);
+            }
             let expected = expected_words(&positives);
             let message = if expected.is_empty() {
                 format!("unexpected {found}")
@@ -227,6 +277,111 @@ fn convert(e: pest::error::Error<Rule>, name: &str, src: &str) -> ParseError {
                 help: help_for(&positives, src, pos),
             }
         }
+    }
+}
+
+/// The bracket to blame for a parse error at `pos`, and where its closing bracket belonged (when
+/// the text says), or `None` when the error is the parser's own. A lost `}` is noticed only at
+/// the next item or at the end of the input, sometimes as something else entirely (`/// doc`
+/// after a number reads as a division); the mistake is where the bracket was opened. So the
+/// innermost bracket open at `pos` is blamed when the text never closes it and either the parser
+/// would have accepted its closing bracket at `pos`, or the input ended inside it, or the parser
+/// ran past the start of an item (a doc comment, `operator`, `domain`), which no bracket can hold:
+/// the closing bracket belonged before it.
+fn unclosed_here(
+    src: &str,
+    pos: usize,
+    at_end: bool,
+    positives: &[Rule],
+    brackets: &delims::Scan,
+) -> Option<(delims::Open, Option<usize>)> {
+    let open = delims::innermost_open(src, pos)?;
+    if !brackets.unclosed.contains(&open) {
+        return None;
+    }
+    let closer = match open.ch {
+        '(' => Rule::rparen,
+        '[' => Rule::rbracket,
+        _ => Rule::rbrace,
+    };
+    let guess = close_guess(src, open.at, pos);
+    (at_end || positives.contains(&closer) || guess.is_some()).then_some((open, guess))
+}
+
+/// The start of the first line after the bracket's own that begins an item, at or before `pos`.
+fn close_guess(src: &str, open_at: usize, pos: usize) -> Option<usize> {
+    let starts_item = |t: &str| {
+        t.starts_with("///")
+            || ["operator", "domain"].iter().any(|kw| {
+                t.strip_prefix(kw).is_some_and(|rest| {
+                    !rest.starts_with(|c: char| c.is_alphanumeric() || c == '_')
+                })
+            })
+    };
+    let mut off = open_at + src[open_at..].find('\n')? + 1;
+    for line in src[off..].split_inclusive('\n') {
+        if off > pos {
+            break;
+        }
+        let t = line.trim_start();
+        if starts_item(t) {
+            return Some(off + line.len() - t.len());
+        }
+        off += line.len();
+    }
+    None
+}
+
+fn unclosed(
+    (open, guess): (delims::Open, Option<usize>),
+    name: &str,
+    src: &str,
+    stop: Span,
+    at_end: bool,
+    found: &str,
+) -> ParseError {
+    let close = open.closer();
+    let line = |byte: usize| src[..byte].matches('\n').count() + 1;
+    let what = match open.ch {
+        '{' => "the body",
+        '(' => "the list",
+        _ => "the offset",
+    };
+    let opened = line(open.at);
+    let (expected, expected_label, help) = match guess {
+        Some(at) => {
+            let (desc, span) = token_at(src, at);
+            (
+                span,
+                format!("expected `{close}` before {desc}"),
+                format!(
+                    "close {what} opened on line {opened} with `{close}` before line {}",
+                    line(at)
+                ),
+            )
+        }
+        None if at_end => (
+            stop,
+            format!("the input ends here, still expecting `{close}`"),
+            format!("close {what} opened on line {opened} with `{close}`"),
+        ),
+        None => (
+            stop,
+            format!("expected `{close}` before {found}"),
+            format!(
+                "close {what} opened on line {opened} with `{close}` before line {}",
+                line(stop.start)
+            ),
+        ),
+    };
+    ParseError::Unclosed {
+        open: open.ch,
+        src: NamedSource::new(name, SourceText::from(src)),
+        span: Span::new(open.at, open.at + 1).into(),
+        expected: expected.into(),
+        expected_label,
+        at_end: at_end && guess.is_none(),
+        help,
     }
 }
 
@@ -442,7 +597,7 @@ struct Builder<'a> {
 /// The flat token stream of an `expr` pair, consumed by precedence climbing.
 enum Tok<'i> {
     Prefix(UnOp, Span),
-    Infix(BinOp),
+    Infix(BinOp, Span),
     Operand(Pair<'i, Rule>),
 }
 
@@ -452,8 +607,8 @@ impl<'a> Builder<'a> {
         Span::new(s.start(), s.end())
     }
 
-    fn src(&self) -> NamedSource<String> {
-        NamedSource::new(self.name, self.src.to_string())
+    fn src(&self) -> NamedSource<SourceText> {
+        NamedSource::new(self.name, SourceText::from(self.src))
     }
 
     fn ident(&self, p: Pair<'_, Rule>) -> Ident {
@@ -466,11 +621,24 @@ impl<'a> Builder<'a> {
     fn number_text(&self, text: &str, span: Span) -> Result<f64, ParseError> {
         match text.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
-            _ => Err(ParseError::NumberTooLarge {
-                text: text.to_string(),
-                src: self.src(),
-                span: span.into(),
-            }),
+            _ => Err(self.too_large(text, span)),
+        }
+    }
+
+    /// `text` does not fit a number; a number of a million digits is named by its first few.
+    fn too_large(&self, text: &str, span: Span) -> ParseError {
+        const SHOWN: usize = 24;
+        let (text, span) = match text.get(..SHOWN) {
+            Some(head) if text.len() > SHOWN => (
+                format!("{head}... ({} digits)", text.len()),
+                Span::new(span.start, span.start + SHOWN.min(span.len())),
+            ),
+            _ => (text.to_string(), span),
+        };
+        ParseError::NumberTooLarge {
+            text,
+            src: self.src(),
+            span: span.into(),
         }
     }
 
@@ -694,34 +862,47 @@ impl<'a> Builder<'a> {
 
     fn too_deep(&self, span: Span) -> ParseError {
         ParseError::TooDeep {
+            what: "the expression is nested".into(),
+            help: format!(
+                "an expression may be at most {MAX_DEPTH} levels deep, and every term of a chain `a + b + c` is one more; split it into several operators or statements"
+            ),
             src: self.src(),
             span: span.into(),
         }
     }
 
-    /// Build an `expr` pair by precedence climbing over its flat token stream.
+    /// Build an `expr` pair; `depth` tree levels are already above it.
     fn expr(&self, p: Pair<'_, Rule>, depth: usize) -> Result<Expr, ParseError> {
-        if depth > MAX_DEPTH {
+        self.expr_height(p, depth).map(|(e, _)| e)
+    }
+
+    /// Build an `expr` pair by precedence climbing over its flat token stream; also returns the
+    /// height of the tree built, which with `depth` stays within [`MAX_DEPTH`].
+    fn expr_height(&self, p: Pair<'_, Rule>, depth: usize) -> Result<(Expr, usize), ParseError> {
+        if depth >= MAX_DEPTH {
             return Err(self.too_deep(self.span(&p)));
         }
         let toks: Vec<Tok<'_>> = p
             .into_inner()
-            .map(|t| match t.as_rule() {
-                Rule::op_neg => Tok::Prefix(UnOp::Neg, self.span(&t)),
-                Rule::kw_not => Tok::Prefix(UnOp::Not, self.span(&t)),
-                Rule::kw_or => Tok::Infix(BinOp::Or),
-                Rule::kw_and => Tok::Infix(BinOp::And),
-                Rule::op_eq => Tok::Infix(BinOp::Eq),
-                Rule::op_ne => Tok::Infix(BinOp::Ne),
-                Rule::op_le => Tok::Infix(BinOp::Le),
-                Rule::op_ge => Tok::Infix(BinOp::Ge),
-                Rule::op_lt => Tok::Infix(BinOp::Lt),
-                Rule::op_gt => Tok::Infix(BinOp::Gt),
-                Rule::op_add => Tok::Infix(BinOp::Add),
-                Rule::op_sub => Tok::Infix(BinOp::Sub),
-                Rule::op_mul => Tok::Infix(BinOp::Mul),
-                Rule::op_div => Tok::Infix(BinOp::Div),
-                _ => Tok::Operand(t),
+            .map(|t| {
+                let infix = |op| Tok::Infix(op, self.span(&t));
+                match t.as_rule() {
+                    Rule::op_neg => Tok::Prefix(UnOp::Neg, self.span(&t)),
+                    Rule::kw_not => Tok::Prefix(UnOp::Not, self.span(&t)),
+                    Rule::kw_or => infix(BinOp::Or),
+                    Rule::kw_and => infix(BinOp::And),
+                    Rule::op_eq => infix(BinOp::Eq),
+                    Rule::op_ne => infix(BinOp::Ne),
+                    Rule::op_le => infix(BinOp::Le),
+                    Rule::op_ge => infix(BinOp::Ge),
+                    Rule::op_lt => infix(BinOp::Lt),
+                    Rule::op_gt => infix(BinOp::Gt),
+                    Rule::op_add => infix(BinOp::Add),
+                    Rule::op_sub => infix(BinOp::Sub),
+                    Rule::op_mul => infix(BinOp::Mul),
+                    Rule::op_div => infix(BinOp::Div),
+                    _ => Tok::Operand(t),
+                }
             })
             .collect();
         let mut climb = Climb {
@@ -733,29 +914,34 @@ impl<'a> Builder<'a> {
         climb.expr(0)
     }
 
-    fn operand(&self, p: Pair<'_, Rule>, depth: usize) -> Result<Expr, ParseError> {
+    /// An operand and its height; `depth` levels are above it.
+    fn operand(&self, p: Pair<'_, Rule>, depth: usize) -> Result<(Expr, usize), ParseError> {
         let span = self.span(&p);
         match p.as_rule() {
-            Rule::number => Ok(Expr::new(
-                ExprKind::Num(self.number_text(p.as_str(), span)?),
-                span,
+            Rule::number => Ok((
+                Expr::new(ExprKind::Num(self.number_text(p.as_str(), span)?), span),
+                1,
             )),
-            Rule::name => Ok(Expr::new(ExprKind::Var(p.as_str().to_string()), span)),
+            Rule::name => Ok((Expr::new(ExprKind::Var(p.as_str().to_string()), span), 1)),
             Rule::paren => {
                 let e = p
                     .into_inner()
                     .find(|e| e.as_rule() == Rule::expr)
                     .expect("parentheses hold an expression");
-                self.expr(e, depth + 1)
+                // Parentheses group; they add no level to the tree.
+                self.expr_height(e, depth)
             }
             Rule::call_expr => {
                 let mut inner = p.into_inner();
                 let func = self.ident(inner.next().expect("a call has a name"));
                 let mut args = Vec::new();
+                let mut height = 0;
                 for e in inner.filter(|e| e.as_rule() == Rule::expr) {
-                    args.push(self.expr(e, depth + 1)?);
+                    let (a, h) = self.expr_height(e, depth + 1)?;
+                    height = height.max(h);
+                    args.push(a);
                 }
-                Ok(Expr::new(ExprKind::Call { func, args }, span))
+                Ok((Expr::new(ExprKind::Call { func, args }, span), height + 1))
             }
             Rule::at_expr => {
                 let mut inner = p.into_inner();
@@ -763,14 +949,18 @@ impl<'a> Builder<'a> {
                 let e = inner
                     .find(|e| e.as_rule() == Rule::expr)
                     .expect("an offset read has an offset");
-                let offset = Box::new(self.expr(e, depth + 1)?);
-                Ok(Expr::new(ExprKind::At { dim, offset }, span))
+                let (offset, h) = self.expr_height(e, depth + 1)?;
+                let offset = Box::new(offset);
+                Ok((Expr::new(ExprKind::At { dim, offset }, span), h + 1))
             }
             r => unreachable!("the grammar has no operand {r:?}"),
         }
     }
 }
 
+/// Precedence climbing over one expression's tokens. `depth` counts the tree levels above the
+/// subtree being built; every node is refused once its level would pass [`MAX_DEPTH`], before
+/// anything recurses deeper, so a hostile chain stops at the operator that passed the limit.
 struct Climb<'b, 'a, 'i> {
     b: &'b Builder<'a>,
     toks: Vec<Tok<'i>>,
@@ -779,46 +969,51 @@ struct Climb<'b, 'a, 'i> {
 }
 
 impl Climb<'_, '_, '_> {
-    fn expr(&mut self, min: u8) -> Result<Expr, ParseError> {
-        let mut lhs = self.unary()?;
-        while let Some(Tok::Infix(op)) = self.toks.get(self.at) {
-            let op = *op;
+    fn expr(&mut self, min: u8) -> Result<(Expr, usize), ParseError> {
+        let (mut lhs, mut height) = self.unary()?;
+        while let Some(Tok::Infix(op, op_span)) = self.toks.get(self.at) {
+            let (op, op_span) = (*op, *op_span);
             if op.precedence() < min {
                 break;
             }
+            // The new node sits where `lhs` was; `lhs` moves one level down.
+            if self.depth + height + 1 > MAX_DEPTH {
+                return Err(self.b.too_deep(op_span));
+            }
             self.at += 1;
-            let rhs = self.expr(op.precedence() + 1)?;
+            self.depth += 1;
+            let rhs = self.expr(op.precedence() + 1);
+            self.depth -= 1;
+            let (rhs, rh) = rhs?;
+            height = height.max(rh) + 1;
+            if self.depth + height > MAX_DEPTH {
+                return Err(self.b.too_deep(op_span));
+            }
             let span = lhs.span.join(rhs.span);
             lhs = Expr::new(ExprKind::Binary(op, Box::new(lhs), Box::new(rhs)), span);
         }
-        Ok(lhs)
+        Ok((lhs, height))
     }
 
-    fn unary(&mut self) -> Result<Expr, ParseError> {
-        self.depth += 1;
-        let result = self.unary_inner();
-        self.depth -= 1;
-        result
-    }
-
-    fn unary_inner(&mut self) -> Result<Expr, ParseError> {
+    fn unary(&mut self) -> Result<(Expr, usize), ParseError> {
         let at = self.at;
         self.at += 1;
         match self.toks.get(at) {
             Some(Tok::Prefix(op, span)) => {
                 let (op, span) = (*op, *span);
-                if self.depth > MAX_DEPTH {
+                if self.depth + 1 >= MAX_DEPTH {
                     return Err(self.b.too_deep(span));
                 }
-                let e = self.expr(op.precedence())?;
+                self.depth += 1;
+                let e = self.expr(op.precedence());
+                self.depth -= 1;
+                let (e, h) = e?;
                 let span = span.join(e.span);
-                Ok(Expr::new(ExprKind::Unary(op, Box::new(e)), span))
+                Ok((Expr::new(ExprKind::Unary(op, Box::new(e)), span), h + 1))
             }
-            Some(Tok::Operand(_)) => {
-                let Some(Tok::Operand(p)) = self.toks.get(at) else {
-                    unreachable!()
-                };
-                self.b.operand(p.clone(), self.depth)
+            Some(Tok::Operand(p)) => {
+                let p = p.clone();
+                self.b.operand(p, self.depth)
             }
             _ => unreachable!("the grammar puts an operand after every operator"),
         }

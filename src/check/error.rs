@@ -4,7 +4,7 @@
 use miette::{Diagnostic, NamedSource, SourceSpan};
 use thiserror::Error;
 
-use crate::syntax::ParseError;
+use crate::syntax::{ParseError, SourceText};
 
 /// Something wrong with a program that parsed.
 #[derive(Debug, Error, Diagnostic, Clone)]
@@ -16,7 +16,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("unknown domain")]
         span: SourceSpan,
     },
@@ -28,7 +28,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("unknown dimension")]
         span: SourceSpan,
     },
@@ -39,7 +39,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("unknown name")]
         span: SourceSpan,
     },
@@ -50,7 +50,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("unknown function")]
         span: SourceSpan,
     },
@@ -62,7 +62,7 @@ pub enum CheckError {
         found: usize,
         signature: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("{found} argument{}", if *found == 1 { "" } else { "s" })]
         span: SourceSpan,
     },
@@ -74,7 +74,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("unknown operator")]
         span: SourceSpan,
     },
@@ -90,7 +90,7 @@ pub enum CheckError {
         op_domain: String,
         domain: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("an operator for `{op_domain}`")]
         span: SourceSpan,
     },
@@ -102,7 +102,7 @@ pub enum CheckError {
         #[help]
         help: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("unknown parameter")]
         span: SourceSpan,
     },
@@ -114,7 +114,7 @@ pub enum CheckError {
         found: usize,
         signature: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("one too many")]
         span: SourceSpan,
     },
@@ -129,7 +129,7 @@ pub enum CheckError {
         operator: String,
         param: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("`{param}` is not given")]
         span: SourceSpan,
     },
@@ -138,7 +138,7 @@ pub enum CheckError {
     DuplicateArgument {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("given again here")]
         span: SourceSpan,
     },
@@ -155,7 +155,7 @@ pub enum CheckError {
         op_space: String,
         dim_space: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("an {dim_space} dimension")]
         span: SourceSpan,
     },
@@ -170,7 +170,7 @@ pub enum CheckError {
         op_space: String,
         callee_space: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("modifies {callee_space}s")]
         span: SourceSpan,
     },
@@ -186,7 +186,7 @@ pub enum CheckError {
         hi: f64,
         clamped: f64,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("outside [{lo}, {hi}]")]
         span: SourceSpan,
     },
@@ -202,7 +202,7 @@ pub enum CheckError {
         lo: f64,
         hi: f64,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("outside [{lo}, {hi}]")]
         span: SourceSpan,
     },
@@ -212,7 +212,7 @@ pub enum CheckError {
         name: String,
         first: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("declared again here")]
         span: SourceSpan,
     },
@@ -227,7 +227,7 @@ pub enum CheckError {
         name: String,
         difference: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("differs from the standard `{name}`")]
         span: SourceSpan,
     },
@@ -239,7 +239,7 @@ pub enum CheckError {
     DuplicateDimension {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("declared again here")]
         span: SourceSpan,
     },
@@ -250,7 +250,7 @@ pub enum CheckError {
         domain: String,
         first: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("defined again here")]
         span: SourceSpan,
     },
@@ -262,7 +262,7 @@ pub enum CheckError {
     DuplicateParameter {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("declared again here")]
         span: SourceSpan,
     },
@@ -276,7 +276,7 @@ pub enum CheckError {
     DuplicateAssignment {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("assigned again here")]
         span: SourceSpan,
     },
@@ -286,7 +286,7 @@ pub enum CheckError {
         name: String,
         meaning: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("reserved")]
         span: SourceSpan,
     },
@@ -301,7 +301,7 @@ pub enum CheckError {
         name: String,
         domain: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("also a dimension")]
         span: SourceSpan,
     },
@@ -314,7 +314,7 @@ pub enum CheckError {
         lo: f64,
         hi: f64,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("lower limit above upper limit")]
         span: SourceSpan,
     },
@@ -326,7 +326,7 @@ pub enum CheckError {
     NotConstant {
         what: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("`{name}` is not a constant")]
         span: SourceSpan,
         name: String,
@@ -336,7 +336,7 @@ pub enum CheckError {
     NotFinite {
         value: f64,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("not finite")]
         span: SourceSpan,
     },
@@ -348,7 +348,7 @@ pub enum CheckError {
         #[help]
         help: Option<String>,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("this is {found}")]
         span: SourceSpan,
     },
@@ -360,7 +360,7 @@ pub enum CheckError {
     OffsetNeedsDimension {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("not a dimension")]
         span: SourceSpan,
     },
@@ -373,7 +373,7 @@ pub enum CheckError {
         name: String,
         cycle: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("this call leads back to `{name}`")]
         span: SourceSpan,
     },
@@ -387,7 +387,7 @@ pub enum CheckError {
     PerPointArgument {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("differs from point to point")]
         span: SourceSpan,
     },
@@ -399,10 +399,65 @@ pub enum CheckError {
     EmptyOperator {
         name: String,
         #[source_code]
-        src: NamedSource<String>,
+        src: NamedSource<SourceText>,
         #[label("no statements")]
         span: SourceSpan,
     },
+    #[error("`{name}` expands to {stages} per-point stages, more than {limit}")]
+    #[diagnostic(
+        code(advise::check::composition_too_large),
+        help(
+            "every application runs each stage a composition expands to over the whole chunk, so compositions may expand to at most {limit} stages; {chain}. Compose fewer times, or advise with the parts one after another"
+        )
+    )]
+    CompositionTooLarge {
+        name: String,
+        stages: String,
+        limit: usize,
+        chain: String,
+        #[source_code]
+        src: NamedSource<SourceText>,
+        #[label("expands to {stages} stages")]
+        span: SourceSpan,
+    },
+    #[error("`{name}` computes {nodes} terms, more than {limit}")]
+    #[diagnostic(
+        code(advise::check::operator_too_large),
+        help(
+            "an operator's guard and statements may hold at most {limit} numbers, names and operators in all; split it into several operators and compose them"
+        )
+    )]
+    OperatorTooLarge {
+        name: String,
+        nodes: usize,
+        limit: usize,
+        #[source_code]
+        src: NamedSource<SourceText>,
+        #[label("{nodes} terms")]
+        span: SourceSpan,
+    },
+    #[error("`{name}` declares {count} parameters, more than {limit}")]
+    #[diagnostic(
+        code(advise::check::too_many_parameters),
+        help(
+            "an operator may declare at most {limit} parameters; split it into several operators"
+        )
+    )]
+    TooManyParameters {
+        name: String,
+        count: usize,
+        limit: usize,
+        #[source_code]
+        src: NamedSource<SourceText>,
+        #[label("parameter {} of {count}", limit + 1)]
+        span: SourceSpan,
+    },
+    #[error("stopped after {shown} errors; there may be more")]
+    #[diagnostic(
+        code(advise::check::too_many_errors),
+        help("fix these and check again to see the rest")
+    )]
+    TooManyErrors { shown: usize },
 }
 
 /// A diagnostic from either front-end phase, so one list can hold all of a check's errors.
@@ -430,4 +485,26 @@ fn summary(errors: &[FileError]) -> String {
         1 => "1 error".into(),
         n => format!("{n} errors"),
     }
+}
+
+/// Something legal that may not be what the author meant; reported, never refused.
+#[derive(Debug, Error, Diagnostic, Clone)]
+pub enum CheckWarning {
+    #[error("`{name}` shadows the standard operator `{name}` for `{domain}`")]
+    #[diagnostic(
+        code(advise::check::shadows_standard),
+        severity(Warning),
+        help(
+            "the standard `{name}` is defined in {origin}; from here on `{name}` means this one (standard compositions keep using theirs). Rename it to keep both"
+        )
+    )]
+    ShadowsStandard {
+        name: String,
+        domain: String,
+        origin: String,
+        #[source_code]
+        src: NamedSource<SourceText>,
+        #[label("shadows the standard `{name}`")]
+        span: SourceSpan,
+    },
 }

@@ -162,6 +162,16 @@ impl Ir {
         }
     }
 
+    /// The number of nodes: what compiling it costs in instructions and registers.
+    pub fn size(&self) -> usize {
+        1 + match self {
+            Ir::Num(_) | Ir::Param(_) | Ir::N | Ir::K | Ir::Dim(..) => 0,
+            Ir::At(_, _, e) | Ir::Neg(e) | Ir::Not(e) => e.size(),
+            Ir::Bin(_, a, b) => a.size() + b.size(),
+            Ir::Func(_, args) => args.iter().map(Ir::size).sum(),
+        }
+    }
+
     /// Whether the expression reads a dimension of `space` at an offset (another point).
     pub fn reads_offset(&self, space: Space) -> bool {
         match self {

@@ -4,8 +4,14 @@
 //! with an open `{`, a composition ending in `then`, a doc comment): then the following lines are
 //! joined until the statement is complete or the script ends. Each statement keeps its first line
 //! number, so a failing command can be reported as `script.adv:12`.
+//!
+//! Whether a statement goes on is decided from its brackets and the end of its last line, matched
+//! one line at a time, never by parsing the growing text again: a script is split in time linear
+//! in its length. So an operator whose `{` is never closed takes the rest of the script with it,
+//! and its error says where the `{` was opened.
 
-use crate::syntax::command::is_incomplete;
+use crate::syntax::command::{ends_open, parse_statement};
+use crate::syntax::delims::LineBrackets;
 
 /// One statement of a script and where it starts (1-based line).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -18,7 +24,9 @@ pub struct ScriptStatement {
 pub fn statements(text: &str) -> Vec<ScriptStatement> {
     let mut out = Vec::new();
     let mut pending: Option<ScriptStatement> = None;
+    let mut brackets = LineBrackets::default();
     for (i, line) in text.lines().enumerate() {
+        let first = pending.is_none();
         let st = match pending.take() {
             Some(mut p) => {
                 p.text.push('\n');
@@ -30,9 +38,14 @@ pub fn statements(text: &str) -> Vec<ScriptStatement> {
                 text: line.to_string(),
             },
         };
-        if is_incomplete(&st.text) {
+        brackets.feed(line);
+        let goes_on = (brackets.is_open() || ends_open(line))
+            // A first line that is whole as it stands (a path with a bracket in it) ends here.
+            && !(first && parse_statement("<script>", line).is_ok());
+        if goes_on {
             pending = Some(st);
         } else {
+            brackets = LineBrackets::default();
             out.push(st);
         }
     }
@@ -66,5 +79,20 @@ mod tests {
         let st = statements("operator creep for positioning on action {\n trans = 0.1\n");
         assert_eq!(st.len(), 1);
         assert_eq!(st[0].line, 1);
+    }
+
+    #[test]
+    fn an_unclosed_brace_keeps_the_rest_and_commands_end_at_their_line() {
+        let text = "operator creep for positioning on action {\n  trans = 0.1\n// note\nshow\n";
+        let st = statements(text);
+        assert_eq!(st.len(), 1, "{st:?}");
+        assert!(st[0].text.ends_with("show"));
+        let st = statements("plot a(.svg\nshow\ntask strengthen\nshow");
+        assert_eq!(st.len(), 4, "{st:?}");
+        let st =
+            statements("operator b for positioning on action = slow_down then\n  no_turning\nshow");
+        assert_eq!(st.len(), 2, "{st:?}");
+        let st = statements("// x =\nshow");
+        assert_eq!(st.len(), 2, "{st:?}");
     }
 }

@@ -3,7 +3,7 @@
 //! [`crate::session`]'s business; this module only gives them shape and spans.
 
 use super::ast::{Ident, Item, Span};
-use super::{Builder, Invocation, ParseError, Rule, parse_invocation, run};
+use super::{Builder, Invocation, ParseError, Rule, delims, parse_invocation, run};
 use pest::iterators::Pair;
 
 /// One statement of a session.
@@ -163,37 +163,30 @@ pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
 /// a composition ending in `then`, a doc comment waiting for its item): the REPL asks for another
 /// line, and a script reader joins the next line, instead of reporting an error.
 pub fn is_incomplete(src: &str) -> bool {
+    let last = src.trim_end().lines().last().unwrap_or("");
+    if !(delims::any_open(src) || ends_open(last)) {
+        return false;
+    }
     match parse_statement("<input>", src) {
         Ok(_) => false,
-        Err(ParseError::Syntax { message, .. }) => {
-            message.ends_with("found the end of the input")
-                && (open_brackets(src) || ends_open(src))
-        }
+        Err(ParseError::Unclosed { at_end, .. }) => at_end,
+        Err(ParseError::Syntax { message, .. }) => message.ends_with("found the end of the input"),
         Err(_) => false,
     }
 }
 
-fn open_brackets(src: &str) -> bool {
-    let (mut brace, mut paren) = (0i32, 0i32);
-    for line in src.lines() {
-        let code = line.split("//").next().unwrap_or("");
-        for c in code.chars() {
-            match c {
-                '{' => brace += 1,
-                '}' => brace -= 1,
-                '(' => paren += 1,
-                ')' => paren -= 1,
-                _ => {}
-            }
-        }
+/// Whether a line leaves its statement open for the next: a doc comment waiting for its item, or
+/// code ending in `then`, `=` or `,`.
+pub fn ends_open(line: &str) -> bool {
+    let line = line.trim();
+    if line.starts_with("///") {
+        return true;
     }
-    brace > 0 || paren > 0
-}
-
-fn ends_open(src: &str) -> bool {
-    let t = src.trim_end();
-    let last = t.lines().last().unwrap_or("").trim_start();
-    t.ends_with("then") || t.ends_with('=') || last.starts_with("///") || t.ends_with(',')
+    let code = line.split("//").next().unwrap_or("").trim_end();
+    let ends_with_then = code
+        .strip_suffix("then")
+        .is_some_and(|rest| !rest.ends_with(|c: char| c.is_alphanumeric() || c == '_'));
+    ends_with_then || code.ends_with('=') || code.ends_with(',')
 }
 
 fn req(p: Option<Pair<'_, Rule>>) -> Pair<'_, Rule> {
@@ -220,11 +213,7 @@ impl Builder<'_> {
         let span = self.span(&p);
         p.as_str()
             .parse::<usize>()
-            .map_err(|_| ParseError::NumberTooLarge {
-                text: p.as_str().to_string(),
-                src: miette::NamedSource::new(self.name, self.src.to_string()),
-                span: (span.start, span.len()).into(),
-            })
+            .map_err(|_| self.too_large(p.as_str(), span))
     }
 
     /// An invocation inside a command: parsed on its own text so its spans point into it, as
@@ -305,6 +294,17 @@ mod tests {
             "operator b for positioning on action = slow_down then"
         ));
         assert!(is_incomplete("/// Creep forward."));
+        // However the body is indented, and whatever comes after a number.
+        assert!(is_incomplete(
+            "operator creep for positioning on action {\ntrans = 0.1\n"
+        ));
+        assert!(is_incomplete(
+            "operator creep for positioning on action {\n  trans = 0.1 / 2 // half\n"
+        ));
+        // An item where the body should have ended is a mistake, not more to come.
+        assert!(!is_incomplete(
+            "operator a for positioning on action {\n  trans = 0\noperator b for positioning on action {"
+        ));
         assert!(!is_incomplete("select 1..x"));
         assert!(!is_incomplete("selec 1..2"));
         assert!(!is_incomplete(
