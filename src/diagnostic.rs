@@ -6,7 +6,7 @@
 //! few lines of context, and on a long line at most [`SIDE_BYTES`] either side of the label, cut
 //! on character boundaries; labels longer than that are shortened. Applied where diagnostics are
 //! rendered (the REPL, the command line, the tests), so every error type benefits. This module
-//! only renders; it defines no errors.
+//! renders and suggests ([`did_you_mean`]); it defines no errors.
 
 use std::fmt;
 
@@ -183,6 +183,17 @@ impl SourceCode for BoundedSource<'_> {
 
 fn is_continuation(data: &[u8], i: usize) -> bool {
     data.get(i).is_some_and(|b| b & 0xC0 == 0x80)
+}
+
+/// The known name closest to `name`, if it is close enough to be what was meant, as the help
+/// text "did you mean `k`?".
+pub fn did_you_mean(name: &str, known: &[&str]) -> Option<String> {
+    known
+        .iter()
+        .map(|k| (strsim::jaro_winkler(k, name), k))
+        .filter(|(s, _)| *s > 0.8)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, k)| format!("did you mean `{k}`?"))
 }
 
 #[cfg(test)]

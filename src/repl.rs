@@ -19,6 +19,7 @@ use rustyline::{CompletionType, Config, Editor};
 
 use crate::backend::StopSignal;
 use crate::session::Session;
+use crate::syntax::command::is_incomplete;
 use helper::{AdviseHelper, Facts};
 
 /// Render a diagnostic for the terminal (colour only when asked), showing a bounded window of
@@ -102,7 +103,7 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
     install_ctrl_c(&signal);
     let mut n = 0;
     loop {
-        match rl.readline("advise> ") {
+        match read_statement(&mut rl) {
             Ok(line) => {
                 n += 1;
                 signal.clear();
@@ -133,4 +134,28 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
     }
     let _ = rl.save_history(&history);
     Ok(())
+}
+
+/// One statement from the terminal: a line, and while it is unfinished (an operator definition
+/// with an open `{`, a doc comment waiting for its item) more lines under a `...> ` prompt, so the
+/// teacher sees that more is expected. Ctrl-C at `...> ` drops the unfinished statement. A
+/// command is always one line.
+fn read_statement(rl: &mut Editor<AdviseHelper, DefaultHistory>) -> rustyline::Result<String> {
+    let mut text = rl.readline("advise> ")?;
+    while is_incomplete(&text) {
+        match rl.readline("...> ") {
+            Ok(more) => {
+                text.push('\n');
+                text.push_str(&more);
+            }
+            Err(ReadlineError::Interrupted) => {
+                println!("^C the unfinished statement is dropped");
+                return Ok(String::new());
+            }
+            // The end of the input: hand on what there is, so its error is reported.
+            Err(ReadlineError::Eof) => break,
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(text)
 }

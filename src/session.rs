@@ -29,6 +29,7 @@ use crate::backend::{
     Backend, BackendError, BackendSpec, BackendSpecError, Interruptible, StopSignal,
 };
 use crate::check::{CheckErrors, OperatorSet, Source};
+use crate::diagnostic::did_you_mean;
 use crate::domain::Domain;
 use crate::eval::{self, EvalOptions, Report};
 use crate::interp::{self, ApplyError, Synthesized};
@@ -1820,15 +1821,6 @@ fn outcome_line(e: &Execution) -> String {
 fn fmt_vec(v: &[f64]) -> String {
     let parts: Vec<String> = v.iter().map(|x| format!("{x:.3}")).collect();
     format!("[{}]", parts.join(", "))
-}
-
-fn did_you_mean(name: &str, known: &[&str]) -> Option<String> {
-    known
-        .iter()
-        .map(|k| (strsim::jaro_winkler(k, name), k))
-        .filter(|(s, _)| *s > 0.8)
-        .max_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|(_, k)| format!("did you mean `{k}`?"))
 }
 
 /// Where a script line came from, for diagnostics: `path:line`.

@@ -71,6 +71,16 @@ pub enum ParseError {
         #[label("too deep from here")]
         span: SourceSpan,
     },
+    #[error("`{word}` is not a command")]
+    #[diagnostic(code(advise::parse::unknown_command), help("{help}"))]
+    UnknownCommand {
+        word: String,
+        #[source_code]
+        src: NamedSource<SourceText>,
+        #[label("unknown command")]
+        span: SourceSpan,
+        help: String,
+    },
     #[error("this `{open}` is never closed")]
     #[diagnostic(code(advise::parse::unclosed_delimiter))]
     Unclosed {

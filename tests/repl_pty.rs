@@ -1,5 +1,6 @@
 //! The REPL users touch, driven through a pseudo-terminal: start the real binary, complete a
-//! command and an operator with Tab, run, advise, undo, quit.
+//! command and an operator with Tab, run, advise, undo, a definition over several lines under the
+//! `...>` prompt, a misspelt command, quit.
 
 #[cfg(unix)]
 #[test]
@@ -26,6 +27,16 @@ fn the_repl_completes_runs_advises_and_undoes() -> Result<(), rexpect::error::Er
     p.exp_string("advised 20..40 of execution 0 with slow_down")?;
     p.send_line("undo")?;
     p.exp_string("undid: #1 advise slow_down")?;
+    // An unfinished definition continues under its own prompt.
+    p.send_line("operator creep for positioning on action {")?;
+    p.exp_string("...> ")?;
+    p.send_line("  trans = 0.1")?;
+    p.exp_string("...> ")?;
+    p.send_line("}")?;
+    p.exp_string("defined operator `creep`")?;
+    // A misspelt command is named, with the one that was meant.
+    p.send_line("selec 1..2")?;
+    p.exp_string("did you mean `select`?")?;
     p.send_line("quit")?;
     p.exp_eof()?;
     Ok(())

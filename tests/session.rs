@@ -177,3 +177,12 @@ fn help_groups_the_commands_by_the_workflow() {
     let mut s = positioning(0);
     insta::assert_snapshot!(transcript(&mut s, "help\n"));
 }
+
+#[test]
+fn a_misspelt_command_gets_the_one_that_was_meant() {
+    let mut s = positioning(0);
+    insta::assert_snapshot!(transcript(
+        &mut s,
+        "selec 0..1\nadvize slow_down\nfoo\nadvise slow_down(\n"
+    ));
+}

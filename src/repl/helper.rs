@@ -10,9 +10,9 @@ use rustyline::Context;
 use rustyline::completion::{Completer, FilenameCompleter, Pair};
 use rustyline::highlight::Highlighter;
 use rustyline::hint::Hinter;
-use rustyline::validate::{ValidationContext, ValidationResult, Validator};
+use rustyline::validate::Validator;
 
-use crate::syntax::command::{COMMANDS, is_incomplete};
+use crate::syntax::command::COMMANDS;
 
 /// What the helper needs to know of the session.
 #[derive(Clone, Debug, Default)]
@@ -181,15 +181,9 @@ impl Highlighter for AdviseHelper {
     }
 }
 
-impl Validator for AdviseHelper {
-    fn validate(&self, ctx: &mut ValidationContext<'_>) -> rustyline::Result<ValidationResult> {
-        Ok(if is_incomplete(ctx.input()) {
-            ValidationResult::Incomplete
-        } else {
-            ValidationResult::Valid(None)
-        })
-    }
-}
+/// Every line is handed on as typed: the REPL asks for the rest of an unfinished statement under
+/// its own `...> ` prompt (rustyline's multi-line editing shows no prompt on later lines).
+impl Validator for AdviseHelper {}
 
 impl rustyline::Helper for AdviseHelper {}
 

@@ -10,7 +10,7 @@
 //! in its length. So an operator whose `{` is never closed takes the rest of the script with it,
 //! and its error says where the `{` was opened.
 
-use crate::syntax::command::{ends_open, parse_statement};
+use crate::syntax::command::{ends_open, parse_statement, starts_command};
 use crate::syntax::delims::LineBrackets;
 
 /// One statement of a script and where it starts (1-based line).
@@ -40,8 +40,9 @@ pub fn statements(text: &str) -> Vec<ScriptStatement> {
         };
         brackets.feed(line);
         let goes_on = (brackets.is_open() || ends_open(line))
-            // A first line that is whole as it stands (a path with a bracket in it) ends here.
-            && !(first && parse_statement("<script>", line).is_ok());
+            // A command is one line; a first line that is whole as it stands (a path with a
+            // bracket in it) ends here too.
+            && !(first && (starts_command(line) || parse_statement("<script>", line).is_ok()));
         if goes_on {
             pending = Some(st);
         } else {

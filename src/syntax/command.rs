@@ -89,7 +89,8 @@ pub const COMMANDS: &[(&str, &str)] = &[
 
 /// Parse one statement. `name` names the source in diagnostics (`<repl>`, or `script.adv:12`).
 pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
-    let mut pairs = run(Rule::session_line, name, src)?;
+    let mut pairs =
+        run(Rule::session_line, name, src).map_err(|e| unknown_command(name, src).unwrap_or(e))?;
     let line = pairs.next().expect("session_line always yields one pair");
     let b = Builder { name, src };
     let Some(p) = line.into_inner().find(|p| p.as_rule() != Rule::EOI) else {
@@ -159,10 +160,46 @@ pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
     Ok(Statement::Command(cmd, span))
 }
 
+/// The first word of a statement, and where it starts.
+fn first_word(src: &str) -> Option<(usize, &str)> {
+    let start = src.len() - src.trim_start().len();
+    let rest = &src[start..];
+    let end = rest
+        .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+        .unwrap_or(rest.len());
+    (end > 0).then(|| (start, &rest[..end]))
+}
+
+/// Whether `src` starts with a command word. A command is one line: a line that starts with one
+/// never continues on the next (an unclosed `(` in it is an error at once, not a wait for more).
+pub fn starts_command(src: &str) -> bool {
+    first_word(src).is_some_and(|(_, w)| w == "exit" || COMMANDS.iter().any(|(c, _)| *c == w))
+}
+
+/// A statement that failed to parse and starts with a word that is neither a command nor an
+/// item's keyword: say so, with the closest command.
+fn unknown_command(name: &str, src: &str) -> Option<ParseError> {
+    let (at, word) = first_word(src)?;
+    if starts_command(src) || matches!(word, "operator" | "domain") {
+        return None;
+    }
+    let words: Vec<&str> = COMMANDS.iter().map(|(c, _)| *c).collect();
+    Some(ParseError::UnknownCommand {
+        word: word.to_string(),
+        src: miette::NamedSource::new(name, super::SourceText::from(src)),
+        span: (at, word.len()).into(),
+        help: crate::diagnostic::did_you_mean(word, &words)
+            .unwrap_or_else(|| "`help` lists the commands".into()),
+    })
+}
+
 /// Whether `src` is an unfinished statement that more lines could complete (an open `{` or `(`,
 /// a composition ending in `then`, a doc comment waiting for its item): the REPL asks for another
 /// line, and a script reader joins the next line, instead of reporting an error.
 pub fn is_incomplete(src: &str) -> bool {
+    if starts_command(src) {
+        return false;
+    }
     let last = src.trim_end().lines().last().unwrap_or("");
     if !(delims::any_open(src) || ends_open(last)) {
         return false;
