@@ -1819,7 +1819,7 @@ fn outcome_line(e: &Execution) -> String {
 }
 
 fn fmt_vec(v: &[f64]) -> String {
-    let parts: Vec<String> = v.iter().map(|x| format!("{x:.3}")).collect();
+    let parts: Vec<String> = v.iter().map(|x| format!("{x:.4}")).collect();
     format!("[{}]", parts.join(", "))
 }
 
