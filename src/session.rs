@@ -19,7 +19,7 @@ use miette::Diagnostic;
 use thiserror::Error;
 
 use crate::backend::rmp::{RmpBackend, RmpConfig};
-use crate::backend::sim::{SimBackend, SimParams};
+use crate::backend::sim::{SimBackend, SimError, SimParams};
 use crate::backend::{
     Backend, BackendError, BackendSpec, BackendSpecError, Interruptible, StopSignal,
 };
@@ -66,6 +66,12 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Interrupted(Box<task::Interrupted>),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Sim(#[from] SimError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    PracticeStart(#[from] task::PracticeStartOutOfRange),
     #[error("unknown task `{name}`")]
     #[diagnostic(code(advise::session::unknown_task), help("{help}"))]
     UnknownTask { name: String, help: String },
@@ -305,6 +311,7 @@ impl Session {
     /// A session on the simulator; with `default_demos > 0` the task's teacher records that many
     /// demonstrations first and the policy is derived from them.
     pub fn new(opts: SessionOptions) -> Result<Session, SessionError> {
+        opts.sim.validate()?;
         let domain = opts.task.domain();
         let mut s = Session {
             ops: OperatorSet::standard(),
@@ -626,8 +633,7 @@ impl Session {
     }
 
     fn run_start(&mut self, n: usize) -> Result<String, SessionError> {
-        let starts = self.task.practice_set(self.seed, n + 1);
-        let start = starts[n];
+        let start = self.task.practice_start(self.seed, n as u64)?;
         let goal = match start {
             Start::Goal(g) => Some(g),
             Start::Ball(_) => None,

@@ -149,3 +149,34 @@ fn every_example_session_runs() {
     }
     assert!(count >= 2, "examples/sessions holds the example scripts");
 }
+
+/// Practice starts are drawn directly, so a far start costs what start 0 does; past the documented
+/// maximum the session refuses with a diagnostic (it used to overflow, or allocate gigabytes).
+#[test]
+fn far_practice_starts_run_and_impossible_ones_are_refused() {
+    let mut s = Session::new(SessionOptions {
+        task: TaskKind::Interception,
+        default_demos: 2,
+        ..SessionOptions::default()
+    })
+    .unwrap();
+    let t = transcript(
+        &mut s,
+        "run start 100000000\nrun start 999999999\nrun start 1000000000\nrun start 18446744073709551615\n",
+    );
+    insta::assert_snapshot!(t);
+}
+
+/// Simulator parameters given in code are checked like a file's.
+#[test]
+fn a_session_refuses_simulator_parameters_out_of_range() {
+    let opts = SessionOptions {
+        sim: advise::backend::sim::SimParams {
+            rate_hz: 1e6,
+            ..Default::default()
+        },
+        ..SessionOptions::default()
+    };
+    let e = Session::new(opts).err().expect("refused");
+    insta::assert_snapshot!(advise::repl::render(&e, false));
+}
