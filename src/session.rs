@@ -24,7 +24,7 @@ use thiserror::Error;
 
 use crate::backend::rmp::{RmpBackend, RmpConfig};
 use crate::backend::sim::wrap_angle;
-use crate::backend::sim::{SimBackend, SimParams};
+use crate::backend::sim::{SimBackend, SimError, SimParams};
 use crate::backend::{
     Backend, BackendError, BackendSpec, BackendSpecError, Interruptible, StopSignal,
 };
@@ -78,6 +78,12 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Interrupted(Box<task::Interrupted>),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Sim(#[from] SimError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    PracticeStart(#[from] task::PracticeStartOutOfRange),
     #[error("unknown task `{name}`")]
     #[diagnostic(code(advise::session::unknown_task), help("{help}"))]
     UnknownTask { name: String, help: String },
@@ -441,6 +447,7 @@ impl Session {
     /// A session on the simulator; with `default_demos > 0` the task's teacher records that many
     /// demonstrations first and the policy is derived from them.
     pub fn new(opts: SessionOptions) -> Result<Session, SessionError> {
+        opts.sim.validate()?;
         let mut s = Session::empty(opts.task, opts.seed, opts.sim);
         s.progress = opts.progress;
         // What the session starts with is kept for a journal started later.
@@ -509,6 +516,8 @@ impl Session {
     pub fn restore(path: &Path, dir: &Path) -> Result<Restored, SessionError> {
         let loaded = journal::read(path)?;
         let h = &loaded.header;
+        // A header edited by hand is held to the simulator's ranges like any parameters file.
+        h.sim.validate()?;
         let mut s = Session::empty(h.task, h.seed, h.sim.clone());
         s.restoring = true;
         let mut notes = Vec::new();
@@ -1133,8 +1142,7 @@ impl Session {
     }
 
     fn run_start(&mut self, n: usize) -> Result<String, SessionError> {
-        let starts = self.task.practice_set(self.seed, n + 1);
-        let start = starts[n];
+        let start = self.task.practice_start(self.seed, n as u64)?;
         let goal = match start {
             Start::Goal(g) => Some(g),
             Start::Ball(_) => None,

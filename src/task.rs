@@ -324,6 +324,24 @@ pub enum TaskKind {
     Interception,
 }
 
+/// The highest practice start number, `run start 999999999`. Any `u64` could be drawn in constant
+/// time; the bound keeps the number readable and every sum of it with a count of runs far from
+/// overflow.
+pub const MAX_PRACTICE_START: u64 = 999_999_999;
+
+/// A practice start beyond [`MAX_PRACTICE_START`].
+#[derive(Debug, thiserror::Error, miette::Diagnostic)]
+#[error(
+    "there is no practice start {index}: practice starts are numbered 0 to {MAX_PRACTICE_START}"
+)]
+#[diagnostic(
+    code(advise::task::practice_start_out_of_range),
+    help("every number in that range is a different start, e.g. `run start 0`, `run start 12345`")
+)]
+pub struct PracticeStartOutOfRange {
+    pub index: u64,
+}
+
 /// The initial condition of one episode.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -376,6 +394,19 @@ impl TaskKind {
                 .map(Start::Ball)
                 .collect(),
         }
+    }
+
+    /// Practice start `index` of `seed`, the same as `practice_set(seed, index + 1)[index]` but
+    /// computed directly, in constant time and memory. Starts are numbered 0 to
+    /// [`MAX_PRACTICE_START`].
+    pub fn practice_start(self, seed: u64, index: u64) -> Result<Start, PracticeStartOutOfRange> {
+        if index > MAX_PRACTICE_START {
+            return Err(PracticeStartOutOfRange { index });
+        }
+        Ok(match self {
+            TaskKind::Positioning => Start::Goal(positioning::practice_goal(seed, index)),
+            TaskKind::Interception => Start::Ball(interception::practice_start(seed, index)),
+        })
     }
 
     /// The task's teacher (the stand-in for teleoperation), for a base running at `period_s`.

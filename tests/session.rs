@@ -141,6 +141,23 @@ fn each_task_keeps_its_work_and_switching_to_the_current_one_changes_nothing() {
     insta::assert_snapshot!(t);
 }
 
+/// Practice starts are drawn directly, so a far start costs what start 0 does; past the documented
+/// maximum the session refuses with a diagnostic (it used to overflow, or allocate gigabytes).
+#[test]
+fn far_practice_starts_run_and_impossible_ones_are_refused() {
+    let mut s = Session::new(SessionOptions {
+        task: TaskKind::Interception,
+        default_demos: 2,
+        ..SessionOptions::default()
+    })
+    .unwrap();
+    let t = transcript(
+        &mut s,
+        "run start 100000000\nrun start 999999999\nrun start 1000000000\nrun start 18446744073709551615\n",
+    );
+    insta::assert_snapshot!(t);
+}
+
 #[test]
 fn an_empty_policy_and_unbounded_numbers_are_refused() {
     let mut s = positioning(0);
@@ -185,4 +202,18 @@ fn a_misspelt_command_gets_the_one_that_was_meant() {
         &mut s,
         "selec 0..1\nadvize slow_down\nfoo\nadvise slow_down(\n"
     ));
+}
+
+/// Simulator parameters given in code are checked like a file's.
+#[test]
+fn a_session_refuses_simulator_parameters_out_of_range() {
+    let opts = SessionOptions {
+        sim: advise::backend::sim::SimParams {
+            rate_hz: 1e6,
+            ..Default::default()
+        },
+        ..SessionOptions::default()
+    };
+    let e = Session::new(opts).err().expect("refused");
+    insta::assert_snapshot!(advise::repl::render(&e, false));
 }

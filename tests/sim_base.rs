@@ -121,6 +121,75 @@ proptest! {
     }
 }
 
+/// Each field's bounds are accepted, just outside them is refused with a diagnostic naming the
+/// field, the defaults are inside, and NaN and infinities never pass.
+#[test]
+fn every_parameter_has_a_range() {
+    let defaults = SimParams::default().values();
+    for (i, r) in SimParams::RANGES.iter().enumerate() {
+        assert!(r.min <= defaults[i] && defaults[i] <= r.max, "{r:?}");
+        let with = |v: f64| {
+            let text = format!(
+                "{{\"{}\": {}}}",
+                r.field,
+                serde_json::to_string(&v).unwrap()
+            );
+            SimParams::from_json_str("p.json", &text)
+        };
+        for ok in [r.min, r.max] {
+            let p = with(ok).unwrap_or_else(|e| panic!("{}: {ok}: {e}", r.field));
+            assert_eq!(p.values()[i], ok);
+        }
+        let step = (r.max - r.min) * 1e-3;
+        for bad in [r.min - step, r.max + step, 1e300, -1e300] {
+            let e = with(bad).unwrap_err();
+            let code = miette::Diagnostic::code(&e).unwrap().to_string();
+            assert_eq!(code, "advise::sim::params_invalid", "{}: {bad}", r.field);
+            assert!(e.to_string().contains(r.field), "{e}");
+            assert!(miette::Diagnostic::labels(&e).is_some_and(|mut l| l.next().is_some()));
+        }
+        // Parameters built in code (not from a file) are checked too, without a span.
+        let mut values = SimParams::default();
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            set(&mut values, i, bad);
+            let e = values.validate().unwrap_err();
+            assert!(e.to_string().contains(r.field), "{e}");
+        }
+    }
+}
+
+fn set(p: &mut SimParams, i: usize, v: f64) {
+    let fields = [
+        &mut p.rate_hz,
+        &mut p.max_speed_mps,
+        &mut p.max_rot_radps,
+        &mut p.max_accel_mps2,
+        &mut p.max_rot_accel_radps2,
+        &mut p.lag_s,
+        &mut p.track_width_m,
+        &mut p.encoder_noise_frac,
+        &mut p.odom_rot_scale_error,
+        &mut p.heading_drift_rad_per_m,
+        &mut p.max_substep_s,
+    ];
+    *fields.into_iter().nth(i).unwrap() = v;
+}
+
+/// Parameters that skipped validation still give a bounded run: one advance takes at most
+/// `MAX_SUBSTEPS_PER_ADVANCE` substeps however small `max_substep_s` is.
+#[test]
+fn an_unvalidated_substep_cannot_hang_the_base() {
+    let p = SimParams {
+        max_substep_s: 1e-300,
+        ..SimParams::default()
+    };
+    let mut base = SimBase::new(p, 0);
+    base.reset(Pose::default());
+    base.set_command(0.5, 0.0);
+    let s = base.advance(1.0);
+    assert!(s.pose.x_m > 0.0 && s.pose.x_m.is_finite(), "{s:?}");
+}
+
 #[test]
 fn params_files_keep_defaults_for_omitted_fields() {
     let p = SimParams::from_json_str("p.json", r#"{"lag_s": 0.4}"#).unwrap();
@@ -143,6 +212,20 @@ fn params_file_diagnostics() {
         ("typo.json", typo),
         ("invalid.json", invalid),
         ("bad.json", not_json),
+        // The hostile-input report's cases: each used to run (a 1.4 GB CSV, an out-of-memory
+        // abort, a hang, NaN rows that could not be read back).
+        ("fast.json", "{\"rate_hz\": 1e6}"),
+        (
+            "huge.json",
+            "{\n  \"lag_s\": 0.3,\n  \"rate_hz\": 1e300\n}\n",
+        ),
+        (
+            "tiny_step.json",
+            r#"{"rate_hz": 30, "max_substep_s": 1e-9}"#,
+        ),
+        ("noise.json", r#"{ "encoder_noise_frac" : 1e308 }"#),
+        // An escaped key is still found.
+        ("escaped.json", r#"{"tr\u0061ck_width_m": -2}"#),
     ] {
         let err = SimParams::from_json_str(name, text).unwrap_err();
         out.push_str(&format!("----- {name}\n{}\n", render(&err)));

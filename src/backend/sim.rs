@@ -34,32 +34,46 @@ use crate::trace::{Pose, line_col_span};
 ///
 /// Read from JSON with [`SimParams::load`]; omitted fields keep their defaults, unknown fields are
 /// an error. Example: `{"lag_s": 0.4, "heading_drift_rad_per_m": 0.05}`.
+///
+/// Every field has a range (inclusive, in [`SimParams::RANGES`] and quoted on each field): what is
+/// physically sensible for a mobile base the size of an RMP, and what keeps a run bounded in time
+/// and memory (a 60 s episode is at most 6,000 control steps of at most 1,000 substeps each).
+/// [`SimParams::validate`] checks them; every loader does, and so do [`Session`] and the RMP
+/// emulator for parameters built in code.
+///
+/// [`Session`]: crate::session::Session
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimParams {
     /// Control rate, Hz: one command and one observation per period (the paper samples at 30 Hz).
+    /// 1 to 100 (the RMP takes commands at up to 100 Hz).
     pub rate_hz: f64,
     /// Translational speed limit, m/s (both directions); matches the positioning domain's `trans`.
+    /// 0.05 to 5 (the RMP 200 tops out near 3.6 m/s).
     pub max_speed_mps: f64,
     /// Rotational speed limit, rad/s (both directions); matches the positioning domain's `rot`.
+    /// 0.05 to 6.
     pub max_rot_radps: f64,
-    /// Translational acceleration limit, m/s^2.
+    /// Translational acceleration limit, m/s^2. 0.05 to 10.
     pub max_accel_mps2: f64,
-    /// Rotational acceleration limit, rad/s^2.
+    /// Rotational acceleration limit, rad/s^2. 0.05 to 20.
     pub max_rot_accel_radps2: f64,
     /// Time constant of the first-order response to a speed command, s (the balancing lag).
+    /// 0 (none) to 5.
     pub lag_s: f64,
-    /// Distance between the wheels, m.
+    /// Distance between the wheels, m. 0.1 to 2.
     pub track_width_m: f64,
     /// Standard deviation of each wheel encoder's reading, as a fraction of the wheel's speed.
+    /// 0 to 0.3 (beyond that a wheel often reads backwards).
     pub encoder_noise_frac: f64,
     /// Odometry's systematic rotation error: it believes the base turned `1 + this` times the
-    /// true angle.
+    /// true angle. -0.5 to 0.5.
     pub odom_rot_scale_error: f64,
     /// Odometry heading drift per metre driven, rad/m (forward driving drifts one way, reverse the
-    /// other), as from slightly unequal wheel radii.
+    /// other), as from slightly unequal wheel radii. -0.5 to 0.5.
     pub heading_drift_rad_per_m: f64,
     /// Longest integration substep, s; a period is split into equal substeps no longer than this.
+    /// 0.001 to 0.1.
     pub max_substep_s: f64,
 }
 
@@ -81,7 +95,109 @@ impl Default for SimParams {
     }
 }
 
+/// The accepted range of one simulator parameter (inclusive).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParamRange {
+    pub field: &'static str,
+    pub min: f64,
+    pub max: f64,
+    /// The unit as a teacher reads it (empty for plain fractions).
+    pub unit: &'static str,
+    /// What the parameter is, in a few words (for the diagnostic's help).
+    pub what: &'static str,
+}
+
+const fn range(
+    field: &'static str,
+    min: f64,
+    max: f64,
+    unit: &'static str,
+    what: &'static str,
+) -> ParamRange {
+    ParamRange {
+        field,
+        min,
+        max,
+        unit,
+        what,
+    }
+}
+
 impl SimParams {
+    /// The range of every field, in declaration order (the same order as [`SimParams::values`]).
+    pub const RANGES: [ParamRange; 11] = [
+        range("rate_hz", 1.0, 100.0, "Hz", "the control rate"),
+        range("max_speed_mps", 0.05, 5.0, "m/s", "the speed limit"),
+        range("max_rot_radps", 0.05, 6.0, "rad/s", "the turn rate limit"),
+        range(
+            "max_accel_mps2",
+            0.05,
+            10.0,
+            "m/s^2",
+            "the acceleration limit",
+        ),
+        range(
+            "max_rot_accel_radps2",
+            0.05,
+            20.0,
+            "rad/s^2",
+            "the turn acceleration limit",
+        ),
+        range("lag_s", 0.0, 5.0, "s", "the time constant of the response"),
+        range(
+            "track_width_m",
+            0.1,
+            2.0,
+            "m",
+            "the distance between the wheels",
+        ),
+        range(
+            "encoder_noise_frac",
+            0.0,
+            0.3,
+            "",
+            "the encoders' noise as a fraction of the wheel speed",
+        ),
+        range(
+            "odom_rot_scale_error",
+            -0.5,
+            0.5,
+            "",
+            "odometry's rotation scale error",
+        ),
+        range(
+            "heading_drift_rad_per_m",
+            -0.5,
+            0.5,
+            "rad/m",
+            "odometry's heading drift per metre",
+        ),
+        range(
+            "max_substep_s",
+            0.001,
+            0.1,
+            "s",
+            "the longest integration substep",
+        ),
+    ];
+
+    /// Every field's value, in declaration order (the order of [`SimParams::RANGES`]).
+    pub fn values(&self) -> [f64; 11] {
+        [
+            self.rate_hz,
+            self.max_speed_mps,
+            self.max_rot_radps,
+            self.max_accel_mps2,
+            self.max_rot_accel_radps2,
+            self.lag_s,
+            self.track_width_m,
+            self.encoder_noise_frac,
+            self.odom_rot_scale_error,
+            self.heading_drift_rad_per_m,
+            self.max_substep_s,
+        ]
+    }
+
     /// The control period, s.
     pub fn period_s(&self) -> f64 {
         1.0 / self.rate_hz
@@ -93,7 +209,8 @@ impl SimParams {
         SimParams::from_json_str(&path.display().to_string(), &text)
     }
 
-    /// Parse and validate JSON text; `name` is used in diagnostics, usually the path.
+    /// Parse and validate JSON text; `name` is used in diagnostics, usually the path. A value out
+    /// of range is reported with its place in the text.
     pub fn from_json_str(name: &str, text: &str) -> Result<SimParams, SimError> {
         let params: SimParams = serde_json::from_str(text).map_err(|e| {
             let message = e.to_string();
@@ -105,56 +222,52 @@ impl SimParams {
                 span: line_col_span(text, e.line(), e.column()),
             }
         })?;
-        params.validate()?;
+        params.validate().map_err(|e| match e {
+            SimError::Invalid {
+                field,
+                value,
+                expected,
+                help,
+                ..
+            } => {
+                let span = value_span(text, field);
+                SimError::Invalid {
+                    field,
+                    value,
+                    expected,
+                    help,
+                    src: span.map(|_| NamedSource::new(name, text.to_string())),
+                    span,
+                }
+            }
+            other => other,
+        })?;
         Ok(params)
     }
 
-    /// Check every parameter is finite and in its range.
+    /// Check every parameter is finite and within its range ([`SimParams::RANGES`]); the first
+    /// one that is not is reported.
     pub fn validate(&self) -> Result<(), SimError> {
-        let positive = [
-            ("rate_hz", self.rate_hz),
-            ("max_speed_mps", self.max_speed_mps),
-            ("max_rot_radps", self.max_rot_radps),
-            ("max_accel_mps2", self.max_accel_mps2),
-            ("max_rot_accel_radps2", self.max_rot_accel_radps2),
-            ("track_width_m", self.track_width_m),
-            ("max_substep_s", self.max_substep_s),
-        ];
-        for (field, value) in positive {
-            if !(value.is_finite() && value > 0.0) {
+        let defaults = SimParams::default().values();
+        for ((r, value), default) in SimParams::RANGES.iter().zip(self.values()).zip(defaults) {
+            if !(value.is_finite() && value >= r.min && value <= r.max) {
+                let unit = if r.unit.is_empty() {
+                    String::new()
+                } else {
+                    format!(" {}", r.unit)
+                };
                 return Err(SimError::Invalid {
-                    field,
-                    value,
-                    expected: "a finite number greater than zero",
+                    field: r.field,
+                    value: fmt_number(value),
+                    expected: format!("from {} to {}{unit}", r.min, r.max),
+                    help: format!(
+                        "`{}` is {}; remove the field to use the default, {default}{unit}",
+                        r.field, r.what
+                    ),
+                    src: None,
+                    span: None,
                 });
             }
-        }
-        let non_negative = [
-            ("lag_s", self.lag_s),
-            ("encoder_noise_frac", self.encoder_noise_frac),
-        ];
-        for (field, value) in non_negative {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(SimError::Invalid {
-                    field,
-                    value,
-                    expected: "a finite number, zero or more",
-                });
-            }
-        }
-        if !(self.odom_rot_scale_error.is_finite() && self.odom_rot_scale_error > -1.0) {
-            return Err(SimError::Invalid {
-                field: "odom_rot_scale_error",
-                value: self.odom_rot_scale_error,
-                expected: "a finite number greater than -1",
-            });
-        }
-        if !self.heading_drift_rad_per_m.is_finite() {
-            return Err(SimError::Invalid {
-                field: "heading_drift_rad_per_m",
-                value: self.heading_drift_rad_per_m,
-                expected: "a finite number",
-            });
         }
         Ok(())
     }
@@ -171,27 +284,72 @@ impl SimParams {
     }
 }
 
-const FIELDS: [&str; 11] = [
-    "rate_hz",
-    "max_speed_mps",
-    "max_rot_radps",
-    "max_accel_mps2",
-    "max_rot_accel_radps2",
-    "lag_s",
-    "track_width_m",
-    "encoder_noise_frac",
-    "odom_rot_scale_error",
-    "heading_drift_rad_per_m",
-    "max_substep_s",
-];
+/// A number as a person would write it: `1e300`, not three hundred digits.
+fn fmt_number(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && v != 0.0 && !(1e-4..1e6).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// The byte span of top-level member `field`'s value in a JSON object's text, for the label of a
+/// value out of range. Only called on text serde has already accepted as a `SimParams` (one flat
+/// object of numbers, no duplicate keys); anything unexpected gives `None` (no label).
+fn value_span(text: &str, field: &str) -> Option<SourceSpan> {
+    let b = text.as_bytes();
+    let skip_ws = |mut i: usize| {
+        while i < b.len() && b[i].is_ascii_whitespace() {
+            i += 1;
+        }
+        i
+    };
+    let mut i = skip_ws(0);
+    if b.get(i) != Some(&b'{') {
+        return None;
+    }
+    i += 1;
+    loop {
+        i = skip_ws(i);
+        if b.get(i) != Some(&b'"') {
+            return None;
+        }
+        // The key, escapes and all: serde_json decodes it as it did when deserialising.
+        let key_start = i;
+        i += 1;
+        while i < b.len() && b[i] != b'"' {
+            i += if b[i] == b'\\' { 2 } else { 1 };
+        }
+        let key: String = serde_json::from_str(text.get(key_start..=i)?).ok()?;
+        i = skip_ws(i + 1);
+        if b.get(i) != Some(&b':') {
+            return None;
+        }
+        let start = skip_ws(i + 1);
+        let mut end = start;
+        while end < b.len() && !matches!(b[end], b',' | b'}') && !b[end].is_ascii_whitespace() {
+            end += 1;
+        }
+        if key == field {
+            return Some(SourceSpan::new(start.into(), end - start));
+        }
+        i = skip_ws(end);
+        match b.get(i) {
+            Some(b',') => i += 1,
+            _ => return None,
+        }
+    }
+}
 
 /// "did you mean" for serde's `unknown field `x`` message.
 fn unknown_field_help(message: &str) -> String {
+    let fields = SimParams::RANGES.map(|r| r.field);
     let unknown = message
         .strip_prefix("unknown field `")
         .and_then(|rest| rest.split('`').next());
     if let Some(name) = unknown {
-        let best = FIELDS
+        let best = fields
             .iter()
             .map(|f| (strsim::jaro_winkler(name, f), *f))
             .max_by(|a, b| a.0.total_cmp(&b.0));
@@ -203,7 +361,7 @@ fn unknown_field_help(message: &str) -> String {
     }
     format!(
         "simulator parameters are a JSON object with any of: {}",
-        FIELDS.join(", ")
+        fields.join(", ")
     )
 }
 
@@ -224,16 +382,24 @@ pub enum SimError {
         span: SourceSpan,
     },
     #[error("simulator parameter `{field}` is {value}; it must be {expected}")]
-    #[diagnostic(
-        code(advise::sim::params_invalid),
-        help("remove the field to use the default")
-    )]
+    #[diagnostic(code(advise::sim::params_invalid), help("{help}"))]
     Invalid {
         field: &'static str,
-        value: f64,
-        expected: &'static str,
+        /// The value as written for a person (`1e300`, `NaN`).
+        value: String,
+        /// The range, with its unit.
+        expected: String,
+        help: String,
+        /// The parameters file, when they came from one.
+        #[source_code]
+        src: Option<NamedSource<String>>,
+        #[label("out of range")]
+        span: Option<SourceSpan>,
     },
 }
+
+/// The most substeps one [`SimBase::advance`] takes, whatever `dt_s` and `max_substep_s` are.
+pub const MAX_SUBSTEPS_PER_ADVANCE: usize = 100_000;
 
 /// The simulated differential-drive base: true state, odometry, and the seeded noise.
 #[derive(Clone, Debug)]
@@ -255,8 +421,9 @@ pub struct SimBase {
 }
 
 impl SimBase {
-    /// A base at rest at the origin. `params` should be valid ([`SimParams::validate`]); invalid
-    /// values are not checked here, parameters from files are validated when loaded.
+    /// A base at rest at the origin. `params` should be valid ([`SimParams::validate`]): every
+    /// loader, the session and the emulator check them; here they are taken as they are (a run
+    /// stays bounded in time, see [`MAX_SUBSTEPS_PER_ADVANCE`], but may not be physical).
     pub fn new(params: SimParams, seed: u64) -> SimBase {
         SimBase {
             params,
@@ -316,7 +483,11 @@ impl SimBase {
         if !(dt_s.is_finite() && dt_s > 0.0) {
             return self.state();
         }
-        let n = (dt_s / self.params.max_substep_s).ceil().max(1.0) as usize;
+        // Valid parameters give at most 1,000 substeps a control period; the cap keeps a long
+        // `dt_s` (or parameters that skipped validation) bounded in time, with longer substeps.
+        let n = (dt_s / self.params.max_substep_s)
+            .ceil()
+            .clamp(1.0, MAX_SUBSTEPS_PER_ADVANCE as f64) as usize;
         let h = dt_s / n as f64;
         for _ in 0..n {
             self.substep(h);

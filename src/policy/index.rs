@@ -8,6 +8,7 @@
 //! dispatches over the dimensions it supports (1 to [`MAX_DIM`]).
 
 use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
 
 use kiddo::{KdTree, SquaredEuclidean};
 
@@ -89,15 +90,49 @@ pub struct Index {
     scale: Vec<f64>,
     tree: Tree,
     /// Dataset point indices of each group.
-    groups: Vec<Vec<u32>>,
+    groups: Vec<Members>,
     /// Scaled observation of each group (row after row).
     group_z: Vec<f64>,
-    by_key: HashMap<Vec<u64>, u32>,
+    /// Hash of a scaled observation's bits -> the newest group with that hash; `same_hash[g]` is
+    /// the group before `g` with the same hash (`u32::MAX`: none). A fixed-size key and a chain,
+    /// instead of a map keyed by each observation's bits, keep a group's bookkeeping to a few
+    /// dozen bytes: an index holds one group per distinct observation, millions of them for
+    /// 10,000 demonstrations.
+    by_key: HashMap<u64, u32>,
+    same_hash: Vec<u32>,
     /// Per group, the sum of its points' actions (`act_dim` values) and their count, when the
     /// index was built with [`Index::with_action_sums`]. A kernel weight is the same for every
     /// point of a group, so LWR reads one contiguous row per neighbour instead of chasing each
     /// point's action through the dataset.
     sums: Option<ActionSums>,
+}
+
+/// The points of a group: almost always one (no heap allocation), several for repeated
+/// observations.
+enum Members {
+    One(u32),
+    Many(Vec<u32>),
+}
+
+impl Members {
+    fn as_slice(&self) -> &[u32] {
+        match self {
+            Members::One(p) => std::slice::from_ref(p),
+            Members::Many(v) => v,
+        }
+    }
+
+    fn push(&mut self, point: u32) {
+        match self {
+            Members::One(p) => *self = Members::Many(vec![*p, point]),
+            Members::Many(v) => v.push(point),
+        }
+    }
+}
+
+/// The bits that identify a scaled value (-0.0 and 0.0 are the same place).
+fn key_bits(v: f64) -> u64 {
+    (v + 0.0).to_bits()
 }
 
 struct ActionSums {
@@ -118,6 +153,7 @@ impl Index {
             groups: Vec::new(),
             group_z: Vec::new(),
             by_key: HashMap::new(),
+            same_hash: Vec::new(),
             sums: None,
         })
     }
@@ -181,26 +217,40 @@ impl Index {
 
     /// Add dataset point `point` with raw observation `z`; returns its group.
     pub fn add(&mut self, point: u32, z: &[f64]) -> u32 {
-        let mut q = vec![0.0; self.dim];
-        self.scaled(z, &mut q);
-        // -0.0 and 0.0 are the same place.
-        let key: Vec<u64> = q.iter().map(|v| (v + 0.0).to_bits()).collect();
-        if let Some(&g) = self.by_key.get(&key) {
-            self.groups[g as usize].push(point);
-            return g;
+        let mut q = [0.0; MAX_DIM];
+        let q = &mut q[..self.dim];
+        self.scaled(z, q);
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        for v in q.iter() {
+            key_bits(*v).hash(&mut hasher);
+        }
+        let hash = hasher.finish();
+        let mut next = self.by_key.get(&hash).copied().unwrap_or(u32::MAX);
+        while next != u32::MAX {
+            let g = next as usize;
+            let same = self.group_z[g * self.dim..(g + 1) * self.dim]
+                .iter()
+                .zip(q.iter())
+                .all(|(a, b)| key_bits(*a) == key_bits(*b));
+            if same {
+                self.groups[g].push(point);
+                return next;
+            }
+            next = self.same_hash[g];
         }
         let g = self.groups.len() as u32;
-        self.groups.push(vec![point]);
-        self.group_z.extend_from_slice(&q);
-        self.by_key.insert(key, g);
-        self.tree.add(&q, g as u64);
+        self.groups.push(Members::One(point));
+        self.group_z.extend_from_slice(q);
+        self.same_hash
+            .push(self.by_key.insert(hash, g).unwrap_or(u32::MAX));
+        self.tree.add(q, g as u64);
         g
     }
 
     /// The points of group `g`.
     #[inline]
     pub fn group(&self, g: u64) -> &[u32] {
-        &self.groups[g as usize]
+        self.groups[g as usize].as_slice()
     }
 
     /// Nearest group to scaled query `q`: (squared distance, group). `None` when empty.
@@ -242,5 +292,37 @@ impl Index {
     pub fn group_z(&self, g: u64) -> &[f64] {
         let g = g as usize;
         &self.group_z[g * self.dim..(g + 1) * self.dim]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identical_observations_share_a_group_in_insertion_order() {
+        let mut idx = Index::new(vec![2.0, 1.0]).unwrap();
+        let zs: [[f64; 2]; 6] = [
+            [0.5, 0.0],
+            [0.5, -0.0],
+            [0.25, 1.0],
+            [0.5, 0.0],
+            [1.0, 0.5],
+            [0.25, 1.0],
+        ];
+        let groups: Vec<u32> = zs
+            .iter()
+            .enumerate()
+            .map(|(i, z)| idx.add(i as u32, z))
+            .collect();
+        assert_eq!(groups, [0, 0, 1, 0, 2, 1]);
+        assert_eq!(idx.groups(), 3);
+        assert_eq!(idx.group(0), [0, 1, 3]);
+        assert_eq!(idx.group(1), [2, 5]);
+        assert_eq!(idx.group(2), [4]);
+        assert_eq!(idx.group_z(2), [2.0, 0.5]);
+        let mut found = Vec::new();
+        idx.within(&[1.0, 0.0], 1e-12, &mut found);
+        assert_eq!(found, [(0.0, 0)]);
     }
 }

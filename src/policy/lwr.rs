@@ -6,14 +6,18 @@
 //! would fall below [`LwrParams::tolerance`], so a query is one radius search of the kd-tree. A
 //! query far from all data finds no neighbour: the answer says so (`total_weight == 0`) and falls
 //! back to the nearest point's action rather than silently averaging nothing. [`tune`] chooses the
-//! scales and bandwidth by seeded k-fold cross-validation.
+//! scales and bandwidth by seeded k-fold cross-validation, at a cost bounded whatever the data's
+//! size.
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::policy::dataset::Dataset;
+use std::collections::HashMap;
+
+use crate::policy::dataset::{Dataset, Provenance};
 use crate::policy::index::Index;
 
 /// The regression's parameters.
@@ -135,24 +139,64 @@ pub fn query(
     }
 }
 
+/// Held-out points scored per loss evaluation, at most (spread evenly over the folds).
+pub const TUNE_QUERIES: usize = 2000;
+
+/// Points that take part in tuning, at most: a seeded sample of larger datasets.
+pub const TUNE_POINTS: usize = 20_000;
+
+/// The bandwidth grid [`tune`] searches, smallest first.
+pub const BANDWIDTH_GRID: [f64; 7] = [0.01, 0.02, 0.035, 0.05, 0.08, 0.12, 0.2];
+
 /// Choose scales and bandwidth by k-fold cross-validation (seeded): a grid over the bandwidth
 /// (the smallest within 5% of the best loss wins), then one pass of coordinate descent over each
-/// dimension's multiplier (kept only when it gains more than 1%). The loss is the mean
-/// squared action error, each action dimension divided by its data range. At most 2,000 held-out
-/// points are scored per fold, so tuning stays fast on large datasets.
+/// dimension's multiplier (kept only when it gains more than 1%). The loss is the mean squared
+/// action error, each action dimension divided by its data range.
+///
+/// The cost is bounded whatever the size of the data, and so is the memory:
+/// - At most [`TUNE_POINTS`] points take part: all of them in smaller datasets, whole
+///   demonstrations and pieces of advice in larger ones (see [`tuning_sample`]), in one index built
+///   here under `range_scale`. The folds are a seeded shuffle of those points; a held-out point is
+///   answered from the points of the other folds, found in that index by skipping its own fold's.
+/// - At most [`TUNE_QUERIES`] held-out points are scored per evaluation (the first of each fold).
+/// - The bandwidth grid is searched upwards and stops once the loss has risen twice in a row
+///   above 1.05 times the best so far (the loss is taken to be unimodal in the bandwidth): wider
+///   kernels than that cannot be chosen, and on dense data each of their queries would sum a large
+///   part of the data.
+///
+/// Deterministic for a seed: per-query errors are computed in parallel and summed in order.
 pub fn tune(ds: &Dataset, range_scale: &[f64], k: usize, seed: u64) -> LwrParams {
     let n = ds.len();
     let dim = range_scale.len();
     let mut params = LwrParams::default_for(dim);
-    if n < 2 * k.max(2) {
+    let k = k.clamp(2, 255);
+    let Some(mut index) = Index::new(range_scale.to_vec()) else {
+        return params;
+    };
+    if n < 2 * k {
         return params;
     }
-    let k = k.max(2);
-    let mut order: Vec<usize> = (0..n).collect();
+    let mut order = tuning_sample(ds, seed);
     order.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
-    let folds: Vec<Vec<usize>> = (0..k)
-        .map(|f| order.iter().copied().skip(f).step_by(k).collect())
+    // Fold f is order[f], order[f + k], ...; its first `per_fold` members are scored.
+    let mut fold = vec![u8::MAX; n];
+    for (r, &i) in order.iter().enumerate() {
+        fold[i] = (r % k) as u8;
+        index.add(i as u32, ds.z(i));
+    }
+    let per_fold = TUNE_QUERIES / k + 1;
+    let queries: Vec<(usize, u8)> = (0..k)
+        .flat_map(|f| {
+            order
+                .iter()
+                .copied()
+                .skip(f)
+                .step_by(k)
+                .take(per_fold)
+                .map(move |i| (i, f as u8))
+        })
         .collect();
+    drop(order);
     let act_dim = ds.domain().act_dim();
     let mut act_range = vec![1.0; act_dim];
     for (j, r) in act_range.iter_mut().enumerate() {
@@ -161,55 +205,53 @@ pub fn tune(ds: &Dataset, range_scale: &[f64], k: usize, seed: u64) -> LwrParams
         });
         *r = if hi - lo > 1e-12 { hi - lo } else { 1.0 };
     }
-    // One index per fold, built once: the fold's training points.
-    let indexes: Vec<Index> = (0..k)
-        .map(|f| {
-            let mut idx =
-                Index::new(range_scale.to_vec()).expect("dimension checked by the learner");
-            for (g, fold) in folds.iter().enumerate() {
-                if g != f {
-                    for &i in fold {
-                        idx.add(i as u32, ds.z(i));
-                    }
-                }
-            }
-            idx
-        })
-        .collect();
+    let cv = CrossValidation {
+        ds,
+        index: &index,
+        fold: &fold,
+    };
     let loss = |p: &LwrParams| -> f64 {
-        let mut scratch = Scratch::default();
-        let mut a = vec![0.0; act_dim];
-        let mut total = 0.0;
-        let mut count = 0usize;
-        for (f, fold) in folds.iter().enumerate() {
-            for &i in fold.iter().take(2000 / k + 1) {
-                query(&indexes[f], ds, p, ds.z(i), &mut a, &mut scratch);
-                for j in 0..act_dim {
-                    let e = (a[j] - ds.a(i)[j]) / act_range[j];
-                    total += e * e;
-                }
-                count += 1;
-            }
-        }
-        total / count.max(1) as f64
+        let errors: Vec<f64> = queries
+            .par_iter()
+            .map_init(
+                || (Scratch::default(), vec![0.0; act_dim]),
+                |(scratch, a), &(i, f)| {
+                    cv.query(p, ds.z(i), f, a, scratch);
+                    (0..act_dim)
+                        .map(|j| {
+                            let e = (a[j] - ds.a(i)[j]) / act_range[j];
+                            e * e
+                        })
+                        .sum::<f64>()
+                },
+            )
+            .collect();
+        errors.iter().sum::<f64>() / errors.len().max(1) as f64
     };
     // Prefer locality: the smallest bandwidth whose loss is within 5% of the best, and a scale
     // change only when it gains more than 1%. A wider kernel that is barely better costs a
     // neighbourhood many times larger on every query (the volume grows as h^dim) and blurs the
     // local corrections advice adds.
-    let grid = [0.01, 0.02, 0.035, 0.05, 0.08, 0.12, 0.2];
-    let losses: Vec<f64> = grid
-        .iter()
-        .map(|&h| {
-            loss(&LwrParams {
-                bandwidth: h,
-                ..params.clone()
-            })
-        })
-        .collect();
+    let mut losses: Vec<f64> = Vec::with_capacity(BANDWIDTH_GRID.len());
+    let mut rises = 0;
+    for &h in &BANDWIDTH_GRID {
+        let l = loss(&LwrParams {
+            bandwidth: h,
+            ..params.clone()
+        });
+        let min = losses.iter().copied().fold(l, f64::min);
+        rises = match losses.last() {
+            Some(&prev) if l > prev && l > 1.05 * min => rises + 1,
+            _ => 0,
+        };
+        losses.push(l);
+        if rises == 2 {
+            break;
+        }
+    }
     let min = losses.iter().copied().fold(f64::INFINITY, f64::min);
     if let Some(i) = losses.iter().position(|l| *l <= min * 1.05) {
-        params.bandwidth = grid[i];
+        params.bandwidth = BANDWIDTH_GRID[i];
     }
     let mut best = loss(&params);
     for d in 0..dim {
@@ -224,6 +266,127 @@ pub fn tune(ds: &Dataset, range_scale: &[f64], k: usize, seed: u64) -> LwrParams
         }
     }
     params
+}
+
+/// The points that take part in tuning: all of them up to [`TUNE_POINTS`]; beyond, whole
+/// demonstrations and pieces of advice in a seeded order, as many as fit in [`TUNE_POINTS`]
+/// points. Whole ones, because consecutive points of a trajectory are close in observation space:
+/// a sample of single points would leave each held-out point without its trajectory neighbours,
+/// and tune the kernel for a sparser dataset than the learner has.
+fn tuning_sample(ds: &Dataset, seed: u64) -> Vec<usize> {
+    let n = ds.len();
+    if n <= TUNE_POINTS {
+        return (0..n).collect();
+    }
+    let mut sources: Vec<Vec<u32>> = Vec::new();
+    let mut by_key: HashMap<(bool, u32), usize> = HashMap::new();
+    for i in 0..n {
+        let key = match ds.provenance(i) {
+            Provenance::Demonstration { demo, .. } => (false, demo),
+            Provenance::Advice { advice, .. } => (true, advice),
+        };
+        let s = *by_key.entry(key).or_insert_with(|| {
+            sources.push(Vec::new());
+            sources.len() - 1
+        });
+        sources[s].push(i as u32);
+    }
+    let mut picks: Vec<usize> = (0..sources.len()).collect();
+    picks.shuffle(&mut ChaCha8Rng::seed_from_u64(seed ^ SAMPLE_SALT));
+    let mut sample: Vec<usize> = Vec::with_capacity(TUNE_POINTS);
+    for s in picks {
+        if sample.len() + sources[s].len() <= TUNE_POINTS {
+            sample.extend(sources[s].iter().map(|&i| i as usize));
+        }
+    }
+    if sample.is_empty() {
+        // Every source alone is larger than the sample: the start of the first one.
+        sample.extend((0..TUNE_POINTS).map(|r| sources[0][r] as usize));
+    }
+    sample.sort_unstable();
+    sample
+}
+
+/// Salt of the seed that orders the sources of [`tuning_sample`] (the folds use the seed itself).
+const SAMPLE_SALT: u64 = 0x5A3F_1E00;
+
+/// The data of a cross-validation: one index over the points that take part, and each point's
+/// fold (`u8::MAX` for points that take no part; they are not in the index).
+struct CrossValidation<'a> {
+    ds: &'a Dataset,
+    index: &'a Index,
+    fold: &'a [u8],
+}
+
+impl CrossValidation<'_> {
+    /// [`query`]'s answer for `z` from the points outside fold `held_out`: the same kernel sum
+    /// (general path), skipping the held-out fold's points; far from them all, the action of the
+    /// first other-fold point of the nearest group that has one.
+    fn query(&self, params: &LwrParams, z: &[f64], held_out: u8, a: &mut [f64], s: &mut Scratch) {
+        let (index, ds) = (self.index, self.ds);
+        a.iter_mut().for_each(|v| *v = 0.0);
+        s.q.resize(z.len(), 0.0);
+        index.scaled(z, &mut s.q);
+        let wmin = params
+            .scales
+            .iter()
+            .copied()
+            .fold(f64::INFINITY, f64::min)
+            .max(1e-12);
+        let r2 = params.r2();
+        index.within(&s.q, r2 / (wmin * wmin), &mut s.found);
+        let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
+        let mut total = 0.0;
+        for &(_, g) in &s.found {
+            let d2: f64 = index
+                .group_z(g)
+                .iter()
+                .zip(&s.q)
+                .zip(&params.scales)
+                .map(|((p, q), s)| {
+                    let d = (p - q) * s;
+                    d * d
+                })
+                .sum();
+            if d2 > r2 {
+                continue;
+            }
+            let w = (-d2 * inv).exp();
+            for &i in index.group(g) {
+                if self.fold[i as usize] == held_out {
+                    continue;
+                }
+                for (out, v) in a.iter_mut().zip(ds.a(i as usize)) {
+                    *out += w * v;
+                }
+                total += w;
+            }
+        }
+        if total > 0.0 {
+            a.iter_mut().for_each(|v| *v /= total);
+            return;
+        }
+        // Far from the other folds: widen a nearest-groups search until one holds such a point
+        // (there is one: every fold has at least two points and `index` holds them all).
+        let mut m = 4;
+        loop {
+            index.nearest_n(&s.q, m, &mut s.found);
+            let other = s.found.iter().find_map(|&(_, g)| {
+                index
+                    .group(g)
+                    .iter()
+                    .find(|&&i| self.fold[i as usize] != held_out)
+            });
+            if let Some(&i) = other {
+                a.copy_from_slice(ds.a(i as usize));
+                return;
+            }
+            if m >= index.groups() {
+                return;
+            }
+            m = (m * 4).min(index.groups());
+        }
+    }
 }
 
 /// Query `learner`'s data with other parameters (for tests and tuning experiments).
@@ -241,4 +404,149 @@ pub fn query_with(
         a,
         &mut Scratch::default(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::domain::{Dim, Domain};
+    use crate::trace::Trace;
+    use rand::Rng;
+
+    fn domain() -> Domain {
+        Domain {
+            name: "test".into(),
+            observe: vec![Dim::new("x", "", None), Dim::new("y", "", None)],
+            act: vec![Dim::new("u", "", None)],
+        }
+    }
+
+    /// `demos` random-walk demonstrations of `len` points each, with a smooth action and noise;
+    /// some observations repeat (a base at rest), as in real data.
+    fn dataset(demos: usize, len: usize, seed: u64) -> Dataset {
+        let d = domain();
+        let mut ds = Dataset::new(&d);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        for k in 0..demos {
+            let mut t = Trace::new(&d);
+            let (mut x, mut y): (f64, f64) =
+                (rng.random_range(0.0..1.0), rng.random_range(0.0..1.0));
+            for i in 0..len {
+                if i % 7 != 0 {
+                    x += rng.random_range(-0.02..0.02);
+                    y += rng.random_range(-0.02..0.02);
+                }
+                let u = (3.0 * x).sin() + y * y + rng.random_range(-0.05..0.05);
+                t.push(i as f64, &[x, y], &[u], None);
+            }
+            ds.add_demonstration(&format!("d{k}"), &t).unwrap();
+        }
+        ds
+    }
+
+    fn range_scale(ds: &Dataset) -> Vec<f64> {
+        (0..2)
+            .map(|j| {
+                let (lo, hi) = (0..ds.len())
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), i| {
+                        (l.min(ds.z(i)[j]), h.max(ds.z(i)[j]))
+                    });
+                1.0 / (hi - lo)
+            })
+            .collect()
+    }
+
+    /// The cross-validation's answer from the shared index, skipping the held-out fold, equals
+    /// [`query`] on an index of the other folds' points alone (what tuning used to build), far
+    /// from the data included.
+    #[test]
+    fn skipping_a_fold_equals_an_index_without_it() {
+        let ds = dataset(12, 40, 1);
+        let scale = range_scale(&ds);
+        let k = 5u8;
+        let fold: Vec<u8> = (0..ds.len()).map(|i| ((i * 7 + i / 3) % 5) as u8).collect();
+        let mut all = Index::new(scale.clone()).unwrap();
+        for i in 0..ds.len() {
+            all.add(i as u32, ds.z(i));
+        }
+        let cv = CrossValidation {
+            ds: &ds,
+            index: &all,
+            fold: &fold,
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        for f in 0..k {
+            let mut others = Index::new(scale.clone()).unwrap();
+            for i in (0..ds.len()).filter(|&i| fold[i] != f) {
+                others.add(i as u32, ds.z(i));
+            }
+            for params in [
+                LwrParams::default_for(2),
+                LwrParams {
+                    scales: vec![0.5, 2.0],
+                    bandwidth: 0.01,
+                    tolerance: 1e-3,
+                },
+            ] {
+                for q in 0..60 {
+                    // Data points of the fold, and points anywhere (some far from all data).
+                    let z = if q % 2 == 0 {
+                        ds.z((q * 13) % ds.len()).to_vec()
+                    } else {
+                        vec![rng.random_range(-2.0..3.0), rng.random_range(-2.0..3.0)]
+                    };
+                    let (mut a, mut b) = ([0.0], [0.0]);
+                    let mut s = Scratch::default();
+                    cv.query(&params, &z, f, &mut a, &mut s);
+                    let ans = query(&others, &ds, &params, &z, &mut b, &mut s);
+                    let tol = if ans.total_weight > 0.0 { 1e-9 } else { 0.0 };
+                    assert!((a[0] - b[0]).abs() <= tol, "fold {f} z {z:?}: {a:?} {b:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn large_datasets_are_sampled_by_whole_demonstrations() {
+        let ds = dataset(300, 100, 3);
+        assert!(ds.len() > TUNE_POINTS);
+        let sample = tuning_sample(&ds, 9);
+        assert!(sample.len() <= TUNE_POINTS && sample.len() > TUNE_POINTS - 100);
+        assert!(sample.windows(2).all(|w| w[0] < w[1]));
+        // Whole demonstrations: every point of a demonstration, or none.
+        let mut per_demo = HashMap::new();
+        for &i in &sample {
+            if let Provenance::Demonstration { demo, .. } = ds.provenance(i) {
+                *per_demo.entry(demo).or_insert(0) += 1;
+            }
+        }
+        assert!(per_demo.values().all(|&c| c == 100), "{per_demo:?}");
+        assert_eq!(tuning_sample(&ds, 9), sample, "deterministic per seed");
+        assert_ne!(
+            tuning_sample(&ds, 10),
+            sample,
+            "another seed, another sample"
+        );
+        let small = dataset(10, 100, 3);
+        assert_eq!(
+            tuning_sample(&small, 9),
+            (0..small.len()).collect::<Vec<_>>()
+        );
+    }
+
+    /// Tuning a dataset past the sample size is deterministic per seed, and it does tune: the
+    /// data's noise scale is far from the default kernel's.
+    #[test]
+    fn tuning_is_deterministic_per_seed() {
+        let ds = dataset(260, 80, 4);
+        let scale = range_scale(&ds);
+        let a = tune(&ds, &scale, 5, 11);
+        assert_eq!(a, tune(&ds, &scale, 5, 11));
+        assert!(BANDWIDTH_GRID.contains(&a.bandwidth), "{a:?}");
+        assert_ne!(
+            a,
+            LwrParams::default_for(2),
+            "the data's kernel is not the default"
+        );
+    }
 }

@@ -105,21 +105,36 @@ pub fn practice_starts(seed: u64, n: usize) -> Vec<BallStart> {
     sample_starts(&mut rng, n, &InterceptionRules::default())
 }
 
+/// Practice start `index` of `seed`: `practice_starts(seed, index + 1)[index]`, computed
+/// directly. A start takes exactly [`WORDS_PER_START`] words of the stream (rand's uniform `f64`
+/// ranges draw one `u64` each and never reject), so start `index` begins at word
+/// `index * WORDS_PER_START`, and ChaCha seeks there in constant time. Every `u64` index names a
+/// distinct stretch of the stream (its period is 2^68 words).
+pub fn practice_start(seed: u64, index: u64) -> BallStart {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(1);
+    rng.set_word_pos(u128::from(index) * WORDS_PER_START);
+    sample_start(&mut rng, &InterceptionRules::default())
+}
+
+/// 32-bit words of the random stream one start takes: four `u64` draws.
+const WORDS_PER_START: u128 = 8;
+
 fn sample_starts(rng: &mut ChaCha8Rng, n: usize, r: &InterceptionRules) -> Vec<BallStart> {
-    (0..n)
-        .map(|_| {
-            let d = rng.random_range(r.ball_dist_m.0..=r.ball_dist_m.1);
-            let bearing = rng.random_range(-PI..PI);
-            let s = rng.random_range(r.ball_speed_mps.0..=r.ball_speed_mps.1);
-            let dir = rng.random_range(-PI..PI);
-            BallStart {
-                x_m: d * bearing.cos(),
-                y_m: d * bearing.sin(),
-                vx_mps: s * dir.cos(),
-                vy_mps: s * dir.sin(),
-            }
-        })
-        .collect()
+    (0..n).map(|_| sample_start(rng, r)).collect()
+}
+
+fn sample_start(rng: &mut ChaCha8Rng, r: &InterceptionRules) -> BallStart {
+    let d = rng.random_range(r.ball_dist_m.0..=r.ball_dist_m.1);
+    let bearing = rng.random_range(-PI..PI);
+    let s = rng.random_range(r.ball_speed_mps.0..=r.ball_speed_mps.1);
+    let dir = rng.random_range(-PI..PI);
+    BallStart {
+        x_m: d * bearing.cos(),
+        y_m: d * bearing.sin(),
+        vx_mps: s * dir.cos(),
+        vy_mps: s * dir.sin(),
+    }
 }
 
 /// What the robot remembers of the previous step, for the difference observations.

@@ -77,16 +77,31 @@ pub fn practice_goals(seed: u64, n: usize) -> Vec<Pose> {
     sample_goals(&mut rng, n)
 }
 
+/// Practice goal `index` of `seed`: `practice_goals(seed, index + 1)[index]`, computed directly.
+/// A goal takes exactly [`WORDS_PER_GOAL`] words of the stream (rand's uniform `f64` range draws
+/// one `u64` and never rejects), so goal `index` starts at word `index * WORDS_PER_GOAL`, and
+/// ChaCha seeks there in constant time. Every `u64` index names a distinct stretch of the stream
+/// (its period is 2^68 words).
+pub fn practice_goal(seed: u64, index: u64) -> Pose {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(1);
+    rng.set_word_pos(u128::from(index) * WORDS_PER_GOAL);
+    sample_goal(&mut rng)
+}
+
+/// 32-bit words of the random stream one goal takes: three `u64` draws.
+const WORDS_PER_GOAL: u128 = 6;
+
 fn sample_goals(rng: &mut ChaCha8Rng, n: usize) -> Vec<Pose> {
-    (0..n)
-        .map(|_| {
-            Pose::new(
-                rng.random_range(GOAL_X_M.0..GOAL_X_M.1),
-                rng.random_range(GOAL_Y_M.0..GOAL_Y_M.1),
-                rng.random_range(GOAL_THETA_RAD.0..GOAL_THETA_RAD.1),
-            )
-        })
-        .collect()
+    (0..n).map(|_| sample_goal(rng)).collect()
+}
+
+fn sample_goal(rng: &mut ChaCha8Rng) -> Pose {
+    Pose::new(
+        rng.random_range(GOAL_X_M.0..GOAL_X_M.1),
+        rng.random_range(GOAL_Y_M.0..GOAL_Y_M.1),
+        rng.random_range(GOAL_THETA_RAD.0..GOAL_THETA_RAD.1),
+    )
 }
 
 /// The observation of `goal` from `pose`: `[dist2, bearing, dheading]`. Exactly at the goal

@@ -25,7 +25,7 @@ use super::codec::{
 };
 use super::config::{BITMAP_BALANCE_ENABLED, EmulatorConfig, MachineConfig, RmpConfigError};
 use crate::backend::BaseState;
-use crate::backend::sim::{SimBase, SimParams};
+use crate::backend::sim::{SimBase, SimError, SimParams};
 use crate::trace::Pose;
 
 const G_MPS2: f64 = 9.80665;
@@ -602,6 +602,9 @@ pub enum EmulatorError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Config(#[from] RmpConfigError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Sim(#[from] SimError),
 }
 
 /// Start an emulator.
@@ -616,13 +619,15 @@ impl Emulator {
     }
 
     /// As [`Emulator::bind`], with the team's simulator ([`SimBase`]) as the base physics: what
-    /// `advise rmp-emulator` runs. `sim_seed` seeds the simulator's noise.
+    /// `advise rmp-emulator` runs. `sim_seed` seeds the simulator's noise. The parameters are
+    /// validated first ([`SimParams::validate`]).
     pub fn bind_sim(
         addr: SocketAddr,
         cfg: EmulatorConfig,
         params: SimParams,
         sim_seed: u64,
     ) -> Result<EmulatorHandle, EmulatorError> {
+        params.validate()?;
         Emulator::bind_with(addr, cfg, Box::new(SimBase::new(params, sim_seed)))
     }
 

@@ -1,0 +1,55 @@
+//! Practice starts: start N is computed directly (no list of N starts is built), it is the same
+//! start the sequential generator draws, and numbers past the documented maximum are refused with
+//! a coded diagnostic.
+
+use advise::task::{MAX_PRACTICE_START, Start, TaskKind};
+
+#[test]
+fn start_n_is_the_nth_of_the_practice_set() {
+    for kind in [TaskKind::Positioning, TaskKind::Interception] {
+        for seed in [0, 1, 7, 0xD3E0, u64::MAX] {
+            let set = kind.practice_set(seed, 300);
+            for (i, want) in set.iter().enumerate() {
+                let got = kind.practice_start(seed, i as u64).unwrap();
+                assert_eq!(&got, want, "{kind} seed {seed} start {i}");
+            }
+        }
+    }
+}
+
+#[test]
+fn the_last_start_is_drawn_at_once_and_in_range() {
+    use advise::task::positioning::{GOAL_THETA_RAD, GOAL_X_M, GOAL_Y_M};
+    for kind in [TaskKind::Positioning, TaskKind::Interception] {
+        let last = kind.practice_start(3, MAX_PRACTICE_START).unwrap();
+        let before = kind.practice_start(3, MAX_PRACTICE_START - 1).unwrap();
+        assert_ne!(last, before);
+        match last {
+            Start::Goal(g) => {
+                assert!((GOAL_X_M.0..GOAL_X_M.1).contains(&g.x_m), "{g:?}");
+                assert!((GOAL_Y_M.0..GOAL_Y_M.1).contains(&g.y_m), "{g:?}");
+                assert!((GOAL_THETA_RAD.0..GOAL_THETA_RAD.1).contains(&g.theta_rad));
+            }
+            Start::Ball(b) => {
+                let d = b.x_m.hypot(b.y_m);
+                assert!((1.0..=3.0).contains(&d), "{b:?}");
+                assert!(b.vx_mps.hypot(b.vy_mps) <= 0.8 + 1e-12, "{b:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn starts_past_the_maximum_are_refused() {
+    for index in [MAX_PRACTICE_START + 1, u64::MAX] {
+        let e = TaskKind::Interception.practice_start(0, index).unwrap_err();
+        let code = miette::Diagnostic::code(&e).unwrap().to_string();
+        assert_eq!(code, "advise::task::practice_start_out_of_range");
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "there is no practice start {index}: practice starts are numbered 0 to 999999999"
+            )
+        );
+    }
+}
