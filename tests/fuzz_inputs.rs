@@ -2,7 +2,8 @@
 //! tokens) over the inputs a user hands the program — the standard operator files through parse
 //! and check (and every operator that checks, applied to a chunk), the example session scripts'
 //! statements through `Session::execute`, a saved dataset through the dataset loader and the
-//! learner, simulator parameters through their loader and the base. Every input must come back as
+//! learner, simulator parameters through their loader and the base, a session journal through
+//! `Session::restore`. Every input must come back as
 //! a value or as a diagnostic whose code, and the code of every diagnostic inside it, starts with
 //! `advise::`; a panic is a failure. A few thousand mutants, each capped in size, so the whole file
 //! runs in seconds in the test profile.
@@ -416,4 +417,49 @@ fn mutated_simulator_parameters_are_refused_or_run_finitely() {
         });
     }
     findings.assert_none("simulator-parameter", count);
+}
+
+/// A journal of a short session: demonstrations, a run, a selection, advice, a critique, undo.
+fn journal_text(dir: &std::path::Path) -> String {
+    let mut s = Session::new(SessionOptions {
+        default_demos: 1,
+        ..SessionOptions::default()
+    })
+    .unwrap();
+    let path = s.start_journal(dir).unwrap();
+    for st in [
+        "run goal 1 -1 0",
+        "select 2..12",
+        "advise speed_up(0.3)",
+        "critique",
+        "undo",
+        "operator creep for positioning on action { trans = 0.1 }",
+        "task interception",
+    ] {
+        s.execute(st, "<setup>").unwrap();
+    }
+    std::fs::read_to_string(path).unwrap()
+}
+
+#[test]
+fn mutated_journals_are_restored_or_refused_with_diagnostics() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = journal_text(dir.path());
+    let mut findings = Findings::default();
+    let mut m = Mutator::new(500);
+    let count = 300;
+    for i in 0..count {
+        let input = m.mutate(&text, text.len() + 2048);
+        let path = dir.path().join(format!("fuzz-{i}.jsonl"));
+        std::fs::write(&path, &input).unwrap();
+        findings.guard("journal", &input, |f| {
+            match Session::restore(&path, dir.path()) {
+                Err(e) => f.check_codes("journal", &input, &e),
+                // A damaged line stops the restore where it is (a note says so): a refusal too.
+                Ok(r) if !r.notes.is_empty() => f.1 += 1,
+                Ok(_) => {}
+            }
+        });
+    }
+    findings.assert_none("journal", count);
 }
