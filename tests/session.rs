@@ -214,6 +214,6 @@ fn a_session_refuses_simulator_parameters_out_of_range() {
         },
         ..SessionOptions::default()
     };
-    let e = Session::new(opts).err().expect("refused");
+    let e = Session::new(opts).expect_err("refused");
     insta::assert_snapshot!(advise::repl::render(&e, false));
 }
