@@ -73,17 +73,8 @@ pub fn query(
     scratch: &mut Scratch,
 ) -> LwrAnswer {
     a.iter_mut().for_each(|v| *v = 0.0);
-    scratch.q.resize(z.len(), 0.0);
-    index.scaled(z, &mut scratch.q);
-    let wmin = params
-        .scales
-        .iter()
-        .copied()
-        .fold(f64::INFINITY, f64::min)
-        .max(1e-12);
+    let inv = gather(index, params, z, scratch);
     let r2 = params.r2();
-    index.within(&scratch.q, r2 / (wmin * wmin), &mut scratch.found);
-    let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
     let mut total = 0.0;
     let mut count = 0;
     if index.has_action_sums() && params.scales.iter().all(|s| *s == 1.0) {
@@ -318,6 +309,22 @@ struct CrossValidation<'a> {
     fold: &'a [u8],
 }
 
+/// Scale `z` into `s.q` and collect into `s.found` every group within the kernel's support (a
+/// box inflated by the smallest tuned scale, since the index measures range-scaled distance);
+/// returns `1 / (2 h^2)`, the kernel's exponent factor.
+fn gather(index: &Index, params: &LwrParams, z: &[f64], s: &mut Scratch) -> f64 {
+    s.q.resize(z.len(), 0.0);
+    index.scaled(z, &mut s.q);
+    let wmin = params
+        .scales
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min)
+        .max(1e-12);
+    index.within(&s.q, params.r2() / (wmin * wmin), &mut s.found);
+    1.0 / (2.0 * params.bandwidth * params.bandwidth)
+}
+
 impl CrossValidation<'_> {
     /// [`query`]'s answer for `z` from the points outside fold `held_out`: the same kernel sum
     /// (general path), skipping the held-out fold's points; far from them all, the action of the
@@ -325,17 +332,8 @@ impl CrossValidation<'_> {
     fn query(&self, params: &LwrParams, z: &[f64], held_out: u8, a: &mut [f64], s: &mut Scratch) {
         let (index, ds) = (self.index, self.ds);
         a.iter_mut().for_each(|v| *v = 0.0);
-        s.q.resize(z.len(), 0.0);
-        index.scaled(z, &mut s.q);
-        let wmin = params
-            .scales
-            .iter()
-            .copied()
-            .fold(f64::INFINITY, f64::min)
-            .max(1e-12);
+        let inv = gather(index, params, z, s);
         let r2 = params.r2();
-        index.within(&s.q, r2 / (wmin * wmin), &mut s.found);
-        let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
         let mut total = 0.0;
         for &(_, g) in &s.found {
             let d2: f64 = index
