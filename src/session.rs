@@ -37,7 +37,7 @@ use crate::policy::dataset::{Dataset, Provenance};
 use crate::policy::learner::{self, Learner, LearnerError, LearnerKind};
 use crate::syntax::ParseError;
 use crate::syntax::ast::{Ident, Item};
-use crate::syntax::command::{COMMANDS, Command, Statement, parse_statement};
+use crate::syntax::command::{COMMANDS, Command, PlotKind, Statement, parse_statement};
 use crate::task::{self, Execution, Start, TaskKind, episode_seed};
 use crate::trace::{Chunk, ChunkError, Episode, Pose, Trace, TraceError};
 use effect::{DemoEpisode, Effect, Entry, ExecutionEntry, Header, RunEntry};
@@ -109,6 +109,14 @@ pub enum SessionError {
         )
     )]
     UnknownLearner { name: String, hint: String },
+    #[error("execution {n} has no poses: there is no path to plot")]
+    #[diagnostic(
+        code(advise::session::no_poses),
+        help(
+            "a trace loaded without `x`, `y`, `theta` columns has no path; `plot actions FILE.svg` plots its actions"
+        )
+    )]
+    NoPoses { n: usize },
     #[error("nothing is selected")]
     #[diagnostic(
         code(advise::session::no_selection),
@@ -914,7 +922,7 @@ impl Session {
             Command::Eval { detail } => self.eval(detail).map(Reply::text),
             Command::Learner(name) => self.set_learner(&name).map(Reply::text),
             Command::Why(t) => self.why(t).map(Reply::text),
-            Command::Plot(path) => self.plot(&path).map(Reply::text),
+            Command::Plot { kind, path } => self.plot(kind, &path).map(Reply::text),
             Command::Save(path) => self.save(&path).map(Reply::text),
             Command::Open(path) => self.open(&path).map(Reply::text),
             Command::ExportAdvice(path) => self.export_advice(&path).map(Reply::text),
@@ -1254,12 +1262,13 @@ impl Session {
         {
             let _ = writeln!(out, "selected {sel} ({} points)", sel.len());
         }
-        if let Some(poses) = self.plot_poses(rec) {
-            let view = self.plot_view(i, rec, poses);
-            out.push_str(&plot::ascii(&view, 64, 16));
+        let view = self.plot_view(i, rec);
+        if view.path.is_empty() {
+            out.push_str("(no poses recorded: no path to plot)\n");
         } else {
-            out.push_str("(no poses recorded: nothing to plot)\n");
+            out.push_str(&plot::ascii(&view, 64, 16));
         }
+        out.push_str(&plot::strip(&view, 64));
         Ok(out)
     }
 
@@ -1270,12 +1279,22 @@ impl Session {
             .or(rec.trace.pose.as_deref())
     }
 
-    fn plot_view<'a>(&self, i: usize, rec: &'a Recorded, poses: &'a [Pose]) -> plot::PlotView<'a> {
+    fn plot_view<'a>(&'a self, i: usize, rec: &'a Recorded) -> plot::PlotView<'a> {
+        let rules = crate::task::interception::InterceptionRules::default();
+        let interception = self.task == TaskKind::Interception;
         plot::PlotView {
             title: format!("execution {i}: {}", rec.label),
-            path: poses,
+            domain: &self.domain,
+            trace: &rec.trace,
+            path: self.plot_poses(rec).unwrap_or(&[]),
             goal: rec.goal,
             ball: rec.execution.as_ref().and_then(|e| e.ball.as_deref()),
+            arena: interception.then_some(plot::Arena {
+                half_m: rules.arena_half_m,
+                capture_m: rules.capture_m,
+            }),
+            outcome: rec.execution.as_ref().map(outcome_line),
+            speed_limits: interception.then_some([rules.max_speed_mps, rules.max_rot_radps]),
             selection: self
                 .state
                 .selection
@@ -1607,16 +1626,42 @@ impl Session {
         Ok(out)
     }
 
-    fn plot(&self, path: &str) -> Result<String, SessionError> {
-        let (i, rec) = self.current()?;
-        let Some(poses) = self.plot_poses(rec) else {
-            return Err(SessionError::Io {
-                path: path.to_string(),
-                source: std::io::Error::other("the execution has no poses to plot"),
-            });
-        };
-        plot::svg(&self.plot_view(i, rec, poses), Path::new(path))?;
-        Ok(format!("wrote {path}"))
+    /// `plot FILE` draws the selected execution's path, `plot actions FILE` its actions against
+    /// point index, `plot compare FILE N M` the paths of executions N and M overlaid.
+    fn plot(&self, kind: PlotKind, path: &str) -> Result<String, SessionError> {
+        let file = Path::new(path);
+        let no_poses = |n: usize| SessionError::NoPoses { n };
+        match kind {
+            PlotKind::Path => {
+                let (i, rec) = self.current()?;
+                let view = self.plot_view(i, rec);
+                if view.path.is_empty() {
+                    return Err(no_poses(i));
+                }
+                plot::svg(&view, file)?;
+                Ok(format!("wrote {path}: the path of execution {i}"))
+            }
+            PlotKind::Actions => {
+                let (i, rec) = self.current()?;
+                plot::svg_actions(&self.plot_view(i, rec), file)?;
+                Ok(format!(
+                    "wrote {path}: the actions of execution {i} against point index"
+                ))
+            }
+            PlotKind::Compare { before, after } => {
+                let a = self.plot_view(before, self.numbered(before)?);
+                let b = self.plot_view(after, self.numbered(after)?);
+                for (n, v) in [(before, &a), (after, &b)] {
+                    if v.path.is_empty() {
+                        return Err(no_poses(n));
+                    }
+                }
+                plot::svg_compare(&a, &b, file)?;
+                Ok(format!(
+                    "wrote {path}: execution {before} (blue) and {after} (green) overlaid"
+                ))
+            }
+        }
     }
 
     fn save(&self, path: &str) -> Result<String, SessionError> {
@@ -1743,7 +1788,7 @@ fn command_doc(name: &str) -> &'static str {
         }
         "why" => "Show which data points supported the action at point T, with their provenance.",
         "plot" => {
-            "Write the current execution as SVG, with the selection and advised/critiqued chunks marked."
+            "Write the selected execution's path as SVG, `plot actions FILE` its actions against point index, `plot compare FILE N M` executions N and M overlaid; selection, advice and critiques marked."
         }
         "save" => "Save the dataset with provenance (.json), or its points only (.csv).",
         "open" => "Open a dataset saved with `save`.",

@@ -170,7 +170,25 @@ fn plots_are_written() {
     for f in files.iter().chain(&more) {
         let text = std::fs::read_to_string(f).unwrap();
         assert!(text.starts_with("<svg"), "{}", f.display());
+        assert!(!text.contains(">-0.0"), "{}", f.display());
     }
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap();
+    // Value labels on the bars, the paper's value beside ours.
+    let success = read("aopi-seed1-success.svg");
+    let ours = format!("{:.0}%", 100.0 * a.arms.advised.success_rate);
+    assert!(success.contains(&ours), "{ours}");
+    assert!(success.contains("paper 88%") && success.contains("paper 32%"));
+    let error = read("aopi-seed1-position-error.svg");
+    assert!(error.contains(&format!("{:.2}", a.arms.teleop.mean_position_error_m)));
+    // The kept policy is named and marked on the dataset curves.
+    let dataset = read("aopi-seed1-dataset.svg");
+    let kept = format!(
+        "Advised: kept at {} executions (paper 69)",
+        a.arms.advised.executions
+    );
+    assert!(dataset.contains(&kept), "{kept}");
+    // Three legend entries, the axis note, and a "kept" beside each arm's ring.
+    assert_eq!(dataset.matches("kept").count(), 7);
 }
 
 #[test]

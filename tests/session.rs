@@ -217,3 +217,36 @@ fn a_session_refuses_simulator_parameters_out_of_range() {
     let e = Session::new(opts).expect_err("refused");
     insta::assert_snapshot!(advise::repl::render(&e, false));
 }
+
+/// The teacher's pictures: `show` with its action strip, `plot`, `plot actions`, `plot compare`,
+/// and what a teacher sees when a plot cannot be drawn. The files are checked for what they hold.
+#[test]
+fn plots_of_the_selected_execution_and_their_diagnostics() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().display().to_string();
+    // A trace without poses: its actions can be plotted, its path cannot.
+    let mut csv = String::from("t,dist2,bearing,dheading,trans,rot\n");
+    for i in 0..30 {
+        csv.push_str(&format!(
+            "{:.1},4.0,0.1,0.0,{:.2},0.1\n",
+            i as f64 * 0.1,
+            i as f64 / 60.0
+        ));
+    }
+    std::fs::write(dir.path().join("noposes.csv"), csv).unwrap();
+    let mut s = positioning(9);
+    let t = transcript(
+        &mut s,
+        &format!(
+            "run goal 2 -1 0.5\nselect 20..40\ncritique\nselect 45..60\nadvise slow_down(0.3)\nrun goal 2 -1 0.5\nselect 10..30 in 0\nshow\nplot {d}/path.svg\nplot actions {d}/actions.svg\nplot compare {d}/compare.svg 0 1\nplot compare {d}/none.svg 0 7\nload trace {d}/noposes.csv\nshow\nplot {d}/none.svg\nplot actions {d}/noposes.svg\nplot compare {d}/none.svg 0 2\n"
+        ),
+    );
+    let t = t.replace(&d, "<dir>");
+    insta::assert_snapshot!(t);
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap();
+    assert!(read("path.svg").contains("critiqued 20..40"));
+    assert!(read("actions.svg").contains("rot command (rad/s)"));
+    assert!(read("compare.svg").contains("after: execution 1"));
+    assert!(read("noposes.svg").contains("trans command (m/s)"));
+    assert!(!dir.path().join("none.svg").exists());
+}

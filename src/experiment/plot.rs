@@ -89,8 +89,17 @@ fn bc_success(result: &BcResult, path: &Path) -> Result<(), ExperimentError> {
     Ok(())
 }
 
-/// A bar chart's file stem, axis label and value per arm.
-type Bar = (&'static str, &'static str, fn(&ArmFigures) -> f64);
+/// A bar chart's file stem, axis label, value per arm, and the paper's value per arm where the
+/// paper gives one (Figure 8's success; Figure 9's errors are not in the text).
+type Bar = (
+    &'static str,
+    &'static str,
+    fn(&ArmFigures) -> f64,
+    [Option<f64>; 4],
+);
+
+/// One bar: the arm, our value, the paper's value, the arm's colour.
+type BarValue<'a> = (&'a str, f64, Option<f64>, RGBColor);
 
 /// Figures 8 and 9 (success, position and heading error per policy, as bars) and Figure 11
 /// (dataset size against executions, per arm). Returns the files written.
@@ -102,22 +111,42 @@ pub fn aopi(result: &AopiResult, dir: &Path) -> Result<Vec<PathBuf>, ExperimentE
         ("Hybrid", &a.hybrid, RGBColor(44, 160, 44)),
         ("Teleop", &a.teleop, RGBColor(214, 39, 40)),
     ];
+    let p = crate::experiment::aopi::PAPER;
+    let paper_success = [
+        p.baseline_success,
+        p.advised_success,
+        p.hybrid_success,
+        p.teleop_success,
+    ]
+    .map(|v| Some(100.0 * v));
     let mut written = Vec::new();
     let bars: [Bar; 3] = [
-        ("success", "test set success (%)", |f| {
-            100.0 * f.success_rate
-        }),
-        ("position-error", "mean position error (m)", |f| {
-            f.mean_position_error_m
-        }),
-        ("heading-error", "mean heading error (rad)", |f| {
-            f.mean_heading_error_rad
-        }),
+        (
+            "success",
+            "test set success (%)",
+            |f| 100.0 * f.success_rate,
+            paper_success,
+        ),
+        (
+            "position-error",
+            "mean position error (m)",
+            |f| f.mean_position_error_m,
+            [None; 4],
+        ),
+        (
+            "heading-error",
+            "mean heading error (rad)",
+            |f| f.mean_heading_error_rad,
+            [None; 4],
+        ),
     ];
-    for (file, label, value) in bars {
+    for (file, label, value, paper) in bars {
         let path = dir.join(format!("aopi-seed{}-{file}.svg", result.seed));
-        let values: Vec<(&str, f64, RGBColor)> =
-            arms.iter().map(|(n, f, c)| (*n, value(f), *c)).collect();
+        let values: Vec<BarValue<'_>> = arms
+            .iter()
+            .zip(paper)
+            .map(|((n, f, c), p)| (*n, value(f), p, *c))
+            .collect();
         bar_chart(
             &path,
             &format!("A-OPI: {label} (seed {})", result.seed),
@@ -132,26 +161,44 @@ pub fn aopi(result: &AopiResult, dir: &Path) -> Result<Vec<PathBuf>, ExperimentE
     Ok(written)
 }
 
+/// A value as a bar's label: percentages whole, errors to two decimals.
+fn value_label(v: f64, percent: bool) -> String {
+    if percent {
+        format!("{v:.0}%")
+    } else {
+        format!("{v:.2}")
+    }
+}
+
 fn bar_chart(
     path: &Path,
     title: &str,
     y_label: &str,
-    values: &[(&str, f64, RGBColor)],
+    values: &[BarValue<'_>],
 ) -> Result<(), ExperimentError> {
     let e = err(path);
+    let percent = y_label.contains('%');
+    let with_paper = values.iter().any(|v| v.2.is_some());
     // Drawn into memory and written at once: a failed figure leaves no file.
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (640, 420)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (680, 440)).into_drawing_area();
         root.fill(&WHITE).map_err(|x| e(&x))?;
-        let top = values.iter().map(|v| v.1).fold(0.0, f64::max).max(1e-9) * 1.15;
+        // Room above the tallest bar for its label.
+        let top = values
+            .iter()
+            .flat_map(|v| [v.1, v.2.unwrap_or(0.0)])
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max)
+            .max(1e-9)
+            * 1.2;
         let n = values.len();
         let names: Vec<String> = values.iter().map(|v| v.0.to_string()).collect();
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 18))
-            .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(52)
+            .margin(16)
+            .x_label_area_size(40)
+            .y_label_area_size(64)
             .build_cartesian_2d(0.0..n as f64, 0.0..top)
             .map_err(|x| e(&x))?;
         chart
@@ -166,18 +213,79 @@ fn bar_chart(
                     String::new()
                 }
             })
+            .y_label_formatter(&|v| value_label(*v, percent))
+            .label_style(("sans-serif", 13))
             .y_desc(y_label)
             .draw()
             .map_err(|x| e(&x))?;
-        chart
-            .draw_series(values.iter().enumerate().map(|(i, (_, v, c))| {
-                Rectangle::new([(i as f64 + 0.2, 0.0), (i as f64 + 0.8, *v)], c.filled())
-            }))
-            .map_err(|x| e(&x))?;
+        // Ours solid; the paper's beside it, pale with the arm's outline.
+        let (ours_x, paper_x) = if with_paper {
+            ((0.12, 0.5), (0.5, 0.88))
+        } else {
+            ((0.2, 0.8), (0.0, 0.0))
+        };
+        let font = ("sans-serif", 13).into_font();
+        for (i, (_, v, paper, c)) in values.iter().enumerate() {
+            let x = i as f64;
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(x + ours_x.0, 0.0), (x + ours_x.1, *v)],
+                    c.filled(),
+                )))
+                .map_err(|x| e(&x))?;
+            let label = (x + (ours_x.0 + ours_x.1) / 2.0, *v);
+            chart
+                .draw_series(std::iter::once(label_above(
+                    label,
+                    value_label(*v, percent),
+                    &font,
+                )))
+                .map_err(|x| e(&x))?;
+            if let Some(p) = paper {
+                chart
+                    .draw_series([
+                        Rectangle::new(
+                            [(x + paper_x.0, 0.0), (x + paper_x.1, *p)],
+                            c.mix(0.25).filled(),
+                        ),
+                        Rectangle::new(
+                            [(x + paper_x.0, 0.0), (x + paper_x.1, *p)],
+                            c.stroke_width(1),
+                        ),
+                    ])
+                    .map_err(|x| e(&x))?;
+                chart
+                    .draw_series(std::iter::once(label_above(
+                        (x + (paper_x.0 + paper_x.1) / 2.0, *p),
+                        format!("paper {}", value_label(*p, percent)),
+                        &font,
+                    )))
+                    .map_err(|x| e(&x))?;
+            }
+        }
+        if with_paper {
+            let note = "solid: this run; pale: the paper's Figure 8";
+            root.draw(&Text::new(note, (90, 412), font.clone()))
+                .map_err(|x| e(&x))?;
+        }
         root.present().map_err(|x| e(&x))?;
     }
     crate::files::write_bytes(path, svg.as_bytes())?;
     Ok(())
+}
+
+/// A text centred just above a data point.
+fn label_above<'a>(
+    at: (f64, f64),
+    text: String,
+    font: &FontDesc<'a>,
+) -> Text<'a, (f64, f64), String> {
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    Text::new(
+        text,
+        at,
+        TextStyle::from(font.clone()).pos(Pos::new(HPos::Center, VPos::Bottom)),
+    )
 }
 
 fn dataset_chart(
@@ -210,35 +318,83 @@ fn dataset_chart(
             .map_err(|x| e(&x))?;
         chart
             .configure_mesh()
-            .x_desc("executions contributing to the dataset")
+            .x_desc("executions contributing to the dataset (ring: the kept policy; dashed: run after it)")
             .y_desc("data points")
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .y_label_formatter(&|v| format!("{v:.0}"))
+            .light_line_style(WHITE.mix(0.0))
             .draw()
             .map_err(|x| e(&x))?;
-        for (name, f, color) in arms.iter().skip(1) {
+        let p = crate::experiment::aopi::PAPER;
+        let paper = [
+            p.advised_executions,
+            p.hybrid_executions,
+            p.teleop_executions,
+        ];
+        for ((name, f, color), paper) in arms.iter().skip(1).zip(paper) {
             let color = *color;
             let pts: Vec<(f64, f64)> = f
                 .curve
                 .iter()
                 .map(|c| (c.executions as f64, c.dataset_size as f64))
                 .collect();
+            // The kept policy is the arm's result; what the arm ran after it (until patience ran
+            // out) is drawn dashed and pale so the curve does not seem to end elsewhere.
+            let kept = kept_index(f);
+            let (upto, after) = pts.split_at((kept + 1).min(pts.len()));
             chart
-                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+                .draw_series(LineSeries::new(upto.to_vec(), color.stroke_width(2)))
                 .map_err(|x| e(&x))?
-                .label(*name)
+                .label(format!(
+                    "{name}: kept at {} executions (paper {paper})",
+                    f.executions
+                ))
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
             chart
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, color.filled())))
+                .draw_series(upto.iter().map(|&p| Circle::new(p, 3, color.filled())))
                 .map_err(|x| e(&x))?;
+            if let Some(&last) = upto.last().filter(|_| !after.is_empty()) {
+                let mut rest = vec![last];
+                rest.extend_from_slice(after);
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        rest,
+                        5,
+                        4,
+                        color.mix(0.45).stroke_width(1),
+                    ))
+                    .map_err(|x| e(&x))?;
+            }
+            if let Some(&k) = upto.last() {
+                chart
+                    .draw_series([Circle::new(k, 8, color.stroke_width(2))])
+                    .map_err(|x| e(&x))?;
+                let font = ("sans-serif", 12).into_font().color(&color);
+                let at = chart.backend_coord(&k);
+                root.draw(&Text::new("kept", (at.0 - 12, at.1 - 24), font))
+                    .map_err(|x| e(&x))?;
+            }
         }
         chart
             .configure_series_labels()
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .position(SeriesLabelPosition::UpperLeft)
+            .label_font(("sans-serif", 13))
             .draw()
             .map_err(|x| e(&x))?;
         root.present().map_err(|x| e(&x))?;
     }
     crate::files::write_bytes(path, svg.as_bytes())?;
     Ok(())
+}
+
+/// Which curve point is the kept (final) policy: the evaluation at the practice count the arm
+/// kept; the last point when none matches (an arm that never improved keeps its first).
+fn kept_index(f: &ArmFigures) -> usize {
+    f.curve
+        .iter()
+        .position(|c| c.practice == f.practice_final && c.dataset_size == f.dataset_size)
+        .or_else(|| f.curve.iter().position(|c| c.practice == f.practice_final))
+        .unwrap_or(f.curve.len().saturating_sub(1))
 }

@@ -1,64 +1,208 @@
-//! Pictures of an execution: a small character plot for the terminal and an SVG file (plotters).
+//! Pictures of an execution: character plots for the terminal and SVG files (plotters).
 //!
-//! Both draw the robot's path in the plane with the start, the goal (positioning) or the ball's
-//! path (interception), the current selection, and the chunks already critiqued or advised, so a
-//! teacher can see what they are about to mark. No state; the session hands in a [`PlotView`].
+//! A teacher chooses the chunk to correct by looking, so every picture marks the current
+//! selection and the chunks already critiqued or advised, and addresses points by index: the path
+//! plot (equal scale on both axes, an index mark every [`INDEX_EVERY`] points, the goal or the
+//! ball, the arena and the outcome), the actions plot (each action dimension against point index,
+//! chunks shaded), and a comparison of two executions (before and after advice). No state and no
+//! session knowledge: the session hands in a [`PlotView`]. SVGs are rendered to a string and
+//! written at once, so a failed plot leaves no file.
 
+use std::fmt::Write as _;
 use std::path::Path;
 
+use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::trace::{Chunk, Pose};
+use crate::domain::Domain;
+use crate::trace::{Chunk, Pose, Trace};
 
-/// What to draw.
+/// Path plots mark and number every this many points.
+pub const INDEX_EVERY: usize = 20;
+
+const SIZE: (u32, u32) = (900, 640);
+const LEGEND_W: u32 = 230;
+const PATH: RGBColor = RGBColor(40, 90, 200);
+const AFTER: RGBColor = RGBColor(20, 150, 70);
+const BALL: RGBColor = RGBColor(230, 140, 0);
+const SELECTED: RGBColor = RGBColor(190, 60, 190);
+const ADVISED: RGBColor = RGBColor(40, 170, 60);
+const CRITIQUED: RGBColor = RGBColor(215, 40, 40);
+const ARENA: RGBColor = RGBColor(120, 120, 120);
+
+/// The interception arena: a square `[-half_m, half_m]^2` and the capture distance.
+#[derive(Clone, Copy, Debug)]
+pub struct Arena {
+    pub half_m: f64,
+    pub capture_m: f64,
+}
+
+/// What to draw of one execution.
 pub struct PlotView<'a> {
     pub title: String,
+    pub domain: &'a Domain,
+    pub trace: &'a Trace,
+    /// The robot's poses (true where known); empty when none were recorded.
     pub path: &'a [Pose],
     pub goal: Option<Pose>,
     pub ball: Option<&'a [[f64; 2]]>,
+    pub arena: Option<Arena>,
+    /// One line: success or failure, why, how long.
+    pub outcome: Option<String>,
+    /// When the actions are changes of speed (interception): the clamps of the integrated speed
+    /// command, `[trans, rot]`, so the plot can show the speeds that resulted.
+    pub speed_limits: Option<[f64; 2]>,
     pub selection: Option<Chunk>,
     pub flagged: Vec<Chunk>,
     pub advised: Vec<Chunk>,
 }
 
+/// One curve of the actions plot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ActionSeries {
+    /// What is plotted, with its unit, as the axis says it.
+    pub label: String,
+    pub values: Vec<f64>,
+}
+
 impl PlotView<'_> {
-    fn bounds(&self) -> (f64, f64, f64, f64) {
-        let mut xs: Vec<f64> = self.path.iter().map(|p| p.x_m).collect();
-        let mut ys: Vec<f64> = self.path.iter().map(|p| p.y_m).collect();
-        if let Some(g) = self.goal {
+    fn in_any(chunks: &[Chunk], i: usize) -> bool {
+        chunks.iter().any(|c| c.range().contains(&i))
+    }
+
+    /// The curves of the actions plot: each action dimension by name and unit, and for actions
+    /// that are changes of speed, the speed command they integrate to.
+    pub fn action_series(&self) -> Vec<ActionSeries> {
+        let n = self.trace.len();
+        let mut out = Vec::new();
+        for (d, dim) in self.domain.act.iter().enumerate() {
+            if d >= self.trace.act_dim() {
+                break;
+            }
+            let values: Vec<f64> = (0..n).map(|i| self.trace.a(i)[d]).collect();
+            let unit = if dim.unit.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", dim.unit)
+            };
+            let what = if self.speed_limits.is_some() {
+                ""
+            } else {
+                " command"
+            };
+            out.push(ActionSeries {
+                label: format!("{}{what}{unit}", dim.name),
+                values: values.clone(),
+            });
+            if let Some(lim) = self.speed_limits.filter(|_| d < 2) {
+                let mut speed = 0.0;
+                let integrated = values
+                    .iter()
+                    .map(|v| {
+                        speed = (speed + v).clamp(-lim[d], lim[d]);
+                        speed
+                    })
+                    .collect();
+                let base = dim.name.strip_suffix("_delta").unwrap_or(&dim.name);
+                let unit = if dim.unit.is_empty() {
+                    " (summed)".to_string()
+                } else {
+                    format!(" ({}, summed)", dim.unit)
+                };
+                out.push(ActionSeries {
+                    label: format!("{base} speed{unit}"),
+                    values: integrated,
+                });
+            }
+        }
+        out
+    }
+}
+
+/// Data bounds of the path plot: the path, the goal, the ball and the arena.
+fn bounds(views: &[&PlotView<'_>]) -> (f64, f64, f64, f64) {
+    let mut xs = Vec::new();
+    let mut ys = Vec::new();
+    for v in views {
+        for p in v.path {
+            xs.push(p.x_m);
+            ys.push(p.y_m);
+        }
+        if let Some(g) = v.goal {
             xs.push(g.x_m);
             ys.push(g.y_m);
         }
-        for b in self.ball.unwrap_or(&[]) {
+        for b in v.ball.unwrap_or(&[]) {
             xs.push(b[0]);
             ys.push(b[1]);
         }
-        let lo = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = |v: &[f64]| v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let (mut x0, mut x1, mut y0, mut y1) = (lo(&xs), hi(&xs), lo(&ys), hi(&ys));
-        if !x0.is_finite() {
-            (x0, x1, y0, y1) = (-1.0, 1.0, -1.0, 1.0);
+        if let Some(a) = v.arena {
+            xs.extend([-a.half_m, a.half_m]);
+            ys.extend([-a.half_m, a.half_m]);
         }
-        // Keep a margin and a minimum extent so a short path is not blown up to fill the frame.
-        let pad_x = ((x1 - x0) * 0.08).max(0.25);
-        let pad_y = ((y1 - y0) * 0.08).max(0.25);
-        (x0 - pad_x, x1 + pad_x, y0 - pad_y, y1 + pad_y)
     }
+    let finite = |v: &f64| v.is_finite();
+    let lo = |v: &[f64]| {
+        v.iter()
+            .copied()
+            .filter(finite)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let hi = |v: &[f64]| {
+        v.iter()
+            .copied()
+            .filter(finite)
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    let (mut x0, mut x1, mut y0, mut y1) = (lo(&xs), hi(&xs), lo(&ys), hi(&ys));
+    if !(x0.is_finite() && y0.is_finite()) {
+        (x0, x1, y0, y1) = (-1.0, 1.0, -1.0, 1.0);
+    }
+    // A margin and a minimum extent so a short path is not blown up to fill the frame.
+    let pad_x = ((x1 - x0) * 0.06).max(0.25);
+    let pad_y = ((y1 - y0) * 0.06).max(0.25);
+    (x0 - pad_x, x1 + pad_x, y0 - pad_y, y1 + pad_y)
+}
 
-    fn in_any(chunks: &[Chunk], i: usize) -> bool {
-        chunks.iter().any(|c| c.range().contains(&i))
+/// Widen the narrower extent so a metre is as many pixels across as up.
+fn equal_scale(b: (f64, f64, f64, f64), px_w: u32, px_h: u32) -> (f64, f64, f64, f64) {
+    let (x0, x1, y0, y1) = b;
+    let (w, h) = (f64::from(px_w.max(1)), f64::from(px_h.max(1)));
+    let per_px = ((x1 - x0) / w).max((y1 - y0) / h);
+    let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+    let (hx, hy) = (per_px * w / 2.0, per_px * h / 2.0);
+    (cx - hx, cx + hx, cy - hy, cy + hy)
+}
+
+/// A tick label with as many decimals as the axis needs, and never `-0.0`.
+fn tick(v: f64, span: f64) -> String {
+    let decimals = if span < 2.0 {
+        2
+    } else if span < 40.0 {
+        1
+    } else {
+        0
+    };
+    let s = format!("{v:.decimals$}");
+    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
+        s[1..].to_string()
+    } else {
+        s
     }
 }
 
 /// A character plot `width` x `height`: `.` path, `#` selection, `x` critiqued, `+` advised,
-/// `S` start, `E` end, `G` goal, `o` ball.
+/// `S` start, `E` end, `G` goal, `o` ball. The axes have the same scale (a character is about
+/// twice as tall as it is wide).
 pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
     let (width, height) = (width.max(8), height.max(4));
-    let (x0, x1, y0, y1) = view.bounds();
+    let (x0, x1, y0, y1) = equal_scale(bounds(&[view]), width as u32, (height * 2) as u32);
     let mut grid = vec![vec![' '; width]; height];
     let cell = |x: f64, y: f64| -> (usize, usize) {
-        let c = ((x - x0) / (x1 - x0) * (width - 1) as f64).round() as usize;
-        let r = ((y1 - y) / (y1 - y0) * (height - 1) as f64).round() as usize;
+        let c = ((x - x0) / (x1 - x0) * (width - 1) as f64).round().max(0.0) as usize;
+        let r = ((y1 - y) / (y1 - y0) * (height - 1) as f64)
+            .round()
+            .max(0.0) as usize;
         (r.min(height - 1), c.min(width - 1))
     };
     for b in view.ball.unwrap_or(&[]) {
@@ -100,14 +244,90 @@ pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
         out.extend(row);
         out.push_str("|\n");
     }
+    let span = (x1 - x0).max(y1 - y0);
     out.push_str(&format!(
-        "+{}+\n x {:.2}..{:.2} m, y {:.2}..{:.2} m   S start  E end  G goal  # selected  x critiqued  + advised  o ball\n",
+        "+{}+\n x {}..{} m, y {}..{} m   S start  E end  G goal  # selected  x critiqued  + advised  o ball\n",
         "-".repeat(width),
-        x0,
-        x1,
-        y0,
-        y1
+        tick(x0, span),
+        tick(x1, span),
+        tick(y0, span),
+        tick(y1, span)
     ));
+    out
+}
+
+/// The actions as a character strip `width` columns wide: one row per curve (each column the mean
+/// of its points, scaled between the curve's least and greatest value), then a row marking the
+/// selection `#`, critiqued `x` and advised `+` points, then a ruler of point indices.
+pub fn strip(view: &PlotView<'_>, width: usize) -> String {
+    const LEVELS: [char; 9] = [' ', '▁', '▂', '▃', '▄', '▅', '▆', '▇', '█'];
+    let n = view.trace.len();
+    let width = width.max(8);
+    if n == 0 {
+        return "(no points: no actions to show)\n".to_string();
+    }
+    let cols = width.min(n);
+    let col_of = |c: usize| (c * n / cols)..((c + 1) * n / cols).max(c * n / cols + 1);
+    let mut out = String::new();
+    for s in view.action_series() {
+        let means: Vec<f64> = (0..cols)
+            .map(|c| {
+                let r = col_of(c);
+                let len = r.len() as f64;
+                s.values[r].iter().sum::<f64>() / len
+            })
+            .collect();
+        let lo = s.values.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = s.values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let row: String = means
+            .iter()
+            .map(|m| {
+                if (hi - lo).is_nan() || hi <= lo {
+                    LEVELS[4]
+                } else {
+                    let k = ((m - lo) / (hi - lo) * 7.0).round() as usize + 1;
+                    LEVELS[k.min(8)]
+                }
+            })
+            .collect();
+        let span = (hi - lo).abs().max(lo.abs()).max(hi.abs());
+        let _ = writeln!(
+            out,
+            "|{row}| {} {}..{}",
+            s.label,
+            tick(lo, span),
+            tick(hi, span)
+        );
+    }
+    let marks: String = (0..cols)
+        .map(|c| {
+            let r = col_of(c);
+            let any = |chunks: &[Chunk]| {
+                chunks
+                    .iter()
+                    .any(|k| r.clone().any(|i| k.range().contains(&i)))
+            };
+            if view.selection.is_some_and(|s| any(&[s])) {
+                '#'
+            } else if any(&view.flagged) {
+                'x'
+            } else if any(&view.advised) {
+                '+'
+            } else {
+                ' '
+            }
+        })
+        .collect();
+    let _ = writeln!(out, "|{marks}| # selected  x critiqued  + advised");
+    // A ruler: the index of the first point of every 16th column.
+    let mut ruler = vec![' '; cols + 8];
+    for c in (0..cols).step_by(16) {
+        for (k, ch) in col_of(c).start.to_string().chars().enumerate() {
+            ruler[c + 1 + k] = ch;
+        }
+    }
+    let ruler: String = ruler.into_iter().collect();
+    let _ = writeln!(out, "{} point index (of {n})", ruler.trim_end());
     out
 }
 
@@ -122,120 +342,432 @@ pub enum PlotError {
     File(#[from] crate::files::FileError),
 }
 
-/// Write the execution as an SVG file.
-pub fn svg(view: &PlotView<'_>, path: &Path) -> Result<(), PlotError> {
-    let err = |e: &dyn std::fmt::Display| PlotError::Draw {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    };
-    // Drawn into memory and written at once: a failed plot leaves no file.
+/// A plotters error as text (the backend's error type is generic).
+fn drawing<E: std::fmt::Display>(e: E) -> String {
+    e.to_string()
+}
+
+/// A legend entry's mark.
+#[derive(Clone, Copy)]
+enum Mark {
+    Line(RGBColor, u32),
+    Band(RGBColor, f64),
+    Dot(RGBColor),
+    Cross,
+    Square(RGBColor),
+    Ring(RGBColor),
+}
+
+/// Draw the legend in its own panel beside the data, with text lines below the entries.
+fn legend(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    entries: &[(Mark, String)],
+    notes: &[String],
+) -> Result<(), String> {
+    let font = ("sans-serif", 14).into_font();
+    let mut y = 40;
+    for (mark, label) in entries {
+        let (x0, x1) = (8, 34);
+        match *mark {
+            Mark::Line(c, w) => area
+                .draw(&PathElement::new(vec![(x0, y), (x1, y)], c.stroke_width(w)))
+                .map_err(drawing)?,
+            Mark::Band(c, a) => area
+                .draw(&Rectangle::new(
+                    [(x0, y - 7), (x1, y + 7)],
+                    c.mix(a).filled(),
+                ))
+                .map_err(drawing)?,
+            Mark::Dot(c) => area
+                .draw(&Circle::new(((x0 + x1) / 2, y), 5, c.filled()))
+                .map_err(drawing)?,
+            Mark::Cross => area
+                .draw(&Cross::new(((x0 + x1) / 2, y), 6, BLACK.stroke_width(2)))
+                .map_err(drawing)?,
+            Mark::Square(c) => area
+                .draw(&Rectangle::new(
+                    [(x0 + 4, y - 8), (x1 - 4, y + 8)],
+                    c.stroke_width(1),
+                ))
+                .map_err(drawing)?,
+            Mark::Ring(_) => {}
+        }
+        if let Mark::Ring(c) = *mark {
+            area.draw(&Circle::new(((x0 + x1) / 2, y), 7, c.stroke_width(1)))
+                .map_err(drawing)?;
+        }
+        area.draw(&Text::new(label.clone(), (x1 + 8, y - 7), font.clone()))
+            .map_err(drawing)?;
+        y += 24;
+    }
+    y += 8;
+    for note in notes {
+        for line in wrap(note, 30) {
+            area.draw(&Text::new(line, (8, y - 7), font.clone()))
+                .map_err(drawing)?;
+            y += 18;
+        }
+    }
+    Ok(())
+}
+
+/// Break `s` into lines of at most `width` characters at spaces.
+fn wrap(s: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in s.split(' ') {
+        match lines.last_mut() {
+            Some(l) if l.chars().count() + 1 + word.chars().count() <= width => {
+                l.push(' ');
+                l.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
+}
+
+fn chunk_label(kind: &str, chunks: &[Chunk]) -> String {
+    let list: Vec<String> = chunks.iter().take(4).map(|c| c.to_string()).collect();
+    let more = if chunks.len() > 4 { ", ..." } else { "" };
+    format!("{kind} {}{more}", list.join(", "))
+}
+
+/// The path plot: one execution with its marks, or several overlaid (`colors` one per view).
+fn render_paths(views: &[&PlotView<'_>], names: &[String], title: &str) -> Result<String, String> {
+    let colors = [PATH, AFTER];
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (800, 640)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
-        let (x0, x1, y0, y1) = view.bounds();
-        let mut chart = ChartBuilder::on(&root)
-            .caption(&view.title, ("sans-serif", 20))
-            .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(44)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(|e| err(&e))?;
+        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(drawing)?;
+        let root = root.titled(title, ("sans-serif", 20)).map_err(drawing)?;
+        let (main, side) = root.split_horizontally(SIZE.0 - LEGEND_W);
+        let build = |r: (f64, f64, f64, f64)| {
+            ChartBuilder::on(&main)
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(56)
+                .build_cartesian_2d(r.0..r.1, r.2..r.3)
+        };
+        let (pw, ph) = build((0.0, 1.0, 0.0, 1.0))
+            .map_err(drawing)?
+            .plotting_area()
+            .dim_in_pixel();
+        let (x0, x1, y0, y1) = equal_scale(bounds(views), pw, ph);
+        let mut chart = build((x0, x1, y0, y1)).map_err(drawing)?;
+        let span = (x1 - x0).max(y1 - y0);
         chart
             .configure_mesh()
             .x_desc("x (m)")
             .y_desc("y (m)")
+            .label_style(("sans-serif", 13))
+            .axis_desc_style(("sans-serif", 14))
+            .x_label_formatter(&|v| tick(*v, span))
+            .y_label_formatter(&|v| tick(*v, span))
+            .light_line_style(WHITE.mix(0.0))
             .draw()
-            .map_err(|e| err(&e))?;
+            .map_err(drawing)?;
+        let mut entries: Vec<(Mark, String)> = Vec::new();
+        let mut notes: Vec<String> = Vec::new();
         let xy = |p: &Pose| (p.x_m, p.y_m);
-        chart
-            .draw_series(LineSeries::new(
-                view.path.iter().map(xy),
-                BLUE.stroke_width(2),
-            ))
-            .map_err(|e| err(&e))?
-            .label("path")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLUE));
-        if let Some(ball) = view.ball {
+        if let Some(a) = views.iter().find_map(|v| v.arena) {
+            let h = a.half_m;
             chart
-                .draw_series(LineSeries::new(
-                    ball.iter().map(|b| (b[0], b[1])),
-                    RGBColor(230, 140, 0).stroke_width(1),
-                ))
-                .map_err(|e| err(&e))?
-                .label("ball")
-                .legend(|(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 16, y)], RGBColor(230, 140, 0))
-                });
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(-h, -h), (h, h)],
+                    ARENA.stroke_width(2),
+                )))
+                .map_err(drawing)?;
+            entries.push((Mark::Square(ARENA), format!("arena edge (±{h} m)")));
+            entries.push((
+                Mark::Ring(PATH),
+                format!("capture distance ({} m)", a.capture_m),
+            ));
         }
-        let segment = |c: &Chunk| -> Vec<(f64, f64)> {
-            let end = c.end.min(view.path.len());
-            view.path[c.start.min(end)..end].iter().map(xy).collect()
-        };
-        for (chunks, color, label) in [
-            (&view.advised, GREEN, "advised"),
-            (&view.flagged, RED, "critiqued"),
-        ] {
-            for (i, c) in chunks.iter().enumerate() {
-                let s = chart
-                    .draw_series(LineSeries::new(segment(c), color.stroke_width(5)))
-                    .map_err(|e| err(&e))?;
-                if i == 0 {
-                    s.label(label).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(5))
-                    });
+        let single = views.len() == 1;
+        for (k, v) in views.iter().enumerate() {
+            let color = colors[k % colors.len()];
+            let segment = |c: &Chunk| -> Vec<(f64, f64)> {
+                let end = c.end.min(v.path.len());
+                v.path[c.start.min(end)..end].iter().map(xy).collect()
+            };
+            if single {
+                // Under the path: the selection as a wide band, then advised, then critiqued
+                // on top of everything so a critique is never hidden.
+                if let Some(sel) = v.selection {
+                    chart
+                        .draw_series(LineSeries::new(
+                            segment(&sel),
+                            SELECTED.mix(0.5).stroke_width(12),
+                        ))
+                        .map_err(drawing)?;
+                    entries.push((Mark::Band(SELECTED, 0.5), format!("selected {sel}")));
                 }
             }
-        }
-        if let Some(sel) = view.selection {
             chart
-                .draw_series(LineSeries::new(segment(&sel), MAGENTA.stroke_width(7)))
-                .map_err(|e| err(&e))?
-                .label(format!("selected {sel}"))
-                .legend(|(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 16, y)], MAGENTA.stroke_width(7))
+                .draw_series(LineSeries::new(
+                    v.path.iter().map(xy),
+                    color.stroke_width(2),
+                ))
+                .map_err(drawing)?;
+            if let Some(ball) = v.ball {
+                chart
+                    .draw_series(LineSeries::new(
+                        ball.iter().map(|b| (b[0], b[1])),
+                        BALL.stroke_width(2),
+                    ))
+                    .map_err(drawing)?;
+                if let Some(b) = ball.last() {
+                    chart
+                        .draw_series(std::iter::once(Circle::new((b[0], b[1]), 4, BALL.filled())))
+                        .map_err(drawing)?;
+                }
+            }
+            if single {
+                for (chunks, c, kind) in [
+                    (&v.advised, ADVISED, "advised"),
+                    (&v.flagged, CRITIQUED, "critiqued"),
+                ] {
+                    for ch in chunks.iter() {
+                        chart
+                            .draw_series(LineSeries::new(segment(ch), c.stroke_width(5)))
+                            .map_err(drawing)?;
+                    }
+                    if !chunks.is_empty() {
+                        entries.push((Mark::Line(c, 5), chunk_label(kind, chunks)));
+                    }
+                }
+            }
+            // Index marks: a dot every INDEX_EVERY points, numbered unless the number would
+            // sit on the previous one (where the robot crawls).
+            let mut last_label: Option<(i32, i32)> = None;
+            for (i, p) in v.path.iter().enumerate().step_by(INDEX_EVERY) {
+                chart
+                    .draw_series(std::iter::once(Circle::new(xy(p), 3, color.filled())))
+                    .map_err(drawing)?;
+                let at = chart.backend_coord(&xy(p));
+                if last_label.is_some_and(|(x, y)| (x - at.0).abs() < 24 && (y - at.1).abs() < 14) {
+                    continue;
+                }
+                last_label = Some(at);
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        i.to_string(),
+                        xy(p),
+                        ("sans-serif", 12).into_font().color(&color),
+                    )))
+                    .map_err(drawing)?;
+            }
+            if let Some(first) = v.path.first() {
+                chart
+                    .draw_series(std::iter::once(Circle::new(xy(first), 5, BLACK.filled())))
+                    .map_err(drawing)?;
+            }
+            // The capture distance around where the robot ended: the ball inside it was caught.
+            if let (Some(a), Some(last)) = (v.arena, v.path.last()) {
+                let px_per_m = f64::from(pw) / (x1 - x0);
+                let r = (a.capture_m * px_per_m).round().max(2.0) as u32;
+                chart
+                    .draw_series(std::iter::once(Circle::new(
+                        xy(last),
+                        r,
+                        color.stroke_width(1),
+                    )))
+                    .map_err(drawing)?;
+            }
+            entries.push((Mark::Line(color, 2), names[k].clone()));
+            if let Some(o) = &v.outcome {
+                notes.push(if single {
+                    o.clone()
+                } else {
+                    format!("{}: {o}", ["before", "after"][k % 2])
                 });
+            }
         }
-        if let Some(first) = view.path.first() {
-            chart
-                .draw_series(std::iter::once(Circle::new(xy(first), 5, BLACK.filled())))
-                .map_err(|e| err(&e))?;
-        }
-        if let Some(g) = view.goal {
-            let (gx, gy) = (g.x_m, g.y_m);
+        let goals: Vec<Pose> = views.iter().filter_map(|v| v.goal).collect();
+        for g in &goals {
             let arrow = 0.3;
             chart
                 .draw_series(std::iter::once(Cross::new(
-                    (gx, gy),
+                    (g.x_m, g.y_m),
                     8,
                     BLACK.stroke_width(2),
                 )))
-                .map_err(|e| err(&e))?
-                .label("goal")
-                .legend(|(x, y)| Cross::new((x + 8, y), 5, BLACK));
+                .map_err(drawing)?;
             chart
                 .draw_series(LineSeries::new(
                     [
-                        (gx, gy),
+                        (g.x_m, g.y_m),
                         (
-                            gx + arrow * g.theta_rad.cos(),
-                            gy + arrow * g.theta_rad.sin(),
+                            g.x_m + arrow * g.theta_rad.cos(),
+                            g.y_m + arrow * g.theta_rad.sin(),
                         ),
                     ],
                     BLACK.stroke_width(2),
                 ))
-                .map_err(|e| err(&e))?;
+                .map_err(drawing)?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
+        entries.push((Mark::Dot(BLACK), "start".into()));
+        entries.push((
+            Mark::Dot(PATH),
+            format!("every {INDEX_EVERY}th point, numbered"),
+        ));
+        if !goals.is_empty() {
+            entries.push((Mark::Cross, "goal (and heading)".into()));
+        }
+        if views.iter().any(|v| v.ball.is_some()) {
+            entries.push((Mark::Line(BALL, 2), "ball (dot: where it ended)".into()));
+        }
+        legend(&side, &entries, &notes)?;
+        root.present().map_err(drawing)?;
     }
+    Ok(svg)
+}
+
+/// The actions plot: one panel per curve against point index, chunks shaded.
+fn render_actions(view: &PlotView<'_>) -> Result<String, String> {
+    let series = view.action_series();
+    let n = view.trace.len();
+    let mut svg = String::new();
+    {
+        let height = 120 + 170 * series.len().max(1) as u32;
+        let root = SVGBackend::with_string(&mut svg, (SIZE.0, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(drawing)?;
+        let root = root
+            .titled(&view.title, ("sans-serif", 20))
+            .map_err(drawing)?;
+        let (main, side) = root.split_horizontally(SIZE.0 - LEGEND_W);
+        let panels = main.split_evenly((series.len().max(1), 1));
+        let t0 = view.trace.t.first().copied().unwrap_or(0.0);
+        let time_of = |i: usize| view.trace.t.get(i).map(|t| t - t0);
+        let x_max = n.max(1) as f64;
+        for (k, (s, panel)) in series.iter().zip(&panels).enumerate() {
+            let lo = s.values.iter().copied().fold(0.0_f64, f64::min);
+            let hi = s.values.iter().copied().fold(0.0_f64, f64::max);
+            let pad = ((hi - lo) * 0.08).max(1e-3);
+            let (y0, y1) = (lo - pad, hi + pad);
+            let mut chart = ChartBuilder::on(panel)
+                .margin(8)
+                .x_label_area_size(44)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0.0..x_max, y0..y1)
+                .map_err(drawing)?;
+            let span = (y1 - y0).max(y0.abs()).max(y1.abs());
+            let last = k + 1 == series.len();
+            chart
+                .configure_mesh()
+                .x_labels(10)
+                .y_labels(6)
+                .x_label_formatter(&|v| {
+                    let i = v.round().max(0.0) as usize;
+                    match time_of(i) {
+                        Some(t) if last => format!("{i} ({t:.1} s)"),
+                        _ => i.to_string(),
+                    }
+                })
+                .y_label_formatter(&|v| tick(*v, span))
+                .x_desc(if last {
+                    "point index (time since the start)"
+                } else {
+                    "point index"
+                })
+                .y_desc(s.label.as_str())
+                .label_style(("sans-serif", 13))
+                .axis_desc_style(("sans-serif", 14))
+                .light_line_style(WHITE.mix(0.0))
+                .draw()
+                .map_err(drawing)?;
+            let band = |c: &Chunk, color: RGBColor, alpha: f64| {
+                Rectangle::new(
+                    [(c.start as f64, y0), (c.end as f64, y1)],
+                    color.mix(alpha).filled(),
+                )
+            };
+            // Critiqued on top: drawn last.
+            if let Some(sel) = view.selection {
+                chart
+                    .draw_series(std::iter::once(band(&sel, SELECTED, 0.25)))
+                    .map_err(drawing)?;
+            }
+            chart
+                .draw_series(view.advised.iter().map(|c| band(c, ADVISED, 0.25)))
+                .map_err(drawing)?;
+            chart
+                .draw_series(view.flagged.iter().map(|c| band(c, CRITIQUED, 0.3)))
+                .map_err(drawing)?;
+            chart
+                .draw_series(LineSeries::new([(0.0, 0.0), (x_max, 0.0)], BLACK.mix(0.4)))
+                .map_err(drawing)?;
+            chart
+                .draw_series(LineSeries::new(
+                    s.values.iter().enumerate().map(|(i, v)| (i as f64, *v)),
+                    PATH.stroke_width(2),
+                ))
+                .map_err(drawing)?;
+        }
+        let mut entries = vec![(Mark::Line(PATH, 2), "action".to_string())];
+        if let Some(sel) = view.selection {
+            entries.push((Mark::Band(SELECTED, 0.25), format!("selected {sel}")));
+        }
+        if !view.advised.is_empty() {
+            entries.push((
+                Mark::Band(ADVISED, 0.25),
+                chunk_label("advised", &view.advised),
+            ));
+        }
+        if !view.flagged.is_empty() {
+            entries.push((
+                Mark::Band(CRITIQUED, 0.3),
+                chunk_label("critiqued", &view.flagged),
+            ));
+        }
+        let mut notes = Vec::new();
+        if let Some(o) = &view.outcome {
+            notes.push(o.clone());
+        }
+        notes.push(format!("{n} points; `select A..B` by the index axis"));
+        legend(&side, &entries, &notes)?;
+        root.present().map_err(drawing)?;
+    }
+    Ok(svg)
+}
+
+fn write(path: &Path, svg: Result<String, String>) -> Result<(), PlotError> {
+    let svg = svg.map_err(|message| PlotError::Draw {
+        path: path.display().to_string(),
+        message,
+    })?;
     crate::files::write_bytes(path, svg.as_bytes())?;
     Ok(())
+}
+
+/// Write the execution's path as an SVG file.
+pub fn svg(view: &PlotView<'_>, path: &Path) -> Result<(), PlotError> {
+    write(
+        path,
+        render_paths(&[view], &["path".to_string()], &view.title),
+    )
+}
+
+/// Write the execution's actions against point index as an SVG file.
+pub fn svg_actions(view: &PlotView<'_>, path: &Path) -> Result<(), PlotError> {
+    write(path, render_actions(view))
+}
+
+/// Write two executions' paths overlaid (before and after advice) as an SVG file.
+pub fn svg_compare(
+    before: &PlotView<'_>,
+    after: &PlotView<'_>,
+    path: &Path,
+) -> Result<(), PlotError> {
+    // The legend names each by its number (`execution 0`); the title carries the labels.
+    let short = |v: &PlotView<'_>| v.title.split(':').next().unwrap_or_default().to_string();
+    let names = [
+        format!("before: {}", short(before)),
+        format!("after: {}", short(after)),
+    ];
+    let title = format!("before: {}; after: {}", before.title, after.title);
+    let title = title.as_str();
+    write(path, render_paths(&[before, after], &names, title))
 }
 
 #[cfg(test)]
@@ -248,43 +780,236 @@ mod tests {
             .collect()
     }
 
+    fn trace(n: usize) -> Trace {
+        let d = Domain::positioning();
+        let mut t = Trace::new(&d);
+        for i in 0..n {
+            let x = i as f64 / n as f64;
+            t.push(i as f64 * 0.1, &vec![0.0; d.obs_dim()], &[x, -x], None);
+        }
+        t
+    }
+
+    fn view<'a>(d: &'a Domain, t: &'a Trace, path: &'a [Pose]) -> PlotView<'a> {
+        PlotView {
+            title: "run".into(),
+            domain: d,
+            trace: t,
+            path,
+            goal: Some(Pose::new(3.5, 1.0, 0.5)),
+            ball: None,
+            arena: None,
+            outcome: Some("success (Rested) after 3.0 s".into()),
+            speed_limits: None,
+            selection: Some(Chunk { start: 2, end: 9 }),
+            flagged: vec![Chunk { start: 12, end: 15 }],
+            advised: vec![Chunk { start: 20, end: 25 }],
+        }
+    }
+
+    /// The numbers in an attribute `name="..."` of every element that starts with `prefix`.
+    fn elements<'s>(svg: &'s str, prefix: &str) -> Vec<&'s str> {
+        svg.match_indices(prefix)
+            .map(|(i, _)| {
+                let rest = &svg[i..];
+                &rest[..rest.find('>').unwrap_or(rest.len())]
+            })
+            .collect()
+    }
+
+    fn attr(el: &str, name: &str) -> Option<f64> {
+        let key = format!(" {name}=\"");
+        let i = el.find(&key)? + key.len();
+        el[i..].split('"').next()?.parse().ok()
+    }
+
+    fn texts(svg: &str) -> Vec<(f64, String)> {
+        svg.match_indices("<text")
+            .map(|(i, _)| {
+                let rest = &svg[i..];
+                let open = rest.find('>').unwrap();
+                let close = rest.find("</text>").unwrap();
+                (
+                    attr(&rest[..open], "x").unwrap_or(0.0),
+                    rest[open + 1..close].trim().to_string(),
+                )
+            })
+            .collect()
+    }
+
     #[test]
     fn ascii_marks_selection_start_end_and_goal() {
+        let (d, t) = (Domain::positioning(), trace(30));
         let path = line(30);
-        let view = PlotView {
-            title: "t".into(),
-            path: &path,
-            goal: Some(Pose::new(3.5, 1.0, 0.0)),
-            ball: None,
-            selection: Some(Chunk { start: 10, end: 20 }),
-            flagged: vec![],
-            advised: vec![],
-        };
-        let s = ascii(&view, 40, 8);
+        let mut v = view(&d, &t, &path);
+        v.selection = Some(Chunk { start: 10, end: 20 });
+        let s = ascii(&v, 40, 8);
         for c in ['S', 'E', 'G', '#', '.'] {
             assert!(s.contains(c), "{c} missing in\n{s}");
         }
     }
 
     #[test]
-    fn svg_is_written() {
+    fn strip_has_a_row_per_action_and_marks_chunks_in_place() {
+        let (d, t) = (Domain::positioning(), trace(128));
+        let path = line(128);
+        let mut v = view(&d, &t, &path);
+        v.selection = Some(Chunk { start: 64, end: 80 });
+        v.flagged = vec![Chunk { start: 0, end: 8 }];
+        v.advised = vec![];
+        let s = strip(&v, 64);
+        let rows: Vec<&str> = s.lines().collect();
+        assert_eq!(rows.len(), 4, "{s}");
+        assert!(rows[0].contains("trans command (m/s) 0.00..0.99"), "{s}");
+        // Rising trans: the lowest level first, the highest last.
+        let cells: Vec<char> = rows[0].chars().skip(1).take(64).collect();
+        assert_eq!((cells[0], cells[63]), ('▁', '█'));
+        let marks: Vec<char> = rows[2].chars().skip(1).take(64).collect();
+        assert_eq!(marks[..4], ['x'; 4]);
+        assert_eq!(marks[32..40], ['#'; 8]);
+        assert_eq!(marks[10], ' ');
+        assert!(rows[3].starts_with(" 0") && rows[3].contains("32"), "{s}");
+    }
+
+    #[test]
+    fn interception_series_integrate_speed_changes() {
+        let d = Domain::interception();
+        let mut t = Trace::new(&d);
+        for i in 0..5 {
+            t.push(i as f64, &[0.0; 6], &[0.1, -0.2], None);
+        }
+        let mut v = view(&d, &t, &[]);
+        v.speed_limits = Some([0.25, 1.0]);
+        let s = v.action_series();
+        let labels: Vec<&str> = s.iter().map(|s| s.label.as_str()).collect();
+        assert_eq!(
+            labels,
+            [
+                "trans_delta (m/s)",
+                "trans speed (m/s, summed)",
+                "rot_delta (rad/s)",
+                "rot speed (rad/s, summed)"
+            ]
+        );
+        let speed: Vec<String> = s[1].values.iter().map(|v| format!("{v:.2}")).collect();
+        assert_eq!(speed, ["0.10", "0.20", "0.25", "0.25", "0.25"]);
+    }
+
+    #[test]
+    fn ticks_never_read_minus_zero() {
+        assert_eq!(tick(-0.0001, 1.0), "0.00");
+        assert_eq!(tick(-0.04, 10.0), "0.0");
+        assert_eq!(tick(-0.4, 10.0), "-0.4");
+        assert_eq!(tick(-0.0, 100.0), "0");
+    }
+
+    #[test]
+    fn path_svg_has_equal_scale_index_marks_and_legend_outside() {
+        let (d, t) = (Domain::positioning(), trace(60));
+        // A long thin L: 3 m along x, then 1 m up; distortion would show as unequal scales.
+        let path: Vec<Pose> = (0..60)
+            .map(|i| {
+                if i < 30 {
+                    Pose::new(i as f64 * 0.1, 0.0, 0.0)
+                } else {
+                    Pose::new(3.0, (i - 30) as f64 / 30.0, 1.5)
+                }
+            })
+            .collect();
+        let v = view(&d, &t, &path);
+        let svg = render_paths(&[&v], &["path".into()], "t").unwrap();
+        // The path's polyline: its pixels per metre across and up.
+        let poly = elements(&svg, "<polyline")
+            .into_iter()
+            .find(|e| e.contains("stroke=\"#285AC8\"") && e.contains("stroke-width=\"2\""))
+            .expect("the path polyline");
+        let pts: Vec<(f64, f64)> = poly
+            .split("points=\"")
+            .nth(1)
+            .unwrap()
+            .split_whitespace()
+            .filter_map(|p| {
+                let (x, y) = p.trim_end_matches('"').split_once(',')?;
+                Some((x.parse().ok()?, y.parse().ok()?))
+            })
+            .collect();
+        assert_eq!(pts.len(), 60);
+        let per_m_x = (pts[29].0 - pts[0].0) / 2.9;
+        let per_m_y = (pts[30].1 - pts[59].1) / (29.0 / 30.0);
+        assert!(
+            (per_m_x / per_m_y - 1.0).abs() < 0.03,
+            "{per_m_x} px/m across, {per_m_y} px/m up"
+        );
+        let texts = texts(&svg);
+        for i in ["0", "20", "40"] {
+            assert!(texts.iter().any(|(_, s)| s == i), "index {i} missing");
+        }
+        assert!(
+            !texts
+                .iter()
+                .any(|(_, s)| s.starts_with("-0.0") || s == "-0")
+        );
+        // Legend entries lie right of the plot area.
+        let plot_right = f64::from(SIZE.0 - LEGEND_W);
+        for label in [
+            "selected 2..9",
+            "critiqued 12..15",
+            "advised 20..25",
+            "path",
+        ] {
+            let (x, _) = texts
+                .iter()
+                .find(|(_, s)| s == label)
+                .unwrap_or_else(|| panic!("{label} missing"));
+            assert!(*x > plot_right, "{label} at x = {x}");
+        }
+        assert!(texts.iter().any(|(_, s)| s.contains("success")));
+    }
+
+    #[test]
+    fn critiqued_is_drawn_after_advised_and_selection() {
+        let (d, t) = (Domain::positioning(), trace(30));
+        let path = line(30);
+        let v = view(&d, &t, &path);
+        let svg = render_paths(&[&v], &["path".into()], "t").unwrap();
+        let at = |color: &str| svg.find(&format!("stroke=\"{color}\"")).unwrap();
+        assert!(at("#D72828") > at("#28AA3C"));
+        assert!(at("#D72828") > at("#BE3CBE"));
+    }
+
+    #[test]
+    fn actions_svg_shades_chunks_in_each_panel() {
+        let (d, t) = (Domain::positioning(), trace(40));
+        let v = view(&d, &t, &[]);
+        let svg = render_actions(&v).unwrap();
+        let fills = |c: &str| {
+            elements(&svg, "<rect")
+                .iter()
+                .filter(|e| e.contains(&format!("fill=\"{c}\"")))
+                .count()
+        };
+        // Two panels (trans, rot), each with one band per chunk (and one legend swatch).
+        assert_eq!(fills("#BE3CBE"), 3);
+        assert_eq!(fills("#28AA3C"), 3);
+        assert_eq!(fills("#D72828"), 3);
+        let texts = texts(&svg);
+        assert!(texts.iter().any(|(_, s)| s == "trans command (m/s)"));
+        assert!(texts.iter().any(|(_, s)| s == "rot command (rad/s)"));
+        assert!(texts.iter().any(|(_, s)| s.contains("(1.0 s)")));
+        assert!(!texts.iter().any(|(_, s)| s.starts_with("-0.0")));
+    }
+
+    #[test]
+    fn svg_is_written_and_a_failure_leaves_nothing() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("p.svg");
+        let (d, t) = (Domain::positioning(), trace(30));
         let path = line(30);
-        let view = PlotView {
-            title: "run".into(),
-            path: &path,
-            goal: Some(Pose::new(3.5, 1.0, 0.5)),
-            ball: None,
-            selection: Some(Chunk { start: 2, end: 9 }),
-            flagged: vec![Chunk { start: 12, end: 15 }],
-            advised: vec![Chunk { start: 20, end: 25 }],
-        };
-        svg(&view, &p).unwrap();
+        let v = view(&d, &t, &path);
+        svg(&v, &p).unwrap();
         let text = std::fs::read_to_string(&p).unwrap();
         assert!(text.starts_with("<svg") && text.contains("selected 2..9"));
-        assert!(svg(&view, &dir.path().join("no/such/dir/p.svg")).is_err());
-        // A failed plot leaves nothing behind: no empty file, no temporary.
+        assert!(svg(&v, &dir.path().join("no/such/dir/p.svg")).is_err());
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
         let fifo = dir.path().join("fifo.svg");
         assert!(
@@ -295,7 +1020,7 @@ mod tests {
                 .success()
         );
         assert!(matches!(
-            svg(&view, &fifo),
+            svg_actions(&v, &fifo),
             Err(PlotError::File(crate::files::FileError::NotRegular { .. }))
         ));
     }

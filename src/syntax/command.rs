@@ -17,6 +17,17 @@ pub enum Statement {
     Command(Command, Span),
 }
 
+/// What `plot` draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlotKind {
+    /// The selected execution's path in the plane: `plot FILE.svg`.
+    Path,
+    /// The selected execution's actions against point index: `plot actions FILE.svg`.
+    Actions,
+    /// Two executions' paths overlaid: `plot compare FILE.svg N M`.
+    Compare { before: usize, after: usize },
+}
+
 /// A session command, as the teacher wrote it.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Command {
@@ -52,7 +63,10 @@ pub enum Command {
     },
     Learner(Ident),
     Why(usize),
-    Plot(String),
+    Plot {
+        kind: PlotKind,
+        path: String,
+    },
     Save(String),
     Open(String),
     ExportAdvice(String),
@@ -79,7 +93,7 @@ pub const COMMANDS: &[(&str, &str)] = &[
     ("eval", "eval [--detail]"),
     ("learner", "learner bc|lwr"),
     ("why", "why T"),
-    ("plot", "plot FILE.svg"),
+    ("plot", "plot [actions|compare] FILE [N M]"),
     ("save", "save FILE.json|FILE.csv"),
     ("open", "open FILE.json"),
     ("export", "export advice FILE.csv"),
@@ -149,7 +163,29 @@ pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
         },
         Rule::c_learner => Command::Learner(b.ident(req(next()))),
         Rule::c_why => Command::Why(b.uint(req(next()))?),
-        Rule::c_plot => Command::Plot(path(req(next()))),
+        Rule::c_plot => {
+            let p = req(next());
+            match p.as_rule() {
+                Rule::plot_actions => Command::Plot {
+                    kind: PlotKind::Actions,
+                    path: path(req(p.into_inner().find(|q| q.as_rule() == Rule::path))),
+                },
+                Rule::plot_compare => {
+                    let mut inner = p.into_inner().filter(|q| q.as_rule() != Rule::kw_compare);
+                    let file = path(req(inner.next()));
+                    let before = b.uint(req(inner.next()))?;
+                    let after = b.uint(req(inner.next()))?;
+                    Command::Plot {
+                        kind: PlotKind::Compare { before, after },
+                        path: file,
+                    }
+                }
+                _ => Command::Plot {
+                    kind: PlotKind::Path,
+                    path: path(p),
+                },
+            }
+        }
         Rule::c_save => Command::Save(path(req(next()))),
         Rule::c_open => Command::Open(path(req(next()))),
         Rule::c_export_advice => Command::ExportAdvice(path(req(next()))),
@@ -268,6 +304,33 @@ mod tests {
         match parse_statement("<test>", src) {
             Ok(Statement::Command(c, _)) => c,
             other => panic!("{src}: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn plot_forms_parse_and_keywords_are_not_file_names() {
+        let plot = |kind, path: &str| Command::Plot {
+            kind,
+            path: path.to_string(),
+        };
+        assert_eq!(cmd("plot run.svg"), plot(PlotKind::Path, "run.svg"));
+        assert_eq!(cmd("plot actions a.svg"), plot(PlotKind::Actions, "a.svg"));
+        assert_eq!(
+            cmd("plot compare \"my runs/c.svg\" 0 3"),
+            plot(
+                PlotKind::Compare {
+                    before: 0,
+                    after: 3
+                },
+                "my runs/c.svg"
+            )
+        );
+        // A file that merely starts with a keyword is a file.
+        assert_eq!(cmd("plot actions.svg"), plot(PlotKind::Path, "actions.svg"));
+        assert_eq!(cmd("plot compare.svg"), plot(PlotKind::Path, "compare.svg"));
+        // A keyword without its file is an error, not a file named after the keyword.
+        for src in ["plot actions", "plot compare c.svg 1", "plot compare"] {
+            assert!(parse_statement("<test>", src).is_err(), "{src}");
         }
     }
 
