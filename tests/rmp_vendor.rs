@@ -19,6 +19,10 @@ type Floats = [f32; 11];
 /// `launch/config/<PLATFORM>/segway_params.yaml` (RMP_210, RMP_220, RMP_440LE and RMP_440SE, which
 /// agree, RMP_OMNI). The RMP 110's is the issue's: the RMP 210/220 values with the RMP 110's
 /// track width, 0.481224 m (the vendor's `RMP_110/rmp.urdf.xacro` gives 0.4812244).
+#[expect(
+    clippy::approx_constant,
+    reason = "6.28 rad/s² is the vendor's shipped value, not 2π"
+)]
 const SHIPPED: [(Platform, Floats); 5] = [
     (
         Platform::Rmp220,
@@ -119,7 +123,10 @@ fn every_platforms_shipped_configuration_is_echoed_unchanged() {
             sent,
             "{} echoes {:?}",
             platform.name(),
-            echo[..11].iter().map(|w| f32::from_bits(*w)).collect::<Vec<_>>()
+            echo[..11]
+                .iter()
+                .map(|w| f32::from_bits(*w))
+                .collect::<Vec<_>>()
         );
         emu.shutdown();
     }
@@ -146,9 +153,7 @@ fn reset_to_defaults_restores_the_emulated_platforms_own_defaults() {
         let c = client();
         // Something else first, so that the reset has to change every word.
         let other = words(
-            &[
-                0.3, 0.2, 0.2, 2.0, 0.4, 2.0, 2.0, 0.3, 0.9, 0.9, 30.0,
-            ],
+            &[0.3, 0.2, 0.2, 2.0, 0.4, 2.0, 2.0, 0.3, 0.9, 0.9, 30.0],
             0x1,
         );
         assert_eq!(echo_after(&c, &emu, &Command::MachineConfig(other)), other);

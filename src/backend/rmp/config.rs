@@ -103,6 +103,10 @@ impl MachineConfig {
     /// every platform. The vendor's public releases ship no RMP_110 yaml: the RMP 110 here is
     /// the RMP 210/220 family's values (same i2 wheels, gearbox and wheel base) with the RMP 110's
     /// own track width, 0.481224 m (the vendor's `RMP_110/rmp.urdf.xacro`: 0.4812244).
+    #[expect(
+        clippy::approx_constant,
+        reason = "6.28 rad/s² is the vendor's shipped value, not 2π"
+    )]
     pub fn vendor_defaults(platform: Platform) -> MachineConfig {
         let rmp_220 = MachineConfig {
             velocity_limit_mps: 1.0,
@@ -211,10 +215,8 @@ impl MachineConfig {
     /// the platform's echo can match.
     pub fn validate(&self, platform: Option<Platform>) -> Result<(), RmpConfigError> {
         let ranges = platform.map_or_else(widest_nvm_ranges, nvm_ranges);
-        for (((name, _, _), (lo, hi)), v) in MACHINE_CONFIG_FIELDS
-            .iter()
-            .zip(ranges)
-            .zip(self.floats())
+        for (((name, _, _), (lo, hi)), v) in
+            MACHINE_CONFIG_FIELDS.iter().zip(ranges).zip(self.floats())
         {
             if !(v.is_finite() && v >= lo && v <= hi) {
                 return Err(RmpConfigError::OutOfRange {

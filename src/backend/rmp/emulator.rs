@@ -20,8 +20,10 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::codec::{
-    self, Command, FAULT_LOG_WORDS, fault_log::{self, entry}, Feedback, FrameError, ModeRequest, OpState, comm_fault,
-    critical_fault, gp, word,
+    self, Command, FAULT_LOG_WORDS, Feedback, FrameError, ModeRequest, OpState, comm_fault,
+    critical_fault,
+    fault_log::{self, entry},
+    gp, word,
 };
 use super::config::{BITMAP_BALANCE_ENABLED, EmulatorConfig, MachineConfig, RmpConfigError};
 use crate::backend::BaseState;
@@ -296,7 +298,12 @@ impl Platform {
     /// Write a fault-log entry when the fault words hold a bit the last entry did not. The log is
     /// a ring of [`fault_log::MAX_ENTRIES`] entries, as on the platform.
     fn log_new_faults(&mut self) {
-        if self.faults.iter().zip(&self.logged).all(|(f, l)| f & !l == 0) {
+        if self
+            .faults
+            .iter()
+            .zip(&self.logged)
+            .all(|(f, l)| f & !l == 0)
+        {
             return;
         }
         self.logged = self.faults;
