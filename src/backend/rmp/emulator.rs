@@ -1114,6 +1114,36 @@ mod tests {
     }
 
     #[test]
+    fn the_fault_log_is_a_ring_of_20_entries_with_the_groups_split() {
+        let mut p = platform();
+        // A fault in every status word, each group at a distinct bit.
+        p.faults = [0x0000_1003, 0x0002_0020, 0x0004_0008, 0x10];
+        p.log_new_faults();
+        let w = p.fault_log();
+        let e = &w[fault_log::ENTRIES..][..fault_log::ENTRY_WORDS];
+        assert_eq!(
+            e[entry::GROUPS..entry::GROUPS + 8],
+            [0, 0x1, 0x20, 0x8, 0x4, 0x10, 0x3, 0x2]
+        );
+        // The same faults again write no entry; each new one does, and after 20 the ring wraps.
+        p.log_new_faults();
+        assert_eq!(p.fault_log()[fault_log::ENTRY_COUNT], 1);
+        let mut p = platform();
+        for bit in 0..23 {
+            p.faults[2] |= 1 << bit;
+            p.log_new_faults();
+        }
+        let w = p.fault_log();
+        assert_eq!(w.len(), FAULT_LOG_WORDS);
+        assert_eq!(w[fault_log::ENTRY_COUNT], 20);
+        // 23 entries written: the 21st to 23rd overwrote entries 0 to 2.
+        let latest =
+            &w[fault_log::ENTRIES + 2 * fault_log::ENTRY_WORDS..][..fault_log::ENTRY_WORDS];
+        assert_eq!((latest[entry::SENSOR], latest[entry::BSA]), (0xFFFF, 0x7F));
+        assert_eq!(w[fault_log::LATEST_ENTRY], 2);
+    }
+
+    #[test]
     fn config_is_clamped_and_echoed() {
         let mut p = platform();
         let m = MachineConfig {
