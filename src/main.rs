@@ -895,17 +895,17 @@ where
 /// Run the RMP emulator until Ctrl-C, printing its state changes.
 fn rmp_emulator(args: EmulatorArgs) -> miette::Result<()> {
     let params = sim_params(args.sim_params.as_deref())?;
+    let platform = match args.platform {
+        PlatformArg::Rmp220 => Platform::Rmp220,
+        PlatformArg::Rmp210 => Platform::Rmp210,
+        PlatformArg::Rmp440 => Platform::Rmp440,
+        PlatformArg::Omni => Platform::RmpOmni,
+        PlatformArg::Rmp110 => Platform::Rmp110,
+    };
     let cfg = EmulatorConfig {
         order: match args.word_order {
             WordOrderArg::Little => WordOrder::Little,
             WordOrderArg::Big => WordOrder::Big,
-        },
-        platform: match args.platform {
-            PlatformArg::Rmp220 => Platform::Rmp220,
-            PlatformArg::Rmp210 => Platform::Rmp210,
-            PlatformArg::Rmp440 => Platform::Rmp440,
-            PlatformArg::Omni => Platform::RmpOmni,
-            PlatformArg::Rmp110 => Platform::Rmp110,
         },
         faults: FaultInjection {
             drop: args.drop,
@@ -915,7 +915,7 @@ fn rmp_emulator(args: EmulatorArgs) -> miette::Result<()> {
         },
         seed: args.seed,
         balance_needs_tip_back: !args.no_tip_back,
-        ..EmulatorConfig::default()
+        ..EmulatorConfig::for_platform(platform)
     };
     let emu = Emulator::bind_sim(args.bind, cfg.clone(), params, args.seed)?;
     let stop = StopSignal::new();

@@ -46,6 +46,63 @@ pub const FAULT_LOG_LEN: usize = (FAULT_LOG_WORDS + 1) * 4;
 /// Words in the machine configuration (0x1801) and its echo in the feedback.
 pub const MACHINE_CONFIG_WORDS: usize = 12;
 
+/// Layout of the 311-word fault-log reply, as the vendor's fault-log parser reads it (the vendor
+/// driver's `faultlog_parser.py`): an 11-word header, then [`fault_log::MAX_ENTRIES`] entries of
+/// [`fault_log::ENTRY_WORDS`] words each (11 + 20 × 15 = 311). An entry whose words are all zero
+/// is empty.
+pub mod fault_log {
+    /// Log format version (the parser prints it in hex).
+    pub const LOG_VERSION: usize = 0;
+    /// Size of the log in bytes.
+    pub const LOG_SIZE_BYTES: usize = 1;
+    /// How many entries hold a fault.
+    pub const ENTRY_COUNT: usize = 2;
+    /// Index (0-19) of the latest entry; meaningful when the entry count is not zero.
+    pub const LATEST_ENTRY: usize = 3;
+    /// The serial number, 64 bits: high word, then low word.
+    pub const SERIAL_HIGH: usize = 4;
+    pub const SERIAL_LOW: usize = 5;
+    /// Software build ids of the SP and UIP processors.
+    pub const SP_BUILD_ID: usize = 6;
+    pub const UIP_BUILD_ID: usize = 7;
+    /// Accumulated run time, whole seconds.
+    pub const ACCUMULATED_TIME_S: usize = 8;
+    /// Odometer, whole metres.
+    pub const ODOMETER_M: usize = 9;
+    /// Power cycles.
+    pub const POWER_CYCLES: usize = 10;
+    /// First word of entry 0.
+    pub const ENTRIES: usize = 11;
+    pub const MAX_ENTRIES: usize = 20;
+    pub const ENTRY_WORDS: usize = 15;
+
+    /// Word offsets inside an entry.
+    pub mod entry {
+        /// Calendar time stamp, seconds since 2011-01-01.
+        pub const TIME_STAMP_S: usize = 0;
+        /// Run time at the fault, whole seconds.
+        pub const RUN_TIME_S: usize = 1;
+        /// Power cycle the fault happened in.
+        pub const POWER_CYCLE: usize = 2;
+        /// The eight fault groups, each right-aligned (shifted down to bit 0): transient,
+        /// critical, communication, sensor, BSA, motor drive (MCU), architecture, internal.
+        pub const GROUPS: usize = 3;
+        pub const TRANSIENT: usize = 3;
+        pub const CRITICAL: usize = 4;
+        pub const COMM: usize = 5;
+        pub const SENSOR: usize = 6;
+        pub const BSA: usize = 7;
+        pub const MCU: usize = 8;
+        pub const ARCHITECTURE: usize = 9;
+        pub const INTERNAL: usize = 10;
+        /// Two words of fault-specific data (the parser also shows them as floats).
+        pub const DATA_0: usize = 11;
+        pub const DATA_1: usize = 12;
+    }
+
+    const _: () = assert!(ENTRIES + MAX_ENTRIES * ENTRY_WORDS == super::FAULT_LOG_WORDS);
+}
+
 /// General-purpose (0x1803) command ids.
 pub mod gp {
     /// No operation; elicits a reply.
@@ -151,6 +208,15 @@ pub enum Platform {
 }
 
 impl Platform {
+    /// Every platform the vendor driver knows, in id order.
+    pub const ALL: [Platform; 5] = [
+        Platform::Rmp440,
+        Platform::Rmp220,
+        Platform::Rmp210,
+        Platform::RmpOmni,
+        Platform::Rmp110,
+    ];
+
     pub fn from_word(word: u32) -> Option<Platform> {
         Some(match word & 0x1F {
             1 => Platform::Rmp440,

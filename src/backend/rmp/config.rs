@@ -34,7 +34,9 @@ pub struct MachineConfig {
 /// Config bitmap bit 6: balance mode allowed (RMP 220 only).
 pub const BITMAP_BALANCE_ENABLED: u32 = 1 << 6;
 
-/// Names and NVM ranges of the 11 float words, in wire order (research notes, section 3.2).
+/// Names and NVM ranges of the 11 float words, in wire order: the limits the vendor driver's
+/// `system_defines.py` gives for the platform's F-RAM (research notes, section 3.2). These are the
+/// ranges of the RMP 210, 220, 440 and Omni; the RMP 110 differs, see [`nvm_ranges`].
 pub const MACHINE_CONFIG_FIELDS: [(&str, f32, f32); 11] = [
     ("velocity_limit_mps", 0.0, 8.047),
     ("accel_limit_mps2", 0.0, 7.848),
@@ -49,10 +51,64 @@ pub const MACHINE_CONFIG_FIELDS: [(&str, f32, f32); 11] = [
     ("gear_ratio", 1.0, 200.0),
 ];
 
+/// Index of the track width among the machine-config words.
+const TRACK_WIDTH: usize = 9;
+
+/// The lowest track width an RMP 110 stores. The RMP 110 is narrower than the minimum that the
+/// vendor driver's `system_defines.py` gives for the two-wheel bases (0.506476 m): its track is
+/// 0.4812244 m (the vendor's `RMP_110/rmp.urdf.xacro`, `track`; 0.481224 m in the configuration
+/// the vendor ships for it). The bound is the lower bound of the vendor driver's own
+/// dynamic-reconfigure range for the track width (`segway.cfg`: 0.3556..1.0), the widest range
+/// the vendor lets a user send. The RMP 110's firmware range itself is not public.
+pub const RMP_110_TRACK_WIDTH_MIN_M: f32 = 0.3556;
+
+/// The NVM range `(min, max)` of each of the 11 float words on `platform`: what it stores without
+/// clamping. Every value the vendor ships for a platform (see [`MachineConfig::vendor_defaults`])
+/// lies within that platform's ranges.
+pub fn nvm_ranges(platform: Platform) -> [(f32, f32); 11] {
+    let mut r = MACHINE_CONFIG_FIELDS.map(|(_, lo, hi)| (lo, hi));
+    if platform == Platform::Rmp110 {
+        r[TRACK_WIDTH].0 = RMP_110_TRACK_WIDTH_MIN_M;
+    }
+    r
+}
+
+/// The ranges a value must lie in on at least one platform: what the driver accepts when it does
+/// not know the platform in advance (the echo check then catches a platform that clamps).
+fn widest_nvm_ranges() -> [(f32, f32); 11] {
+    let mut r = nvm_ranges(Platform::Rmp220);
+    for p in Platform::ALL {
+        for (w, (lo, hi)) in r.iter_mut().zip(nvm_ranges(p)) {
+            *w = (w.0.min(lo), w.1.max(hi));
+        }
+    }
+    r
+}
+
 impl Default for MachineConfig {
     /// The vendor's RMP 220 parameters.
     fn default() -> Self {
-        MachineConfig {
+        MachineConfig::vendor_defaults(Platform::Rmp220)
+    }
+}
+
+impl MachineConfig {
+    /// The machine configuration the vendor ships for `platform`: its driver's per-platform
+    /// `segway_params.yaml` (RMP_210, RMP_220, RMP_440LE/SE, RMP_OMNI). What a platform restores
+    /// on "reset parameters to default" (GP 5); the firmware's own factory values are not public,
+    /// so the emulator uses these.
+    ///
+    /// The yaml flags become the bitmap as the vendor driver computes it: audio on (bit 0 clear),
+    /// `motion_while_charging: 0` (bit 1 set), balance off, default gains, 10 Hz filters: 0x2 on
+    /// every platform. The vendor's public releases ship no RMP_110 yaml: the RMP 110 here is
+    /// the RMP 210/220 family's values (same i2 wheels, gearbox and wheel base) with the RMP 110's
+    /// own track width, 0.481224 m (the vendor's `RMP_110/rmp.urdf.xacro`: 0.4812244).
+    #[expect(
+        clippy::approx_constant,
+        reason = "6.28 rad/s² is the vendor's shipped value, not 2π"
+    )]
+    pub fn vendor_defaults(platform: Platform) -> MachineConfig {
+        let rmp_220 = MachineConfig {
             velocity_limit_mps: 1.0,
             accel_limit_mps2: 0.5,
             decel_limit_mps2: 0.5,
@@ -65,11 +121,39 @@ impl Default for MachineConfig {
             track_width_m: 0.542391,
             gear_ratio: 24.2667,
             bitmap: 0x0000_0002,
+        };
+        match platform {
+            Platform::Rmp220 => rmp_220,
+            Platform::Rmp210 => MachineConfig {
+                velocity_limit_mps: 3.0,
+                yaw_accel_limit_radps2: 1.5,
+                ..rmp_220
+            },
+            Platform::Rmp440 => MachineConfig {
+                velocity_limit_mps: 2.235,
+                accel_limit_mps2: 1.962,
+                decel_limit_mps2: 1.962,
+                dtz_decel_mps2: 3.924,
+                yaw_rate_limit_radps: 3.0,
+                yaw_accel_limit_radps2: 6.28,
+                lateral_accel_limit_mps2: 9.81,
+                tire_diameter_m: 0.483616,
+                track_width_m: 0.7112,
+                ..rmp_220
+            },
+            Platform::RmpOmni => MachineConfig {
+                tire_diameter_m: 0.254,
+                wheel_base_m: 0.693,
+                track_width_m: 0.693,
+                ..rmp_220
+            },
+            Platform::Rmp110 => MachineConfig {
+                track_width_m: 0.481224,
+                ..rmp_220
+            },
         }
     }
-}
 
-impl MachineConfig {
     fn floats(&self) -> [f32; 11] {
         [
             self.velocity_limit_mps,
@@ -114,31 +198,32 @@ impl MachineConfig {
         }
     }
 
-    /// What a platform stores when sent these words: each float clamped into its NVM range (a
-    /// non-finite value becomes the lower bound). The driver sees the difference in the echo.
-    pub fn clamped_to_nvm(&self) -> MachineConfig {
+    /// What `platform` stores when sent these words: each float clamped into that platform's NVM
+    /// range (a non-finite value becomes the lower bound). The driver sees the difference in the
+    /// echo.
+    pub fn clamped_to_nvm(&self, platform: Platform) -> MachineConfig {
         let mut w = self.to_words();
-        for (i, (_, lo, hi)) in MACHINE_CONFIG_FIELDS.iter().enumerate() {
+        for (i, (lo, hi)) in nvm_ranges(platform).into_iter().enumerate() {
             let v = f32::from_bits(w[i]);
-            let c = if v.is_finite() {
-                v.clamp(*lo, *hi)
-            } else {
-                *lo
-            };
+            let c = if v.is_finite() { v.clamp(lo, hi) } else { lo };
             w[i] = c.to_bits();
         }
         MachineConfig::from_words(&w)
     }
 
-    /// Every float within its NVM range, so that the platform's echo can match.
-    pub fn validate(&self) -> Result<(), RmpConfigError> {
-        for ((name, lo, hi), v) in MACHINE_CONFIG_FIELDS.iter().zip(self.floats()) {
-            if !(v.is_finite() && v >= *lo && v <= *hi) {
+    /// Every float within its NVM range on `platform` (on some platform when `None`), so that
+    /// the platform's echo can match.
+    pub fn validate(&self, platform: Option<Platform>) -> Result<(), RmpConfigError> {
+        let ranges = platform.map_or_else(widest_nvm_ranges, nvm_ranges);
+        for (((name, _, _), (lo, hi)), v) in
+            MACHINE_CONFIG_FIELDS.iter().zip(ranges).zip(self.floats())
+        {
+            if !(v.is_finite() && v >= lo && v <= hi) {
                 return Err(RmpConfigError::OutOfRange {
                     field: format!("machine.{name}"),
                     value: f64::from(v),
-                    min: f64::from(*lo),
-                    max: f64::from(*hi),
+                    min: f64::from(lo),
+                    max: f64::from(hi),
                 });
             }
         }
@@ -214,7 +299,7 @@ impl RmpConfig {
             yaw_accel_limit_radps2: f(sim.max_rot_accel_radps2),
             ..MachineConfig::default()
         }
-        .clamped_to_nvm();
+        .clamped_to_nvm(Platform::Rmp220);
         RmpConfig {
             machine,
             max_speed_mps: sim.max_speed_mps.min(f64::from(machine.velocity_limit_mps)),
@@ -228,7 +313,7 @@ impl RmpConfig {
 
     /// Check every field; the first problem becomes a diagnostic naming the field and its range.
     pub fn validate(&self) -> Result<(), RmpConfigError> {
-        self.machine.validate()?;
+        self.machine.validate(self.expect_platform)?;
         let range = |field: &str, value: f64, min: f64, max: f64| {
             if value.is_finite() && value >= min && value <= max {
                 Ok(())
@@ -354,6 +439,18 @@ impl Default for EmulatorConfig {
     }
 }
 
+impl EmulatorConfig {
+    /// An emulator of `platform` that powers up with that platform's own shipped configuration
+    /// (its [`MachineConfig::vendor_defaults`]), everything else default.
+    pub fn for_platform(platform: Platform) -> EmulatorConfig {
+        EmulatorConfig {
+            platform,
+            machine: MachineConfig::vendor_defaults(platform),
+            ..EmulatorConfig::default()
+        }
+    }
+}
+
 /// A configuration value the driver or emulator cannot use.
 #[derive(Debug, Error, Diagnostic, PartialEq)]
 pub enum RmpConfigError {
@@ -385,7 +482,7 @@ mod tests {
         RmpConfig::default().validate().unwrap();
         let m = MachineConfig::default();
         assert_eq!(MachineConfig::from_words(&m.to_words()), m);
-        assert_eq!(m.clamped_to_nvm(), m);
+        assert_eq!(m.clamped_to_nvm(Platform::Rmp220), m);
     }
 
     #[test]
@@ -422,9 +519,32 @@ mod tests {
             track_width_m: f32::NAN,
             ..MachineConfig::default()
         };
-        let c = m.clamped_to_nvm();
+        let c = m.clamped_to_nvm(Platform::Rmp220);
         assert_eq!(c.velocity_limit_mps, 8.047);
         assert_eq!(c.track_width_m, 0.506476);
+        let narrow = MachineConfig {
+            track_width_m: 0.2,
+            ..MachineConfig::default()
+        };
+        assert_eq!(
+            narrow.clamped_to_nvm(Platform::Rmp110).track_width_m,
+            RMP_110_TRACK_WIDTH_MIN_M
+        );
+    }
+
+    #[test]
+    fn every_platform_stores_its_own_shipped_configuration_unchanged() {
+        for p in Platform::ALL {
+            let m = MachineConfig::vendor_defaults(p);
+            assert_eq!(m.clamped_to_nvm(p), m, "{}", p.name());
+            m.validate(Some(p)).unwrap();
+            m.validate(None).unwrap();
+        }
+        // The RMP 110's shipped track width is below the other platforms' minimum.
+        let rmp_110 = MachineConfig::vendor_defaults(Platform::Rmp110);
+        assert_eq!(rmp_110.track_width_m, 0.481224);
+        assert_ne!(rmp_110.clamped_to_nvm(Platform::Rmp220), rmp_110);
+        assert!(rmp_110.validate(Some(Platform::Rmp220)).is_err());
     }
 
     #[test]

@@ -21,7 +21,9 @@ use rand_chacha::ChaCha8Rng;
 
 use super::codec::{
     self, Command, FAULT_LOG_WORDS, Feedback, FrameError, ModeRequest, OpState, comm_fault,
-    critical_fault, gp, word,
+    critical_fault,
+    fault_log::{self, entry},
+    gp, word,
 };
 use super::config::{BITMAP_BALANCE_ENABLED, EmulatorConfig, MachineConfig, RmpConfigError};
 use crate::backend::BaseState;
@@ -215,7 +217,20 @@ pub struct Platform {
     soc_pct: f64,
     torque_limit: f32,
     counts: EmulatorCounts,
+    /// Distance the base has travelled since power-up (the fault log's odometer).
+    odometer_m: f64,
+    /// The fault log's entries, a ring; how many are written and which was written last.
+    log: [[u32; fault_log::ENTRY_WORDS]; fault_log::MAX_ENTRIES],
+    log_count: usize,
+    log_latest: usize,
+    /// The fault words when the last entry was written.
+    logged: [u32; 4],
 }
+
+/// The fault-log format version the emulator reports (the real platform's value is not public).
+const FAULT_LOG_VERSION: u32 = 1;
+/// The emulated platform has powered up once.
+const POWER_CYCLES: u32 = 1;
 
 /// What a datagram asks the socket loop to send back.
 #[derive(Debug, PartialEq)]
@@ -230,7 +245,7 @@ impl Platform {
     pub fn new(cfg: EmulatorConfig, mut base: Box<dyn EmulatedBase>) -> Platform {
         base.reset(Pose::default());
         Platform {
-            machine: cfg.machine.clamped_to_nvm(),
+            machine: cfg.machine.clamped_to_nvm(cfg.platform),
             ethernet: [0x0100_007F, 8080, 0x00FF_FFFF, 0],
             cfg,
             base,
@@ -252,6 +267,11 @@ impl Platform {
             soc_pct: 100.0,
             torque_limit: 1.0,
             counts: EmulatorCounts::default(),
+            odometer_m: 0.0,
+            log: [[0; fault_log::ENTRY_WORDS]; fault_log::MAX_ENTRIES],
+            log_count: 0,
+            log_latest: 0,
+            logged: [0; 4],
         }
     }
 
@@ -272,10 +292,56 @@ impl Platform {
     pub fn raise_critical_fault(&mut self, bits: u32) {
         self.faults[0] |= bits & codec::CRITICAL_FAULT_MASK;
         self.state = OpState::Disabled;
+        self.log_new_faults();
+    }
+
+    /// Write a fault-log entry when the fault words hold a bit the last entry did not. The log is
+    /// a ring of [`fault_log::MAX_ENTRIES`] entries, as on the platform.
+    fn log_new_faults(&mut self) {
+        if self
+            .faults
+            .iter()
+            .zip(&self.logged)
+            .all(|(f, l)| f & !l == 0)
+        {
+            return;
+        }
+        self.logged = self.faults;
+        let i = if self.log_count == 0 {
+            0
+        } else {
+            (self.log_latest + 1) % fault_log::MAX_ENTRIES
+        };
+        let [fsw0, fsw1, fsw2, fsw3] = self.faults;
+        let run_time_s = self.t_s as u32;
+        let e = &mut self.log[i];
+        *e = [0; fault_log::ENTRY_WORDS];
+        // No calendar on the emulated platform: its clock starts at 2011-01-01 at power-up.
+        e[entry::TIME_STAMP_S] = run_time_s;
+        e[entry::RUN_TIME_S] = run_time_s;
+        e[entry::POWER_CYCLE] = POWER_CYCLES;
+        // The fault status words split into their groups, each shifted down to bit 0 (research
+        // notes, section 3.2: word 0 architecture 0-11 and critical 12-31, word 1 comm 0-15 and
+        // internal 16-19, word 2 sensor 0-15 and BSA 16-31, word 3 MCU).
+        e[entry::CRITICAL] = (fsw0 & codec::CRITICAL_FAULT_MASK) >> 12;
+        e[entry::COMM] = fsw1 & 0xFFFF;
+        e[entry::SENSOR] = fsw2 & 0xFFFF;
+        e[entry::BSA] = fsw2 >> 16;
+        e[entry::MCU] = fsw3;
+        e[entry::ARCHITECTURE] = fsw0 & 0xFFF;
+        e[entry::INTERNAL] = (fsw1 >> 16) & 0xF;
+        self.log_latest = i;
+        self.log_count = (self.log_count + 1).min(fault_log::MAX_ENTRIES);
     }
 
     /// Handle one datagram. Invalid datagrams set a comm fault bit and change nothing else.
     pub fn receive(&mut self, bytes: &[u8]) -> Reply {
+        let reply = self.receive_datagram(bytes);
+        self.log_new_faults();
+        reply
+    }
+
+    fn receive_datagram(&mut self, bytes: &[u8]) -> Reply {
         self.counts.received += 1;
         let cmd = match Command::decode(bytes) {
             Ok(c) => c,
@@ -326,7 +392,7 @@ impl Platform {
                 Reply::Feedback
             }
             Command::MachineConfig(w) => {
-                self.machine = MachineConfig::from_words(&w).clamped_to_nvm();
+                self.machine = MachineConfig::from_words(&w).clamped_to_nvm(self.cfg.platform);
                 Reply::Feedback
             }
             Command::EthernetConfig(w) => {
@@ -356,7 +422,8 @@ impl Platform {
                     Reply::Feedback
                 }
                 gp::RESET_PARAMS => {
-                    self.machine = MachineConfig::default();
+                    // The emulated platform's own defaults, not the RMP 220's.
+                    self.machine = MachineConfig::vendor_defaults(self.cfg.platform);
                     Reply::Feedback
                 }
                 gp::STREAMING => {
@@ -491,6 +558,7 @@ impl Platform {
             self.state = OpState::Standby;
         }
         self.accel_mps2 = (self.last.speed_mps - prev.speed_mps) / dt_s;
+        self.odometer_m += self.last.speed_mps.abs() * dt_s;
         let half_track = 0.5 * f64::from(m.track_width_m);
         let right = self.last.speed_mps + self.last.rot_radps * half_track;
         let left = self.last.speed_mps - self.last.rot_radps * half_track;
@@ -555,15 +623,25 @@ impl Platform {
         fb
     }
 
-    /// The 311-word fault log: the four fault words, then this emulator's packet counters (the
-    /// real log's entry layout is not public).
+    /// The 311-word fault log in the layout the vendor's fault-log parser reads
+    /// ([`codec::fault_log`]): the header, then one entry for each time the fault words gained a
+    /// bit since power-up (the emulator keeps no log across power cycles).
     pub fn fault_log(&self) -> Vec<u32> {
         let mut w = vec![0u32; FAULT_LOG_WORDS];
-        w[..4].copy_from_slice(&self.faults);
-        w[4] = self.counts.bad_crc as u32;
-        w[5] = self.counts.bad_length as u32;
-        w[6] = self.counts.unknown_id as u32;
-        w[7] = (self.t_s as f32).to_bits();
+        w[fault_log::LOG_VERSION] = FAULT_LOG_VERSION;
+        w[fault_log::LOG_SIZE_BYTES] = (FAULT_LOG_WORDS * 4) as u32;
+        w[fault_log::ENTRY_COUNT] = self.log_count as u32;
+        w[fault_log::LATEST_ENTRY] = self.log_latest as u32;
+        // An emulator's serial number: "EMU" and the platform id.
+        w[fault_log::SERIAL_HIGH] = u32::from_be_bytes(*b"\0EMU");
+        w[fault_log::SERIAL_LOW] = self.cfg.platform as u32;
+        w[fault_log::ACCUMULATED_TIME_S] = self.t_s as u32;
+        w[fault_log::ODOMETER_M] = self.odometer_m as u32;
+        w[fault_log::POWER_CYCLES] = POWER_CYCLES;
+        for (i, e) in self.log.iter().enumerate() {
+            let at = fault_log::ENTRIES + i * fault_log::ENTRY_WORDS;
+            w[at..at + fault_log::ENTRY_WORDS].copy_from_slice(e);
+        }
         w
     }
 
@@ -1038,6 +1116,36 @@ mod tests {
             (s.counts.bad_crc, s.counts.unknown_id, s.counts.bad_length),
             (1, 1, 1)
         );
+    }
+
+    #[test]
+    fn the_fault_log_is_a_ring_of_20_entries_with_the_groups_split() {
+        let mut p = platform();
+        // A fault in every status word, each group at a distinct bit.
+        p.faults = [0x0000_1003, 0x0002_0020, 0x0004_0008, 0x10];
+        p.log_new_faults();
+        let w = p.fault_log();
+        let e = &w[fault_log::ENTRIES..][..fault_log::ENTRY_WORDS];
+        assert_eq!(
+            e[entry::GROUPS..entry::GROUPS + 8],
+            [0, 0x1, 0x20, 0x8, 0x4, 0x10, 0x3, 0x2]
+        );
+        // The same faults again write no entry; each new one does, and after 20 the ring wraps.
+        p.log_new_faults();
+        assert_eq!(p.fault_log()[fault_log::ENTRY_COUNT], 1);
+        let mut p = platform();
+        for bit in 0..23 {
+            p.faults[2] |= 1 << bit;
+            p.log_new_faults();
+        }
+        let w = p.fault_log();
+        assert_eq!(w.len(), FAULT_LOG_WORDS);
+        assert_eq!(w[fault_log::ENTRY_COUNT], 20);
+        // 23 entries written: the 21st to 23rd overwrote entries 0 to 2.
+        let latest =
+            &w[fault_log::ENTRIES + 2 * fault_log::ENTRY_WORDS..][..fault_log::ENTRY_WORDS];
+        assert_eq!((latest[entry::SENSOR], latest[entry::BSA]), (0xFFFF, 0x7F));
+        assert_eq!(w[fault_log::LATEST_ENTRY], 2);
     }
 
     #[test]
