@@ -148,13 +148,3 @@ pub struct RunEntry {
     /// penalises.
     pub support: Vec<Option<Provenance>>,
 }
-
-impl Effect {
-    /// Whether restoring this effect is a change of backend (which a restore never performs).
-    pub fn backend(&self) -> Option<&str> {
-        match self {
-            Effect::Backend { spec } => Some(spec),
-            _ => None,
-        }
-    }
-}
