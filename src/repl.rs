@@ -91,7 +91,9 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
     if let Some(j) = session.journal_path() {
         println!("journal: {} (`advise resume` restores it)", j.display());
     }
-    if !session.learner().is_empty() {
+    let ds = session.learner().dataset();
+    // A fresh start (not a resumed session with advice or critiques in it).
+    if !ds.is_empty() && ds.advice().is_empty() && ds.critiques().is_empty() {
         println!(
             "the starting policy comes from a few teacher demonstrations and is meant to be weak (the paper's baseline): run it, see where it goes wrong, advise it"
         );
