@@ -96,20 +96,9 @@ pub fn query(
         }
     } else {
         for &(_, g) in &scratch.found {
-            let gz = index.group_z(g);
-            let d2: f64 = gz
-                .iter()
-                .zip(&scratch.q)
-                .zip(&params.scales)
-                .map(|((p, q), s)| {
-                    let d = (p - q) * s;
-                    d * d
-                })
-                .sum();
-            if d2 > r2 {
+            let Some(w) = group_weight(index, g, &scratch.q, params, r2, inv) else {
                 continue;
-            }
-            let w = (-d2 * inv).exp();
+            };
             for &i in index.group(g) {
                 for (out, v) in a.iter_mut().zip(ds.a(i as usize)) {
                     *out += w * v;
@@ -325,6 +314,29 @@ fn gather(index: &Index, params: &LwrParams, z: &[f64], s: &mut Scratch) -> f64 
     1.0 / (2.0 * params.bandwidth * params.bandwidth)
 }
 
+/// The kernel weight of group `g` for the scaled query `q`, under the tuned per-dimension scales;
+/// `None` outside the kernel's support (`r2`).
+fn group_weight(
+    index: &Index,
+    g: u64,
+    q: &[f64],
+    params: &LwrParams,
+    r2: f64,
+    inv: f64,
+) -> Option<f64> {
+    let d2: f64 = index
+        .group_z(g)
+        .iter()
+        .zip(q)
+        .zip(&params.scales)
+        .map(|((p, q), s)| {
+            let d = (p - q) * s;
+            d * d
+        })
+        .sum();
+    (d2 <= r2).then(|| (-d2 * inv).exp())
+}
+
 impl CrossValidation<'_> {
     /// [`query`]'s answer for `z` from the points outside fold `held_out`: the same kernel sum
     /// (general path), skipping the held-out fold's points; far from them all, the action of the
@@ -336,20 +348,9 @@ impl CrossValidation<'_> {
         let r2 = params.r2();
         let mut total = 0.0;
         for &(_, g) in &s.found {
-            let d2: f64 = index
-                .group_z(g)
-                .iter()
-                .zip(&s.q)
-                .zip(&params.scales)
-                .map(|((p, q), s)| {
-                    let d = (p - q) * s;
-                    d * d
-                })
-                .sum();
-            if d2 > r2 {
+            let Some(w) = group_weight(index, g, &s.q, params, r2, inv) else {
                 continue;
-            }
-            let w = (-d2 * inv).exp();
+            };
             for &i in index.group(g) {
                 if self.fold[i as usize] == held_out {
                     continue;
