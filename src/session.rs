@@ -766,7 +766,7 @@ impl Session {
                 st.selection = None;
             }
             Effect::Select { execution, chunk } => {
-                let rec = self.recorded(*execution)?;
+                let rec = self.numbered(*execution)?;
                 let chunk = Chunk::new(chunk.start, chunk.end, rec.trace.len())?;
                 self.state.current = Some(*execution);
                 self.state.selection = Some(chunk);
@@ -822,20 +822,13 @@ impl Session {
         self.state = TaskState::with_learner(learner);
     }
 
-    fn recorded(&self, execution: usize) -> Result<&Recorded, SessionError> {
-        self.state
-            .executions
-            .get(execution)
-            .ok_or(SessionError::NoExecution)
-    }
-
     fn add_advice(
         &mut self,
         execution: usize,
         syn: Box<Synthesized>,
         number: usize,
     ) -> Result<(), SessionError> {
-        let rec = self.recorded(execution)?;
+        let rec = self.numbered(execution)?;
         let id = self.state.learner.add_advice(rec.id, &syn)?;
         let st = &mut self.state;
         st.executions[execution].advised.push(syn.advice.chunk);
@@ -856,7 +849,7 @@ impl Session {
         increments: Vec<(Provenance, f64)>,
         number: usize,
     ) -> Result<(), SessionError> {
-        let rec = self.recorded(execution)?;
+        let rec = self.numbered(execution)?;
         let id = self
             .state
             .learner

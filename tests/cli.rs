@@ -192,30 +192,23 @@ fn apply_takes_one_episode_of_a_demonstrations_file_and_run_counts_failures() {
     let (code, _, err) = advise(&["apply", "--op", "stop", "--trace", d, "--range", "0..3"]);
     assert_ne!(code, 0);
     assert!(err.contains("--episode K"), "{err}");
-    let (code, out, err) = advise(&[
-        "apply",
-        "--op",
-        "stop",
-        "--trace",
-        d,
-        "--range",
-        "0..3",
-        "--episode",
-        "1",
-    ]);
+    let episode = |k: &str| {
+        advise(&[
+            "apply",
+            "--op",
+            "stop",
+            "--trace",
+            d,
+            "--range",
+            "0..3",
+            "--episode",
+            k,
+        ])
+    };
+    let (code, out, err) = episode("1");
     assert_eq!(code, 0, "{err}");
     assert_eq!(out.lines().count(), 4, "{out}");
-    let (code, _, err) = advise(&[
-        "apply",
-        "--op",
-        "stop",
-        "--trace",
-        d,
-        "--range",
-        "0..3",
-        "--episode",
-        "2",
-    ]);
+    let (code, _, err) = episode("2");
     assert_ne!(code, 0);
     assert!(err.contains("advise::cli::no_such_episode"), "{err}");
 
