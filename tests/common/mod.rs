@@ -43,10 +43,17 @@ pub fn raw_transcript(session: &mut Session, lines: &str) -> String {
 /// Insta settings that mask wall-clock timings (`12.3 ms` as `<t>`) and, when given, a temporary
 /// directory (as `<dir>`): everything else a transcript shows is deterministic.
 pub fn masked(dir: Option<&Path>) -> insta::Settings {
+    let dir = dir.map(|d| d.display().to_string());
+    masked_as(dir.as_deref().map(|d| (d, "<dir>")).as_slice())
+}
+
+/// Insta settings that mask wall-clock timings and write each `(text, as)` pair's text as `as`
+/// (a temporary path as the name the snapshot shows, say).
+pub fn masked_as(literals: &[(&str, &str)]) -> insta::Settings {
     let mut settings = insta::Settings::clone_current();
     settings.add_filter(r"\b\d+(?:\.\d+)? ms\b", "<t>");
-    if let Some(dir) = dir {
-        settings.add_filter(&escape(&dir.display().to_string()), "<dir>");
+    for (text, replacement) in literals {
+        settings.add_filter(&escape(text), *replacement);
     }
     settings
 }
