@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{Invocation, cases, masked, name, run_all};
+use common::{Invocation, assert_no_orphans, cases, masked, name, run_all};
 use std::path::Path;
 
 /// The case's task and the script that runs it.
@@ -56,6 +56,7 @@ fn invocation(path: &Path) -> Invocation {
 fn snapshot_all(kind: &str, must_succeed: bool) {
     let dir = format!("tests/invocations/{kind}");
     let paths = cases(&dir, "adv");
+    assert_no_orphans("invocations", kind, &paths);
     let runs = paths.iter().map(|p| (name(p), invocation(p))).collect();
     let mut outputs = run_all(runs);
     insta::glob!(format!("invocations/{kind}"), "*.adv", |path| {

@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{Invocation, cases, masked, name, run_all};
+use common::{Invocation, assert_no_orphans, cases, masked, name, run_all};
 use std::path::Path;
 
 /// The options a script asks for in its first line (`// args: ...`), if any.
@@ -37,7 +37,9 @@ fn invocation(path: &Path, keep_going: bool) -> Invocation {
 /// Run every script of `dir` and snapshot each transcript under the script's name.
 /// `dir` is relative to the package, `base` the same folder relative to this file (for insta).
 fn snapshot_all(snapshot: &str, dir: &str, base: &str, keep_going: bool, must_succeed: bool) {
-    let runs = cases(dir, "adv")
+    let paths = cases(dir, "adv");
+    assert_no_orphans("sessions", snapshot, &paths);
+    let runs = paths
         .iter()
         .map(|p| (name(p), invocation(p, keep_going)))
         .collect();

@@ -8,6 +8,7 @@ use std::collections::HashMap;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
 
 use advise::session::{Session, SessionOptions, script};
 use advise::task::TaskKind;
@@ -70,6 +71,9 @@ fn escape(text: &str) -> String {
     out
 }
 
+/// How long one run of the binary may take (the slowest case takes about a second).
+const RUN_LIMIT: Duration = Duration::from_secs(120);
+
 /// One run of the `advise` binary: `args` in a fresh temporary directory holding `files`, with
 /// no journal (and `ADVISE_HOME` inside that directory, should one be written anyway).
 pub struct Invocation {
@@ -108,11 +112,32 @@ impl Invocation {
             .stderr(writer)
             .spawn()
             .unwrap();
-        let mut bytes = Vec::new();
-        reader.read_to_end(&mut bytes).unwrap();
-        let status = child.wait().unwrap();
+        let output = std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            reader.read_to_end(&mut bytes).map(|_| bytes)
+        });
+        // A case that hangs fails the test instead of hanging it.
+        let deadline = Instant::now() + RUN_LIMIT;
+        let status = loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                break Some(status);
+            }
+            if Instant::now() > deadline {
+                let _ = child.kill();
+                let _ = child.wait();
+                break None;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        };
+        let text = String::from_utf8(output.join().unwrap().unwrap()).unwrap();
+        let Some(status) = status else {
+            panic!(
+                "`{}` did not finish within {RUN_LIMIT:?}; it printed:\n{text}",
+                self.command_line()
+            );
+        };
         Output {
-            text: String::from_utf8(bytes).unwrap(),
+            text,
             code: status.code(),
             dir: dir.path().to_path_buf(),
         }
@@ -145,6 +170,28 @@ pub fn cases(dir: &str, ext: &str) -> Vec<PathBuf> {
         .collect();
     out.sort();
     out
+}
+
+/// Fail on snapshots `tests/snapshots/<test>__<snapshot>@*.snap` whose case is not in `cases`
+/// any more (a case removed or renamed leaves its snapshot behind, which insta does not notice).
+pub fn assert_no_orphans(test: &str, snapshot: &str, cases: &[PathBuf]) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/snapshots");
+    let prefix = format!("{test}__{snapshot}@");
+    let names: Vec<String> = cases.iter().map(|p| name(p)).collect();
+    let orphans: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| name(&e.unwrap().path()))
+        .filter(|n| n.ends_with(".snap"))
+        .filter(|n| {
+            n.strip_prefix(&prefix)
+                .and_then(|n| n.strip_suffix(".snap"))
+                .is_some_and(|case| !names.iter().any(|c| c == case))
+        })
+        .collect();
+    assert!(
+        orphans.is_empty(),
+        "snapshots without a case (delete them): {orphans:?}"
+    );
 }
 
 /// A file's name, as the key of its case.
