@@ -1,8 +1,9 @@
 //! Reading and writing files, as a teacher meets it in a session: special files refused at once,
 //! reads capped, a byte-order mark accepted and bad UTF-8 located; saves atomic, through links,
 //! with the umask's permissions and a named format; a saved dataset validated whole when opened
-//! and usable as demonstrations; demonstration files whose episodes are split, repeated or empty
-//! refused; and no diagnostic printing a whole file. Transcripts are snapshotted (insta).
+//! and usable as demonstrations; and no diagnostic printing a whole file. Transcripts are
+//! snapshotted (insta). Demonstration files whose episodes are split, repeated or empty are a
+//! session case (`sessions/demonstration_files_*.adv`, its files in the folder of that name).
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::Path;
@@ -279,61 +280,6 @@ fn a_saved_dataset_is_demonstrations_for_load_demos_and_eval() {
     assert!(out.status.success(), "{stderr}");
     let report: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["episodes"], 25);
-}
-
-#[test]
-fn demonstration_files_with_split_repeated_or_empty_episodes_or_impossible_actions_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let h = "episode,t,dist2,bearing,dheading,trans,rot\n";
-    let files = [
-        (
-            "split.csv",
-            format!("{h}a,0,4,0,0,0.5,0\nb,0,3,0,0,0.5,0\na,0.1,3.9,0,0,0.5,0\n"),
-        ),
-        (
-            "repeated.csv",
-            format!("{h}a,0,4,0,0,0.5,0\na,0.1,3.9,0,0,0.5,0\na,0.1,3.8,0,0,0.5,0\n"),
-        ),
-        ("header_only.csv", h.to_string()),
-        (
-            "beyond_limits.csv",
-            format!("{h}a,0,4,0,0,0.5,0\na,0.1,3.9,0,0,1.5,0\n"),
-        ),
-        (
-            "empty.json",
-            r#"{"domain": "positioning", "episodes": [
-  {"name": "a", "points": [{"t": 0, "z": [4, 0, 0], "a": [0.5, 0]}]},
-  {"name": "b", "points": []}
-]}"#
-            .to_string(),
-        ),
-        (
-            "twice.json",
-            r#"{"domain": "positioning", "episodes": [
-  {"name": "a", "points": [{"t": 0, "z": [4, 0, 0], "a": [0.5, 0]}]},
-  {"name": "a", "points": [{"t": 0, "z": [3, 0, 0], "a": [0.5, 0]}]}
-]}"#
-            .to_string(),
-        ),
-        ("none.json", r#"{"domain": "positioning", "episodes": []}"#.to_string()),
-        (
-            "same_time.json",
-            r#"{"domain": "positioning", "episodes": [
-  {"name": "a", "points": [{"t": 0, "z": [4, 0, 0], "a": [0.5, 0]}, {"t": 0, "z": [3, 0, 0], "a": [0.5, 0]}]}
-]}"#
-            .to_string(),
-        ),
-    ];
-    let mut lines = String::new();
-    for (name, text) in &files {
-        std::fs::write(d.join(name), text).unwrap();
-        lines.push_str(&format!("load demos {}/{name}\n", d.display()));
-    }
-    let mut s = session(TaskKind::Positioning, 0);
-    let t = transcript(&mut s, &lines);
-    common::masked(Some(d)).bind(|| insta::assert_snapshot!(t));
-    assert!(s.learner().is_empty());
 }
 
 #[test]

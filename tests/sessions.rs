@@ -3,7 +3,8 @@
 //! teacher sees it: each statement, its reply, and each failing statement's diagnostic. The
 //! example scripts under `examples/sessions/` are snapshotted the same way and must succeed.
 //! Adding a case means adding a file; a first line `// args: --demos 3 --task interception`
-//! gives it its own command-line options.
+//! gives it its own command-line options, and a folder of the script's name (`sessions/NAME/`)
+//! holds the files it reads, copied beside it.
 
 mod common;
 
@@ -28,10 +29,16 @@ fn invocation(path: &Path, keep_going: bool) -> Invocation {
     }
     args.extend(header_args(&String::from_utf8_lossy(&text)));
     args.push(file.clone());
-    Invocation {
-        args,
-        files: vec![(file, text)],
+    let mut files = vec![(file, text)];
+    // The files a case reads: the folder of its name, copied beside the script.
+    let fixtures = path.with_extension("");
+    if fixtures.is_dir() {
+        for entry in std::fs::read_dir(&fixtures).unwrap() {
+            let p = entry.unwrap().path();
+            files.push((name(&p), std::fs::read(&p).unwrap()));
+        }
     }
+    Invocation { args, files }
 }
 
 /// Run every script of `dir` and snapshot each transcript under the script's name.
