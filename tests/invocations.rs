@@ -86,7 +86,10 @@ fn snapshot_all(kind: &str, must_succeed: bool) {
             )
         });
     });
-    assert!(outputs.is_empty(), "not globbed: {:?}", outputs.keys());
+    // Every case was snapshotted (unless INSTA_GLOB_FILTER picked some).
+    if std::env::var_os("INSTA_GLOB_FILTER").is_none() {
+        assert!(outputs.is_empty(), "not globbed: {:?}", outputs.keys());
+    }
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! example scripts under `examples/sessions/` are snapshotted the same way and must succeed.
 //! Adding a case means adding a file; a first line `// args: --demos 3 --task interception`
 //! gives it its own command-line options, and a folder of the script's name (`sessions/NAME/`)
-//! holds the files it reads, copied beside it.
+//! holds the files it reads, copied beside it. `INSTA_GLOB_FILTER='*NAME*'` checks one case.
 
 mod common;
 
@@ -82,7 +82,10 @@ fn snapshot_all(snapshot: &str, dir: &str, base: &str, keep_going: bool, must_su
             )
         });
     });
-    assert!(outputs.is_empty(), "not globbed: {:?}", outputs.keys());
+    // Every case was snapshotted (unless INSTA_GLOB_FILTER picked some).
+    if std::env::var_os("INSTA_GLOB_FILTER").is_none() {
+        assert!(outputs.is_empty(), "not globbed: {:?}", outputs.keys());
+    }
 }
 
 #[test]
