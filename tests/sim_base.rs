@@ -230,7 +230,11 @@ fn params_file_diagnostics() {
         let err = SimParams::from_json_str(name, text).unwrap_err();
         out.push_str(&format!("----- {name}\n{}\n", render(&err)));
     }
-    let missing = SimParams::load(std::path::Path::new("/nonexistent/sim.json")).unwrap_err();
+    let missing = SimParams::load(
+        &mut advise::diag::SourceMap::new(),
+        std::path::Path::new("/nonexistent/sim.json"),
+    )
+    .unwrap_err();
     out.push_str(&format!("----- missing\n{}\n", render(&missing)));
     insta::assert_snapshot!(out);
 }
