@@ -548,4 +548,37 @@ mod tests {
         let id = read_source(&mut map, &p).unwrap();
         assert_eq!(map.text(id), "fine\n");
     }
+
+    #[test]
+    fn a_data_file_stays_in_the_map_only_when_it_fails() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("data.txt");
+        std::fs::write(&p, "12\n").unwrap();
+        let mut map = SourceMap::new();
+        let parse = |src: crate::diag::Src<'_>| {
+            src.text
+                .trim()
+                .parse::<u32>()
+                .map_err(|_| FileError::NotUtf8 {
+                    path: src.name.to_string(),
+                    line: 1,
+                    column: 1,
+                    byte: 0,
+                    at: Some(src.at(0..1)),
+                })
+        };
+        for _ in 0..3 {
+            assert_eq!(parse_file(&mut map, &p, parse).unwrap(), 12);
+        }
+        assert!(map.is_empty());
+        std::fs::write(&p, "x\n").unwrap();
+        let err = parse_file(&mut map, &p, parse).unwrap_err();
+        assert_eq!(map.len(), 1);
+        let out = crate::diag::render(&map, &err, false);
+        assert!(out.contains("data.txt:1:1]") && out.contains(" x"), "{out}");
+        // Bad UTF-8 is kept too, for its mark.
+        std::fs::write(&p, b"\xFF").unwrap();
+        assert!(parse_file(&mut map, &p, parse).is_err());
+        assert_eq!(map.len(), 2);
+    }
 }

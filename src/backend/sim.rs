@@ -260,7 +260,7 @@ impl SimParams {
                 };
                 return Err(SimError::Invalid {
                     field: r.field,
-                    value: fmt_number(value),
+                    value: crate::number::fmt_readable(value),
                     expected: format!("from {} to {}{unit}", r.min, r.max),
                     help: format!(
                         "`{}` is {}; remove the field to use the default, {default}{unit}",
@@ -282,16 +282,6 @@ impl SimParams {
             heading_drift_rad_per_m: 0.0,
             ..self.clone()
         }
-    }
-}
-
-/// A number as a person would write it: `1e300`, not three hundred digits.
-fn fmt_number(v: f64) -> String {
-    let a = v.abs();
-    if v.is_finite() && v != 0.0 && !(1e-4..1e6).contains(&a) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
     }
 }
 
