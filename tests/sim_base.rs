@@ -6,13 +6,9 @@ use advise::backend::sim::{SimBackend, SimBase, SimParams};
 use advise::trace::Pose;
 use proptest::prelude::*;
 
+/// As the REPL draws it (the errors bring their own sources).
 fn render(err: &dyn miette::Diagnostic) -> String {
-    let mut out = String::new();
-    miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
-        .with_width(100)
-        .render_report(&mut out, err)
-        .unwrap();
-    out
+    advise::diag::render(&advise::diag::SourceMap::new(), err, false)
 }
 
 /// A wiggly command sequence that exercises turning, reversing and the limits.
