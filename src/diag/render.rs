@@ -228,15 +228,27 @@ mod tests {
         let at = text.len();
         text.push_str("BAD");
         text.push_str(&"x".repeat(100_000));
-        let err = Bad {
+        // In a source map, after another source (as every loader now reports it), and with
+        // its own source (an error that brings it).
+        let mut map = SourceMap::new();
+        map.add("first.json", "{}\n");
+        let id = map.add("long.json", text.as_str());
+        let in_map = InMap {
+            at: id.span(at, 3),
+        };
+        let own = Bad {
             src: NamedSource::new("long.json", text),
             span: SourceSpan::new(at.into(), 3),
         };
-        let out = render(&SourceMap::new(), &err, false);
-        assert!(out.contains("BAD"), "{out}");
-        assert!(out.len() < 4 * SIDE_BYTES + 1_000, "{} bytes", out.len());
-        // miette counts columns in bytes.
-        assert!(out.contains("[long.json:1:80001]"), "{out}");
+        for out in [
+            render(&map, &in_map, false),
+            render(&SourceMap::new(), &own, false),
+        ] {
+            assert!(out.contains("BAD"), "{out}");
+            assert!(out.len() < 4 * SIDE_BYTES + 1_000, "{} bytes", out.len());
+            // miette counts columns in bytes.
+            assert!(out.contains("[long.json:1:80001]"), "{out}");
+        }
     }
 
     #[test]
