@@ -233,9 +233,7 @@ mod tests {
         let mut map = SourceMap::new();
         map.add("first.json", "{}\n");
         let id = map.add("long.json", text.as_str());
-        let in_map = InMap {
-            at: id.span(at, 3),
-        };
+        let in_map = InMap { at: id.span(at, 3) };
         let own = Bad {
             src: NamedSource::new("long.json", text),
             span: SourceSpan::new(at.into(), 3),
