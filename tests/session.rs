@@ -69,7 +69,11 @@ fn a_session_refuses_simulator_parameters_out_of_range() {
         ..SessionOptions::default()
     };
     let e = Session::new(opts).expect_err("refused");
-    insta::assert_snapshot!(advise::repl::render(&e, false));
+    insta::assert_snapshot!(advise::repl::render(
+        &advise::diag::SourceMap::new(),
+        &e,
+        false
+    ));
 }
 
 /// The teacher's pictures: `show` with its action strip, `plot`, `plot actions`, `plot compare`,
