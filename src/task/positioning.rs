@@ -17,10 +17,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::backend::BaseState;
-use crate::backend::sim::wrap_angle;
 use crate::domain::Domain;
+use crate::geometry::{Pose, bearing, wrap_angle};
 use crate::task::{Controller, Ending, Score, Task};
-use crate::trace::Pose;
 
 /// Goal bounds, from the paper.
 pub const GOAL_X_M: (f64, f64) = (-0.33, 4.5);
@@ -111,7 +110,7 @@ pub fn observe(goal: Pose, pose: Pose) -> [f64; 3] {
     let bearing = if dx == 0.0 && dy == 0.0 {
         0.0
     } else {
-        wrap_angle(dy.atan2(dx) - pose.theta_rad)
+        bearing(pose, goal.x_m, goal.y_m)
     };
     [
         dx * dx + dy * dy,
@@ -200,7 +199,7 @@ impl Task for Positioning {
     }
 
     fn score(&self, _ending: Ending, pose: Pose) -> Score {
-        let position_error_m = (self.goal.x_m - pose.x_m).hypot(self.goal.y_m - pose.y_m);
+        let position_error_m = self.goal.distance_to(pose);
         let heading_error_rad = wrap_angle(self.goal.theta_rad - pose.theta_rad).abs();
         Score {
             success: position_error_m < self.rules.success_position_m

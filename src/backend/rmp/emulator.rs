@@ -28,7 +28,10 @@ use super::codec::{
 use super::config::{BITMAP_BALANCE_ENABLED, EmulatorConfig, MachineConfig, RmpConfigError};
 use crate::backend::BaseState;
 use crate::backend::sim::{SimBase, SimError, SimParams};
-use crate::trace::Pose;
+use crate::geometry::{Pose, integrate_arc, limit_speed, wheel_speeds};
+
+/// The pose arithmetic lives in [`crate::geometry`]; kept here under its old paths.
+pub use crate::geometry::{compose_pose, relative_pose, wrap_angle};
 
 const G_MPS2: f64 = 9.80665;
 
@@ -86,11 +89,7 @@ impl EmulatedBase for LagBase {
         };
         s.speed_mps += alpha * (self.cmd.0 - s.speed_mps);
         s.rot_radps += alpha * (self.cmd.1 - s.rot_radps);
-        // Integrate along the mid-step heading.
-        let mid = s.pose.theta_rad + 0.5 * s.rot_radps * dt_s;
-        s.pose.x_m += s.speed_mps * mid.cos() * dt_s;
-        s.pose.y_m += s.speed_mps * mid.sin() * dt_s;
-        s.pose.theta_rad = wrap_angle(s.pose.theta_rad + s.rot_radps * dt_s);
+        s.pose = integrate_arc(s.pose, s.speed_mps, s.rot_radps, dt_s);
         s.t_s += dt_s;
         *s
     }
@@ -119,37 +118,6 @@ impl EmulatedBase for SimBase {
     fn true_pose(&self) -> Pose {
         SimBase::true_pose(self)
     }
-}
-
-/// An angle in (-pi, pi].
-pub fn wrap_angle(a: f64) -> f64 {
-    let w = a.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI {
-        w - std::f64::consts::TAU
-    } else {
-        w
-    }
-}
-
-/// `pose` expressed in the frame whose origin is `origin`.
-pub fn relative_pose(origin: Pose, pose: Pose) -> Pose {
-    let (dx, dy) = (pose.x_m - origin.x_m, pose.y_m - origin.y_m);
-    let (s, c) = origin.theta_rad.sin_cos();
-    Pose::new(
-        c * dx + s * dy,
-        -s * dx + c * dy,
-        wrap_angle(pose.theta_rad - origin.theta_rad),
-    )
-}
-
-/// `local` (a pose in the frame of `origin`) expressed in the frame `origin` lives in.
-pub fn compose_pose(origin: Pose, local: Pose) -> Pose {
-    let (s, c) = origin.theta_rad.sin_cos();
-    Pose::new(
-        origin.x_m + c * local.x_m - s * local.y_m,
-        origin.y_m + s * local.x_m + c * local.y_m,
-        wrap_angle(origin.theta_rad + local.theta_rad),
-    )
 }
 
 /// Counts of what arrived and what was done to it.
@@ -523,7 +491,7 @@ impl Platform {
             let v = f64::from(m.velocity_limit_mps);
             let w = f64::from(m.yaw_rate_limit_radps);
             (
-                (self.cmd.0.clamp(-v, v), self.cmd.1.clamp(-w, w)),
+                (limit_speed(self.cmd.0, v), limit_speed(self.cmd.1, w)),
                 f64::from(m.decel_limit_mps2),
             )
         } else if self.dtz {
@@ -559,9 +527,11 @@ impl Platform {
         }
         self.accel_mps2 = (self.last.speed_mps - prev.speed_mps) / dt_s;
         self.odometer_m += self.last.speed_mps.abs() * dt_s;
-        let half_track = 0.5 * f64::from(m.track_width_m);
-        let right = self.last.speed_mps + self.last.rot_radps * half_track;
-        let left = self.last.speed_mps - self.last.rot_radps * half_track;
+        let (left, right) = wheel_speeds(
+            self.last.speed_mps,
+            self.last.rot_radps,
+            f64::from(m.track_width_m),
+        );
         for (i, v) in [right, left, right, left].into_iter().enumerate() {
             self.wheel_pos_m[i] += v * dt_s;
         }
@@ -604,9 +574,11 @@ impl Platform {
         w[word::YAW_RATE_TARGET] = f(self.slewed.1);
         w[word::YAW_RATE_LIMIT] = f(f64::from(self.machine.yaw_rate_limit_radps));
         w[word::VELOCITY_LIMIT] = f(f64::from(self.machine.velocity_limit_mps));
-        let half_track = 0.5 * f64::from(self.machine.track_width_m);
-        let right = self.last.speed_mps + self.last.rot_radps * half_track;
-        let left = self.last.speed_mps - self.last.rot_radps * half_track;
+        let (left, right) = wheel_speeds(
+            self.last.speed_mps,
+            self.last.rot_radps,
+            f64::from(self.machine.track_width_m),
+        );
         for (i, v) in [right, left, right, left].into_iter().enumerate() {
             w[word::WHEEL_VELOCITY + i] = f(v);
             w[word::WHEEL_POSITION + i] = f(self.wheel_pos_m[i]);
@@ -1241,26 +1213,6 @@ mod tests {
         assert!(fb.plausible());
         for order in [WordOrder::Little, WordOrder::Big] {
             assert_eq!(WordOrder::detect(&fb.encode(order)), Some(order));
-        }
-    }
-}
-
-#[cfg(test)]
-mod pose_props {
-    use super::*;
-    use proptest::prelude::*;
-
-    proptest! {
-        #[test]
-        fn relative_then_compose_is_identity(
-            ox in -10.0f64..10.0, oy in -10.0f64..10.0, ot in -3.1f64..3.1,
-            px in -10.0f64..10.0, py in -10.0f64..10.0, pt in -3.1f64..3.1,
-        ) {
-            let o = Pose::new(ox, oy, ot);
-            let p = Pose::new(px, py, pt);
-            let back = compose_pose(o, relative_pose(o, p));
-            prop_assert!((back.x_m - px).abs() < 1e-9 && (back.y_m - py).abs() < 1e-9);
-            prop_assert!(wrap_angle(back.theta_rad - pt).abs() < 1e-9);
         }
     }
 }
