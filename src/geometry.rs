@@ -127,6 +127,16 @@ pub fn wheel_speeds(v: f64, w: f64, track_m: f64) -> (f64, f64) {
     (v - w * half, v + w * half)
 }
 
+/// The fraction of the gap to its command a first-order lag of time constant `lag_s` closes in
+/// `dt_s` seconds (`1 - exp(-dt/lag)`; all of it without a lag).
+pub fn lag_fraction(lag_s: f64, dt_s: f64) -> f64 {
+    if lag_s > 0.0 {
+        1.0 - (-dt_s / lag_s).exp()
+    } else {
+        1.0
+    }
+}
+
 /// A speed limited to `[-max, max]`; a non-finite speed counts as zero (a base never acts on one).
 pub fn limit_speed(v: f64, max: f64) -> f64 {
     if v.is_finite() {

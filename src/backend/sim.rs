@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::backend::{Backend, BackendError, BaseState};
-use crate::geometry::{Pose, integrate_arc, limit_speed, wheel_speeds};
+use crate::geometry::{Pose, integrate_arc, lag_fraction, limit_speed, wheel_speeds};
 use crate::trace::line_col_span;
 
 /// Angle wrapping lives in [`crate::geometry`]; kept here under its old path.
@@ -497,11 +497,7 @@ impl SimBase {
         let p = &self.params;
         // Lag, then the acceleration clamp: the result is a convex combination of the old speed and
         // the (clamped) command, so it stays within the speed limits.
-        let alpha = if p.lag_s > 0.0 {
-            1.0 - (-h / p.lag_s).exp()
-        } else {
-            1.0
-        };
+        let alpha = lag_fraction(p.lag_s, h);
         let dv = (alpha * (self.cmd_speed_mps - self.speed_mps))
             .clamp(-p.max_accel_mps2 * h, p.max_accel_mps2 * h);
         let dw = (alpha * (self.cmd_rot_radps - self.rot_radps))
@@ -545,8 +541,9 @@ impl SimBase {
     }
 }
 
-/// Two independent standard normal draws (Box-Muller).
-fn normal_pair(rng: &mut ChaCha8Rng) -> (f64, f64) {
+/// Two independent standard normal draws (Box-Muller): the simulator's noise and the simulated
+/// teachers' misjudgements.
+pub fn normal_pair<R: Rng + ?Sized>(rng: &mut R) -> (f64, f64) {
     // 1 - u keeps the logarithm's argument in (0, 1].
     let u1: f64 = 1.0 - rng.random::<f64>();
     let u2: f64 = rng.random::<f64>();

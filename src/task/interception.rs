@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::backend::BaseState;
 use crate::domain::Domain;
-use crate::geometry::{Pose, bearing, distance, relative_pose, wrap_angle};
+use crate::geometry::{Pose, bearing, distance, polar, relative_pose, wrap_angle};
 use crate::policy::Policy;
 use crate::task::{Controller, Ending, Score, Task};
 
@@ -128,11 +128,12 @@ fn sample_start(rng: &mut ChaCha8Rng, r: &InterceptionRules) -> BallStart {
     let bearing = rng.random_range(-PI..PI);
     let s = rng.random_range(r.ball_speed_mps.0..=r.ball_speed_mps.1);
     let dir = rng.random_range(-PI..PI);
+    let (position, velocity) = (polar(d, bearing), polar(s, dir));
     BallStart {
-        x_m: d * bearing.cos(),
-        y_m: d * bearing.sin(),
-        vx_mps: s * dir.cos(),
-        vy_mps: s * dir.sin(),
+        x_m: position.x,
+        y_m: position.y,
+        vx_mps: velocity.x,
+        vy_mps: velocity.y,
     }
 }
 

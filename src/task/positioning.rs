@@ -17,8 +17,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::backend::BaseState;
+use crate::backend::sim::normal_pair;
 use crate::domain::Domain;
-use crate::geometry::{Pose, bearing, wrap_angle};
+use crate::geometry::{Pose, bearing, compose_pose, polar, wrap_angle};
 use crate::task::{Controller, Ending, Score, Task};
 
 /// Goal bounds, from the paper.
@@ -308,9 +309,8 @@ impl PositioningTeacher {
     }
 
     fn normal(&mut self) -> f64 {
-        let u1: f64 = 1.0 - self.rng.random::<f64>();
-        let u2: f64 = self.rng.random::<f64>();
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        // The second draw of the pair is dropped: the stream of choices stays as it always was.
+        normal_pair(&mut self.rng).0
     }
 
     /// What the driver means to command, before lag and tremor.
@@ -319,11 +319,11 @@ impl PositioningTeacher {
         let e = &mut self.episode;
         let (d, bearing, dheading) = (z[0].max(0.0).sqrt(), z[1], z[2]);
         // The perceived goal, in the robot frame: the true goal plus the misjudgement, which is
-        // fixed in the goal's frame (rotate by theta_g - theta_r into the robot's).
-        let (c, sn) = (dheading.cos(), dheading.sin());
-        let gx = d * bearing.cos() + c * e.offset.0 - sn * e.offset.1;
-        let gy = d * bearing.sin() + sn * e.offset.0 + c * e.offset.1;
-        let g_theta = wrap_angle(dheading + e.heading_offset_rad);
+        // fixed in the goal's frame.
+        let goal = polar(d, bearing);
+        let misjudged = Pose::new(e.offset.0, e.offset.1, e.heading_offset_rad);
+        let perceived = compose_pose(Pose::new(goal.x, goal.y, dheading), misjudged);
+        let (gx, gy, g_theta) = (perceived.x_m, perceived.y_m, perceived.theta_rad);
         let rho = gx.hypot(gy);
         if e.done {
             return (0.0, 0.0);

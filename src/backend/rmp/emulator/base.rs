@@ -3,7 +3,7 @@
 
 use crate::backend::BaseState;
 use crate::backend::sim::SimBase;
-use crate::geometry::{Pose, integrate_arc};
+use crate::geometry::{Pose, integrate_arc, lag_fraction};
 
 /// The physics under the emulated platform: a differential-drive base that takes the platform's
 /// slewed speed commands ([`SimBase`] and [`LagBase`] implement it).
@@ -52,11 +52,7 @@ impl EmulatedBase for LagBase {
 
     fn advance(&mut self, dt_s: f64) -> BaseState {
         let s = &mut self.state;
-        let alpha = if self.lag_s > 0.0 {
-            1.0 - (-dt_s / self.lag_s).exp()
-        } else {
-            1.0
-        };
+        let alpha = lag_fraction(self.lag_s, dt_s);
         s.speed_mps += alpha * (self.cmd.0 - s.speed_mps);
         s.rot_radps += alpha * (self.cmd.1 - s.rot_radps);
         s.pose = integrate_arc(s.pose, s.speed_mps, s.rot_radps, dt_s);
