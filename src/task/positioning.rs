@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use crate::backend::BaseState;
 use crate::backend::sim::normal_pair;
 use crate::domain::Domain;
-use crate::geometry::{Pose, bearing, compose_pose, polar, wrap_angle};
+use crate::geometry::{Pose, bearing, wrap_angle};
 use crate::task::{Controller, Ending, Score, Task};
 
 /// Goal bounds, from the paper.
@@ -319,11 +319,13 @@ impl PositioningTeacher {
         let e = &mut self.episode;
         let (d, bearing, dheading) = (z[0].max(0.0).sqrt(), z[1], z[2]);
         // The perceived goal, in the robot frame: the true goal plus the misjudgement, which is
-        // fixed in the goal's frame.
-        let goal = polar(d, bearing);
-        let misjudged = Pose::new(e.offset.0, e.offset.1, e.heading_offset_rad);
-        let perceived = compose_pose(Pose::new(goal.x, goal.y, dheading), misjudged);
-        let (gx, gy, g_theta) = (perceived.x_m, perceived.y_m, perceived.theta_rad);
+        // fixed in the goal's frame (rotate by theta_g - theta_r into the robot's). This is
+        // `compose_pose`, written out: nalgebra adds the rotated offset as one vector, which moves
+        // the last bit of the recorded demonstrations (and the saved datasets' text with them).
+        let (c, sn) = (dheading.cos(), dheading.sin());
+        let gx = d * bearing.cos() + c * e.offset.0 - sn * e.offset.1;
+        let gy = d * bearing.sin() + sn * e.offset.0 + c * e.offset.1;
+        let g_theta = wrap_angle(dheading + e.heading_offset_rad);
         let rho = gx.hypot(gy);
         if e.done {
             return (0.0, 0.0);
