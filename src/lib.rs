@@ -3,8 +3,9 @@
 //! The phases, in order (see ARCHITECTURE.md): [`syntax`] (pest grammar to spanned AST),
 //! [`check`] (AST to a checked operator set), [`interp`] (apply operators to chunks),
 //! [`policy`] (dataset with provenance, BC 1-NN, A-OPI LWR), [`backend`] (sim and RMP bases).
-//! The shared data types are [`domain`] and [`trace`]; every file is read and written through
-//! [`files`], and every diagnostic is drawn by [`diag::render`] from one [`diag::SourceMap`].
+//! The shared data types are [`domain`], [`trace`] and [`geometry`] (poses and frames); every
+//! file is read and written through [`files`], and every diagnostic is drawn by [`diag::render`]
+//! from one [`diag::SourceMap`].
 
 pub mod backend;
 pub mod check;
@@ -13,6 +14,7 @@ pub mod domain;
 pub mod eval;
 pub mod experiment;
 pub mod files;
+pub mod geometry;
 pub mod interp;
 pub mod number;
 pub mod policy;

@@ -17,8 +17,9 @@ use serde::{Deserialize, Serialize};
 use crate::backend::sim::{SimBackend, SimParams};
 use crate::backend::{Backend, BackendError, BaseState};
 use crate::domain::Domain;
+use crate::geometry::Pose;
 use crate::policy::Policy;
-use crate::trace::{Episode, Pose, Trace};
+use crate::trace::{Episode, Trace};
 
 pub mod interception;
 pub mod positioning;
@@ -297,7 +298,7 @@ fn path_length<'a>(poses: impl Iterator<Item = &'a Pose>) -> f64 {
     let mut prev: Option<&Pose> = None;
     for p in poses {
         if let Some(q) = prev {
-            len += (p.x_m - q.x_m).hypot(p.y_m - q.y_m);
+            len += q.distance_to(*p);
         }
         prev = Some(p);
     }

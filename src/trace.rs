@@ -16,8 +16,6 @@ pub mod json;
 
 use std::path::Path;
 
-use serde::{Deserialize, Serialize};
-
 pub use chunk::{Chunk, ChunkError};
 pub use episode::Episode;
 pub use error::TraceError;
@@ -26,23 +24,8 @@ pub use json::{JsonEpisode, JsonEpisodes, JsonPoint, JsonTrace};
 use crate::diag::SourceMap;
 use crate::domain::Domain;
 
-/// Planar robot pose in the world (or odometry) frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Pose {
-    pub x_m: f64,
-    pub y_m: f64,
-    pub theta_rad: f64,
-}
-
-impl Pose {
-    pub fn new(x_m: f64, y_m: f64, theta_rad: f64) -> Self {
-        Pose {
-            x_m,
-            y_m,
-            theta_rad,
-        }
-    }
-}
+/// The pose type lives in [`crate::geometry`]; traces hold one per point when recorded.
+pub use crate::geometry::Pose;
 
 /// A recorded execution or demonstration in one domain.
 #[derive(Clone, Debug, PartialEq)]

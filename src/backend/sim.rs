@@ -28,7 +28,10 @@ use thiserror::Error;
 
 use crate::backend::{Backend, BackendError, BaseState};
 use crate::diag::{Loc, SourceMap, Sourced, Src, locate};
-use crate::trace::Pose;
+use crate::geometry::{Pose, integrate_arc, lag_fraction, limit_speed, wheel_speeds};
+
+/// Angle wrapping lives in [`crate::geometry`]; kept here under its old path.
+pub use crate::geometry::wrap_angle;
 
 /// Every parameter of the simulated base. The paper gives only the control rate (30 Hz); the rest
 /// are ours, chosen to resemble a Segway RMP 200 driven indoors at walking pace.
@@ -392,15 +395,8 @@ impl SimBase {
 
     /// Command speeds; they are clamped to the speed limits, and a non-finite value counts as 0.
     pub fn set_command(&mut self, speed_mps: f64, rot_radps: f64) {
-        let clamp = |v: f64, max: f64| {
-            if v.is_finite() {
-                v.clamp(-max, max)
-            } else {
-                0.0
-            }
-        };
-        self.cmd_speed_mps = clamp(speed_mps, self.params.max_speed_mps);
-        self.cmd_rot_radps = clamp(rot_radps, self.params.max_rot_radps);
+        self.cmd_speed_mps = limit_speed(speed_mps, self.params.max_speed_mps);
+        self.cmd_rot_radps = limit_speed(rot_radps, self.params.max_rot_radps);
     }
 
     /// The command in force, after clamping.
@@ -431,32 +427,27 @@ impl SimBase {
         let p = &self.params;
         // Lag, then the acceleration clamp: the result is a convex combination of the old speed and
         // the (clamped) command, so it stays within the speed limits.
-        let alpha = if p.lag_s > 0.0 {
-            1.0 - (-h / p.lag_s).exp()
-        } else {
-            1.0
-        };
+        let alpha = lag_fraction(p.lag_s, h);
         let dv = (alpha * (self.cmd_speed_mps - self.speed_mps))
             .clamp(-p.max_accel_mps2 * h, p.max_accel_mps2 * h);
         let dw = (alpha * (self.cmd_rot_radps - self.rot_radps))
             .clamp(-p.max_rot_accel_radps2 * h, p.max_rot_accel_radps2 * h);
         self.speed_mps += dv;
         self.rot_radps += dw;
-        self.truth = integrate(self.truth, self.speed_mps, self.rot_radps, h);
+        self.truth = integrate_arc(self.truth, self.speed_mps, self.rot_radps, h);
 
         // Encoders: both normals are drawn every substep so the stream stays in step whatever
         // the speeds are.
         let (n_left, n_right) = normal_pair(&mut self.rng);
-        let half = 0.5 * p.track_width_m;
-        let left = (self.speed_mps - self.rot_radps * half) * (1.0 + p.encoder_noise_frac * n_left);
-        let right =
-            (self.speed_mps + self.rot_radps * half) * (1.0 + p.encoder_noise_frac * n_right);
+        let (left, right) = wheel_speeds(self.speed_mps, self.rot_radps, p.track_width_m);
+        let left = left * (1.0 + p.encoder_noise_frac * n_left);
+        let right = right * (1.0 + p.encoder_noise_frac * n_right);
         let v_m = 0.5 * (left + right);
         let w_m = (right - left) / p.track_width_m * (1.0 + p.odom_rot_scale_error)
             + p.heading_drift_rad_per_m * v_m;
         self.measured_speed_mps = v_m;
         self.measured_rot_radps = w_m;
-        self.odom = integrate(self.odom, v_m, w_m, h);
+        self.odom = integrate_arc(self.odom, v_m, w_m, h);
     }
 
     /// What the base reports: odometry pose and measured speeds.
@@ -480,41 +471,15 @@ impl SimBase {
     }
 }
 
-/// Move along the arc of constant speeds `v`, `w` for `h` seconds.
-fn integrate(p: Pose, v: f64, w: f64, h: f64) -> Pose {
-    let dth = w * h;
-    let (dx, dy) = if dth.abs() < 1e-9 {
-        // Straight line (second-order in the tiny turn).
-        let mid = p.theta_rad + 0.5 * dth;
-        (v * h * mid.cos(), v * h * mid.sin())
-    } else {
-        let r = v / w;
-        (
-            r * ((p.theta_rad + dth).sin() - p.theta_rad.sin()),
-            -r * ((p.theta_rad + dth).cos() - p.theta_rad.cos()),
-        )
-    };
-    Pose::new(p.x_m + dx, p.y_m + dy, wrap_angle(p.theta_rad + dth))
-}
-
-/// Two independent standard normal draws (Box-Muller).
-fn normal_pair(rng: &mut ChaCha8Rng) -> (f64, f64) {
+/// Two independent standard normal draws (Box-Muller): the simulator's noise and the simulated
+/// teachers' misjudgements.
+pub fn normal_pair<R: Rng + ?Sized>(rng: &mut R) -> (f64, f64) {
     // 1 - u keeps the logarithm's argument in (0, 1].
     let u1: f64 = 1.0 - rng.random::<f64>();
     let u2: f64 = rng.random::<f64>();
     let r = (-2.0 * u1.ln()).sqrt();
     let phi = std::f64::consts::TAU * u2;
     (r * phi.cos(), r * phi.sin())
-}
-
-/// An angle in `(-pi, pi]`.
-pub fn wrap_angle(a: f64) -> f64 {
-    use std::f64::consts::{PI, TAU};
-    if a > -PI && a <= PI {
-        return a;
-    }
-    let w = a.rem_euclid(TAU);
-    if w > PI { w - TAU } else { w }
 }
 
 /// [`SimBase`] as a [`Backend`]: one `step` is one control period. It never fails.
@@ -571,16 +536,6 @@ impl Backend for SimBackend {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn wrap_angle_lands_in_range() {
-        use std::f64::consts::PI;
-        for a in [-10.0, -PI, -3.0, 0.0, 3.0, PI, 7.0, 100.0] {
-            let w = wrap_angle(a);
-            assert!(w > -PI && w <= PI, "{a} -> {w}");
-            assert!(((a - w) / std::f64::consts::TAU).fract().abs() < 1e-9 || (a - w).abs() < 1e-9);
-        }
-    }
 
     #[test]
     fn noiseless_odometry_equals_truth() {

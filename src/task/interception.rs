@@ -23,11 +23,10 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::backend::BaseState;
-use crate::backend::sim::wrap_angle;
 use crate::domain::Domain;
+use crate::geometry::{Pose, bearing, distance, polar, relative_pose, wrap_angle};
 use crate::policy::Policy;
 use crate::task::{Controller, Ending, Score, Task};
-use crate::trace::Pose;
 
 /// Size of the test set (the paper's 100 initial conditions).
 pub const TEST_STARTS: usize = 100;
@@ -129,11 +128,12 @@ fn sample_start(rng: &mut ChaCha8Rng, r: &InterceptionRules) -> BallStart {
     let bearing = rng.random_range(-PI..PI);
     let s = rng.random_range(r.ball_speed_mps.0..=r.ball_speed_mps.1);
     let dir = rng.random_range(-PI..PI);
+    let (position, velocity) = (polar(d, bearing), polar(s, dir));
     BallStart {
-        x_m: d * bearing.cos(),
-        y_m: d * bearing.sin(),
-        vx_mps: s * dir.cos(),
-        vy_mps: s * dir.sin(),
+        x_m: position.x,
+        y_m: position.y,
+        vx_mps: velocity.x,
+        vy_mps: velocity.y,
     }
 }
 
@@ -180,8 +180,8 @@ impl Interception {
 
     /// Distance and angle (robot frame) from `pose` to the ball.
     fn relative(&self, pose: Pose) -> (f64, f64) {
-        let (dx, dy) = (self.ball[0] - pose.x_m, self.ball[1] - pose.y_m);
-        (dx.hypot(dy), wrap_angle(dy.atan2(dx) - pose.theta_rad))
+        let [x, y] = self.ball;
+        (distance(pose.x_m, pose.y_m, x, y), bearing(pose, x, y))
     }
 
     fn in_bounds(&self, x: f64, y: f64) -> bool {
@@ -212,13 +212,14 @@ impl Task for Interception {
             angle_rad: phi,
             pose: state.pose,
         });
-        let (dx, dy) = (state.pose.x_m - p.pose.x_m, state.pose.y_m - p.pose.y_m);
         z[0] = d;
         z[1] = phi;
         z[2] = d - p.dist_m;
         z[3] = wrap_angle(phi - p.angle_rad);
-        z[4] = dx * p.pose.theta_rad.cos() + dy * p.pose.theta_rad.sin();
-        z[5] = wrap_angle(state.pose.theta_rad - p.pose.theta_rad);
+        // How far the robot moved along its previous heading, and how much it turned.
+        let moved = relative_pose(p.pose, state.pose);
+        z[4] = moved.x_m;
+        z[5] = moved.theta_rad;
     }
 
     fn command(&mut self, state: &BaseState, a: &[f64]) -> (f64, f64) {
@@ -250,7 +251,7 @@ impl Task for Interception {
         let robot = true_pose.unwrap_or(state.pose);
         let ball_in = self.in_bounds(self.ball[0], self.ball[1]);
         let robot_in = self.in_bounds(robot.x_m, robot.y_m);
-        let dist = (self.ball[0] - robot.x_m).hypot(self.ball[1] - robot.y_m);
+        let dist = distance(robot.x_m, robot.y_m, self.ball[0], self.ball[1]);
         if !ball_in {
             Some(Ending::BallOut)
         } else if !robot_in {
@@ -267,7 +268,7 @@ impl Task for Interception {
     fn score(&self, ending: Ending, pose: Pose) -> Score {
         Score {
             success: ending == Ending::Captured,
-            position_error_m: (self.ball[0] - pose.x_m).hypot(self.ball[1] - pose.y_m),
+            position_error_m: distance(pose.x_m, pose.y_m, self.ball[0], self.ball[1]),
             heading_error_rad: None,
         }
     }

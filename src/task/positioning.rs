@@ -17,10 +17,10 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::backend::BaseState;
-use crate::backend::sim::wrap_angle;
+use crate::backend::sim::normal_pair;
 use crate::domain::Domain;
+use crate::geometry::{Pose, bearing, wrap_angle};
 use crate::task::{Controller, Ending, Score, Task};
-use crate::trace::Pose;
 
 /// Goal bounds, from the paper.
 pub const GOAL_X_M: (f64, f64) = (-0.33, 4.5);
@@ -111,7 +111,7 @@ pub fn observe(goal: Pose, pose: Pose) -> [f64; 3] {
     let bearing = if dx == 0.0 && dy == 0.0 {
         0.0
     } else {
-        wrap_angle(dy.atan2(dx) - pose.theta_rad)
+        bearing(pose, goal.x_m, goal.y_m)
     };
     [
         dx * dx + dy * dy,
@@ -200,7 +200,7 @@ impl Task for Positioning {
     }
 
     fn score(&self, _ending: Ending, pose: Pose) -> Score {
-        let position_error_m = (self.goal.x_m - pose.x_m).hypot(self.goal.y_m - pose.y_m);
+        let position_error_m = self.goal.distance_to(pose);
         let heading_error_rad = wrap_angle(self.goal.theta_rad - pose.theta_rad).abs();
         Score {
             success: position_error_m < self.rules.success_position_m
@@ -309,9 +309,8 @@ impl PositioningTeacher {
     }
 
     fn normal(&mut self) -> f64 {
-        let u1: f64 = 1.0 - self.rng.random::<f64>();
-        let u2: f64 = self.rng.random::<f64>();
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        // The second draw of the pair is dropped: the stream of choices stays as it always was.
+        normal_pair(&mut self.rng).0
     }
 
     /// What the driver means to command, before lag and tremor.
@@ -320,7 +319,9 @@ impl PositioningTeacher {
         let e = &mut self.episode;
         let (d, bearing, dheading) = (z[0].max(0.0).sqrt(), z[1], z[2]);
         // The perceived goal, in the robot frame: the true goal plus the misjudgement, which is
-        // fixed in the goal's frame (rotate by theta_g - theta_r into the robot's).
+        // fixed in the goal's frame (rotate by theta_g - theta_r into the robot's). This is
+        // `compose_pose`, written out: nalgebra adds the rotated offset as one vector, which moves
+        // the last bit of the recorded demonstrations (and the saved datasets' text with them).
         let (c, sn) = (dheading.cos(), dheading.sin());
         let gx = d * bearing.cos() + c * e.offset.0 - sn * e.offset.1;
         let gy = d * bearing.sin() + sn * e.offset.0 + c * e.offset.1;

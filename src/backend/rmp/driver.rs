@@ -21,9 +21,8 @@ use super::codec::{
     ModeRequest, OpState, Platform, WordOrder, gp, word,
 };
 use super::config::{DriveMode, MachineConfig, RmpConfig};
-use super::emulator::{compose_pose, relative_pose};
 use crate::backend::{Backend, BackendError, BaseState};
-use crate::trace::Pose;
+use crate::geometry::{Pose, rezero};
 
 /// How often the watchdog looks, and how often it repeats zero + DTZ while stopping (UDP may lose
 /// any one datagram, so a stop is repeated until the platform reports it has left drive mode).
@@ -867,7 +866,7 @@ impl Backend for RmpBackend {
         let (x, y, yaw) = fb.odom();
         let odom = Pose::new(f64::from(x), f64::from(y), f64::from(yaw));
         let pose = match self.frame {
-            Some((origin, start)) => compose_pose(start, relative_pose(origin, odom)),
+            Some((origin, start)) => rezero(origin, start, odom),
             None => odom,
         };
         Ok(BaseState {
