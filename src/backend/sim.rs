@@ -3,7 +3,7 @@
 //! This module owns the base's physics and sensing model and every number in it, collected in
 //! [`SimParams`] (one documented struct with defaults, readable from a JSON file). [`SimBase`] is
 //! the model itself, also used behind the RMP emulator; [`SimBackend`] runs it as a
-//! [`Backend`](crate::backend::Backend) at the control rate. The model, per integration substep:
+//! [`Backend`] at the control rate. The model, per integration substep:
 //!
 //! 1. The speed command is clamped to the speed limits (a non-finite command counts as zero).
 //! 2. The true speeds follow the command through a first-order lag (the balancing base must pitch

@@ -105,7 +105,7 @@ pub fn practice_starts(seed: u64, n: usize) -> Vec<BallStart> {
 }
 
 /// Practice start `index` of `seed`: `practice_starts(seed, index + 1)[index]`, computed
-/// directly. A start takes exactly [`WORDS_PER_START`] words of the stream (rand's uniform `f64`
+/// directly. A start takes exactly `WORDS_PER_START` words of the stream (rand's uniform `f64`
 /// ranges draw one `u64` each and never reject), so start `index` begins at word
 /// `index * WORDS_PER_START`, and ChaCha seeks there in constant time. Every `u64` index names a
 /// distinct stretch of the stream (its period is 2^68 words).

@@ -78,7 +78,7 @@ pub fn practice_goals(seed: u64, n: usize) -> Vec<Pose> {
 }
 
 /// Practice goal `index` of `seed`: `practice_goals(seed, index + 1)[index]`, computed directly.
-/// A goal takes exactly [`WORDS_PER_GOAL`] words of the stream (rand's uniform `f64` range draws
+/// A goal takes exactly `WORDS_PER_GOAL` words of the stream (rand's uniform `f64` range draws
 /// one `u64` and never rejects), so goal `index` starts at word `index * WORDS_PER_GOAL`, and
 /// ChaCha seeks there in constant time. Every `u64` index names a distinct stretch of the stream
 /// (its period is 2^68 words).
