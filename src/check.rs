@@ -155,7 +155,7 @@ pub fn render_all(errors: &CheckErrors) -> String {
 
 /// Render one diagnostic as the terminal shows it, without colour, 100 columns wide.
 pub fn render(diag: &dyn miette::Diagnostic) -> String {
-    crate::diagnostic::render(diag, false)
+    crate::diag::render(&crate::diag::SourceMap::new(), diag, false)
 }
 
 /// The best "did you mean" among `candidates`, if any is close.

@@ -1,4 +1,6 @@
-//! Every file `advise` reads or writes goes through here: [`read_text`] and [`write_atomic`].
+//! Every file `advise` reads or writes goes through here: [`read_source`] (into a
+//! [`SourceMap`], for loaders whose errors point into the text), [`read_text`] and
+//! [`write_atomic`].
 //!
 //! Reading refuses anything that is not a regular file before opening it (`open` on a FIFO blocks
 //! until a writer comes; `/dev/zero` never ends), reads at most a limit ([`MAX_READ_BYTES`]
@@ -15,8 +17,10 @@ use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use miette::{Diagnostic, NamedSource, SourceSpan};
+use miette::Diagnostic;
 use thiserror::Error;
+
+use crate::diag::{Loc, SourceId, SourceMap};
 
 /// The most any loader reads from one file: 256 MiB. A saved dataset of 100,000 points with
 /// its executions is some tens of MiB.
@@ -58,10 +62,10 @@ pub enum FileError {
         line: usize,
         column: usize,
         byte: usize,
-        #[source_code]
-        src: NamedSource<String>,
+        /// The first bad byte, in the file's text as read (each bad byte as U+FFFD), when the
+        /// file was read into a source map.
         #[label("not UTF-8")]
-        span: SourceSpan,
+        at: Option<Loc>,
     },
     #[error("cannot write `{path}`")]
     #[diagnostic(
@@ -83,24 +87,82 @@ pub enum FileError {
     LinkLoop { path: String },
 }
 
+/// Read a whole text file of at most [`MAX_READ_BYTES`] into `sources`, named by its path, as
+/// [`read_text`] does; text that is not UTF-8 is kept too (each bad byte as U+FFFD), so the error
+/// can show where.
+pub fn read_source(sources: &mut SourceMap, path: &Path) -> Result<SourceId, FileError> {
+    match read_text_or_lossy(path, MAX_READ_BYTES)? {
+        Ok(text) => Ok(sources.add(path.display().to_string(), text)),
+        Err(bad) => Err(bad.kept_in(sources, path)),
+    }
+}
+
+/// Read a data file (a trace, a dataset, parameters) as [`read_source`] does and `parse` it; the
+/// text stays in `sources` only if reading or parsing fails ([`SourceMap::scratch`]), as only its
+/// diagnostics need it.
+pub fn parse_file<T, E: From<FileError>>(
+    sources: &mut SourceMap,
+    path: &Path,
+    parse: impl FnOnce(crate::diag::Src<'_>) -> Result<T, E>,
+) -> Result<T, E> {
+    match read_text_or_lossy(path, MAX_READ_BYTES)? {
+        Ok(text) => sources.scratch(path.display().to_string(), text, parse),
+        Err(bad) => Err(bad.kept_in(sources, path).into()),
+    }
+}
+
 /// Read a whole text file of at most [`MAX_READ_BYTES`]; see [`read_text_limited`].
 pub fn read_text(path: &Path) -> Result<String, FileError> {
     read_text_limited(path, MAX_READ_BYTES)
 }
 
 /// Read a whole text file of at most `limit` bytes. Refuses anything that is not a regular file
-/// (without opening it), a longer file, and text that is not UTF-8 (naming its line and byte); a
-/// UTF-8 byte-order mark is dropped.
+/// (without opening it), a longer file, and text that is not UTF-8 (naming its line and byte; no
+/// label, as no source map holds the text: [`read_source`] has one); a UTF-8 byte-order mark is
+/// dropped.
 pub fn read_text_limited(path: &Path, limit: u64) -> Result<String, FileError> {
+    read_text_or_lossy(path, limit)?.map_err(|bad| bad.into_error(path, None))
+}
+
+/// Text that is not UTF-8: where, and the text with each bad byte as U+FFFD.
+struct BadUtf8 {
+    lossy: String,
+    /// The first bad byte's U+FFFD in `lossy`.
+    range: std::ops::Range<usize>,
+    line: usize,
+    column: usize,
+    byte: usize,
+}
+
+impl BadUtf8 {
+    /// The error, its text kept in `sources` for the label.
+    fn kept_in(mut self, sources: &mut SourceMap, path: &Path) -> FileError {
+        let id = sources.add(path.display().to_string(), std::mem::take(&mut self.lossy));
+        let at = id.at(self.range.clone());
+        self.into_error(path, Some(at))
+    }
+
+    fn into_error(self, path: &Path, at: Option<Loc>) -> FileError {
+        FileError::NotUtf8 {
+            path: path.display().to_string(),
+            line: self.line,
+            column: self.column,
+            byte: self.byte,
+            at,
+        }
+    }
+}
+
+fn read_text_or_lossy(path: &Path, limit: u64) -> Result<Result<String, BadUtf8>, FileError> {
     let bytes = read_bytes_limited(path, limit)?;
     let (bom, text) = match bytes.strip_prefix(b"\xEF\xBB\xBF") {
         Some(rest) => (3, rest),
         None => (0, &bytes[..]),
     };
-    match std::str::from_utf8(text) {
+    Ok(match std::str::from_utf8(text) {
         Ok(text) => Ok(text.to_string()),
-        Err(e) => Err(not_utf8(path, text, e.valid_up_to(), bom)),
-    }
+        Err(e) => Err(not_utf8(text, e.valid_up_to(), bom)),
+    })
 }
 
 /// Read a whole file of at most `limit` bytes, refusing anything that is not a regular file.
@@ -142,7 +204,7 @@ pub fn read_bytes_limited(path: &Path, limit: u64) -> Result<Vec<u8>, FileError>
 
 /// `bytes` follow a byte-order mark of `bom` bytes, which the message counts and the shown text
 /// leaves out.
-fn not_utf8(path: &Path, bytes: &[u8], valid: usize, bom: usize) -> FileError {
+fn not_utf8(bytes: &[u8], valid: usize, bom: usize) -> BadUtf8 {
     let before = &bytes[..valid];
     let line = before.iter().filter(|b| **b == b'\n').count() + 1;
     let line_start = before
@@ -151,18 +213,17 @@ fn not_utf8(path: &Path, bytes: &[u8], valid: usize, bom: usize) -> FileError {
         .map_or(0, |p| p + 1);
     // The valid prefix reads back unchanged, so the offset holds in the lossy text; the bad
     // byte becomes one U+FFFD (3 bytes).
-    let shown = String::from_utf8_lossy(bytes).into_owned();
+    let lossy = String::from_utf8_lossy(bytes).into_owned();
     let column = String::from_utf8_lossy(&before[line_start..])
         .chars()
         .count()
         + 1;
-    FileError::NotUtf8 {
-        path: path.display().to_string(),
+    BadUtf8 {
+        lossy,
+        range: valid..valid + '\u{FFFD}'.len_utf8(),
         line,
         column,
         byte: valid + bom,
-        src: NamedSource::new(path.display().to_string(), shown),
-        span: SourceSpan::new(valid.into(), '\u{FFFD}'.len_utf8()),
     }
 }
 
@@ -476,5 +537,48 @@ mod tests {
             }) => assert_eq!((line, column, byte), (2, 3, 5)),
             other => panic!("{other:?}"),
         }
+        // Read into a source map, the text is kept (bad byte replaced) and the mark points at it.
+        let mut map = SourceMap::new();
+        let err = read_source(&mut map, &p).unwrap_err();
+        let out = crate::diag::render(&map, &err, false);
+        assert!(out.contains(&format!("[{}:2:3]", p.display())), "{out}");
+        assert!(out.contains("ab\u{FFFD}cd"), "{out}");
+        assert_eq!(map.len(), 1);
+        std::fs::write(&p, b"fine\n").unwrap();
+        let id = read_source(&mut map, &p).unwrap();
+        assert_eq!(map.text(id), "fine\n");
+    }
+
+    #[test]
+    fn a_data_file_stays_in_the_map_only_when_it_fails() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("data.txt");
+        std::fs::write(&p, "12\n").unwrap();
+        let mut map = SourceMap::new();
+        let parse = |src: crate::diag::Src<'_>| {
+            src.text
+                .trim()
+                .parse::<u32>()
+                .map_err(|_| FileError::NotUtf8 {
+                    path: src.name.to_string(),
+                    line: 1,
+                    column: 1,
+                    byte: 0,
+                    at: Some(src.at(0..1)),
+                })
+        };
+        for _ in 0..3 {
+            assert_eq!(parse_file(&mut map, &p, parse).unwrap(), 12);
+        }
+        assert!(map.is_empty());
+        std::fs::write(&p, "x\n").unwrap();
+        let err = parse_file(&mut map, &p, parse).unwrap_err();
+        assert_eq!(map.len(), 1);
+        let out = crate::diag::render(&map, &err, false);
+        assert!(out.contains("data.txt:1:1]") && out.contains(" x"), "{out}");
+        // Bad UTF-8 is kept too, for its mark.
+        std::fs::write(&p, b"\xFF").unwrap();
+        assert!(parse_file(&mut map, &p, parse).is_err());
+        assert_eq!(map.len(), 2);
     }
 }

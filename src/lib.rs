@@ -5,16 +5,17 @@
 //! call on a chunk),
 //! [`policy`] (dataset with provenance, BC 1-NN, A-OPI LWR), [`backend`] (sim and RMP bases).
 //! The shared data types are [`domain`] and [`trace`]; every file is read and written through
-//! [`files`], and every diagnostic is drawn by [`diagnostic::render`].
+//! [`files`], and every diagnostic is drawn by [`diag::render`] from one [`diag::SourceMap`].
 
 pub mod backend;
 pub mod check;
-pub mod diagnostic;
+pub mod diag;
 pub mod domain;
 pub mod eval;
 pub mod experiment;
 pub mod files;
 pub mod interp;
+pub mod number;
 pub mod policy;
 pub mod program;
 pub mod repl;

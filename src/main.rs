@@ -18,6 +18,7 @@ use advise::task::TaskKind;
 use advise::trace::Episode;
 
 use advise::check::{self, OperatorSet, Source};
+use advise::diag::SourceMap;
 use advise::domain::Domain;
 use advise::session::{Session, SessionOptions, journal, script};
 use advise::trace::{Chunk, Trace};
@@ -336,11 +337,13 @@ fn main() -> ExitCode {
 }
 
 /// Print a diagnostic on stderr, showing a bounded window of its source (never a whole file).
+/// An error that points into a source map brings it along ([`advise::diag::Sourced`]).
 fn print_report(diag: &dyn Diagnostic) {
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let none = advise::diag::SourceMap::new();
     eprintln!(
         "{}",
-        advise::diagnostic::render_with_width(diag, colour, 80)
+        advise::diag::render_with_width(&none, diag, colour, 80)
     );
 }
 
@@ -390,7 +393,11 @@ fn start_journal(session: &mut Session, args: &SessionArgs) -> miette::Result<()
 /// Run a script as the REPL would run its lines: the same starting demonstrations (`--demos`),
 /// the same journal; the first failing statement stops it (unless `keep_going`).
 fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Result<ExitCode> {
-    let text = advise::files::read_text(path)?;
+    let mut files = SourceMap::new();
+    let text = match advise::files::read_source(&mut files, path) {
+        Ok(id) => files.text(id).to_string(),
+        Err(e) => return Err(files.attach(e).into()),
+    };
     let mut session = new_session(args, args.demos)?;
     start_journal(&mut session, args)?;
     if let Some(j) = session.journal_path() {
@@ -447,7 +454,7 @@ fn replay(session: &mut Session, path: &Path, text: &str, keep_going: bool) -> u
             Err(e) => {
                 failures += 1;
                 eprintln!("error at {origin}:");
-                eprint!("{}", advise::repl::render(&e, colour));
+                eprint!("{}", advise::repl::render(session.sources(), &e, colour));
                 if !keep_going {
                     break;
                 }
@@ -509,9 +516,11 @@ fn read_sources(files: &[PathBuf]) -> miette::Result<Vec<Source>> {
     files
         .iter()
         .map(|f| {
-            advise::files::read_text(f)
-                .map(|text| Source::new(f.display().to_string(), text))
-                .map_err(Report::from)
+            let mut files = SourceMap::new();
+            match advise::files::read_source(&mut files, f) {
+                Ok(id) => Ok(Source::new(f.display().to_string(), files.text(id))),
+                Err(e) => Err(Report::from(files.attach(e))),
+            }
         })
         .collect()
 }
@@ -571,10 +580,12 @@ fn apply(
     };
     let inv = advise::syntax::parse_invocation(op)?;
     let domain = trace_domain(&set, trace_path, domain)?;
+    let mut files = SourceMap::new();
     let trace = match episode {
-        None => Trace::load(&domain, trace_path)?,
+        None => Trace::load(&mut files, &domain, trace_path).map_err(|e| files.attach(e))?,
         Some(k) => {
-            let mut episodes = Episode::load_all(&domain, trace_path)?;
+            let mut episodes =
+                Episode::load_all(&mut files, &domain, trace_path).map_err(|e| files.attach(e))?;
             let count = episodes.len();
             if k >= count {
                 return Err(miette!(
@@ -639,7 +650,11 @@ fn trace_domain(set: &OperatorSet, path: &Path, name: Option<&str>) -> miette::R
             )
         });
     }
-    let text = advise::files::read_text(path)?;
+    let mut files = SourceMap::new();
+    let text = match advise::files::read_source(&mut files, path) {
+        Ok(id) => files.text(id).to_string(),
+        Err(e) => return Err(files.attach(e).into()),
+    };
     let is_json = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
@@ -681,7 +696,10 @@ fn trace_domain(set: &OperatorSet, path: &Path, name: Option<&str>) -> miette::R
 
 fn sim_params(path: Option<&Path>) -> miette::Result<SimParams> {
     Ok(match path {
-        Some(p) => SimParams::load(p)?,
+        Some(p) => {
+            let mut files = SourceMap::new();
+            SimParams::load(&mut files, p).map_err(|e| files.attach(e))?
+        }
         None => SimParams::default(),
     })
 }
@@ -739,7 +757,9 @@ fn run_eval(args: EvalArgs) -> miette::Result<()> {
                 .as_deref()
                 .ok_or(CliError::NoDataset { policy: name })?;
             let domain = kind.domain();
-            let demos = advise::policy::dataset::load_demonstrations(&domain, path)?;
+            let mut files = SourceMap::new();
+            let demos = advise::policy::dataset::load_demonstrations(&mut files, &domain, path)
+                .map_err(|e| files.attach(e))?;
             let policy = eval::derive_policy(learner, &domain, &demos.episodes)?;
             if backend == BackendSpec::Sim {
                 eval::evaluate(kind, policy.as_ref(), &opts)

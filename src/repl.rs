@@ -22,10 +22,14 @@ use crate::session::Session;
 use crate::syntax::command::is_incomplete;
 use helper::{AdviseHelper, Facts};
 
-/// Render a diagnostic for the terminal (colour only when asked), showing a bounded window of
-/// its source ([`crate::diagnostic::render`]).
-pub fn render(diag: &dyn miette::Diagnostic, colour: bool) -> String {
-    crate::diagnostic::render(diag, colour)
+/// Render a diagnostic whose places are in `sources` for the terminal (colour only when asked),
+/// showing a bounded window of its source ([`crate::diag::render`]).
+pub fn render(
+    sources: &crate::diag::SourceMap,
+    diag: &dyn miette::Diagnostic,
+    colour: bool,
+) -> String {
+    crate::diag::render(sources, diag, colour)
 }
 
 /// The signal the process's SIGINT handler raises (one handler per process, so the signal it
@@ -118,7 +122,7 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
                             break;
                         }
                     }
-                    Err(e) => eprint!("{}", render(&e, colour)),
+                    Err(e) => eprint!("{}", render(session.sources(), &e, colour)),
                 }
                 if let Ok(mut f) = facts.lock() {
                     *f = facts_of(session);

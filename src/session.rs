@@ -29,7 +29,7 @@ use crate::backend::{
     Backend, BackendError, BackendSpec, BackendSpecError, Interruptible, StopSignal,
 };
 use crate::check::{self, CheckError, CheckErrors, OperatorSet, Source};
-use crate::diagnostic::did_you_mean;
+use crate::diag::did_you_mean;
 use crate::domain::Domain;
 use crate::eval::{self, EvalOptions, Report};
 use crate::interp::{self, ApplyError, Synthesized};
@@ -442,6 +442,8 @@ pub struct Session {
     /// Effects made before a journal was started (the starting demonstrations), written first
     /// into the journal when one is started; `None` once one was (or never will be).
     preamble: Option<Vec<Entry>>,
+    /// Every file and statement the session has read, for its diagnostics.
+    sources: crate::diag::SourceMap,
 }
 
 impl std::fmt::Debug for Session {
@@ -456,6 +458,11 @@ impl std::fmt::Debug for Session {
 }
 
 impl Session {
+    /// The sources the session's errors point into: render them with [`crate::diag::render`].
+    pub fn sources(&self) -> &crate::diag::SourceMap {
+        &self.sources
+    }
+
     /// A session on the simulator; with `default_demos > 0` the task's teacher records that many
     /// demonstrations first and the policy is derived from them.
     pub fn new(opts: SessionOptions) -> Result<Session, SessionError> {
@@ -493,6 +500,7 @@ impl Session {
             statement: None,
             warnings: Vec::new(),
             preamble: None,
+            sources: crate::diag::SourceMap::new(),
         }
     }
 
@@ -811,7 +819,10 @@ impl Session {
             }
             Effect::Evaluated { report } => self.state.last_eval = Some((**report).clone()),
             Effect::Open { path, dataset } => {
-                let ds = Dataset::from_json_str(path, dataset).map_err(LearnerError::from)?;
+                let ds = self
+                    .sources
+                    .scratch(path.as_str(), dataset.as_str(), Dataset::parse)
+                    .map_err(LearnerError::from)?;
                 let learner =
                     Learner::with_dataset(ds, LearnerKind::for_task(self.task), self.seed);
                 self.take_learner(learner);
@@ -938,7 +949,7 @@ impl Session {
             other => {
                 return Err(SessionError::UnknownTask {
                     name: other.to_string(),
-                    help: did_you_mean(other, &["positioning", "interception"])
+                    help: did_you_mean(other, ["positioning", "interception"])
                         .unwrap_or_else(|| "the tasks are `positioning` and `interception`".into()),
                 });
             }
@@ -1054,9 +1065,12 @@ impl Session {
                     .collect()
             }
             None => {
-                let demos =
-                    crate::policy::dataset::load_demonstrations(&self.domain, Path::new(path))
-                        .map_err(LearnerError::from)?;
+                let demos = crate::policy::dataset::load_demonstrations(
+                    &mut self.sources,
+                    &self.domain,
+                    Path::new(path),
+                )
+                .map_err(LearnerError::from)?;
                 if let Some((d, a)) = demos.from_dataset {
                     from_dataset = format!(
                         ": a saved dataset's {d} demonstration{} and {a} piece{} of advice, each as one demonstration (critique weights are not carried)",
@@ -1088,7 +1102,7 @@ impl Session {
     }
 
     fn load_trace(&mut self, path: &str) -> Result<String, SessionError> {
-        let trace = Trace::load(&self.domain, Path::new(path))?;
+        let trace = Trace::load(&mut self.sources, &self.domain, Path::new(path))?;
         let n = trace.len();
         self.commit(Effect::Execution(Box::new(ExecutionEntry {
             label: path.to_string(),
@@ -1103,7 +1117,8 @@ impl Session {
     }
 
     fn load_operators(&mut self, path: &str) -> Result<String, SessionError> {
-        let text = crate::files::read_text(Path::new(path))?;
+        let id = crate::files::read_source(&mut self.sources, Path::new(path))?;
+        let text = self.sources.text(id).to_string();
         let before = self.ops.operator_count();
         self.commit(Effect::Define {
             origin: path.to_string(),
@@ -1571,7 +1586,7 @@ impl Session {
             other => {
                 return Err(SessionError::UnknownLearner {
                     name: other.to_string(),
-                    hint: did_you_mean(other, &["bc", "lwr"])
+                    hint: did_you_mean(other, ["bc", "lwr"])
                         .map(|h| format!("; {h}"))
                         .unwrap_or_default(),
                 });
@@ -1674,7 +1689,7 @@ impl Session {
 
     fn open(&mut self, path: &str) -> Result<String, SessionError> {
         // Validated whole before anything changes; the journal keeps the dataset itself.
-        let learner = Learner::open(Path::new(path), self.task, self.seed)?;
+        let learner = Learner::open(&mut self.sources, Path::new(path), self.task, self.seed)?;
         let dataset = learner.dataset().to_json_string();
         self.take_learner(learner);
         // Applied above without deriving the policy twice; `apply` does the same on restore.

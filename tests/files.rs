@@ -402,3 +402,32 @@ fn the_command_line_refuses_special_files_and_reads_a_script_with_a_byte_order_m
     let (ok, stderr) = run(&["run", "bom.adv"]);
     assert!(ok, "{stderr}");
 }
+
+#[test]
+fn data_files_stay_in_the_sessions_source_map_only_when_they_fail() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut s = session(TaskKind::Positioning, 0);
+    let mut lines = String::new();
+    for k in 0..20 {
+        // Twenty different traces, each loaded: none is needed by a diagnostic afterwards.
+        let csv = format!(
+            "t,dist2,bearing,dheading,trans,rot\n0,{k},0.1,0.2,0.5,0\n0.1,3.9,0.1,0.2,0.5,0\n"
+        );
+        std::fs::write(d.join(format!("t{k}.csv")), csv).unwrap();
+        lines.push_str(&format!("load trace {}/t{k}.csv\n", d.display()));
+    }
+    transcript(&mut s, d, &lines);
+    assert_eq!(s.sources().len(), 0, "{:?}", s.sources());
+    // A failing one is kept for its diagnostic, once however often it fails.
+    std::fs::write(
+        d.join("bad.csv"),
+        "t,dist2,bearing,dheading,trans,rot\n0,x,0,0,0,0\n",
+    )
+    .unwrap();
+    let bad = format!("load trace {}/bad.csv\n", d.display()).repeat(3);
+    let t = transcript(&mut s, d, &bad);
+    assert_eq!(t.matches("advise::trace::not_a_number").count(), 3, "{t}");
+    assert!(t.contains("[<dir>/bad.csv:2:3]"), "{t}");
+    assert_eq!(s.sources().len(), 1, "{:?}", s.sources());
+}

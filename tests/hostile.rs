@@ -366,7 +366,7 @@ fn scripts_are_split_by_brackets_line_by_line() {
     })
     .unwrap();
     let err = s.execute(&st[0].text, "script.adv:1").unwrap_err();
-    let shown = advise::repl::render(&err, false);
+    let shown = advise::repl::render(s.sources(), &err, false);
     assert!(
         shown.contains("advise::parse::unclosed_delimiter"),
         "{shown}"
@@ -487,7 +487,7 @@ fn the_session_says_when_a_definition_shadows_a_standard_operator() {
         out.push_str(&format!("advise> {}\n", st.text));
         match s.execute(&st.text, &format!("<line {}>", st.line)) {
             Ok(r) => out.push_str(&format!("{}\n", r.text.trim_end())),
-            Err(e) => out.push_str(&advise::repl::render(&e, false)),
+            Err(e) => out.push_str(&advise::repl::render(s.sources(), &e, false)),
         }
     }
     let out = out.replace(&path.display().to_string(), "mine.adv");

@@ -4,8 +4,9 @@
 use advise::check::{self, OperatorSet, Source, render};
 use advise::domain::{Domain, Space};
 use advise::interp::{self, AppliedAdvice};
+use advise::number::fmt_num;
 use advise::syntax::parse_invocation;
-use advise::trace::{Chunk, Pose, Trace, fmt_num};
+use advise::trace::{Chunk, Pose, Trace};
 
 fn positioning_trace(n: usize) -> Trace {
     let d = Domain::positioning();

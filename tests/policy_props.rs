@@ -228,7 +228,7 @@ proptest! {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("d.json");
         ds.save(&path).unwrap();
-        prop_assert_eq!(Dataset::load(&path).unwrap(), ds);
+        prop_assert_eq!(Dataset::load(&mut advise::diag::SourceMap::new(), &path).unwrap(), ds);
     }
 }
 

@@ -45,13 +45,9 @@ fn drive(b: &mut RmpBackend, n: usize, v: f64, w: f64) -> Vec<BaseState> {
         .collect()
 }
 
+/// As the REPL draws it.
 fn render(e: &dyn miette::Diagnostic) -> String {
-    let mut out = String::new();
-    miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
-        .with_width(100)
-        .render_report(&mut out, e)
-        .unwrap();
-    out
+    advise::diag::render(&advise::diag::SourceMap::new(), e, false)
 }
 
 #[test]

@@ -106,7 +106,7 @@ fn the_session_drives_the_rmp_and_ctrl_c_stops_it_keeping_the_execution() {
             }
             other => panic!("{other:?}"),
         }
-        let text = advise::repl::render(&err, false);
+        let text = advise::repl::render(s.sources(), &err, false);
         assert!(text.contains("advise::session::run_interrupted"), "{text}");
         assert!(text.contains("the base was stopped"), "{text}");
         watcher.join().unwrap()
@@ -146,7 +146,7 @@ fn backends_that_cannot_be_driven_say_why() {
         let err = s.execute(&format!("backend {spec}"), "<test>").unwrap_err();
         insta::assert_snapshot!(
             format!("backend_{}", spec.replace([':', '.'], "_")),
-            advise::repl::render(&err, false)
+            advise::repl::render(s.sources(), &err, false)
         );
     }
     // Nothing listens on this port: the start-up sequence gives up at the fault-log step, and the
@@ -158,7 +158,7 @@ fn backends_that_cannot_be_driven_say_why() {
     let err = s
         .execute(&format!("backend rmp:127.0.0.1:{port}"), "<test>")
         .unwrap_err();
-    let text = advise::repl::render(&err, false);
+    let text = advise::repl::render(s.sources(), &err, false);
     assert!(
         text.contains("advise::session::backend_unavailable"),
         "{text}"

@@ -124,7 +124,7 @@ fn every_example_session_runs() {
         let mut s = positioning(9);
         for st in script::statements(&text) {
             if let Err(e) = s.execute(&st.text, &format!("{}:{}", path.display(), st.line)) {
-                panic!("{}", advise::repl::render(&e, false));
+                panic!("{}", advise::repl::render(s.sources(), &e, false));
             }
         }
     }
@@ -215,7 +215,11 @@ fn a_session_refuses_simulator_parameters_out_of_range() {
         ..SessionOptions::default()
     };
     let e = Session::new(opts).expect_err("refused");
-    insta::assert_snapshot!(advise::repl::render(&e, false));
+    insta::assert_snapshot!(advise::repl::render(
+        &advise::diag::SourceMap::new(),
+        &e,
+        false
+    ));
 }
 
 /// The teacher's pictures: `show` with its action strip, `plot`, `plot actions`, `plot compare`,

@@ -22,7 +22,11 @@ use common::positioning;
 fn run(s: &mut Session, lines: &str) {
     for st in script::statements(lines) {
         if let Err(e) = s.execute(&st.text, "<test>") {
-            panic!("{}: {}", st.text, advise::repl::render(&e, false));
+            panic!(
+                "{}: {}",
+                st.text,
+                advise::repl::render(s.sources(), &e, false)
+            );
         }
     }
 }

@@ -6,13 +6,9 @@ use advise::backend::sim::{SimBackend, SimBase, SimParams};
 use advise::trace::Pose;
 use proptest::prelude::*;
 
+/// As the REPL draws it (the errors bring their own sources).
 fn render(err: &dyn miette::Diagnostic) -> String {
-    let mut out = String::new();
-    miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
-        .with_width(100)
-        .render_report(&mut out, err)
-        .unwrap();
-    out
+    advise::diag::render(&advise::diag::SourceMap::new(), err, false)
 }
 
 /// A wiggly command sequence that exercises turning, reversing and the limits.
@@ -230,7 +226,11 @@ fn params_file_diagnostics() {
         let err = SimParams::from_json_str(name, text).unwrap_err();
         out.push_str(&format!("----- {name}\n{}\n", render(&err)));
     }
-    let missing = SimParams::load(std::path::Path::new("/nonexistent/sim.json")).unwrap_err();
+    let missing = SimParams::load(
+        &mut advise::diag::SourceMap::new(),
+        std::path::Path::new("/nonexistent/sim.json"),
+    )
+    .unwrap_err();
     out.push_str(&format!("----- missing\n{}\n", render(&missing)));
     insta::assert_snapshot!(out);
 }

@@ -32,7 +32,12 @@ fn demo_writes_episodes_that_load_back_as_csv_and_json() {
         assert!(o.status.success(), "{}", stderr(&o));
         assert!(stderr(&o).contains(&format!("recorded 3 {task} demonstrations")));
         let domain = Domain::builtin(task).unwrap();
-        let eps = Episode::load_all(&domain, &dir.path().join(file)).unwrap();
+        let eps = Episode::load_all(
+            &mut advise::diag::SourceMap::new(),
+            &domain,
+            &dir.path().join(file),
+        )
+        .unwrap();
         assert_eq!(
             eps.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(),
             ["demo-0", "demo-1", "demo-2"]
@@ -49,7 +54,12 @@ fn demo_writes_episodes_that_load_back_as_csv_and_json() {
             dir.path(),
         );
         assert!(again.status.success());
-        let a = Episode::load_all(&domain, &dir.path().join("again")).unwrap();
+        let a = Episode::load_all(
+            &mut advise::diag::SourceMap::new(),
+            &domain,
+            &dir.path().join("again"),
+        )
+        .unwrap();
         let b: Vec<_> = eps.iter().map(|e| e.trace.clone()).collect();
         assert_eq!(a.iter().map(|e| e.trace.clone()).collect::<Vec<_>>(), b);
     }

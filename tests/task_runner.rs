@@ -191,10 +191,6 @@ fn a_lost_link_returns_the_execution_so_far_and_stops_the_base() {
     assert_eq!(err.execution.outcome.ending, Ending::Interrupted);
     assert!(!err.execution.outcome.success);
     assert!(err.execution.outcome.length_m > 0.0);
-    let mut out = String::new();
-    miette::GraphicalReportHandler::new_themed(miette::GraphicalTheme::unicode_nocolor())
-        .with_width(100)
-        .render_report(&mut out, &err)
-        .unwrap();
+    let out = advise::diag::render(&advise::diag::SourceMap::new(), &err, false);
     insta::assert_snapshot!(out);
 }

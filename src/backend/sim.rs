@@ -20,14 +20,15 @@
 
 use std::path::Path;
 
-use miette::{Diagnostic, NamedSource, SourceSpan};
+use miette::Diagnostic;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::backend::{Backend, BackendError, BaseState};
-use crate::trace::{Pose, line_col_span};
+use crate::diag::{Loc, SourceMap, Sourced, Src, locate};
+use crate::trace::Pose;
 
 /// Every parameter of the simulated base. The paper gives only the control rate (30 Hz); the rest
 /// are ours, chosen to resemble a Segway RMP 200 driven indoors at walking pace.
@@ -203,23 +204,28 @@ impl SimParams {
         1.0 / self.rate_hz
     }
 
-    /// Read parameters from a JSON file (see the struct's docs for the format).
-    pub fn load(path: &Path) -> Result<SimParams, SimError> {
-        let text = crate::files::read_text(path)?;
-        SimParams::from_json_str(&path.display().to_string(), &text)
+    /// Read parameters from a JSON file into `sources` (see the struct's docs for the format).
+    pub fn load(sources: &mut SourceMap, path: &Path) -> Result<SimParams, SimError> {
+        crate::files::parse_file(sources, path, SimParams::parse)
     }
 
-    /// Parse and validate JSON text; `name` is used in diagnostics, usually the path. A value out
-    /// of range is reported with its place in the text.
-    pub fn from_json_str(name: &str, text: &str) -> Result<SimParams, SimError> {
+    /// [`SimParams::parse`] of a text outside any session (its error brings its own source map).
+    pub fn from_json_str(name: &str, text: &str) -> Result<SimParams, Sourced<SimError>> {
+        let mut sources = SourceMap::new();
+        let id = sources.add(name, text);
+        SimParams::parse(sources.src(id)).map_err(|e| sources.attach(e))
+    }
+
+    /// Parse and validate JSON text. A value out of range is reported with its place in the text.
+    pub fn parse(src: Src<'_>) -> Result<SimParams, SimError> {
+        let text = src.text;
         let params: SimParams = serde_json::from_str(text).map_err(|e| {
             let message = e.to_string();
             let help = unknown_field_help(&message);
             SimError::Json {
                 message,
                 help,
-                src: NamedSource::new(name, text.to_string()),
-                span: line_col_span(text, e.line(), e.column()),
+                at: src.at(locate::line_col(text, e.line(), e.column())),
             }
         })?;
         params.validate().map_err(|e| match e {
@@ -229,17 +235,13 @@ impl SimParams {
                 expected,
                 help,
                 ..
-            } => {
-                let span = value_span(text, field);
-                SimError::Invalid {
-                    field,
-                    value,
-                    expected,
-                    help,
-                    src: span.map(|_| NamedSource::new(name, text.to_string())),
-                    span,
-                }
-            }
+            } => SimError::Invalid {
+                field,
+                value,
+                expected,
+                help,
+                at: locate::json_member_value(text, field).map(|r| src.at(r)),
+            },
             other => other,
         })?;
         Ok(params)
@@ -258,14 +260,13 @@ impl SimParams {
                 };
                 return Err(SimError::Invalid {
                     field: r.field,
-                    value: fmt_number(value),
+                    value: crate::number::fmt_readable(value),
                     expected: format!("from {} to {}{unit}", r.min, r.max),
                     help: format!(
                         "`{}` is {}; remove the field to use the default, {default}{unit}",
                         r.field, r.what
                     ),
-                    src: None,
-                    span: None,
+                    at: None,
                 });
             }
         }
@@ -284,80 +285,14 @@ impl SimParams {
     }
 }
 
-/// A number as a person would write it: `1e300`, not three hundred digits.
-fn fmt_number(v: f64) -> String {
-    let a = v.abs();
-    if v.is_finite() && v != 0.0 && !(1e-4..1e6).contains(&a) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
-}
-
-/// The byte span of top-level member `field`'s value in a JSON object's text, for the label of a
-/// value out of range. Only called on text serde has already accepted as a `SimParams` (one flat
-/// object of numbers, no duplicate keys); anything unexpected gives `None` (no label).
-fn value_span(text: &str, field: &str) -> Option<SourceSpan> {
-    let b = text.as_bytes();
-    let skip_ws = |mut i: usize| {
-        while i < b.len() && b[i].is_ascii_whitespace() {
-            i += 1;
-        }
-        i
-    };
-    let mut i = skip_ws(0);
-    if b.get(i) != Some(&b'{') {
-        return None;
-    }
-    i += 1;
-    loop {
-        i = skip_ws(i);
-        if b.get(i) != Some(&b'"') {
-            return None;
-        }
-        // The key, escapes and all: serde_json decodes it as it did when deserialising.
-        let key_start = i;
-        i += 1;
-        while i < b.len() && b[i] != b'"' {
-            i += if b[i] == b'\\' { 2 } else { 1 };
-        }
-        let key: String = serde_json::from_str(text.get(key_start..=i)?).ok()?;
-        i = skip_ws(i + 1);
-        if b.get(i) != Some(&b':') {
-            return None;
-        }
-        let start = skip_ws(i + 1);
-        let mut end = start;
-        while end < b.len() && !matches!(b[end], b',' | b'}') && !b[end].is_ascii_whitespace() {
-            end += 1;
-        }
-        if key == field {
-            return Some(SourceSpan::new(start.into(), end - start));
-        }
-        i = skip_ws(end);
-        match b.get(i) {
-            Some(b',') => i += 1,
-            _ => return None,
-        }
-    }
-}
-
 /// "did you mean" for serde's `unknown field `x`` message.
 fn unknown_field_help(message: &str) -> String {
     let fields = SimParams::RANGES.map(|r| r.field);
     let unknown = message
         .strip_prefix("unknown field `")
         .and_then(|rest| rest.split('`').next());
-    if let Some(name) = unknown {
-        let best = fields
-            .iter()
-            .map(|f| (strsim::jaro_winkler(name, f), *f))
-            .max_by(|a, b| a.0.total_cmp(&b.0));
-        if let Some((score, f)) = best
-            && score > 0.8
-        {
-            return format!("did you mean `{f}`?");
-        }
+    if let Some(help) = unknown.and_then(|name| crate::diag::did_you_mean(name, fields)) {
+        return help;
     }
     format!(
         "simulator parameters are a JSON object with any of: {}",
@@ -376,10 +311,8 @@ pub enum SimError {
     Json {
         message: String,
         help: String,
-        #[source_code]
-        src: NamedSource<String>,
         #[label("here")]
-        span: SourceSpan,
+        at: Loc,
     },
     #[error("simulator parameter `{field}` is {value}; it must be {expected}")]
     #[diagnostic(code(advise::sim::params_invalid), help("{help}"))]
@@ -390,11 +323,9 @@ pub enum SimError {
         /// The range, with its unit.
         expected: String,
         help: String,
-        /// The parameters file, when they came from one.
-        #[source_code]
-        src: Option<NamedSource<String>>,
+        /// The value in the parameters file, when they came from one.
         #[label("out of range")]
-        span: Option<SourceSpan>,
+        at: Option<Loc>,
     },
 }
 

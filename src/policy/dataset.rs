@@ -13,13 +13,15 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use miette::{Diagnostic, NamedSource, SourceSpan};
+use miette::Diagnostic;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::diag::{Loc, SourceMap, Sourced, Src, locate};
 use crate::domain::Domain;
 use crate::interp::AppliedAdvice;
-use crate::trace::{Chunk, Episode, JsonPoint, Trace, fmt_num, line_col_span};
+use crate::number::fmt_num;
+use crate::trace::{Chunk, Episode, JsonPoint, Trace};
 
 /// Ids are small integers, unique within a dataset and never reused.
 pub type DemoId = u32;
@@ -131,10 +133,8 @@ pub enum DatasetError {
     )]
     Json {
         message: String,
-        #[source_code]
-        src: NamedSource<String>,
         #[label("here")]
-        span: SourceSpan,
+        at: Loc,
     },
     #[error("refused to add a value that is not finite: {what}")]
     #[diagnostic(
@@ -163,10 +163,8 @@ pub enum DatasetError {
         )
     )]
     Null {
-        #[source_code]
-        src: NamedSource<String>,
         #[label("not a number")]
-        span: SourceSpan,
+        at: Loc,
     },
     #[error("`{at}` is {value}, not a finite number")]
     #[diagnostic(
@@ -637,11 +635,17 @@ impl Dataset {
             .expect("a dataset's values are finite and its keys strings")
     }
 
-    /// Load a dataset saved as JSON, read with [`crate::files::read_text`] and validated whole
-    /// ([`Dataset::from_json_str`]).
-    pub fn load(path: &Path) -> Result<Dataset, DatasetError> {
-        let text = crate::files::read_text(path)?;
-        Dataset::from_json_str(&path.display().to_string(), &text)
+    /// Load a dataset saved as JSON, read into `sources` and validated whole
+    /// ([`Dataset::parse`]).
+    pub fn load(sources: &mut SourceMap, path: &Path) -> Result<Dataset, DatasetError> {
+        crate::files::parse_file(sources, path, Dataset::parse)
+    }
+
+    /// [`Dataset::parse`] of a text outside any session (its error brings its own source map).
+    pub fn from_json_str(name: &str, text: &str) -> Result<Dataset, Sourced<DatasetError>> {
+        let mut sources = SourceMap::new();
+        let id = sources.add(name, text);
+        Dataset::parse(sources.src(id)).map_err(|e| sources.attach(e))
     }
 
     /// Whether JSON text is a saved dataset (rather than a trace or demonstrations): its top
@@ -663,20 +667,23 @@ impl Dataset {
     /// reference resolved, every point of the domain's shape and finite, every action within its
     /// limits, and
     /// the weights what the critiques say.
-    pub fn from_json_str(name: &str, text: &str) -> Result<Dataset, DatasetError> {
+    pub fn parse(src: Src<'_>) -> Result<Dataset, DatasetError> {
+        let text = src.text;
         let file: DatasetFile = serde_json::from_str(text).map_err(|e| {
-            let src = NamedSource::new(name, text.to_string());
-            let span = line_col_span(text, e.line(), e.column());
+            let span = locate::line_col(text, e.line(), e.column());
             let message = e.to_string();
             // NaN and infinity were saved as `null` by earlier versions.
             if message.starts_with("invalid type: null, expected f64") {
                 // serde points after the value; cover the `null` itself.
-                let end = span.offset();
+                let end = span.start;
                 let start = text[..end].rfind("null").filter(|s| s + 4 >= end);
-                let span = start.map_or(span, |s| SourceSpan::new(s.into(), 4));
-                DatasetError::Null { src, span }
+                let span = start.map_or(span, |s| s..s + 4);
+                DatasetError::Null { at: src.at(span) }
             } else {
-                DatasetError::Json { message, src, span }
+                DatasetError::Json {
+                    message,
+                    at: src.at(span),
+                }
             }
         })?;
         if file.format != "advise-dataset-1" {
@@ -770,35 +777,38 @@ pub struct Demonstrations {
 
 /// Read demonstrations for `domain` from any file that holds them: a demonstrations file (CSV
 /// or JSON, [`Episode`]) or a dataset saved by a session ([`Dataset::to_episodes`]).
-pub fn load_demonstrations(domain: &Domain, path: &Path) -> Result<Demonstrations, DatasetError> {
-    let text = crate::files::read_text(path)?;
-    let name = path.display().to_string();
-    let is_json = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    if is_json && Dataset::is_dataset_json(&text) {
-        let ds = Dataset::from_json_str(&name, &text)?;
-        if ds.domain() != domain {
-            return Err(crate::trace::TraceError::DomainMismatch {
-                expected: domain.name.clone(),
-                found: ds.domain().name.clone(),
+pub fn load_demonstrations(
+    sources: &mut SourceMap,
+    domain: &Domain,
+    path: &Path,
+) -> Result<Demonstrations, DatasetError> {
+    crate::files::parse_file(sources, path, |src| {
+        let name = path.display().to_string();
+        let is_json = crate::trace::is_json(path);
+        if is_json && Dataset::is_dataset_json(src.text) {
+            let ds = Dataset::parse(src)?;
+            if ds.domain() != domain {
+                return Err(crate::trace::TraceError::DomainMismatch {
+                    expected: domain.name.clone(),
+                    found: ds.domain().name.clone(),
+                }
+                .into());
             }
-            .into());
+            let from = (ds.demos().len(), ds.advice().len());
+            return Ok(Demonstrations {
+                episodes: ds.to_episodes(&name),
+                from_dataset: Some(from),
+            });
         }
-        let from = (ds.demos().len(), ds.advice().len());
-        return Ok(Demonstrations {
-            episodes: ds.to_episodes(&name),
-            from_dataset: Some(from),
-        });
-    }
-    let episodes = if is_json {
-        Episode::from_json_str(domain, &name, &text)?
-    } else {
-        Episode::from_csv_str(domain, &name, &text)?
-    };
-    Ok(Demonstrations {
-        episodes,
-        from_dataset: None,
+        let episodes = if is_json {
+            Episode::parse_json(domain, src)?
+        } else {
+            Episode::parse_csv(domain, src)?
+        };
+        Ok(Demonstrations {
+            episodes,
+            from_dataset: None,
+        })
     })
 }
 

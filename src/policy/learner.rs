@@ -559,8 +559,13 @@ impl Learner {
 
     /// Open a saved dataset for `task`: a dataset of another task's domain (or of a domain with
     /// other dimensions or limits under the same name) is refused.
-    pub fn open(path: &Path, task: TaskKind, seed: u64) -> Result<Learner, LearnerError> {
-        let ds = Dataset::load(path)?;
+    pub fn open(
+        sources: &mut crate::diag::SourceMap,
+        path: &Path,
+        task: TaskKind,
+        seed: u64,
+    ) -> Result<Learner, LearnerError> {
+        let ds = Dataset::load(sources, path)?;
         let want = task.domain();
         let found = ds.domain();
         if found.name != want.name {

@@ -224,7 +224,7 @@ fn unknown_command(name: &str, src: &str) -> Option<ParseError> {
         word: word.to_string(),
         src: miette::NamedSource::new(name, super::SourceText::from(src)),
         span: (at, word.len()).into(),
-        help: crate::diagnostic::did_you_mean(word, &words)
+        help: crate::diag::did_you_mean(word, &words)
             .unwrap_or_else(|| "`help` lists the commands".into()),
     })
 }

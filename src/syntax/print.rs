@@ -173,7 +173,7 @@ impl Display for Call {
 
 /// Shortest decimal text that reads back as the same `f64` (never an exponent, never `-0`).
 pub fn number(v: f64) -> String {
-    crate::trace::fmt_num(v)
+    crate::number::fmt_num(v)
 }
 
 impl Display for Expr {

@@ -1,6 +1,6 @@
 //! The source text a diagnostic shows: shared, never copied per diagnostic. A 40,000-operator
 //! file with an error in each used to copy the file into each error. How much of a long line is
-//! drawn is decided once, where diagnostics are rendered ([`crate::diagnostic::Bounded`]), so a
+//! drawn is decided once, where diagnostics are rendered ([`crate::diag::render::Bounded`]), so a
 //! diagnostic costs the same on any input.
 
 use std::fmt;

@@ -28,7 +28,7 @@ pub fn raw_transcript(session: &mut Session, lines: &str) -> String {
                     out.push('\n');
                 }
             }
-            Err(e) => out.push_str(&advise::repl::render(&e, false)),
+            Err(e) => out.push_str(&advise::repl::render(session.sources(), &e, false)),
         }
     }
     out

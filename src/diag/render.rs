@@ -1,12 +1,12 @@
-//! Rendering diagnostics without ever printing a whole file: [`Bounded`] wraps any diagnostic so
-//! that its source code shows only a window around each label, and [`render`] draws it.
+//! Drawing diagnostics, the only place that does: [`render`] draws any diagnostic against a
+//! [`SourceMap`], and [`Bounded`] makes each source show only a window around each label.
 //!
-//! Errors keep their whole source (a saved dataset is one JSON line that may be megabytes long),
-//! and miette would print all of it, and panics on a label past column 65,535. The window is a
-//! few lines of context, and on a long line at most [`SIDE_BYTES`] either side of the label, cut
-//! on character boundaries; labels longer than that are shortened. Applied where diagnostics are
-//! rendered (the REPL, the command line, the tests), so every error type benefits. This module
-//! renders and suggests ([`did_you_mean`]); it defines no errors.
+//! A source may be huge (a saved dataset is one JSON line that may be megabytes long), and miette
+//! would print all of it, and panics on a label past column 65,535. The window is a few lines of
+//! context, and on a long line at most [`SIDE_BYTES`] either side of the label, cut on character
+//! boundaries; labels longer than that are shortened. A diagnostic that brings its own source code
+//! (an error not yet converted to [`crate::diag::Loc`]s, or a [`crate::diag::Sourced`]) is drawn
+//! from it, bounded the same way.
 
 use std::fmt;
 
@@ -14,16 +14,24 @@ use miette::{
     Diagnostic, LabeledSpan, MietteError, MietteSpanContents, SourceCode, SourceSpan, SpanContents,
 };
 
+use super::SourceMap;
+
 /// Bytes of a long line shown on each side of a label.
 pub const SIDE_BYTES: usize = 160;
 
-/// Render a diagnostic as the terminal shows it, 100 columns wide; colour only if asked.
-pub fn render(diag: &dyn Diagnostic, colour: bool) -> String {
-    render_with_width(diag, colour, 100)
+/// Render a diagnostic whose places are in `sources` as the terminal shows it, 100 columns wide;
+/// colour only if asked.
+pub fn render(sources: &SourceMap, diag: &dyn Diagnostic, colour: bool) -> String {
+    render_with_width(sources, diag, colour, 100)
 }
 
 /// [`render`] at another width (the command line keeps miette's 80 columns).
-pub fn render_with_width(diag: &dyn Diagnostic, colour: bool, width: usize) -> String {
+pub fn render_with_width(
+    sources: &SourceMap,
+    diag: &dyn Diagnostic,
+    colour: bool,
+    width: usize,
+) -> String {
     let theme = if colour {
         miette::GraphicalTheme::unicode()
     } else {
@@ -32,7 +40,7 @@ pub fn render_with_width(diag: &dyn Diagnostic, colour: bool, width: usize) -> S
     let handler = miette::GraphicalReportHandler::new_themed(theme)
         .with_width(width)
         .with_links(false);
-    let bounded = Bounded::new(diag);
+    let bounded = Bounded::new(diag, sources);
     let mut out = String::new();
     if handler.render_report(&mut out, &bounded).is_err() {
         out = format!("{diag}\n");
@@ -40,8 +48,8 @@ pub fn render_with_width(diag: &dyn Diagnostic, colour: bool, width: usize) -> S
     out
 }
 
-/// A diagnostic whose source code (and that of its related and source diagnostics) reads only a
-/// bounded window around each span.
+/// A diagnostic whose source code (its own, or else the map's; and that of its related and
+/// source diagnostics) reads only a bounded window around each span.
 pub struct Bounded<'a> {
     inner: &'a dyn Diagnostic,
     source: Option<BoundedSource<'a>>,
@@ -50,15 +58,26 @@ pub struct Bounded<'a> {
 }
 
 impl<'a> Bounded<'a> {
-    pub fn new(inner: &'a dyn Diagnostic) -> Bounded<'a> {
+    /// `inner` drawn from its own source code, or else from `sources` (when it has any).
+    pub fn new(inner: &'a dyn Diagnostic, sources: &'a SourceMap) -> Bounded<'a> {
+        let fallback = (!sources.is_empty()).then_some(sources as &dyn SourceCode);
+        Bounded::with_fallback(inner, fallback)
+    }
+
+    /// As miette does, a related or source diagnostic without source code of its own is drawn
+    /// from its parent's.
+    fn with_fallback(inner: &'a dyn Diagnostic, fallback: Option<&'a dyn SourceCode>) -> Self {
+        let source = inner.source_code().or(fallback);
         Bounded {
             inner,
-            source: inner.source_code().map(BoundedSource),
+            source: source.map(BoundedSource),
             related: inner
                 .related()
-                .map(|r| r.map(Bounded::new).collect())
+                .map(|r| r.map(|d| Bounded::with_fallback(d, source)).collect())
                 .unwrap_or_default(),
-            cause: inner.diagnostic_source().map(|d| Box::new(Bounded::new(d))),
+            cause: inner
+                .diagnostic_source()
+                .map(|d| Box::new(Bounded::with_fallback(d, source))),
         }
     }
 }
@@ -185,20 +204,10 @@ fn is_continuation(data: &[u8], i: usize) -> bool {
     data.get(i).is_some_and(|b| b & 0xC0 == 0x80)
 }
 
-/// The known name closest to `name`, if it is close enough to be what was meant, as the help
-/// text "did you mean `k`?".
-pub fn did_you_mean(name: &str, known: &[&str]) -> Option<String> {
-    known
-        .iter()
-        .map(|k| (strsim::jaro_winkler(k, name), k))
-        .filter(|(s, _)| *s > 0.8)
-        .max_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|(_, k)| format!("did you mean `{k}`?"))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::diag::Loc;
     use miette::NamedSource;
     use thiserror::Error;
 
@@ -219,15 +228,25 @@ mod tests {
         let at = text.len();
         text.push_str("BAD");
         text.push_str(&"x".repeat(100_000));
-        let err = Bad {
+        // In a source map, after another source (as every loader now reports it), and with
+        // its own source (an error that brings it).
+        let mut map = SourceMap::new();
+        map.add("first.json", "{}\n");
+        let id = map.add("long.json", text.as_str());
+        let in_map = InMap { at: id.span(at, 3) };
+        let own = Bad {
             src: NamedSource::new("long.json", text),
             span: SourceSpan::new(at.into(), 3),
         };
-        let out = render(&err, false);
-        assert!(out.contains("BAD"), "{out}");
-        assert!(out.len() < 4 * SIDE_BYTES + 1_000, "{} bytes", out.len());
-        // miette counts columns in bytes.
-        assert!(out.contains("[long.json:1:80001]"), "{out}");
+        for out in [
+            render(&map, &in_map, false),
+            render(&SourceMap::new(), &own, false),
+        ] {
+            assert!(out.contains("BAD"), "{out}");
+            assert!(out.len() < 4 * SIDE_BYTES + 1_000, "{} bytes", out.len());
+            // miette counts columns in bytes.
+            assert!(out.contains("[long.json:1:80001]"), "{out}");
+        }
     }
 
     #[test]
@@ -248,6 +267,54 @@ mod tests {
             handler.render_report(&mut out, &err).unwrap();
             out
         };
-        assert_eq!(render(&err, false), plain);
+        assert_eq!(render(&SourceMap::new(), &err, false), plain);
+        // The same error pointing into a map renders the same.
+        let mut map = SourceMap::new();
+        map.add("other.txt", "unrelated\n");
+        let id = map.add("short.txt", err.src.inner().clone());
+        let mapped = InMap { at: id.span(at, 3) };
+        assert_eq!(
+            render(&map, &mapped, false),
+            plain.replace("test::bad", "test::in_map")
+        );
+    }
+
+    #[derive(Debug, Error, Diagnostic)]
+    #[error("bad value")]
+    #[diagnostic(code(advise::test::in_map))]
+    struct InMap {
+        #[label("here")]
+        at: Loc,
+    }
+
+    #[derive(Debug, Error, Diagnostic)]
+    #[error("`speed_up` is defined twice")]
+    #[diagnostic(code(advise::test::twice))]
+    struct Twice {
+        #[label("redefined here")]
+        again: Loc,
+        #[label("first defined here")]
+        first: Loc,
+    }
+
+    #[test]
+    fn one_diagnostic_labels_two_sources() {
+        let mut map = SourceMap::new();
+        let file = map.add(
+            "operators/speed.adv",
+            "// speeds\noperator speed_up = scale trans by 1.2\n",
+        );
+        let line = map.add("<repl>", "operator speed_up = scale trans by 2");
+        let err = Twice {
+            again: line.span(9, 8),
+            first: file.span(19, 8),
+        };
+        let out = render(&map, &err, false);
+        assert!(out.contains("[<repl>:1:10]"), "{out}");
+        assert!(out.contains("[operators/speed.adv:2:10]"), "{out}");
+        assert!(
+            out.contains("redefined here") && out.contains("first defined here"),
+            "{out}"
+        );
     }
 }
