@@ -1,8 +1,9 @@
 //! Reading and writing files, as a teacher meets it in a session: special files refused at once,
 //! reads capped, a byte-order mark accepted and bad UTF-8 located; saves atomic, through links,
 //! with the umask's permissions and a named format; a saved dataset validated whole when opened
-//! and usable as demonstrations; demonstration files whose episodes are split, repeated or empty
-//! refused; and no diagnostic printing a whole file. Transcripts are snapshotted (insta).
+//! and usable as demonstrations; and no diagnostic printing a whole file. Transcripts are
+//! snapshotted (insta). Demonstration files whose episodes are split, repeated or empty are a
+//! session case (`sessions/demonstration_files_*.adv`, its files in the folder of that name).
 
 use std::os::unix::fs::PermissionsExt;
 use std::path::Path;
@@ -14,18 +15,9 @@ use serde_json::Value;
 
 mod common;
 
-/// Run `lines` and return the transcript, with `dir` written as `<dir>` and timings as `<t>`.
-fn transcript(session: &mut Session, dir: &Path, lines: &str) -> String {
-    let out = common::raw_transcript(session, lines);
-    let out = out.replace(&dir.display().to_string(), "<dir>");
-    out.lines()
-        .map(|l| match (l.rfind(" ("), l.rfind(" ms)")) {
-            (Some(a), Some(b)) if b > a => format!("{} (<t>){}", &l[..a], &l[b + 4..]),
-            _ => l.to_string(),
-        })
-        .collect::<Vec<_>>()
-        .join("\n")
-        + "\n"
+/// Run `lines` and return the transcript (masked when snapshotted: see [`common::masked`]).
+fn transcript(session: &mut Session, lines: &str) -> String {
+    common::raw_transcript(session, lines)
 }
 
 fn session(task: TaskKind, demos: usize) -> Session {
@@ -53,7 +45,6 @@ fn special_files_are_refused_at_once() {
     // Before, each of these blocked on the FIFO or read /dev/zero until memory ran out.
     let t = transcript(
         &mut s,
-        d,
         &format!(
             "load demos {0}/pipe.csv\nload trace {0}/pipe.csv\nopen {0}/pipe.json\noperators {0}/pipe.csv\n\
              load demos /dev/zero\nrun goal 2 -1 0\nsave {0}/pipe.json\nexport advice {0}/pipe.csv\n\
@@ -61,7 +52,7 @@ fn special_files_are_refused_at_once() {
             d.display()
         ),
     );
-    insta::assert_snapshot!(t);
+    common::masked(Some(d)).bind(|| insta::assert_snapshot!(t));
 }
 
 #[test]
@@ -88,13 +79,12 @@ fn text_files_may_start_with_a_byte_order_mark_and_bad_utf8_is_located() {
     let mut s = session(TaskKind::Positioning, 0);
     let t = transcript(
         &mut s,
-        d,
         &format!(
             "operators {0}/bom.adv\noperators {0}/latin1.adv\nload demos {0}/bom.csv\n",
             d.display()
         ),
     );
-    insta::assert_snapshot!(t);
+    common::masked(Some(d)).bind(|| insta::assert_snapshot!(t));
 }
 
 #[test]
@@ -107,13 +97,12 @@ fn saves_name_their_format_keep_links_and_use_the_umask() {
     let mut s = session(TaskKind::Positioning, 1);
     let t = transcript(
         &mut s,
-        d,
         &format!(
             "save {0}/x.txt\nsave {0}/x\nsave {0}/x.csv\nsave {0}/link.json\nopen {0}/link.json\n",
             d.display()
         ),
     );
-    insta::assert_snapshot!(t);
+    common::masked(Some(d)).bind(|| insta::assert_snapshot!(t));
     assert!(!d.join("x.txt").exists() && !d.join("x").exists());
     let link = std::fs::symlink_metadata(d.join("link.json")).unwrap();
     assert!(link.file_type().is_symlink(), "the link was replaced");
@@ -140,7 +129,6 @@ fn saved_dataset(d: &Path) -> Value {
     let mut s = session(TaskKind::Positioning, 1);
     transcript(
         &mut s,
-        d,
         &format!(
             "run goal 2 -1 0\nselect 5..25\nadvise speed_up\nsave {}/base.json\n",
             d.display()
@@ -175,10 +163,10 @@ fn a_corrupted_long_one_line_dataset_renders_a_short_diagnostic() {
 
     let mut s = session(TaskKind::Positioning, 1);
     let before = s.status();
-    let t = transcript(&mut s, d, &format!("open {}/long.json\n", d.display()));
+    let t = transcript(&mut s, &format!("open {}/long.json\n", d.display()));
     assert!(t.len() < 2_500, "{} bytes:\n{t}", t.len());
     assert_eq!(s.status(), before);
-    insta::assert_snapshot!(t);
+    common::masked(Some(d)).bind(|| insta::assert_snapshot!(t));
 
     // The command line prints the same short diagnostic.
     let out = Command::new(env!("CARGO_BIN_EXE_advise"))
@@ -235,25 +223,27 @@ fn open_validates_the_whole_file_and_a_failed_open_changes_nothing() {
     let mut inter = session(TaskKind::Interception, 1);
     transcript(
         &mut inter,
-        d,
         &format!("save {}/interception.json\n", d.display()),
     );
 
     let mut s = session(TaskKind::Positioning, 2);
-    transcript(&mut s, d, "run goal 1 1 0\n");
+    transcript(&mut s, "run goal 1 1 0\n");
     let before = (s.status(), s.learner().len());
     let mut lines = format!("open {}/interception.json\n", d.display());
     for c in &cases {
         lines.push_str(&format!("open {}/{c}\n", d.display()));
     }
     lines.push_str("show\n");
-    let t = transcript(&mut s, d, &lines);
-    insta::assert_snapshot!(t);
+    let t = transcript(&mut s, &lines);
+    common::masked(Some(d)).bind(|| insta::assert_snapshot!(t));
     assert_eq!((s.status(), s.learner().len()), before);
     // Every case was refused, the untouched file opens.
     assert_eq!(t.matches("advise::").count(), cases.len() + 1, "{t}");
-    let t = transcript(&mut s, d, &format!("open {}/base.json\n", d.display()));
-    assert!(t.contains("opened <dir>/base.json"), "{t}");
+    let t = transcript(&mut s, &format!("open {}/base.json\n", d.display()));
+    assert!(
+        t.contains(&format!("opened {}/base.json", d.display())),
+        "{t}"
+    );
 }
 
 #[test]
@@ -264,17 +254,12 @@ fn a_saved_dataset_is_demonstrations_for_load_demos_and_eval() {
     let mut s = session(TaskKind::Positioning, 0);
     let t = transcript(
         &mut s,
-        d,
         &format!("load demos {0}/base.json\nhistory\n", d.display()),
     );
-    insta::assert_snapshot!(t);
+    common::masked(Some(d)).bind(|| insta::assert_snapshot!(t));
     // Another task refuses it.
     let mut i = session(TaskKind::Interception, 0);
-    let t = transcript(
-        &mut i,
-        d,
-        &format!("load demos {}/base.json\n", d.display()),
-    );
+    let t = transcript(&mut i, &format!("load demos {}/base.json\n", d.display()));
     assert!(t.contains("advise::trace::domain_mismatch"), "{t}");
 
     // `eval` used to refuse it: "unknown field `format`".
@@ -295,61 +280,6 @@ fn a_saved_dataset_is_demonstrations_for_load_demos_and_eval() {
     assert!(out.status.success(), "{stderr}");
     let report: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["episodes"], 25);
-}
-
-#[test]
-fn demonstration_files_with_split_repeated_or_empty_episodes_or_impossible_actions_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let h = "episode,t,dist2,bearing,dheading,trans,rot\n";
-    let files = [
-        (
-            "split.csv",
-            format!("{h}a,0,4,0,0,0.5,0\nb,0,3,0,0,0.5,0\na,0.1,3.9,0,0,0.5,0\n"),
-        ),
-        (
-            "repeated.csv",
-            format!("{h}a,0,4,0,0,0.5,0\na,0.1,3.9,0,0,0.5,0\na,0.1,3.8,0,0,0.5,0\n"),
-        ),
-        ("header_only.csv", h.to_string()),
-        (
-            "beyond_limits.csv",
-            format!("{h}a,0,4,0,0,0.5,0\na,0.1,3.9,0,0,1.5,0\n"),
-        ),
-        (
-            "empty.json",
-            r#"{"domain": "positioning", "episodes": [
-  {"name": "a", "points": [{"t": 0, "z": [4, 0, 0], "a": [0.5, 0]}]},
-  {"name": "b", "points": []}
-]}"#
-            .to_string(),
-        ),
-        (
-            "twice.json",
-            r#"{"domain": "positioning", "episodes": [
-  {"name": "a", "points": [{"t": 0, "z": [4, 0, 0], "a": [0.5, 0]}]},
-  {"name": "a", "points": [{"t": 0, "z": [3, 0, 0], "a": [0.5, 0]}]}
-]}"#
-            .to_string(),
-        ),
-        ("none.json", r#"{"domain": "positioning", "episodes": []}"#.to_string()),
-        (
-            "same_time.json",
-            r#"{"domain": "positioning", "episodes": [
-  {"name": "a", "points": [{"t": 0, "z": [4, 0, 0], "a": [0.5, 0]}, {"t": 0, "z": [3, 0, 0], "a": [0.5, 0]}]}
-]}"#
-            .to_string(),
-        ),
-    ];
-    let mut lines = String::new();
-    for (name, text) in &files {
-        std::fs::write(d.join(name), text).unwrap();
-        lines.push_str(&format!("load demos {}/{name}\n", d.display()));
-    }
-    let mut s = session(TaskKind::Positioning, 0);
-    let t = transcript(&mut s, d, &lines);
-    insta::assert_snapshot!(t);
-    assert!(s.learner().is_empty());
 }
 
 #[test]
@@ -417,7 +347,7 @@ fn data_files_stay_in_the_sessions_source_map_only_when_they_fail() {
         std::fs::write(d.join(format!("t{k}.csv")), csv).unwrap();
         lines.push_str(&format!("load trace {}/t{k}.csv\n", d.display()));
     }
-    transcript(&mut s, d, &lines);
+    transcript(&mut s, &lines);
     assert_eq!(s.sources().len(), 0, "{:?}", s.sources());
     // A failing one is kept for its diagnostic, once however often it fails.
     std::fs::write(
@@ -426,8 +356,8 @@ fn data_files_stay_in_the_sessions_source_map_only_when_they_fail() {
     )
     .unwrap();
     let bad = format!("load trace {}/bad.csv\n", d.display()).repeat(3);
-    let t = transcript(&mut s, d, &bad);
+    let t = transcript(&mut s, &bad);
     assert_eq!(t.matches("advise::trace::not_a_number").count(), 3, "{t}");
-    assert!(t.contains("[<dir>/bad.csv:2:3]"), "{t}");
+    assert!(t.contains(&format!("[{}/bad.csv:2:3]", d.display())), "{t}");
     assert_eq!(s.sources().len(), 1, "{:?}", s.sources());
 }

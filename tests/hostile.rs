@@ -14,6 +14,8 @@ use advise::syntax::{self, MAX_DEPTH, parse_invocation};
 use advise::task::TaskKind;
 use advise::trace::{Chunk, Trace};
 
+mod common;
+
 /// Run the binary; the exit code is `None` when a signal (an abort) ended it.
 fn advise(args: &[&str]) -> (Option<i32>, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_advise"))
@@ -459,8 +461,8 @@ fn check_prints_shadowing_warnings_and_succeeds() {
     .unwrap();
     let (status, out, err) = advise(&["check", path.to_str().unwrap()]);
     assert_eq!(status, Some(0), "{out}\n{err}");
-    let err = err.replace(path.to_str().unwrap(), "shadow.adv");
-    insta::assert_snapshot!(format!("----- STDOUT\n{out}----- STDERR\n{err}"));
+    common::masked_as(&[(path.to_str().unwrap(), "shadow.adv")])
+        .bind(|| insta::assert_snapshot!(format!("----- STDOUT\n{out}----- STDERR\n{err}")));
 }
 
 #[test]
@@ -490,6 +492,6 @@ fn the_session_says_when_a_definition_shadows_a_standard_operator() {
             Err(e) => out.push_str(&advise::repl::render(s.sources(), &e, false)),
         }
     }
-    let out = out.replace(&path.display().to_string(), "mine.adv");
-    insta::assert_snapshot!(out);
+    common::masked_as(&[(&path.display().to_string(), "mine.adv")])
+        .bind(|| insta::assert_snapshot!(out));
 }

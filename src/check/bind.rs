@@ -19,6 +19,9 @@ pub(crate) struct Binder<'a> {
     pub operator: &'a str,
     pub params: &'a [Param],
     pub src: &'a dyn Fn() -> NamedSource<SourceText>,
+    /// Whether the call was typed at the prompt (or recorded from there) rather than written in
+    /// a composition: only then is the value, not the limits, the thing to change.
+    pub typed: bool,
 }
 
 impl Binder<'_> {
@@ -103,6 +106,11 @@ impl Binder<'_> {
                 value,
                 lo: l.lo,
                 hi: l.hi,
+                help: if self.typed {
+                    format!("give `{}` a value in [{}, {}]", p.name, l.lo, l.hi)
+                } else {
+                    super::decls::widen(&p.name, l)
+                },
                 src: (self.src)(),
                 span: span.into(),
             }),
@@ -216,6 +224,7 @@ fn bind_to(
         operator: op.name(),
         params: op.params(),
         src,
+        typed: true,
     };
     let mut given = vec![false; op.params().len()];
     let mut values: Vec<Option<f64>> = vec![None; op.params().len()];

@@ -254,6 +254,7 @@ impl Checker<'_> {
             operator: callee.name,
             params: cparams,
             src: &src,
+            typed: false,
         };
         let mut args: Vec<Option<Ir>> = vec![None; cparams.len()];
         let mut given = vec![false; cparams.len()];

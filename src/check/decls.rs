@@ -204,6 +204,7 @@ impl Checker<'_> {
                         value: v,
                         lo: l.lo,
                         hi: l.hi,
+                        help: widen(name, l),
                         src: self.src(f),
                         span: e.span.into(),
                     },
@@ -263,4 +264,12 @@ pub(super) fn domain_difference(a: &Domain, b: &Domain) -> Option<String> {
         }
     }
     None
+}
+
+/// The help of a value outside a parameter's limits in a file: either side may be wrong.
+pub(super) fn widen(param: &str, l: Limits) -> String {
+    format!(
+        "write a value in [{}, {}] or widen the limits of `{param}`",
+        l.lo, l.hi
+    )
 }

@@ -191,16 +191,15 @@ pub enum CheckError {
         span: SourceSpan,
     },
     #[error("the {what} {value} of `{param}` is outside its limits [{lo}, {hi}]")]
-    #[diagnostic(
-        code(advise::check::parameter_out_of_range),
-        help("write a value in [{lo}, {hi}] or widen the limits of `{param}`")
-    )]
+    #[diagnostic(code(advise::check::parameter_out_of_range), help("{help}"))]
     ParamOutOfRange {
         what: String,
         param: String,
         value: f64,
         lo: f64,
         hi: f64,
+        /// In a file: write another value or widen the limits; at the prompt: give another value.
+        help: String,
         #[source_code]
         src: NamedSource<SourceText>,
         #[label("outside [{lo}, {hi}]")]
