@@ -29,6 +29,8 @@ use std::sync::Arc;
 
 use miette::NamedSource;
 
+// "Did you mean" has one home, `diag::suggest`; the checker's passes use it under these names.
+use crate::diag::suggest::{closest as suggest, hint, listing};
 use crate::domain::Domain;
 use crate::program::ir::BlockIr;
 pub use crate::program::{Call, OperatorSet, Param};
@@ -156,43 +158,6 @@ pub fn render_all(errors: &CheckErrors) -> String {
 /// Render one diagnostic as the terminal shows it, without colour, 100 columns wide.
 pub fn render(diag: &dyn miette::Diagnostic) -> String {
     crate::diag::render(&crate::diag::SourceMap::new(), diag, false)
-}
-
-/// The best "did you mean" among `candidates`, if any is close.
-pub(crate) fn suggest<'a>(
-    name: &str,
-    candidates: impl IntoIterator<Item = &'a str>,
-) -> Option<&'a str> {
-    candidates
-        .into_iter()
-        .map(|c| (strsim::jaro_winkler(name, c), c))
-        .filter(|(score, _)| *score > 0.8)
-        .max_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|(_, c)| c)
-}
-
-/// `did you mean `x`?` or a list of what exists.
-pub(crate) fn hint(name: &str, what: &str, candidates: &[&str]) -> String {
-    match suggest(name, candidates.iter().copied()) {
-        Some(s) => format!("did you mean `{s}`?"),
-        None if candidates.is_empty() => format!("there are no {what}"),
-        None => format!("the {what} are: {}", listing(candidates)),
-    }
-}
-
-/// Names for a help text: all of a few, or the first twenty and how many more.
-fn listing(names: &[&str]) -> String {
-    const SHOWN: usize = 20;
-    let mut out = names
-        .iter()
-        .take(SHOWN)
-        .map(|c| format!("`{c}`"))
-        .collect::<Vec<_>>()
-        .join(", ");
-    if names.len() > SHOWN {
-        out.push_str(&format!(" and {} more", names.len() - SHOWN));
-    }
-    out
 }
 
 /// The signature of an operator being checked, before its body is known to be good.
