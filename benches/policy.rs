@@ -129,7 +129,8 @@ fn bench(c: &mut Criterion) {
     let exec = random_trace(&d, 30, &mut rng);
     let set = advise::check::OperatorSet::standard();
     let inv = parse_invocation("speed_up(0.2)").unwrap();
-    let syn = interp::apply(&set, &inv, &exec, Chunk::all(30)).unwrap();
+    let call = advise::check::bind(&set, &exec.domain, &inv).unwrap();
+    let syn = interp::apply(&call, &exec, Chunk::all(30)).unwrap();
     // A-OPI is the learner advice feeds: its points go into both the 1-NN and the LWR index.
     let l = &mut lwr;
     let id = l.add_execution(&exec);

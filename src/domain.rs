@@ -3,9 +3,9 @@
 //! A [`Domain`] is the contract between every other phase: operator files declare one, traces are
 //! validated against one, policies map its observation space to its action space, and backends
 //! produce points in it. This module only describes shapes; it does no IO and knows no task physics.
-//! The two domains of the paper are available as [`Domain::positioning`] and
-//! [`Domain::interception`]; `operators/*.adv` declares the same domains in the language, and a test
-//! keeps the two in agreement.
+//! The two domains of the paper are declared once, in the language (`operators/*.adv`); their
+//! constructors [`Domain::positioning`] and [`Domain::interception`] are defined beside the
+//! embedded standard library (`check/standard.rs`), which reads them from there.
 
 use serde::{Deserialize, Serialize};
 
@@ -118,68 +118,6 @@ impl Domain {
 
     pub fn act_dim(&self) -> usize {
         self.act.len()
-    }
-
-    /// The paper's spatial positioning domain (A-OPI, Segway RMP).
-    ///
-    /// Observation: squared distance to the goal, angle between the goal vector and the heading,
-    /// and `theta_g - theta_r`. Action: translational and rotational speed.
-    pub fn positioning() -> Domain {
-        Domain {
-            name: "positioning".into(),
-            observe: vec![
-                Dim::new("dist2", "m^2", Some((0.0, 100.0))),
-                Dim::new(
-                    "bearing",
-                    "rad",
-                    Some((-std::f64::consts::PI, std::f64::consts::PI)),
-                ),
-                Dim::new(
-                    "dheading",
-                    "rad",
-                    Some((-std::f64::consts::PI, std::f64::consts::PI)),
-                ),
-            ],
-            act: vec![
-                Dim::new("trans", "m/s", Some((-1.0, 1.0))),
-                Dim::new("rot", "rad/s", Some((-1.0, 1.0))),
-            ],
-        }
-    }
-
-    /// The paper's ball interception domain (BC, simulated differential drive).
-    ///
-    /// Observation: distance and angle to the ball, their changes since the last step, the change in
-    /// travelled distance and in heading. Action: change in translational and rotational speed.
-    pub fn interception() -> Domain {
-        Domain {
-            name: "interception".into(),
-            observe: vec![
-                Dim::new("ball_dist", "m", Some((0.0, 20.0))),
-                Dim::new(
-                    "ball_angle",
-                    "rad",
-                    Some((-std::f64::consts::PI, std::f64::consts::PI)),
-                ),
-                Dim::new("ball_dist_delta", "m", Some((-1.0, 1.0))),
-                Dim::new("ball_angle_delta", "rad", Some((-1.0, 1.0))),
-                Dim::new("travel_delta", "m", Some((-1.0, 1.0))),
-                Dim::new("heading_delta", "rad", Some((-1.0, 1.0))),
-            ],
-            act: vec![
-                Dim::new("trans_delta", "m/s", Some((-0.1, 0.1))),
-                Dim::new("rot_delta", "rad/s", Some((-0.2, 0.2))),
-            ],
-        }
-    }
-
-    /// A built-in domain by name.
-    pub fn builtin(name: &str) -> Option<Domain> {
-        match name {
-            "positioning" => Some(Domain::positioning()),
-            "interception" => Some(Domain::interception()),
-            _ => None,
-        }
     }
 }
 

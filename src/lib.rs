@@ -1,7 +1,8 @@
 //! `advise`: teach a robot's motion controller by critiquing and advising its executions.
 //!
 //! The phases, in order (see ARCHITECTURE.md): [`syntax`] (pest grammar to spanned AST),
-//! [`check`] (AST to a checked operator set), [`interp`] (apply operators to chunks),
+//! [`check`] (AST to a checked [`program`], invocations bound to calls), [`interp`] (run a bound
+//! call on a chunk),
 //! [`policy`] (dataset with provenance, BC 1-NN, A-OPI LWR), [`backend`] (sim and RMP bases).
 //! The shared data types are [`domain`], [`trace`] and [`geometry`] (poses and frames); every
 //! file is read and written through [`files`], and every diagnostic is drawn by [`diag::render`]
@@ -18,6 +19,7 @@ pub mod geometry;
 pub mod interp;
 pub mod number;
 pub mod policy;
+pub mod program;
 pub mod repl;
 pub mod session;
 pub mod syntax;

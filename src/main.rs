@@ -600,7 +600,8 @@ fn apply(
     };
     let (a, b) = parse_range(range)?;
     let chunk = Chunk::new(a, b, trace.len())?;
-    let out = advise::interp::apply(&set, &inv, &trace, chunk)?;
+    let call = advise::check::bind(&set, &trace.domain, &inv)?;
+    let out = advise::interp::apply(&call, &trace, chunk)?;
     let mut stdout = std::io::stdout().lock();
     out.points
         .write_csv(&domain, &mut stdout)

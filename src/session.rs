@@ -28,7 +28,7 @@ use crate::backend::sim::{SimBackend, SimError, SimParams};
 use crate::backend::{
     Backend, BackendError, BackendSpec, BackendSpecError, Interruptible, StopSignal,
 };
-use crate::check::{CheckErrors, OperatorSet, Source};
+use crate::check::{self, CheckError, CheckErrors, OperatorSet, Source};
 use crate::diag::did_you_mean;
 use crate::domain::Domain;
 use crate::eval::{self, EvalOptions, Report};
@@ -57,6 +57,10 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Check(#[from] CheckErrors),
+    /// An invocation that does not bind to an operator of the task.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Bind(#[from] CheckError),
     #[error(transparent)]
     #[diagnostic(transparent)]
     Apply(#[from] ApplyError),
@@ -1381,7 +1385,8 @@ impl Session {
         let (i, chunk) = self.selection()?;
         let started = Instant::now();
         let rec = &self.state.executions[i];
-        let syn = interp::apply(&self.ops, inv, &rec.trace, chunk)?;
+        let call = check::bind(&self.ops, &rec.trace.domain, inv)?;
+        let syn = interp::apply(&call, &rec.trace, chunk)?;
         let points = syn.points.len();
         let skipped = chunk.len() - points;
         let invocation = syn.advice.invocation();
@@ -1408,7 +1413,8 @@ impl Session {
     fn preview(&self, inv: &crate::syntax::Invocation) -> Result<String, SessionError> {
         let (i, chunk) = self.selection()?;
         let rec = &self.state.executions[i];
-        let syn = interp::apply(&self.ops, inv, &rec.trace, chunk)?;
+        let call = check::bind(&self.ops, &rec.trace.domain, inv)?;
+        let syn = interp::apply(&call, &rec.trace, chunk)?;
         let space = syn.advice.space;
         let dims = self.domain.dims(space);
         let mut out = format!(

@@ -16,7 +16,7 @@
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use advise::backend::sim::{SimBase, SimParams};
-use advise::check::{OperatorSet, Source};
+use advise::check::{self, OperatorSet, Source};
 use advise::domain::Domain;
 use advise::interp;
 use advise::policy::dataset::Dataset;
@@ -257,10 +257,13 @@ fn mutated_operator_files_are_values_or_diagnostics() {
                     Err(e) => f.check_codes("operators", &input, &e),
                     Ok(set) => {
                         for name in set.operator_names("positioning") {
-                            let r =
-                                interp::apply(&set, &Invocation::bare(name), &tr, Chunk::all(8));
-                            if let Err(e) = r {
-                                f.check_codes("apply", &input, &e);
+                            match check::bind(&set, &tr.domain, &Invocation::bare(name)) {
+                                Err(e) => f.check_codes("apply", &input, &e),
+                                Ok(call) => {
+                                    if let Err(e) = interp::apply(&call, &tr, Chunk::all(8)) {
+                                        f.check_codes("apply", &input, &e);
+                                    }
+                                }
                             }
                         }
                     }

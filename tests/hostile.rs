@@ -182,7 +182,8 @@ fn expressions_at_the_limit_check_print_and_apply_and_one_more_level_is_refused(
         let printed = syntax::parse("limit.adv", &text).unwrap().to_string();
         syntax::parse("printed", &printed).unwrap();
         let inv = parse_invocation("hostile").unwrap();
-        interp::apply(&set, &inv, &tr, Chunk::all(8)).unwrap();
+        let call = check::bind(&set, &tr.domain, &inv).unwrap();
+        interp::apply(&call, &tr, Chunk::all(8)).unwrap();
     }
     for deeper in [
         vec!["trans"; MAX_DEPTH + 1].join(" + "),
@@ -279,7 +280,8 @@ fn a_composition_at_the_stage_limit_applies_every_stage() {
         .merge(&[Source::new("comp.adv", compositions(5, 4))])
         .unwrap();
     let tr = positioning_trace(4);
-    let out = interp::apply(&set, &parse_invocation("c5").unwrap(), &tr, Chunk::all(4)).unwrap();
+    let call = check::bind(&set, &tr.domain, &parse_invocation("c5").unwrap()).unwrap();
+    let out = interp::apply(&call, &tr, Chunk::all(4)).unwrap();
     for p in 0..4 {
         let want = (tr.a(p)[0] + 1024.0 * 0.0001).min(1.0);
         assert!((out.points.a(p)[0] - want).abs() < 1e-9, "{p}");
@@ -301,7 +303,8 @@ fn a_long_chain_of_single_stage_compositions_applies_without_recursing() {
         .unwrap();
     let tr = positioning_trace(3);
     let inv = parse_invocation("c19999").unwrap();
-    let out = interp::apply(&set, &inv, &tr, Chunk::all(3)).unwrap();
+    let call = check::bind(&set, &tr.domain, &inv).unwrap();
+    let out = interp::apply(&call, &tr, Chunk::all(3)).unwrap();
     assert_eq!(out.points.a(2)[0], 0.25);
 }
 
@@ -407,7 +410,10 @@ operator skipped for positioning on action where k > 0 { trans = dist2[-k / k] }
         .merge(&[Source::new("u.adv", user)])
         .unwrap();
     let tr = positioning_trace(4);
-    let run = |inv: &str| interp::apply(&set, &parse_invocation(inv).unwrap(), &tr, Chunk::all(4));
+    let run = |inv: &str| {
+        let call = check::bind(&set, &tr.domain, &parse_invocation(inv).unwrap()).unwrap();
+        interp::apply(&call, &tr, Chunk::all(4))
+    };
     // Before, `trans / 0` was clamped to full speed.
     assert!(
         matches!(run("divide"), Err(ApplyError::NotFinite { point: 0, ref dim, .. }) if dim == "trans"),
@@ -436,13 +442,8 @@ operator skipped for positioning on action where k > 0 { trans = dist2[-k / k] }
             format!("{user}operator both for positioning on action = slow_down then divide\n"),
         )])
         .unwrap();
-    let err = interp::apply(
-        &comp,
-        &parse_invocation("both").unwrap(),
-        &tr,
-        Chunk::all(4),
-    )
-    .unwrap_err();
+    let call = check::bind(&comp, &tr.domain, &parse_invocation("both").unwrap()).unwrap();
+    let err = interp::apply(&call, &tr, Chunk::all(4)).unwrap_err();
     assert!(
         matches!(err, ApplyError::NotFinite { ref operator, .. } if operator == "divide"),
         "{err:?}"

@@ -1,7 +1,7 @@
 //! Operator semantics: the paper's worked example exactly, a before/after table for every standard
 //! operator, compositions, guards, offsets, provenance and the apply-time diagnostics.
 
-use advise::check::{OperatorSet, Source, render};
+use advise::check::{self, OperatorSet, Source, render};
 use advise::domain::{Domain, Space};
 use advise::interp::{self, AppliedAdvice};
 use advise::number::fmt_num;
@@ -48,7 +48,8 @@ fn interception_trace(n: usize) -> Trace {
 
 fn apply(set: &OperatorSet, inv: &str, tr: &Trace, a: usize, b: usize) -> interp::Synthesized {
     let inv = parse_invocation(inv).unwrap();
-    interp::apply(set, &inv, tr, Chunk::new(a, b, tr.len()).unwrap())
+    let call = check::bind(set, &tr.domain, &inv).unwrap_or_else(|e| panic!("{}", render(&e)));
+    interp::apply(&call, tr, Chunk::new(a, b, tr.len()).unwrap())
         .unwrap_or_else(|e| panic!("{}", render(&e)))
 }
 
@@ -74,15 +75,6 @@ fn the_papers_worked_example_exactly() {
         );
     }
     assert_eq!(out.source_index, (0..10).collect::<Vec<_>>());
-}
-
-#[test]
-fn the_standard_domains_are_the_built_in_ones() {
-    let set = OperatorSet::standard();
-    assert_eq!(
-        set.domains(),
-        &[Domain::positioning(), Domain::interception()]
-    );
 }
 
 #[test]
@@ -200,7 +192,9 @@ fn every_standard_operator_has_a_working_example() {
                     op.name(),
                     "example `{ex}` names another operator"
                 );
-                interp::apply(&set, &inv, &tr, Chunk::all(tr.len()))
+                let call = check::bind(&set, &tr.domain, &inv)
+                    .unwrap_or_else(|e| panic!("example `{ex}`: {}", render(&e)));
+                interp::apply(&call, &tr, Chunk::all(tr.len()))
                     .unwrap_or_else(|e| panic!("example `{ex}`: {}", render(&e)));
             }
         }
@@ -284,7 +278,7 @@ fn advice_re_synthesizes_exactly_and_survives_json() {
     let json = serde_json::to_string(&out.advice).unwrap();
     let back: AppliedAdvice = serde_json::from_str(&json).unwrap();
     assert_eq!(back, out.advice);
-    let again = interp::reapply(&set, &back, &tr).unwrap();
+    let again = interp::apply(&check::rebind(&set, &back).unwrap(), &tr, back.chunk).unwrap();
     assert_eq!(again, out);
     // Defaults are recorded too.
     let d = apply(&set, "speed_up", &tr, 0, 3);
@@ -327,8 +321,11 @@ fn apply_errors_are_diagnostics() {
     let mut out = String::new();
     for (inv, a, b) in cases {
         let i = parse_invocation(inv).unwrap();
-        let err = interp::apply(&set, &i, &tr, Chunk { start: a, end: b }).unwrap_err();
-        out.push_str(&format!("----- {inv} on {a}..{b}\n{}\n", render(&err)));
+        let err = match check::bind(&set, &tr.domain, &i) {
+            Err(e) => render(&e),
+            Ok(call) => render(&interp::apply(&call, &tr, Chunk { start: a, end: b }).unwrap_err()),
+        };
+        out.push_str(&format!("----- {inv} on {a}..{b}\n{err}\n"));
     }
     insta::assert_snapshot!(out);
 }
@@ -340,8 +337,8 @@ fn non_finite_results_are_errors_not_garbage() {
         .merge(&[Source::new("u.adv", user)])
         .unwrap();
     let tr = positioning_trace(4);
-    let err =
-        interp::apply(&set, &parse_invocation("bad").unwrap(), &tr, Chunk::all(4)).unwrap_err();
+    let call = check::bind(&set, &tr.domain, &parse_invocation("bad").unwrap()).unwrap();
+    let err = interp::apply(&call, &tr, Chunk::all(4)).unwrap_err();
     assert!(
         matches!(err, interp::ApplyError::NotFinite { point: 0, .. }),
         "{err:?}"
@@ -367,4 +364,23 @@ fn the_operator_readme_lists_every_standard_operator() {
             );
         }
     }
+}
+
+#[test]
+fn a_compositions_argument_that_leaves_its_limits_for_this_chunk_is_refused_at_run_time() {
+    // `gain = n / 10` is within [0, 1] on chunks of up to 10 points only.
+    let user =
+        "operator ramp for positioning on action = translational_deceleration(gain = n / 10)";
+    let set = OperatorSet::standard()
+        .merge(&[Source::new("u.adv", user)])
+        .unwrap();
+    let tr = positioning_trace(12);
+    let call = check::bind(&set, &tr.domain, &parse_invocation("ramp").unwrap()).unwrap();
+    assert!(interp::apply(&call, &tr, Chunk::new(0, 10, 12).unwrap()).is_ok());
+    let err = interp::apply(&call, &tr, Chunk::new(0, 12, 12).unwrap()).unwrap_err();
+    assert!(
+        matches!(&err, interp::ApplyError::BoundOutOfRange { via, operator, value, .. }
+            if via == "ramp" && operator == "translational_deceleration" && *value == 1.2),
+        "{err:?}"
+    );
 }

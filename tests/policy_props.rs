@@ -39,6 +39,7 @@ fn applied(chunk: Chunk, rate: f64) -> AppliedAdvice {
         chunk,
         space: advise::domain::Space::Action,
         definition: "test".into(),
+        hash: None,
     }
 }
 

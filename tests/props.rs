@@ -3,7 +3,7 @@
 //! points are skipped and its postcondition holds; print-then-parse gives back the same tree;
 //! arbitrary text never makes parse+check panic.
 
-use advise::check::{OperatorSet, Source, render, render_all};
+use advise::check::{self, OperatorSet, Source, render, render_all};
 use advise::domain::{Domain, Space};
 use advise::interp;
 use advise::syntax::ast::*;
@@ -91,7 +91,8 @@ proptest! {
         let chunk = chunk_of(tr.len(), a, b);
         let inv = invocation(&set, &tr.domain, which, &u);
         let before = tr.clone();
-        let out = interp::apply(&set, &inv, &tr, chunk).map_err(|e| TestCaseError::fail(render(&e)))?;
+        let call = check::bind(&set, &tr.domain, &inv).map_err(|e| TestCaseError::fail(render(&e)))?;
+        let out = interp::apply(&call, &tr, chunk).map_err(|e| TestCaseError::fail(render(&e)))?;
         prop_assert_eq!(&tr, &before);
         prop_assert_eq!(out.points.len(), out.source_index.len());
         prop_assert!(out.source_index.windows(2).all(|w| w[0] < w[1]), "in chunk order");
@@ -123,7 +124,8 @@ proptest! {
         let s = (at * (tr.len() + 1) as f64) as usize;
         let s = s.min(tr.len());
         let inv = invocation(&set, &tr.domain, which, &u);
-        let out = interp::apply(&set, &inv, &tr, Chunk::new(s, s, tr.len()).unwrap())
+        let call = check::bind(&set, &tr.domain, &inv).map_err(|e| TestCaseError::fail(render(&e)))?;
+        let out = interp::apply(&call, &tr, Chunk::new(s, s, tr.len()).unwrap())
             .map_err(|e| TestCaseError::fail(render(&e)))?;
         prop_assert!(out.points.is_empty());
         prop_assert!(out.source_index.is_empty());
@@ -138,7 +140,8 @@ proptest! {
     ) {
         let set = OperatorSet::standard();
         let chunk = chunk_of(tr.len(), a, b);
-        let out = interp::apply(&set, &Invocation::bare("no_turning"), &tr, chunk).unwrap();
+        let call = check::bind(&set, &tr.domain, &Invocation::bare("no_turning")).unwrap();
+        let out = interp::apply(&call, &tr, chunk).unwrap();
         let turning: Vec<usize> = chunk.range().filter(|&i| tr.a(i)[1] != 0.0).collect();
         prop_assert_eq!(&out.source_index, &turning);
         for (p, &i) in out.source_index.iter().enumerate() {
@@ -158,11 +161,12 @@ proptest! {
         let set = OperatorSet::standard();
         let chunk = chunk_of(tr.len(), a, b);
         let inv = invocation(&set, &tr.domain, which, &u);
-        let out = interp::apply(&set, &inv, &tr, chunk).unwrap();
+        let out = interp::apply(&check::bind(&set, &tr.domain, &inv).unwrap(), &tr, chunk).unwrap();
         let json = serde_json::to_string(&out.advice).unwrap();
         let back: interp::AppliedAdvice = serde_json::from_str(&json).unwrap();
         prop_assert_eq!(&back, &out.advice, "{}", json);
-        prop_assert_eq!(interp::reapply(&set, &back, &tr).unwrap(), out);
+        let again = check::rebind(&set, &back).unwrap();
+        prop_assert_eq!(interp::apply(&again, &tr, back.chunk).unwrap(), out);
     }
 }
 
@@ -391,7 +395,9 @@ fn exercise(text: &str) {
                 t
             };
             for name in set.operator_names("positioning") {
-                let _ = interp::apply(&set, &Invocation::bare(name), &tr, Chunk::all(5));
+                if let Ok(call) = check::bind(&set, &tr.domain, &Invocation::bare(name)) {
+                    let _ = interp::apply(&call, &tr, Chunk::all(5));
+                }
             }
         }
     }

@@ -28,7 +28,9 @@ fuzz_target!(|data: &[u8]| {
                 tr.push(i as f64, &[1.0, 0.1, -0.1], &[0.5, rot], None);
             }
             for name in set.operator_names("positioning") {
-                let _ = interp::apply(&set, &Invocation::bare(name), &tr, Chunk::all(6));
+                if let Ok(call) = advise::check::bind(&set, &tr.domain, &Invocation::bare(name)) {
+                    let _ = interp::apply(&call, &tr, Chunk::all(6));
+                }
             }
         }
     }

@@ -191,16 +191,15 @@ pub enum CheckError {
         span: SourceSpan,
     },
     #[error("the {what} {value} of `{param}` is outside its limits [{lo}, {hi}]")]
-    #[diagnostic(
-        code(advise::check::parameter_out_of_range),
-        help("write a value in [{lo}, {hi}] or widen the limits of `{param}`")
-    )]
+    #[diagnostic(code(advise::check::parameter_out_of_range), help("{help}"))]
     ParamOutOfRange {
         what: String,
         param: String,
         value: f64,
         lo: f64,
         hi: f64,
+        /// In a file: write another value or widen the limits; at the prompt: give another value.
+        help: String,
         #[source_code]
         src: NamedSource<SourceText>,
         #[label("outside [{lo}, {hi}]")]
@@ -451,6 +450,19 @@ pub enum CheckError {
         src: NamedSource<SourceText>,
         #[label("parameter {} of {count}", limit + 1)]
         span: SourceSpan,
+    },
+    #[error("`{name}` for `{domain}` has changed since this advice was given")]
+    #[diagnostic(
+        code(advise::check::redefined_operator),
+        help(
+            "the advice was given with `{definition}`; advise again to use the `{name}` defined in {origin}"
+        )
+    )]
+    RedefinedOperator {
+        name: String,
+        domain: String,
+        definition: String,
+        origin: String,
     },
     #[error("stopped after {shown} errors; there may be more")]
     #[diagnostic(

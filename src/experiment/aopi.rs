@@ -33,7 +33,7 @@ use std::fmt::Write as _;
 use serde::{Deserialize, Serialize};
 
 use crate::backend::sim::SimParams;
-use crate::check::OperatorSet;
+use crate::check::{self, OperatorSet};
 use crate::eval::Report;
 use crate::experiment::advisor::{self, AdvisorRules};
 use crate::experiment::pilot::PilotStyle;
@@ -278,7 +278,10 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
                     let advice = advisor::advise(&exec, &params.advisor);
                     let mut id = None;
                     for a in &advice {
-                        let Ok(syn) = interp::apply(&ops, &a.operator, &exec.trace, a.chunk) else {
+                        let Ok(call) = check::bind(&ops, &exec.trace.domain, &a.operator) else {
+                            continue;
+                        };
+                        let Ok(syn) = interp::apply(&call, &exec.trace, a.chunk) else {
                             continue;
                         };
                         if syn.points.is_empty() {

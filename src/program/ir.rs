@@ -1,6 +1,8 @@
 //! The resolved form of an operator body: every name is already a slot (a dimension index, a
-//! parameter index, `k`, `n`), and compound assignments are spelled out. The checker produces it,
-//! the interpreter compiles it; nothing else builds one, so an `Ir` has always passed the checker.
+//! parameter index, `k`, `n`), and compound assignments are spelled out. The checker produces it
+//! and compiles it to bytecode ([`super::code`]); the interpreter only evaluates the parts that are
+//! the same for every point (parameters, `n`). Nothing else builds one, so an `Ir` has always passed
+//! the checker.
 
 use crate::domain::Space;
 use crate::syntax::ast::BinOp;

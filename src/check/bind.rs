@@ -1,0 +1,408 @@
+//! Binding arguments to parameters, the one place it happens: an invocation typed by a teacher
+//! ([`bind`]), recorded advice applied again ([`rebind`]) and a composition's call of another
+//! operator (the checker's `stage`) all go through [`Binder`]: by position or by name, each
+//! parameter at most once, every parameter without a default given, literal values within limits.
+//! [`bind`] and [`rebind`] also expand a composition into the frames the interpreter runs.
+
+use std::sync::Arc;
+
+use miette::NamedSource;
+
+use super::error::CheckError;
+use super::hint;
+use crate::program::{AppliedAdvice, Call, Frame, OpBody, Operator, OperatorSet, Param};
+use crate::syntax::ast::{Ident, Span};
+use crate::syntax::{self, InvArg, Invocation, SourceText};
+
+/// The parameters of an operator being called, and the source its call is written in.
+pub(crate) struct Binder<'a> {
+    pub operator: &'a str,
+    pub params: &'a [Param],
+    pub src: &'a dyn Fn() -> NamedSource<SourceText>,
+    /// Whether the call was typed at the prompt (or recorded from there) rather than written in
+    /// a composition: only then is the value, not the limits, the thing to change.
+    pub typed: bool,
+}
+
+impl Binder<'_> {
+    /// "`speed_up(rate = 0.2 in [0, 4])`", or that it takes no arguments.
+    fn signature(&self) -> String {
+        if self.params.is_empty() {
+            format!("`{}` takes no arguments", self.operator)
+        } else {
+            let ps: Vec<String> = self.params.iter().map(|p| p.to_string()).collect();
+            format!("`{}({})`", self.operator, ps.join(", "))
+        }
+    }
+
+    /// The parameter that argument `pos` of `count` fills (by position, or by `name` when it has
+    /// one), marked in `given`; or the mistake and where it is.
+    pub fn slot(
+        &self,
+        pos: usize,
+        count: usize,
+        name: Option<&Ident>,
+        span: Span,
+        given: &mut [bool],
+    ) -> Result<usize, (Span, CheckError)> {
+        let slot = match name {
+            None if pos >= self.params.len() => {
+                return Err((
+                    span,
+                    CheckError::TooManyArguments {
+                        operator: self.operator.into(),
+                        expected: self.params.len(),
+                        found: count,
+                        signature: self.signature(),
+                        src: (self.src)(),
+                        span: span.into(),
+                    },
+                ));
+            }
+            None => pos,
+            Some(n) => match self.params.iter().position(|p| p.name == n.name) {
+                Some(s) => s,
+                None => {
+                    let names: Vec<&str> = self.params.iter().map(|p| p.name.as_str()).collect();
+                    let help = hint(
+                        &n.name,
+                        &format!("parameters of `{}`", self.operator),
+                        &names,
+                    );
+                    return Err((
+                        n.span,
+                        CheckError::UnknownParameter {
+                            name: n.name.clone(),
+                            operator: self.operator.into(),
+                            help,
+                            src: (self.src)(),
+                            span: n.span.into(),
+                        },
+                    ));
+                }
+            },
+        };
+        if given[slot] {
+            return Err((
+                span,
+                CheckError::DuplicateArgument {
+                    name: self.params[slot].name.clone(),
+                    src: (self.src)(),
+                    span: span.into(),
+                },
+            ));
+        }
+        given[slot] = true;
+        Ok(slot)
+    }
+
+    /// Refuse a known value outside the limits of parameter `slot`.
+    pub fn in_range(&self, slot: usize, value: f64, span: Span) -> Result<(), CheckError> {
+        let p = &self.params[slot];
+        match p.limits {
+            Some(l) if !l.contains(value) => Err(CheckError::ParamOutOfRange {
+                what: "argument".into(),
+                param: p.name.clone(),
+                value,
+                lo: l.lo,
+                hi: l.hi,
+                help: if self.typed {
+                    format!("give `{}` a value in [{}, {}]", p.name, l.lo, l.hi)
+                } else {
+                    super::decls::widen(&p.name, l)
+                },
+                src: (self.src)(),
+                span: span.into(),
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// The parameters neither `given` nor defaulted, as errors at `span` (the call).
+    pub fn missing<'b>(
+        &'b self,
+        given: &'b [bool],
+        span: Span,
+    ) -> impl Iterator<Item = CheckError> + 'b {
+        self.params
+            .iter()
+            .zip(given)
+            .filter(|(p, g)| !**g && p.default.is_none())
+            .map(move |(p, _)| CheckError::MissingArgument {
+                operator: self.operator.into(),
+                param: p.name.clone(),
+                src: (self.src)(),
+                span: span.into(),
+            })
+    }
+}
+
+/// Bind the operator `inv` names, among those of `domain` in `set`, to its arguments: every
+/// parameter's value (defaults filled in, limits checked) and its composition expanded.
+pub fn bind(set: &OperatorSet, domain: &str, inv: &Invocation) -> Result<Call, CheckError> {
+    let text = SourceText::from(inv.text.as_str());
+    let src = || NamedSource::new("advice", text.clone());
+    let Some(index) = set.find(domain, &inv.name.name) else {
+        let names = set.operator_names(domain);
+        let what = format!("operators for `{domain}`");
+        let help = match set.domains_with(&inv.name.name).first() {
+            Some(o) => format!(
+                "`{}` is an operator for the `{o}` domain; {}",
+                inv.name.name,
+                hint(&inv.name.name, &what, &names)
+            ),
+            None => hint(&inv.name.name, &what, &names),
+        };
+        return Err(CheckError::UnknownOperator {
+            name: inv.name.name.clone(),
+            domain: domain.into(),
+            help,
+            src: src(),
+            span: inv.name.span.into(),
+        });
+    };
+    bind_to(set.op(index), inv, &src)
+}
+
+/// The call that recorded advice was made with, on the operator of that name in `set`, provided
+/// it is still the operator the advice was given with (same definition hash; for a record older
+/// than hashes, the same definition text). Nothing is parsed: the values are the record's.
+pub fn rebind(set: &OperatorSet, advice: &AppliedAdvice) -> Result<Call, CheckError> {
+    // The invocation the record stands for, with spans for diagnostics, built rather than parsed.
+    let mut text = advice.operator.clone();
+    let name = Ident {
+        name: advice.operator.clone(),
+        span: Span::new(0, text.len()),
+    };
+    let mut args = Vec::with_capacity(advice.params.len());
+    for (i, p) in advice.params.iter().enumerate() {
+        text.push_str(if i == 0 { "(" } else { ", " });
+        let start = text.len();
+        text.push_str(&p.name);
+        let name = Ident {
+            name: p.name.clone(),
+            span: Span::new(start, text.len()),
+        };
+        text.push_str(" = ");
+        text.push_str(&syntax::print::number(p.value));
+        args.push(InvArg {
+            name: Some(name),
+            value: p.value,
+            span: Span::new(start, text.len()),
+        });
+    }
+    if !args.is_empty() {
+        text.push(')');
+    }
+    let inv = Invocation { text, name, args };
+    let op = match set.find(&advice.domain, &advice.operator) {
+        Some(i) => set.op(i),
+        None => return bind(set, &advice.domain, &inv),
+    };
+    let same = match advice.hash {
+        Some(h) => h == op.hash(),
+        None => advice.definition == op.definition(),
+    };
+    if !same {
+        return Err(CheckError::RedefinedOperator {
+            name: advice.operator.clone(),
+            domain: advice.domain.clone(),
+            definition: advice.definition.clone(),
+            origin: op.origin().into(),
+        });
+    }
+    let text = SourceText::from(inv.text.as_str());
+    bind_to(op, &inv, &|| NamedSource::new("advice", text.clone()))
+}
+
+fn bind_to(
+    op: &Arc<Operator>,
+    inv: &Invocation,
+    src: &dyn Fn() -> NamedSource<SourceText>,
+) -> Result<Call, CheckError> {
+    let b = Binder {
+        operator: op.name(),
+        params: op.params(),
+        src,
+        typed: true,
+    };
+    let mut given = vec![false; op.params().len()];
+    let mut values: Vec<Option<f64>> = vec![None; op.params().len()];
+    for (pos, a) in inv.args.iter().enumerate() {
+        let slot = b
+            .slot(pos, inv.args.len(), a.name.as_ref(), a.span, &mut given)
+            .map_err(|(_, e)| e)?;
+        b.in_range(slot, a.value, a.span)?;
+        values[slot] = Some(a.value);
+    }
+    if let Some(e) = b.missing(&given, inv.name.span).next() {
+        return Err(e);
+    }
+    let params = op
+        .params()
+        .iter()
+        .zip(values)
+        .map(|(p, v)| v.or(p.default).unwrap_or(f64::NAN))
+        .collect();
+    Ok(Call {
+        op: op.clone(),
+        params,
+        frames: frames(op),
+    })
+}
+
+/// `op` and every operator its composition reaches, depth first, parents before children and
+/// stages in order. The checker bounds the stages (`MAX_STAGES`), not the nesting, so this walks
+/// with its own stack.
+fn frames(op: &Arc<Operator>) -> Vec<Frame> {
+    let mut frames = vec![Frame {
+        op: op.clone(),
+        parent: 0,
+        stage: 0,
+    }];
+    // Each entry: a frame and its next stage.
+    let mut stack: Vec<(usize, usize)> = vec![(0, 0)];
+    while let Some((at, next)) = stack.pop() {
+        let OpBody::Pipeline(stages) = &frames[at].op.body else {
+            continue;
+        };
+        let Some(st) = stages.get(next) else {
+            continue;
+        };
+        let child = Frame {
+            op: st.op.clone(),
+            parent: at,
+            stage: next,
+        };
+        stack.push((at, next + 1));
+        frames.push(child);
+        stack.push((frames.len() - 1, 0));
+    }
+    frames
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check::Source;
+    use crate::syntax::parse_invocation;
+    use crate::trace::Chunk;
+    use miette::Diagnostic;
+
+    fn set_with(text: &str) -> OperatorSet {
+        OperatorSet::standard()
+            .merge(&[Source::new("user.adv", text)])
+            .unwrap_or_else(|e| panic!("{}", crate::check::render_all(&e)))
+    }
+
+    fn code(e: &CheckError) -> String {
+        e.code().map(|c| c.to_string()).unwrap_or_default()
+    }
+
+    #[test]
+    fn an_invocation_binds_by_position_and_name_with_defaults() {
+        let set = OperatorSet::standard();
+        let inv = parse_invocation("start_turning_earlier(steps = 4)").unwrap();
+        let call = bind(&set, "positioning", &inv).unwrap();
+        assert_eq!(call.params(), &[4.0]);
+        assert_eq!(call.to_string(), "start_turning_earlier(steps = 4)");
+        let call = bind(&set, "positioning", &Invocation::bare("speed_up")).unwrap();
+        assert_eq!(call.params(), &[0.2]);
+        // A composition is expanded: itself, then its two stages in order.
+        let call = bind(&set, "positioning", &Invocation::bare("brake_straight")).unwrap();
+        let names: Vec<&str> = call.frames.iter().map(|f| f.op.name()).collect();
+        assert_eq!(
+            names,
+            ["brake_straight", "translational_deceleration", "no_turning"]
+        );
+    }
+
+    #[test]
+    fn binding_mistakes_have_the_checkers_codes() {
+        let set = OperatorSet::standard();
+        let cases = [
+            ("speed_upp", "advise::check::unknown_operator"),
+            ("speed_up(rat = 1)", "advise::check::unknown_parameter"),
+            ("speed_up(7)", "advise::check::parameter_out_of_range"),
+            ("speed_up(1, 2)", "advise::check::wrong_arity"),
+            ("speed_up(1, rate = 2)", "advise::check::duplicate_argument"),
+        ];
+        for (text, want) in cases {
+            let inv = parse_invocation(text).unwrap();
+            let e = bind(&set, "positioning", &inv).unwrap_err();
+            assert_eq!(code(&e), want, "{text}");
+        }
+        let set = set_with("operator push(by) for positioning on action { trans += by }");
+        let e = bind(&set, "positioning", &Invocation::bare("push")).unwrap_err();
+        assert_eq!(code(&e), "advise::check::missing_argument");
+        // A domain without operators: nothing to bind to, and the hint says where it is.
+        let e = bind(&set, "nowhere", &Invocation::bare("push")).unwrap_err();
+        assert!(
+            matches!(&e, CheckError::UnknownOperator { help, .. } if help == "`push` is an operator for the `positioning` domain; there are no operators for `nowhere`"),
+            "{e:?}"
+        );
+    }
+
+    #[test]
+    fn recorded_advice_binds_again_only_to_the_same_definition() {
+        let first =
+            set_with("operator boost(v = 0.5 in [0, 1]) for positioning on action { trans = v }");
+        let inv = parse_invocation("boost(0.25)").unwrap();
+        let record = bind(&first, "positioning", &inv)
+            .unwrap()
+            .record(Chunk { start: 1, end: 4 });
+        let again = rebind(&first, &record).unwrap();
+        assert_eq!(again.params(), &[0.25]);
+        assert_eq!(again.operator().hash(), record.hash.unwrap());
+
+        // The same name, another body: refused, whatever the parameters.
+        let second = set_with(
+            "operator boost(v = 0.5 in [0, 1]) for positioning on action { trans = v / 2 }",
+        );
+        let e = rebind(&second, &record).unwrap_err();
+        assert_eq!(code(&e), "advise::check::redefined_operator");
+
+        // A record from before hashes: its definition text decides.
+        let old = AppliedAdvice {
+            hash: None,
+            ..record.clone()
+        };
+        assert!(rebind(&first, &old).is_ok());
+        assert_eq!(
+            code(&rebind(&second, &old).unwrap_err()),
+            "advise::check::redefined_operator"
+        );
+
+        // Values are bound again, not trusted: a record edited out of range is refused.
+        let mut edited = record.clone();
+        edited.params[0].value = 3.0;
+        let e = rebind(&first, &edited).unwrap_err();
+        assert_eq!(code(&e), "advise::check::parameter_out_of_range");
+        assert!(
+            crate::check::render(&e).contains("boost(v = 3)"),
+            "{}",
+            crate::check::render(&e)
+        );
+    }
+
+    #[test]
+    fn a_compositions_hash_sees_the_operators_it_calls() {
+        let text = |body: &str| {
+            format!(
+                "operator a for positioning on action {{ {body} }}\noperator b for positioning on action = a\n"
+            )
+        };
+        let one = set_with(&text("trans = 0.1"));
+        let two = set_with(&text("trans = 0.2"));
+        let b1 = one.operator("positioning", "b").unwrap();
+        let b2 = two.operator("positioning", "b").unwrap();
+        assert_eq!(b1.definition(), b2.definition());
+        assert_ne!(b1.hash(), b2.hash());
+        // And the same text checked twice hashes the same.
+        let again = set_with(&text("trans = 0.1"));
+        assert_eq!(
+            again.operator("positioning", "b").unwrap().hash(),
+            b1.hash()
+        );
+    }
+}
