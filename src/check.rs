@@ -10,6 +10,7 @@
 
 pub mod error;
 pub mod ir;
+mod trace_domain;
 
 use std::collections::{HashMap, HashSet};
 use std::ops::Deref;
@@ -22,6 +23,7 @@ use crate::interp::Program;
 use crate::syntax::{self, SourceText, ast::*};
 pub use error::{CheckError, CheckErrors, CheckWarning, FileError};
 use ir::{BlockIr, Func, Ir};
+pub use trace_domain::TraceDomainError;
 
 /// A named source text: a file, a REPL line, an embedded standard file.
 #[derive(Clone, Debug)]

@@ -8,6 +8,7 @@
 
 pub mod backend;
 pub mod check;
+pub mod cli;
 pub mod diagnostic;
 pub mod domain;
 pub mod eval;

@@ -1559,17 +1559,14 @@ impl Session {
     }
 
     fn set_learner(&mut self, name: &Ident) -> Result<String, SessionError> {
-        let kind = match name.name.as_str() {
-            "bc" => LearnerKind::Bc,
-            "lwr" => LearnerKind::Lwr,
-            other => {
-                return Err(SessionError::UnknownLearner {
-                    name: other.to_string(),
-                    hint: did_you_mean(other, &["bc", "lwr"])
-                        .map(|h| format!("; {h}"))
-                        .unwrap_or_default(),
-                });
-            }
+        let Some(kind) = LearnerKind::from_name(&name.name) else {
+            let names = LearnerKind::ALL.map(LearnerKind::name);
+            return Err(SessionError::UnknownLearner {
+                name: name.name.clone(),
+                hint: did_you_mean(&name.name, &names)
+                    .map(|h| format!("; {h}"))
+                    .unwrap_or_default(),
+            });
         };
         if kind == self.state.learner.kind() {
             return Ok(format!(

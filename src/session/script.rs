@@ -10,6 +10,10 @@
 //! in its length. So an operator whose `{` is never closed takes the rest of the script with it,
 //! and its error says where the `{` was opened.
 
+use std::io::{self, Write};
+use std::path::Path;
+
+use super::{Session, origin};
 use crate::syntax::command::{ends_open, parse_statement, starts_command};
 use crate::syntax::delims::LineBrackets;
 
@@ -53,6 +57,53 @@ pub fn statements(text: &str) -> Vec<ScriptStatement> {
     // An unfinished statement at the end is still handed on, so its error is reported.
     out.extend(pending);
     out
+}
+
+/// Run the statements of the script `text` (read from `path`) on `session` as the REPL would:
+/// each statement but a comment is echoed after an `advise> ` prompt on `out` with its reply;
+/// a failing statement's diagnostic goes to `err` (in colour if `colour`), and stops the script
+/// unless `keep_going`; `quit` stops it. Returns how many statements failed.
+pub fn replay(
+    session: &mut Session,
+    path: &Path,
+    text: &str,
+    keep_going: bool,
+    colour: bool,
+    out: &mut dyn Write,
+    err: &mut dyn Write,
+) -> io::Result<usize> {
+    let signal = session.stop_signal();
+    let mut failures = 0;
+    for st in statements(text) {
+        let origin = origin(path, st.line);
+        signal.clear();
+        match session.execute(&st.text, &origin) {
+            Ok(reply) => {
+                let comment_only = st.text.lines().all(|l| {
+                    let l = l.trim_start();
+                    l.is_empty() || (l.starts_with("//") && !l.starts_with("///"))
+                });
+                if !comment_only {
+                    writeln!(out, "advise> {}", st.text.trim_end())?;
+                    if !reply.text.is_empty() {
+                        writeln!(out, "{}", reply.text.trim_end())?;
+                    }
+                }
+                if reply.quit {
+                    break;
+                }
+            }
+            Err(e) => {
+                failures += 1;
+                writeln!(err, "error at {origin}:")?;
+                write!(err, "{}", crate::diagnostic::render(&e, colour))?;
+                if !keep_going {
+                    break;
+                }
+            }
+        }
+    }
+    Ok(failures)
 }
 
 #[cfg(test)]
