@@ -11,219 +11,45 @@
 //! effects again, which re-runs nothing and never touches a robot.
 
 pub mod effect;
+mod error;
+mod help;
 pub mod journal;
 pub mod plot;
 pub mod script;
+mod text;
+mod undo;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use miette::Diagnostic;
-use thiserror::Error;
-
 use crate::backend::rmp::{RmpBackend, RmpConfig};
-use crate::backend::sim::wrap_angle;
-use crate::backend::sim::{SimBackend, SimError, SimParams};
-use crate::backend::{
-    Backend, BackendError, BackendSpec, BackendSpecError, Interruptible, StopSignal,
-};
-use crate::check::{CheckErrors, OperatorSet, Source};
+use crate::backend::sim::{SimBackend, SimParams};
+use crate::backend::{Backend, BackendSpec, Interruptible, StopSignal};
+use crate::check::{OperatorSet, Source};
 use crate::diagnostic::did_you_mean;
 use crate::domain::Domain;
 use crate::eval::{self, EvalOptions, Report};
-use crate::interp::{self, ApplyError, Synthesized};
+use crate::interp::{self, Synthesized};
 use crate::policy::dataset::{Dataset, Provenance};
 use crate::policy::learner::{self, Learner, LearnerError, LearnerKind};
-use crate::syntax::ParseError;
 use crate::syntax::ast::{Ident, Item};
-use crate::syntax::command::{COMMANDS, Command, PlotKind, Statement, parse_statement};
+use crate::syntax::command::{Command, PlotKind, Statement, parse_statement};
 use crate::task::{self, Execution, Start, TaskKind, episode_seed};
-use crate::trace::{Chunk, ChunkError, Episode, Pose, Trace, TraceError};
+use crate::trace::{Chunk, Episode, Pose, Trace, TraceError};
 use effect::{DemoEpisode, Effect, Entry, ExecutionEntry, Header, RunEntry};
-use journal::{Journal, JournalError};
+use journal::Journal;
+
+pub use error::SessionError;
 use std::f64::consts::PI;
+use text::{
+    eval_change, first_chars, fmt_vec, outcome_line, short_num, warnings_text, worth_a_look,
+};
+use undo::Edit;
 
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met
 /// at unit scaled distance).
 pub const DEFAULT_KAPPA: f64 = 1.0;
-
-/// Why a statement failed. Nothing in the session changes when a statement fails.
-#[derive(Debug, Error, Diagnostic)]
-pub enum SessionError {
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    Parse(#[from] ParseError),
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    Check(#[from] CheckErrors),
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    Apply(#[from] ApplyError),
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    Trace(#[from] TraceError),
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    Chunk(#[from] ChunkError),
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    Learner(#[from] LearnerError),
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    Plot(#[from] plot::PlotError),
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    File(#[from] crate::files::FileError),
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    Interrupted(Box<task::Interrupted>),
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    Sim(#[from] SimError),
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    PracticeStart(#[from] task::PracticeStartOutOfRange),
-    #[error("unknown task `{name}`")]
-    #[diagnostic(code(advise::session::unknown_task), help("{help}"))]
-    UnknownTask { name: String, help: String },
-    #[error("there is no execution yet")]
-    #[diagnostic(
-        code(advise::session::no_execution),
-        help("run the policy first (`run goal 2 -1 0` or `run start 0`), or `load trace FILE`")
-    )]
-    NoExecution,
-    #[error("there is no execution {n}: this task has {count}")]
-    #[diagnostic(
-        code(advise::session::no_such_execution),
-        help(
-            "executions are numbered from 0 in the order they were recorded; `history` and `show` name them"
-        )
-    )]
-    NoSuchExecution { n: usize, count: usize },
-    #[error("unknown learner `{name}`")]
-    #[diagnostic(
-        code(advise::session::unknown_learner),
-        help(
-            "the learners are `bc` (1-NN with critique weights, the paper's BC) and `lwr` (locally weighted regression, the paper's A-OPI){hint}"
-        )
-    )]
-    UnknownLearner { name: String, hint: String },
-    #[error("execution {n} has no poses: there is no path to plot")]
-    #[diagnostic(
-        code(advise::session::no_poses),
-        help(
-            "a trace loaded without `x`, `y`, `theta` columns has no path; `plot actions FILE.svg` plots its actions"
-        )
-    )]
-    NoPoses { n: usize },
-    #[error("nothing is selected")]
-    #[diagnostic(
-        code(advise::session::no_selection),
-        help("select the points to critique or advise first: `select 40..70`")
-    )]
-    NoSelection,
-    #[error("point {t} is outside the execution, which has {len} points")]
-    #[diagnostic(
-        code(advise::session::point_out_of_range),
-        help("points are numbered 0..{len}")
-    )]
-    PointOutOfRange { t: usize, len: usize },
-    #[error("`run goal` is for the positioning task")]
-    #[diagnostic(
-        code(advise::session::goal_for_wrong_task),
-        help("interception runs start from a ball: `run start N`")
-    )]
-    GoalForWrongTask,
-    #[error("the goal ({goal}) is not a pose a run can reach")]
-    #[diagnostic(
-        code(advise::session::bad_goal),
-        help(
-            "x and y are metres from where the base stands, within ±{MAX_GOAL_M}; theta is radians within ±2π (±6.2832)"
-        )
-    )]
-    BadGoal { goal: String },
-    #[error("kappa must be a positive number up to {MAX_KAPPA}, not {kappa}")]
-    #[diagnostic(
-        code(advise::session::bad_kappa),
-        help("the paper's kappa is a small positive constant, e.g. `critique 0.5`")
-    )]
-    BadKappa { kappa: String },
-    #[error("the {task} dataset is empty: there is no policy to run")]
-    #[diagnostic(
-        code(advise::session::empty_policy),
-        help(
-            "add demonstrations first: `load demos teacher:9` records nine teacher runs in the simulator, `load demos FILE` loads yours"
-        )
-    )]
-    EmptyPolicy { task: TaskKind },
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    JournalRead(#[from] JournalError),
-    #[error("nothing to undo")]
-    #[diagnostic(code(advise::session::nothing_to_undo))]
-    NothingToUndo,
-    #[error("nothing to redo")]
-    #[diagnostic(
-        code(advise::session::nothing_to_redo),
-        help("redo puts back what `undo` took, until new advice is given")
-    )]
-    NothingToRedo,
-    #[error(transparent)]
-    #[diagnostic(transparent)]
-    Backend(#[from] BackendSpecError),
-    #[error("cannot drive `{spec}`")]
-    #[diagnostic(
-        code(advise::session::backend_unavailable),
-        help("the session stays on `{current}`; `backend sim` drives the simulator")
-    )]
-    BackendUnavailable {
-        spec: String,
-        current: String,
-        #[source]
-        #[diagnostic_source]
-        error: BackendError,
-    },
-    /// The one failure that changes the session: what the base recorded before it failed is kept
-    /// as an execution, as on a real robot it cannot be had again.
-    #[error(
-        "execution {index} ({label}) was interrupted after {steps} steps; what was recorded is kept"
-    )]
-    #[diagnostic(
-        code(advise::session::run_interrupted),
-        help(
-            "`show` it, and select, critique or advise it like any other; `run` again when the base is ready"
-        )
-    )]
-    RunInterrupted {
-        index: usize,
-        label: String,
-        steps: usize,
-        #[source]
-        #[diagnostic_source]
-        error: BackendError,
-    },
-    #[error("nothing is known as `{topic}`")]
-    #[diagnostic(code(advise::session::unknown_help), help("{help}"))]
-    UnknownHelp { topic: String, help: String },
-    #[error("cannot read `{path}`")]
-    #[diagnostic(code(advise::session::io))]
-    Io {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("cannot write the journal `{path}`: the session stops recording")]
-    #[diagnostic(
-        code(advise::session::journal),
-        help("check the disk and the folder's permissions")
-    )]
-    Journal {
-        path: String,
-        #[source]
-        source: std::io::Error,
-    },
-}
 
 /// What a statement produced: text for the teacher, and whether the session should end.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -270,60 +96,6 @@ pub struct Recorded {
     /// Chunks critiqued and advised, for plots.
     pub flagged: Vec<Chunk>,
     pub advised: Vec<Chunk>,
-}
-
-/// An edit that `undo` can take back, holding everything `redo` needs to put it back exactly.
-#[derive(Clone, Debug)]
-enum Edit {
-    Advice {
-        /// The number `history` and `why` show (kept by undo and redo).
-        number: usize,
-        id: learner::AdviceId,
-        execution: usize,
-        /// The synthesized points themselves: redo adds these, never a re-synthesis with an
-        /// operator that may have been redefined since.
-        syn: Box<Synthesized>,
-    },
-    Critique {
-        number: usize,
-        id: learner::CritiqueId,
-        execution: usize,
-        chunk: Chunk,
-        kappa: f64,
-        increments: Vec<(Provenance, f64)>,
-    },
-}
-
-impl Edit {
-    fn number(&self) -> usize {
-        match self {
-            Edit::Advice { number, .. } | Edit::Critique { number, .. } => *number,
-        }
-    }
-
-    fn describe(&self, executions: &[Recorded]) -> String {
-        match self {
-            Edit::Advice { execution, syn, .. } => format!(
-                "#{} advise {} on {} of execution {} ({}): {} points",
-                self.number(),
-                syn.advice.invocation(),
-                syn.advice.chunk,
-                execution,
-                executions.get(*execution).map_or("?", |e| e.label.as_str()),
-                syn.points.len()
-            ),
-            Edit::Critique {
-                execution,
-                chunk,
-                kappa,
-                ..
-            } => format!(
-                "#{} critique {chunk} of execution {execution} ({}) with kappa {kappa}",
-                self.number(),
-                executions.get(*execution).map_or("?", |e| e.label.as_str()),
-            ),
-        }
-    }
 }
 
 /// Options for a new session.
@@ -1426,93 +1198,6 @@ impl Session {
         Ok(out)
     }
 
-    fn undo(&mut self) -> Result<String, SessionError> {
-        let edit = self.state.undo.last().ok_or(SessionError::NothingToUndo)?;
-        let text = edit.describe(&self.state.executions);
-        self.commit(Effect::Undo)?;
-        Ok(format!(
-            "undid: {text}; the policy has {} points",
-            self.state.learner.len()
-        ))
-    }
-
-    fn undo_edit(&mut self) -> Result<(), SessionError> {
-        let st = &mut self.state;
-        let edit = st.undo.pop().ok_or(SessionError::NothingToUndo)?;
-        let result = match &edit {
-            Edit::Advice {
-                id, execution, syn, ..
-            } => st
-                .learner
-                .remove_advice(*id)
-                .map(|()| remove_chunk(&mut st.executions[*execution].advised, syn.advice.chunk)),
-            Edit::Critique {
-                id,
-                execution,
-                chunk,
-                ..
-            } => st
-                .learner
-                .remove_critique(*id)
-                .map(|()| remove_chunk(&mut st.executions[*execution].flagged, *chunk)),
-        };
-        match result {
-            Ok(()) => {
-                st.redo.push(edit);
-                Ok(())
-            }
-            Err(e) => {
-                st.undo.push(edit);
-                Err(e.into())
-            }
-        }
-    }
-
-    fn redo(&mut self) -> Result<String, SessionError> {
-        let edit = self.state.redo.last().ok_or(SessionError::NothingToRedo)?;
-        let text = edit.describe(&self.state.executions);
-        self.commit(Effect::Redo)?;
-        Ok(format!(
-            "redid: {text}; the policy has {} points",
-            self.state.learner.len()
-        ))
-    }
-
-    /// Put back exactly what the last undo took: the same points, the same increments.
-    fn redo_edit(&mut self) -> Result<(), SessionError> {
-        let edit = self.state.redo.pop().ok_or(SessionError::NothingToRedo)?;
-        let number = edit.number();
-        let result = match edit.clone() {
-            Edit::Advice { execution, syn, .. } => self.add_advice(execution, syn, number),
-            Edit::Critique {
-                execution,
-                chunk,
-                kappa,
-                increments,
-                ..
-            } => self.add_critique(execution, chunk, kappa, increments, number),
-        };
-        if result.is_err() {
-            self.state.redo.push(edit);
-        }
-        result
-    }
-
-    fn history(&self) -> String {
-        let st = &self.state;
-        if st.undo.is_empty() && st.redo.is_empty() {
-            return "no advice or critiques yet".into();
-        }
-        let mut out = String::new();
-        for e in &st.undo {
-            let _ = writeln!(out, "  {}", e.describe(&st.executions));
-        }
-        for e in st.redo.iter().rev() {
-            let _ = writeln!(out, "  (undone) {}", e.describe(&st.executions));
-        }
-        out
-    }
-
     fn rederive(&mut self) -> Result<String, SessionError> {
         let started = Instant::now();
         // Re-derivation is deterministic for the session's seed, so the journal keeps the fact,
@@ -1685,255 +1370,9 @@ impl Session {
             "wrote {n} advised points with their provenance to {path}"
         ))
     }
-
-    fn help(&self, topic: Option<&Ident>) -> Result<String, SessionError> {
-        let Some(topic) = topic else {
-            let mut out = String::from("commands, by the steps of the teacher's workflow:\n");
-            for (step, words) in WORKFLOW {
-                let _ = writeln!(out, "  {step}");
-                for w in *words {
-                    if let Some((_, sig)) = COMMANDS.iter().find(|(c, _)| c == w) {
-                        let _ = writeln!(out, "    {sig:<34} {}", command_doc(w));
-                    }
-                }
-            }
-            let names = self.ops.operator_names(&self.domain.name);
-            let _ = writeln!(
-                out,
-                "operators for {}: {}\n`help NAME` explains a command or an operator; an operator may be defined on the spot:\n  operator creep for {} on action {{ {} = 0.1 }}",
-                self.domain.name,
-                names.join(", "),
-                self.domain.name,
-                self.domain.act.first().map_or("a", |d| d.name.as_str()),
-            );
-            return Ok(out);
-        };
-        let name = topic.name.as_str();
-        if let Some((_, sig)) = COMMANDS.iter().find(|(c, _)| *c == name) {
-            return Ok(format!("{sig}\n  {}", command_doc(name)));
-        }
-        if let Some(op) = self.ops.operator(&self.domain.name, name) {
-            return Ok(format!(
-                "{}  (on {})\n{}",
-                op.signature(),
-                op.space(),
-                op.doc()
-            ));
-        }
-        let mut known: Vec<&str> = COMMANDS.iter().map(|(c, _)| *c).collect();
-        known.extend(self.ops.operator_names(&self.domain.name));
-        Err(SessionError::UnknownHelp {
-            topic: name.to_string(),
-            help: did_you_mean(name, &known)
-                .unwrap_or_else(|| "`help` lists every command and operator".into()),
-        })
-    }
-}
-
-/// The commands grouped by the steps of the teacher's workflow, in `help`'s order.
-const WORKFLOW: &[(&str, &[&str])] = &[
-    ("demonstrate", &["task", "load", "operators"]),
-    ("run", &["backend", "run", "show", "plot"]),
-    ("select", &["select"]),
-    ("correct", &["advise", "preview", "critique", "why"]),
-    ("take back", &["undo", "redo", "history"]),
-    ("measure", &["eval", "rederive", "learner"]),
-    ("keep", &["save", "open", "export"]),
-    ("session", &["help", "quit"]),
-];
-
-fn command_doc(name: &str) -> &'static str {
-    match name {
-        "task" => {
-            "Switch task (positioning: A-OPI with LWR; interception: BC with 1-NN). Each task keeps its own dataset, executions and history."
-        }
-        "backend" => "Choose the robot: the simulator, or a Segway RMP at an address.",
-        "load" => {
-            "Load demonstrations (a file, or `teacher:N` to record N teacher runs in the simulator) or a trace to advise."
-        }
-        "operators" => "Check an operator file and add its operators on top of the standard ones.",
-        "run" => {
-            "Run the current policy to a goal (positioning) or from the N-th practice start, and record it."
-        }
-        "show" => "Summarise the selected execution (or execution N), with a small plot.",
-        "select" => {
-            "Select points A (inclusive) to B (exclusive) of the latest execution, or of execution N with `in N`; advise, critique, preview, why and plot act on it."
-        }
-        "critique" => {
-            "Flag the selection as poor: the data points that recommended its actions are pushed away (BC)."
-        }
-        "advise" => {
-            "Correct the selection with an advice operator: its points are synthesized and added (A-OPI)."
-        }
-        "preview" => "Show what `advise` would add, without adding it.",
-        "undo" => "Take back the last advice or critique, exactly.",
-        "redo" => "Put back what `undo` took.",
-        "history" => "List the advice and critiques given so far.",
-        "rederive" => "Re-derive the policy from scratch (LWR is re-tuned by cross-validation).",
-        "eval" => {
-            "Evaluate the policy on the task's fixed test set (never advised) and say what changed since the last eval; `--detail` lists the tests that changed outcome."
-        }
-        "learner" => {
-            "Switch the running learner: `bc` (1-NN with critique weights) or `lwr` (locally weighted regression); the dataset is shared."
-        }
-        "why" => "Show which data points supported the action at point T, with their provenance.",
-        "plot" => {
-            "Write the selected execution's path as SVG, `plot actions FILE` its actions against point index, `plot compare FILE N M` executions N and M overlaid; selection, advice and critiques marked."
-        }
-        "save" => "Save the dataset with provenance (.json), or its points only (.csv).",
-        "open" => "Open a dataset saved with `save`.",
-        "export" => "Write every advised point with its provenance as CSV.",
-        "help" => "Help on commands and operators.",
-        "quit" => "Leave the session (the journal keeps everything).",
-        _ => "",
-    }
-}
-
-fn remove_chunk(chunks: &mut Vec<Chunk>, chunk: Chunk) {
-    if let Some(pos) = chunks.iter().rposition(|c| *c == chunk) {
-        chunks.remove(pos);
-    }
-}
-
-/// What changed between two evaluations of the same test set; with `detail`, the goals whose
-/// outcome changed.
-fn eval_change(before: &Report, now: &Report, detail: bool) -> String {
-    let mut out = format!(
-        "  since the last eval: success {:.1}% -> {:.1}% ({:+.1} points), mean position error {:.3} -> {:.3} m ({:+.3}), mean length {:.3} -> {:.3} m ({:+.3})\n",
-        100.0 * before.success_rate,
-        100.0 * now.success_rate,
-        100.0 * (now.success_rate - before.success_rate),
-        before.mean_position_error_m,
-        now.mean_position_error_m,
-        now.mean_position_error_m - before.mean_position_error_m,
-        before.mean_length_m,
-        now.mean_length_m,
-        now.mean_length_m - before.mean_length_m,
-    );
-    let changed: Vec<String> = before
-        .outcomes
-        .iter()
-        .zip(&now.outcomes)
-        .enumerate()
-        .filter(|(_, (b, n))| b.success != n.success)
-        .map(|(i, (b, n))| {
-            format!(
-                "    test {i}: {} -> {} (position error {:.2} -> {:.2} m)",
-                if b.success { "success" } else { "failure" },
-                if n.success { "success" } else { "failure" },
-                b.position_error_m,
-                n.position_error_m
-            )
-        })
-        .collect();
-    if detail {
-        if changed.is_empty() {
-            out.push_str("  no test changed outcome\n");
-        } else {
-            let _ = writeln!(out, "  {} tests changed outcome:", changed.len());
-            for c in changed {
-                let _ = writeln!(out, "{c}");
-            }
-        }
-    } else if !changed.is_empty() {
-        let _ = writeln!(
-            out,
-            "  {} tests changed outcome (`eval --detail` lists them)",
-            changed.len()
-        );
-    }
-    out
-}
-
-fn outcome_line(e: &Execution) -> String {
-    let o = &e.outcome;
-    let mut s = format!(
-        "{} ({:?}) after {:.1} s, {:.2} m driven, position error {:.2} m",
-        if o.success { "success" } else { "failure" },
-        o.ending,
-        o.duration_s,
-        o.length_m,
-        o.position_error_m
-    );
-    if let Some(h) = o.heading_error_rad {
-        let _ = write!(s, ", heading error {h:.2} rad");
-    }
-    s
-}
-
-fn fmt_vec(v: &[f64]) -> String {
-    let parts: Vec<String> = v.iter().map(|x| format!("{x:.4}")).collect();
-    format!("[{}]", parts.join(", "))
 }
 
 /// Where a script line came from, for diagnostics: `path:line`.
 pub fn origin(path: &Path, line: usize) -> String {
     format!("{}:{line}", path.display())
-}
-
-/// The stretch of `w` points of a path where the robot turned or slowed the most (what a teacher
-/// most likely wants to look at), and which of the two it did; `None` if it never moved.
-fn worth_a_look(path: &[Pose], t: &[f64], w: usize) -> Option<(Chunk, &'static str)> {
-    let n = path.len().min(t.len());
-    if n < 3 {
-        return None;
-    }
-    let w = w.clamp(2, n);
-    let speed: Vec<f64> = (0..n - 1)
-        .map(|i| {
-            let (a, b) = (path[i], path[i + 1]);
-            let dt = (t[i + 1] - t[i]).max(1e-6);
-            (b.x_m - a.x_m).hypot(b.y_m - a.y_m) / dt
-        })
-        .collect();
-    // Per step: how much it turned (rad) and how much it slowed (m/s), both at least 0.
-    let turn: Vec<f64> = (0..n - 1)
-        .map(|i| wrap_angle(path[i + 1].theta_rad - path[i].theta_rad).abs())
-        .collect();
-    let slow: Vec<f64> = (0..n - 1)
-        .map(|i| (speed[i.saturating_sub(1)] - speed[i]).max(0.0))
-        .collect();
-    let mut best: Option<(f64, usize, &'static str)> = None;
-    for start in 0..=(n - w) {
-        let steps = start..(start + w - 1);
-        let moving = steps.clone().map(|i| speed[i]).sum::<f64>() / (w - 1) as f64;
-        if moving < 0.02 {
-            continue;
-        }
-        let turned: f64 = steps.clone().map(|i| turn[i]).sum();
-        let slowed: f64 = steps.map(|i| slow[i]).sum();
-        // A radian of turning and a metre per second of slowing weigh alike.
-        let score = turned + slowed;
-        if best.is_none_or(|(b, _, _)| score > b) {
-            let what = if turned >= slowed { "turned" } else { "slowed" };
-            best = Some((score, start, what));
-        }
-    }
-    let (_, start, what) = best?;
-    Some((Chunk::new(start, start + w, n).ok()?, what))
-}
-
-/// A number as a teacher typed it, unless it is huge or tiny: then in exponent form, so a
-/// diagnostic never prints hundreds of digits.
-fn short_num(v: f64) -> String {
-    if v != 0.0 && v.is_finite() && !(1e-4..1e6).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
-}
-
-fn first_chars(s: &str, n: usize) -> String {
-    match s.char_indices().nth(n) {
-        Some((i, _)) => format!("{}...", &s[..i]),
-        None => s.to_string(),
-    }
-}
-
-/// Check warnings as a reply shows them, after a blank line; empty when there are none.
-fn warnings_text(warnings: &[crate::check::CheckWarning]) -> String {
-    warnings
-        .iter()
-        .map(|w| format!("\n\n{}", crate::check::render(w).trim_end()))
-        .collect()
 }
