@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use super::{Session, SessionError};
 use crate::diagnostic::did_you_mean;
 use crate::syntax::ast::Ident;
-use crate::syntax::command::COMMANDS;
+use crate::syntax::command::{COMMANDS, command_spec};
 
 impl Session {
     pub(super) fn help(&self, topic: Option<&Ident>) -> Result<String, SessionError> {
@@ -15,8 +15,8 @@ impl Session {
             for (step, words) in WORKFLOW {
                 let _ = writeln!(out, "  {step}");
                 for w in *words {
-                    if let Some((_, sig)) = COMMANDS.iter().find(|(c, _)| c == w) {
-                        let _ = writeln!(out, "    {sig:<34} {}", command_doc(w));
+                    if let Some(c) = command_spec(w) {
+                        let _ = writeln!(out, "    {:<34} {}", c.signature, c.doc);
                     }
                 }
             }
@@ -32,8 +32,8 @@ impl Session {
             return Ok(out);
         };
         let name = topic.name.as_str();
-        if let Some((_, sig)) = COMMANDS.iter().find(|(c, _)| *c == name) {
-            return Ok(format!("{sig}\n  {}", command_doc(name)));
+        if let Some(c) = command_spec(name) {
+            return Ok(format!("{}\n  {}", c.signature, c.doc));
         }
         if let Some(op) = self.ops.operator(&self.domain.name, name) {
             return Ok(format!(
@@ -43,7 +43,7 @@ impl Session {
                 op.doc()
             ));
         }
-        let mut known: Vec<&str> = COMMANDS.iter().map(|(c, _)| *c).collect();
+        let mut known: Vec<&str> = COMMANDS.iter().map(|c| c.name).collect();
         known.extend(self.ops.operator_names(&self.domain.name));
         Err(SessionError::UnknownHelp {
             topic: name.to_string(),
@@ -65,49 +65,28 @@ const WORKFLOW: &[(&str, &[&str])] = &[
     ("session", &["help", "quit"]),
 ];
 
-fn command_doc(name: &str) -> &'static str {
-    match name {
-        "task" => {
-            "Switch task (positioning: A-OPI with LWR; interception: BC with 1-NN). Each task keeps its own dataset, executions and history."
+#[cfg(test)]
+mod tests {
+    use super::WORKFLOW;
+    use crate::syntax::command::{COMMANDS, command_spec};
+
+    #[test]
+    fn help_lists_every_command_once_under_one_step() {
+        let listed: Vec<&str> = WORKFLOW
+            .iter()
+            .flat_map(|(_, w)| w.iter().copied())
+            .collect();
+        for c in COMMANDS {
+            let n = listed.iter().filter(|w| **w == c.name).count();
+            assert_eq!(n, 1, "`{}` is listed {n} times by `help`", c.name);
+            assert!(c.signature.starts_with(c.name), "{c:?}");
+            assert!(!c.doc.is_empty(), "{c:?}");
         }
-        "backend" => "Choose the robot: the simulator, or a Segway RMP at an address.",
-        "load" => {
-            "Load demonstrations (a file, or `teacher:N` to record N teacher runs in the simulator) or a trace to advise."
+        for w in listed {
+            assert!(
+                command_spec(w).is_some(),
+                "`help` lists `{w}`, which is no command"
+            );
         }
-        "operators" => "Check an operator file and add its operators on top of the standard ones.",
-        "run" => {
-            "Run the current policy to a goal (positioning) or from the N-th practice start, and record it."
-        }
-        "show" => "Summarise the selected execution (or execution N), with a small plot.",
-        "select" => {
-            "Select points A (inclusive) to B (exclusive) of the latest execution, or of execution N with `in N`; advise, critique, preview, why and plot act on it."
-        }
-        "critique" => {
-            "Flag the selection as poor: the data points that recommended its actions are pushed away (BC)."
-        }
-        "advise" => {
-            "Correct the selection with an advice operator: its points are synthesized and added (A-OPI)."
-        }
-        "preview" => "Show what `advise` would add, without adding it.",
-        "undo" => "Take back the last advice or critique, exactly.",
-        "redo" => "Put back what `undo` took.",
-        "history" => "List the advice and critiques given so far.",
-        "rederive" => "Re-derive the policy from scratch (LWR is re-tuned by cross-validation).",
-        "eval" => {
-            "Evaluate the policy on the task's fixed test set (never advised) and say what changed since the last eval; `--detail` lists the tests that changed outcome."
-        }
-        "learner" => {
-            "Switch the running learner: `bc` (1-NN with critique weights) or `lwr` (locally weighted regression); the dataset is shared."
-        }
-        "why" => "Show which data points supported the action at point T, with their provenance.",
-        "plot" => {
-            "Write the selected execution's path as SVG, `plot actions FILE` its actions against point index, `plot compare FILE N M` executions N and M overlaid; selection, advice and critiques marked."
-        }
-        "save" => "Save the dataset with provenance (.json), or its points only (.csv).",
-        "open" => "Open a dataset saved with `save`.",
-        "export" => "Write every advised point with its provenance as CSV.",
-        "help" => "Help on commands and operators.",
-        "quit" => "Leave the session (the journal keeps everything).",
-        _ => "",
     }
 }
