@@ -91,3 +91,59 @@ impl OperatorSet {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file(dir: &tempfile::TempDir, name: &str, text: &str) -> std::path::PathBuf {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn a_trace_is_recognised_by_its_header_or_its_domain_field_or_named() {
+        let set = OperatorSet::standard();
+        let dir = tempfile::tempdir().unwrap();
+        let csv = file(
+            &dir,
+            "t.csv",
+            "t, dist2,bearing,dheading,trans,rot\n0,1,0,0,0,0\n",
+        );
+        assert_eq!(set.trace_domain(&csv, None).unwrap().name, "positioning");
+        let json = file(
+            &dir,
+            "t.json",
+            r#"{"domain": "interception", "points": []}"#,
+        );
+        assert_eq!(set.trace_domain(&json, None).unwrap().name, "interception");
+        let missing = dir.path().join("absent.csv");
+        let named = set.trace_domain(&missing, Some("interception")).unwrap();
+        assert_eq!(named.name, "interception");
+    }
+
+    #[test]
+    fn an_unknown_domain_names_the_known_ones() {
+        let set = OperatorSet::standard();
+        let dir = tempfile::tempdir().unwrap();
+        let csv = file(&dir, "t.csv", "a,b\n1,2\n");
+        let e = set.trace_domain(&csv, None).unwrap_err();
+        assert!(matches!(e, TraceDomainError::Unrecognised { .. }), "{e:?}");
+        let help = e.help().unwrap().to_string();
+        assert!(
+            help.contains("positioning") && help.contains("interception"),
+            "{help}"
+        );
+        let e = set.trace_domain(&csv, Some("position")).unwrap_err();
+        assert_eq!(
+            e.code().unwrap().to_string(),
+            "advise::cli::unknown_domain",
+            "{e:?}"
+        );
+        let e = set
+            .trace_domain(&dir.path().join("absent.csv"), None)
+            .unwrap_err();
+        assert!(matches!(e, TraceDomainError::File(_)), "{e:?}");
+    }
+}

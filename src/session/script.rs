@@ -147,4 +147,41 @@ mod tests {
         let st = statements("// x =\nshow");
         assert_eq!(st.len(), 2, "{st:?}");
     }
+
+    fn replayed(text: &str, keep_going: bool) -> (usize, String, String) {
+        let opts = crate::session::SessionOptions {
+            default_demos: 0,
+            ..crate::session::SessionOptions::default()
+        };
+        let mut session = Session::new(opts).unwrap();
+        let (mut out, mut err) = (Vec::new(), Vec::new());
+        let path = Path::new("s.adv");
+        let failures = replay(
+            &mut session,
+            path,
+            text,
+            keep_going,
+            false,
+            &mut out,
+            &mut err,
+        )
+        .unwrap();
+        let text = |b: Vec<u8>| String::from_utf8(b).unwrap();
+        (failures, text(out), text(err))
+    }
+
+    #[test]
+    fn replay_echoes_statements_skips_comments_and_stops_at_a_failure_or_quit() {
+        let (failures, out, err) = replayed("// note\nhistory\nshow\nhistory\n", false);
+        assert_eq!(failures, 1);
+        assert_eq!(out, "advise> history\nno advice or critiques yet\n");
+        assert!(err.starts_with("error at s.adv:3:\n"), "{err}");
+        let (failures, out, _) = replayed("show\nhistory\nquit\nhistory\n", true);
+        assert_eq!(failures, 1);
+        assert_eq!(
+            out.matches("advise> history").count(),
+            1,
+            "keep-going runs on, quit stops: {out}"
+        );
+    }
 }
