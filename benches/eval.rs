@@ -8,7 +8,8 @@
 use std::hint::black_box;
 
 use advise::backend::sim::SimParams;
-use advise::eval::{EvalOptions, NearestNeighbour, PolicyKind, evaluate};
+use advise::eval::{EvalOptions, NearestNeighbour, evaluate};
+use advise::policy::learner::LearnerKind;
 use advise::task::{TaskKind, record_demos};
 use advise::trace::{Chunk, Episode};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -52,7 +53,7 @@ fn bench(c: &mut Criterion) {
     );
     let mut g = c.benchmark_group("eval");
     g.sample_size(10);
-    let learner = advise::eval::derive_policy(PolicyKind::Bc, &kind.domain(), &eps).unwrap();
+    let learner = advise::eval::derive_policy(LearnerKind::Bc, &kind.domain(), &eps).unwrap();
     g.bench_function("interception_100_starts_bc_10k", |b| {
         b.iter(|| black_box(evaluate(kind, black_box(learner.as_ref()), &opts)))
     });

@@ -23,6 +23,7 @@ mod decls;
 pub mod error;
 mod names;
 mod standard;
+mod trace_domain;
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -42,6 +43,7 @@ use decls::domain_difference;
 pub use error::{CheckError, CheckErrors, CheckWarning, FileError};
 use names::Dom;
 pub use standard::STANDARD_SOURCES;
+pub use trace_domain::TraceDomainError;
 
 /// A named source text: a file, a REPL line, an embedded standard file.
 #[derive(Clone, Debug)]

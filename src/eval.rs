@@ -272,14 +272,44 @@ impl ControllerBox for Box<dyn Controller + Send> {
     }
 }
 
-/// Which learner derives the policy.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum PolicyKind {
-    /// 1-nearest-neighbour over range-scaled observations (the paper's BC learner).
-    Bc,
-    /// Locally weighted regression (the paper's A-OPI learner).
-    Lwr,
+/// What `advise eval --policy` evaluates: a policy derived by one of the learners, or the task's
+/// own teacher. The learners' names are [`LearnerKind`]'s, so each is spelled once.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EvalPolicy {
+    /// A policy derived from demonstrations by this learner.
+    Learned(LearnerKind),
+    /// The task's own teacher (needs no dataset).
+    Teacher,
+}
+
+impl EvalPolicy {
+    /// The name on the command line: the learner's, or `teacher`.
+    pub fn name(self) -> &'static str {
+        match self {
+            EvalPolicy::Learned(kind) => kind.name(),
+            EvalPolicy::Teacher => "teacher",
+        }
+    }
+}
+
+impl clap::ValueEnum for EvalPolicy {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[
+            EvalPolicy::Learned(LearnerKind::Bc),
+            EvalPolicy::Learned(LearnerKind::Lwr),
+            EvalPolicy::Teacher,
+        ]
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        match self {
+            EvalPolicy::Learned(kind) => kind.to_possible_value(),
+            EvalPolicy::Teacher => Some(
+                clap::builder::PossibleValue::new("teacher")
+                    .help("The task's own teacher (needs no dataset)"),
+            ),
+        }
+    }
 }
 
 /// Why a policy could not be derived.
@@ -300,7 +330,7 @@ pub enum EvalError {
 /// line turns data into a controller. Both learners come from [`crate::policy::learner`]; LWR is
 /// tuned by seeded cross-validation.
 pub fn derive_policy(
-    kind: PolicyKind,
+    kind: LearnerKind,
     domain: &Domain,
     episodes: &[Episode],
 ) -> Result<Box<dyn Policy>, EvalError> {
@@ -312,11 +342,7 @@ pub fn derive_policy(
         ds.add_demonstration(&e.name, &e.trace)
             .map_err(|e| EvalError::Learner(Box::new(e.into())))?;
     }
-    let learner_kind = match kind {
-        PolicyKind::Bc => LearnerKind::Bc,
-        PolicyKind::Lwr => LearnerKind::Lwr,
-    };
-    Ok(Box::new(Learner::with_dataset(ds, learner_kind, 0)))
+    Ok(Box::new(Learner::with_dataset(ds, kind, 0)))
 }
 
 /// Brute-force 1-nearest-neighbour over observations scaled inversely with each dimension's data

@@ -28,6 +28,7 @@ pub mod bc;
 pub mod critic;
 pub mod pilot;
 pub mod plot;
+pub mod study;
 pub mod summary;
 
 /// Salts that keep the seed's streams apart: test-set noise, practice-execution noise.

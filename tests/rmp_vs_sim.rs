@@ -26,7 +26,8 @@ use advise::backend::Backend;
 use advise::backend::rmp::config::{FaultInjection, MachineConfig};
 use advise::backend::rmp::{Emulator, EmulatorConfig, EmulatorHandle, RmpBackend, RmpConfig};
 use advise::backend::sim::SimParams;
-use advise::eval::{PolicyKind, derive_policy};
+use advise::eval::derive_policy;
+use advise::policy::learner::LearnerKind;
 use advise::task::{Controller, Execution, Start, TaskKind, record_demos, run_episode, run_sim};
 use advise::trace::{Episode, Pose};
 
@@ -165,7 +166,7 @@ fn the_teacher_and_an_lwr_policy_reach_a_goal_over_the_wire_as_in_the_simulator(
         .into_iter()
         .map(|(e, _)| e)
         .collect();
-    let policy = derive_policy(PolicyKind::Lwr, &kind.domain(), &demos).unwrap();
+    let policy = derive_policy(LearnerKind::Lwr, &kind.domain(), &demos).unwrap();
     let mut c: &dyn advise::policy::Policy = policy.as_ref();
     let wire = over_the_wire(&mut rmp, &start, &mut c, seed);
     let sim = run_sim(&start, &mut c, &params(), seed);

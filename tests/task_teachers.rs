@@ -106,9 +106,12 @@ fn reproduces(kind: TaskKind) {
     let demos = record_demos(kind, 12, seed, &params);
     let episodes: Vec<Episode> = demos.iter().map(|(e, _)| e.clone()).collect();
     let policy = OneNn::new(&episodes);
-    let stand_in =
-        advise::eval::derive_policy(advise::eval::PolicyKind::Bc, &kind.domain(), &episodes)
-            .unwrap();
+    let stand_in = advise::eval::derive_policy(
+        advise::policy::learner::LearnerKind::Bc,
+        &kind.domain(),
+        &episodes,
+    )
+    .unwrap();
     let starts = kind.practice_set(seed, 12);
     for (i, ((demo, outcome), start)) in demos.iter().zip(&starts).enumerate() {
         for p in [&policy as &dyn Policy, stand_in.as_ref()] {

@@ -25,17 +25,36 @@ use crate::trace::{Chunk, Episode, Trace};
 
 pub use crate::policy::dataset::{AdviceId, CritiqueId, DemoId, ExecutionId};
 
-/// Which policy the learner runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+/// Which policy the learner runs: the one name of a learner for sessions (`learner bc`),
+/// journals, `advise eval --policy` and [`crate::eval::derive_policy`].
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum LearnerKind {
-    /// 1-NN with critique weights (the paper's BC).
+    /// 1-nearest-neighbour (BC)
     Bc,
-    /// Locally weighted regression (the paper's A-OPI).
+    /// Locally weighted regression (A-OPI)
     Lwr,
 }
 
 impl LearnerKind {
+    /// Every learner, in the order help lists them.
+    pub const ALL: [LearnerKind; 2] = [LearnerKind::Bc, LearnerKind::Lwr];
+
+    /// The name a user types (`bc`, `lwr`), as in journals.
+    pub fn name(self) -> &'static str {
+        match self {
+            LearnerKind::Bc => "bc",
+            LearnerKind::Lwr => "lwr",
+        }
+    }
+
+    /// The learner named `name`, if any.
+    pub fn from_name(name: &str) -> Option<LearnerKind> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
     /// The paper's learner for a task: A-OPI (LWR) for positioning, BC (1-NN) for interception.
     pub fn for_task(task: TaskKind) -> LearnerKind {
         match task {

@@ -59,11 +59,11 @@ impl AdviseHelper {
                 .collect::<Vec<_>>()
         };
         let pool: Vec<String> = match words.as_slice() {
-            [] => COMMANDS.iter().map(|(c, _)| c.to_string()).collect(),
+            [] => COMMANDS.iter().map(|c| c.name.to_string()).collect(),
             ["advise"] | ["preview"] => ops(),
             ["help"] => COMMANDS
                 .iter()
-                .map(|(c, _)| c.to_string())
+                .map(|c| c.name.to_string())
                 .chain(ops())
                 .collect(),
             ["load"] => vec!["demos".into(), "trace".into()],
@@ -119,16 +119,18 @@ impl AdviseHelper {
         }
         if words.len() == 1 && !line.ends_with(' ') {
             // Complete the command word itself, then show its arguments.
-            let (_, sig) = COMMANDS.iter().find(|(c, _)| c.starts_with(first))?;
-            return sig
+            let c = COMMANDS.iter().find(|c| c.name.starts_with(first))?;
+            return c
+                .signature
                 .strip_prefix(first)
                 .map(|s| s.to_string())
                 .filter(|s| !s.is_empty());
         }
         if words.len() == 1 && line.ends_with(' ') {
-            let (c, sig) = COMMANDS.iter().find(|(c, _)| *c == first)?;
-            return sig
-                .strip_prefix(c)
+            let c = crate::syntax::command::command_spec(first)?;
+            return c
+                .signature
+                .strip_prefix(c.name)
                 .map(|s| s.trim_start().to_string())
                 .filter(|s| !s.is_empty());
         }

@@ -74,32 +74,138 @@ pub enum Command {
     Quit,
 }
 
-/// Every command word, for completion and help, with its signature.
-pub const COMMANDS: &[(&str, &str)] = &[
-    ("task", "task positioning|interception"),
-    ("backend", "backend sim|rmp:HOST:PORT"),
-    ("load", "load demos FILE | load trace FILE"),
-    ("operators", "operators FILE.adv"),
-    ("run", "run goal X Y THETA | run start N"),
-    ("show", "show [N]"),
-    ("select", "select A..B [in N]"),
-    ("critique", "critique [KAPPA]"),
-    ("advise", "advise OP[(ARGS)]"),
-    ("preview", "preview OP[(ARGS)]"),
-    ("undo", "undo"),
-    ("redo", "redo"),
-    ("history", "history"),
-    ("rederive", "rederive"),
-    ("eval", "eval [--detail]"),
-    ("learner", "learner bc|lwr"),
-    ("why", "why T"),
-    ("plot", "plot [actions|compare] FILE [N M]"),
-    ("save", "save FILE.json|FILE.csv"),
-    ("open", "open FILE.json"),
-    ("export", "export advice FILE.csv"),
-    ("help", "help [COMMAND|OPERATOR]"),
-    ("quit", "quit"),
+/// A session command as `help`, completion and hints know it: its word, its signature and its
+/// one-line help. Adding a command is one entry here (and its grammar rule and `Command` variant).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CommandSpec {
+    pub name: &'static str,
+    pub signature: &'static str,
+    pub doc: &'static str,
+}
+
+/// Every command, in the order hints try them.
+pub const COMMANDS: &[CommandSpec] = &[
+    CommandSpec {
+        name: "task",
+        signature: "task positioning|interception",
+        doc: "Switch task (positioning: A-OPI with LWR; interception: BC with 1-NN). Each task keeps its own dataset, executions and history.",
+    },
+    CommandSpec {
+        name: "backend",
+        signature: "backend sim|rmp:HOST:PORT",
+        doc: "Choose the robot: the simulator, or a Segway RMP at an address.",
+    },
+    CommandSpec {
+        name: "load",
+        signature: "load demos FILE | load trace FILE",
+        doc: "Load demonstrations (a file, or `teacher:N` to record N teacher runs in the simulator) or a trace to advise.",
+    },
+    CommandSpec {
+        name: "operators",
+        signature: "operators FILE.adv",
+        doc: "Check an operator file and add its operators on top of the standard ones.",
+    },
+    CommandSpec {
+        name: "run",
+        signature: "run goal X Y THETA | run start N",
+        doc: "Run the current policy to a goal (positioning) or from the N-th practice start, and record it.",
+    },
+    CommandSpec {
+        name: "show",
+        signature: "show [N]",
+        doc: "Summarise the selected execution (or execution N), with a small plot.",
+    },
+    CommandSpec {
+        name: "select",
+        signature: "select A..B [in N]",
+        doc: "Select points A (inclusive) to B (exclusive) of the latest execution, or of execution N with `in N`; advise, critique, preview, why and plot act on it.",
+    },
+    CommandSpec {
+        name: "critique",
+        signature: "critique [KAPPA]",
+        doc: "Flag the selection as poor: the data points that recommended its actions are pushed away (BC).",
+    },
+    CommandSpec {
+        name: "advise",
+        signature: "advise OP[(ARGS)]",
+        doc: "Correct the selection with an advice operator: its points are synthesized and added (A-OPI).",
+    },
+    CommandSpec {
+        name: "preview",
+        signature: "preview OP[(ARGS)]",
+        doc: "Show what `advise` would add, without adding it.",
+    },
+    CommandSpec {
+        name: "undo",
+        signature: "undo",
+        doc: "Take back the last advice or critique, exactly.",
+    },
+    CommandSpec {
+        name: "redo",
+        signature: "redo",
+        doc: "Put back what `undo` took.",
+    },
+    CommandSpec {
+        name: "history",
+        signature: "history",
+        doc: "List the advice and critiques given so far.",
+    },
+    CommandSpec {
+        name: "rederive",
+        signature: "rederive",
+        doc: "Re-derive the policy from scratch (LWR is re-tuned by cross-validation).",
+    },
+    CommandSpec {
+        name: "eval",
+        signature: "eval [--detail]",
+        doc: "Evaluate the policy on the task's fixed test set (never advised) and say what changed since the last eval; `--detail` lists the tests that changed outcome.",
+    },
+    CommandSpec {
+        name: "learner",
+        signature: "learner bc|lwr",
+        doc: "Switch the running learner: `bc` (1-NN with critique weights) or `lwr` (locally weighted regression); the dataset is shared.",
+    },
+    CommandSpec {
+        name: "why",
+        signature: "why T",
+        doc: "Show which data points supported the action at point T, with their provenance.",
+    },
+    CommandSpec {
+        name: "plot",
+        signature: "plot [actions|compare] FILE [N M]",
+        doc: "Write the selected execution's path as SVG, `plot actions FILE` its actions against point index, `plot compare FILE N M` executions N and M overlaid; selection, advice and critiques marked.",
+    },
+    CommandSpec {
+        name: "save",
+        signature: "save FILE.json|FILE.csv",
+        doc: "Save the dataset with provenance (.json), or its points only (.csv).",
+    },
+    CommandSpec {
+        name: "open",
+        signature: "open FILE.json",
+        doc: "Open a dataset saved with `save`.",
+    },
+    CommandSpec {
+        name: "export",
+        signature: "export advice FILE.csv",
+        doc: "Write every advised point with its provenance as CSV.",
+    },
+    CommandSpec {
+        name: "help",
+        signature: "help [COMMAND|OPERATOR]",
+        doc: "Help on commands and operators.",
+    },
+    CommandSpec {
+        name: "quit",
+        signature: "quit",
+        doc: "Leave the session (the journal keeps everything).",
+    },
 ];
+
+/// The command called `name`, if any.
+pub fn command_spec(name: &str) -> Option<&'static CommandSpec> {
+    COMMANDS.iter().find(|c| c.name == name)
+}
 
 /// Parse one statement. `name` names the source in diagnostics (`<repl>`, or `script.adv:12`).
 pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
@@ -209,7 +315,7 @@ fn first_word(src: &str) -> Option<(usize, &str)> {
 /// Whether `src` starts with a command word. A command is one line: a line that starts with one
 /// never continues on the next (an unclosed `(` in it is an error at once, not a wait for more).
 pub fn starts_command(src: &str) -> bool {
-    first_word(src).is_some_and(|(_, w)| w == "exit" || COMMANDS.iter().any(|(c, _)| *c == w))
+    first_word(src).is_some_and(|(_, w)| w == "exit" || command_spec(w).is_some())
 }
 
 /// A statement that failed to parse and starts with a word that is neither a command nor an
@@ -219,7 +325,7 @@ fn unknown_command(name: &str, src: &str) -> Option<ParseError> {
     if starts_command(src) || matches!(word, "operator" | "domain") {
         return None;
     }
-    let words: Vec<&str> = COMMANDS.iter().map(|(c, _)| *c).collect();
+    let words: Vec<&str> = COMMANDS.iter().map(|c| c.name).collect();
     Some(ParseError::UnknownCommand {
         word: word.to_string(),
         src: miette::NamedSource::new(name, super::SourceText::from(src)),

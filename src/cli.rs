@@ -1,0 +1,360 @@
+//! The command line's arguments: the clap types of every subcommand, over the library's own
+//! types (a task is a [`TaskKind`], a learner a [`LearnerKind`](crate::policy::learner::LearnerKind),
+//! a study a [`Study`], a platform a [`Platform`]), and the errors that belong to the command line
+//! itself. `src/main.rs` parses these and calls the library; the subcommands that are not a
+//! session are run by [`tools`].
+
+use std::path::{Path, PathBuf};
+
+use clap::builder::PossibleValue;
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use miette::{Diagnostic, miette};
+use thiserror::Error;
+
+use crate::backend::rmp::codec::{Platform, WordOrder};
+use crate::backend::sim::SimParams;
+use crate::eval::EvalPolicy;
+use crate::experiment::study::{Seeds, Study};
+use crate::task::TaskKind;
+
+pub mod tools;
+
+#[derive(Parser)]
+#[command(
+    name = "advise",
+    version,
+    about = "Teach a robot's motion controller by critiquing and advising its executions"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Check advice-operator files (on top of the standard operators); every error of every file
+    /// is reported, and the exit code is non-zero if there was any.
+    Check {
+        /// Operator files (`*.adv`); with none, the standard operators are checked.
+        files: Vec<PathBuf>,
+    },
+    /// Apply an operator to a range of a trace and print the synthesized points as CSV.
+    Apply {
+        /// Extra operator files, checked on top of the standard operators (repeatable).
+        #[arg(long = "operators", value_name = "FILE")]
+        operators: Vec<PathBuf>,
+        /// The operator and its arguments: `speed_up`, `speed_up(0.5)`, `speed_up(rate = 0.5)`.
+        #[arg(long, value_name = "NAME[(ARGS)]")]
+        op: String,
+        /// The trace (CSV with a header, or JSON).
+        #[arg(long, value_name = "TRACE")]
+        trace: PathBuf,
+        /// Half-open, 0-based range of points: `A..B`.
+        #[arg(long, value_name = "A..B")]
+        range: String,
+        /// The trace's domain; by default it is recognised from the CSV header or JSON.
+        #[arg(long)]
+        domain: Option<String>,
+        /// For a demonstrations file of many episodes: which one (0-based, in file order).
+        #[arg(long, value_name = "K")]
+        episode: Option<usize>,
+    },
+    /// Record teacher demonstrations in the simulator (one file, many episodes).
+    Demo(DemoArgs),
+    /// Run a policy over the task's fixed test set and print the figures.
+    Eval(EvalArgs),
+    /// Run a session script (the REPL's commands, one per line); stops at the first failing
+    /// statement unless `--keep-going`.
+    Run {
+        /// The script (`*.adv`).
+        script: PathBuf,
+        /// Report failing statements and go on.
+        #[arg(long)]
+        keep_going: bool,
+        #[command(flatten)]
+        session: SessionArgs,
+    },
+    /// Replay a session journal (the newest one by default) and continue in the REPL.
+    Resume {
+        /// The journal to replay; by default the newest in the journal folder.
+        journal: Option<PathBuf>,
+    },
+    /// Open the REPL (what `advise` with no arguments does).
+    Repl(SessionArgs),
+    /// Reproduce one of the paper's studies with automated teachers and print its figures.
+    Experiment(ExperimentArgs),
+    /// Emulate a Segway RMP v3 on a UDP port, with the simulator behind it: what `--backend
+    /// rmp:HOST:PORT` drives when no robot is at hand. Runs until Ctrl-C.
+    RmpEmulator(EmulatorArgs),
+}
+
+#[derive(Args)]
+pub struct ExperimentArgs {
+    /// Which study.
+    pub study: Study,
+    /// Seeds everything: demonstrations, practice starts, simulator noise, LWR tuning.
+    #[arg(long, default_value_t = 0, conflicts_with = "seeds")]
+    pub seed: u64,
+    /// Run several seeds (`0..5`: 0 to 4) and print each figure's mean and spread beside the
+    /// paper's, and for how many seeds the paper's shape holds.
+    #[arg(long, value_name = "A..B")]
+    pub seeds: Option<String>,
+    /// Print the result as JSON on stdout (every figure, the seed and the parameters; with
+    /// `--seeds`, the summary and every run).
+    #[arg(long)]
+    pub json: bool,
+    /// Write the study's plots as SVG files into this folder (created if needed).
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
+    /// Simulator parameters (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    pub sim_params: Option<PathBuf>,
+}
+
+#[derive(Args)]
+pub struct EmulatorArgs {
+    /// Address to listen on (port 0 picks a free port; the real RMP listens on 8080).
+    #[arg(long, default_value = "127.0.0.1:8080", value_name = "HOST:PORT")]
+    pub bind: std::net::SocketAddr,
+    /// Fraction of datagrams (either way) silently dropped, 0..1.
+    #[arg(long, default_value_t = 0.0, value_name = "FRACTION")]
+    pub drop: f64,
+    /// Fraction of datagrams with one byte changed (the CRC catches every one), 0..1.
+    #[arg(long, default_value_t = 0.0, value_name = "FRACTION")]
+    pub corrupt: f64,
+    /// Fraction of datagrams held back by `--delay-ms` (so they also arrive out of order), 0..1.
+    #[arg(long, default_value_t = 0.0, value_name = "FRACTION")]
+    pub delay: f64,
+    /// How long a delayed datagram is held, ms.
+    #[arg(long, default_value_t = 30)]
+    pub delay_ms: u64,
+    /// Seeds the fault injection and the simulator's noise.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Byte order of the feedback words (the driver detects it; the real firmware is little).
+    #[arg(long, default_value = "little")]
+    pub word_order: WordOrder,
+    /// The platform it reports (balance mode needs an RMP 220).
+    #[arg(long, default_value = "rmp220")]
+    pub platform: Platform,
+    /// Simulator parameters of the base behind it (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    pub sim_params: Option<PathBuf>,
+    /// Enter balance mode at once, without waiting for an operator to tip the base back.
+    #[arg(long)]
+    pub no_tip_back: bool,
+}
+
+#[derive(Args)]
+pub struct DemoArgs {
+    /// The task to demonstrate.
+    #[arg(long)]
+    pub task: TaskKind,
+    /// How many demonstrations (episodes) to record.
+    #[arg(long, default_value_t = 9, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    pub count: u64,
+    /// Seeds the practice starts, the simulator noise and the teacher.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output file: `.json` writes JSON episodes, anything else CSV with an `episode` column.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Simulator parameters (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    pub sim_params: Option<PathBuf>,
+}
+
+#[derive(Args)]
+pub struct EvalArgs {
+    /// The task whose test set to run.
+    #[arg(long)]
+    pub task: TaskKind,
+    /// Demonstrations to derive the policy from (a file written by `advise demo`).
+    #[arg(long, value_name = "FILE")]
+    pub dataset: Option<PathBuf>,
+    /// Which policy to derive (or `teacher` to evaluate the teacher itself).
+    #[arg(long, default_value = "bc")]
+    pub policy: EvalPolicy,
+    /// Seeds the simulator noise; the test set itself is fixed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Print the report as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Simulator parameters (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    pub sim_params: Option<PathBuf>,
+    /// The base: `sim` (the test set in parallel on fresh simulators) or `rmp:HOST:PORT` (a Segway
+    /// RMP or `advise rmp-emulator`, episode after episode in real time).
+    #[arg(long, default_value = "sim", value_name = "sim|rmp:HOST:PORT")]
+    pub backend: String,
+    /// Run only the first N starts of the test set (a quick check on a real base).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub limit: Option<u64>,
+}
+
+/// Errors that belong to the command line itself.
+#[derive(Debug, Error, Diagnostic)]
+pub enum CliError {
+    #[error("cannot write `{path}`")]
+    #[diagnostic(
+        code(advise::cli::write),
+        help("check that the directory exists and is writable")
+    )]
+    Write {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("`--policy {policy}` needs demonstrations to learn from")]
+    #[diagnostic(
+        code(advise::cli::no_dataset),
+        help(
+            "pass `--dataset FILE` (record one with `advise demo --task TASK --out FILE`), or use `--policy teacher`"
+        )
+    )]
+    NoDataset { policy: &'static str },
+}
+
+/// How a session starts.
+#[derive(Args, Clone)]
+pub struct SessionArgs {
+    /// The task to start on.
+    #[arg(long, default_value = "positioning")]
+    pub task: TaskKind,
+    /// Seeds the simulator, the practice starts and LWR tuning.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Teacher demonstrations recorded at start (0: start with an empty dataset).
+    #[arg(long, default_value_t = 9)]
+    pub demos: usize,
+    /// Do not keep a journal.
+    #[arg(long)]
+    pub no_journal: bool,
+    /// The base to drive: `sim`, or `rmp:HOST:PORT` for a Segway RMP (or `advise rmp-emulator`);
+    /// the same as the session command `backend`.
+    #[arg(long, default_value = "sim", value_name = "sim|rmp:HOST:PORT")]
+    pub backend: String,
+}
+
+impl Default for SessionArgs {
+    fn default() -> Self {
+        SessionArgs {
+            task: TaskKind::Positioning,
+            seed: 0,
+            demos: 9,
+            no_journal: false,
+            backend: "sim".into(),
+        }
+    }
+}
+
+// The command line's spelling of library types that have no `clap` derive of their own (their
+// modules know nothing of the command line): one table each, read by clap for parsing, help and
+// completion.
+
+impl ValueEnum for TaskKind {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[TaskKind::Positioning, TaskKind::Interception]
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(PossibleValue::new(self.name()))
+    }
+}
+
+impl ValueEnum for Platform {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[
+            Platform::Rmp220,
+            Platform::Rmp210,
+            Platform::Rmp440,
+            Platform::RmpOmni,
+            Platform::Rmp110,
+        ]
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(PossibleValue::new(match self {
+            Platform::Rmp220 => "rmp220",
+            Platform::Rmp210 => "rmp210",
+            Platform::Rmp440 => "rmp440",
+            Platform::RmpOmni => "omni",
+            Platform::Rmp110 => "rmp110",
+        }))
+    }
+}
+
+impl ValueEnum for WordOrder {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[WordOrder::Little, WordOrder::Big]
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(PossibleValue::new(match self {
+            WordOrder::Little => "little",
+            WordOrder::Big => "big",
+        }))
+    }
+}
+
+/// `A..B` as two indices.
+pub fn parse_range(s: &str) -> miette::Result<(usize, usize)> {
+    let bad = || {
+        miette!(
+            code = "advise::cli::bad_range",
+            help = "write a half-open, 0-based range of points such as `0..20`",
+            "`{s}` is not a range"
+        )
+    };
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let a = a.trim().parse().map_err(|_| bad())?;
+    let b = b.trim().parse().map_err(|_| bad())?;
+    Ok((a, b))
+}
+
+/// `--seed` alone, or `--seeds A..B` as a non-empty half-open range of seeds.
+pub fn parse_seeds(seed: u64, range: Option<&str>) -> miette::Result<Seeds> {
+    let Some(s) = range else {
+        return Ok(Seeds::One(seed));
+    };
+    let bad = || {
+        miette!(
+            code = "advise::cli::bad_seeds",
+            help = "write a half-open range of seeds such as `0..5` (seeds 0 to 4)",
+            "`{s}` is not a range of seeds"
+        )
+    };
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let a: u64 = a.trim().parse().map_err(|_| bad())?;
+    let b: u64 = b.trim().parse().map_err(|_| bad())?;
+    if b <= a {
+        return Err(bad());
+    }
+    Ok(Seeds::Range(a..b))
+}
+
+/// `--sim-params FILE`, or the defaults.
+pub fn sim_params(path: Option<&Path>) -> miette::Result<SimParams> {
+    Ok(match path {
+        Some(p) => {
+            let mut files = crate::diag::SourceMap::new();
+            SimParams::load(&mut files, p).map_err(|e| files.attach(e))?
+        }
+        None => SimParams::default(),
+    })
+}
+
+/// Print to stdout; a closed pipe (`advise eval --json | head`) is not an error.
+pub fn print_stdout(text: &str) -> miette::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(CliError::Write {
+            path: "standard output".into(),
+            source: e,
+        }
+        .into()),
+        _ => Ok(()),
+    }
+}

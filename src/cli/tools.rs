@@ -1,0 +1,201 @@
+//! The subcommands that are not a session: `demo`, `eval`, `experiment` and `rmp-emulator`.
+//! Each calls the library and prints what it returns.
+
+use crate::backend::rmp::config::FaultInjection;
+use crate::backend::rmp::{Emulator, EmulatorConfig, RmpConfig};
+use crate::backend::{BackendSpec, StopSignal};
+use crate::eval::{self, EvalOptions, EvalPolicy};
+use crate::experiment::study;
+use crate::task::TaskKind;
+use crate::trace::Episode;
+
+use super::{
+    CliError, DemoArgs, EmulatorArgs, EvalArgs, ExperimentArgs, parse_seeds, print_stdout,
+    sim_params,
+};
+
+/// `advise demo`: record teacher demonstrations in the simulator into one file.
+pub fn demo(args: DemoArgs) -> miette::Result<()> {
+    let kind = args.task;
+    let params = sim_params(args.sim_params.as_deref())?;
+    let domain = kind.domain();
+    let recorded = crate::task::record_demos(kind, args.count as usize, args.seed, &params);
+    let successes = recorded.iter().filter(|(_, o)| o.success).count();
+    let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
+    let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
+    let is_json = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    crate::files::write_atomic(&args.out, |out| {
+        if is_json {
+            serde_json::to_writer(out, &Episode::to_json(&domain, &episodes)).map_err(Into::into)
+        } else {
+            Episode::write_csv(&domain, &episodes, out)
+        }
+    })?;
+    eprintln!(
+        "recorded {} {kind} demonstrations ({points} points) to {}; the teacher succeeded in {successes}",
+        episodes.len(),
+        args.out.display(),
+    );
+    Ok(())
+}
+
+/// `advise eval`: run a policy (or the teacher) over the task's test set and print the report.
+pub fn eval(args: EvalArgs) -> miette::Result<()> {
+    let kind = args.task;
+    let backend: BackendSpec = args.backend.parse()?;
+    let opts = EvalOptions {
+        seed: args.seed,
+        params: sim_params(args.sim_params.as_deref())?,
+        progress: !args.json,
+    };
+    let limit = args.limit.map(|n| n as usize);
+    let report = match args.policy {
+        EvalPolicy::Teacher if backend != BackendSpec::Sim => {
+            let period = opts.params.period_s();
+            eval_on_base(kind, backend, &opts, limit, || kind.teacher(period))?
+        }
+        EvalPolicy::Teacher => eval::evaluate_teacher(kind, &opts),
+        EvalPolicy::Learned(learner) => {
+            let path = args.dataset.as_deref().ok_or(CliError::NoDataset {
+                policy: learner.name(),
+            })?;
+            let domain = kind.domain();
+            let mut files = crate::diag::SourceMap::new();
+            let demos = crate::policy::dataset::load_demonstrations(&mut files, &domain, path)
+                .map_err(|e| files.attach(e))?;
+            let policy = eval::derive_policy(learner, &domain, &demos.episodes)?;
+            if backend == BackendSpec::Sim {
+                eval::evaluate(kind, policy.as_ref(), &opts)
+            } else {
+                let p: &dyn crate::policy::Policy = policy.as_ref();
+                eval_on_base(kind, backend, &opts, limit, || p)?
+            }
+        }
+    };
+    let report = match (backend, limit) {
+        // The simulator runs the whole test set in parallel; `--limit` keeps the first episodes.
+        (BackendSpec::Sim, Some(n)) if n < report.episodes => {
+            let outcomes = report.outcomes.into_iter().take(n).collect();
+            eval::Report::from_outcomes(kind, args.seed, outcomes)
+        }
+        _ => report,
+    };
+    let text = if args.json {
+        let mut t = serde_json::to_string_pretty(&report).expect("a report is plain data");
+        t.push('\n');
+        t
+    } else {
+        report.render()
+    };
+    print_stdout(&text)?;
+    Ok(())
+}
+
+/// `advise experiment`: one of the paper's studies, its figures on stdout (or JSON), its plots
+/// written where asked.
+pub fn experiment(args: ExperimentArgs) -> miette::Result<()> {
+    let sim = sim_params(args.sim_params.as_deref())?;
+    let seeds = parse_seeds(args.seed, args.seeds.as_deref())?;
+    let out = study::run(args.study, &seeds, sim, args.plot.as_deref(), true)?;
+    print_stdout(if args.json { &out.json } else { &out.text })?;
+    for p in out.plots {
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// Evaluate on one real (or emulated) base, with Ctrl-C stopping it; an interrupted evaluation
+/// prints the figures so far before its diagnostic.
+fn eval_on_base<C, F>(
+    kind: TaskKind,
+    spec: BackendSpec,
+    opts: &EvalOptions,
+    limit: Option<usize>,
+    make: F,
+) -> miette::Result<eval::Report>
+where
+    C: eval::ControllerBox,
+    F: Fn() -> C,
+{
+    let rmp = RmpConfig::for_sim(&opts.params);
+    let mut base = spec.open(&opts.params, opts.seed, &rmp)?;
+    let signal = StopSignal::new();
+    let mut guarded = crate::backend::Interruptible::new(base.as_mut(), signal.clone());
+    crate::repl::install_ctrl_c(&signal);
+    eprintln!("evaluating {kind} on {spec} in real time; Ctrl-C stops the base");
+    match eval::evaluate_on(kind, make, &mut guarded, opts, limit) {
+        Ok(r) => Ok(r),
+        Err(e) => {
+            eprint!("{}", e.report.render());
+            Err((*e).into())
+        }
+    }
+}
+
+/// `advise rmp-emulator`: run the RMP emulator until Ctrl-C, printing its state changes.
+pub fn rmp_emulator(args: EmulatorArgs) -> miette::Result<()> {
+    let params = sim_params(args.sim_params.as_deref())?;
+    let cfg = EmulatorConfig {
+        order: args.word_order,
+        faults: FaultInjection {
+            drop: args.drop,
+            corrupt: args.corrupt,
+            delay: args.delay,
+            delay_ms: args.delay_ms,
+        },
+        seed: args.seed,
+        balance_needs_tip_back: !args.no_tip_back,
+        ..EmulatorConfig::for_platform(args.platform)
+    };
+    let emu = Emulator::bind_sim(args.bind, cfg.clone(), params, args.seed)?;
+    let stop = StopSignal::new();
+    crate::repl::install_ctrl_c(&stop);
+    println!(
+        "RMP emulator: an {} with {} feedback on {}, the simulator behind it{}",
+        cfg.platform.name(),
+        cfg.order.name(),
+        emu.addr(),
+        if cfg.faults.drop + cfg.faults.corrupt + cfg.faults.delay == 0.0 {
+            String::new()
+        } else {
+            format!(
+                "; dropping {}, corrupting {}, delaying {} ({} ms) of datagrams",
+                cfg.faults.drop, cfg.faults.corrupt, cfg.faults.delay, cfg.faults.delay_ms
+            )
+        }
+    );
+    println!(
+        "drive it with `--backend rmp:{}` (or `backend rmp:{}` in the REPL); Ctrl-C stops it",
+        emu.addr(),
+        emu.addr()
+    );
+    let mut last = None;
+    while !stop.is_raised() {
+        let s = emu.snapshot();
+        if last != Some(s.state) {
+            println!("state: {}", s.state.name());
+            last = Some(s.state);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let s = emu.snapshot();
+    emu.shutdown();
+    let c = s.counts;
+    println!(
+        "stopped in {}: {} datagrams received, {} accepted, {} bad CRC, {} bad length, {} unknown id, {} sent; injected {} drops, {} corruptions, {} delays",
+        s.state.name(),
+        c.received,
+        c.accepted,
+        c.bad_crc,
+        c.bad_length,
+        c.unknown_id,
+        c.sent,
+        c.injected_drops,
+        c.injected_corruptions,
+        c.injected_delays
+    );
+    Ok(())
+}

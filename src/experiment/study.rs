@@ -1,0 +1,125 @@
+//! One of the paper's studies for one seed or a range of seeds: the loop the command line runs,
+//! written once for both studies. A single seed gives that run's figures; a range (even of one
+//! seed) gives each figure's mean and spread beside the paper's.
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::{ExperimentError, aopi, bc, ensure_dir, plot, summary};
+use crate::backend::sim::SimParams;
+
+/// Which of the paper's studies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Study {
+    /// Binary Critiquing on ball interception (Table 1, Figure 5).
+    Bc,
+    /// Advice-Operator Policy Improvement on spatial positioning (Figures 8, 9, 11).
+    Aopi,
+}
+
+/// Which seeds to run.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Seeds {
+    /// One run, reported on its own.
+    One(u64),
+    /// Every seed of a half-open range, summarised.
+    Range(std::ops::Range<u64>),
+}
+
+/// What a study produced: its figures as text and as pretty JSON (ending in a newline), and the
+/// plots written.
+#[derive(Clone, Debug)]
+pub struct StudyOutput {
+    pub text: String,
+    pub json: String,
+    pub plots: Vec<PathBuf>,
+}
+
+/// Run `study` for `seeds` on the simulator with `sim`, plotting each run into `plot_dir` (created
+/// if needed, before anything runs) when given.
+pub fn run(
+    study: Study,
+    seeds: &Seeds,
+    sim: SimParams,
+    plot_dir: Option<&Path>,
+    progress: bool,
+) -> Result<StudyOutput, ExperimentError> {
+    if let Some(dir) = plot_dir {
+        ensure_dir(dir)?;
+    }
+    match study {
+        Study::Bc => {
+            let params = bc::BcParams {
+                sim,
+                ..bc::BcParams::default()
+            };
+            each_seed(
+                seeds,
+                plot_dir,
+                |seed| bc::run(seed, &params, progress),
+                plot::bc,
+                bc::BcResult::render,
+                summary::bc,
+                summary::BcSummary::render,
+            )
+        }
+        Study::Aopi => {
+            let params = aopi::AopiParams {
+                sim,
+                ..aopi::AopiParams::default()
+            };
+            each_seed(
+                seeds,
+                plot_dir,
+                |seed| aopi::run(seed, &params, progress),
+                plot::aopi,
+                aopi::AopiResult::render,
+                summary::aopi,
+                summary::AopiSummary::render,
+            )
+        }
+    }
+}
+
+/// The seed loop of either study: run, plot, then report the one run or summarise them all.
+fn each_seed<R: Serialize, S: Serialize>(
+    seeds: &Seeds,
+    plot_dir: Option<&Path>,
+    run: impl Fn(u64) -> R,
+    draw: impl Fn(&R, &Path) -> Result<Vec<PathBuf>, ExperimentError>,
+    render: impl Fn(&R) -> String,
+    summarise: impl FnOnce(Vec<R>) -> S,
+    render_summary: impl Fn(&S) -> String,
+) -> Result<StudyOutput, ExperimentError> {
+    let list: Vec<u64> = match seeds {
+        Seeds::One(seed) => vec![*seed],
+        Seeds::Range(range) => range.clone().collect(),
+    };
+    let mut plots = Vec::new();
+    let mut runs = Vec::with_capacity(list.len());
+    for seed in list {
+        let result = run(seed);
+        if let Some(dir) = plot_dir {
+            plots.extend(draw(&result, dir)?);
+        }
+        runs.push(result);
+    }
+    let (text, json) = match seeds {
+        Seeds::One(_) => {
+            let r = &runs[0];
+            (render(r), pretty(r))
+        }
+        Seeds::Range(_) => {
+            let s = summarise(runs);
+            (render_summary(&s), pretty(&s))
+        }
+    };
+    Ok(StudyOutput { text, json, plots })
+}
+
+fn pretty(value: &impl Serialize) -> String {
+    let mut t = serde_json::to_string_pretty(value).expect("a result is plain data");
+    t.push('\n');
+    t
+}

@@ -1,0 +1,181 @@
+//! Correcting an execution: selecting a chunk, critiquing it, advising it (or previewing the
+//! advice), and asking why the policy acted as it did.
+
+use std::fmt::Write as _;
+use std::time::Instant;
+
+use super::effect::Effect;
+use super::text::{fmt_vec, short_num};
+use super::undo::Edit;
+use super::{MAX_KAPPA, Recorded, Session, SessionError};
+use crate::policy::learner;
+use crate::trace::Chunk;
+use crate::{check, interp};
+
+impl Session {
+    /// `select A..B` selects in the latest execution, `select A..B in N` in execution N; the
+    /// selected execution is what `advise`, `critique`, `preview`, `why` and `plot` act on.
+    pub(super) fn select(
+        &mut self,
+        start: usize,
+        end: usize,
+        execution: Option<usize>,
+    ) -> Result<String, SessionError> {
+        let i = match execution {
+            Some(n) => n,
+            None => self
+                .state
+                .executions
+                .len()
+                .checked_sub(1)
+                .ok_or(SessionError::NoExecution)?,
+        };
+        let rec = self.numbered(i)?;
+        let chunk = Chunk::new(start, end, rec.trace.len())?;
+        self.commit(Effect::Select {
+            execution: i,
+            chunk,
+        })?;
+        Ok(format!(
+            "selected {chunk} of execution {i} ({} points)",
+            chunk.len()
+        ))
+    }
+
+    /// Execution `n`, or a diagnostic naming the executions there are.
+    pub(super) fn numbered(&self, n: usize) -> Result<&Recorded, SessionError> {
+        let count = self.state.executions.len();
+        self.state
+            .executions
+            .get(n)
+            .ok_or(SessionError::NoSuchExecution { n, count })
+    }
+
+    pub(super) fn selection(&self) -> Result<(usize, Chunk), SessionError> {
+        let (i, _) = self.current()?;
+        let chunk = self.state.selection.ok_or(SessionError::NoSelection)?;
+        Ok((i, chunk))
+    }
+
+    pub(super) fn critique(&mut self, kappa: f64) -> Result<String, SessionError> {
+        if !(kappa.is_finite() && kappa > 0.0 && kappa <= MAX_KAPPA) {
+            return Err(SessionError::BadKappa {
+                kappa: short_num(kappa),
+            });
+        }
+        let (i, chunk) = self.selection()?;
+        let st = &mut self.state;
+        let rec = &st.executions[i];
+        let plan = st
+            .learner
+            .plan_critique(&rec.trace, chunk, kappa, rec.support.as_deref())?;
+        self.commit(Effect::Critique {
+            execution: i,
+            chunk,
+            kappa,
+            increments: plan.increments.clone(),
+        })?;
+        Ok(self.state.learner.critique_summary(chunk, &plan))
+    }
+
+    pub(super) fn advise(
+        &mut self,
+        inv: &crate::syntax::Invocation,
+    ) -> Result<String, SessionError> {
+        let (i, chunk) = self.selection()?;
+        let started = Instant::now();
+        let rec = &self.state.executions[i];
+        let call = check::bind(&self.ops, &rec.trace.domain, inv)?;
+        let syn = interp::apply(&call, &rec.trace, chunk)?;
+        let points = syn.points.len();
+        let skipped = chunk.len() - points;
+        let invocation = syn.advice.invocation();
+        self.commit(Effect::Advice {
+            execution: i,
+            points: syn.points.to_json(),
+            source_index: syn.source_index,
+            applied: syn.advice,
+        })?;
+        let mut out =
+            format!("advised {chunk} of execution {i} with {invocation}: {points} points added");
+        if skipped > 0 {
+            let _ = write!(out, " ({skipped} skipped by the operator's guard)");
+        }
+        let _ = write!(
+            out,
+            "; the policy has {} points, ready in {:.1} ms",
+            self.state.learner.len(),
+            started.elapsed().as_secs_f64() * 1e3
+        );
+        Ok(out)
+    }
+
+    pub(super) fn preview(&self, inv: &crate::syntax::Invocation) -> Result<String, SessionError> {
+        let (i, chunk) = self.selection()?;
+        let rec = &self.state.executions[i];
+        let call = check::bind(&self.ops, &rec.trace.domain, inv)?;
+        let syn = interp::apply(&call, &rec.trace, chunk)?;
+        let space = syn.advice.space;
+        let dims = self.domain.dims(space);
+        let mut out = format!(
+            "{} on {chunk} of execution {i} would add {} points ({} skipped); {} before -> after:\n",
+            syn.advice.invocation(),
+            syn.points.len(),
+            chunk.len() - syn.points.len(),
+            space
+        );
+        let _ = write!(out, "{:>6}", "point");
+        for d in dims {
+            let _ = write!(out, "  {:>24}", format!("{} ({})", d.name, d.unit));
+        }
+        out.push('\n');
+        let shown = syn.points.len().min(12);
+        for (j, &src) in syn.source_index.iter().take(shown).enumerate() {
+            let _ = write!(out, "{src:>6}");
+            let (before, after) = match space {
+                crate::domain::Space::Action => (rec.trace.a(src), syn.points.a(j)),
+                crate::domain::Space::Observation => (rec.trace.z(src), syn.points.z(j)),
+            };
+            for (b, a) in before.iter().zip(after) {
+                let _ = write!(out, "  {:>24}", format!("{b:.4} -> {a:.4}"));
+            }
+            out.push('\n');
+        }
+        if syn.points.len() > shown {
+            let _ = writeln!(out, "   ... and {} more", syn.points.len() - shown);
+        }
+        Ok(out)
+    }
+
+    pub(super) fn why(&mut self, t: usize) -> Result<String, SessionError> {
+        let (i, rec) = self.current()?;
+        if t >= rec.trace.len() {
+            return Err(SessionError::PointOutOfRange {
+                t,
+                len: rec.trace.len(),
+            });
+        }
+        let z = rec.trace.z(t).to_vec();
+        let a = rec.trace.a(t).to_vec();
+        self.state.learner.ensure_derived();
+        let mut out = format!(
+            "point {t} of execution {i}: z = {}, executed a = {}\n",
+            fmt_vec(&z),
+            fmt_vec(&a)
+        );
+        let name = |id: learner::AdviceId| {
+            self.state
+                .undo
+                .iter()
+                .find_map(|e| match e {
+                    Edit::Advice { number, id: a, .. } if *a == id => {
+                        Some(format!("advice #{number}"))
+                    }
+                    _ => None,
+                })
+                .unwrap_or_else(|| format!("advice (dataset id {id})"))
+        };
+        out.push_str(&self.state.learner.why(&z, &name)?);
+        Ok(out)
+    }
+}

@@ -1,0 +1,315 @@
+//! The journal and the effects: starting a journal, restoring a session from one, and
+//! committing an [`Effect`](super::effect::Effect) (applied to the state, appended to the journal).
+
+use std::path::{Path, PathBuf};
+
+use super::effect::{Effect, Entry, Header};
+use super::journal::Journal;
+use super::text::first_chars;
+use super::undo::Edit;
+use super::{Recorded, Restored, Session, SessionError, TaskState, effect, journal};
+use crate::check::Source;
+use crate::interp::Synthesized;
+use crate::policy::dataset::{Dataset, Provenance};
+use crate::policy::learner::{Learner, LearnerError, LearnerKind};
+use crate::task::Execution;
+use crate::trace::{Chunk, Episode, Trace, TraceError};
+
+impl Session {
+    /// The header a journal of this session starts with.
+    pub fn journal_header(&self) -> Header {
+        Header {
+            format: effect::JOURNAL_FORMAT.into(),
+            task: self.task,
+            seed: self.seed,
+            sim: self.sim_params(),
+            started_unix_s: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs()),
+            pid: std::process::id(),
+        }
+    }
+
+    /// Start journalling into a new journal in `dir`. What the session already holds (the
+    /// starting demonstrations) is written first, so the journal alone restores it.
+    pub fn start_journal(&mut self, dir: &Path) -> std::io::Result<PathBuf> {
+        let mut j = Journal::create_in(dir, &self.journal_header())?;
+        for entry in self.preamble.take().unwrap_or_default() {
+            j.record(&entry)?;
+        }
+        let path = j.path().to_path_buf();
+        self.journal = Some(j);
+        Ok(path)
+    }
+
+    /// Restore a journalled session: every effect is applied as it was recorded; nothing is
+    /// re-run, no file but the journal is read, and no robot is connected or driven. The session
+    /// then journals into the same file (or, if it was damaged, a fresh one in `dir`).
+    pub fn restore(path: &Path, dir: &Path) -> Result<Restored, SessionError> {
+        let loaded = journal::read(path)?;
+        let h = &loaded.header;
+        // A header edited by hand is held to the simulator's ranges like any parameters file.
+        h.sim.validate()?;
+        let mut s = Session::empty(h.task, h.seed, h.sim.clone());
+        s.restoring = true;
+        let mut notes = Vec::new();
+        let mut damaged = loaded.damaged.clone();
+        let mut restored = 0;
+        for (line, entry) in &loaded.entries {
+            if let Err(e) = s.apply(&entry.effect) {
+                damaged = Some((
+                    *line,
+                    format!("`{}` could not be restored: {e}", entry.statement),
+                ));
+                break;
+            }
+            restored += 1;
+        }
+        s.restoring = false;
+        if let Some(cut) = &loaded.cut {
+            notes.push(format!(
+                "the last statement was cut off by the crash and is dropped ({} bytes: {})",
+                cut.len(),
+                first_chars(cut, 60)
+            ));
+        }
+        let journal = match &damaged {
+            None => Journal::append_to(path, loaded.good_len).map_err(|source| {
+                SessionError::Journal {
+                    path: path.display().to_string(),
+                    source,
+                }
+            })?,
+            Some((line, what)) => {
+                notes.push(format!(
+                    "line {line} of the journal is damaged ({what}): restored up to line {}, nothing after it; the journal is left as it was",
+                    line - 1
+                ));
+                let mut j = Journal::create_in(dir, h).map_err(|source| SessionError::Journal {
+                    path: dir.display().to_string(),
+                    source,
+                })?;
+                for (_, entry) in loaded.entries.iter().take(restored) {
+                    j.record(entry).map_err(|source| SessionError::Journal {
+                        path: j.path().display().to_string(),
+                        source,
+                    })?;
+                }
+                notes.push(format!(
+                    "this session continues in a new journal: {}",
+                    j.path().display()
+                ));
+                j
+            }
+        };
+        if let Some(spec) = s.restored_backend.as_deref().filter(|b| *b != "sim") {
+            notes.push(format!(
+                "the session was on `{spec}`; it is on `sim` now, and nothing was driven: `backend {spec}` connects again"
+            ));
+        }
+        let journal_path = journal.path().to_path_buf();
+        s.journal = Some(journal);
+        Ok(Restored {
+            session: s,
+            entries: restored,
+            notes,
+            journal: journal_path,
+        })
+    }
+
+    /// Apply `effect` and journal it. The one way a command changes the session.
+    pub(super) fn commit(&mut self, effect: Effect) -> Result<(), SessionError> {
+        self.apply(&effect)?;
+        self.journal_effect(effect)
+    }
+
+    pub(super) fn journal_effect(&mut self, effect: Effect) -> Result<(), SessionError> {
+        let (statement, origin) = self
+            .statement
+            .clone()
+            .unwrap_or_else(|| (String::new(), String::new()));
+        let entry = Entry {
+            statement,
+            origin,
+            effect,
+        };
+        let Some(j) = &mut self.journal else {
+            if let Some(preamble) = &mut self.preamble {
+                preamble.push(entry);
+            }
+            return Ok(());
+        };
+        if let Err(source) = j.record(&entry) {
+            let path = j.path().display().to_string();
+            self.journal = None;
+            return Err(SessionError::Journal { path, source });
+        }
+        Ok(())
+    }
+
+    /// Make the change an effect describes. Reads no file and drives no robot: a journal is
+    /// restored by calling this on each of its effects.
+    pub(super) fn apply(&mut self, effect: &Effect) -> Result<(), SessionError> {
+        match effect {
+            Effect::Define { origin, text } => {
+                let checked = self
+                    .ops
+                    .merge_with_warnings(&[Source::new(origin, text.clone())])?;
+                self.ops = checked.set;
+                self.warnings = checked.warnings;
+            }
+            Effect::Task { task } => self.switch_task(*task),
+            Effect::Backend { spec } => {
+                if self.restoring {
+                    self.restored_backend = Some(spec.clone());
+                }
+            }
+            Effect::Demos { episodes, .. } => {
+                let episodes = episodes
+                    .iter()
+                    .map(|e| {
+                        Ok(Episode {
+                            name: e.name.clone(),
+                            trace: Trace::from_json(&self.domain, &e.trace)?,
+                        })
+                    })
+                    .collect::<Result<Vec<_>, TraceError>>()?;
+                self.state.learner.add_demonstrations(&episodes)?;
+            }
+            Effect::Execution(entry) => {
+                let trace = Trace::from_json(&self.domain, &entry.trace)?;
+                let (execution, support) = match &entry.run {
+                    Some(run) => {
+                        self.state.runs = run.number + 1;
+                        (
+                            Some(Execution {
+                                trace: trace.clone(),
+                                true_poses: run.true_poses.clone(),
+                                ball: run.ball.clone(),
+                                outcome: run.outcome.clone(),
+                            }),
+                            Some(run.support.clone()),
+                        )
+                    }
+                    None => (None, None),
+                };
+                let id = self.state.learner.add_execution(&trace);
+                let st = &mut self.state;
+                st.executions.push(Recorded {
+                    label: entry.label.clone(),
+                    trace,
+                    goal: entry.goal,
+                    execution,
+                    support,
+                    id,
+                    flagged: Vec::new(),
+                    advised: Vec::new(),
+                });
+                st.current = Some(st.executions.len() - 1);
+                st.selection = None;
+            }
+            Effect::Select { execution, chunk } => {
+                let rec = self.numbered(*execution)?;
+                let chunk = Chunk::new(chunk.start, chunk.end, rec.trace.len())?;
+                self.state.current = Some(*execution);
+                self.state.selection = Some(chunk);
+            }
+            Effect::Advice {
+                execution,
+                applied,
+                points,
+                source_index,
+            } => {
+                let syn = Synthesized {
+                    points: Trace::from_json(&self.domain, points)?,
+                    source_index: source_index.clone(),
+                    advice: applied.clone(),
+                };
+                let number = self.state.take_number();
+                self.add_advice(*execution, Box::new(syn), number)?;
+                self.state.redo.clear();
+            }
+            Effect::Critique {
+                execution,
+                chunk,
+                kappa,
+                increments,
+            } => {
+                let number = self.state.take_number();
+                self.add_critique(*execution, *chunk, *kappa, increments.clone(), number)?;
+                self.state.redo.clear();
+            }
+            Effect::Undo => self.undo_edit()?,
+            Effect::Redo => self.redo_edit()?,
+            Effect::Rederive => {
+                self.state.learner.rederive();
+            }
+            Effect::Learner { learner } => {
+                self.state.learner.set_kind(*learner);
+                self.state.learner.rederive();
+            }
+            Effect::Evaluated { report } => self.state.last_eval = Some((**report).clone()),
+            Effect::Open { path, dataset } => {
+                let ds = self
+                    .sources
+                    .scratch(path.as_str(), dataset.as_str(), Dataset::parse)
+                    .map_err(LearnerError::from)?;
+                let learner =
+                    Learner::with_dataset(ds, LearnerKind::for_task(self.task), self.seed);
+                self.take_learner(learner);
+            }
+        }
+        Ok(())
+    }
+
+    /// Work on an opened dataset from now on (its executions and history start empty).
+    pub(super) fn take_learner(&mut self, learner: Learner) {
+        self.domain = learner.domain().clone();
+        self.state = TaskState::with_learner(learner);
+    }
+
+    pub(super) fn add_advice(
+        &mut self,
+        execution: usize,
+        syn: Box<Synthesized>,
+        number: usize,
+    ) -> Result<(), SessionError> {
+        let rec = self.numbered(execution)?;
+        let id = self.state.learner.add_advice(rec.id, &syn)?;
+        let st = &mut self.state;
+        st.executions[execution].advised.push(syn.advice.chunk);
+        st.undo.push(Edit::Advice {
+            number,
+            id,
+            execution,
+            syn,
+        });
+        Ok(())
+    }
+
+    pub(super) fn add_critique(
+        &mut self,
+        execution: usize,
+        chunk: Chunk,
+        kappa: f64,
+        increments: Vec<(Provenance, f64)>,
+        number: usize,
+    ) -> Result<(), SessionError> {
+        let rec = self.numbered(execution)?;
+        let id = self
+            .state
+            .learner
+            .restore_critique(rec.id, chunk, kappa, increments.clone())?;
+        let st = &mut self.state;
+        st.executions[execution].flagged.push(chunk);
+        st.undo.push(Edit::Critique {
+            number,
+            id,
+            execution,
+            chunk,
+            kappa,
+            increments,
+        });
+        Ok(())
+    }
+}

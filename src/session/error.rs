@@ -1,0 +1,197 @@
+//! Why a statement fails: [`SessionError`], one variant per mistake, each with a stable code.
+
+use miette::Diagnostic;
+use thiserror::Error;
+
+use super::journal::JournalError;
+use super::plot;
+use super::{MAX_GOAL_M, MAX_KAPPA};
+use crate::backend::sim::SimError;
+use crate::backend::{BackendError, BackendSpecError};
+use crate::check::{CheckError, CheckErrors};
+use crate::interp::ApplyError;
+use crate::policy::learner::LearnerError;
+use crate::syntax::ParseError;
+use crate::task::{self, TaskKind};
+use crate::trace::{ChunkError, TraceError};
+
+/// Why a statement failed. Nothing in the session changes when a statement fails.
+#[derive(Debug, Error, Diagnostic)]
+pub enum SessionError {
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Parse(#[from] ParseError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Check(#[from] CheckErrors),
+    /// An invocation that does not bind to an operator of the task.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Bind(#[from] CheckError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Apply(#[from] ApplyError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Trace(#[from] TraceError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Chunk(#[from] ChunkError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Learner(#[from] LearnerError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Plot(#[from] plot::PlotError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    File(#[from] crate::files::FileError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Interrupted(Box<task::Interrupted>),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Sim(#[from] SimError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    PracticeStart(#[from] task::PracticeStartOutOfRange),
+    #[error("unknown task `{name}`")]
+    #[diagnostic(code(advise::session::unknown_task), help("{help}"))]
+    UnknownTask { name: String, help: String },
+    #[error("there is no execution yet")]
+    #[diagnostic(
+        code(advise::session::no_execution),
+        help("run the policy first (`run goal 2 -1 0` or `run start 0`), or `load trace FILE`")
+    )]
+    NoExecution,
+    #[error("there is no execution {n}: this task has {count}")]
+    #[diagnostic(
+        code(advise::session::no_such_execution),
+        help(
+            "executions are numbered from 0 in the order they were recorded; `history` and `show` name them"
+        )
+    )]
+    NoSuchExecution { n: usize, count: usize },
+    #[error("unknown learner `{name}`")]
+    #[diagnostic(
+        code(advise::session::unknown_learner),
+        help(
+            "the learners are `bc` (1-NN with critique weights, the paper's BC) and `lwr` (locally weighted regression, the paper's A-OPI){hint}"
+        )
+    )]
+    UnknownLearner { name: String, hint: String },
+    #[error("execution {n} has no poses: there is no path to plot")]
+    #[diagnostic(
+        code(advise::session::no_poses),
+        help(
+            "a trace loaded without `x`, `y`, `theta` columns has no path; `plot actions FILE.svg` plots its actions"
+        )
+    )]
+    NoPoses { n: usize },
+    #[error("nothing is selected")]
+    #[diagnostic(
+        code(advise::session::no_selection),
+        help("select the points to critique or advise first: `select 40..70`")
+    )]
+    NoSelection,
+    #[error("point {t} is outside the execution, which has {len} points")]
+    #[diagnostic(
+        code(advise::session::point_out_of_range),
+        help("points are numbered 0..{len}")
+    )]
+    PointOutOfRange { t: usize, len: usize },
+    #[error("`run goal` is for the positioning task")]
+    #[diagnostic(
+        code(advise::session::goal_for_wrong_task),
+        help("interception runs start from a ball: `run start N`")
+    )]
+    GoalForWrongTask,
+    #[error("the goal ({goal}) is not a pose a run can reach")]
+    #[diagnostic(
+        code(advise::session::bad_goal),
+        help(
+            "x and y are metres from where the base stands, within ±{MAX_GOAL_M}; theta is radians within ±2π (±6.2832)"
+        )
+    )]
+    BadGoal { goal: String },
+    #[error("kappa must be a positive number up to {MAX_KAPPA}, not {kappa}")]
+    #[diagnostic(
+        code(advise::session::bad_kappa),
+        help("the paper's kappa is a small positive constant, e.g. `critique 0.5`")
+    )]
+    BadKappa { kappa: String },
+    #[error("the {task} dataset is empty: there is no policy to run")]
+    #[diagnostic(
+        code(advise::session::empty_policy),
+        help(
+            "add demonstrations first: `load demos teacher:9` records nine teacher runs in the simulator, `load demos FILE` loads yours"
+        )
+    )]
+    EmptyPolicy { task: TaskKind },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    JournalRead(#[from] JournalError),
+    #[error("nothing to undo")]
+    #[diagnostic(code(advise::session::nothing_to_undo))]
+    NothingToUndo,
+    #[error("nothing to redo")]
+    #[diagnostic(
+        code(advise::session::nothing_to_redo),
+        help("redo puts back what `undo` took, until new advice is given")
+    )]
+    NothingToRedo,
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Backend(#[from] BackendSpecError),
+    #[error("cannot drive `{spec}`")]
+    #[diagnostic(
+        code(advise::session::backend_unavailable),
+        help("the session stays on `{current}`; `backend sim` drives the simulator")
+    )]
+    BackendUnavailable {
+        spec: String,
+        current: String,
+        #[source]
+        #[diagnostic_source]
+        error: BackendError,
+    },
+    /// The one failure that changes the session: what the base recorded before it failed is kept
+    /// as an execution, as on a real robot it cannot be had again.
+    #[error(
+        "execution {index} ({label}) was interrupted after {steps} steps; what was recorded is kept"
+    )]
+    #[diagnostic(
+        code(advise::session::run_interrupted),
+        help(
+            "`show` it, and select, critique or advise it like any other; `run` again when the base is ready"
+        )
+    )]
+    RunInterrupted {
+        index: usize,
+        label: String,
+        steps: usize,
+        #[source]
+        #[diagnostic_source]
+        error: BackendError,
+    },
+    #[error("nothing is known as `{topic}`")]
+    #[diagnostic(code(advise::session::unknown_help), help("{help}"))]
+    UnknownHelp { topic: String, help: String },
+    #[error("cannot read `{path}`")]
+    #[diagnostic(code(advise::session::io))]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("cannot write the journal `{path}`: the session stops recording")]
+    #[diagnostic(
+        code(advise::session::journal),
+        help("check the disk and the folder's permissions")
+    )]
+    Journal {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+}

@@ -1,0 +1,144 @@
+//! The session's files: loading demonstrations, a trace or operators; saving, opening and
+//! exporting the dataset.
+
+use std::path::Path;
+use std::time::Instant;
+
+use super::effect::{DemoEpisode, Effect, ExecutionEntry};
+use super::text::warnings_text;
+use super::{Session, SessionError};
+use crate::policy::learner::{Learner, LearnerError};
+use crate::task;
+use crate::trace::Trace;
+
+impl Session {
+    /// `teacher:N` records N demonstrations by the task's teacher in the simulator; anything else
+    /// is a demonstrations file.
+    pub(super) fn load_demos(&mut self, path: &str) -> Result<String, SessionError> {
+        let started = Instant::now();
+        let mut from_dataset = String::new();
+        let episodes = match path.strip_prefix("teacher:") {
+            Some(n) => {
+                let count: usize = n
+                    .parse()
+                    .ok()
+                    .filter(|c| (1..=10_000).contains(c))
+                    .ok_or_else(|| SessionError::Io {
+                        path: path.to_string(),
+                        source: std::io::Error::new(
+                            std::io::ErrorKind::InvalidInput,
+                            "`teacher:N` takes a count from 1 to 10000",
+                        ),
+                    })?;
+                let params = self.sim_params();
+                // A distinct stream from the practice starts the teacher's runs use.
+                task::record_demos(self.task, count, self.seed ^ 0xD3E0, &params)
+                    .into_iter()
+                    .map(|(e, _)| e)
+                    .collect()
+            }
+            None => {
+                let demos = crate::policy::dataset::load_demonstrations(
+                    &mut self.sources,
+                    &self.domain,
+                    Path::new(path),
+                )
+                .map_err(LearnerError::from)?;
+                if let Some((d, a)) = demos.from_dataset {
+                    from_dataset = format!(
+                        ": a saved dataset's {d} demonstration{} and {a} piece{} of advice, each as one demonstration (critique weights are not carried)",
+                        if d == 1 { "" } else { "s" },
+                        if a == 1 { "" } else { "s" },
+                    );
+                }
+                demos.episodes
+            }
+        };
+        let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
+        let count = episodes.len();
+        self.commit(Effect::Demos {
+            source: path.to_string(),
+            episodes: episodes
+                .into_iter()
+                .map(|e| DemoEpisode {
+                    name: e.name,
+                    trace: e.trace.to_json(),
+                })
+                .collect(),
+        })?;
+        Ok(format!(
+            "loaded {count} demonstrations ({points} points) from {path}{from_dataset}; the {} policy now has {} points ({} ms)",
+            self.state.learner.kind_name(),
+            self.state.learner.len(),
+            started.elapsed().as_millis()
+        ))
+    }
+
+    pub(super) fn load_trace(&mut self, path: &str) -> Result<String, SessionError> {
+        let trace = Trace::load(&mut self.sources, &self.domain, Path::new(path))?;
+        let n = trace.len();
+        self.commit(Effect::Execution(Box::new(ExecutionEntry {
+            label: path.to_string(),
+            trace: trace.to_json(),
+            goal: None,
+            run: None,
+        })))?;
+        Ok(format!(
+            "loaded execution {} from {path}: {n} points",
+            self.state.executions.len() - 1
+        ))
+    }
+
+    pub(super) fn load_operators(&mut self, path: &str) -> Result<String, SessionError> {
+        let id = crate::files::read_source(&mut self.sources, Path::new(path))?;
+        let text = self.sources.text(id).to_string();
+        let before = self.ops.operator_count();
+        self.commit(Effect::Define {
+            origin: path.to_string(),
+            text,
+        })?;
+        let warnings = warnings_text(&std::mem::take(&mut self.warnings));
+        Ok(format!(
+            "checked {path}: {} operators now ({} for {})",
+            self.ops.operator_count(),
+            self.ops.operator_names(&self.domain.name).len(),
+            self.domain.name
+        ) + &if self.ops.operator_count() == before {
+            " (the file replaced existing operators)".to_string()
+        } else {
+            String::new()
+        } + &warnings)
+    }
+
+    pub(super) fn save(&self, path: &str) -> Result<String, SessionError> {
+        let format = self.state.learner.save(Path::new(path))?;
+        Ok(format!(
+            "saved {} points to {path} ({})",
+            self.state.learner.len(),
+            format.describe()
+        ))
+    }
+
+    pub(super) fn open(&mut self, path: &str) -> Result<String, SessionError> {
+        // Validated whole before anything changes; the journal keeps the dataset itself.
+        let learner = Learner::open(&mut self.sources, Path::new(path), self.task, self.seed)?;
+        let dataset = learner.dataset().to_json_string();
+        self.take_learner(learner);
+        // Applied above without deriving the policy twice; `apply` does the same on restore.
+        self.journal_effect(Effect::Open {
+            path: path.to_string(),
+            dataset,
+        })?;
+        Ok(format!(
+            "opened {path}: {} points",
+            self.state.learner.len()
+        ))
+    }
+
+    pub(super) fn export_advice(&self, path: &str) -> Result<String, SessionError> {
+        let n = self.state.learner.export_advice(Path::new(path))?;
+        Ok(format!(
+            "wrote {n} advised points with their provenance to {path}"
+        ))
+    }
+}

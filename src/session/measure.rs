@@ -1,0 +1,87 @@
+//! Measuring and choosing the policy: `rederive`, `eval`, `learner`.
+
+use std::fmt::Write as _;
+use std::time::Instant;
+
+use super::effect::Effect;
+use super::text::eval_change;
+use super::{BackendChoice, Session, SessionError};
+use crate::backend::Backend;
+use crate::diag::did_you_mean;
+use crate::eval;
+use crate::eval::EvalOptions;
+use crate::policy::learner::LearnerKind;
+use crate::syntax::ast::Ident;
+
+impl Session {
+    pub(super) fn rederive(&mut self) -> Result<String, SessionError> {
+        let started = Instant::now();
+        // Re-derivation is deterministic for the session's seed, so the journal keeps the fact,
+        // not the tuned numbers (`apply` makes the same call on restore).
+        let what = self.state.learner.rederive();
+        self.journal_effect(Effect::Rederive)?;
+        Ok(format!(
+            "re-derived the {} policy from {} points in {:.1} ms{what}",
+            self.state.learner.kind_name(),
+            self.state.learner.len(),
+            started.elapsed().as_secs_f64() * 1e3
+        ))
+    }
+
+    pub(super) fn eval(&mut self, detail: bool) -> Result<String, SessionError> {
+        if self.state.learner.is_empty() {
+            return Err(SessionError::EmptyPolicy { task: self.task });
+        }
+        self.state.learner.ensure_derived();
+        let opts = EvalOptions {
+            seed: self.seed,
+            params: self.sim_params(),
+            progress: self.progress,
+        };
+        let report = eval::evaluate(self.task, self.state.learner.policy(), &opts);
+        let mut out = report.render();
+        match &self.state.last_eval {
+            Some(before) => out.push_str(&eval_change(before, &report, detail)),
+            None => out.push_str("  (the first evaluation of this task in the session: the next `eval` says what changed)\n"),
+        }
+        // The whole test set on a robot takes minutes and needs room: not from the prompt.
+        if let BackendChoice::Rmp { backend, .. } = &self.backend {
+            let _ = writeln!(
+                out,
+                "(in the simulator; `advise eval --backend {}` runs the test set on the robot)",
+                backend.name()
+            );
+        }
+        // Kept (and journalled) so the next `eval` can say what changed, after a resume too.
+        self.commit(Effect::Evaluated {
+            report: Box::new(report),
+        })?;
+        Ok(out)
+    }
+
+    pub(super) fn set_learner(&mut self, name: &Ident) -> Result<String, SessionError> {
+        let Some(kind) = LearnerKind::from_name(&name.name) else {
+            let names = LearnerKind::ALL.map(LearnerKind::name);
+            return Err(SessionError::UnknownLearner {
+                name: name.name.clone(),
+                hint: did_you_mean(&name.name, names)
+                    .map(|h| format!("; {h}"))
+                    .unwrap_or_default(),
+            });
+        };
+        if kind == self.state.learner.kind() {
+            return Ok(format!(
+                "the running learner is already {}: nothing changed",
+                self.state.learner.kind_name()
+            ));
+        }
+        let started = Instant::now();
+        self.commit(Effect::Learner { learner: kind })?;
+        Ok(format!(
+            "the running learner is now {} on {} points (re-derived in {:.1} ms); critique weights steer BC, advice points feed both",
+            self.state.learner.kind_name(),
+            self.state.learner.len(),
+            started.elapsed().as_secs_f64() * 1e3
+        ))
+    }
+}

@@ -1,0 +1,234 @@
+//! Running the policy and looking at what it did: `run`, `show`, `plot`.
+
+use std::f64::consts::PI;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::effect::{Effect, ExecutionEntry, RunEntry};
+use super::text::{outcome_line, short_num, worth_a_look};
+use super::{BackendChoice, MAX_GOAL_M, Recorded, Session, SessionError, plot};
+use crate::backend::sim::{SimBackend, SimParams};
+use crate::backend::{Backend, Interruptible};
+use crate::syntax::command::PlotKind;
+use crate::task;
+use crate::task::{Start, TaskKind, episode_seed};
+use crate::trace::Pose;
+
+impl Session {
+    pub(super) fn sim_params(&self) -> SimParams {
+        match &self.backend {
+            BackendChoice::Sim(p) | BackendChoice::Rmp { sim: p, .. } => p.clone(),
+        }
+    }
+
+    pub(super) fn run_goal(&mut self, x: f64, y: f64, theta: f64) -> Result<String, SessionError> {
+        if self.task != TaskKind::Positioning {
+            return Err(SessionError::GoalForWrongTask);
+        }
+        let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
+        if !(within(x, MAX_GOAL_M) && within(y, MAX_GOAL_M) && within(theta, 2.0 * PI)) {
+            return Err(SessionError::BadGoal {
+                goal: [x, y, theta].map(short_num).join(", "),
+            });
+        }
+        let goal = Pose::new(x, y, theta);
+        self.run(
+            Start::Goal(goal),
+            format!("run goal {x} {y} {theta}"),
+            Some(goal),
+        )
+    }
+
+    pub(super) fn run_start(&mut self, n: usize) -> Result<String, SessionError> {
+        let start = self.task.practice_start(self.seed, n as u64)?;
+        let goal = match start {
+            Start::Goal(g) => Some(g),
+            Start::Ball(_) => None,
+        };
+        self.run(start, format!("run start {n}"), goal)
+    }
+
+    pub(super) fn run(
+        &mut self,
+        start: Start,
+        label: String,
+        goal: Option<Pose>,
+    ) -> Result<String, SessionError> {
+        if self.state.learner.is_empty() {
+            return Err(SessionError::EmptyPolicy { task: self.task });
+        }
+        self.state.learner.ensure_derived();
+        let number = self.state.runs;
+        let seed = episode_seed(self.seed, 1_000_000 + number);
+        let params = self.sim_params();
+        // One control loop for every base: the simulator is made fresh per run (as `run_sim`
+        // does), a real base is the connected one. Ctrl-C reaches the loop through `stop`.
+        let mut sim;
+        let base: &mut dyn Backend = match &mut self.backend {
+            BackendChoice::Sim(_) => {
+                sim = SimBackend::new(params, seed);
+                &mut sim
+            }
+            BackendChoice::Rmp { backend, .. } => backend.as_mut(),
+        };
+        self.stop.clear();
+        let mut guarded = Interruptible::new(base, self.stop.clone());
+        let result = {
+            let mut controller = self.state.learner.policy();
+            let mut task = start.task();
+            task::run_episode(&mut guarded, task.as_mut(), &mut controller, seed)
+        };
+        let (exec, failure) = match result {
+            Ok(exec) => (exec, None),
+            Err(interrupted) => {
+                let task::Interrupted { execution, error } = interrupted;
+                (*execution, Some(error))
+            }
+        };
+        let label = match failure {
+            Some(_) => format!("{label} (interrupted)"),
+            None => label,
+        };
+        // The dataset has not changed during the run: the points nearest now are the ones that
+        // recommended each action, kept for `critique`.
+        let support = self.state.learner.support_provenance(&exec.trace);
+        let summary = outcome_line(&exec);
+        let n = exec.trace.len();
+        let hint = worth_a_look(exec.path(), &exec.trace.t, 30);
+        // What the base did is kept even when the run failed: on a robot it cannot be had again.
+        self.commit(Effect::Execution(Box::new(ExecutionEntry {
+            label: label.clone(),
+            trace: exec.trace.to_json(),
+            goal,
+            run: Some(RunEntry {
+                number,
+                outcome: exec.outcome,
+                true_poses: exec.true_poses,
+                ball: exec.ball,
+                support,
+            }),
+        })))?;
+        let index = self.state.executions.len() - 1;
+        if let Some(error) = failure {
+            return Err(SessionError::RunInterrupted {
+                index,
+                label,
+                steps: n,
+                error,
+            });
+        }
+        let mut out = format!("execution {index}: {label}: {n} points; {summary}");
+        if let Some((chunk, what)) = hint {
+            let _ = write!(
+                out,
+                "\nthe robot {what} most over {chunk}: `select {chunk}` to critique or advise it"
+            );
+        }
+        Ok(out)
+    }
+
+    pub(super) fn current(&self) -> Result<(usize, &Recorded), SessionError> {
+        let i = self.state.current.ok_or(SessionError::NoExecution)?;
+        Ok((i, &self.state.executions[i]))
+    }
+
+    pub(super) fn show(&self, n: Option<usize>) -> Result<String, SessionError> {
+        let (i, rec) = match n {
+            Some(n) => (n, self.numbered(n)?),
+            None => self.current()?,
+        };
+        let mut out = format!("execution {i}: {} ({} points", rec.label, rec.trace.len());
+        if let (Some(first), Some(last)) = (rec.trace.t.first(), rec.trace.t.last()) {
+            let _ = write!(out, ", {:.2} s", last - first);
+        }
+        out.push_str(")\n");
+        if let Some(e) = &rec.execution {
+            let _ = writeln!(out, "{}", outcome_line(e));
+        }
+        if let Some(sel) = self
+            .state
+            .selection
+            .filter(|_| self.state.current == Some(i))
+        {
+            let _ = writeln!(out, "selected {sel} ({} points)", sel.len());
+        }
+        let view = self.plot_view(i, rec);
+        if view.path.is_empty() {
+            out.push_str("(no poses recorded: no path to plot)\n");
+        } else {
+            out.push_str(&plot::ascii(&view, 64, 16));
+        }
+        out.push_str(&plot::strip(&view, 64));
+        Ok(out)
+    }
+
+    pub(super) fn plot_poses<'a>(&self, rec: &'a Recorded) -> Option<&'a [Pose]> {
+        rec.execution
+            .as_ref()
+            .and_then(|e| e.true_poses.as_deref())
+            .or(rec.trace.pose.as_deref())
+    }
+
+    pub(super) fn plot_view<'a>(&'a self, i: usize, rec: &'a Recorded) -> plot::PlotView<'a> {
+        let rules = crate::task::interception::InterceptionRules::default();
+        let interception = self.task == TaskKind::Interception;
+        plot::PlotView {
+            title: format!("execution {i}: {}", rec.label),
+            domain: &self.domain,
+            trace: &rec.trace,
+            path: self.plot_poses(rec).unwrap_or(&[]),
+            goal: rec.goal,
+            ball: rec.execution.as_ref().and_then(|e| e.ball.as_deref()),
+            arena: interception.then_some(plot::Arena {
+                half_m: rules.arena_half_m,
+                capture_m: rules.capture_m,
+            }),
+            outcome: rec.execution.as_ref().map(outcome_line),
+            speed_limits: interception.then_some([rules.max_speed_mps, rules.max_rot_radps]),
+            selection: self
+                .state
+                .selection
+                .filter(|_| self.state.current == Some(i)),
+            flagged: rec.flagged.clone(),
+            advised: rec.advised.clone(),
+        }
+    }
+
+    /// `plot FILE` draws the selected execution's path, `plot actions FILE` its actions against
+    /// point index, `plot compare FILE N M` the paths of executions N and M overlaid.
+    pub(super) fn plot(&self, kind: PlotKind, path: &str) -> Result<String, SessionError> {
+        let file = Path::new(path);
+        let no_poses = |n: usize| SessionError::NoPoses { n };
+        match kind {
+            PlotKind::Path => {
+                let (i, rec) = self.current()?;
+                let view = self.plot_view(i, rec);
+                if view.path.is_empty() {
+                    return Err(no_poses(i));
+                }
+                plot::svg(&view, file)?;
+                Ok(format!("wrote {path}: the path of execution {i}"))
+            }
+            PlotKind::Actions => {
+                let (i, rec) = self.current()?;
+                plot::svg_actions(&self.plot_view(i, rec), file)?;
+                Ok(format!(
+                    "wrote {path}: the actions of execution {i} against point index"
+                ))
+            }
+            PlotKind::Compare { before, after } => {
+                let a = self.plot_view(before, self.numbered(before)?);
+                let b = self.plot_view(after, self.numbered(after)?);
+                for (n, v) in [(before, &a), (after, &b)] {
+                    if v.path.is_empty() {
+                        return Err(no_poses(n));
+                    }
+                }
+                plot::svg_compare(&a, &b, file)?;
+                Ok(format!(
+                    "wrote {path}: execution {before} (blue) and {after} (green) overlaid"
+                ))
+            }
+        }
+    }
+}

@@ -1,0 +1,160 @@
+//! Taking back and putting back: the [`Edit`]s `undo` and `redo` move between their stacks, and
+//! `history`, which lists them.
+
+use std::fmt::Write as _;
+
+use super::effect::Effect;
+use super::{Recorded, Session, SessionError};
+use crate::interp::Synthesized;
+use crate::policy::dataset::Provenance;
+use crate::policy::learner;
+use crate::trace::Chunk;
+
+/// An edit that `undo` can take back, holding everything `redo` needs to put it back exactly.
+#[derive(Clone, Debug)]
+pub(super) enum Edit {
+    Advice {
+        /// The number `history` and `why` show (kept by undo and redo).
+        number: usize,
+        id: learner::AdviceId,
+        execution: usize,
+        /// The synthesized points themselves: redo adds these, never a re-synthesis with an
+        /// operator that may have been redefined since.
+        syn: Box<Synthesized>,
+    },
+    Critique {
+        number: usize,
+        id: learner::CritiqueId,
+        execution: usize,
+        chunk: Chunk,
+        kappa: f64,
+        increments: Vec<(Provenance, f64)>,
+    },
+}
+
+impl Edit {
+    pub(super) fn number(&self) -> usize {
+        match self {
+            Edit::Advice { number, .. } | Edit::Critique { number, .. } => *number,
+        }
+    }
+
+    pub(super) fn describe(&self, executions: &[Recorded]) -> String {
+        match self {
+            Edit::Advice { execution, syn, .. } => format!(
+                "#{} advise {} on {} of execution {} ({}): {} points",
+                self.number(),
+                syn.advice.invocation(),
+                syn.advice.chunk,
+                execution,
+                executions.get(*execution).map_or("?", |e| e.label.as_str()),
+                syn.points.len()
+            ),
+            Edit::Critique {
+                execution,
+                chunk,
+                kappa,
+                ..
+            } => format!(
+                "#{} critique {chunk} of execution {execution} ({}) with kappa {kappa}",
+                self.number(),
+                executions.get(*execution).map_or("?", |e| e.label.as_str()),
+            ),
+        }
+    }
+}
+
+impl Session {
+    pub(super) fn undo(&mut self) -> Result<String, SessionError> {
+        let edit = self.state.undo.last().ok_or(SessionError::NothingToUndo)?;
+        let text = edit.describe(&self.state.executions);
+        self.commit(Effect::Undo)?;
+        Ok(format!(
+            "undid: {text}; the policy has {} points",
+            self.state.learner.len()
+        ))
+    }
+
+    pub(super) fn undo_edit(&mut self) -> Result<(), SessionError> {
+        let st = &mut self.state;
+        let edit = st.undo.pop().ok_or(SessionError::NothingToUndo)?;
+        let result = match &edit {
+            Edit::Advice {
+                id, execution, syn, ..
+            } => st
+                .learner
+                .remove_advice(*id)
+                .map(|()| remove_chunk(&mut st.executions[*execution].advised, syn.advice.chunk)),
+            Edit::Critique {
+                id,
+                execution,
+                chunk,
+                ..
+            } => st
+                .learner
+                .remove_critique(*id)
+                .map(|()| remove_chunk(&mut st.executions[*execution].flagged, *chunk)),
+        };
+        match result {
+            Ok(()) => {
+                st.redo.push(edit);
+                Ok(())
+            }
+            Err(e) => {
+                st.undo.push(edit);
+                Err(e.into())
+            }
+        }
+    }
+
+    pub(super) fn redo(&mut self) -> Result<String, SessionError> {
+        let edit = self.state.redo.last().ok_or(SessionError::NothingToRedo)?;
+        let text = edit.describe(&self.state.executions);
+        self.commit(Effect::Redo)?;
+        Ok(format!(
+            "redid: {text}; the policy has {} points",
+            self.state.learner.len()
+        ))
+    }
+
+    /// Put back exactly what the last undo took: the same points, the same increments.
+    pub(super) fn redo_edit(&mut self) -> Result<(), SessionError> {
+        let edit = self.state.redo.pop().ok_or(SessionError::NothingToRedo)?;
+        let number = edit.number();
+        let result = match edit.clone() {
+            Edit::Advice { execution, syn, .. } => self.add_advice(execution, syn, number),
+            Edit::Critique {
+                execution,
+                chunk,
+                kappa,
+                increments,
+                ..
+            } => self.add_critique(execution, chunk, kappa, increments, number),
+        };
+        if result.is_err() {
+            self.state.redo.push(edit);
+        }
+        result
+    }
+
+    pub(super) fn history(&self) -> String {
+        let st = &self.state;
+        if st.undo.is_empty() && st.redo.is_empty() {
+            return "no advice or critiques yet".into();
+        }
+        let mut out = String::new();
+        for e in &st.undo {
+            let _ = writeln!(out, "  {}", e.describe(&st.executions));
+        }
+        for e in st.redo.iter().rev() {
+            let _ = writeln!(out, "  (undone) {}", e.describe(&st.executions));
+        }
+        out
+    }
+}
+
+pub(super) fn remove_chunk(chunks: &mut Vec<Chunk>, chunk: Chunk) {
+    if let Some(pos) = chunks.iter().rposition(|c| *c == chunk) {
+        chunks.remove(pos);
+    }
+}
