@@ -724,7 +724,7 @@ fn run_eval(args: EvalArgs) -> miette::Result<()> {
     let report = match args.policy {
         PolicyArg::Teacher if backend != BackendSpec::Sim => {
             let period = opts.params.period_s();
-            eval_on_base(kind, backend, &opts, limit, || kind.teacher(period))?
+            eval_on_base(kind, backend.clone(), &opts, limit, || kind.teacher(period))?
         }
         PolicyArg::Teacher => eval::evaluate_teacher(kind, &opts),
         PolicyArg::Bc | PolicyArg::Lwr => {
@@ -744,7 +744,7 @@ fn run_eval(args: EvalArgs) -> miette::Result<()> {
                 eval::evaluate(kind, policy.as_ref(), &opts)
             } else {
                 let p: &dyn advise::policy::Policy = policy.as_ref();
-                eval_on_base(kind, backend, &opts, limit, || p)?
+                eval_on_base(kind, backend.clone(), &opts, limit, || p)?
             }
         }
     };

@@ -23,6 +23,7 @@ use miette::Diagnostic;
 use thiserror::Error;
 
 use crate::backend::rmp::{RmpBackend, RmpConfig};
+use crate::backend::ros2::{Ros2Backend, Ros2Config};
 use crate::backend::sim::wrap_angle;
 use crate::backend::sim::{SimBackend, SimError, SimParams};
 use crate::backend::{
@@ -250,6 +251,11 @@ pub enum BackendChoice {
     /// still what teacher demonstrations and `eval` use.
     Rmp {
         backend: Box<RmpBackend>,
+        sim: SimParams,
+    },
+    /// A ROS 2 base (or `advise ros2-sim`), connected and receiving its odometry.
+    Ros2 {
+        backend: Box<Ros2Backend>,
         sim: SimParams,
     },
 }
@@ -637,6 +643,7 @@ impl Session {
         match &self.backend {
             BackendChoice::Sim(_) => "sim".into(),
             BackendChoice::Rmp { backend, .. } => backend.name(),
+            BackendChoice::Ros2 { backend, .. } => backend.name(),
         }
     }
 
@@ -657,6 +664,13 @@ impl Session {
                     "{} was told to stop (zero and decelerate-to-zero) but did not confirm it: {e}",
                     backend.name()
                 ),
+            },
+            BackendChoice::Ros2 { backend, .. } => match backend.stop() {
+                Ok(()) => format!(
+                    "{} stopped (zero commanded for half a second)",
+                    backend.name()
+                ),
+                Err(e) => format!("{} was told to stop but: {e}", backend.name()),
             },
         }
     }
@@ -992,7 +1006,7 @@ impl Session {
             }
             BackendSpec::Rmp(addr) => {
                 // One link to a base at a time: the old one is stopped and closed first.
-                if matches!(self.backend, BackendChoice::Rmp { .. }) {
+                if !matches!(self.backend, BackendChoice::Sim(_)) {
                     self.stop.set_base(None);
                     self.backend = BackendChoice::Sim(params.clone());
                 }
@@ -1006,7 +1020,7 @@ impl Session {
                     })?;
                 let platform = backend.platform().name();
                 let order = backend.status().map_or("unknown", |s| s.order.name());
-                self.stop.set_base(Some(backend.stop_handle()));
+                self.stop.set_base(Some(backend.stop_handle().into()));
                 let name = backend.name();
                 self.backend = BackendChoice::Rmp {
                     backend: Box::new(backend),
@@ -1015,6 +1029,31 @@ impl Session {
                 format!(
                     "backend {name}: an {platform} in standby ({order} feedback); `run` drives it in tractor mode, Ctrl-C stops it"
                 )
+            }
+            BackendSpec::Ros2(r) => {
+                if !matches!(self.backend, BackendChoice::Sim(_)) {
+                    self.stop.set_base(None);
+                    self.backend = BackendChoice::Sim(params.clone());
+                }
+                let backend =
+                    Ros2Backend::connect(&r, Ros2Config::for_sim(&params)).map_err(|error| {
+                        SessionError::BackendUnavailable {
+                            spec: spec.trim().to_string(),
+                            current: self.backend_name(),
+                            error,
+                        }
+                    })?;
+                self.stop.set_base(Some(backend.stop_handle().into()));
+                let reply = format!(
+                    "backend {}: {}; `run` drives it, Ctrl-C stops it",
+                    backend.name(),
+                    backend.describe()
+                );
+                self.backend = BackendChoice::Ros2 {
+                    backend: Box::new(backend),
+                    sim: params,
+                };
+                reply
             }
         };
         // Journalled so a resume can say which base the session was on; a resume never connects.
@@ -1120,7 +1159,9 @@ impl Session {
 
     fn sim_params(&self) -> SimParams {
         match &self.backend {
-            BackendChoice::Sim(p) | BackendChoice::Rmp { sim: p, .. } => p.clone(),
+            BackendChoice::Sim(p)
+            | BackendChoice::Rmp { sim: p, .. }
+            | BackendChoice::Ros2 { sim: p, .. } => p.clone(),
         }
     }
 
@@ -1173,6 +1214,7 @@ impl Session {
                 &mut sim
             }
             BackendChoice::Rmp { backend, .. } => backend.as_mut(),
+            BackendChoice::Ros2 { backend, .. } => backend.as_mut(),
         };
         self.stop.clear();
         let mut guarded = Interruptible::new(base, self.stop.clone());
@@ -1544,11 +1586,16 @@ impl Session {
             None => out.push_str("  (the first evaluation of this task in the session: the next `eval` says what changed)\n"),
         }
         // The whole test set on a robot takes minutes and needs room: not from the prompt.
-        if let BackendChoice::Rmp { backend, .. } = &self.backend {
+        if !matches!(self.backend, BackendChoice::Sim(_)) {
+            let backend = &self.backend;
             let _ = writeln!(
                 out,
                 "(in the simulator; `advise eval --backend {}` runs the test set on the robot)",
-                backend.name()
+                match backend {
+                    BackendChoice::Rmp { backend, .. } => backend.name(),
+                    BackendChoice::Ros2 { backend, .. } => backend.name(),
+                    BackendChoice::Sim(_) => "sim".into(),
+                }
             );
         }
         // Kept (and journalled) so the next `eval` can say what changed, after a resume too.
