@@ -305,11 +305,11 @@ impl FromStr for BackendSpec {
         if spec == "sim" {
             return Ok(BackendSpec::Sim);
         }
-        if let Some(rest) = spec.strip_prefix("ros2") {
-            if rest.is_empty() || rest.starts_with([':', '?']) {
-                let rest = rest.strip_prefix(':').unwrap_or(rest);
-                return parse_ros2(spec, rest).map(BackendSpec::Ros2);
-            }
+        if let Some(rest) = spec.strip_prefix("ros2")
+            && (rest.is_empty() || rest.starts_with([':', '?']))
+        {
+            let rest = rest.strip_prefix(':').unwrap_or(rest);
+            return parse_ros2(spec, rest).map(BackendSpec::Ros2);
         }
         let Some(addr) = spec.strip_prefix("rmp:").or_else(|| {
             // `rmp` alone, or `rmp HOST:PORT` typed with a space.
