@@ -89,6 +89,23 @@ enum Command {
     /// Emulate a Segway RMP v3 on a UDP port, with the simulator behind it: what `--backend
     /// rmp:HOST:PORT` drives when no robot is at hand. Runs until Ctrl-C.
     RmpEmulator(EmulatorArgs),
+    /// The simulator as a ROS 2 robot: subscribes `cmd_vel`, publishes `odom` at 50 Hz, what
+    /// `--backend ros2` drives when no robot is at hand. Runs until Ctrl-C.
+    Ros2Sim(Ros2SimArgs),
+}
+
+#[derive(Args)]
+struct Ros2SimArgs {
+    /// The robot's namespace, e.g. `/robot1` for `/robot1/cmd_vel` and `/robot1/odom`; options
+    /// as in `--backend ros2:NAMESPACE?cmd=..&odom=..&domain=..`. The domain is ROS_DOMAIN_ID's.
+    #[arg(long, default_value = "/", value_name = "NS")]
+    namespace: String,
+    /// Simulator parameters (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    sim_params: Option<PathBuf>,
+    /// Seeds the simulator's noise.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -325,6 +342,7 @@ fn main() -> ExitCode {
         Some(Command::Eval(args)) => run_eval(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Experiment(args)) => experiment(args).map(|()| ExitCode::SUCCESS),
         Some(Command::RmpEmulator(args)) => rmp_emulator(args).map(|()| ExitCode::SUCCESS),
+        Some(Command::Ros2Sim(args)) => ros2_sim(args).map(|()| ExitCode::SUCCESS),
     };
     match result {
         Ok(code) => code,
@@ -890,6 +908,33 @@ where
             Err((*e).into())
         }
     }
+}
+
+/// Run the simulator as a ROS 2 robot until Ctrl-C.
+fn ros2_sim(args: Ros2SimArgs) -> miette::Result<()> {
+    let params = sim_params(args.sim_params.as_deref())?;
+    let BackendSpec::Ros2(spec) = format!("ros2:{}", args.namespace).parse::<BackendSpec>()? else {
+        unreachable!("a `ros2:` spelling parses as a ROS 2 spec")
+    };
+    let stop = StopSignal::new();
+    advise::repl::install_ctrl_c(&stop);
+    let counts = advise::backend::ros2::robot::run_robot(
+        &spec,
+        params,
+        args.seed,
+        &stop,
+        |cmd, odom, domain| {
+            eprintln!(
+                "ros2-sim: commands on {cmd}, odometry on {odom} at 50 Hz, domain {domain}; drive it with `--backend {}`; Ctrl-C stops it",
+                BackendSpec::Ros2(spec.clone())
+            )
+        },
+    )?;
+    eprintln!(
+        "ros2-sim: {} commands received, {} odometry messages published",
+        counts.commands, counts.odometry
+    );
+    Ok(())
 }
 
 /// Run the RMP emulator until Ctrl-C, printing its state changes.

@@ -266,3 +266,48 @@ fn no_odometry_names_the_topic_the_domain_and_what_was_discovered() {
     let code = miette::Diagnostic::code(&e).unwrap().to_string();
     assert_eq!(code, "advise::backend::no_odometry");
 }
+
+#[test]
+fn ros2_sim_is_driven_by_the_ros2_backend() {
+    let name = "ros2_sim_is_driven_by_the_ros2_backend";
+    if !netns::run_isolated(name, &[], LIMIT) {
+        return;
+    }
+    let mut sim = advise();
+    sim.args(["ros2-sim", "--namespace", "/robot2"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    let sim = Running(sim.spawn().expect("ros2-sim starts"));
+    let out = finish(
+        spawn_eval(&[
+            "--backend",
+            "ros2:/robot2?wait=20",
+            "--limit",
+            "1",
+            "--json",
+        ]),
+        Duration::from_secs(120),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("a JSON report");
+    assert_eq!(report["episodes"], 1, "{report}");
+    // SAFETY: a signal to our own child.
+    unsafe {
+        libc::kill(sim.0.id() as libc::pid_t, libc::SIGINT);
+    }
+    let out = finish(sim, Duration::from_secs(10));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("commands on /robot2/cmd_vel, odometry on /robot2/odom at 50 Hz, domain 0"),
+        "{stderr}"
+    );
+    let received: u64 = stderr
+        .split("ros2-sim: ")
+        .nth(2)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .expect("a count of commands");
+    assert!(received > 30, "{stderr}");
+}
