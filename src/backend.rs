@@ -13,10 +13,11 @@ use crate::trace::Pose;
 
 pub mod interrupt;
 pub mod rmp;
+pub mod ros2;
 pub mod sim;
 pub mod spec;
 
-pub use interrupt::{Interruptible, StopSignal};
+pub use interrupt::{BaseStop, Interruptible, StopSignal};
 pub use spec::{BackendSpec, BackendSpecError};
 
 /// What a base reports after a control step.
@@ -112,6 +113,22 @@ pub enum BackendError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     RmpConfig(#[from] rmp::config::RmpConfigError),
+    #[error("no odometry on {topic} (domain {domain_id}) within {waited_ms} ms")]
+    #[diagnostic(
+        code(advise::backend::no_odometry),
+        help(
+            "discovery saw: {discovered}. Check that the base's driver runs and publishes nav_msgs/Odometry on that topic, that ROS_DOMAIN_ID matches (or `ros2?domain=N`), and the topic names (`ros2:NAMESPACE`, `ros2?odom=TOPIC`)"
+        )
+    )]
+    NoOdometry {
+        topic: String,
+        domain_id: u16,
+        waited_ms: u64,
+        discovered: String,
+    },
+    #[error("ROS 2: {what}")]
+    #[diagnostic(code(advise::backend::ros2))]
+    Ros2 { what: String },
     #[error("{0}")]
     #[diagnostic(code(advise::backend::other))]
     Other(String),

@@ -86,6 +86,23 @@ pub enum Command {
     /// Emulate a Segway RMP v3 on a UDP port, with the simulator behind it: what `--backend
     /// rmp:HOST:PORT` drives when no robot is at hand. Runs until Ctrl-C.
     RmpEmulator(EmulatorArgs),
+    /// The simulator as a ROS 2 robot: subscribes `cmd_vel`, publishes `odom` at 50 Hz, what
+    /// `--backend ros2` drives when no robot is at hand. Runs until Ctrl-C.
+    Ros2Sim(Ros2SimArgs),
+}
+
+#[derive(Args)]
+pub struct Ros2SimArgs {
+    /// The robot's namespace, e.g. `/robot1` for `/robot1/cmd_vel` and `/robot1/odom`; options
+    /// as in `--backend ros2:NAMESPACE?cmd=..&odom=..&domain=..`. The domain is ROS_DOMAIN_ID's.
+    #[arg(long, default_value = "/", value_name = "NS")]
+    pub namespace: String,
+    /// Simulator parameters (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    pub sim_params: Option<PathBuf>,
+    /// Seeds the simulator's noise.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
 }
 
 #[derive(Args)]
@@ -186,7 +203,11 @@ pub struct EvalArgs {
     pub sim_params: Option<PathBuf>,
     /// The base: `sim` (the test set in parallel on fresh simulators) or `rmp:HOST:PORT` (a Segway
     /// RMP or `advise rmp-emulator`, episode after episode in real time).
-    #[arg(long, default_value = "sim", value_name = "sim|rmp:HOST:PORT")]
+    #[arg(
+        long,
+        default_value = "sim",
+        value_name = "sim|rmp:HOST:PORT|ros2[:NS]"
+    )]
     pub backend: String,
     /// Run only the first N starts of the test set (a quick check on a real base).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
@@ -233,7 +254,11 @@ pub struct SessionArgs {
     pub no_journal: bool,
     /// The base to drive: `sim`, or `rmp:HOST:PORT` for a Segway RMP (or `advise rmp-emulator`);
     /// the same as the session command `backend`.
-    #[arg(long, default_value = "sim", value_name = "sim|rmp:HOST:PORT")]
+    #[arg(
+        long,
+        default_value = "sim",
+        value_name = "sim|rmp:HOST:PORT|ros2[:NS]"
+    )]
     pub backend: String,
 }
 

@@ -27,6 +27,7 @@ mod undo;
 use std::path::{Path, PathBuf};
 
 use crate::backend::rmp::{RmpBackend, RmpConfig};
+use crate::backend::ros2::{Ros2Backend, Ros2Config};
 use crate::backend::sim::SimParams;
 use crate::backend::{Backend, BackendSpec, StopSignal};
 use crate::check::OperatorSet;
@@ -75,6 +76,11 @@ pub enum BackendChoice {
     /// still what teacher demonstrations and `eval` use.
     Rmp {
         backend: Box<RmpBackend>,
+        sim: SimParams,
+    },
+    /// A ROS 2 base (or `advise ros2-sim`), connected and receiving its odometry.
+    Ros2 {
+        backend: Box<Ros2Backend>,
         sim: SimParams,
     },
 }
@@ -315,6 +321,7 @@ impl Session {
         match &self.backend {
             BackendChoice::Sim(_) => "sim".into(),
             BackendChoice::Rmp { backend, .. } => backend.name(),
+            BackendChoice::Ros2 { backend, .. } => backend.name(),
         }
     }
 
@@ -335,6 +342,13 @@ impl Session {
                     "{} was told to stop (zero and decelerate-to-zero) but did not confirm it: {e}",
                     backend.name()
                 ),
+            },
+            BackendChoice::Ros2 { backend, .. } => match backend.stop() {
+                Ok(()) => format!(
+                    "{} stopped (zero commanded for half a second)",
+                    backend.name()
+                ),
+                Err(e) => format!("{} was told to stop but: {e}", backend.name()),
             },
         }
     }
@@ -477,7 +491,7 @@ impl Session {
             }
             BackendSpec::Rmp(addr) => {
                 // One link to a base at a time: the old one is stopped and closed first.
-                if matches!(self.backend, BackendChoice::Rmp { .. }) {
+                if !matches!(self.backend, BackendChoice::Sim(_)) {
                     self.stop.set_base(None);
                     self.backend = BackendChoice::Sim(params.clone());
                 }
@@ -491,7 +505,7 @@ impl Session {
                     })?;
                 let platform = backend.platform().name();
                 let order = backend.status().map_or("unknown", |s| s.order.name());
-                self.stop.set_base(Some(backend.stop_handle()));
+                self.stop.set_base(Some(backend.stop_handle().into()));
                 let name = backend.name();
                 self.backend = BackendChoice::Rmp {
                     backend: Box::new(backend),
@@ -500,6 +514,31 @@ impl Session {
                 format!(
                     "backend {name}: an {platform} in standby ({order} feedback); `run` drives it in tractor mode, Ctrl-C stops it"
                 )
+            }
+            BackendSpec::Ros2(r) => {
+                if !matches!(self.backend, BackendChoice::Sim(_)) {
+                    self.stop.set_base(None);
+                    self.backend = BackendChoice::Sim(params.clone());
+                }
+                let backend =
+                    Ros2Backend::connect(&r, Ros2Config::for_sim(&params)).map_err(|error| {
+                        SessionError::BackendUnavailable {
+                            spec: spec.trim().to_string(),
+                            current: self.backend_name(),
+                            error,
+                        }
+                    })?;
+                self.stop.set_base(Some(backend.stop_handle().into()));
+                let reply = format!(
+                    "backend {}: {}; `run` drives it, Ctrl-C stops it",
+                    backend.name(),
+                    backend.describe()
+                );
+                self.backend = BackendChoice::Ros2 {
+                    backend: Box::new(backend),
+                    sim: params,
+                };
+                reply
             }
         };
         // Journalled so a resume can say which base the session was on; a resume never connects.

@@ -3,8 +3,8 @@
 //! This module owns [`StopSignal`], a cloneable handle that a signal handler holds, and
 //! [`Interruptible`], a [`Backend`] wrapper that the control loop drives through. Raising the
 //! signal does two things: it stops a real base at once from the signalling thread (through the
-//! RMP driver's stop handle, which commands zero and decelerate-to-zero without waiting for the
-//! control loop), and it makes the next `command` or `step` of the wrapped backend fail with
+//! driver's stop handle: the RMP's commands zero and decelerate-to-zero, the ROS 2 driver's
+//! publishes a zero `Twist`, without waiting for the control loop), and it makes the next `command` or `step` of the wrapped backend fail with
 //! [`BackendError::Stopped`], so the loop ends and keeps what it recorded. It works the same for
 //! every backend; only a base with a driver-side stop gets the immediate stop. It does no IO itself.
 
@@ -12,15 +12,44 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
 use super::rmp::driver::RmpStopHandle;
+use super::ros2::Ros2StopHandle;
 use super::{Backend, BackendError, BaseState};
 use crate::trace::Pose;
+
+/// A real base's driver-side stop, callable from any thread.
+#[derive(Clone, Debug)]
+pub enum BaseStop {
+    Rmp(RmpStopHandle),
+    Ros2(Ros2StopHandle),
+}
+
+impl BaseStop {
+    pub fn stop(&self) {
+        match self {
+            BaseStop::Rmp(h) => h.stop(),
+            BaseStop::Ros2(h) => h.stop(),
+        }
+    }
+}
+
+impl From<RmpStopHandle> for BaseStop {
+    fn from(h: RmpStopHandle) -> BaseStop {
+        BaseStop::Rmp(h)
+    }
+}
+
+impl From<Ros2StopHandle> for BaseStop {
+    fn from(h: Ros2StopHandle) -> BaseStop {
+        BaseStop::Ros2(h)
+    }
+}
 
 /// A cloneable "stop now" for whatever is running (see the module docs).
 #[derive(Clone, Debug, Default)]
 pub struct StopSignal {
     raised: Arc<AtomicBool>,
     /// The real base currently connected, if any: stopped from the signalling thread.
-    base: Arc<Mutex<Option<RmpStopHandle>>>,
+    base: Arc<Mutex<Option<BaseStop>>>,
 }
 
 impl StopSignal {
@@ -47,7 +76,7 @@ impl StopSignal {
     }
 
     /// The real base to stop on [`StopSignal::raise`] (`None` when driving the simulator).
-    pub fn set_base(&self, handle: Option<RmpStopHandle>) {
+    pub fn set_base(&self, handle: Option<BaseStop>) {
         *self.base.lock().unwrap_or_else(|e| e.into_inner()) = handle;
     }
 

@@ -1,4 +1,5 @@
-//! The subcommands that are not a session: `demo`, `eval`, `experiment` and `rmp-emulator`.
+//! The subcommands that are not a session: `demo`, `eval`, `experiment`, `rmp-emulator` and
+//! `ros2-sim`.
 //! Each calls the library and prints what it returns.
 
 use crate::backend::rmp::config::FaultInjection;
@@ -10,8 +11,8 @@ use crate::task::TaskKind;
 use crate::trace::Episode;
 
 use super::{
-    CliError, DemoArgs, EmulatorArgs, EvalArgs, ExperimentArgs, parse_seeds, print_stdout,
-    sim_params,
+    CliError, DemoArgs, EmulatorArgs, EvalArgs, ExperimentArgs, Ros2SimArgs, parse_seeds,
+    print_stdout, sim_params,
 };
 
 /// `advise demo`: record teacher demonstrations in the simulator into one file.
@@ -55,7 +56,7 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
     let report = match args.policy {
         EvalPolicy::Teacher if backend != BackendSpec::Sim => {
             let period = opts.params.period_s();
-            eval_on_base(kind, backend, &opts, limit, || kind.teacher(period))?
+            eval_on_base(kind, backend.clone(), &opts, limit, || kind.teacher(period))?
         }
         EvalPolicy::Teacher => eval::evaluate_teacher(kind, &opts),
         EvalPolicy::Learned(learner) => {
@@ -71,7 +72,7 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
                 eval::evaluate(kind, policy.as_ref(), &opts)
             } else {
                 let p: &dyn crate::policy::Policy = policy.as_ref();
-                eval_on_base(kind, backend, &opts, limit, || p)?
+                eval_on_base(kind, backend.clone(), &opts, limit, || p)?
             }
         }
     };
@@ -133,6 +134,37 @@ where
             Err((*e).into())
         }
     }
+}
+
+/// `advise ros2-sim`: run the simulator as a ROS 2 robot until Ctrl-C.
+pub fn ros2_sim(args: Ros2SimArgs) -> miette::Result<()> {
+    let params = sim_params(args.sim_params.as_deref())?;
+    let BackendSpec::Ros2(spec) = format!("ros2:{}", args.namespace).parse::<BackendSpec>()? else {
+        return Err(miette::miette!(
+            code = "advise::cli::ros2_namespace",
+            "`{}` is not a ROS 2 namespace",
+            args.namespace
+        ));
+    };
+    let stop = StopSignal::new();
+    crate::repl::install_ctrl_c(&stop);
+    let counts = crate::backend::ros2::robot::run_robot(
+        &spec,
+        params,
+        args.seed,
+        &stop,
+        |cmd, odom, domain| {
+            eprintln!(
+                "ros2-sim: commands on {cmd}, odometry on {odom} at 50 Hz, domain {domain}; drive it with `--backend {}`; Ctrl-C stops it",
+                BackendSpec::Ros2(spec.clone())
+            )
+        },
+    )?;
+    eprintln!(
+        "ros2-sim: {} commands received, {} odometry messages published",
+        counts.commands, counts.odometry
+    );
+    Ok(())
 }
 
 /// `advise rmp-emulator`: run the RMP emulator until Ctrl-C, printing its state changes.

@@ -45,11 +45,15 @@ impl Session {
             None => out.push_str("  (the first evaluation of this task in the session: the next `eval` says what changed)\n"),
         }
         // The whole test set on a robot takes minutes and needs room: not from the prompt.
-        if let BackendChoice::Rmp { backend, .. } = &self.backend {
+        let robot = match &self.backend {
+            BackendChoice::Sim(_) => None,
+            BackendChoice::Rmp { backend, .. } => Some(backend.name()),
+            BackendChoice::Ros2 { backend, .. } => Some(backend.name()),
+        };
+        if let Some(name) = robot {
             let _ = writeln!(
                 out,
-                "(in the simulator; `advise eval --backend {}` runs the test set on the robot)",
-                backend.name()
+                "(in the simulator; `advise eval --backend {name}` runs the test set on the robot)"
             );
         }
         // Kept (and journalled) so the next `eval` can say what changed, after a resume too.

@@ -17,7 +17,9 @@ use crate::trace::Pose;
 impl Session {
     pub(super) fn sim_params(&self) -> SimParams {
         match &self.backend {
-            BackendChoice::Sim(p) | BackendChoice::Rmp { sim: p, .. } => p.clone(),
+            BackendChoice::Sim(p)
+            | BackendChoice::Rmp { sim: p, .. }
+            | BackendChoice::Ros2 { sim: p, .. } => p.clone(),
         }
     }
 
@@ -70,6 +72,7 @@ impl Session {
                 &mut sim
             }
             BackendChoice::Rmp { backend, .. } => backend.as_mut(),
+            BackendChoice::Ros2 { backend, .. } => backend.as_mut(),
         };
         self.stop.clear();
         let mut guarded = Interruptible::new(base, self.stop.clone());

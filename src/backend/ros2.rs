@@ -1,0 +1,177 @@
+//! ROS 2 bases: a `geometry_msgs/Twist` on `cmd_vel` in, a `nav_msgs/Odometry` on `odom` out.
+//!
+//! This module owns everything that speaks DDS: the messages ([`msg`]), opening a node on a
+//! domain with the QoS a base expects ([`Ros2Node`]), the driver that makes a ROS 2 base a
+//! [`Backend`](crate::backend::Backend) with the RMP's safety rules ([`driver`]), the simulator as
+//! a ROS 2 robot for rehearsals (`advise ros2-sim`, [`robot`]), and recording a person's
+//! teleoperation as a demonstration ([`teleop`]). It uses `ros2-client` (RustDDS), so no ROS
+//! installation is needed on either side. Parsing the user's spelling (`ros2:/robot1?...`) is
+//! [`spec`](crate::backend::spec)'s; task logic is the tasks'.
+//!
+//! QoS: commands are published reliable (what a base's `cmd_vel` subscription accepts whether it
+//! asks for reliable or best-effort); odometry is read best-effort, which matches both reliable and
+//! best-effort publishers.
+
+use std::time::Duration;
+
+use ros2_client::dds::rustdds::Topic;
+use ros2_client::qos::{History, WhenFull};
+use ros2_client::{
+    Context, ContextOptions, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
+    QosProfile, Subscription,
+};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+use super::BackendError;
+use super::sim::SimParams;
+use super::spec::Ros2Spec;
+
+pub mod driver;
+pub mod msg;
+pub mod robot;
+
+pub use driver::{Ros2Backend, Ros2StopHandle};
+
+/// The driver's limits and timing, from the task's simulator parameters and the spec.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Ros2Config {
+    /// Every command is clamped to these before it is published.
+    pub max_speed_mps: f64,
+    pub max_rot_radps: f64,
+    /// The control period, s (the task's rate).
+    pub period_s: f64,
+    /// The watchdog publishes zero when no command came for this long, s.
+    pub watchdog_s: f64,
+    /// How long zero is repeated at the end of a run, s.
+    pub stop_repeat_s: f64,
+}
+
+impl Ros2Config {
+    /// The task's limits and rate, as the simulator and the RMP driver use them.
+    pub fn for_sim(sim: &SimParams) -> Ros2Config {
+        Ros2Config {
+            max_speed_mps: sim.max_speed_mps,
+            max_rot_radps: sim.max_rot_radps,
+            period_s: sim.period_s(),
+            watchdog_s: 0.25,
+            stop_repeat_s: 0.5,
+        }
+    }
+
+    /// A command clamped to the limits; a non-finite command is zero.
+    pub fn clamp(&self, speed_mps: f64, rot_radps: f64) -> (f64, f64) {
+        if speed_mps.is_finite() && rot_radps.is_finite() {
+            (
+                speed_mps.clamp(-self.max_speed_mps, self.max_speed_mps),
+                rot_radps.clamp(-self.max_rot_radps, self.max_rot_radps),
+            )
+        } else {
+            (0.0, 0.0)
+        }
+    }
+}
+
+/// A DDS participant and one ROS 2 node on the spec's domain, with typed topic helpers.
+pub struct Ros2Node {
+    pub context: Context,
+    pub node: Node,
+    pub domain_id: u16,
+}
+
+/// QoS for commands: reliable, volatile, the last 10 (the ROS 2 default publisher profile).
+pub fn command_qos() -> QosProfile {
+    QosProfile::publisher_default().history(History::KeepLast { depth: 10 })
+}
+
+/// QoS for reading odometry: best-effort, so any publisher matches; the newest few kept.
+pub fn odometry_qos() -> QosProfile {
+    QosProfile::subscription_default().history(History::KeepLast { depth: 10 })
+}
+
+/// QoS for publishing odometry (the simulator as a robot): reliable, as most base drivers do.
+pub fn odometry_publisher_qos() -> QosProfile {
+    QosProfile::publisher_default().reliability_reliable(WhenFull::Wait(Duration::from_millis(5)))
+}
+
+fn dds_error(what: &str, e: impl std::fmt::Display) -> BackendError {
+    BackendError::Ros2 {
+        what: format!("{what}: {e}"),
+    }
+}
+
+impl Ros2Node {
+    /// Join the spec's domain as node `node_name` in the spec's namespace.
+    pub fn open(spec: &Ros2Spec, node_name: &str) -> Result<Ros2Node, BackendError> {
+        let domain_id = spec.domain().map_err(|e| BackendError::Ros2 {
+            what: e.to_string(),
+        })?;
+        let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
+            .map_err(|e| dds_error("cannot join the DDS domain", e))?;
+        let name =
+            NodeName::new(&spec.namespace, node_name).map_err(|e| dds_error("bad node name", e))?;
+        // No rosout: the node only drives; its diagnostics go to the user's terminal.
+        let node = context
+            .new_node(name, NodeOptions::new().enable_rosout(false))
+            .map_err(|e| dds_error("cannot create the node", e))?;
+        Ok(Ros2Node {
+            context,
+            node,
+            domain_id,
+        })
+    }
+
+    fn topic(
+        &mut self,
+        full_name: &str,
+        ty: (&str, &str),
+        qos: &QosProfile,
+    ) -> Result<Topic, BackendError> {
+        let name = Name::parse(full_name).map_err(|e| dds_error(full_name, e))?;
+        self.node
+            .create_topic(&name, MessageTypeName::new(ty.0, ty.1), qos)
+            .map_err(|e| dds_error(&format!("cannot create the topic {full_name}"), e))
+    }
+
+    /// A publisher of `ty` on `full_name` (e.g. `/robot1/cmd_vel`).
+    pub fn publisher<M: Serialize>(
+        &mut self,
+        full_name: &str,
+        ty: (&str, &str),
+        qos: QosProfile,
+    ) -> Result<Publisher<M>, BackendError> {
+        let topic = self.topic(full_name, ty, &qos)?;
+        self.node
+            .create_publisher(&topic, Some(qos))
+            .map_err(|e| dds_error(&format!("cannot publish on {full_name}"), e))
+    }
+
+    /// A subscription to `ty` on `full_name`.
+    pub fn subscription<M: DeserializeOwned + 'static>(
+        &mut self,
+        full_name: &str,
+        ty: (&str, &str),
+        qos: QosProfile,
+    ) -> Result<Subscription<M>, BackendError> {
+        let topic = self.topic(full_name, ty, &qos)?;
+        self.node
+            .create_subscription(&topic, Some(qos))
+            .map_err(|e| dds_error(&format!("cannot subscribe to {full_name}"), e))
+    }
+
+    /// What discovery has seen so far, `name (type)`, ROS 2 topics only, sorted.
+    pub fn discovered(&self) -> Vec<String> {
+        let mut seen: Vec<String> = self
+            .context
+            .discovered_topics()
+            .into_iter()
+            .filter_map(|t| {
+                let name = t.name.strip_prefix("rt")?;
+                Some(format!("{name} ({})", t.type_name))
+            })
+            .collect();
+        seen.sort();
+        seen.dedup();
+        seen
+    }
+}

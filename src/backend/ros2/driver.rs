@@ -1,0 +1,474 @@
+//! A ROS 2 base as a [`Backend`]: publishes `Twist` commands, reads `Odometry`, and keeps the
+//! RMP driver's safety rules.
+//!
+//! This module owns the link's threads and its safety state. A reader thread keeps the newest
+//! odometry and when it arrived; a watchdog thread publishes zero when the session stops
+//! commanding a moving base for [`Ros2Config::watchdog_s`] and repeats zero for
+//! [`Ros2Config::stop_repeat_s`] after every stop. Every command is clamped before it is
+//! published; odometry older than the spec's `odom_timeout` ends a run with
+//! [`BackendError::LinkLost`] after commanding zero; [`Ros2StopHandle`] (Ctrl-C) commands zero
+//! from any thread; dropping the backend commands zero before the threads end. A base's own
+//! command timeout is never relied on. It knows nothing of tasks.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use ros2_client::{Publisher, Subscription};
+
+use super::msg::{ODOMETRY_TYPE, Odometry, TWIST_TYPE, Twist};
+use super::{Ros2Config, Ros2Node, command_qos, odometry_qos};
+use crate::backend::rmp::emulator::{compose_pose, relative_pose};
+use crate::backend::spec::Ros2Spec;
+use crate::backend::{Backend, BackendError, BaseState};
+use crate::trace::Pose;
+
+/// How often the reader looks for odometry and the watchdog for a silent session.
+const POLL: Duration = Duration::from_millis(2);
+/// How often zero is repeated while a stop lasts (50 Hz).
+const ZERO_EVERY: Duration = Duration::from_millis(20);
+/// A base slower than this is at rest (what `reset` waits for before re-zeroing).
+const REST_MPS: f64 = 0.02;
+const REST_RADPS: f64 = 0.05;
+/// The longest `reset` waits for a moving base to come to rest.
+const REST_WAIT: Duration = Duration::from_secs(3);
+
+/// The newest odometry, as received.
+#[derive(Clone, Debug)]
+pub struct OdomSample {
+    pub pose: Pose,
+    pub speed_mps: f64,
+    pub rot_radps: f64,
+    pub frame_id: String,
+    pub child_frame_id: String,
+    /// When it arrived here (the base's clock may differ from ours, so its stamp is not used).
+    pub received: Instant,
+}
+
+impl OdomSample {
+    fn from_msg(o: &Odometry, received: Instant) -> OdomSample {
+        OdomSample {
+            pose: o.planar_pose(),
+            speed_mps: o.twist.twist.linear.x,
+            rot_radps: o.twist.twist.angular.z,
+            frame_id: o.header.frame_id.clone(),
+            child_frame_id: o.child_frame_id.clone(),
+            received,
+        }
+    }
+}
+
+/// What the link's threads and the control loop share.
+#[derive(Debug)]
+struct Safety {
+    latest: Option<OdomSample>,
+    odom_count: u64,
+    last_command_at: Instant,
+    /// The last command published was not zero.
+    moving: bool,
+    /// Zero is repeated until then.
+    zero_until: Option<Instant>,
+    last_zero_at: Option<Instant>,
+    /// Set by the stop handle (Ctrl-C): commands are refused until the next reset.
+    stopped: Option<String>,
+    watchdog_trips: u64,
+    published: u64,
+}
+
+/// The link to the base: the command publisher and the shared safety state.
+struct Link {
+    safety: Mutex<Safety>,
+    publisher: Mutex<Publisher<Twist>>,
+    config: Ros2Config,
+    shutdown: AtomicBool,
+}
+
+impl Link {
+    fn lock(&self) -> MutexGuard<'_, Safety> {
+        self.safety.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn publish(&self, t: Twist) -> Result<(), BackendError> {
+        let p = self.publisher.lock().unwrap_or_else(|e| e.into_inner());
+        p.publish(t).map_err(|e| BackendError::Ros2 {
+            what: format!("cannot publish a command: {e}"),
+        })?;
+        drop(p);
+        self.lock().published += 1;
+        Ok(())
+    }
+
+    /// Publish zero now and keep repeating it for the stop's length (by the watchdog thread).
+    fn zero_now(&self) {
+        let now = Instant::now();
+        {
+            let mut s = self.lock();
+            s.moving = false;
+            s.zero_until = Some(now + Duration::from_secs_f64(self.config.stop_repeat_s));
+            s.last_zero_at = Some(now);
+        }
+        // A failed publish is retried by the repeats.
+        let _ = self.publish(Twist::ZERO);
+    }
+
+    /// One watchdog round: repeat zero while a stop lasts; stop a base the session left moving.
+    fn watch(&self) {
+        let now = Instant::now();
+        let (repeat, trip) = {
+            let mut s = self.lock();
+            let repeat = s.zero_until.is_some_and(|u| now < u)
+                && s.last_zero_at.is_none_or(|z| now - z >= ZERO_EVERY);
+            if repeat {
+                s.last_zero_at = Some(now);
+            }
+            let trip = s.moving
+                && now - s.last_command_at > Duration::from_secs_f64(self.config.watchdog_s);
+            if trip {
+                s.watchdog_trips += 1;
+            }
+            (repeat, trip)
+        };
+        if trip {
+            self.zero_now();
+        } else if repeat {
+            let _ = self.publish(Twist::ZERO);
+        }
+    }
+}
+
+/// Stops the base from any thread (a Ctrl-C handler): zero now, and commands are refused until
+/// the next reset.
+#[derive(Clone)]
+pub struct Ros2StopHandle {
+    link: Arc<Link>,
+}
+
+impl std::fmt::Debug for Ros2StopHandle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Ros2StopHandle")
+    }
+}
+
+impl Ros2StopHandle {
+    pub fn stop(&self) {
+        self.link.lock().stopped = Some("interrupted (Ctrl-C)".into());
+        self.link.zero_now();
+    }
+}
+
+/// How many messages went each way and how often the watchdog stopped the base.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Ros2Counts {
+    pub odometry: u64,
+    pub commands: u64,
+    pub watchdog_trips: u64,
+}
+
+/// A ROS 2 base driven at the task's rate (see the module docs).
+pub struct Ros2Backend {
+    spec: Ros2Spec,
+    config: Ros2Config,
+    link: Arc<Link>,
+    threads: Vec<JoinHandle<()>>,
+    /// `(odometry where the run began, the start pose it stands for)`.
+    frame: Option<(Pose, Pose)>,
+    t0: Instant,
+    next_deadline: Instant,
+    frames: (String, String),
+    domain_id: u16,
+    // Last: the node outlives the threads that use its publisher and subscription.
+    _node: Ros2Node,
+}
+
+impl std::fmt::Debug for Ros2Backend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ros2Backend")
+            .field("spec", &self.spec)
+            .field("frames", &self.frames)
+            .field("domain_id", &self.domain_id)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Ros2Backend {
+    /// Join the domain, publish on the command topic, subscribe to odometry, and wait (the spec's
+    /// `wait`) for the first odometry message; without one, the diagnostic names the topic, the
+    /// domain and what discovery saw.
+    pub fn connect(spec: &Ros2Spec, config: Ros2Config) -> Result<Ros2Backend, BackendError> {
+        let mut node = Ros2Node::open(spec, "advise")?;
+        let publisher: Publisher<Twist> = node.publisher(&spec.cmd(), TWIST_TYPE, command_qos())?;
+        let subscription: Subscription<Odometry> =
+            node.subscription(&spec.odom(), ODOMETRY_TYPE, odometry_qos())?;
+        let now = Instant::now();
+        let link = Arc::new(Link {
+            safety: Mutex::new(Safety {
+                latest: None,
+                odom_count: 0,
+                last_command_at: now,
+                moving: false,
+                zero_until: None,
+                last_zero_at: None,
+                stopped: None,
+                watchdog_trips: 0,
+                published: 0,
+            }),
+            publisher: Mutex::new(publisher),
+            config: config.clone(),
+            shutdown: AtomicBool::new(false),
+        });
+        let reader = {
+            let link = link.clone();
+            std::thread::Builder::new()
+                .name("ros2-odom".into())
+                .spawn(move || {
+                    while !link.shutdown.load(Ordering::Relaxed) {
+                        let mut newest = None;
+                        let mut n = 0;
+                        // Bounded: a flood cannot keep this loop from checking `shutdown`.
+                        while n < 1000 {
+                            match subscription.take() {
+                                Ok(Some((o, _))) => {
+                                    newest = Some(o);
+                                    n += 1;
+                                }
+                                // An undecodable sample is skipped; silence shows as staleness.
+                                Ok(None) | Err(_) => break,
+                            }
+                        }
+                        if let Some(o) = newest {
+                            let mut s = link.lock();
+                            s.latest = Some(OdomSample::from_msg(&o, Instant::now()));
+                            s.odom_count += n;
+                        }
+                        std::thread::sleep(POLL);
+                    }
+                })?
+        };
+        let watchdog = {
+            let link = link.clone();
+            std::thread::Builder::new()
+                .name("ros2-watchdog".into())
+                .spawn(move || {
+                    while !link.shutdown.load(Ordering::Relaxed) {
+                        link.watch();
+                        std::thread::sleep(POLL);
+                    }
+                })?
+        };
+        let mut backend = Ros2Backend {
+            spec: spec.clone(),
+            config,
+            link,
+            threads: vec![reader, watchdog],
+            frame: None,
+            t0: now,
+            next_deadline: now,
+            frames: (String::new(), String::new()),
+            domain_id: node.domain_id,
+            _node: node,
+        };
+        let wait = Duration::from_millis(spec.wait_ms);
+        loop {
+            if let Some(o) = backend.link.lock().latest.clone() {
+                backend.frames = (o.frame_id, o.child_frame_id);
+                break;
+            }
+            if now.elapsed() >= wait {
+                let discovered = backend._node.discovered();
+                return Err(BackendError::NoOdometry {
+                    topic: spec.odom(),
+                    domain_id: backend.domain_id,
+                    waited_ms: spec.wait_ms,
+                    discovered: if discovered.is_empty() {
+                        "nothing".into()
+                    } else {
+                        discovered.join(", ")
+                    },
+                });
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        Ok(backend)
+    }
+
+    /// The odometry's frames: `(header.frame_id, child_frame_id)`, e.g. `(odom, base_link)`.
+    pub fn frames(&self) -> (&str, &str) {
+        (&self.frames.0, &self.frames.1)
+    }
+
+    pub fn domain_id(&self) -> u16 {
+        self.domain_id
+    }
+
+    pub fn spec(&self) -> &Ros2Spec {
+        &self.spec
+    }
+
+    /// One line for the user: topics, domain and frames.
+    pub fn describe(&self) -> String {
+        format!(
+            "commands on {}, odometry from {} (frame {}, child {}), domain {}",
+            self.spec.cmd(),
+            self.spec.odom(),
+            self.frames.0,
+            self.frames.1,
+            self.domain_id
+        )
+    }
+
+    pub fn stop_handle(&self) -> Ros2StopHandle {
+        Ros2StopHandle {
+            link: self.link.clone(),
+        }
+    }
+
+    pub fn counts(&self) -> Ros2Counts {
+        let s = self.link.lock();
+        Ros2Counts {
+            odometry: s.odom_count,
+            commands: s.published,
+            watchdog_trips: s.watchdog_trips,
+        }
+    }
+
+    /// The newest odometry, if any arrived.
+    pub fn latest(&self) -> Option<OdomSample> {
+        self.link.lock().latest.clone()
+    }
+
+    fn odom_timeout(&self) -> Duration {
+        Duration::from_millis(self.spec.odom_timeout_ms)
+    }
+
+    /// The newest odometry if it is fresh; else zero is commanded and the link is lost.
+    fn fresh(&self) -> Result<OdomSample, BackendError> {
+        let latest = self.link.lock().latest.clone();
+        match latest {
+            Some(o) if o.received.elapsed() <= self.odom_timeout() => Ok(o),
+            other => {
+                self.link.zero_now();
+                let waited = other.map_or(self.odom_timeout(), |o| o.received.elapsed());
+                Err(BackendError::LinkLost {
+                    waited_ms: waited.as_millis() as u64,
+                })
+            }
+        }
+    }
+}
+
+impl Backend for Ros2Backend {
+    fn name(&self) -> String {
+        crate::backend::BackendSpec::Ros2(self.spec.clone()).to_string()
+    }
+
+    fn period_s(&self) -> f64 {
+        self.config.period_s
+    }
+
+    fn reset(&mut self, start: Pose) -> Result<BaseState, BackendError> {
+        self.link.lock().stopped = None;
+        // A base still moving is stopped and allowed to come to rest before odometry is re-zeroed.
+        let began = Instant::now();
+        loop {
+            let o = self.fresh()?;
+            if o.speed_mps.abs() < REST_MPS && o.rot_radps.abs() < REST_RADPS {
+                break;
+            }
+            if self
+                .link
+                .lock()
+                .zero_until
+                .is_none_or(|u| Instant::now() >= u)
+            {
+                self.link.zero_now();
+            }
+            if began.elapsed() > REST_WAIT {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let o = self.fresh()?;
+        self.frame = Some((o.pose, start));
+        let now = Instant::now();
+        self.t0 = now;
+        self.next_deadline = now + Duration::from_secs_f64(self.config.period_s);
+        self.link.lock().last_command_at = now;
+        Ok(BaseState {
+            t_s: 0.0,
+            pose: start,
+            speed_mps: o.speed_mps,
+            rot_radps: o.rot_radps,
+        })
+    }
+
+    fn command(&mut self, speed_mps: f64, rot_radps: f64) -> Result<(), BackendError> {
+        if let Some(reason) = self.link.lock().stopped.clone() {
+            return Err(BackendError::Stopped { reason });
+        }
+        let (v, w) = self.config.clamp(speed_mps, rot_radps);
+        {
+            let mut s = self.link.lock();
+            s.last_command_at = Instant::now();
+            s.moving = v != 0.0 || w != 0.0;
+            if s.moving {
+                s.zero_until = None;
+            }
+        }
+        self.link.publish(Twist::planar(v, w))?;
+        if speed_mps.is_finite() && rot_radps.is_finite() {
+            Ok(())
+        } else {
+            Err(BackendError::InvalidCommand {
+                speed_mps,
+                rot_radps,
+            })
+        }
+    }
+
+    fn step(&mut self) -> Result<BaseState, BackendError> {
+        let period = Duration::from_secs_f64(self.config.period_s);
+        let now = Instant::now();
+        if self.next_deadline > now {
+            std::thread::sleep(self.next_deadline - now);
+        }
+        self.next_deadline += period;
+        // A session that fell more than a period behind starts a new schedule instead of bursting.
+        if Instant::now() > self.next_deadline {
+            self.next_deadline = Instant::now() + period;
+        }
+        if let Some(reason) = self.link.lock().stopped.clone() {
+            return Err(BackendError::Stopped { reason });
+        }
+        let o = self.fresh()?;
+        let pose = match self.frame {
+            Some((origin, start)) => compose_pose(start, relative_pose(origin, o.pose)),
+            None => o.pose,
+        };
+        Ok(BaseState {
+            t_s: self.t0.elapsed().as_secs_f64(),
+            pose,
+            speed_mps: o.speed_mps,
+            rot_radps: o.rot_radps,
+        })
+    }
+
+    /// Zero, repeated for [`Ros2Config::stop_repeat_s`] before returning.
+    fn stop(&mut self) -> Result<(), BackendError> {
+        self.link.zero_now();
+        std::thread::sleep(Duration::from_secs_f64(self.config.stop_repeat_s));
+        Ok(())
+    }
+}
+
+impl Drop for Ros2Backend {
+    /// Zero first, repeated while the watchdog thread still runs, then the threads end.
+    fn drop(&mut self) {
+        self.link.zero_now();
+        std::thread::sleep(Duration::from_secs_f64(self.config.stop_repeat_s));
+        self.link.shutdown.store(true, Ordering::Relaxed);
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}

@@ -1,0 +1,313 @@
+//! `--backend ros2` against a robot played by Cyclone DDS (an implementation this project did not
+//! write), and the safety rules: the last command the robot receives is zero after a whole
+//! evaluation, Ctrl-C, lost odometry, a silent session and a dropped backend.
+//!
+//! Every test runs in its own private network namespace with only loopback (see ros2/netns.rs):
+//! no DDS traffic reaches a real interface. Without a namespace or without Python and the
+//! `cyclonedds` package, a test prints why and passes without running.
+
+#[path = "ros2/netns.rs"]
+mod netns;
+#[path = "ros2/peer.rs"]
+mod peer;
+
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use advise::backend::ros2::{Ros2Backend, Ros2Config};
+use advise::backend::sim::SimParams;
+use advise::backend::{Backend, BackendError, BackendSpec};
+use advise::trace::Pose;
+use peer::Peer;
+
+const LIMIT: Duration = Duration::from_secs(240);
+
+/// `true` in the namespaced child with the peer's Python at hand (see the module docs).
+fn isolated_with_peer(name: &str) -> bool {
+    if netns::inside() {
+        return netns::run_isolated(name, &[], LIMIT);
+    }
+    match peer::python() {
+        Ok(p) => netns::run_isolated(
+            name,
+            &[(peer::PYTHON_ENV, p.to_string_lossy().into_owned())],
+            LIMIT,
+        ),
+        Err(why) => {
+            eprintln!("skipping {name}: no Python with cyclonedds for the test robot ({why})");
+            false
+        }
+    }
+}
+
+fn advise() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_advise"));
+    c.env_remove("ROS_DOMAIN_ID").env("NO_COLOR", "1");
+    c
+}
+
+/// A child process killed when dropped.
+struct Running(Child);
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn finish(mut r: Running, limit: Duration) -> Output {
+    let status = netns::wait_bounded(&mut r.0, limit).expect("advise finished in time");
+    let mut stdout = Vec::new();
+    let mut stderr = Vec::new();
+    if let Some(mut o) = r.0.stdout.take() {
+        let _ = std::io::Read::read_to_end(&mut o, &mut stdout);
+    }
+    if let Some(mut e) = r.0.stderr.take() {
+        let _ = std::io::Read::read_to_end(&mut e, &mut stderr);
+    }
+    Output {
+        status,
+        stdout,
+        stderr,
+    }
+}
+
+fn spawn_eval(extra: &[&str]) -> Running {
+    let mut c = advise();
+    c.args(["eval", "--task", "positioning", "--policy", "teacher"])
+        .args(extra)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped());
+    Running(c.spawn().expect("advise starts"))
+}
+
+fn assert_last_is_zero(peer: &Peer) {
+    // The end-of-run zero is repeated for half a second; allow its last samples to arrive.
+    assert!(
+        peer.wait_for(Duration::from_secs(2), |c| c
+            .last()
+            .is_some_and(|l| l.1 == 0.0 && l.2 == 0.0)),
+        "the last command the robot received is not zero: {:?}",
+        peer.commands().last()
+    );
+}
+
+#[test]
+fn a_positioning_evaluation_over_ros2_against_the_cyclone_robot() {
+    if !isolated_with_peer("a_positioning_evaluation_over_ros2_against_the_cyclone_robot") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::start(dir.path(), &["--odom-qos", "best-effort"]);
+    let out = finish(
+        spawn_eval(&["--backend", "ros2", "--limit", "2", "--json"]),
+        Duration::from_secs(150),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("a JSON report");
+    assert_eq!(report["episodes"], 2, "{report}");
+    // The Cyclone robot has no lag or noise: the teacher reaches both goals.
+    assert_eq!(report["successes"], 2, "{report}");
+    let commands = peer.commands();
+    assert!(commands.len() > 30, "{} commands", commands.len());
+    // Every command within the task's limits (1 m/s, 1 rad/s) and some of them moving.
+    assert!(
+        commands
+            .iter()
+            .all(|c| c.1.abs() <= 1.0 && c.2.abs() <= 1.0)
+    );
+    assert!(commands.iter().any(|c| c.1 != 0.0));
+    assert_last_is_zero(&peer);
+}
+
+#[test]
+fn ctrl_c_stops_the_cyclone_robot_at_once_and_keeps_the_record() {
+    if !isolated_with_peer("ctrl_c_stops_the_cyclone_robot_at_once_and_keeps_the_record") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::start(dir.path(), &["--odom-qos", "reliable"]);
+    let run = spawn_eval(&["--backend", "ros2", "--limit", "3"]);
+    assert!(
+        peer.wait_for(Duration::from_secs(30), |c| c
+            .iter()
+            .filter(|c| c.1 != 0.0)
+            .count()
+            > 10),
+        "the robot was never driven"
+    );
+    let pid = run.0.id() as libc::pid_t;
+    // SAFETY: a signal to our own child.
+    let sent = Instant::now();
+    unsafe {
+        libc::kill(pid, libc::SIGINT);
+    }
+    let out = finish(run, Duration::from_secs(30));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(stderr.contains("advise::backend::stopped"), "{stderr}");
+    // The episodes so far are printed before the diagnostic.
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    assert_last_is_zero(&peer);
+    // The first zero after the signal came within a control period or two, not at the run's end.
+    let c = peer.commands();
+    let last_moving = c.iter().rposition(|c| c.1 != 0.0 || c.2 != 0.0).unwrap();
+    assert!(
+        c[last_moving + 1..]
+            .iter()
+            .all(|c| c.1 == 0.0 && c.2 == 0.0)
+    );
+    assert!(sent.elapsed() < Duration::from_secs(30));
+}
+
+#[test]
+fn lost_odometry_is_link_lost_and_stops_the_cyclone_robot() {
+    if !isolated_with_peer("lost_odometry_is_link_lost_and_stops_the_cyclone_robot") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::start(dir.path(), &["--odom-stop-after", "1.0"]);
+    let out = finish(
+        spawn_eval(&["--backend", "ros2", "--limit", "2"]),
+        Duration::from_secs(60),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(stderr.contains("advise::backend::link_lost"), "{stderr}");
+    assert_last_is_zero(&peer);
+}
+
+fn connect(spec: &str) -> Result<Ros2Backend, BackendError> {
+    let BackendSpec::Ros2(spec) = spec.parse::<BackendSpec>().unwrap() else {
+        unreachable!()
+    };
+    Ros2Backend::connect(&spec, Ros2Config::for_sim(&SimParams::default()))
+}
+
+#[test]
+fn the_watchdog_and_drop_stop_the_cyclone_robot() {
+    if !isolated_with_peer("the_watchdog_and_drop_stop_the_cyclone_robot") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::start(
+        dir.path(),
+        &[
+            "--odom-qos",
+            "reliable",
+            "--frame-id",
+            "wheel_odom",
+            "--child-frame-id",
+            "base_footprint",
+        ],
+    );
+    let mut base = connect("ros2?wait=20").expect("the robot's odometry arrives");
+    assert_eq!(base.frames(), ("wheel_odom", "base_footprint"));
+    base.reset(Pose::new(1.0, 2.0, 0.0)).unwrap();
+    // Beyond the limits: clamped to 1 m/s.
+    base.command(3.0, 0.0).unwrap();
+    let commanded = Instant::now();
+    // The session goes silent: the watchdog stops the robot after 0.25 s.
+    std::thread::sleep(Duration::from_millis(1000));
+    let c = peer.commands();
+    let moving: Vec<_> = c.iter().filter(|c| c.1 != 0.0).collect();
+    assert_eq!(moving.len(), 1, "{c:?}");
+    assert_eq!(moving[0].1, 1.0, "clamped to the task's limit");
+    let first_zero = c
+        .iter()
+        .find(|x| x.0 > moving[0].0 && x.1 == 0.0)
+        .expect("a zero");
+    let delay = first_zero.0 - moving[0].0;
+    assert!(
+        (0.2..0.6).contains(&delay),
+        "the watchdog's zero came {delay} s after the command"
+    );
+    assert_eq!(base.counts().watchdog_trips, 1);
+    let state = base.step().unwrap();
+    // Re-zeroed where it stood: the robot moved about 0.25 m+ forward from (1, 2).
+    assert!(
+        state.pose.x_m > 1.1 && (state.pose.y_m - 2.0).abs() < 0.05,
+        "{state:?}"
+    );
+    assert!(commanded.elapsed() < Duration::from_secs(5));
+    // Driving again, then dropped mid-run: zero.
+    base.command(0.5, 0.2).unwrap();
+    std::thread::sleep(Duration::from_millis(100));
+    drop(base);
+    let c = peer.commands();
+    let last = c.last().unwrap();
+    assert_eq!((last.1, last.2), (0.0, 0.0));
+    assert!(c.iter().any(|x| x.1 == 0.5 && x.2 == 0.2));
+}
+
+#[test]
+fn no_odometry_names_the_topic_the_domain_and_what_was_discovered() {
+    if !isolated_with_peer("no_odometry_names_the_topic_the_domain_and_what_was_discovered") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let _peer = Peer::start(dir.path(), &[]);
+    let began = Instant::now();
+    let e = connect("ros2:/robot1?wait=3").unwrap_err();
+    assert!(began.elapsed() < Duration::from_secs(10));
+    let text = format!("{e}");
+    assert_eq!(
+        text,
+        "no odometry on /robot1/odom (domain 0) within 3000 ms"
+    );
+    let help = miette::Diagnostic::help(&e).unwrap().to_string();
+    assert!(
+        help.contains("/odom (nav_msgs::msg::dds_::Odometry_)")
+            && help.contains("/cmd_vel (geometry_msgs::msg::dds_::Twist_)"),
+        "{help}"
+    );
+    let code = miette::Diagnostic::code(&e).unwrap().to_string();
+    assert_eq!(code, "advise::backend::no_odometry");
+}
+
+#[test]
+fn ros2_sim_is_driven_by_the_ros2_backend() {
+    let name = "ros2_sim_is_driven_by_the_ros2_backend";
+    if !netns::run_isolated(name, &[], LIMIT) {
+        return;
+    }
+    let mut sim = advise();
+    sim.args(["ros2-sim", "--namespace", "/robot2"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
+    let sim = Running(sim.spawn().expect("ros2-sim starts"));
+    let out = finish(
+        spawn_eval(&[
+            "--backend",
+            "ros2:/robot2?wait=20",
+            "--limit",
+            "1",
+            "--json",
+        ]),
+        Duration::from_secs(120),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("a JSON report");
+    assert_eq!(report["episodes"], 1, "{report}");
+    // SAFETY: a signal to our own child.
+    unsafe {
+        libc::kill(sim.0.id() as libc::pid_t, libc::SIGINT);
+    }
+    let out = finish(sim, Duration::from_secs(10));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("commands on /robot2/cmd_vel, odometry on /robot2/odom at 50 Hz, domain 0"),
+        "{stderr}"
+    );
+    let received: u64 = stderr
+        .split("ros2-sim: ")
+        .nth(2)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .expect("a count of commands");
+    assert!(received > 30, "{stderr}");
+}

@@ -1,0 +1,164 @@
+//! The Cyclone DDS robot (tests/peers/ros2_robot.py) and the Python environment it needs.
+//!
+//! The parent test process makes (once, reused across runs) a virtual environment under the
+//! target directory with `cyclonedds==11.0.1`, whose wheel ships the C library; the namespaced
+//! child runs the peer from it. No Python, no venv module or no package: the test is skipped with
+//! the reason printed.
+
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::OnceLock;
+use std::sync::mpsc::{Receiver, channel};
+use std::time::{Duration, Instant};
+
+use super::netns::wait_bounded;
+
+pub const PYTHON_ENV: &str = "ADVISE_TEST_PYTHON";
+
+/// Cyclone DDS on a loopback-only namespace: use `lo`, and multicast on it (off by default there).
+pub const CYCLONE_URI: &str = r#"<CycloneDDS><Domain><General><Interfaces><NetworkInterface name="lo" multicast="true"/></Interfaces><AllowMulticast>true</AllowMulticast></General></Domain></CycloneDDS>"#;
+
+fn run(cmd: &mut Command, limit: Duration) -> Result<(), String> {
+    let mut child = cmd
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("{cmd:?}: {e}"))?;
+    let stderr = child.stderr.take();
+    match wait_bounded(&mut child, limit) {
+        Some(s) if s.success() => Ok(()),
+        Some(s) => {
+            let mut text = String::new();
+            if let Some(mut e) = stderr {
+                let _ = std::io::Read::read_to_string(&mut e, &mut text);
+            }
+            Err(format!("{cmd:?} failed ({s}): {}", text.trim()))
+        }
+        None => Err(format!("{cmd:?} took longer than {limit:?}")),
+    }
+}
+
+fn make_venv() -> Result<PathBuf, String> {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("py-venv-cyclonedds");
+    let python = dir.join("bin").join("python");
+    let has_package = |p: &Path| {
+        run(
+            Command::new(p).args(["-c", "import cyclonedds.domain"]),
+            Duration::from_secs(60),
+        )
+        .is_ok()
+    };
+    if python.exists() && has_package(&python) {
+        return Ok(python);
+    }
+    run(
+        Command::new("python3").args(["-m", "venv", &dir.to_string_lossy()]),
+        Duration::from_secs(120),
+    )?;
+    run(
+        Command::new(&python).args([
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--disable-pip-version-check",
+            "cyclonedds==11.0.1",
+        ]),
+        Duration::from_secs(600),
+    )?;
+    if has_package(&python) {
+        Ok(python)
+    } else {
+        Err("cyclonedds installed but does not import".into())
+    }
+}
+
+/// The venv's Python with `cyclonedds` (made once per test process), or why not.
+pub fn python() -> Result<PathBuf, String> {
+    static PY: OnceLock<Result<PathBuf, String>> = OnceLock::new();
+    PY.get_or_init(make_venv).clone()
+}
+
+/// The running peer: killed when dropped.
+pub struct Peer {
+    pub child: Child,
+    pub log: PathBuf,
+    lines: Receiver<String>,
+}
+
+impl Peer {
+    /// Start the peer with `args` (after `--log`) and wait (bounded) until it is publishing.
+    pub fn start(dir: &Path, args: &[&str]) -> Peer {
+        let python = std::env::var(PYTHON_ENV).expect("the parent passes the venv's python");
+        let log = dir.join("commands.log");
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/peers/ros2_robot.py");
+        let mut child = Command::new(python)
+            .arg(script)
+            .arg("--log")
+            .arg(&log)
+            .args(args)
+            .env("CYCLONEDDS_URI", CYCLONE_URI)
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("the peer starts");
+        let out = child.stdout.take().expect("piped");
+        let (tx, lines) = channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let mut peer = Peer { child, log, lines };
+        peer.expect_line("ready", Duration::from_secs(30));
+        peer
+    }
+
+    /// Wait (bounded) for the peer to print `want`.
+    pub fn expect_line(&mut self, want: &str, limit: Duration) {
+        let began = Instant::now();
+        while began.elapsed() < limit {
+            match self.lines.recv_timeout(Duration::from_millis(100)) {
+                Ok(l) if l.trim() == want => return,
+                Ok(_) => {}
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                Err(_) => break,
+            }
+        }
+        panic!("the peer did not print `{want}` within {limit:?}");
+    }
+
+    /// Every command the robot received: `(t_s, v, w)`.
+    pub fn commands(&self) -> Vec<(f64, f64, f64)> {
+        let text = std::fs::read_to_string(&self.log).unwrap_or_default();
+        text.lines()
+            .filter_map(|l| {
+                let mut f = l.split_whitespace().map(|x| x.parse::<f64>());
+                Some((f.next()?.ok()?, f.next()?.ok()?, f.next()?.ok()?))
+            })
+            .collect()
+    }
+
+    /// Wait (bounded) until `pred` holds on the received commands.
+    pub fn wait_for(&self, limit: Duration, pred: impl Fn(&[(f64, f64, f64)]) -> bool) -> bool {
+        let began = Instant::now();
+        while began.elapsed() < limit {
+            if pred(&self.commands()) {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        false
+    }
+}
+
+impl Drop for Peer {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
