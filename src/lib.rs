@@ -15,6 +15,7 @@ pub mod experiment;
 pub mod files;
 pub mod interp;
 pub mod policy;
+pub mod recording;
 pub mod repl;
 pub mod session;
 pub mod syntax;
