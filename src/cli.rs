@@ -61,6 +61,9 @@ pub enum Command {
     },
     /// Record teacher demonstrations in the simulator (one file, many episodes).
     Demo(DemoArgs),
+    /// Turn a person's recorded driving (a CSV log `time,x,y,theta,v,w`) into positioning
+    /// demonstrations that `load demos` reads. ROS 2 bags are not read yet.
+    Import(ImportArgs),
     /// Run a policy over the task's fixed test set and print the figures.
     Eval(EvalArgs),
     /// Run a session script (the REPL's commands, one per line); stops at the first failing
@@ -179,6 +182,25 @@ pub struct DemoArgs {
     /// Simulator parameters (JSON; omitted fields keep their defaults).
     #[arg(long, value_name = "FILE")]
     pub sim_params: Option<PathBuf>,
+}
+
+#[derive(Args)]
+pub struct ImportArgs {
+    /// The logs, each one demonstration (or several with `--split-gap`).
+    #[arg(required = true, value_name = "LOG")]
+    pub logs: Vec<PathBuf>,
+    /// The task the demonstrations are for (only `positioning` so far).
+    #[arg(long, default_value = "positioning")]
+    pub task: TaskKind,
+    /// The goal of every demonstration, in the log's frame; default: where each one ends.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "THETA"], allow_negative_numbers = true)]
+    pub goal: Option<Vec<f64>>,
+    /// Split a log where consecutive rows are more than this many seconds apart.
+    #[arg(long, value_name = "SECONDS")]
+    pub split_gap: Option<f64>,
+    /// Output file: `.json` writes JSON episodes, anything else CSV with an `episode` column.
+    #[arg(long)]
+    pub out: PathBuf,
 }
 
 #[derive(Args)]

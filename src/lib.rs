@@ -21,6 +21,7 @@ pub mod interp;
 pub mod number;
 pub mod policy;
 pub mod program;
+pub mod recording;
 pub mod repl;
 pub mod session;
 pub mod syntax;

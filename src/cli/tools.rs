@@ -11,8 +11,8 @@ use crate::task::TaskKind;
 use crate::trace::Episode;
 
 use super::{
-    CliError, DemoArgs, EmulatorArgs, EvalArgs, ExperimentArgs, Ros2SimArgs, parse_seeds,
-    print_stdout, sim_params,
+    CliError, DemoArgs, EmulatorArgs, EvalArgs, ExperimentArgs, ImportArgs, Ros2SimArgs,
+    parse_seeds, print_stdout, sim_params,
 };
 
 /// `advise demo`: record teacher demonstrations in the simulator into one file.
@@ -134,6 +134,54 @@ where
             Err((*e).into())
         }
     }
+}
+
+/// `advise import`: CSV logs of a person's driving to a demonstrations file.
+pub fn import(args: ImportArgs) -> miette::Result<()> {
+    use crate::recording::{ImportOptions, import_csv_log, write_demonstrations};
+    if args.task != TaskKind::Positioning {
+        return Err(miette::miette!(
+            code = "advise::import::task",
+            help = "import positioning demonstrations (`--task positioning`)",
+            "`advise import` makes positioning demonstrations only; interception needs the ball's positions, which a log of the base does not hold"
+        ));
+    }
+    if let Some(g) = args
+        .goal
+        .as_deref()
+        .filter(|g| g.iter().any(|v| !v.is_finite()))
+    {
+        return Err(miette::miette!(
+            code = "advise::import::goal",
+            help = "give the goal as three finite numbers: `--goal X Y THETA` (metres, metres, radians)",
+            "the goal {g:?} is not a pose"
+        ));
+    }
+    let options = ImportOptions {
+        goal: args
+            .goal
+            .as_deref()
+            .map(|g| crate::trace::Pose::new(g[0], g[1], g[2])),
+        split_gap_s: args.split_gap,
+    };
+    let mut episodes = Vec::new();
+    for log in &args.logs {
+        let (mut found, report) = import_csv_log(log, &options)?;
+        for w in report.warnings() {
+            eprintln!("warning: {}: {w}", log.display());
+        }
+        episodes.append(&mut found);
+    }
+    write_demonstrations(&args.out, &episodes)?;
+    let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
+    eprintln!(
+        "wrote {} demonstration{} ({points} points) to {}; `load demos {}` adds them to a session",
+        episodes.len(),
+        if episodes.len() == 1 { "" } else { "s" },
+        args.out.display(),
+        args.out.display()
+    );
+    Ok(())
 }
 
 /// `advise ros2-sim`: run the simulator as a ROS 2 robot until Ctrl-C.

@@ -1,0 +1,269 @@
+//! Importing recorded teleoperation into demonstrations (issue 19, import half).
+//!
+//! This first part reads a plain CSV log `time,x,y,theta,v,w` (one row per command, with the
+//! odometry pose at that time); rosbag2/MCAP reading is not done yet. Each row becomes one point
+//! of the positioning task: the observation from [`crate::task::positioning::observe`] of the
+//! pose and the goal (the last pose of the episode, or a given goal), the action `(v, w)`.
+//! `split_gap_s` splits episodes at pauses longer than it. Messy logs: a row whose time equals the
+//! previous row's is dropped and counted (a warning); a row going back in time, a non-finite
+//! value, or a row of the wrong width is refused with the row and time.
+
+use std::path::{Path, PathBuf};
+
+use miette::Diagnostic;
+use thiserror::Error;
+
+use crate::domain::Domain;
+use crate::task::positioning::observe;
+use crate::trace::{Episode, Pose, Trace};
+
+/// How a log is turned into episodes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ImportOptions {
+    /// The goal of every episode; `None`: each episode's final pose.
+    pub goal: Option<Pose>,
+    /// Split an episode where consecutive rows are more than this apart, s.
+    pub split_gap_s: Option<f64>,
+}
+
+/// What an import found that it did not refuse: reported to the user as warnings.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ImportReport {
+    /// Rows read.
+    pub rows: usize,
+    /// Rows dropped because their time repeated the previous row's.
+    pub duplicate_times: usize,
+    /// Episodes made.
+    pub episodes: usize,
+}
+
+impl ImportReport {
+    /// One line per thing the user should know about, empty when the log was clean.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if self.duplicate_times > 0 {
+            w.push(format!(
+                "dropped {} of {} rows whose time repeated the previous row's",
+                self.duplicate_times, self.rows
+            ));
+        }
+        w
+    }
+}
+
+/// Why a recording could not be imported.
+#[derive(Debug, Error, Diagnostic)]
+pub enum ImportError {
+    /// The log file itself: missing, not a regular file, too large, not UTF-8.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    File(#[from] crate::files::FileError),
+    /// A ROS 2 bag or MCAP file: not read yet.
+    #[error("{path} is a ROS 2 bag or MCAP file, which `advise import` cannot read yet")]
+    #[diagnostic(
+        code(advise::import::bag_unsupported),
+        help(
+            "export the topics as a CSV log with the header `time,x,y,theta,v,w` and import that"
+        )
+    )]
+    BagUnsupported { path: PathBuf },
+    #[error("cannot read {path}: {source}")]
+    #[diagnostic(code(advise::import::read))]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path} is not a CSV log: {reason}")]
+    #[diagnostic(
+        code(advise::import::header),
+        help("a log has the header `time,x,y,theta,v,w`")
+    )]
+    Header { path: PathBuf, reason: String },
+    #[error("{path}, row {row}: {reason}")]
+    #[diagnostic(code(advise::import::row))]
+    Row {
+        path: PathBuf,
+        row: usize,
+        reason: String,
+    },
+    #[error("{path}, row {row}: time {t} s is before the previous row's {prev} s")]
+    #[diagnostic(
+        code(advise::import::time_backwards),
+        help("sort the log by time; rows are taken in the order they were recorded")
+    )]
+    TimeBackwards {
+        path: PathBuf,
+        row: usize,
+        t: f64,
+        prev: f64,
+    },
+    #[error("{path} has no rows")]
+    #[diagnostic(code(advise::import::empty))]
+    Empty { path: PathBuf },
+    #[error("the split gap {0} s is not a positive number")]
+    #[diagnostic(code(advise::import::split_gap))]
+    SplitGap(f64),
+}
+
+const COLUMNS: [&str; 6] = ["time", "x", "y", "theta", "v", "w"];
+
+/// Import a CSV log file into positioning episodes named `<file stem>` (or `<stem>.<k>` when
+/// split).
+pub fn import_csv_log(
+    path: &Path,
+    options: &ImportOptions,
+) -> Result<(Vec<Episode>, ImportReport), ImportError> {
+    let is_bag = path.is_dir()
+        || path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("mcap") || e.eq_ignore_ascii_case("db3"));
+    if is_bag {
+        return Err(ImportError::BagUnsupported {
+            path: path.to_path_buf(),
+        });
+    }
+    let text = crate::files::read_text(path)?;
+    let stem = path.file_stem().map_or_else(
+        || "recording".to_string(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    parse_csv_log(path, &stem, &text, options)
+}
+
+/// [`import_csv_log`] on text already read.
+pub fn parse_csv_log(
+    path: &Path,
+    stem: &str,
+    text: &str,
+    options: &ImportOptions,
+) -> Result<(Vec<Episode>, ImportReport), ImportError> {
+    if let Some(gap) = options.split_gap_s
+        && !(gap.is_finite() && gap > 0.0)
+    {
+        return Err(ImportError::SplitGap(gap));
+    }
+    let path_buf = || path.to_path_buf();
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    let header = reader.headers().map_err(|e| ImportError::Header {
+        path: path_buf(),
+        reason: e.to_string(),
+    })?;
+    let names: Vec<&str> = header.iter().collect();
+    if names != COLUMNS {
+        return Err(ImportError::Header {
+            path: path_buf(),
+            reason: format!("the header is `{}`", names.join(",")),
+        });
+    }
+    let mut report = ImportReport::default();
+    // Rows of the current run: (t, pose, v, w).
+    let mut runs: Vec<Vec<(f64, Pose, f64, f64)>> = vec![Vec::new()];
+    let mut prev: Option<f64> = None;
+    for (i, record) in reader.records().enumerate() {
+        let row = i + 2;
+        let bad = |reason: String| ImportError::Row {
+            path: path_buf(),
+            row,
+            reason,
+        };
+        let record = record.map_err(|e| bad(e.to_string()))?;
+        if record.len() != COLUMNS.len() {
+            return Err(bad(format!(
+                "{} fields, the header has {}",
+                record.len(),
+                COLUMNS.len()
+            )));
+        }
+        let mut v = [0.0; 6];
+        for (k, field) in record.iter().enumerate() {
+            let x: f64 = field.parse().map_err(|_| {
+                bad(format!(
+                    "`{field}` in column {} is not a number",
+                    COLUMNS[k]
+                ))
+            })?;
+            if !x.is_finite() {
+                return Err(bad(format!(
+                    "{} is {field}, not a finite number",
+                    COLUMNS[k]
+                )));
+            }
+            v[k] = x;
+        }
+        report.rows += 1;
+        let t = v[0];
+        if let Some(p) = prev {
+            if t < p {
+                return Err(ImportError::TimeBackwards {
+                    path: path_buf(),
+                    row,
+                    t,
+                    prev: p,
+                });
+            }
+            if t == p {
+                report.duplicate_times += 1;
+                continue;
+            }
+            if options.split_gap_s.is_some_and(|gap| t - p > gap) {
+                runs.push(Vec::new());
+            }
+        }
+        prev = Some(t);
+        if let Some(run) = runs.last_mut() {
+            run.push((t, Pose::new(v[1], v[2], v[3]), v[4], v[5]));
+        }
+    }
+    if report.rows == 0 {
+        return Err(ImportError::Empty { path: path_buf() });
+    }
+    let domain = Domain::positioning();
+    let split = runs.len() > 1;
+    let episodes: Vec<Episode> = runs
+        .iter()
+        .enumerate()
+        .map(|(k, run)| {
+            let goal = options
+                .goal
+                .or_else(|| run.last().map(|r| r.1))
+                .unwrap_or(Pose::new(0.0, 0.0, 0.0));
+            let t0 = run.first().map_or(0.0, |r| r.0);
+            let mut trace = Trace::new(&domain);
+            for &(t, pose, v, w) in run {
+                trace.push(t - t0, &observe(goal, pose), &[v, w], Some(pose));
+            }
+            let name = if split {
+                format!("{stem}.{}", k + 1)
+            } else {
+                stem.to_string()
+            };
+            Episode { name, trace }
+        })
+        .collect();
+    report.episodes = episodes.len();
+    Ok((episodes, report))
+}
+
+/// Write `episodes` as a demonstration file `load demos FILE` reads: JSON when `path` ends in
+/// `.json`, CSV with an `episode` column otherwise.
+pub fn write_demonstrations(path: &Path, episodes: &[Episode]) -> Result<(), ImportError> {
+    let domain = Domain::positioning();
+    let write_err = |source| ImportError::Read {
+        path: path.to_path_buf(),
+        source,
+    };
+    let is_json = path.extension().is_some_and(|e| e == "json");
+    let bytes = if is_json {
+        serde_json::to_vec_pretty(&Episode::to_json(&domain, episodes))
+            .map_err(|e| write_err(std::io::Error::other(e)))?
+    } else {
+        let mut buf = Vec::new();
+        Episode::write_csv(&domain, episodes, &mut buf).map_err(write_err)?;
+        buf
+    };
+    std::fs::write(path, bytes).map_err(write_err)
+}

@@ -1,0 +1,181 @@
+//! Importing a CSV teleoperation log into demonstrations: the result loads as `load demos` reads
+//! it, and every messy log is either reported (warnings) or refused (coded diagnostics).
+
+use std::path::Path;
+
+use advise::domain::Domain;
+use advise::recording::{ImportOptions, import_csv_log, parse_csv_log, write_demonstrations};
+use advise::trace::{Episode, Pose};
+use miette::Diagnostic;
+
+const CLEAN: &str = "time,x,y,theta,v,w
+0.0,0.0,0.0,0.0,0.2,0.0
+0.1,0.02,0.0,0.0,0.2,0.1
+0.2,0.04,0.0,0.01,0.0,0.0
+";
+
+fn refused(text: &str, options: &ImportOptions) -> String {
+    let err = parse_csv_log(Path::new("log.csv"), "log", text, options).unwrap_err();
+    let code = err.code().map(|c| c.to_string()).unwrap_or_default();
+    let help = err
+        .help()
+        .map(|h| format!("\nhelp: {h}"))
+        .unwrap_or_default();
+    format!("{code}: {err}{help}")
+}
+
+#[test]
+fn a_log_becomes_demonstrations_that_load_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("drive.csv");
+    std::fs::write(&log, CLEAN).unwrap();
+    let (episodes, report) = import_csv_log(&log, &ImportOptions::default()).unwrap();
+    assert!(report.warnings().is_empty());
+    let domain = Domain::positioning();
+    for out in ["demos.json", "demos.csv"] {
+        let out = dir.path().join(out);
+        write_demonstrations(&out, &episodes).unwrap();
+        let loaded = Episode::load_all(&mut advise::diag::SourceMap::new(), &domain, &out).unwrap();
+        assert_eq!(loaded.len(), 1);
+        assert_eq!(loaded[0].name, "drive");
+        assert_eq!(loaded[0].trace.len(), 3);
+        assert_eq!(loaded[0].trace.a(1), &[0.2, 0.1]);
+    }
+    // Goal = final pose: the last point is at the goal.
+    let last = episodes[0].trace.z(2);
+    assert_eq!(last, &[0.0, 0.0, 0.0]);
+    // A given goal: 1 m straight ahead of the start.
+    let options = ImportOptions {
+        goal: Some(Pose::new(1.0, 0.0, 0.0)),
+        ..ImportOptions::default()
+    };
+    let (episodes, _) = import_csv_log(&log, &options).unwrap();
+    assert_eq!(episodes[0].trace.z(0), &[1.0, 0.0, 0.0]);
+}
+
+#[test]
+fn split_gap_and_duplicates_are_reported() {
+    let text = "time,x,y,theta,v,w
+0.0,0,0,0,0.2,0
+0.1,0.02,0,0,0.2,0
+0.1,0.02,0,0,0.2,0
+5.0,0.5,0,0,0.1,0
+5.1,0.51,0,0,0,0
+";
+    let options = ImportOptions {
+        split_gap_s: Some(1.0),
+        ..ImportOptions::default()
+    };
+    let (episodes, report) = parse_csv_log(Path::new("log.csv"), "log", text, &options).unwrap();
+    let summary: Vec<String> = episodes
+        .iter()
+        .map(|e| format!("{}: {} points, t = {:?}", e.name, e.trace.len(), e.trace.t))
+        .collect();
+    insta::assert_snapshot!(format!(
+        "{}\nwarnings: {:?}",
+        summary.join("\n"),
+        report.warnings()
+    ));
+}
+
+#[test]
+fn messy_logs_are_refused_with_codes() {
+    let none = ImportOptions::default();
+    let cases = [
+        refused("time,x,y\n0,0,0\n", &none),
+        refused("time,x,y,theta,v,w\n", &none),
+        refused("time,x,y,theta,v,w\n1.0,0,0,0,0,0\n0.5,0,0,0,0,0\n", &none),
+        refused("time,x,y,theta,v,w\n0,0,0,0,NaN,0\n", &none),
+        refused("time,x,y,theta,v,w\n0,0,0,zero,0,0\n", &none),
+        refused("time,x,y,theta,v,w\n0,0,0,0,0\n", &none),
+        refused(
+            CLEAN,
+            &ImportOptions {
+                split_gap_s: Some(-1.0),
+                ..ImportOptions::default()
+            },
+        ),
+    ];
+    insta::assert_snapshot!(cases.join("\n\n"));
+}
+
+#[test]
+fn a_missing_file_is_a_read_error() {
+    // Read through `advise::files` like every other loader (regular files only, size-capped).
+    let err =
+        import_csv_log(Path::new("/nonexistent/log.csv"), &ImportOptions::default()).unwrap_err();
+    assert_eq!(err.code().unwrap().to_string(), "advise::file::read");
+}
+
+/// `advise import` as a user runs it: a log with a pause and a repeated row becomes two
+/// demonstrations that a session loads; what it cannot read yet, and a goal that is not a pose,
+/// are refused with codes.
+#[test]
+fn advise_import_writes_demonstrations_a_session_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("log.csv"),
+        "time,x,y,theta,v,w\n0,0,0,0,0.2,0\n0.1,0.02,0,0,0.2,0.1\n0.1,0.02,0,0,0.2,0.1\n0.2,0.04,0.001,0.01,0.2,0.1\n5,0.5,0.1,0.2,0.1,0\n5.1,0.51,0.1,0.2,0,0\n",
+    )
+    .unwrap();
+    let advise = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_advise"))
+            .args(args)
+            .current_dir(d)
+            .env("ADVISE_HOME", d)
+            .output()
+            .unwrap();
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        (out.status.success(), text)
+    };
+    let (ok, text) = advise(&["import", "log.csv", "--split-gap", "1", "--out", "d.json"]);
+    assert!(ok, "{text}");
+    assert!(text.contains("dropped 1 of 6 rows"), "{text}");
+    assert!(text.contains("wrote 2 demonstrations (5 points)"), "{text}");
+    std::fs::write(d.join("s.adv"), "load demos d.json\n").unwrap();
+    let (ok, text) = advise(&["run", "--demos", "0", "--no-journal", "s.adv"]);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("loaded 2 demonstrations (5 points)"),
+        "{text}"
+    );
+    for (args, code) in [
+        (
+            &[
+                "import", "log.csv", "--goal", "1", "-2", "nan", "--out", "e.json",
+            ][..],
+            "advise::import::goal",
+        ),
+        (
+            &["import", "run.mcap", "--out", "e.json"][..],
+            "advise::import::bag_unsupported",
+        ),
+        (
+            &[
+                "import",
+                "log.csv",
+                "--task",
+                "interception",
+                "--out",
+                "e.json",
+            ][..],
+            "advise::import::task",
+        ),
+        (
+            &["import", "missing.csv", "--out", "e.json"][..],
+            "advise::file::",
+        ),
+    ] {
+        let (ok, text) = advise(args);
+        assert!(!ok && text.contains(code), "{args:?}: {text}");
+    }
+    assert!(
+        !d.join("e.json").exists(),
+        "a refused import writes nothing"
+    );
+}
