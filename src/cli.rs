@@ -17,6 +17,7 @@ use crate::eval::EvalPolicy;
 use crate::experiment::study::{Seeds, Study};
 use crate::task::TaskKind;
 
+pub mod operators;
 pub mod tools;
 
 #[derive(Parser)]
@@ -404,4 +405,15 @@ pub fn print_stdout(text: &str) -> miette::Result<()> {
         .into()),
         _ => Ok(()),
     }
+}
+
+/// Print a diagnostic on stderr, showing a bounded window of its source (never a whole file).
+/// An error that points into a source map brings it along ([`crate::diag::Sourced`]).
+pub fn print_report(diag: &dyn Diagnostic) {
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let none = crate::diag::SourceMap::new();
+    eprintln!(
+        "{}",
+        crate::diag::render_with_width(&none, diag, colour, 80)
+    );
 }

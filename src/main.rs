@@ -1,19 +1,17 @@
 //! The `advise` command line: a thin layer over the library. It parses the arguments
 //! ([`advise::cli`]), calls one library function per subcommand, and renders errors as miette
-//! diagnostics. The session subcommands (`repl`, `run`, `resume`) and the operator tools (`check`,
-//! `apply`) are here; the others are in [`advise::cli::tools`].
+//! diagnostics. The session subcommands (`repl`, `run`, `resume`) are here; the operator tools
+//! (`check`, `apply`) are in [`advise::cli::operators`], the others in [`advise::cli::tools`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::Parser;
-use miette::{Diagnostic, IntoDiagnostic, Report, WrapErr, miette};
+use miette::{IntoDiagnostic, WrapErr, miette};
 
-use advise::check::{self, OperatorSet, Source};
-use advise::cli::{self, Cli, CliError, Command, SessionArgs, tools};
+use advise::cli::{self, Cli, CliError, Command, SessionArgs, operators, tools};
 use advise::diag::SourceMap;
 use advise::session::{Session, SessionOptions, journal, script};
-use advise::trace::{Chunk, Episode, Trace};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -26,8 +24,8 @@ fn main() -> ExitCode {
             session,
         }) => run_script(&script, keep_going, &session),
         Some(Command::Resume { journal }) => resume(journal),
-        Some(Command::Check { files }) if files.is_empty() => check_standard(),
-        Some(Command::Check { files }) => check_files(&files),
+        Some(Command::Check { files }) if files.is_empty() => operators::check_standard(),
+        Some(Command::Check { files }) => operators::check_files(&files),
         Some(Command::Apply {
             operators,
             op,
@@ -35,7 +33,7 @@ fn main() -> ExitCode {
             range,
             domain,
             episode,
-        }) => apply(&operators, &op, &trace, &range, domain.as_deref(), episode),
+        }) => operators::apply(&operators, &op, &trace, &range, domain.as_deref(), episode),
         Some(Command::Demo(args)) => tools::demo(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Eval(args)) => tools::eval(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Experiment(args)) => tools::experiment(args).map(|()| ExitCode::SUCCESS),
@@ -46,21 +44,10 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(report) => {
-            print_report(report.as_ref());
+            cli::print_report(report.as_ref());
             ExitCode::FAILURE
         }
     }
-}
-
-/// Print a diagnostic on stderr, showing a bounded window of its source (never a whole file).
-/// An error that points into a source map brings it along ([`advise::diag::Sourced`]).
-fn print_report(diag: &dyn Diagnostic) {
-    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let none = advise::diag::SourceMap::new();
-    eprintln!(
-        "{}",
-        advise::diag::render_with_width(&none, diag, colour, 80)
-    );
 }
 
 fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
@@ -182,128 +169,5 @@ fn resume(journal_path: Option<PathBuf>) -> miette::Result<ExitCode> {
         println!("note: {note}");
     }
     advise::repl::run(&mut session).into_diagnostic()?;
-    Ok(ExitCode::SUCCESS)
-}
-
-fn check_standard() -> miette::Result<ExitCode> {
-    let sources: Vec<Source> = check::STANDARD_SOURCES
-        .iter()
-        .map(|(n, t)| Source::new(*n, *t))
-        .collect();
-    match check::check(&sources) {
-        Ok(set) => {
-            println!(
-                "checked {} domains and {} operators in operators/: all good",
-                set.domains().len(),
-                set.operator_count()
-            );
-            Ok(ExitCode::SUCCESS)
-        }
-        Err(errors) => Ok(report_check_errors(errors, sources.len())),
-    }
-}
-
-fn read_sources(files: &[PathBuf]) -> miette::Result<Vec<Source>> {
-    files
-        .iter()
-        .map(|f| {
-            let mut files = SourceMap::new();
-            match advise::files::read_source(&mut files, f) {
-                Ok(id) => Ok(Source::new(f.display().to_string(), files.text(id))),
-                Err(e) => Err(Report::from(files.attach(e))),
-            }
-        })
-        .collect()
-}
-
-fn check_files(files: &[PathBuf]) -> miette::Result<ExitCode> {
-    let sources = read_sources(files)?;
-    match OperatorSet::standard().merge_with_warnings(&sources) {
-        Ok(check::Checked { set, warnings }) => {
-            let n = warnings.len();
-            for w in warnings {
-                eprintln!("{:?}", Report::new(w));
-            }
-            let ops: usize = set.operator_count();
-            println!(
-                "checked {} file{}: {} domains and {} operators in all, no errors{}",
-                files.len(),
-                if files.len() == 1 { "" } else { "s" },
-                set.domains().len(),
-                ops,
-                match n {
-                    0 => String::new(),
-                    1 => ", 1 warning".into(),
-                    n => format!(", {n} warnings"),
-                }
-            );
-            Ok(ExitCode::SUCCESS)
-        }
-        Err(errors) => Ok(report_check_errors(errors, files.len())),
-    }
-}
-
-fn report_check_errors(errors: check::CheckErrors, files: usize) -> ExitCode {
-    let n = errors.errors.len();
-    for e in &errors.errors {
-        print_report(e);
-    }
-    eprintln!(
-        "advise: {n} error{} in {files} file{}",
-        if n == 1 { "" } else { "s" },
-        if files == 1 { "" } else { "s" }
-    );
-    ExitCode::FAILURE
-}
-
-fn apply(
-    operators: &[PathBuf],
-    op: &str,
-    trace_path: &Path,
-    range: &str,
-    domain: Option<&str>,
-    episode: Option<usize>,
-) -> miette::Result<ExitCode> {
-    let sources = read_sources(operators)?;
-    let set = match OperatorSet::standard().merge(&sources) {
-        Ok(set) => set,
-        Err(errors) => return Ok(report_check_errors(errors, sources.len())),
-    };
-    let inv = advise::syntax::parse_invocation(op)?;
-    let domain = set.trace_domain(trace_path, domain)?;
-    let mut files = SourceMap::new();
-    let trace = match episode {
-        None => Trace::load(&mut files, &domain, trace_path).map_err(|e| files.attach(e))?,
-        Some(k) => {
-            let mut episodes =
-                Episode::load_all(&mut files, &domain, trace_path).map_err(|e| files.attach(e))?;
-            let count = episodes.len();
-            if k >= count {
-                return Err(miette!(
-                    code = "advise::cli::no_such_episode",
-                    help = "episodes are numbered from 0 in file order",
-                    "`{}` has {count} episodes, so there is no episode {k}",
-                    trace_path.display()
-                ));
-            }
-            episodes.swap_remove(k).trace
-        }
-    };
-    let (a, b) = cli::parse_range(range)?;
-    let chunk = Chunk::new(a, b, trace.len())?;
-    let call = advise::check::bind(&set, &trace.domain, &inv)?;
-    let out = advise::interp::apply(&call, &trace, chunk)?;
-    let mut stdout = std::io::stdout().lock();
-    out.points
-        .write_csv(&domain, &mut stdout)
-        .into_diagnostic()
-        .wrap_err("cannot write the points")?;
-    eprintln!(
-        "advise: {} synthesized {} of {} points ({} skipped by its guard)",
-        out.advice.invocation(),
-        out.points.len(),
-        chunk.len(),
-        chunk.len() - out.points.len()
-    );
     Ok(ExitCode::SUCCESS)
 }
