@@ -31,7 +31,7 @@ impl SourceCode for SourceText {
         context_lines_before: usize,
         context_lines_after: usize,
     ) -> Result<Box<dyn SpanContents<'a> + 'a>, MietteError> {
-        // Long lines are clipped where every diagnostic is rendered (`crate::diagnostic`).
+        // Long lines are clipped where every diagnostic is rendered (`crate::diag`).
         self.0
             .read_span(span, context_lines_before, context_lines_after)
     }
