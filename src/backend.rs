@@ -133,3 +133,18 @@ pub enum BackendError {
     #[diagnostic(code(advise::backend::other))]
     Other(String),
 }
+
+/// A robot backend's fixed-rate schedule: sleep until `next_deadline`, then set the next one a
+/// period on. A session that fell more than a period behind starts a new schedule instead of
+/// bursting commands to catch up.
+pub(crate) fn wait_for_tick(next_deadline: &mut std::time::Instant, period_s: f64) {
+    let period = std::time::Duration::from_secs_f64(period_s);
+    let now = std::time::Instant::now();
+    if *next_deadline > now {
+        std::thread::sleep(*next_deadline - now);
+    }
+    *next_deadline += period;
+    if std::time::Instant::now() > *next_deadline {
+        *next_deadline = std::time::Instant::now() + period;
+    }
+}

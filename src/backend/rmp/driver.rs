@@ -835,16 +835,7 @@ impl Backend for RmpBackend {
     }
 
     fn step(&mut self) -> Result<BaseState, BackendError> {
-        let period = Duration::from_secs_f64(self.config.period_s);
-        let now = Instant::now();
-        if self.next_deadline > now {
-            std::thread::sleep(self.next_deadline - now);
-        }
-        self.next_deadline += period;
-        // A session that fell more than a period behind starts a new schedule instead of bursting.
-        if Instant::now() > self.next_deadline {
-            self.next_deadline = Instant::now() + period;
-        }
+        crate::backend::wait_for_tick(&mut self.next_deadline, self.config.period_s);
         let (fb, _) = self.fresh_feedback()?;
         let critical = fb.words[0] & CRITICAL_FAULT_MASK;
         if critical != 0 {

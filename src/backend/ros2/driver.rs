@@ -19,7 +19,6 @@ use ros2_client::{Publisher, Subscription};
 
 use super::msg::{ODOMETRY_TYPE, Odometry, TWIST_TYPE, Twist};
 use super::{Ros2Config, Ros2Node, command_qos, odometry_qos};
-use crate::backend::rmp::emulator::{compose_pose, relative_pose};
 use crate::backend::spec::Ros2Spec;
 use crate::backend::{Backend, BackendError, BaseState};
 use crate::trace::Pose;
@@ -427,22 +426,13 @@ impl Backend for Ros2Backend {
     }
 
     fn step(&mut self) -> Result<BaseState, BackendError> {
-        let period = Duration::from_secs_f64(self.config.period_s);
-        let now = Instant::now();
-        if self.next_deadline > now {
-            std::thread::sleep(self.next_deadline - now);
-        }
-        self.next_deadline += period;
-        // A session that fell more than a period behind starts a new schedule instead of bursting.
-        if Instant::now() > self.next_deadline {
-            self.next_deadline = Instant::now() + period;
-        }
+        crate::backend::wait_for_tick(&mut self.next_deadline, self.config.period_s);
         if let Some(reason) = self.link.lock().stopped.clone() {
             return Err(BackendError::Stopped { reason });
         }
         let o = self.fresh()?;
         let pose = match self.frame {
-            Some((origin, start)) => compose_pose(start, relative_pose(origin, o.pose)),
+            Some((origin, start)) => crate::geometry::rezero(origin, start, o.pose),
             None => o.pose,
         };
         Ok(BaseState {
