@@ -10,6 +10,8 @@
 mod netns;
 #[path = "ros2/peer.rs"]
 mod peer;
+#[path = "python/mod.rs"]
+mod python;
 
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};

@@ -11,8 +11,8 @@
 
 use std::io;
 use std::os::unix::process::CommandExt;
-use std::process::{Child, Command, ExitStatus};
-use std::time::{Duration, Instant};
+use std::process::{Child, Command};
+use std::time::Duration;
 
 pub const ENV: &str = "ADVISE_TEST_NETNS";
 
@@ -134,21 +134,7 @@ pub fn spawn_isolated(mut cmd: Command) -> io::Result<Child> {
     cmd.spawn()
 }
 
-/// Wait for `child` at most `limit`; killed (and reaped) when it takes longer.
-pub fn wait_bounded(child: &mut Child, limit: Duration) -> Option<ExitStatus> {
-    let began = Instant::now();
-    loop {
-        match child.try_wait() {
-            Ok(Some(status)) => return Some(status),
-            Ok(None) if began.elapsed() < limit => std::thread::sleep(Duration::from_millis(20)),
-            _ => {
-                let _ = child.kill();
-                let _ = child.wait();
-                return None;
-            }
-        }
-    }
-}
+pub use super::python::wait_bounded;
 
 /// In a test: `true` when the body should run here (this is the namespaced child). Otherwise this
 /// runs the test `name` again in a private namespace with `env`, checks it passed, and returns

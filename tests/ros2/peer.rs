@@ -14,72 +14,22 @@ use std::sync::OnceLock;
 use std::sync::mpsc::{Receiver, channel};
 use std::time::{Duration, Instant};
 
-use super::netns::wait_bounded;
-
 pub const PYTHON_ENV: &str = "ADVISE_TEST_PYTHON";
 
 /// Cyclone DDS on a loopback-only namespace: use `lo`, and multicast on it (off by default there).
 pub const CYCLONE_URI: &str = r#"<CycloneDDS><Domain><General><Interfaces><NetworkInterface name="lo" multicast="true"/></Interfaces><AllowMulticast>true</AllowMulticast></General></Domain></CycloneDDS>"#;
 
-fn run(cmd: &mut Command, limit: Duration) -> Result<(), String> {
-    let mut child = cmd
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .map_err(|e| format!("{cmd:?}: {e}"))?;
-    let stderr = child.stderr.take();
-    match wait_bounded(&mut child, limit) {
-        Some(s) if s.success() => Ok(()),
-        Some(s) => {
-            let mut text = String::new();
-            if let Some(mut e) = stderr {
-                let _ = std::io::Read::read_to_string(&mut e, &mut text);
-            }
-            Err(format!("{cmd:?} failed ({s}): {}", text.trim()))
-        }
-        None => Err(format!("{cmd:?} took longer than {limit:?}")),
-    }
-}
-
-fn make_venv() -> Result<PathBuf, String> {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("py-venv-cyclonedds");
-    let python = dir.join("bin").join("python");
-    let has_package = |p: &Path| {
-        run(
-            Command::new(p).args(["-c", "import cyclonedds.domain"]),
-            Duration::from_secs(60),
-        )
-        .is_ok()
-    };
-    if python.exists() && has_package(&python) {
-        return Ok(python);
-    }
-    run(
-        Command::new("python3").args(["-m", "venv", &dir.to_string_lossy()]),
-        Duration::from_secs(120),
-    )?;
-    run(
-        Command::new(&python).args([
-            "-m",
-            "pip",
-            "install",
-            "--quiet",
-            "--disable-pip-version-check",
-            "cyclonedds==11.0.1",
-        ]),
-        Duration::from_secs(600),
-    )?;
-    if has_package(&python) {
-        Ok(python)
-    } else {
-        Err("cyclonedds installed but does not import".into())
-    }
-}
-
 /// The venv's Python with `cyclonedds` (made once per test process), or why not.
 pub fn python() -> Result<PathBuf, String> {
     static PY: OnceLock<Result<PathBuf, String>> = OnceLock::new();
-    PY.get_or_init(make_venv).clone()
+    PY.get_or_init(|| {
+        super::python::venv(
+            "cyclonedds",
+            &["cyclonedds==11.0.1"],
+            "import cyclonedds.domain",
+        )
+    })
+    .clone()
 }
 
 /// The running peer: killed when dropped.

@@ -1,0 +1,76 @@
+//! Python test peers' environments: one virtual environment per purpose, made once under the
+//! target directory (reused across runs) with pinned packages from pip. No Python, no venv module
+//! or a package that does not install: `Err` with the reason, and the test skips printing it.
+//!
+//! Use it from a test file with `#[path = "python/mod.rs"] mod python;` (or `mod python;` from a
+//! test's own folder) and `python::venv("NAME", &["pkg==1.2.3"], "import pkg")`.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+/// Waits for `child` at most `limit` (polling), killing it past that.
+pub fn wait_bounded(child: &mut Child, limit: Duration) -> Option<ExitStatus> {
+    let start = Instant::now();
+    loop {
+        if let Ok(Some(status)) = child.try_wait() {
+            return Some(status);
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Runs `cmd` to its end within `limit`; its stderr is the error's text on failure.
+pub fn run(cmd: &mut Command, limit: Duration) -> Result<(), String> {
+    let mut child = cmd
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("{cmd:?}: {e}"))?;
+    let stderr = child.stderr.take();
+    match wait_bounded(&mut child, limit) {
+        Some(s) if s.success() => Ok(()),
+        Some(s) => {
+            let mut text = String::new();
+            if let Some(mut e) = stderr {
+                let _ = std::io::Read::read_to_string(&mut e, &mut text);
+            }
+            Err(format!("{cmd:?} failed ({s}): {}", text.trim()))
+        }
+        None => Err(format!("{cmd:?} took longer than {limit:?}")),
+    }
+}
+
+/// The Python of the virtual environment `py-venv-NAME` under the target directory, with
+/// `packages` installed; `probe` is Python code that succeeds only when they are usable. Made once
+/// and reused while `probe` passes.
+pub fn venv(name: &str, packages: &[&str], probe: &str) -> Result<PathBuf, String> {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("py-venv-{name}"));
+    let python = dir.join("bin").join("python");
+    let usable = |p: &Path| run(Command::new(p).args(["-c", probe]), Duration::from_secs(60));
+    if python.exists() && usable(&python).is_ok() {
+        return Ok(python);
+    }
+    run(
+        Command::new("python3").args(["-m", "venv", &dir.to_string_lossy()]),
+        Duration::from_secs(120),
+    )?;
+    let mut pip = Command::new(&python);
+    pip.args([
+        "-m",
+        "pip",
+        "install",
+        "--quiet",
+        "--disable-pip-version-check",
+    ])
+    .args(packages);
+    run(&mut pip, Duration::from_secs(600))?;
+    usable(&python).map(|()| python)
+}
