@@ -8,6 +8,8 @@
 
 #[path = "../tests/ros2/netns.rs"]
 mod netns;
+#[path = "../tests/python/mod.rs"]
+mod python;
 
 use std::hint::black_box;
 use std::sync::Arc;
