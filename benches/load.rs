@@ -22,7 +22,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("load_demos_500", |b| {
         b.iter(|| {
-            let mut l = Learner::new(&domain, kind, 0);
+            let mut l = Learner::new(&domain, kind.learner(), 0);
             l.add_demonstrations(&episodes).unwrap();
             l
         })

@@ -147,7 +147,7 @@ struct TaskState {
 
 impl TaskState {
     fn new(task: TaskKind, seed: u64) -> TaskState {
-        TaskState::with_learner(Learner::new(&task.domain(), task, seed))
+        TaskState::with_learner(Learner::new(&task.domain(), task.learner(), seed))
     }
 
     fn with_learner(learner: Learner) -> TaskState {

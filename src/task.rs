@@ -19,6 +19,7 @@ use crate::backend::{Backend, BackendError, BaseState};
 use crate::domain::Domain;
 use crate::geometry::Pose;
 use crate::policy::Policy;
+use crate::policy::learner::{Learner, LearnerError, LearnerKind};
 use crate::trace::{Episode, Trace};
 
 pub mod interception;
@@ -408,6 +409,47 @@ impl TaskKind {
             TaskKind::Positioning => Start::Goal(positioning::practice_goal(seed, index)),
             TaskKind::Interception => Start::Ball(interception::practice_start(seed, index)),
         })
+    }
+
+    /// The paper's learner for the task: A-OPI (LWR) for positioning, BC (1-NN) for
+    /// interception.
+    pub fn learner(self) -> LearnerKind {
+        match self {
+            TaskKind::Positioning => LearnerKind::Lwr,
+            TaskKind::Interception => LearnerKind::Bc,
+        }
+    }
+
+    /// Open a saved dataset for this task ([`Learner::open`]): a dataset of another task's
+    /// domain is refused with the task to switch to.
+    pub fn open_learner(
+        self,
+        sources: &mut crate::diag::SourceMap,
+        path: &std::path::Path,
+        seed: u64,
+    ) -> Result<Learner, LearnerError> {
+        Learner::open(
+            sources,
+            path,
+            &self.domain(),
+            self.learner(),
+            seed,
+            |found| {
+                let other = [TaskKind::Positioning, TaskKind::Interception]
+                    .into_iter()
+                    .find(|t| t.domain().name == found);
+                LearnerError::OtherTask {
+                    found: found.to_string(),
+                    task: self.to_string(),
+                    help: match other {
+                        Some(t) => {
+                            format!("switch to its task first with `task {t}`, then `open` it")
+                        }
+                        None => format!("no task uses the `{found}` domain"),
+                    },
+                }
+            },
+        )
     }
 
     /// The task's teacher (the stand-in for teleoperation), for a base running at `period_s`.

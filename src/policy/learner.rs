@@ -20,7 +20,6 @@ use crate::policy::bc;
 use crate::policy::dataset::{Dataset, DatasetError, Provenance, SavedFormat};
 use crate::policy::index::{Index, MAX_DIM};
 use crate::policy::lwr::{self, LwrAnswer, LwrParams};
-use crate::task::TaskKind;
 use crate::trace::{Chunk, Episode, Trace};
 
 pub use crate::policy::dataset::{AdviceId, CritiqueId, DemoId, ExecutionId};
@@ -54,14 +53,6 @@ impl LearnerKind {
     pub fn from_name(name: &str) -> Option<LearnerKind> {
         Self::ALL.into_iter().find(|k| k.name() == name)
     }
-
-    /// The paper's learner for a task: A-OPI (LWR) for positioning, BC (1-NN) for interception.
-    pub fn for_task(task: TaskKind) -> LearnerKind {
-        match task {
-            TaskKind::Positioning => LearnerKind::Lwr,
-            TaskKind::Interception => LearnerKind::Bc,
-        }
-    }
 }
 
 /// Why the learner could not do what was asked.
@@ -79,7 +70,8 @@ pub enum LearnerError {
     #[diagnostic(code(advise::learner::other_task), help("{help}"))]
     OtherTask {
         found: String,
-        task: TaskKind,
+        /// The session's task, as the user names it.
+        task: String,
         help: String,
     },
     #[error("the dataset's `{domain}` domain has other dimensions or limits than the task's")]
@@ -142,8 +134,9 @@ pub struct Learner {
 }
 
 impl Learner {
-    pub fn new(domain: &Domain, task: TaskKind, seed: u64) -> Learner {
-        Learner::with_dataset(Dataset::new(domain), LearnerKind::for_task(task), seed)
+    /// An empty learner of `kind` on `domain`.
+    pub fn new(domain: &Domain, kind: LearnerKind, seed: u64) -> Learner {
+        Learner::with_dataset(Dataset::new(domain), kind, seed)
     }
 
     /// A learner on an existing dataset (derived at once).
@@ -576,36 +569,28 @@ impl Learner {
         Ok(self.ds.save(path)?)
     }
 
-    /// Open a saved dataset for `task`: a dataset of another task's domain (or of a domain with
-    /// other dimensions or limits under the same name) is refused.
+    /// Open a saved dataset for a task of `domain`: a dataset of another domain is refused with
+    /// `other_domain(found)` (the caller knows the tasks and words the help), one of a domain with
+    /// other dimensions or limits under the same name with [`LearnerError::DomainChanged`].
     pub fn open(
         sources: &mut crate::diag::SourceMap,
         path: &Path,
-        task: TaskKind,
+        domain: &Domain,
+        kind: LearnerKind,
         seed: u64,
+        other_domain: impl FnOnce(&str) -> LearnerError,
     ) -> Result<Learner, LearnerError> {
         let ds = Dataset::load(sources, path)?;
-        let want = task.domain();
         let found = ds.domain();
-        if found.name != want.name {
-            let other = [TaskKind::Positioning, TaskKind::Interception]
-                .into_iter()
-                .find(|t| t.domain().name == found.name);
-            return Err(LearnerError::OtherTask {
-                found: found.name.clone(),
-                task,
-                help: match other {
-                    Some(t) => format!("switch to its task first with `task {t}`, then `open` it"),
-                    None => format!("no task uses the `{}` domain", found.name),
-                },
-            });
+        if found.name != domain.name {
+            return Err(other_domain(&found.name));
         }
-        if *found != want {
+        if found != domain {
             return Err(LearnerError::DomainChanged {
-                domain: want.name.clone(),
+                domain: domain.name.clone(),
             });
         }
-        let l = Learner::with_dataset(ds, LearnerKind::for_task(task), seed);
+        let l = Learner::with_dataset(ds, kind, seed);
         l.check_dim()?;
         Ok(l)
     }

@@ -11,7 +11,7 @@ use super::{Recorded, Restored, Session, SessionError, TaskState, effect, journa
 use crate::check::Source;
 use crate::interp::Synthesized;
 use crate::policy::dataset::{Dataset, Provenance};
-use crate::policy::learner::{Learner, LearnerError, LearnerKind};
+use crate::policy::learner::{Learner, LearnerError};
 use crate::task::Execution;
 use crate::trace::{Chunk, Episode, Trace, TraceError};
 
@@ -254,8 +254,7 @@ impl Session {
                     .sources
                     .scratch(path.as_str(), dataset.as_str(), Dataset::parse)
                     .map_err(LearnerError::from)?;
-                let learner =
-                    Learner::with_dataset(ds, LearnerKind::for_task(self.task), self.seed);
+                let learner = Learner::with_dataset(ds, self.task.learner(), self.seed);
                 self.take_learner(learner);
             }
         }

@@ -7,7 +7,7 @@ use std::time::Instant;
 use super::effect::{DemoEpisode, Effect, ExecutionEntry};
 use super::text::warnings_text;
 use super::{Session, SessionError};
-use crate::policy::learner::{Learner, LearnerError};
+use crate::policy::learner::LearnerError;
 use crate::task;
 use crate::trace::Trace;
 
@@ -121,7 +121,9 @@ impl Session {
 
     pub(super) fn open(&mut self, path: &str) -> Result<String, SessionError> {
         // Validated whole before anything changes; the journal keeps the dataset itself.
-        let learner = Learner::open(&mut self.sources, Path::new(path), self.task, self.seed)?;
+        let learner = self
+            .task
+            .open_learner(&mut self.sources, Path::new(path), self.seed)?;
         let dataset = learner.dataset().to_json_string();
         self.take_learner(learner);
         // Applied above without deriving the policy twice; `apply` does the same on restore.

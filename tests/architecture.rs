@@ -1,0 +1,134 @@
+//! The import graph follows the pipeline: a module uses only the modules before it in `LAYERS`.
+//! So there is no cycle between phases (issue 16): `policy` cannot reach for `task`, `syntax`
+//! for `check`, a backend for the session. A new top-level module must be placed in the order.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The crate's top-level modules, each allowed to use only those listed before it.
+const LAYERS: &[&str] = &[
+    "diag",
+    "number",
+    "files",
+    "geometry",
+    "domain",
+    "syntax",
+    "trace",
+    "program",
+    "check",
+    "interp",
+    "policy",
+    "backend",
+    "task",
+    "eval",
+    "recording",
+    "experiment",
+    "session",
+    "repl",
+    "cli",
+];
+
+/// Every `crate::NAME` in code (comments and doc links are not imports) of `file`, with its line.
+fn uses(file: &Path) -> Vec<(String, usize)> {
+    let text = std::fs::read_to_string(file).unwrap();
+    let mut out = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let code = line.split("//").next().unwrap_or("");
+        let mut rest = code;
+        while let Some(i) = rest.find("crate::") {
+            rest = &rest[i + "crate::".len()..];
+            if let Some(group) = rest.strip_prefix('{') {
+                let inner = group.split('}').next().unwrap_or("");
+                for item in inner.split(',') {
+                    let name: String = item
+                        .trim()
+                        .chars()
+                        .take_while(|c| c.is_alphanumeric() || *c == '_')
+                        .collect();
+                    if !name.is_empty() {
+                        out.push((name, n + 1));
+                    }
+                }
+            } else {
+                let name: String = rest
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect();
+                out.push((name, n + 1));
+            }
+        }
+    }
+    out
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+#[test]
+fn each_module_uses_only_the_modules_before_it() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    let rank: BTreeMap<&str, usize> = LAYERS.iter().enumerate().map(|(i, m)| (*m, i)).collect();
+    let mut wrong = Vec::new();
+    for file in &files {
+        let rel = file.strip_prefix(&src).unwrap();
+        let first = rel
+            .components()
+            .next()
+            .unwrap()
+            .as_os_str()
+            .to_string_lossy();
+        let module = first.trim_end_matches(".rs");
+        if module == "lib" || module == "main" {
+            continue;
+        }
+        let Some(&own) = rank.get(module) else {
+            wrong.push(format!(
+                "src/{}: module `{module}` is not in LAYERS; place it in the pipeline's order",
+                rel.display()
+            ));
+            continue;
+        };
+        for (used, line) in uses(file) {
+            if used == module {
+                continue;
+            }
+            match rank.get(used.as_str()) {
+                Some(&r) if r < own => {}
+                Some(_) => wrong.push(format!(
+                    "src/{}:{line}: `{module}` uses `{used}`, which comes after it in the pipeline",
+                    rel.display()
+                )),
+                None => wrong.push(format!(
+                    "src/{}:{line}: `crate::{used}` is not a module in LAYERS",
+                    rel.display()
+                )),
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+/// The scanner sees every form an import takes, so the test above can fail.
+#[test]
+fn the_scanner_finds_paths_and_groups_but_not_comments() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("x.rs");
+    std::fs::write(
+        &f,
+        "use crate::task::TaskKind;\nuse crate::{eval, session::Session};\n// crate::repl in a comment\n/// [`crate::cli`]\nlet x = crate::check::bind(a);\n",
+    )
+    .unwrap();
+    let got: Vec<String> = uses(&f).into_iter().map(|(m, _)| m).collect();
+    assert_eq!(got, ["task", "eval", "session", "check"]);
+}
