@@ -132,3 +132,36 @@ fn the_scanner_finds_paths_and_groups_but_not_comments() {
     let got: Vec<String> = uses(&f).into_iter().map(|(m, _)| m).collect();
     assert_eq!(got, ["task", "eval", "session", "check"]);
 }
+
+/// Each diagnostic code names one mistake: no two error variants share a code, so a user (or a
+/// test) that sees a code knows which one it was.
+#[test]
+fn each_diagnostic_code_is_defined_once() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    let mut seen: BTreeMap<String, String> = BTreeMap::new();
+    let mut twice = Vec::new();
+    for file in &files {
+        let text = std::fs::read_to_string(file).unwrap();
+        for (n, line) in text.lines().enumerate() {
+            let mut rest = line;
+            while let Some(i) = rest.find("code(advise::") {
+                rest = &rest[i + "code(".len()..];
+                let code: String = rest
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_' || *c == ':')
+                    .collect();
+                let at = format!("{}:{}", file.strip_prefix(&src).unwrap().display(), n + 1);
+                if let Some(first) = seen.get(&code) {
+                    twice.push(format!("{code}: src/{first} and src/{at}"));
+                } else {
+                    seen.insert(code, at);
+                }
+            }
+        }
+    }
+    assert!(seen.len() > 100, "the scan found only {} codes", seen.len());
+    assert!(twice.is_empty(), "codes used twice:\n{}", twice.join("\n"));
+}

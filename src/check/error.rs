@@ -55,7 +55,7 @@ pub enum CheckError {
         span: SourceSpan,
     },
     #[error("`{func}` takes {expected} argument{}, found {found}", if *expected == 1 { "" } else { "s" })]
-    #[diagnostic(code(advise::check::wrong_arity), help("{signature}"))]
+    #[diagnostic(code(advise::check::function_arity), help("{signature}"))]
     WrongArity {
         func: String,
         expected: usize,
@@ -161,7 +161,7 @@ pub enum CheckError {
     },
     #[error("`{operator}` modifies {op_space}s, but `{callee}` modifies {callee_space}s")]
     #[diagnostic(
-        code(advise::check::mixed_spaces),
+        code(advise::check::mixed_composition),
         help("a composition modifies one space: observations or actions, never both")
     )]
     MixedComposition {

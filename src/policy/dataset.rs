@@ -157,7 +157,7 @@ pub enum DatasetError {
     },
     #[error("a number of the dataset is `null`, not a finite number")]
     #[diagnostic(
-        code(advise::dataset::not_finite),
+        code(advise::dataset::null),
         help(
             "JSON writes NaN and infinity as `null`; a dataset holds finite numbers only, so the point must be repaired or removed"
         )
