@@ -1,0 +1,450 @@
+//! The AST builder: pest pairs to spanned [`super::ast`] nodes, expressions by precedence
+//! climbing with the depth bound [`MAX_DEPTH`].
+
+use miette::NamedSource;
+use pest::iterators::Pair;
+
+use super::ast::*;
+use super::error::ParseError;
+use super::{MAX_DEPTH, Rule, SourceText};
+use crate::domain::Space;
+
+/// Builds AST nodes from pest pairs.
+pub(super) struct Builder<'a> {
+    pub(super) name: &'a str,
+    pub(super) src: &'a str,
+}
+
+/// The flat token stream of an `expr` pair, consumed by precedence climbing.
+pub(super) enum Tok<'i> {
+    Prefix(UnOp, Span),
+    Infix(BinOp, Span),
+    Operand(Pair<'i, Rule>),
+}
+
+impl<'a> Builder<'a> {
+    pub(super) fn span(&self, p: &Pair<'_, Rule>) -> Span {
+        let s = p.as_span();
+        Span::new(s.start(), s.end())
+    }
+
+    pub(super) fn src(&self) -> NamedSource<SourceText> {
+        NamedSource::new(self.name, SourceText::from(self.src))
+    }
+
+    pub(super) fn ident(&self, p: Pair<'_, Rule>) -> Ident {
+        Ident {
+            name: p.as_str().to_string(),
+            span: self.span(&p),
+        }
+    }
+
+    pub(super) fn number_text(&self, text: &str, span: Span) -> Result<f64, ParseError> {
+        match text.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(self.too_large(text, span)),
+        }
+    }
+
+    /// `text` does not fit a number; a number of a million digits is named by its first few.
+    pub(super) fn too_large(&self, text: &str, span: Span) -> ParseError {
+        const SHOWN: usize = 24;
+        let (text, span) = match text.get(..SHOWN) {
+            Some(head) if text.len() > SHOWN => (
+                format!("{head}... ({} digits)", text.len()),
+                Span::new(span.start, span.start + SHOWN.min(span.len())),
+            ),
+            _ => (text.to_string(), span),
+        };
+        ParseError::NumberTooLarge {
+            text,
+            src: self.src(),
+            span: span.into(),
+        }
+    }
+
+    pub(super) fn item(&self, p: Pair<'_, Rule>) -> Result<Item, ParseError> {
+        match p.as_rule() {
+            Rule::domain => Ok(Item::Domain(self.domain(p)?)),
+            Rule::operator => Ok(Item::Operator(self.operator(p)?)),
+            r => unreachable!("the grammar has no item {r:?}"),
+        }
+    }
+
+    pub(super) fn doc_line(&self, p: Pair<'_, Rule>) -> String {
+        let text = p.into_inner().next().map_or("", |t| t.as_str());
+        let text = text.strip_suffix('\r').unwrap_or(text);
+        text.strip_prefix(' ').unwrap_or(text).to_string()
+    }
+
+    pub(super) fn domain(&self, p: Pair<'_, Rule>) -> Result<DomainDecl, ParseError> {
+        let span = self.span(&p);
+        let mut doc = Vec::new();
+        let mut name = None;
+        let mut dims = Vec::new();
+        for part in p.into_inner() {
+            match part.as_rule() {
+                Rule::doc => doc.push(self.doc_line(part)),
+                Rule::name => name = Some(self.ident(part)),
+                Rule::dim_group => {
+                    let mut inner = part.into_inner();
+                    let kw = inner.next().expect("a group starts with its keyword");
+                    let space = if kw.as_rule() == Rule::kw_observe {
+                        Space::Observation
+                    } else {
+                        Space::Action
+                    };
+                    for d in inner.filter(|d| d.as_rule() == Rule::dim) {
+                        dims.push(self.dim(space, d)?);
+                    }
+                }
+                _ => {}
+            }
+        }
+        Ok(DomainDecl {
+            doc,
+            name: name.expect("a domain has a name"),
+            dims,
+            span,
+        })
+    }
+
+    pub(super) fn dim(&self, space: Space, p: Pair<'_, Rule>) -> Result<DimDecl, ParseError> {
+        let span = self.span(&p);
+        let mut name = None;
+        let mut unit = None;
+        let mut limits = None;
+        for part in p.into_inner() {
+            match part.as_rule() {
+                Rule::name => name = Some(self.ident(part)),
+                Rule::unit => {
+                    unit = Some(
+                        part.into_inner()
+                            .find(|u| u.as_rule() == Rule::unit_text)
+                            .map_or(String::new(), |u| u.as_str().to_string()),
+                    )
+                }
+                Rule::limits => limits = Some(self.limits(part)?),
+                _ => {}
+            }
+        }
+        Ok(DimDecl {
+            space,
+            name: name.expect("a dimension has a name"),
+            unit,
+            limits,
+            span,
+        })
+    }
+
+    pub(super) fn limits(&self, p: Pair<'_, Rule>) -> Result<LimitsExpr, ParseError> {
+        let span = self.span(&p);
+        let mut exprs = p.into_inner().filter(|e| e.as_rule() == Rule::expr);
+        let lo = self.expr(exprs.next().expect("limits have a low end"), 0)?;
+        let hi = self.expr(exprs.next().expect("limits have a high end"), 0)?;
+        Ok(LimitsExpr { lo, hi, span })
+    }
+
+    pub(super) fn operator(&self, p: Pair<'_, Rule>) -> Result<OperatorDecl, ParseError> {
+        let span = self.span(&p);
+        let mut doc = Vec::new();
+        let mut names = Vec::new();
+        let mut params = Vec::new();
+        let mut space = None;
+        let mut body = None;
+        for part in p.into_inner() {
+            match part.as_rule() {
+                Rule::doc => doc.push(self.doc_line(part)),
+                Rule::name => names.push(self.ident(part)),
+                Rule::params => {
+                    for q in part.into_inner().filter(|q| q.as_rule() == Rule::param) {
+                        params.push(self.param(q)?);
+                    }
+                }
+                Rule::space => {
+                    let s = self.span(&part);
+                    let kw = part.into_inner().next().expect("a space is one keyword");
+                    let sp = if kw.as_rule() == Rule::kw_action {
+                        Space::Action
+                    } else {
+                        Space::Observation
+                    };
+                    space = Some((sp, s));
+                }
+                Rule::block_body => body = Some(self.block(part)?),
+                Rule::pipeline_body => {
+                    let mut calls = Vec::new();
+                    for c in part.into_inner().filter(|c| c.as_rule() == Rule::call) {
+                        calls.push(self.call(c)?);
+                    }
+                    body = Some(Body::Pipeline(calls));
+                }
+                _ => {}
+            }
+        }
+        let mut names = names.into_iter();
+        let (space, space_span) = space.expect("an operator names its space");
+        Ok(OperatorDecl {
+            doc,
+            name: names.next().expect("an operator has a name"),
+            params,
+            domain: names.next().expect("an operator names its domain"),
+            space,
+            space_span,
+            body: body.expect("an operator has a body"),
+            span,
+        })
+    }
+
+    pub(super) fn param(&self, p: Pair<'_, Rule>) -> Result<ParamDecl, ParseError> {
+        let span = self.span(&p);
+        let mut name = None;
+        let mut default = None;
+        let mut limits = None;
+        for part in p.into_inner() {
+            match part.as_rule() {
+                Rule::name => name = Some(self.ident(part)),
+                Rule::expr => default = Some(self.expr(part, 0)?),
+                Rule::limits => limits = Some(self.limits(part)?),
+                _ => {}
+            }
+        }
+        Ok(ParamDecl {
+            name: name.expect("a parameter has a name"),
+            default,
+            limits,
+            span,
+        })
+    }
+
+    pub(super) fn block(&self, p: Pair<'_, Rule>) -> Result<Body, ParseError> {
+        let mut guard = None;
+        let mut stmts = Vec::new();
+        for part in p.into_inner() {
+            match part.as_rule() {
+                Rule::guard => {
+                    let e = part
+                        .into_inner()
+                        .find(|e| e.as_rule() == Rule::expr)
+                        .expect("a guard holds an expression");
+                    guard = Some(self.expr(e, 0)?);
+                }
+                Rule::stmt => {
+                    let span = self.span(&part);
+                    let mut inner = part.into_inner();
+                    let target = self.ident(inner.next().expect("a statement has a target"));
+                    let op = match inner.next().expect("a statement has an operator").as_str() {
+                        "+=" => AssignOp::Add,
+                        "-=" => AssignOp::Sub,
+                        "*=" => AssignOp::Mul,
+                        "/=" => AssignOp::Div,
+                        _ => AssignOp::Set,
+                    };
+                    let value = self.expr(inner.next().expect("a statement has a value"), 0)?;
+                    stmts.push(Stmt {
+                        target,
+                        op,
+                        value,
+                        span,
+                    });
+                }
+                _ => {}
+            }
+        }
+        Ok(Body::Block { guard, stmts })
+    }
+
+    pub(super) fn call(&self, p: Pair<'_, Rule>) -> Result<Call, ParseError> {
+        let span = self.span(&p);
+        let mut inner = p.into_inner();
+        let name = self.ident(inner.next().expect("a call has a name"));
+        let mut args = Vec::new();
+        if let Some(list) = inner.next() {
+            for a in list.into_inner().filter(|a| a.as_rule() == Rule::arg) {
+                let aspan = self.span(&a);
+                let mut aname = None;
+                let mut value = None;
+                for part in a.into_inner() {
+                    match part.as_rule() {
+                        Rule::name => aname = Some(self.ident(part)),
+                        Rule::expr => value = Some(self.expr(part, 0)?),
+                        _ => {}
+                    }
+                }
+                args.push(Arg {
+                    name: aname,
+                    value: value.expect("an argument has a value"),
+                    span: aspan,
+                });
+            }
+        }
+        Ok(Call { name, args, span })
+    }
+
+    pub(super) fn too_deep(&self, span: Span) -> ParseError {
+        ParseError::TooDeep {
+            what: "the expression is nested".into(),
+            help: format!(
+                "an expression may be at most {MAX_DEPTH} levels deep, and every term of a chain `a + b + c` is one more; split it into several operators or statements"
+            ),
+            src: self.src(),
+            span: span.into(),
+        }
+    }
+
+    /// Build an `expr` pair; `depth` tree levels are already above it.
+    pub(super) fn expr(&self, p: Pair<'_, Rule>, depth: usize) -> Result<Expr, ParseError> {
+        self.expr_height(p, depth).map(|(e, _)| e)
+    }
+
+    /// Build an `expr` pair by precedence climbing over its flat token stream; also returns the
+    /// height of the tree built, which with `depth` stays within [`MAX_DEPTH`].
+    pub(super) fn expr_height(
+        &self,
+        p: Pair<'_, Rule>,
+        depth: usize,
+    ) -> Result<(Expr, usize), ParseError> {
+        if depth >= MAX_DEPTH {
+            return Err(self.too_deep(self.span(&p)));
+        }
+        let toks: Vec<Tok<'_>> = p
+            .into_inner()
+            .map(|t| {
+                let infix = |op| Tok::Infix(op, self.span(&t));
+                match t.as_rule() {
+                    Rule::op_neg => Tok::Prefix(UnOp::Neg, self.span(&t)),
+                    Rule::kw_not => Tok::Prefix(UnOp::Not, self.span(&t)),
+                    Rule::kw_or => infix(BinOp::Or),
+                    Rule::kw_and => infix(BinOp::And),
+                    Rule::op_eq => infix(BinOp::Eq),
+                    Rule::op_ne => infix(BinOp::Ne),
+                    Rule::op_le => infix(BinOp::Le),
+                    Rule::op_ge => infix(BinOp::Ge),
+                    Rule::op_lt => infix(BinOp::Lt),
+                    Rule::op_gt => infix(BinOp::Gt),
+                    Rule::op_add => infix(BinOp::Add),
+                    Rule::op_sub => infix(BinOp::Sub),
+                    Rule::op_mul => infix(BinOp::Mul),
+                    Rule::op_div => infix(BinOp::Div),
+                    _ => Tok::Operand(t),
+                }
+            })
+            .collect();
+        let mut climb = Climb {
+            b: self,
+            toks,
+            at: 0,
+            depth,
+        };
+        climb.expr(0)
+    }
+
+    /// An operand and its height; `depth` levels are above it.
+    pub(super) fn operand(
+        &self,
+        p: Pair<'_, Rule>,
+        depth: usize,
+    ) -> Result<(Expr, usize), ParseError> {
+        let span = self.span(&p);
+        match p.as_rule() {
+            Rule::number => Ok((
+                Expr::new(ExprKind::Num(self.number_text(p.as_str(), span)?), span),
+                1,
+            )),
+            Rule::name => Ok((Expr::new(ExprKind::Var(p.as_str().to_string()), span), 1)),
+            Rule::paren => {
+                let e = p
+                    .into_inner()
+                    .find(|e| e.as_rule() == Rule::expr)
+                    .expect("parentheses hold an expression");
+                // Parentheses group; they add no level to the tree.
+                self.expr_height(e, depth)
+            }
+            Rule::call_expr => {
+                let mut inner = p.into_inner();
+                let func = self.ident(inner.next().expect("a call has a name"));
+                let mut args = Vec::new();
+                let mut height = 0;
+                for e in inner.filter(|e| e.as_rule() == Rule::expr) {
+                    let (a, h) = self.expr_height(e, depth + 1)?;
+                    height = height.max(h);
+                    args.push(a);
+                }
+                Ok((Expr::new(ExprKind::Call { func, args }, span), height + 1))
+            }
+            Rule::at_expr => {
+                let mut inner = p.into_inner();
+                let dim = self.ident(inner.next().expect("an offset read names a dimension"));
+                let e = inner
+                    .find(|e| e.as_rule() == Rule::expr)
+                    .expect("an offset read has an offset");
+                let (offset, h) = self.expr_height(e, depth + 1)?;
+                let offset = Box::new(offset);
+                Ok((Expr::new(ExprKind::At { dim, offset }, span), h + 1))
+            }
+            r => unreachable!("the grammar has no operand {r:?}"),
+        }
+    }
+}
+
+/// Precedence climbing over one expression's tokens. `depth` counts the tree levels above the
+/// subtree being built; every node is refused once its level would pass [`MAX_DEPTH`], before
+/// anything recurses deeper, so a hostile chain stops at the operator that passed the limit.
+pub(super) struct Climb<'b, 'a, 'i> {
+    b: &'b Builder<'a>,
+    toks: Vec<Tok<'i>>,
+    at: usize,
+    depth: usize,
+}
+
+impl Climb<'_, '_, '_> {
+    pub(super) fn expr(&mut self, min: u8) -> Result<(Expr, usize), ParseError> {
+        let (mut lhs, mut height) = self.unary()?;
+        while let Some(Tok::Infix(op, op_span)) = self.toks.get(self.at) {
+            let (op, op_span) = (*op, *op_span);
+            if op.precedence() < min {
+                break;
+            }
+            // The new node sits where `lhs` was; `lhs` moves one level down.
+            if self.depth + height + 1 > MAX_DEPTH {
+                return Err(self.b.too_deep(op_span));
+            }
+            self.at += 1;
+            self.depth += 1;
+            let rhs = self.expr(op.precedence() + 1);
+            self.depth -= 1;
+            let (rhs, rh) = rhs?;
+            height = height.max(rh) + 1;
+            if self.depth + height > MAX_DEPTH {
+                return Err(self.b.too_deep(op_span));
+            }
+            let span = lhs.span.join(rhs.span);
+            lhs = Expr::new(ExprKind::Binary(op, Box::new(lhs), Box::new(rhs)), span);
+        }
+        Ok((lhs, height))
+    }
+
+    pub(super) fn unary(&mut self) -> Result<(Expr, usize), ParseError> {
+        let at = self.at;
+        self.at += 1;
+        match self.toks.get(at) {
+            Some(Tok::Prefix(op, span)) => {
+                let (op, span) = (*op, *span);
+                if self.depth + 1 >= MAX_DEPTH {
+                    return Err(self.b.too_deep(span));
+                }
+                self.depth += 1;
+                let e = self.expr(op.precedence());
+                self.depth -= 1;
+                let (e, h) = e?;
+                let span = span.join(e.span);
+                Ok((Expr::new(ExprKind::Unary(op, Box::new(e)), span), h + 1))
+            }
+            Some(Tok::Operand(p)) => {
+                let p = p.clone();
+                self.b.operand(p, self.depth)
+            }
+            _ => unreachable!("the grammar puts an operand after every operator"),
+        }
+    }
+}
