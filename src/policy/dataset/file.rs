@@ -1,0 +1,590 @@
+//! A dataset's files: saving (JSON record or CSV points, atomically), loading and validating a
+//! saved dataset whole, demonstrations files, and the advice export.
+
+use super::*;
+
+impl Dataset {
+    /// Save the dataset atomically ([`crate::files::write_atomic`]): `.json` is the full record
+    /// (what `open` reads back), `.csv` the points alone; any other extension is refused, as the
+    /// file would not be what its name says. Returns what was written.
+    pub fn save(&self, path: &Path) -> Result<SavedFormat, DatasetError> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let format = match ext.as_deref() {
+            Some("json") => SavedFormat::Json,
+            Some("csv") => SavedFormat::Csv,
+            _ => {
+                return Err(DatasetError::UnknownFormat {
+                    path: path.display().to_string(),
+                    stem: path.with_extension("").display().to_string(),
+                });
+            }
+        };
+        crate::files::write_atomic(path, |w| match format {
+            SavedFormat::Json => serde_json::to_writer(w, &self.to_file()).map_err(Into::into),
+            SavedFormat::Csv => self.write_csv(w),
+        })?;
+        Ok(format)
+    }
+
+    /// Points only, for other tools: `provenance`, observation and action columns, `m`.
+    pub fn write_csv<W: std::io::Write>(&self, w: W) -> std::io::Result<()> {
+        self.write_csv_filtered(w, |_| true)
+    }
+
+    /// Advised points only, with their provenance: operator, parameters, chunk, execution.
+    pub fn write_advice_csv<W: std::io::Write>(&self, w: W) -> std::io::Result<usize> {
+        let mut n = 0;
+        self.write_csv_filtered(w, |p| {
+            let keep = matches!(p, Provenance::Advice { .. });
+            n += keep as usize;
+            keep
+        })?;
+        Ok(n)
+    }
+
+    fn write_csv_filtered<W: std::io::Write>(
+        &self,
+        w: W,
+        mut keep: impl FnMut(&Provenance) -> bool,
+    ) -> std::io::Result<()> {
+        let mut out = csv::Writer::from_writer(w);
+        let mut header = vec!["source".to_string(), "detail".to_string()];
+        header.extend(self.domain.observe.iter().map(|d| d.name.clone()));
+        header.extend(self.domain.act.iter().map(|d| d.name.clone()));
+        header.push("m".into());
+        out.write_record(&header)?;
+        for i in 0..self.len() {
+            let p = self.provenance[i];
+            if !keep(&p) {
+                continue;
+            }
+            let (source, detail) = match p {
+                Provenance::Demonstration { demo, index } => {
+                    let name = self
+                        .demos
+                        .iter()
+                        .find(|d| d.id == demo)
+                        .map_or("?", |d| d.name.as_str());
+                    (format!("demo {demo}"), format!("{name} point {index}"))
+                }
+                Provenance::Advice {
+                    advice,
+                    index,
+                    source,
+                } => {
+                    let detail = self.advice.iter().find(|r| r.id == advice).map_or_else(
+                        || "?".to_string(),
+                        |r| {
+                            format!(
+                                "{} on {} of execution {}, point {source} (synthesized {index})",
+                                r.applied.invocation(),
+                                r.applied.chunk,
+                                self.execution_number(r.execution).unwrap_or(usize::MAX)
+                            )
+                        },
+                    );
+                    (format!("advice {advice}"), detail)
+                }
+            };
+            let mut row = vec![source, detail];
+            row.extend(self.z(i).iter().map(|v| fmt_num(*v)));
+            row.extend(self.a(i).iter().map(|v| fmt_num(*v)));
+            row.push(fmt_num(self.m[i]));
+            out.write_record(&row)?;
+        }
+        out.flush()
+    }
+
+    fn to_file(&self) -> DatasetFile {
+        DatasetFile {
+            format: "advise-dataset-1".into(),
+            domain: self.domain.clone(),
+            points: (0..self.len())
+                .map(|i| FilePoint {
+                    z: self.z(i).to_vec(),
+                    a: self.a(i).to_vec(),
+                    m: self.m[i],
+                    provenance: self.provenance[i],
+                })
+                .collect(),
+            demos: self.demos.clone(),
+            executions: self.executions.clone(),
+            advice: self.advice.clone(),
+            critiques: self.critiques.clone(),
+            next_id: self.next_id,
+        }
+    }
+
+    /// The dataset as the JSON text `save` writes.
+    pub fn to_json_string(&self) -> String {
+        serde_json::to_string(&self.to_file())
+            .expect("a dataset's values are finite and its keys strings")
+    }
+
+    /// Load a dataset saved as JSON, read into `sources` and validated whole
+    /// ([`Dataset::parse`]).
+    pub fn load(sources: &mut SourceMap, path: &Path) -> Result<Dataset, DatasetError> {
+        crate::files::parse_file(sources, path, Dataset::parse)
+    }
+
+    /// [`Dataset::parse`] of a text outside any session (its error brings its own source map).
+    pub fn from_json_str(name: &str, text: &str) -> Result<Dataset, Sourced<DatasetError>> {
+        let mut sources = SourceMap::new();
+        let id = sources.add(name, text);
+        Dataset::parse(sources.src(id)).map_err(|e| sources.attach(e))
+    }
+
+    /// Whether JSON text is a saved dataset (rather than a trace or demonstrations): its top
+    /// level has the `format` key. Malformed JSON counts as a dataset when it names the dataset
+    /// format (`"advise-dataset-`), so that its error is the dataset's.
+    pub fn is_dataset_json(text: &str) -> bool {
+        #[derive(Deserialize)]
+        struct Probe {
+            format: Option<serde::de::IgnoredAny>,
+        }
+        match serde_json::from_str::<Probe>(text) {
+            Ok(p) => p.format.is_some(),
+            Err(_) => text.contains("\"advise-dataset-"),
+        }
+    }
+
+    /// Parse and validate a saved dataset; the first problem found is the error. A dataset that
+    /// loads is one the session could have built: every id unique and below `next_id`, every
+    /// reference resolved, every point of the domain's shape and finite, every action within its
+    /// limits, and
+    /// the weights what the critiques say.
+    pub fn parse(src: Src<'_>) -> Result<Dataset, DatasetError> {
+        let text = src.text;
+        let file: DatasetFile = serde_json::from_str(text).map_err(|e| {
+            let span = locate::line_col(text, e.line(), e.column());
+            let message = e.to_string();
+            // NaN and infinity were saved as `null` by earlier versions.
+            if message.starts_with("invalid type: null, expected f64") {
+                // serde points after the value; cover the `null` itself.
+                let end = span.start;
+                let start = text[..end].rfind("null").filter(|s| s + 4 >= end);
+                let span = start.map_or(span, |s| s..s + 4);
+                DatasetError::Null { at: src.at(span) }
+            } else {
+                DatasetError::Json {
+                    message,
+                    at: src.at(span),
+                }
+            }
+        })?;
+        if file.format != "advise-dataset-1" {
+            return Err(DatasetError::Inconsistent {
+                what: format!("unknown format `{}`", file.format),
+            });
+        }
+        validate(&file)?;
+        let mut d = Dataset::new(&file.domain);
+        for p in &file.points {
+            d.z.extend_from_slice(&p.z);
+            d.a.extend_from_slice(&p.a);
+            d.provenance.push(p.provenance);
+            d.m.push(p.m);
+        }
+        d.demos = file.demos;
+        d.executions = file.executions;
+        d.advice = file.advice;
+        d.critiques = file.critiques;
+        d.next_id = file.next_id;
+        // The stored weights must be what the critique records say.
+        let stored = d.m.clone();
+        d.recompute_weights();
+        if stored != d.m {
+            return Err(DatasetError::Inconsistent {
+                what: "the weights do not match the critique records".into(),
+            });
+        }
+        Ok(d)
+    }
+
+    /// The training data as demonstrations: each demonstration, and each piece of advice's
+    /// points, becomes one episode named after where it came from (`NAME demo 3 (teacher-0)`,
+    /// `NAME advice 7 (slow_down on 40..70)`). Critique weights are not carried (a
+    /// demonstration's points weigh 1); executions are not training data and are left out. Point
+    /// times are their index in the episode, in seconds, as the dataset keeps no times.
+    pub fn to_episodes(&self, name: &str) -> Vec<Episode> {
+        let mut order: Vec<(Provenance, Vec<usize>)> = Vec::new();
+        let mut slot: HashMap<(bool, u32), usize> = HashMap::new();
+        for i in 0..self.len() {
+            let key = match self.provenance[i] {
+                Provenance::Demonstration { demo, .. } => (true, demo),
+                Provenance::Advice { advice, .. } => (false, advice),
+            };
+            let k = *slot.entry(key).or_insert_with(|| {
+                order.push((self.provenance[i], Vec::new()));
+                order.len() - 1
+            });
+            order[k].1.push(i);
+        }
+        order
+            .into_iter()
+            .map(|(p, points)| {
+                let label = match p {
+                    Provenance::Demonstration { demo, .. } => {
+                        let d = self.demos.iter().find(|d| d.id == demo);
+                        format!(
+                            "{name} demo {demo} ({})",
+                            d.map_or("?", |d| d.name.as_str())
+                        )
+                    }
+                    Provenance::Advice { advice, .. } => {
+                        let r = self.advice.iter().find(|r| r.id == advice);
+                        format!(
+                            "{name} advice {advice} ({})",
+                            r.map_or_else(
+                                || "?".to_string(),
+                                |r| format!("{} on {}", r.applied.invocation(), r.applied.chunk)
+                            )
+                        )
+                    }
+                };
+                let mut trace = Trace::new(&self.domain);
+                for (k, &i) in points.iter().enumerate() {
+                    trace.push(k as f64, self.z(i), self.a(i), None);
+                }
+                Episode { name: label, trace }
+            })
+            .collect()
+    }
+}
+
+/// Demonstrations read from a file, and whether the file was a saved dataset.
+#[derive(Clone, Debug)]
+pub struct Demonstrations {
+    pub episodes: Vec<Episode>,
+    /// For a saved dataset: how many of the episodes were its demonstrations and how many its
+    /// advice.
+    pub from_dataset: Option<(usize, usize)>,
+}
+
+/// Read demonstrations for `domain` from any file that holds them: a demonstrations file (CSV
+/// or JSON, [`Episode`]) or a dataset saved by a session ([`Dataset::to_episodes`]).
+pub fn load_demonstrations(
+    sources: &mut SourceMap,
+    domain: &Domain,
+    path: &Path,
+) -> Result<Demonstrations, DatasetError> {
+    crate::files::parse_file(sources, path, |src| {
+        let name = path.display().to_string();
+        let is_json = crate::trace::is_json(path);
+        if is_json && Dataset::is_dataset_json(src.text) {
+            let ds = Dataset::parse(src)?;
+            if ds.domain() != domain {
+                return Err(crate::trace::TraceError::DomainMismatch {
+                    expected: domain.name.clone(),
+                    found: ds.domain().name.clone(),
+                }
+                .into());
+            }
+            let from = (ds.demos().len(), ds.advice().len());
+            return Ok(Demonstrations {
+                episodes: ds.to_episodes(&name),
+                from_dataset: Some(from),
+            });
+        }
+        let episodes = if is_json {
+            Episode::parse_json(domain, src)?
+        } else {
+            Episode::parse_csv(domain, src)?
+        };
+        Ok(Demonstrations {
+            episodes,
+            from_dataset: None,
+        })
+    })
+}
+
+/// What [`Dataset::save`] wrote.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SavedFormat {
+    /// The full record, which `open` reads back.
+    Json,
+    /// The points alone, for other tools.
+    Csv,
+}
+
+impl SavedFormat {
+    /// In words, for the session's reply.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SavedFormat::Json => "JSON, with provenance; `open` reads it back",
+            SavedFormat::Csv => "CSV, points only; it cannot be opened again",
+        }
+    }
+}
+
+/// Every check of a dataset file but the weights, in file order; the first problem is returned.
+fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
+    let domain = &file.domain;
+    let expected = || {
+        let names = |dims: &[crate::domain::Dim]| {
+            dims.iter()
+                .map(|d| d.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        format!(
+            "observation [{}], action [{}]",
+            names(&domain.observe),
+            names(&domain.act)
+        )
+    };
+    if domain.observe.is_empty() || domain.act.is_empty() {
+        return Err(DatasetError::Dimension {
+            at: "domain".into(),
+            what: "the domain needs at least one observation and one action dimension".into(),
+            expected: expected(),
+        });
+    }
+    let values = |at: &str, z: &[f64], a: &[f64]| -> Result<(), DatasetError> {
+        for (space, vals, dims) in [("z", z, &domain.observe), ("a", a, &domain.act)] {
+            if vals.len() != dims.len() {
+                return Err(DatasetError::Dimension {
+                    at: format!("{at}.{space}"),
+                    what: format!("{} values where the domain has {}", vals.len(), dims.len()),
+                    expected: expected(),
+                });
+            }
+            for (k, (v, dim)) in vals.iter().zip(dims.iter()).enumerate() {
+                let at = || format!("{at}.{space}[{k}]");
+                if !v.is_finite() {
+                    return Err(DatasetError::NotFinite {
+                        at: at(),
+                        value: v.to_string(),
+                    });
+                }
+                // Actions are clamped to their limits wherever they enter a dataset (recorded
+                // runs, operators, demonstration files); observations are what the robot saw,
+                // and may lie beyond (a goal 20 m away).
+                if let (true, Some(l)) = (space == "a", dim.limits)
+                    && !l.contains(*v)
+                {
+                    return Err(DatasetError::OutOfLimits {
+                        at: at(),
+                        value: fmt_num(*v),
+                        dim: dim.name.clone(),
+                        lo: fmt_num(l.lo),
+                        hi: fmt_num(l.hi),
+                    });
+                }
+            }
+        }
+        Ok(())
+    };
+    let finite = |at: String, v: f64| {
+        if v.is_finite() {
+            Ok(())
+        } else {
+            Err(DatasetError::NotFinite {
+                at,
+                value: v.to_string(),
+            })
+        }
+    };
+
+    // One sequence of ids for every kind of record.
+    let mut owner: HashMap<u32, String> = HashMap::new();
+    let mut max_id = 0;
+    let records = file
+        .demos
+        .iter()
+        .enumerate()
+        .map(|(i, r)| (r.id, format!("demos[{i}]")))
+        .chain(
+            file.executions
+                .iter()
+                .enumerate()
+                .map(|(i, r)| (r.id, format!("executions[{i}]"))),
+        )
+        .chain(
+            file.advice
+                .iter()
+                .enumerate()
+                .map(|(i, r)| (r.id, format!("advice[{i}]"))),
+        )
+        .chain(
+            file.critiques
+                .iter()
+                .enumerate()
+                .map(|(i, r)| (r.id, format!("critiques[{i}]"))),
+        );
+    for (id, at) in records {
+        if let Some(first) = owner.get(&id) {
+            return Err(DatasetError::DuplicateId {
+                id,
+                first: first.clone(),
+                second: at,
+            });
+        }
+        max_id = max_id.max(id);
+        owner.insert(id, at);
+    }
+    if file.next_id < max_id {
+        return Err(DatasetError::NextId {
+            next_id: file.next_id,
+            max_id,
+        });
+    }
+
+    let executions: HashMap<u32, &ExecutionRecord> =
+        file.executions.iter().map(|e| (e.id, e)).collect();
+    for (i, e) in file.executions.iter().enumerate() {
+        for (j, p) in e.points.iter().enumerate() {
+            let at = format!("executions[{i}].points[{j}]");
+            // Executions are what the base recorded; they are checked for shape, not limits
+            // (an observation beyond a limit is a fact of the run).
+            for (space, vals, n) in [("z", &p.z, domain.obs_dim()), ("a", &p.a, domain.act_dim())] {
+                if vals.len() != n {
+                    return Err(DatasetError::Dimension {
+                        at: format!("{at}.{space}"),
+                        what: format!("{} values where the domain has {n}", vals.len()),
+                        expected: expected(),
+                    });
+                }
+            }
+            let all = std::iter::once(p.t)
+                .chain(p.z.iter().copied())
+                .chain(p.a.iter().copied())
+                .chain(p.pose.into_iter().flatten());
+            for v in all {
+                finite(at.clone(), v)?;
+            }
+            if (p.pose.is_some()) != e.points[0].pose.is_some() {
+                return Err(DatasetError::Record {
+                    at,
+                    what: "some points of the execution have a `pose` and others do not".into(),
+                });
+            }
+        }
+    }
+    let exec_len = |at: String, id: u32| -> Result<usize, DatasetError> {
+        executions
+            .get(&id)
+            .map(|e| e.points.len())
+            .ok_or(DatasetError::Dangling {
+                at,
+                what: "execution",
+                id,
+            })
+    };
+    let mut advice_points: HashMap<u32, u32> = HashMap::new();
+    for (i, r) in file.advice.iter().enumerate() {
+        let len = exec_len(format!("advice[{i}].execution"), r.execution)?;
+        let c = r.applied.chunk;
+        if c.start > c.end || c.end > len {
+            return Err(DatasetError::Record {
+                at: format!("advice[{i}].applied.chunk"),
+                what: format!(
+                    "the chunk {c} is not within execution {} ({len} points)",
+                    r.execution
+                ),
+            });
+        }
+        for (k, p) in r.applied.params.iter().enumerate() {
+            finite(format!("advice[{i}].applied.params[{k}].value"), p.value)?;
+        }
+        if r.applied.domain != domain.name {
+            return Err(DatasetError::Record {
+                at: format!("advice[{i}].applied.domain"),
+                what: format!(
+                    "the advice is for the `{}` domain, the dataset is `{}`",
+                    r.applied.domain, domain.name
+                ),
+            });
+        }
+        advice_points.insert(r.id, 0);
+    }
+    for (i, c) in file.critiques.iter().enumerate() {
+        let len = exec_len(format!("critiques[{i}].execution"), c.execution)?;
+        if c.chunk.start > c.chunk.end || c.chunk.end > len {
+            return Err(DatasetError::Record {
+                at: format!("critiques[{i}].chunk"),
+                what: format!(
+                    "the chunk {} is not within execution {} ({len} points)",
+                    c.chunk, c.execution
+                ),
+            });
+        }
+        finite(format!("critiques[{i}].kappa"), c.kappa)?;
+        for (k, (_, inc)) in c.increments.iter().enumerate() {
+            finite(format!("critiques[{i}].increments[{k}]"), *inc)?;
+        }
+    }
+
+    let mut demo_points: HashMap<u32, u32> = file.demos.iter().map(|d| (d.id, 0)).collect();
+    let mut seen: HashMap<Provenance, usize> = HashMap::new();
+    for (i, p) in file.points.iter().enumerate() {
+        let at = format!("points[{i}]");
+        values(&at, &p.z, &p.a)?;
+        if !(p.m.is_finite() && p.m >= 1.0) {
+            return Err(DatasetError::Record {
+                at: format!("{at}.m"),
+                what: format!("the weight is {}; weights are finite and at least 1", p.m),
+            });
+        }
+        let (count, what, id) = match p.provenance {
+            Provenance::Demonstration { demo, .. } => {
+                (demo_points.get_mut(&demo), "demonstration", demo)
+            }
+            Provenance::Advice { advice, .. } => (advice_points.get_mut(&advice), "advice", advice),
+        };
+        match count {
+            Some(n) => *n += 1,
+            None => {
+                return Err(DatasetError::Dangling {
+                    at: format!("{at}.provenance"),
+                    what,
+                    id,
+                });
+            }
+        }
+        if let Some(first) = seen.insert(p.provenance, i) {
+            return Err(DatasetError::Record {
+                at: format!("{at}.provenance"),
+                what: format!("points {first} and {i} have the same provenance"),
+            });
+        }
+    }
+    for (i, d) in file.demos.iter().enumerate() {
+        let n = demo_points.get(&d.id).copied().unwrap_or(0);
+        if n != d.points {
+            return Err(DatasetError::Record {
+                at: format!("demos[{i}].points"),
+                what: format!(
+                    "demonstration {} says it has {} points; the file holds {n}",
+                    d.id, d.points
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The JSON file of a dataset.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DatasetFile {
+    format: String,
+    domain: Domain,
+    points: Vec<FilePoint>,
+    demos: Vec<DemoRecord>,
+    executions: Vec<ExecutionRecord>,
+    advice: Vec<AdviceRecord>,
+    critiques: Vec<CritiqueRecord>,
+    next_id: u32,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilePoint {
+    z: Vec<f64>,
+    a: Vec<f64>,
+    m: f64,
+    provenance: Provenance,
+}

@@ -1,0 +1,400 @@
+//! The SVG pictures (plotters): paths (one execution, or two compared) and actions against point
+//! index, with their legends.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::*;
+
+/// A plotters error as text (the backend's error type is generic).
+fn drawing<E: std::fmt::Display>(e: E) -> String {
+    e.to_string()
+}
+
+/// A legend entry's mark.
+#[derive(Clone, Copy)]
+enum Mark {
+    Line(RGBColor, u32),
+    Band(RGBColor, f64),
+    Dot(RGBColor),
+    Cross,
+    Square(RGBColor),
+    Ring(RGBColor),
+}
+
+/// Draw the legend in its own panel beside the data, with text lines below the entries.
+fn legend(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    entries: &[(Mark, String)],
+    notes: &[String],
+) -> Result<(), String> {
+    let font = ("sans-serif", 14).into_font();
+    let mut y = 40;
+    for (mark, label) in entries {
+        let (x0, x1) = (8, 34);
+        match *mark {
+            Mark::Line(c, w) => area
+                .draw(&PathElement::new(vec![(x0, y), (x1, y)], c.stroke_width(w)))
+                .map_err(drawing)?,
+            Mark::Band(c, a) => area
+                .draw(&Rectangle::new(
+                    [(x0, y - 7), (x1, y + 7)],
+                    c.mix(a).filled(),
+                ))
+                .map_err(drawing)?,
+            Mark::Dot(c) => area
+                .draw(&Circle::new(((x0 + x1) / 2, y), 5, c.filled()))
+                .map_err(drawing)?,
+            Mark::Cross => area
+                .draw(&Cross::new(((x0 + x1) / 2, y), 6, BLACK.stroke_width(2)))
+                .map_err(drawing)?,
+            Mark::Square(c) => area
+                .draw(&Rectangle::new(
+                    [(x0 + 4, y - 8), (x1 - 4, y + 8)],
+                    c.stroke_width(1),
+                ))
+                .map_err(drawing)?,
+            Mark::Ring(_) => {}
+        }
+        if let Mark::Ring(c) = *mark {
+            area.draw(&Circle::new(((x0 + x1) / 2, y), 7, c.stroke_width(1)))
+                .map_err(drawing)?;
+        }
+        area.draw(&Text::new(label.clone(), (x1 + 8, y - 7), font.clone()))
+            .map_err(drawing)?;
+        y += 24;
+    }
+    y += 8;
+    for note in notes {
+        for line in wrap(note, 30) {
+            area.draw(&Text::new(line, (8, y - 7), font.clone()))
+                .map_err(drawing)?;
+            y += 18;
+        }
+    }
+    Ok(())
+}
+
+/// Break `s` into lines of at most `width` characters at spaces.
+fn wrap(s: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in s.split(' ') {
+        match lines.last_mut() {
+            Some(l) if l.chars().count() + 1 + word.chars().count() <= width => {
+                l.push(' ');
+                l.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
+}
+
+fn chunk_label(kind: &str, chunks: &[Chunk]) -> String {
+    let list: Vec<String> = chunks.iter().take(4).map(|c| c.to_string()).collect();
+    let more = if chunks.len() > 4 { ", ..." } else { "" };
+    format!("{kind} {}{more}", list.join(", "))
+}
+
+/// The path plot: one execution with its marks, or several overlaid (`colors` one per view).
+pub(super) fn render_paths(
+    views: &[&PlotView<'_>],
+    names: &[String],
+    title: &str,
+) -> Result<String, String> {
+    let colors = [PATH, AFTER];
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(drawing)?;
+        let root = root.titled(title, ("sans-serif", 20)).map_err(drawing)?;
+        let (main, side) = root.split_horizontally(SIZE.0 - LEGEND_W);
+        let build = |r: (f64, f64, f64, f64)| {
+            ChartBuilder::on(&main)
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(56)
+                .build_cartesian_2d(r.0..r.1, r.2..r.3)
+        };
+        let (pw, ph) = build((0.0, 1.0, 0.0, 1.0))
+            .map_err(drawing)?
+            .plotting_area()
+            .dim_in_pixel();
+        let (x0, x1, y0, y1) = equal_scale(bounds(views), pw, ph);
+        let mut chart = build((x0, x1, y0, y1)).map_err(drawing)?;
+        let span = (x1 - x0).max(y1 - y0);
+        chart
+            .configure_mesh()
+            .x_desc("x (m)")
+            .y_desc("y (m)")
+            .label_style(("sans-serif", 13))
+            .axis_desc_style(("sans-serif", 14))
+            .x_label_formatter(&|v| tick(*v, span))
+            .y_label_formatter(&|v| tick(*v, span))
+            .light_line_style(WHITE.mix(0.0))
+            .draw()
+            .map_err(drawing)?;
+        let mut entries: Vec<(Mark, String)> = Vec::new();
+        let mut notes: Vec<String> = Vec::new();
+        let xy = |p: &Pose| (p.x_m, p.y_m);
+        if let Some(a) = views.iter().find_map(|v| v.arena) {
+            let h = a.half_m;
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(-h, -h), (h, h)],
+                    ARENA.stroke_width(2),
+                )))
+                .map_err(drawing)?;
+            entries.push((Mark::Square(ARENA), format!("arena edge (±{h} m)")));
+            entries.push((
+                Mark::Ring(PATH),
+                format!("capture distance ({} m)", a.capture_m),
+            ));
+        }
+        let single = views.len() == 1;
+        for (k, v) in views.iter().enumerate() {
+            let color = colors[k % colors.len()];
+            let segment = |c: &Chunk| -> Vec<(f64, f64)> {
+                let end = c.end.min(v.path.len());
+                v.path[c.start.min(end)..end].iter().map(xy).collect()
+            };
+            if single {
+                // Under the path: the selection as a wide band, then advised, then critiqued
+                // on top of everything so a critique is never hidden.
+                if let Some(sel) = v.selection {
+                    chart
+                        .draw_series(LineSeries::new(
+                            segment(&sel),
+                            SELECTED.mix(0.5).stroke_width(12),
+                        ))
+                        .map_err(drawing)?;
+                    entries.push((Mark::Band(SELECTED, 0.5), format!("selected {sel}")));
+                }
+            }
+            chart
+                .draw_series(LineSeries::new(
+                    v.path.iter().map(xy),
+                    color.stroke_width(2),
+                ))
+                .map_err(drawing)?;
+            if let Some(ball) = v.ball {
+                chart
+                    .draw_series(LineSeries::new(
+                        ball.iter().map(|b| (b[0], b[1])),
+                        BALL.stroke_width(2),
+                    ))
+                    .map_err(drawing)?;
+                if let Some(b) = ball.last() {
+                    chart
+                        .draw_series(std::iter::once(Circle::new((b[0], b[1]), 4, BALL.filled())))
+                        .map_err(drawing)?;
+                }
+            }
+            if single {
+                for (chunks, c, kind) in [
+                    (&v.advised, ADVISED, "advised"),
+                    (&v.flagged, CRITIQUED, "critiqued"),
+                ] {
+                    for ch in chunks.iter() {
+                        chart
+                            .draw_series(LineSeries::new(segment(ch), c.stroke_width(5)))
+                            .map_err(drawing)?;
+                    }
+                    if !chunks.is_empty() {
+                        entries.push((Mark::Line(c, 5), chunk_label(kind, chunks)));
+                    }
+                }
+            }
+            // Index marks: a dot every INDEX_EVERY points, numbered unless the number would
+            // sit on the previous one (where the robot crawls).
+            let mut last_label: Option<(i32, i32)> = None;
+            for (i, p) in v.path.iter().enumerate().step_by(INDEX_EVERY) {
+                chart
+                    .draw_series(std::iter::once(Circle::new(xy(p), 3, color.filled())))
+                    .map_err(drawing)?;
+                let at = chart.backend_coord(&xy(p));
+                if last_label.is_some_and(|(x, y)| (x - at.0).abs() < 24 && (y - at.1).abs() < 14) {
+                    continue;
+                }
+                last_label = Some(at);
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        i.to_string(),
+                        xy(p),
+                        ("sans-serif", 12).into_font().color(&color),
+                    )))
+                    .map_err(drawing)?;
+            }
+            if let Some(first) = v.path.first() {
+                chart
+                    .draw_series(std::iter::once(Circle::new(xy(first), 5, BLACK.filled())))
+                    .map_err(drawing)?;
+            }
+            // The capture distance around where the robot ended: the ball inside it was caught.
+            if let (Some(a), Some(last)) = (v.arena, v.path.last()) {
+                let px_per_m = f64::from(pw) / (x1 - x0);
+                let r = (a.capture_m * px_per_m).round().max(2.0) as u32;
+                chart
+                    .draw_series(std::iter::once(Circle::new(
+                        xy(last),
+                        r,
+                        color.stroke_width(1),
+                    )))
+                    .map_err(drawing)?;
+            }
+            entries.push((Mark::Line(color, 2), names[k].clone()));
+            if let Some(o) = &v.outcome {
+                notes.push(if single {
+                    o.clone()
+                } else {
+                    format!("{}: {o}", ["before", "after"][k % 2])
+                });
+            }
+        }
+        let goals: Vec<Pose> = views.iter().filter_map(|v| v.goal).collect();
+        for g in &goals {
+            let arrow = 0.3;
+            chart
+                .draw_series(std::iter::once(Cross::new(
+                    (g.x_m, g.y_m),
+                    8,
+                    BLACK.stroke_width(2),
+                )))
+                .map_err(drawing)?;
+            chart
+                .draw_series(LineSeries::new(
+                    [
+                        (g.x_m, g.y_m),
+                        (
+                            g.x_m + arrow * g.theta_rad.cos(),
+                            g.y_m + arrow * g.theta_rad.sin(),
+                        ),
+                    ],
+                    BLACK.stroke_width(2),
+                ))
+                .map_err(drawing)?;
+        }
+        entries.push((Mark::Dot(BLACK), "start".into()));
+        entries.push((
+            Mark::Dot(PATH),
+            format!("every {INDEX_EVERY}th point, numbered"),
+        ));
+        if !goals.is_empty() {
+            entries.push((Mark::Cross, "goal (and heading)".into()));
+        }
+        if views.iter().any(|v| v.ball.is_some()) {
+            entries.push((Mark::Line(BALL, 2), "ball (dot: where it ended)".into()));
+        }
+        legend(&side, &entries, &notes)?;
+        root.present().map_err(drawing)?;
+    }
+    Ok(svg)
+}
+
+/// The actions plot: one panel per curve against point index, chunks shaded.
+pub(super) fn render_actions(view: &PlotView<'_>) -> Result<String, String> {
+    let series = view.action_series();
+    let n = view.trace.len();
+    let mut svg = String::new();
+    {
+        let height = 120 + 170 * series.len().max(1) as u32;
+        let root = SVGBackend::with_string(&mut svg, (SIZE.0, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(drawing)?;
+        let root = root
+            .titled(&view.title, ("sans-serif", 20))
+            .map_err(drawing)?;
+        let (main, side) = root.split_horizontally(SIZE.0 - LEGEND_W);
+        let panels = main.split_evenly((series.len().max(1), 1));
+        let t0 = view.trace.t.first().copied().unwrap_or(0.0);
+        let time_of = |i: usize| view.trace.t.get(i).map(|t| t - t0);
+        let x_max = n.max(1) as f64;
+        for (k, (s, panel)) in series.iter().zip(&panels).enumerate() {
+            let lo = s.values.iter().copied().fold(0.0_f64, f64::min);
+            let hi = s.values.iter().copied().fold(0.0_f64, f64::max);
+            let pad = ((hi - lo) * 0.08).max(1e-3);
+            let (y0, y1) = (lo - pad, hi + pad);
+            let mut chart = ChartBuilder::on(panel)
+                .margin(8)
+                .x_label_area_size(44)
+                .y_label_area_size(64)
+                .build_cartesian_2d(0.0..x_max, y0..y1)
+                .map_err(drawing)?;
+            let span = (y1 - y0).max(y0.abs()).max(y1.abs());
+            let last = k + 1 == series.len();
+            chart
+                .configure_mesh()
+                .x_labels(10)
+                .y_labels(6)
+                .x_label_formatter(&|v| {
+                    let i = v.round().max(0.0) as usize;
+                    match time_of(i) {
+                        Some(t) if last => format!("{i} ({t:.1} s)"),
+                        _ => i.to_string(),
+                    }
+                })
+                .y_label_formatter(&|v| tick(*v, span))
+                .x_desc(if last {
+                    "point index (time since the start)"
+                } else {
+                    "point index"
+                })
+                .y_desc(s.label.as_str())
+                .label_style(("sans-serif", 13))
+                .axis_desc_style(("sans-serif", 14))
+                .light_line_style(WHITE.mix(0.0))
+                .draw()
+                .map_err(drawing)?;
+            let band = |c: &Chunk, color: RGBColor, alpha: f64| {
+                Rectangle::new(
+                    [(c.start as f64, y0), (c.end as f64, y1)],
+                    color.mix(alpha).filled(),
+                )
+            };
+            // Critiqued on top: drawn last.
+            if let Some(sel) = view.selection {
+                chart
+                    .draw_series(std::iter::once(band(&sel, SELECTED, 0.25)))
+                    .map_err(drawing)?;
+            }
+            chart
+                .draw_series(view.advised.iter().map(|c| band(c, ADVISED, 0.25)))
+                .map_err(drawing)?;
+            chart
+                .draw_series(view.flagged.iter().map(|c| band(c, CRITIQUED, 0.3)))
+                .map_err(drawing)?;
+            chart
+                .draw_series(LineSeries::new([(0.0, 0.0), (x_max, 0.0)], BLACK.mix(0.4)))
+                .map_err(drawing)?;
+            chart
+                .draw_series(LineSeries::new(
+                    s.values.iter().enumerate().map(|(i, v)| (i as f64, *v)),
+                    PATH.stroke_width(2),
+                ))
+                .map_err(drawing)?;
+        }
+        let mut entries = vec![(Mark::Line(PATH, 2), "action".to_string())];
+        if let Some(sel) = view.selection {
+            entries.push((Mark::Band(SELECTED, 0.25), format!("selected {sel}")));
+        }
+        if !view.advised.is_empty() {
+            entries.push((
+                Mark::Band(ADVISED, 0.25),
+                chunk_label("advised", &view.advised),
+            ));
+        }
+        if !view.flagged.is_empty() {
+            entries.push((
+                Mark::Band(CRITIQUED, 0.3),
+                chunk_label("critiqued", &view.flagged),
+            ));
+        }
+        let mut notes = Vec::new();
+        if let Some(o) = &view.outcome {
+            notes.push(o.clone());
+        }
+        notes.push(format!("{n} points; `select A..B` by the index axis"));
+        legend(&side, &entries, &notes)?;
+        root.present().map_err(drawing)?;
+    }
+    Ok(svg)
+}
