@@ -74,6 +74,43 @@ pub enum Command {
     Quit,
 }
 
+impl Command {
+    /// The command's word: its [`CommandSpec`]'s `name` (exhaustive, so a new variant must name
+    /// its command).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Command::Task(_) => "task",
+            Command::Backend(_) => "backend",
+            Command::LoadDemos(_) | Command::LoadTrace(_) => "load",
+            Command::Operators(_) => "operators",
+            Command::RunGoal { .. } | Command::RunStart(_) => "run",
+            Command::Show(_) => "show",
+            Command::Select { .. } => "select",
+            Command::Critique(_) => "critique",
+            Command::Advise(_) => "advise",
+            Command::Preview(_) => "preview",
+            Command::Undo => "undo",
+            Command::Redo => "redo",
+            Command::History => "history",
+            Command::Rederive => "rederive",
+            Command::Eval { .. } => "eval",
+            Command::Learner(_) => "learner",
+            Command::Why(_) => "why",
+            Command::Plot { .. } => "plot",
+            Command::Save(_) => "save",
+            Command::Open(_) => "open",
+            Command::ExportAdvice(_) => "export",
+            Command::Help(_) => "help",
+            Command::Quit => "quit",
+        }
+    }
+
+    /// What `help` and hints know of it.
+    pub fn spec(&self) -> &'static CommandSpec {
+        command_spec(self.name()).expect("every command has a spec (tested)")
+    }
+}
+
 /// A session command as `help`, completion and hints know it: its word, its signature and its
 /// one-line help. Adding a command is one entry here (and its grammar rule and `Command` variant).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -81,124 +118,216 @@ pub struct CommandSpec {
     pub name: &'static str,
     pub signature: &'static str,
     pub doc: &'static str,
+    /// Where `help` lists it.
+    pub step: Step,
+    /// A statement that uses it (parsed by a test, so a spec cannot lose its grammar rule).
+    pub example: &'static str,
 }
 
-/// Every command, in the order hints try them.
+/// The teacher's workflow, in order: `help` lists the commands under these steps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    Demonstrate,
+    Run,
+    Select,
+    Correct,
+    TakeBack,
+    Measure,
+    Keep,
+    Session,
+}
+
+impl Step {
+    pub const ALL: [Step; 8] = [
+        Step::Demonstrate,
+        Step::Run,
+        Step::Select,
+        Step::Correct,
+        Step::TakeBack,
+        Step::Measure,
+        Step::Keep,
+        Step::Session,
+    ];
+
+    /// The step's heading in `help`.
+    pub fn label(self) -> &'static str {
+        match self {
+            Step::Demonstrate => "demonstrate",
+            Step::Run => "run",
+            Step::Select => "select",
+            Step::Correct => "correct",
+            Step::TakeBack => "take back",
+            Step::Measure => "measure",
+            Step::Keep => "keep",
+            Step::Session => "session",
+        }
+    }
+}
+
+/// Every command, in the order hints try them and `help` lists them within a step. A command is
+/// this entry, its rule in `grammar/session.pest` (`session_line`), its [`Command`] variant with
+/// [`Command::name`], and its arm in `Session::command`; the tests below fail when they disagree.
 pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "task",
         signature: "task positioning|interception",
         doc: "Switch task (positioning: A-OPI with LWR; interception: BC with 1-NN). Each task keeps its own dataset, executions and history.",
+        step: Step::Demonstrate,
+        example: "task interception",
     },
     CommandSpec {
         name: "backend",
-        signature: "backend sim|rmp:HOST:PORT",
-        doc: "Choose the robot: the simulator, or a Segway RMP at an address.",
+        signature: "backend sim|rmp:HOST:PORT|ros2",
+        doc: "Choose the robot: the simulator, a Segway RMP at an address, or a ROS 2 base on `cmd_vel` and `odom` (`ros2:/NS` under a namespace).",
+        step: Step::Run,
+        example: "backend sim",
     },
     CommandSpec {
         name: "load",
         signature: "load demos FILE | load trace FILE",
         doc: "Load demonstrations (a file, or `teacher:N` to record N teacher runs in the simulator) or a trace to advise.",
+        step: Step::Demonstrate,
+        example: "load demos teacher:5",
     },
     CommandSpec {
         name: "operators",
         signature: "operators FILE.adv",
         doc: "Check an operator file and add its operators on top of the standard ones.",
+        step: Step::Demonstrate,
+        example: "operators mine.adv",
     },
     CommandSpec {
         name: "run",
         signature: "run goal X Y THETA | run start N",
         doc: "Run the current policy to a goal (positioning) or from the N-th practice start, and record it.",
+        step: Step::Run,
+        example: "run goal 2 -1 0",
     },
     CommandSpec {
         name: "show",
         signature: "show [N]",
         doc: "Summarise the selected execution (or execution N), with a small plot.",
+        step: Step::Run,
+        example: "show 0",
     },
     CommandSpec {
         name: "select",
         signature: "select A..B [in N]",
         doc: "Select points A (inclusive) to B (exclusive) of the latest execution, or of execution N with `in N`; advise, critique, preview, why and plot act on it.",
-    },
-    CommandSpec {
-        name: "critique",
-        signature: "critique [KAPPA]",
-        doc: "Flag the selection as poor: the data points that recommended its actions are pushed away (BC).",
+        step: Step::Select,
+        example: "select 10..40 in 0",
     },
     CommandSpec {
         name: "advise",
         signature: "advise OP[(ARGS)]",
         doc: "Correct the selection with an advice operator: its points are synthesized and added (A-OPI).",
+        step: Step::Correct,
+        example: "advise speed_up(0.5)",
     },
     CommandSpec {
         name: "preview",
         signature: "preview OP[(ARGS)]",
         doc: "Show what `advise` would add, without adding it.",
+        step: Step::Correct,
+        example: "preview slow_down(rate = 0.3)",
+    },
+    CommandSpec {
+        name: "critique",
+        signature: "critique [KAPPA]",
+        doc: "Flag the selection as poor: the data points that recommended its actions are pushed away (BC).",
+        step: Step::Correct,
+        example: "critique 2",
     },
     CommandSpec {
         name: "undo",
         signature: "undo",
         doc: "Take back the last advice or critique, exactly.",
+        step: Step::TakeBack,
+        example: "undo",
     },
     CommandSpec {
         name: "redo",
         signature: "redo",
         doc: "Put back what `undo` took.",
+        step: Step::TakeBack,
+        example: "redo",
     },
     CommandSpec {
         name: "history",
         signature: "history",
         doc: "List the advice and critiques given so far.",
-    },
-    CommandSpec {
-        name: "rederive",
-        signature: "rederive",
-        doc: "Re-derive the policy from scratch (LWR is re-tuned by cross-validation).",
+        step: Step::TakeBack,
+        example: "history",
     },
     CommandSpec {
         name: "eval",
         signature: "eval [--detail]",
         doc: "Evaluate the policy on the task's fixed test set (never advised) and say what changed since the last eval; `--detail` lists the tests that changed outcome.",
+        step: Step::Measure,
+        example: "eval --detail",
+    },
+    CommandSpec {
+        name: "rederive",
+        signature: "rederive",
+        doc: "Re-derive the policy from scratch (LWR is re-tuned by cross-validation).",
+        step: Step::Measure,
+        example: "rederive",
     },
     CommandSpec {
         name: "learner",
         signature: "learner bc|lwr",
         doc: "Switch the running learner: `bc` (1-NN with critique weights) or `lwr` (locally weighted regression); the dataset is shared.",
+        step: Step::Measure,
+        example: "learner bc",
     },
     CommandSpec {
         name: "why",
         signature: "why T",
         doc: "Show which data points supported the action at point T, with their provenance.",
+        step: Step::Correct,
+        example: "why 12",
     },
     CommandSpec {
         name: "plot",
         signature: "plot [actions|compare] FILE [N M]",
         doc: "Write the selected execution's path as SVG, `plot actions FILE` its actions against point index, `plot compare FILE N M` executions N and M overlaid; selection, advice and critiques marked.",
+        step: Step::Run,
+        example: "plot actions path.svg",
     },
     CommandSpec {
         name: "save",
         signature: "save FILE.json|FILE.csv",
         doc: "Save the dataset with provenance (.json), or its points only (.csv).",
+        step: Step::Keep,
+        example: "save session.json",
     },
     CommandSpec {
         name: "open",
         signature: "open FILE.json",
         doc: "Open a dataset saved with `save`.",
+        step: Step::Keep,
+        example: "open session.json",
     },
     CommandSpec {
         name: "export",
         signature: "export advice FILE.csv",
         doc: "Write every advised point with its provenance as CSV.",
+        step: Step::Keep,
+        example: "export advice advice.csv",
     },
     CommandSpec {
         name: "help",
         signature: "help [COMMAND|OPERATOR]",
         doc: "Help on commands and operators.",
+        step: Step::Session,
+        example: "help advise",
     },
     CommandSpec {
         name: "quit",
         signature: "quit",
         doc: "Leave the session (the journal keeps everything).",
+        step: Step::Session,
+        example: "quit",
     },
 ];
 
@@ -405,6 +534,36 @@ impl Builder<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pieces of a command agree: each spec's example parses (its grammar rule exists) to a
+    /// command whose name is the spec's, each spec is listed under a step, each step has a
+    /// command, and names are unique.
+    #[test]
+    fn every_command_is_one_spec_one_rule_one_variant() {
+        for c in COMMANDS {
+            assert!(c.example.starts_with(c.name), "{c:?}");
+            assert!(c.signature.starts_with(c.name), "{c:?}");
+            assert!(!c.doc.is_empty(), "{c:?}");
+            let parsed = match parse_statement("<example>", c.example) {
+                Ok(Statement::Command(command, _)) => command,
+                other => panic!("the example of `{}` does not parse: {other:?}", c.name),
+            };
+            assert_eq!(parsed.name(), c.name, "{c:?}");
+            assert_eq!(parsed.spec().name, c.name);
+            assert_eq!(
+                COMMANDS.iter().filter(|o| o.name == c.name).count(),
+                1,
+                "`{}` twice",
+                c.name
+            );
+        }
+        for step in Step::ALL {
+            assert!(
+                COMMANDS.iter().any(|c| c.step == step),
+                "no command under {step:?}"
+            );
+        }
+    }
 
     fn cmd(src: &str) -> Command {
         match parse_statement("<test>", src) {
