@@ -75,7 +75,7 @@ fn repl(args: SessionArgs) -> miette::Result<ExitCode> {
 fn choose_backend(session: &mut Session, args: &SessionArgs) -> miette::Result<()> {
     if args.backend.trim() != "sim" {
         let reply = session.execute(&format!("backend {}", args.backend.trim()), "--backend")?;
-        eprintln!("{}", reply.text);
+        eprintln!("{reply}");
     }
     Ok(())
 }

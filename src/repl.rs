@@ -115,10 +115,11 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
                 signal.clear();
                 match session.execute(&line, &format!("<input {n}>")) {
                     Ok(reply) => {
-                        if !reply.text.is_empty() {
-                            println!("{}", reply.text.trim_end());
+                        let text = reply.to_string();
+                        if !text.is_empty() {
+                            println!("{}", text.trim_end());
                         }
-                        if reply.quit {
+                        if reply.is_quit() {
                             break;
                         }
                     }

@@ -19,6 +19,7 @@ mod help;
 pub mod journal;
 mod measure;
 pub mod plot;
+mod reply;
 mod run;
 pub mod script;
 mod text;
@@ -44,28 +45,12 @@ use effect::{Effect, Entry};
 use journal::Journal;
 
 pub use error::SessionError;
-use text::warnings_text;
+pub use reply::{Advised, Defined, Evaluated, Ran, Reply};
 use undo::Edit;
 
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met
 /// at unit scaled distance).
 pub const DEFAULT_KAPPA: f64 = 1.0;
-
-/// What a statement produced: text for the teacher, and whether the session should end.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Reply {
-    pub text: String,
-    pub quit: bool,
-}
-
-impl Reply {
-    fn text(text: impl Into<String>) -> Reply {
-        Reply {
-            text: text.into(),
-            quit: false,
-        }
-    }
-}
 
 /// How the session drives its robot.
 #[derive(Debug)]
@@ -358,7 +343,7 @@ impl Session {
         let statement = parse_statement(origin, text)?;
         self.statement = Some((text.trim_end().to_string(), origin.to_string()));
         let reply = match statement {
-            Statement::Empty => Ok(Reply::default()),
+            Statement::Empty => Ok(Reply::Nothing),
             Statement::Item(item) => self.define(item, text, origin),
             Statement::Command(cmd, _) => self.command(cmd),
         };
@@ -371,58 +356,57 @@ impl Session {
             origin: origin.to_string(),
             text: text.to_string(),
         })?;
-        Ok(Reply::text(
-            match item {
-                Item::Operator(op) => format!(
-                    "defined operator `{}` for {} (on {})",
-                    op.name.name, op.domain.name, op.space
-                ),
-                Item::Domain(d) => format!("defined domain `{}`", d.name.name),
-            } + &warnings_text(&std::mem::take(&mut self.warnings)),
-        ))
+        let warnings = std::mem::take(&mut self.warnings)
+            .iter()
+            .map(|w| crate::check::render(w))
+            .collect();
+        let item = match item {
+            Item::Operator(op) => Defined::Operator {
+                name: op.name.name,
+                domain: op.domain.name,
+                space: op.space,
+            },
+            Item::Domain(d) => Defined::Domain { name: d.name.name },
+        };
+        Ok(Reply::Defined { item, warnings })
     }
 
     fn command(&mut self, cmd: Command) -> Result<Reply, SessionError> {
         match cmd {
             Command::Task(name) => self.set_task(&name),
             Command::Backend(spec) => self.set_backend(&spec),
-            Command::LoadDemos(path) => self.load_demos(&path).map(Reply::text),
-            Command::LoadTrace(path) => self.load_trace(&path).map(Reply::text),
-            Command::Operators(path) => self.load_operators(&path).map(Reply::text),
+            Command::LoadDemos(path) => self.load_demos(&path).map(Reply::Message),
+            Command::LoadTrace(path) => self.load_trace(&path).map(Reply::Message),
+            Command::Operators(path) => self.load_operators(&path).map(Reply::Message),
             Command::RunGoal {
                 x_m,
                 y_m,
                 theta_rad,
-            } => self.run_goal(x_m, y_m, theta_rad).map(Reply::text),
-            Command::RunStart(n) => self.run_start(n).map(Reply::text),
-            Command::Show(n) => self.show(n).map(Reply::text),
+            } => self.run_goal(x_m, y_m, theta_rad),
+            Command::RunStart(n) => self.run_start(n),
+            Command::Show(n) => self.show(n).map(Reply::Message),
             Command::Select {
                 start,
                 end,
                 execution,
                 ..
-            } => self.select(start, end, execution).map(Reply::text),
-            Command::Critique(kappa) => self
-                .critique(kappa.unwrap_or(DEFAULT_KAPPA))
-                .map(Reply::text),
-            Command::Advise(inv) => self.advise(&inv).map(Reply::text),
-            Command::Preview(inv) => self.preview(&inv).map(Reply::text),
-            Command::Undo => self.undo().map(Reply::text),
-            Command::Redo => self.redo().map(Reply::text),
-            Command::History => Ok(Reply::text(self.history())),
-            Command::Rederive => self.rederive().map(Reply::text),
-            Command::Eval { detail } => self.eval(detail).map(Reply::text),
-            Command::Learner(name) => self.set_learner(&name).map(Reply::text),
-            Command::Why(t) => self.why(t).map(Reply::text),
-            Command::Plot { kind, path } => self.plot(kind, &path).map(Reply::text),
-            Command::Save(path) => self.save(&path).map(Reply::text),
-            Command::Open(path) => self.open(&path).map(Reply::text),
-            Command::ExportAdvice(path) => self.export_advice(&path).map(Reply::text),
-            Command::Help(topic) => self.help(topic.as_ref()).map(Reply::text),
-            Command::Quit => Ok(Reply {
-                text: String::new(),
-                quit: true,
-            }),
+            } => self.select(start, end, execution),
+            Command::Critique(kappa) => self.critique(kappa.unwrap_or(DEFAULT_KAPPA)),
+            Command::Advise(inv) => self.advise(&inv),
+            Command::Preview(inv) => self.preview(&inv).map(Reply::Message),
+            Command::Undo => self.undo().map(Reply::Message),
+            Command::Redo => self.redo().map(Reply::Message),
+            Command::History => Ok(Reply::Message(self.history())),
+            Command::Rederive => self.rederive().map(Reply::Message),
+            Command::Eval { detail } => self.eval(detail),
+            Command::Learner(name) => self.set_learner(&name).map(Reply::Message),
+            Command::Why(t) => self.why(t).map(Reply::Message),
+            Command::Plot { kind, path } => self.plot(kind, &path).map(Reply::Message),
+            Command::Save(path) => self.save(&path).map(Reply::Message),
+            Command::Open(path) => self.open(&path).map(Reply::Message),
+            Command::ExportAdvice(path) => self.export_advice(&path).map(Reply::Message),
+            Command::Help(topic) => self.help(topic.as_ref()).map(Reply::Message),
+            Command::Quit => Ok(Reply::Quit),
         }
     }
 
@@ -439,7 +423,7 @@ impl Session {
             }
         };
         if task == self.task {
-            return Ok(Reply::text(format!(
+            return Ok(Reply::Message(format!(
                 "already on task {task}: nothing changed ({} data points, {} executions)",
                 self.state.learner.len(),
                 self.state.executions.len()
@@ -448,7 +432,7 @@ impl Session {
         let fresh = !self.parked.iter().any(|(t, _)| *t == task);
         self.commit(Effect::Task { task })?;
         let st = &self.state;
-        Ok(Reply::text(if fresh {
+        Ok(Reply::Message(if fresh {
             format!(
                 "task {task}: an empty {} dataset; add demonstrations with `load demos FILE` or `load demos teacher:N`",
                 st.learner.kind_name()
@@ -545,7 +529,7 @@ impl Session {
         self.commit(Effect::Backend {
             spec: spec.trim().to_string(),
         })?;
-        Ok(Reply::text(reply))
+        Ok(Reply::Message(reply))
     }
 }
 

@@ -488,7 +488,7 @@ fn the_session_says_when_a_definition_shadows_a_standard_operator() {
     for st in script::statements(&lines) {
         out.push_str(&format!("advise> {}\n", st.text));
         match s.execute(&st.text, &format!("<line {}>", st.line)) {
-            Ok(r) => out.push_str(&format!("{}\n", r.text.trim_end())),
+            Ok(r) => out.push_str(&format!("{}\n", r.to_string().trim_end())),
             Err(e) => out.push_str(&advise::repl::render(s.sources(), &e, false)),
         }
     }

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use advise::backend::rmp::codec::OpState;
 use advise::backend::rmp::{Emulator, EmulatorConfig, EmulatorHandle};
 use advise::backend::sim::SimParams;
-use advise::session::{Session, SessionError, SessionOptions};
+use advise::session::{Reply, Session, SessionError, SessionOptions};
 
 fn emulator() -> EmulatorHandle {
     Emulator::bind_sim(
@@ -54,25 +54,25 @@ fn the_session_drives_the_rmp_and_ctrl_c_stops_it_keeping_the_execution() {
     let mut s = session();
     let reply = s
         .execute(&format!("backend rmp:{}", emu.addr()), "<test>")
-        .unwrap();
+        .unwrap()
+        .to_string();
     assert!(
-        reply.text.starts_with(&format!(
+        reply.starts_with(&format!(
             "backend rmp:{}: an RMP 220 in standby",
             emu.addr()
         )),
-        "{}",
-        reply.text
+        "{reply}"
     );
     assert!(s.status().contains(&format!("backend rmp:{}", emu.addr())));
 
     // A whole run to the README's goal, through the wire. (Whether the learned policy succeeds is
     // the policy's business; the run must happen, and the base must go where the trace says.)
     let reply = s.execute("run goal 2 -1 0.5", "<test>").unwrap();
-    assert!(
-        reply.text.starts_with("execution 0: run goal 2 -1 0.5:"),
-        "{}",
-        reply.text
-    );
+    let Reply::Ran(ran) = &reply else {
+        panic!("not a run: {reply:?}")
+    };
+    assert_eq!((ran.index, ran.label.as_str()), (0, "run goal 2 -1 0.5"));
+    assert!(ran.points > 0, "{reply}");
     let truth = emu.snapshot().true_pose;
     assert!(
         (truth.x_m - 2.0).abs() < 1.0 && (truth.y_m + 1.0).abs() < 1.0,
@@ -122,7 +122,7 @@ fn the_session_drives_the_rmp_and_ctrl_c_stops_it_keeping_the_execution() {
         raised_at.elapsed().as_secs_f64(),
         emu.snapshot()
     );
-    let shown = s.execute("show", "<test>").unwrap().text;
+    let shown = s.execute("show", "<test>").unwrap().to_string();
     assert!(
         shown.starts_with("execution 1: run goal 3 1 0 (interrupted)"),
         "{shown}"
@@ -131,9 +131,8 @@ fn the_session_drives_the_rmp_and_ctrl_c_stops_it_keeping_the_execution() {
     // The base drives again after an interruption, and `backend sim` lets it go.
     let reply = s.execute("run goal 1 0 0", "<test>").unwrap();
     assert!(
-        reply.text.starts_with("execution 2: run goal 1 0 0:"),
-        "{}",
-        reply.text
+        matches!(&reply, Reply::Ran(r) if r.index == 2 && r.label == "run goal 1 0 0"),
+        "{reply}"
     );
     s.execute("backend sim", "<test>").unwrap();
     assert!(s.status().contains("backend sim"));

@@ -2,7 +2,7 @@
 //! statements leave the dataset alone, that undo restores critique weights exactly, what the
 //! plot files hold. The transcripts themselves are cases in `sessions/` (see `sessions.rs`).
 
-use advise::session::{Session, SessionOptions, script};
+use advise::session::{Defined, Reply, Session, SessionOptions, script};
 use advise::task::TaskKind;
 
 mod common;
@@ -106,4 +106,48 @@ fn plots_of_the_selected_execution_and_their_diagnostics() {
     assert!(read("compare.svg").contains("after: execution 1"));
     assert!(read("noposes.svg").contains("trans command (m/s)"));
     assert!(!dir.path().join("none.svg").exists());
+}
+
+/// Replies are data: what a statement did can be read without parsing its text, and the text is
+/// the reply's rendering.
+#[test]
+fn replies_say_what_happened_as_data() {
+    let mut s = positioning(3);
+    let ran = s.execute("run goal 2 -1 0.5", "<test>").unwrap();
+    let Reply::Ran(r) = &ran else {
+        panic!("{ran:?}")
+    };
+    assert_eq!((r.index, r.label.as_str()), (0, "run goal 2 -1 0.5"));
+    assert!(r.points > 0 && !r.outcome.is_empty());
+    assert!(
+        ran.to_string()
+            .starts_with("execution 0: run goal 2 -1 0.5: ")
+    );
+
+    let selected = s.execute("select 10..30", "<test>").unwrap();
+    assert!(
+        matches!(selected, Reply::Selected { execution: 0, chunk } if (chunk.start, chunk.end) == (10, 30))
+    );
+    let before = s.learner().len();
+    let advised = s.execute("advise slow_down(0.3)", "<test>").unwrap();
+    let Reply::Advised(a) = &advised else {
+        panic!("{advised:?}")
+    };
+    assert_eq!(a.invocation, "slow_down(rate = 0.3)");
+    assert_eq!(a.added + a.skipped, 20);
+    assert_eq!(a.dataset, before + a.added);
+    assert_eq!(s.learner().len(), a.dataset);
+
+    let defined = s
+        .execute(
+            "operator creep for positioning on action { trans = 0.1 }",
+            "<test>",
+        )
+        .unwrap();
+    assert!(matches!(
+        defined,
+        Reply::Defined { item: Defined::Operator { ref name, .. }, ref warnings } if name == "creep" && warnings.is_empty()
+    ));
+    assert!(s.execute("quit", "<test>").unwrap().is_quit());
+    assert_eq!(s.execute("// a comment", "<test>").unwrap(), Reply::Nothing);
 }

@@ -7,7 +7,7 @@ use std::time::Instant;
 use super::effect::Effect;
 use super::text::{fmt_vec, short_num};
 use super::undo::Edit;
-use super::{MAX_KAPPA, Recorded, Session, SessionError};
+use super::{Advised, MAX_KAPPA, Recorded, Reply, Session, SessionError};
 use crate::policy::learner;
 use crate::trace::Chunk;
 use crate::{check, interp};
@@ -20,7 +20,7 @@ impl Session {
         start: usize,
         end: usize,
         execution: Option<usize>,
-    ) -> Result<String, SessionError> {
+    ) -> Result<Reply, SessionError> {
         let i = match execution {
             Some(n) => n,
             None => self
@@ -36,10 +36,10 @@ impl Session {
             execution: i,
             chunk,
         })?;
-        Ok(format!(
-            "selected {chunk} of execution {i} ({} points)",
-            chunk.len()
-        ))
+        Ok(Reply::Selected {
+            execution: i,
+            chunk,
+        })
     }
 
     /// Execution `n`, or a diagnostic naming the executions there are.
@@ -57,7 +57,7 @@ impl Session {
         Ok((i, chunk))
     }
 
-    pub(super) fn critique(&mut self, kappa: f64) -> Result<String, SessionError> {
+    pub(super) fn critique(&mut self, kappa: f64) -> Result<Reply, SessionError> {
         if !(kappa.is_finite() && kappa > 0.0 && kappa <= MAX_KAPPA) {
             return Err(SessionError::BadKappa {
                 kappa: short_num(kappa),
@@ -75,13 +75,17 @@ impl Session {
             kappa,
             increments: plan.increments.clone(),
         })?;
-        Ok(self.state.learner.critique_summary(chunk, &plan))
+        Ok(Reply::Critiqued {
+            execution: i,
+            chunk,
+            summary: self.state.learner.critique_summary(chunk, &plan),
+        })
     }
 
     pub(super) fn advise(
         &mut self,
         inv: &crate::syntax::Invocation,
-    ) -> Result<String, SessionError> {
+    ) -> Result<Reply, SessionError> {
         let (i, chunk) = self.selection()?;
         let started = Instant::now();
         let rec = &self.state.executions[i];
@@ -96,18 +100,15 @@ impl Session {
             source_index: syn.source_index,
             applied: syn.advice,
         })?;
-        let mut out =
-            format!("advised {chunk} of execution {i} with {invocation}: {points} points added");
-        if skipped > 0 {
-            let _ = write!(out, " ({skipped} skipped by the operator's guard)");
-        }
-        let _ = write!(
-            out,
-            "; the policy has {} points, ready in {:.1} ms",
-            self.state.learner.len(),
-            started.elapsed().as_secs_f64() * 1e3
-        );
-        Ok(out)
+        Ok(Reply::Advised(Advised {
+            execution: i,
+            chunk,
+            invocation,
+            added: points,
+            skipped,
+            dataset: self.state.learner.len(),
+            ready_ms: started.elapsed().as_secs_f64() * 1e3,
+        }))
     }
 
     pub(super) fn preview(&self, inv: &crate::syntax::Invocation) -> Result<String, SessionError> {

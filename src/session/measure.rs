@@ -1,11 +1,9 @@
 //! Measuring and choosing the policy: `rederive`, `eval`, `learner`.
 
-use std::fmt::Write as _;
 use std::time::Instant;
 
 use super::effect::Effect;
-use super::text::eval_change;
-use super::{BackendChoice, Session, SessionError};
+use super::{BackendChoice, Evaluated, Reply, Session, SessionError};
 use crate::backend::Backend;
 use crate::diag::did_you_mean;
 use crate::eval;
@@ -28,7 +26,7 @@ impl Session {
         ))
     }
 
-    pub(super) fn eval(&mut self, detail: bool) -> Result<String, SessionError> {
+    pub(super) fn eval(&mut self, detail: bool) -> Result<Reply, SessionError> {
         if self.state.learner.is_empty() {
             return Err(SessionError::EmptyPolicy { task: self.task });
         }
@@ -39,28 +37,23 @@ impl Session {
             progress: self.progress,
         };
         let report = eval::evaluate(self.task, self.state.learner.policy(), &opts);
-        let mut out = report.render();
-        match &self.state.last_eval {
-            Some(before) => out.push_str(&eval_change(before, &report, detail)),
-            None => out.push_str("  (the first evaluation of this task in the session: the next `eval` says what changed)\n"),
-        }
         // The whole test set on a robot takes minutes and needs room: not from the prompt.
         let robot = match &self.backend {
             BackendChoice::Sim(_) => None,
-            BackendChoice::Rmp { backend, .. } => Some(backend.name()),
-            BackendChoice::Ros2 { backend, .. } => Some(backend.name()),
+            BackendChoice::Rmp { backend, .. } => Some(backend.name().to_string()),
+            BackendChoice::Ros2 { backend, .. } => Some(backend.name().to_string()),
         };
-        if let Some(name) = robot {
-            let _ = writeln!(
-                out,
-                "(in the simulator; `advise eval --backend {name}` runs the test set on the robot)"
-            );
-        }
+        let before = self.state.last_eval.clone().map(Box::new);
         // Kept (and journalled) so the next `eval` can say what changed, after a resume too.
         self.commit(Effect::Evaluated {
-            report: Box::new(report),
+            report: Box::new(report.clone()),
         })?;
-        Ok(out)
+        Ok(Reply::Evaluated(Evaluated {
+            report: Box::new(report),
+            before,
+            detail,
+            robot,
+        }))
     }
 
     pub(super) fn set_learner(&mut self, name: &Ident) -> Result<String, SessionError> {

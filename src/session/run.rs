@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::effect::{Effect, ExecutionEntry, RunEntry};
 use super::text::{outcome_line, short_num, worth_a_look};
-use super::{BackendChoice, MAX_GOAL_M, Recorded, Session, SessionError, plot};
+use super::{BackendChoice, MAX_GOAL_M, Ran, Recorded, Reply, Session, SessionError, plot};
 use crate::backend::sim::{SimBackend, SimParams};
 use crate::backend::{Backend, Interruptible};
 use crate::syntax::command::PlotKind;
@@ -23,7 +23,7 @@ impl Session {
         }
     }
 
-    pub(super) fn run_goal(&mut self, x: f64, y: f64, theta: f64) -> Result<String, SessionError> {
+    pub(super) fn run_goal(&mut self, x: f64, y: f64, theta: f64) -> Result<Reply, SessionError> {
         if self.task != TaskKind::Positioning {
             return Err(SessionError::GoalForWrongTask);
         }
@@ -41,7 +41,7 @@ impl Session {
         )
     }
 
-    pub(super) fn run_start(&mut self, n: usize) -> Result<String, SessionError> {
+    pub(super) fn run_start(&mut self, n: usize) -> Result<Reply, SessionError> {
         let start = self.task.practice_start(self.seed, n as u64)?;
         let goal = match start {
             Start::Goal(g) => Some(g),
@@ -55,7 +55,7 @@ impl Session {
         start: Start,
         label: String,
         goal: Option<Pose>,
-    ) -> Result<String, SessionError> {
+    ) -> Result<Reply, SessionError> {
         if self.state.learner.is_empty() {
             return Err(SessionError::EmptyPolicy { task: self.task });
         }
@@ -120,14 +120,13 @@ impl Session {
                 error,
             });
         }
-        let mut out = format!("execution {index}: {label}: {n} points; {summary}");
-        if let Some((chunk, what)) = hint {
-            let _ = write!(
-                out,
-                "\nthe robot {what} most over {chunk}: `select {chunk}` to critique or advise it"
-            );
-        }
-        Ok(out)
+        Ok(Reply::Ran(Ran {
+            index,
+            label,
+            points: n,
+            outcome: summary,
+            worth_a_look: hint,
+        }))
     }
 
     pub(super) fn current(&self) -> Result<(usize, &Recorded), SessionError> {

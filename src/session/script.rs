@@ -85,11 +85,12 @@ pub fn replay(
                 });
                 if !comment_only {
                     writeln!(out, "advise> {}", st.text.trim_end())?;
-                    if !reply.text.is_empty() {
-                        writeln!(out, "{}", reply.text.trim_end())?;
+                    let text = reply.to_string();
+                    if !text.is_empty() {
+                        writeln!(out, "{}", text.trim_end())?;
                     }
                 }
-                if reply.quit {
+                if reply.is_quit() {
                     break;
                 }
             }

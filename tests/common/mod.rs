@@ -30,8 +30,9 @@ pub fn raw_transcript(session: &mut Session, lines: &str) -> String {
         out.push_str(&format!("advise> {}\n", st.text));
         match session.execute(&st.text, &format!("<line {}>", st.line)) {
             Ok(r) => {
-                if !r.text.is_empty() {
-                    out.push_str(r.text.trim_end());
+                let text = r.to_string();
+                if !text.is_empty() {
+                    out.push_str(text.trim_end());
                     out.push('\n');
                 }
             }
