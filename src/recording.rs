@@ -221,31 +221,37 @@ pub fn parse_csv_log(
     if report.rows == 0 {
         return Err(ImportError::Empty { path: path_buf() });
     }
-    let domain = Domain::positioning();
     let split = runs.len() > 1;
     let episodes: Vec<Episode> = runs
         .iter()
         .enumerate()
         .map(|(k, run)| {
-            let goal = options
-                .goal
-                .or_else(|| run.last().map(|r| r.1))
-                .unwrap_or(Pose::new(0.0, 0.0, 0.0));
-            let t0 = run.first().map_or(0.0, |r| r.0);
-            let mut trace = Trace::new(&domain);
-            for &(t, pose, v, w) in run {
-                trace.push(t - t0, &observe(goal, pose), &[v, w], Some(pose));
-            }
             let name = if split {
                 format!("{stem}.{}", k + 1)
             } else {
                 stem.to_string()
             };
-            Episode { name, trace }
+            episode(name, run, options.goal)
         })
         .collect();
     report.episodes = episodes.len();
     Ok((episodes, report))
+}
+
+/// One positioning demonstration from samples `(t, pose, v, w)`: times from the first sample,
+/// observations of each pose towards `goal` (the last pose when `None`), the commanded speeds as
+/// actions. What a CSV log's run and a recorded teleoperation become.
+pub fn episode(name: String, run: &[(f64, Pose, f64, f64)], goal: Option<Pose>) -> Episode {
+    let domain = Domain::positioning();
+    let goal = goal
+        .or_else(|| run.last().map(|r| r.1))
+        .unwrap_or(Pose::new(0.0, 0.0, 0.0));
+    let t0 = run.first().map_or(0.0, |r| r.0);
+    let mut trace = Trace::new(&domain);
+    for &(t, pose, v, w) in run {
+        trace.push(t - t0, &observe(goal, pose), &[v, w], Some(pose));
+    }
+    Episode { name, trace }
 }
 
 /// Write `episodes` as a demonstration file `load demos FILE` reads: JSON when `path` ends in

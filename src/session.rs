@@ -19,6 +19,7 @@ mod help;
 pub mod journal;
 mod measure;
 pub mod plot;
+mod record;
 mod reply;
 mod run;
 pub mod script;
@@ -407,6 +408,13 @@ impl Session {
             Command::ExportAdvice(path) => self.export_advice(&path).map(Reply::Message),
             Command::Help(topic) => self.help(topic.as_ref()).map(Reply::Message),
             Command::Quit => Ok(Reply::Quit),
+            Command::RecordDemo {
+                topic,
+                goal,
+                seconds,
+            } => self
+                .record_demo(topic.as_deref(), goal, seconds)
+                .map(Reply::Message),
         }
     }
 

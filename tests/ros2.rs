@@ -313,3 +313,64 @@ fn ros2_sim_is_driven_by_the_ros2_backend() {
         .expect("a count of commands");
     assert!(received > 30, "{stderr}");
 }
+
+/// `record demo`: a person's scripted teleoperation (the Cyclone peer publishing on `cmd_vel` as
+/// `teleop_twist_keyboard` would) becomes a demonstration whose actions are the script's.
+#[test]
+fn record_demo_keeps_a_scripted_teleoperation_as_a_demonstration() {
+    if !isolated_with_peer("record_demo_keeps_a_scripted_teleoperation_as_a_demonstration") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut peer = Peer::start(
+        dir.path(),
+        &[
+            "--teleop",
+            "0.4,0,2;0.3,0.5,2",
+            "--teleop-delay",
+            "3",
+            "--lifetime",
+            "60",
+        ],
+    );
+    let mut s = advise::session::Session::new(advise::session::SessionOptions::default()).unwrap();
+    s.execute("backend ros2", "<test>").unwrap();
+    let reply = s
+        .execute("record demo for 30", "<test>")
+        .unwrap()
+        .to_string();
+    peer.expect_line("done", Duration::from_secs(30));
+    assert!(
+        reply.starts_with("recorded demonstration `teleop 0` from /cmd_vel and /odom:"),
+        "{reply}"
+    );
+    assert!(
+        reply.contains("the commands stopped and the base came to rest"),
+        "{reply}"
+    );
+    let ds = s.learner().dataset();
+    assert_eq!(ds.demos().len(), 1);
+    let n = ds.len();
+    // 4 s of driving and 3 s at rest at the task's 30 Hz, give or take the link's timing.
+    assert!((150..=260).contains(&n), "{n} points: {reply}");
+    let a = |i: usize| (ds.a(i)[0], ds.a(i)[1]);
+    assert_eq!(a(0), (0.4, 0.0), "the first action is the first command");
+    assert_eq!(a(n / 10), (0.4, 0.0));
+    assert!(
+        (0..n).any(|i| a(i) == (0.3, 0.5)),
+        "the second command is recorded"
+    );
+    assert_eq!(a(n - 1), (0.0, 0.0), "it ends at rest");
+    // Positioning observations towards where the base stopped: the last is at the goal.
+    let z = ds.z(n - 1);
+    assert!(z[0].abs() < 0.05, "{z:?}");
+}
+
+/// `record demo` on the simulator is refused with the way to a ROS 2 base.
+#[test]
+fn record_demo_needs_a_ros2_backend() {
+    let mut s = advise::session::Session::new(advise::session::SessionOptions::default()).unwrap();
+    let err = s.execute("record demo", "<test>").unwrap_err();
+    let code = miette::Diagnostic::code(&err).map(|c| c.to_string());
+    assert_eq!(code.as_deref(), Some("advise::session::record_needs_ros2"));
+}

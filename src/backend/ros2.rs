@@ -29,6 +29,7 @@ use super::spec::Ros2Spec;
 
 pub mod driver;
 pub mod msg;
+pub mod record;
 pub mod robot;
 
 pub use driver::{Ros2Backend, Ros2StopHandle};

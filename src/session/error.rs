@@ -174,6 +174,43 @@ pub enum SessionError {
         #[diagnostic_source]
         error: BackendError,
     },
+    #[error("`record demo` listens to a ROS 2 base; this session drives `{backend}`")]
+    #[diagnostic(
+        code(advise::session::record_needs_ros2),
+        help(
+            "connect the base with `backend ros2` (or `ros2:/NAMESPACE`) first; a person driving the simulator or an RMP from this terminal is `teleop`, which is not built yet"
+        )
+    )]
+    RecordNeedsRos2 { backend: String },
+    #[error("`record demo` records positioning demonstrations; the task is {task}")]
+    #[diagnostic(
+        code(advise::session::record_task),
+        help(
+            "`task positioning` first: an interception demonstration needs the ball, which odometry does not see"
+        )
+    )]
+    RecordTask { task: TaskKind },
+    #[error("`for {seconds}` is not a recording time")]
+    #[diagnostic(
+        code(advise::session::record_time),
+        help("give the longest recording in seconds, more than 0 and at most 3600: `for 120`")
+    )]
+    RecordTime { seconds: String },
+    #[error("nothing to record: {heard} command(s) heard on `{topic}`")]
+    #[diagnostic(
+        code(advise::session::record_empty),
+        help(
+            "drive the base with your teleoperation while recording (its commands must reach `{topic}`; `from TOPIC` names another), and end it after some driving"
+        )
+    )]
+    RecordEmpty { topic: String, heard: u64 },
+    #[error("recording from the ROS 2 base failed")]
+    #[diagnostic(code(advise::session::record_failed))]
+    RecordFailed {
+        #[source]
+        #[diagnostic_source]
+        error: BackendError,
+    },
     #[error("nothing is known as `{topic}`")]
     #[diagnostic(code(advise::session::unknown_help), help("{help}"))]
     UnknownHelp { topic: String, help: String },

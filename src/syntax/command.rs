@@ -72,6 +72,12 @@ pub enum Command {
     ExportAdvice(String),
     Help(Option<Ident>),
     Quit,
+    /// `record demo [from TOPIC] [goal X Y THETA] [for SECONDS]`.
+    RecordDemo {
+        topic: Option<String>,
+        goal: Option<[f64; 3]>,
+        seconds: Option<f64>,
+    },
 }
 
 impl Command {
@@ -102,6 +108,7 @@ impl Command {
             Command::ExportAdvice(_) => "export",
             Command::Help(_) => "help",
             Command::Quit => "quit",
+            Command::RecordDemo { .. } => "record",
         }
     }
 
@@ -323,6 +330,13 @@ pub const COMMANDS: &[CommandSpec] = &[
         example: "help advise",
     },
     CommandSpec {
+        name: "record",
+        signature: "record demo [from TOPIC] [for S]",
+        doc: "Record a person driving the ROS 2 base with their own teleoperation (commands on TOPIC, default `cmd_vel`) until Ctrl-C, S seconds, or 3 s without a moving command with the base at rest; added as a demonstration whose goal is where the base stopped (`goal X Y THETA` gives one).",
+        step: Step::Demonstrate,
+        example: "record demo from teleop/cmd_vel goal 2 -1 0 for 60",
+    },
+    CommandSpec {
         name: "quit",
         signature: "quit",
         doc: "Leave the session (the journal keeps everything).",
@@ -384,6 +398,31 @@ pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
                 end,
                 span: rspan,
                 execution: next().map(|n| b.uint(n)).transpose()?,
+            }
+        }
+        Rule::c_record_demo => {
+            let (mut topic, mut goal, mut seconds) = (None, None, None);
+            while let Some(opt) = next() {
+                let rule = opt.as_rule();
+                let mut parts = opt
+                    .into_inner()
+                    .filter(|a| !format!("{:?}", a.as_rule()).starts_with("cw_"));
+                match rule {
+                    Rule::record_from => topic = parts.next().map(|t| t.as_str().to_string()),
+                    Rule::record_goal => {
+                        let mut v = [0.0; 3];
+                        for slot in &mut v {
+                            *slot = b.signed(req(parts.next()))?;
+                        }
+                        goal = Some(v);
+                    }
+                    _ => seconds = parts.next().map(|n| b.signed(n)).transpose()?,
+                }
+            }
+            Command::RecordDemo {
+                topic,
+                goal,
+                seconds,
             }
         }
         Rule::c_critique => Command::Critique(next().map(|k| b.signed(k)).transpose()?),

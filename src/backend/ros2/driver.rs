@@ -46,7 +46,7 @@ pub struct OdomSample {
 }
 
 impl OdomSample {
-    fn from_msg(o: &Odometry, received: Instant) -> OdomSample {
+    pub(super) fn from_msg(o: &Odometry, received: Instant) -> OdomSample {
         OdomSample {
             pose: o.planar_pose(),
             speed_mps: o.twist.twist.linear.x,
