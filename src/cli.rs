@@ -232,6 +232,12 @@ pub struct EvalArgs {
         value_name = "sim|rmp:HOST:PORT|ros2[:NS]"
     )]
     pub backend: String,
+    /// A ROS 2 base's command topic (as `?cmd=` in the spec): `--cmd-topic teleop/cmd_vel`.
+    #[arg(long, value_name = "TOPIC")]
+    pub cmd_topic: Option<String>,
+    /// A ROS 2 base's odometry topic (as `?odom=` in the spec): `--odom-topic /robot1/odom`.
+    #[arg(long, value_name = "TOPIC")]
+    pub odom_topic: Option<String>,
     /// Run only the first N starts of the test set (a quick check on a real base).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     pub limit: Option<u64>,
@@ -258,6 +264,125 @@ pub enum CliError {
         )
     )]
     NoDataset { policy: &'static str },
+    #[error("`--{flag}` names a ROS 2 topic, but the backend is `{backend}`")]
+    #[diagnostic(
+        code(advise::cli::topic_without_ros2),
+        help("topics belong to a ROS 2 base: `--backend ros2` (or `ros2:/NAMESPACE`) with it")
+    )]
+    TopicWithoutRos2 { flag: &'static str, backend: String },
+    #[error("`--{flag} {flag_topic}` and the spec's `{key}={spec_topic}` disagree")]
+    #[diagnostic(
+        code(advise::cli::topic_conflict),
+        help("name the topic once: in the flag or in the spec")
+    )]
+    TopicConflict {
+        flag: &'static str,
+        flag_topic: String,
+        key: &'static str,
+        spec_topic: String,
+    },
+    #[error("`{topic}` is not a topic name")]
+    #[diagnostic(
+        code(advise::cli::bad_topic),
+        help("a ROS 2 topic has no spaces, `?` or `&`: `cmd_vel`, `/robot1/odom`")
+    )]
+    BadTopic { topic: String },
+}
+
+/// `--backend` with `--cmd-topic` and `--odom-topic` folded into a ROS 2 spec's options
+/// (`ros2:/r1` and `--cmd-topic teleop/cmd_vel` give `ros2:/r1?cmd=teleop/cmd_vel`). A flag that
+/// repeats the spec's own option is accepted; one that contradicts it, or a topic flag with a
+/// backend that is not ROS 2, is refused.
+pub fn backend_with_topics(
+    backend: &str,
+    cmd_topic: Option<&str>,
+    odom_topic: Option<&str>,
+) -> Result<String, CliError> {
+    let backend = backend.trim();
+    let flags = [
+        ("cmd-topic", "cmd", cmd_topic),
+        ("odom-topic", "odom", odom_topic),
+    ];
+    let ros2 = backend == "ros2" || backend.starts_with("ros2:") || backend.starts_with("ros2?");
+    let mut spec = backend.to_string();
+    for (flag, key, topic) in flags {
+        let Some(topic) = topic else { continue };
+        if !ros2 {
+            return Err(CliError::TopicWithoutRos2 {
+                flag,
+                backend: backend.to_string(),
+            });
+        }
+        if topic.is_empty() || topic.contains(|c: char| c.is_whitespace() || c == '?' || c == '&') {
+            return Err(CliError::BadTopic {
+                topic: topic.to_string(),
+            });
+        }
+        let query = spec.split_once('?').map_or("", |(_, q)| q);
+        let given = query
+            .split('&')
+            .find_map(|kv| kv.strip_prefix(key).and_then(|r| r.strip_prefix('=')));
+        match given {
+            Some(same) if same == topic => {}
+            Some(other) => {
+                return Err(CliError::TopicConflict {
+                    flag,
+                    flag_topic: topic.to_string(),
+                    key,
+                    spec_topic: other.to_string(),
+                });
+            }
+            None => {
+                spec.push(if spec.contains('?') { '&' } else { '?' });
+                spec.push_str(&format!("{key}={topic}"));
+            }
+        }
+    }
+    Ok(spec)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn topic_flags_fold_into_a_ros2_spec() {
+        let f = |b: &str, c: Option<&str>, o: Option<&str>| backend_with_topics(b, c, o);
+        assert_eq!(
+            f("ros2", Some("teleop/cmd_vel"), None).unwrap(),
+            "ros2?cmd=teleop/cmd_vel"
+        );
+        assert_eq!(
+            f("ros2:/r1?domain=3", None, Some("/r1/odom")).unwrap(),
+            "ros2:/r1?domain=3&odom=/r1/odom"
+        );
+        assert_eq!(f("ros2?cmd=a", Some("a"), None).unwrap(), "ros2?cmd=a");
+        assert_eq!(f("sim", None, None).unwrap(), "sim");
+        assert!(matches!(
+            f("ros2?cmd=a", Some("b"), None),
+            Err(CliError::TopicConflict { .. })
+        ));
+        assert!(matches!(
+            f("sim", Some("a"), None),
+            Err(CliError::TopicWithoutRos2 { .. })
+        ));
+        assert!(matches!(
+            f("ros2", None, Some("a b")),
+            Err(CliError::BadTopic { .. })
+        ));
+        // The folded spec is one the backend parser reads, with the topics in place.
+        let spec: crate::backend::BackendSpec = f("ros2:/r1", Some("teleop/cmd_vel"), Some("/o"))
+            .unwrap()
+            .parse()
+            .unwrap();
+        let crate::backend::BackendSpec::Ros2(r) = spec else {
+            panic!("{spec:?}")
+        };
+        assert_eq!(
+            (r.cmd().as_str(), r.odom().as_str()),
+            ("/r1/teleop/cmd_vel", "/o")
+        );
+    }
 }
 
 /// How a session starts.
@@ -275,14 +400,20 @@ pub struct SessionArgs {
     /// Do not keep a journal.
     #[arg(long)]
     pub no_journal: bool,
-    /// The base to drive: `sim`, or `rmp:HOST:PORT` for a Segway RMP (or `advise rmp-emulator`);
-    /// the same as the session command `backend`.
+    /// The base to drive: `sim`, `rmp:HOST:PORT` for a Segway RMP (or `advise rmp-emulator`), or
+    /// `ros2[:NS][?options]` for a ROS 2 base; the same as the session command `backend`.
     #[arg(
         long,
         default_value = "sim",
         value_name = "sim|rmp:HOST:PORT|ros2[:NS]"
     )]
     pub backend: String,
+    /// A ROS 2 base's command topic (as `?cmd=` in the spec): `--cmd-topic teleop/cmd_vel`.
+    #[arg(long, value_name = "TOPIC")]
+    pub cmd_topic: Option<String>,
+    /// A ROS 2 base's odometry topic (as `?odom=` in the spec): `--odom-topic /robot1/odom`.
+    #[arg(long, value_name = "TOPIC")]
+    pub odom_topic: Option<String>,
 }
 
 impl Default for SessionArgs {
@@ -293,6 +424,8 @@ impl Default for SessionArgs {
             demos: 9,
             no_journal: false,
             backend: "sim".into(),
+            cmd_topic: None,
+            odom_topic: None,
         }
     }
 }

@@ -73,8 +73,13 @@ fn repl(args: SessionArgs) -> miette::Result<ExitCode> {
 /// `--backend`: the same as the statement `backend SPEC` (journalled, so a resume can say which
 /// base the session was on; a resume never connects).
 fn choose_backend(session: &mut Session, args: &SessionArgs) -> miette::Result<()> {
-    if args.backend.trim() != "sim" {
-        let reply = session.execute(&format!("backend {}", args.backend.trim()), "--backend")?;
+    let backend = cli::backend_with_topics(
+        &args.backend,
+        args.cmd_topic.as_deref(),
+        args.odom_topic.as_deref(),
+    )?;
+    if backend != "sim" {
+        let reply = session.execute(&format!("backend {backend}"), "--backend")?;
         eprintln!("{reply}");
     }
     Ok(())

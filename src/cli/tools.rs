@@ -46,7 +46,12 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
 /// `advise eval`: run a policy (or the teacher) over the task's test set and print the report.
 pub fn eval(args: EvalArgs) -> miette::Result<()> {
     let kind = args.task;
-    let backend: BackendSpec = args.backend.parse()?;
+    let backend: BackendSpec = crate::cli::backend_with_topics(
+        &args.backend,
+        args.cmd_topic.as_deref(),
+        args.odom_topic.as_deref(),
+    )?
+    .parse()?;
     let opts = EvalOptions {
         seed: args.seed,
         params: sim_params(args.sim_params.as_deref())?,
