@@ -16,6 +16,7 @@ pub mod rmp;
 pub mod ros2;
 pub mod sim;
 pub mod spec;
+pub mod teleop;
 
 pub use interrupt::{BaseStop, Interruptible, StopSignal};
 pub use spec::{BackendSpec, BackendSpecError};

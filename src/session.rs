@@ -415,6 +415,7 @@ impl Session {
             } => self
                 .record_demo(topic.as_deref(), goal, seconds)
                 .map(Reply::Message),
+            Command::Teleop { goal, seconds } => self.teleop(goal, seconds).map(Reply::Message),
         }
     }
 

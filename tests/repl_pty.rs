@@ -41,3 +41,49 @@ fn the_repl_completes_runs_advises_and_undoes() -> Result<(), rexpect::error::Er
     p.exp_eof()?;
     Ok(())
 }
+
+/// `teleop` in the real REPL on the simulator: keys typed at the terminal drive the base in real
+/// time and the drive is kept as a demonstration.
+#[cfg(unix)]
+#[test]
+fn teleop_drives_the_simulator_from_the_keys_and_keeps_a_demonstration()
+-> Result<(), rexpect::error::Error> {
+    let home = tempfile::tempdir().unwrap();
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_advise"));
+    cmd.args(["repl", "--demos", "0"])
+        .env("ADVISE_HOME", home.path())
+        .env("NO_COLOR", "1")
+        .env("TERM", "xterm");
+    let mut p = rexpect::session::spawn_command(cmd, Some(60_000))?;
+    p.exp_string("advise> ")?;
+    p.send_line("teleop for 20")?;
+    p.exp_string("Enter or q ends")?;
+    // Three steps of speed, held, then a turn, then stop and end.
+    p.send("www")?;
+    p.flush()?;
+    p.exp_string("speed +0.30 m/s, turn +0.00 rad/s")?;
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    p.send("a")?;
+    p.flush()?;
+    p.exp_string("turn +0.10 rad/s")?;
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    p.send(" ")?;
+    p.flush()?;
+    p.exp_string("speed +0.00 m/s, turn +0.00 rad/s")?;
+    p.send("q")?;
+    p.flush()?;
+    let (_, shown) =
+        p.exp_regex(r"recorded demonstration `teleop 0` driven from the terminal: (\d+) points")?;
+    let points: usize = shown
+        .rsplit(": ")
+        .next()
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(0);
+    // About two seconds at 30 Hz between the first key and the end.
+    assert!((40..=200).contains(&points), "{shown}");
+    p.exp_string("advise> ")?;
+    p.send_line("quit")?;
+    p.exp_eof()?;
+    Ok(())
+}

@@ -374,3 +374,39 @@ fn record_demo_needs_a_ros2_backend() {
     let code = miette::Diagnostic::code(&err).map(|c| c.to_string());
     assert_eq!(code.as_deref(), Some("advise::session::record_needs_ros2"));
 }
+
+/// `teleop`'s drive on a ROS 2 base (keys scripted here; the REPL reads them from the terminal):
+/// the robot receives the held commands, clamped, and zero last.
+#[test]
+fn teleop_drives_the_cyclone_robot_and_ends_at_zero() {
+    use advise::backend::teleop::{DriveEnd, Key, ScriptedKeys, Teleop, drive};
+    if !isolated_with_peer("teleop_drives_the_cyclone_robot_and_ends_at_zero") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::start(dir.path(), &[]);
+    let mut base = connect("ros2").expect("connects");
+    // Twenty speed steps ask for 2 m/s; the task's limit is 1 m/s.
+    let mut script: Vec<(usize, Key)> = (0..20).map(|_| (0, Key::Faster)).collect();
+    script.extend([(30, Key::Left), (45, Key::End)]);
+    let mut keys = ScriptedKeys::new(script);
+    let d = drive(
+        &mut base,
+        &mut keys,
+        &mut Teleop::new(1.0, 1.0),
+        &advise::backend::StopSignal::new(),
+        10.0,
+        false,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!((d.end, d.samples.len()), (DriveEnd::Ended, 45));
+    assert!(peer.wait_for(Duration::from_secs(2), |c| {
+        c.iter().any(|l| l.1 == 1.0 && l.2 == 0.1)
+    }));
+    assert!(
+        peer.commands().iter().all(|l| l.1 <= 1.0),
+        "a command past the limit reached the robot"
+    );
+    assert_last_is_zero(&peer);
+}

@@ -178,11 +178,11 @@ pub enum SessionError {
     #[diagnostic(
         code(advise::session::record_needs_ros2),
         help(
-            "connect the base with `backend ros2` (or `ros2:/NAMESPACE`) first; a person driving the simulator or an RMP from this terminal is `teleop`, which is not built yet"
+            "connect the base with `backend ros2` (or `ros2:/NAMESPACE`) first; on any base, `teleop` records you driving it from this terminal's keys"
         )
     )]
     RecordNeedsRos2 { backend: String },
-    #[error("`record demo` records positioning demonstrations; the task is {task}")]
+    #[error("recorded drives are positioning demonstrations; the task is {task}")]
     #[diagnostic(
         code(advise::session::record_task),
         help(
@@ -204,6 +204,20 @@ pub enum SessionError {
         )
     )]
     RecordEmpty { topic: String, heard: u64 },
+    #[error("`teleop` reads keys from a terminal; this session has none")]
+    #[diagnostic(
+        code(advise::session::teleop_needs_terminal),
+        help(
+            "run it in the REPL (`advise` or `advise repl`); a script can load demonstrations with `load demos FILE`, or record a person driving a ROS 2 base with `record demo`"
+        )
+    )]
+    TeleopNeedsTerminal,
+    #[error("the drive never moved the base: nothing to keep")]
+    #[diagnostic(
+        code(advise::session::teleop_empty),
+        help("up/w starts driving, left/a and right/d turn; Enter ends")
+    )]
+    TeleopEmpty,
     #[error("recording from the ROS 2 base failed")]
     #[diagnostic(code(advise::session::record_failed))]
     RecordFailed {

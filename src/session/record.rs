@@ -8,9 +8,15 @@ use std::f64::consts::PI;
 use super::effect::{DemoEpisode, Effect};
 use super::text::short_num;
 use super::{BackendChoice, MAX_GOAL_M, Session, SessionError};
+use std::io::IsTerminal;
+
+use crate::backend::Backend;
 use crate::backend::ros2::record::{Ended, RecordOptions, record_teleop};
+use crate::backend::sim::SimBackend;
+use crate::backend::teleop::{DriveEnd, KEYS_HELP, Teleop, TerminalKeys, drive};
 use crate::geometry::Pose;
 use crate::task::TaskKind;
+use crate::task::episode_seed;
 
 /// The longest recording `for` accepts, and the default, in seconds.
 pub const MAX_RECORD_S: f64 = 3600.0;
@@ -33,24 +39,7 @@ impl Session {
                 backend: self.backend_name(),
             });
         };
-        let max_s = seconds.unwrap_or(DEFAULT_RECORD_S);
-        if !(max_s.is_finite() && max_s > 0.0 && max_s <= MAX_RECORD_S) {
-            return Err(SessionError::RecordTime {
-                seconds: short_num(max_s),
-            });
-        }
-        let goal = match goal {
-            Some([x, y, theta]) => {
-                let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
-                if !(within(x, MAX_GOAL_M) && within(y, MAX_GOAL_M) && within(theta, 2.0 * PI)) {
-                    return Err(SessionError::BadGoal {
-                        goal: [x, y, theta].map(short_num).join(", "),
-                    });
-                }
-                Some(Pose::new(x, y, theta))
-            }
-            None => None,
-        };
+        let (max_s, goal) = checked_limits(goal, seconds)?;
         let spec = backend.spec().clone();
         let opts = RecordOptions {
             teleop_topic: topic.unwrap_or("cmd_vel").to_string(),
@@ -68,9 +57,11 @@ impl Session {
                 heard: rec.commands_heard,
             });
         }
-        let number = self.state.learner.dataset().demos().len();
-        let episode = crate::recording::episode(format!("teleop {number}"), &rec.samples, goal);
-        let points = episode.trace.len();
+        let (name, points) = self.add_driven_demo(
+            &rec.samples,
+            goal,
+            format!("record demo from {}", rec.teleop_topic),
+        )?;
         let secs = rec.samples.last().map_or(0.0, |s| s.0);
         let ended = match rec.ended {
             Ended::Stopped => "ended by you",
@@ -78,20 +69,129 @@ impl Session {
             Ended::TimeLimit => "the time limit",
             Ended::LinkLost => "odometry went stale; what came before is kept",
         };
-        self.commit(Effect::Demos {
-            source: format!("record demo from {}", rec.teleop_topic),
-            episodes: vec![DemoEpisode {
-                name: episode.name.clone(),
-                trace: episode.trace.to_json(),
-            }],
-        })?;
         Ok(format!(
-            "recorded demonstration `{}` from {} and {}: {points} points over {secs:.1} s ({ended}); the {} policy now has {} points",
-            episode.name,
+            "recorded demonstration `{name}` from {} and {}: {points} points over {secs:.1} s ({ended}); the {} policy now has {} points",
             rec.teleop_topic,
             rec.odom_topic,
             self.state.learner.kind_name(),
             self.state.learner.len(),
         ))
     }
+
+    /// `teleop`: drive the base from this terminal's keys and keep the drive as a demonstration.
+    pub(super) fn teleop(
+        &mut self,
+        goal: Option<[f64; 3]>,
+        seconds: Option<f64>,
+    ) -> Result<String, SessionError> {
+        if self.task != TaskKind::Positioning {
+            return Err(SessionError::RecordTask { task: self.task });
+        }
+        let (max_s, goal) = checked_limits(goal, seconds)?;
+        if !std::io::stdin().is_terminal() {
+            return Err(SessionError::TeleopNeedsTerminal);
+        }
+        let params = self.sim_params();
+        let mut teleop = Teleop::new(params.max_speed_mps, params.max_rot_radps);
+        let mut keys =
+            TerminalKeys::open().map_err(|error| SessionError::RecordFailed { error })?;
+        eprint!("teleop on {}: {KEYS_HELP}\r\n", self.backend_name());
+        let mut show = |t: &Teleop| {
+            eprint!(
+                "\r  speed {:+.2} m/s, turn {:+.2} rad/s (steps of {:.0}%)      ",
+                t.speed_mps,
+                t.rot_radps,
+                t.step_fraction * 100.0
+            );
+        };
+        self.stop.clear();
+        let seed = episode_seed(self.seed, 2_000_000 + self.state.runs);
+        let mut sim;
+        let (base, real_time): (&mut dyn Backend, bool) = match &mut self.backend {
+            BackendChoice::Sim(_) => {
+                sim = SimBackend::new(params, seed);
+                (&mut sim, true)
+            }
+            BackendChoice::Rmp { backend, .. } => (backend.as_mut(), false),
+            BackendChoice::Ros2 { backend, .. } => (backend.as_mut(), false),
+        };
+        let drive = drive(
+            base,
+            &mut keys,
+            &mut teleop,
+            &self.stop,
+            max_s,
+            real_time,
+            &mut show,
+        );
+        drop(keys);
+        eprintln!();
+        self.stop.clear();
+        let drive = drive.map_err(|error| SessionError::RecordFailed { error })?;
+        // The demonstration starts at the first key that moved the base, as `record demo`'s.
+        let Some(first) = drive.samples.iter().position(|s| s.2 != 0.0 || s.3 != 0.0) else {
+            return Err(SessionError::TeleopEmpty);
+        };
+        let samples = &drive.samples[first..];
+        let (name, points) = self.add_driven_demo(samples, goal, "teleop".into())?;
+        let secs = samples.last().map_or(0.0, |s| s.0) - samples[0].0;
+        let ended = match drive.end {
+            DriveEnd::Ended => "ended by you",
+            DriveEnd::Stopped => "stopped by Ctrl-C",
+            DriveEnd::TimeLimit => "the time limit",
+        };
+        Ok(format!(
+            "recorded demonstration `{name}` driven from the terminal: {points} points over {secs:.1} s ({ended}); the {} policy now has {} points",
+            self.state.learner.kind_name(),
+            self.state.learner.len(),
+        ))
+    }
+
+    /// A driven recording as the next demonstration (`teleop N`), journalled; its name and size.
+    fn add_driven_demo(
+        &mut self,
+        samples: &[(f64, Pose, f64, f64)],
+        goal: Option<Pose>,
+        source: String,
+    ) -> Result<(String, usize), SessionError> {
+        let number = self.state.learner.dataset().demos().len();
+        let episode = crate::recording::episode(format!("teleop {number}"), samples, goal);
+        let points = episode.trace.len();
+        let name = episode.name.clone();
+        self.commit(Effect::Demos {
+            source,
+            episodes: vec![DemoEpisode {
+                name: episode.name,
+                trace: episode.trace.to_json(),
+            }],
+        })?;
+        Ok((name, points))
+    }
+}
+
+/// The time limit (default [`DEFAULT_RECORD_S`]) and the goal of a recorded demonstration,
+/// checked.
+fn checked_limits(
+    goal: Option<[f64; 3]>,
+    seconds: Option<f64>,
+) -> Result<(f64, Option<Pose>), SessionError> {
+    let max_s = seconds.unwrap_or(DEFAULT_RECORD_S);
+    if !(max_s.is_finite() && max_s > 0.0 && max_s <= MAX_RECORD_S) {
+        return Err(SessionError::RecordTime {
+            seconds: short_num(max_s),
+        });
+    }
+    let goal = match goal {
+        Some([x, y, theta]) => {
+            let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
+            if !(within(x, MAX_GOAL_M) && within(y, MAX_GOAL_M) && within(theta, 2.0 * PI)) {
+                return Err(SessionError::BadGoal {
+                    goal: [x, y, theta].map(short_num).join(", "),
+                });
+            }
+            Some(Pose::new(x, y, theta))
+        }
+        None => None,
+    };
+    Ok((max_s, goal))
 }

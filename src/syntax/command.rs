@@ -78,6 +78,11 @@ pub enum Command {
         goal: Option<[f64; 3]>,
         seconds: Option<f64>,
     },
+    /// `teleop [goal X Y THETA] [for SECONDS]`.
+    Teleop {
+        goal: Option<[f64; 3]>,
+        seconds: Option<f64>,
+    },
 }
 
 impl Command {
@@ -109,6 +114,7 @@ impl Command {
             Command::Help(_) => "help",
             Command::Quit => "quit",
             Command::RecordDemo { .. } => "record",
+            Command::Teleop { .. } => "teleop",
         }
     }
 
@@ -337,6 +343,13 @@ pub const COMMANDS: &[CommandSpec] = &[
         example: "record demo from teleop/cmd_vel goal 2 -1 0 for 60",
     },
     CommandSpec {
+        name: "teleop",
+        signature: "teleop [for S]",
+        doc: "Drive the base (any backend) from this terminal's keys: up/w and down/s speed, left/a and right/d turn, space stops, +/- scale the steps, Enter or q ends; kept as a demonstration whose goal is where the base stopped (`goal X Y THETA` gives one).",
+        step: Step::Demonstrate,
+        example: "teleop goal 2 -1 0 for 60",
+    },
+    CommandSpec {
         name: "quit",
         signature: "quit",
         doc: "Leave the session (the journal keeps everything).",
@@ -400,7 +413,7 @@ pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
                 execution: next().map(|n| b.uint(n)).transpose()?,
             }
         }
-        Rule::c_record_demo => {
+        Rule::c_record_demo | Rule::c_teleop => {
             let (mut topic, mut goal, mut seconds) = (None, None, None);
             while let Some(opt) = next() {
                 let rule = opt.as_rule();
@@ -419,10 +432,14 @@ pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
                     _ => seconds = parts.next().map(|n| b.signed(n)).transpose()?,
                 }
             }
-            Command::RecordDemo {
-                topic,
-                goal,
-                seconds,
+            if rule == Rule::c_teleop {
+                Command::Teleop { goal, seconds }
+            } else {
+                Command::RecordDemo {
+                    topic,
+                    goal,
+                    seconds,
+                }
             }
         }
         Rule::c_critique => Command::Critique(next().map(|k| b.signed(k)).transpose()?),

@@ -1,0 +1,388 @@
+//! Driving a base from the keyboard: a person's demonstration on any backend (the simulator, an
+//! RMP, a ROS 2 base).
+//!
+//! [`Teleop`] is the state machine, with no terminal in it: keys in, a held command out. Up/`w`
+//! and down/`s` step the speed, left/`a` and right/`d` step the turn rate, space stops, `+`/`-`
+//! scale the steps, Enter or `q` ends. Every command is clamped to the base's limits before it is
+//! sent, and the base's own safety rules (its watchdog, zero at the end) still hold. [`drive`]
+//! runs it on a [`Backend`] at the base's rate with keys from a [`KeySource`]: the terminal's
+//! ([`TerminalKeys`], raw mode through crossterm, restored on drop) or a script (tests).
+//! A key that is not repeated leaves the command held, as a base holds its last `cmd_vel`;
+//! space or Ctrl-C brings it to zero.
+
+use std::time::{Duration, Instant};
+
+use super::{Backend, BackendError, StopSignal};
+use crate::geometry::Pose;
+
+/// A key that means something to [`Teleop`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Key {
+    Faster,
+    Slower,
+    Left,
+    Right,
+    Stop,
+    ScaleUp,
+    ScaleDown,
+    End,
+}
+
+impl Key {
+    /// The key a character stands for (`w`, `a`, `s`, `d`, space, `+`, `-`, `q`), if any.
+    pub fn from_char(c: char) -> Option<Key> {
+        Some(match c.to_ascii_lowercase() {
+            'w' => Key::Faster,
+            's' => Key::Slower,
+            'a' => Key::Left,
+            'd' => Key::Right,
+            ' ' => Key::Stop,
+            '+' | '=' => Key::ScaleUp,
+            '-' | '_' => Key::ScaleDown,
+            'q' | '\n' | '\r' => Key::End,
+            _ => return None,
+        })
+    }
+}
+
+/// The keys' meaning, for the prompt.
+pub const KEYS_HELP: &str = "up/w faster, down/s slower, left/a and right/d turn, space stops, +/- scale the steps, Enter or q ends";
+
+/// The teleoperation state: the command held and the step size.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Teleop {
+    pub max_speed_mps: f64,
+    pub max_rot_radps: f64,
+    /// A step is this fraction of the limit (scaled by `+`/`-` between 0.05 and 0.5).
+    pub step_fraction: f64,
+    pub speed_mps: f64,
+    pub rot_radps: f64,
+    pub ended: bool,
+}
+
+impl Teleop {
+    pub fn new(max_speed_mps: f64, max_rot_radps: f64) -> Teleop {
+        Teleop {
+            max_speed_mps: max_speed_mps.abs(),
+            max_rot_radps: max_rot_radps.abs(),
+            step_fraction: 0.1,
+            speed_mps: 0.0,
+            rot_radps: 0.0,
+            ended: false,
+        }
+    }
+
+    /// Take one key; the command stays within the limits.
+    pub fn key(&mut self, key: Key) {
+        let (dv, dw) = (
+            self.step_fraction * self.max_speed_mps,
+            self.step_fraction * self.max_rot_radps,
+        );
+        match key {
+            Key::Faster => self.speed_mps += dv,
+            Key::Slower => self.speed_mps -= dv,
+            Key::Left => self.rot_radps += dw,
+            Key::Right => self.rot_radps -= dw,
+            Key::Stop => (self.speed_mps, self.rot_radps) = (0.0, 0.0),
+            Key::ScaleUp => self.step_fraction = (self.step_fraction * 2.0).min(0.5),
+            Key::ScaleDown => self.step_fraction = (self.step_fraction / 2.0).max(0.05),
+            Key::End => {
+                self.ended = true;
+                (self.speed_mps, self.rot_radps) = (0.0, 0.0);
+            }
+        }
+        // Round away the sum's float noise (0.1 + 0.2 ...) so a command reads as typed.
+        let tidy = |v: f64, max: f64| ((v * 1e9).round() / 1e9).clamp(-max, max);
+        self.speed_mps = tidy(self.speed_mps, self.max_speed_mps);
+        self.rot_radps = tidy(self.rot_radps, self.max_rot_radps);
+    }
+}
+
+/// Where keys come from.
+pub trait KeySource {
+    /// The keys pressed since the last call, waiting at most `wait` for the first.
+    fn keys(&mut self, wait: Duration) -> Result<Vec<Key>, BackendError>;
+}
+
+/// Keys at given control steps (for tests and scripted demonstrations): `(step, key)`.
+pub struct ScriptedKeys {
+    script: Vec<(usize, Key)>,
+    step: usize,
+}
+
+impl ScriptedKeys {
+    pub fn new(mut script: Vec<(usize, Key)>) -> ScriptedKeys {
+        script.sort_by_key(|(s, _)| *s);
+        ScriptedKeys { script, step: 0 }
+    }
+}
+
+impl KeySource for ScriptedKeys {
+    fn keys(&mut self, _wait: Duration) -> Result<Vec<Key>, BackendError> {
+        let now = self.step;
+        self.step += 1;
+        let keys = self
+            .script
+            .iter()
+            .filter(|(s, _)| *s == now)
+            .map(|(_, k)| *k)
+            .collect();
+        Ok(keys)
+    }
+}
+
+/// The terminal's keys, in raw mode while this lives (restored on drop, on error and on panic's
+/// unwinding alike).
+pub struct TerminalKeys {
+    _raw: RawMode,
+}
+
+struct RawMode;
+
+impl Drop for RawMode {
+    fn drop(&mut self) {
+        let _ = crossterm::terminal::disable_raw_mode();
+    }
+}
+
+impl TerminalKeys {
+    /// Raw mode on the terminal; an error when there is none.
+    pub fn open() -> Result<TerminalKeys, BackendError> {
+        crossterm::terminal::enable_raw_mode()?;
+        Ok(TerminalKeys { _raw: RawMode })
+    }
+}
+
+impl KeySource for TerminalKeys {
+    fn keys(&mut self, wait: Duration) -> Result<Vec<Key>, BackendError> {
+        use crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
+        let mut out = Vec::new();
+        let mut wait = wait;
+        // Bounded: a held key's repeats cannot keep the control loop from its next step.
+        while out.len() < 64 && event::poll(wait)? {
+            wait = Duration::ZERO;
+            if let Event::Key(k) = event::read()?
+                && k.kind != KeyEventKind::Release
+            {
+                let key = match k.code {
+                    KeyCode::Up => Some(Key::Faster),
+                    KeyCode::Down => Some(Key::Slower),
+                    KeyCode::Left => Some(Key::Left),
+                    KeyCode::Right => Some(Key::Right),
+                    KeyCode::Enter | KeyCode::Esc => Some(Key::End),
+                    // Raw mode turns Ctrl-C into a key: it ends the drive at once.
+                    KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => {
+                        Some(Key::End)
+                    }
+                    KeyCode::Char(c) => Key::from_char(c),
+                    _ => None,
+                };
+                out.extend(key);
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Why a drive ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DriveEnd {
+    /// Enter or `q` (or Ctrl-C at the terminal).
+    Ended,
+    /// The stop signal (Ctrl-C from the session's handler).
+    Stopped,
+    /// The time limit.
+    TimeLimit,
+}
+
+/// A drive: per control step `(t, odometry pose, command sent)`, and how it ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Drive {
+    pub samples: Vec<(f64, Pose, f64, f64)>,
+    pub end: DriveEnd,
+}
+
+/// Drive `base` from `keys` at its rate from where it stands (re-zeroed there) until the person
+/// ends it, `stop` is raised, or `max_s` passes; the base is stopped at the end whatever
+/// happens. With `real_time`, a step of the simulator (which does not wait) is paced to the
+/// control period; a real base paces itself. `on_command` sees each new command (a prompt line).
+pub fn drive(
+    base: &mut dyn Backend,
+    keys: &mut dyn KeySource,
+    teleop: &mut Teleop,
+    stop: &StopSignal,
+    max_s: f64,
+    real_time: bool,
+    on_command: &mut dyn FnMut(&Teleop),
+) -> Result<Drive, BackendError> {
+    let result = drive_inner(base, keys, teleop, stop, max_s, real_time, on_command);
+    let stopped = base.stop();
+    let drive = result?;
+    stopped?;
+    Ok(drive)
+}
+
+fn drive_inner(
+    base: &mut dyn Backend,
+    keys: &mut dyn KeySource,
+    teleop: &mut Teleop,
+    stop: &StopSignal,
+    max_s: f64,
+    real_time: bool,
+    on_command: &mut dyn FnMut(&Teleop),
+) -> Result<Drive, BackendError> {
+    let period = Duration::from_secs_f64(base.period_s().max(1e-3));
+    let mut state = base.reset(Pose::new(0.0, 0.0, 0.0))?;
+    let mut samples = Vec::new();
+    let began = Instant::now();
+    let mut next = began;
+    let steps = (max_s / base.period_s().max(1e-3)).ceil() as usize;
+    for _ in 0..steps.max(1) {
+        let before = (teleop.speed_mps, teleop.rot_radps);
+        let wait = if real_time {
+            next.saturating_duration_since(Instant::now())
+        } else {
+            Duration::ZERO
+        };
+        for k in keys.keys(wait)? {
+            teleop.key(k);
+        }
+        if (teleop.speed_mps, teleop.rot_radps) != before {
+            on_command(teleop);
+        }
+        if teleop.ended {
+            return Ok(Drive {
+                samples,
+                end: DriveEnd::Ended,
+            });
+        }
+        if stop.is_raised() {
+            return Ok(Drive {
+                samples,
+                end: DriveEnd::Stopped,
+            });
+        }
+        let (v, w) = (teleop.speed_mps, teleop.rot_radps);
+        samples.push((state.t_s, state.pose, v, w));
+        base.command(v, w)?;
+        state = base.step()?;
+        if real_time {
+            next += period;
+            let now = Instant::now();
+            if next > now {
+                std::thread::sleep(next - now);
+            } else {
+                next = now;
+            }
+        }
+    }
+    Ok(Drive {
+        samples,
+        end: DriveEnd::TimeLimit,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::backend::sim::{SimBackend, SimParams};
+
+    #[test]
+    fn keys_step_scale_and_stop_within_the_limits() {
+        let mut t = Teleop::new(1.0, 2.0);
+        t.key(Key::Faster);
+        t.key(Key::Faster);
+        assert_eq!((t.speed_mps, t.rot_radps), (0.2, 0.0));
+        t.key(Key::Left);
+        assert_eq!(t.rot_radps, 0.2);
+        t.key(Key::ScaleUp);
+        t.key(Key::Right);
+        assert_eq!(t.rot_radps, -0.2);
+        for _ in 0..20 {
+            t.key(Key::Faster);
+        }
+        assert_eq!(t.speed_mps, 1.0, "clamped to the limit");
+        for _ in 0..5 {
+            t.key(Key::ScaleUp);
+        }
+        assert_eq!(t.step_fraction, 0.5);
+        t.key(Key::Stop);
+        assert_eq!((t.speed_mps, t.rot_radps), (0.0, 0.0));
+        t.key(Key::Slower);
+        assert_eq!(t.speed_mps, -0.5);
+        t.key(Key::End);
+        assert!(t.ended);
+        assert_eq!((t.speed_mps, t.rot_radps), (0.0, 0.0));
+        assert_eq!(Key::from_char('W'), Some(Key::Faster));
+        assert_eq!(Key::from_char('x'), None);
+    }
+
+    #[test]
+    fn a_scripted_drive_on_the_simulator_records_the_held_commands() {
+        let mut base = SimBackend::new(SimParams::default(), 1);
+        let mut keys = ScriptedKeys::new(vec![
+            (0, Key::Faster),
+            (0, Key::Faster),
+            (0, Key::Faster),
+            (30, Key::Left),
+            (60, Key::Stop),
+            (90, Key::End),
+        ]);
+        let mut t = Teleop::new(1.0, 1.0);
+        let mut commands = Vec::new();
+        let d = drive(
+            &mut base,
+            &mut keys,
+            &mut t,
+            &StopSignal::new(),
+            60.0,
+            false,
+            &mut |t| commands.push((t.speed_mps, t.rot_radps)),
+        )
+        .unwrap();
+        assert_eq!(d.end, DriveEnd::Ended);
+        assert_eq!(d.samples.len(), 90);
+        assert_eq!((d.samples[0].2, d.samples[0].3), (0.3, 0.0));
+        assert_eq!((d.samples[45].2, d.samples[45].3), (0.3, 0.1));
+        assert_eq!((d.samples[89].2, d.samples[89].3), (0.0, 0.0));
+        assert_eq!(
+            commands,
+            [(0.3, 0.0), (0.3, 0.1), (0.0, 0.0), (0.0, 0.0)][..3]
+        );
+        // The base moved forward and turned left while commanded.
+        let p = d.samples[60].1;
+        assert!(p.x_m > 0.3 && p.theta_rad > 0.0, "{p:?}");
+    }
+
+    #[test]
+    fn the_stop_signal_and_the_time_limit_end_a_drive() {
+        let mut base = SimBackend::new(SimParams::default(), 1);
+        let stop = StopSignal::new();
+        stop.raise();
+        let mut keys = ScriptedKeys::new(vec![(0, Key::Faster)]);
+        let d = drive(
+            &mut base,
+            &mut keys,
+            &mut Teleop::new(1.0, 1.0),
+            &stop,
+            10.0,
+            false,
+            &mut |_| {},
+        )
+        .unwrap();
+        assert_eq!((d.end, d.samples.len()), (DriveEnd::Stopped, 0));
+        let mut keys = ScriptedKeys::new(vec![(0, Key::Faster)]);
+        let d = drive(
+            &mut base,
+            &mut keys,
+            &mut Teleop::new(1.0, 1.0),
+            &StopSignal::new(),
+            1.0,
+            false,
+            &mut |_| {},
+        )
+        .unwrap();
+        assert_eq!(d.end, DriveEnd::TimeLimit);
+        assert_eq!(d.samples.len(), 30);
+    }
+}
