@@ -13,7 +13,7 @@ use std::io::IsTerminal;
 use crate::backend::Backend;
 use crate::backend::ros2::record::{Ended, RecordOptions, record_teleop};
 use crate::backend::sim::SimBackend;
-use crate::backend::teleop::{DriveEnd, KEYS_HELP, Teleop, TerminalKeys, drive};
+use crate::backend::teleop::{DriveEnd, KEYS_HELP, Key, KeySource, Teleop, TerminalKeys, drive};
 use crate::geometry::Pose;
 use crate::task::TaskKind;
 use crate::task::episode_seed;
@@ -48,8 +48,26 @@ impl Session {
             idle_s: RECORD_IDLE_S,
         };
         self.stop.clear();
-        let rec = record_teleop(&spec, &opts, &self.stop)
-            .map_err(|error| SessionError::RecordFailed { error })?;
+        // At a terminal, Enter (or Ctrl-C, a key in raw mode) ends the recording; in a script the
+        // time limit, the idle rule or the stop signal do.
+        let mut terminal = if std::io::stdin().is_terminal() {
+            eprint!(
+                "recording {}: drive with your teleoperation; Enter ends\r\n",
+                spec.resolve(&opts.teleop_topic)
+            );
+            TerminalKeys::open().ok()
+        } else {
+            None
+        };
+        let mut person_ended = || {
+            terminal.as_mut().is_some_and(|t| {
+                t.keys(std::time::Duration::ZERO)
+                    .is_ok_and(|keys| keys.contains(&Key::End))
+            })
+        };
+        let rec = record_teleop(&spec, &opts, &self.stop, &mut person_ended);
+        drop(terminal);
+        let rec = rec.map_err(|error| SessionError::RecordFailed { error })?;
         self.stop.clear();
         if rec.samples.len() < 2 {
             return Err(SessionError::RecordEmpty {

@@ -338,7 +338,7 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "record",
         signature: "record demo [from TOPIC] [for S]",
-        doc: "Record a person driving the ROS 2 base with their own teleoperation (commands on TOPIC, default `cmd_vel`) until Ctrl-C, S seconds, or 3 s without a moving command with the base at rest; added as a demonstration whose goal is where the base stopped (`goal X Y THETA` gives one).",
+        doc: "Record a person driving the ROS 2 base with their own teleoperation (commands on TOPIC, default `cmd_vel`) until Enter or Ctrl-C, S seconds, or 3 s without a moving command with the base at rest; added as a demonstration whose goal is where the base stopped (`goal X Y THETA` gives one).",
         step: Step::Demonstrate,
         example: "record demo from teleop/cmd_vel goal 2 -1 0 for 60",
     },

@@ -3,7 +3,7 @@
 //! the base's odometry. `advise` publishes nothing while it listens: a person drives.
 //!
 //! Sampling starts at the first command that moves the base (the wait before it is not part of
-//! the demonstration) and ends when the person ends it ([`StopSignal`]: Ctrl-C), when no moving
+//! the demonstration) and ends when the person ends it (Enter, or Ctrl-C: [`StopSignal`]), when no moving
 //! command has been heard for `idle_s` (teleop nodes keep publishing zero) and the base is at
 //! rest, at `max_s`, or when odometry goes stale (kept, with [`Ended::LinkLost`]). Each sample pairs the pose (re-zeroed where the base
 //! stood at the first command) with the command the base holds then: the newest heard, as a base
@@ -41,7 +41,7 @@ pub struct RecordOptions {
 /// Why a recording ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Ended {
-    /// The person ended it (Ctrl-C).
+    /// The person ended it (Enter or Ctrl-C).
     Stopped,
     /// No moving command for `idle_s` with the base at rest.
     Idle,
@@ -85,10 +85,13 @@ fn newest<M: serde::de::DeserializeOwned + 'static>(
 }
 
 /// Listen to `opts.teleop_topic` and the spec's odometry and record a teleoperation.
+/// `person_ended` is asked each few milliseconds whether the person ended it (Enter at the
+/// session's terminal).
 pub fn record_teleop(
     spec: &Ros2Spec,
     opts: &RecordOptions,
     stop: &StopSignal,
+    person_ended: &mut dyn FnMut() -> bool,
 ) -> Result<Recording, BackendError> {
     let positive = |x: f64| x.is_finite() && x > 0.0;
     if !(positive(opts.period_s) && positive(opts.max_s) && positive(opts.idle_s)) {
@@ -144,7 +147,7 @@ pub fn record_teleop(
                 held = Some((0.0, 0.0));
             }
         }
-        if stop.is_raised() {
+        if stop.is_raised() || person_ended() {
             rec.ended = Ended::Stopped;
             break;
         }
