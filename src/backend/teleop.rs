@@ -215,71 +215,46 @@ pub fn drive(
     real_time: bool,
     on_command: &mut dyn FnMut(&Teleop),
 ) -> Result<Drive, BackendError> {
-    let result = drive_inner(base, keys, teleop, stop, max_s, real_time, on_command);
+    let period_s = base.period_s().max(1e-3);
+    let steps = ((max_s / period_s).ceil() as usize).max(1);
+    let mut run = |base: &mut dyn Backend| -> Result<Drive, BackendError> {
+        let mut state = base.reset(Pose::new(0.0, 0.0, 0.0))?;
+        let mut samples = Vec::new();
+        let mut next = Instant::now();
+        for _ in 0..steps {
+            let before = (teleop.speed_mps, teleop.rot_radps);
+            for k in keys.keys(Duration::ZERO)? {
+                teleop.key(k);
+            }
+            if (teleop.speed_mps, teleop.rot_radps) != before {
+                on_command(teleop);
+            }
+            let end = if teleop.ended {
+                Some(DriveEnd::Ended)
+            } else {
+                stop.is_raised().then_some(DriveEnd::Stopped)
+            };
+            if let Some(end) = end {
+                return Ok(Drive { samples, end });
+            }
+            let (v, w) = (teleop.speed_mps, teleop.rot_radps);
+            samples.push((state.t_s, state.pose, v, w));
+            base.command(v, w)?;
+            state = base.step()?;
+            if real_time {
+                super::wait_for_tick(&mut next, period_s);
+            }
+        }
+        Ok(Drive {
+            samples,
+            end: DriveEnd::TimeLimit,
+        })
+    };
+    let result = run(base);
     let stopped = base.stop();
     let drive = result?;
     stopped?;
     Ok(drive)
-}
-
-fn drive_inner(
-    base: &mut dyn Backend,
-    keys: &mut dyn KeySource,
-    teleop: &mut Teleop,
-    stop: &StopSignal,
-    max_s: f64,
-    real_time: bool,
-    on_command: &mut dyn FnMut(&Teleop),
-) -> Result<Drive, BackendError> {
-    let period = Duration::from_secs_f64(base.period_s().max(1e-3));
-    let mut state = base.reset(Pose::new(0.0, 0.0, 0.0))?;
-    let mut samples = Vec::new();
-    let began = Instant::now();
-    let mut next = began;
-    let steps = (max_s / base.period_s().max(1e-3)).ceil() as usize;
-    for _ in 0..steps.max(1) {
-        let before = (teleop.speed_mps, teleop.rot_radps);
-        let wait = if real_time {
-            next.saturating_duration_since(Instant::now())
-        } else {
-            Duration::ZERO
-        };
-        for k in keys.keys(wait)? {
-            teleop.key(k);
-        }
-        if (teleop.speed_mps, teleop.rot_radps) != before {
-            on_command(teleop);
-        }
-        if teleop.ended {
-            return Ok(Drive {
-                samples,
-                end: DriveEnd::Ended,
-            });
-        }
-        if stop.is_raised() {
-            return Ok(Drive {
-                samples,
-                end: DriveEnd::Stopped,
-            });
-        }
-        let (v, w) = (teleop.speed_mps, teleop.rot_radps);
-        samples.push((state.t_s, state.pose, v, w));
-        base.command(v, w)?;
-        state = base.step()?;
-        if real_time {
-            next += period;
-            let now = Instant::now();
-            if next > now {
-                std::thread::sleep(next - now);
-            } else {
-                next = now;
-            }
-        }
-    }
-    Ok(Drive {
-        samples,
-        end: DriveEnd::TimeLimit,
-    })
 }
 
 #[cfg(test)]

@@ -73,13 +73,7 @@ pub fn run_robot(
             counts.odometry += 1;
         }
         counts.pose = state.pose;
-        next += period;
-        let now = Instant::now();
-        if next > now {
-            std::thread::sleep(next - now);
-        } else {
-            next = now;
-        }
+        crate::backend::wait_for_tick(&mut next, period.as_secs_f64());
     }
     Ok(counts)
 }
