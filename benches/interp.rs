@@ -5,6 +5,7 @@
 use std::hint::black_box;
 
 use advise::check::{self, OperatorSet};
+use advise::diag::SourceMap;
 use advise::domain::Domain;
 use advise::interp;
 use advise::syntax::parse_invocation;
@@ -50,18 +51,20 @@ fn bench(c: &mut Criterion) {
         // Binding is part of what a teacher's `advise` costs, so it stays inside the loop.
         g.bench_function(op, |b| {
             b.iter(|| {
-                let call = check::bind(&set, &tr.domain, black_box(&inv)).unwrap();
+                let call =
+                    check::bind(&mut SourceMap::new(), &set, &tr.domain, black_box(&inv)).unwrap();
                 interp::apply(&call, black_box(&tr), chunk).unwrap()
             })
         });
     }
     // The same with the output buffers reused (no fresh pages to fault in).
     let inv = parse_invocation("translational_acceleration").unwrap();
-    let call = check::bind(&set, &tr.domain, &inv).unwrap();
+    let call = check::bind(&mut SourceMap::new(), &set, &tr.domain, &inv).unwrap();
     let mut out = interp::apply(&call, &tr, chunk).unwrap();
     g.bench_function("translational_acceleration, reused output", |b| {
         b.iter(|| {
-            let call = check::bind(&set, &tr.domain, black_box(&inv)).unwrap();
+            let call =
+                check::bind(&mut SourceMap::new(), &set, &tr.domain, black_box(&inv)).unwrap();
             interp::apply_into(&call, black_box(&tr), chunk, &mut out).unwrap()
         })
     });

@@ -6,6 +6,7 @@
 //! the policy up to date. Throughput is set so criterion prints queries (or advice points) per
 //! second.
 
+use advise::diag::SourceMap;
 use advise::domain::Domain;
 use advise::interp;
 use advise::policy::Policy;
@@ -129,7 +130,7 @@ fn bench(c: &mut Criterion) {
     let exec = random_trace(&d, 30, &mut rng);
     let set = advise::check::OperatorSet::standard();
     let inv = parse_invocation("speed_up(0.2)").unwrap();
-    let call = advise::check::bind(&set, &exec.domain, &inv).unwrap();
+    let call = advise::check::bind(&mut SourceMap::new(), &set, &exec.domain, &inv).unwrap();
     let syn = interp::apply(&call, &exec, Chunk::all(30)).unwrap();
     // A-OPI is the learner advice feeds: its points go into both the 1-NN and the LWR index.
     let l = &mut lwr;

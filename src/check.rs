@@ -28,15 +28,14 @@ mod trace_domain;
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use miette::NamedSource;
-
 // "Did you mean" has one home, `diag::suggest`; the checker's passes use it under these names.
 use crate::diag::suggest::{closest as suggest, hint, listing};
+use crate::diag::{Loc, SourceId, SourceMap, Sourced, Src};
 use crate::domain::Domain;
 use crate::program::ir::BlockIr;
 pub use crate::program::{Call, OperatorSet, Param};
 use crate::program::{DefinitionHash, OpBody, Operator, Stage};
-use crate::syntax::{self, SourceText, ast::*};
+use crate::syntax::{self, ast::*};
 pub use bind::{bind, rebind};
 use compose::{Known, Step};
 use decls::domain_difference;
@@ -86,39 +85,50 @@ pub struct Checked {
 
 impl OperatorSet {
     /// Check `sources` on top of this set: they may use its domains and operators, and their
-    /// operators shadow same-named ones of this set.
-    pub fn merge(&self, sources: &[Source]) -> Result<OperatorSet, CheckErrors> {
-        check_with(Some(self), sources)
+    /// operators shadow same-named ones of this set. The errors bring the texts with them.
+    pub fn merge(&self, sources: &[Source]) -> Result<OperatorSet, Sourced<CheckErrors>> {
+        check_texts(Some(self), sources)
     }
 
-    /// [`OperatorSet::merge`], with the warnings (a standard operator shadowed, say).
-    pub fn merge_with_warnings(&self, sources: &[Source]) -> Result<Checked, CheckErrors> {
-        check_with_warnings(Some(self), sources)
+    /// [`OperatorSet::merge`] of sources of `map` (where the errors and warnings point), with
+    /// the warnings (a standard operator shadowed, say).
+    pub fn merge_in(&self, map: &SourceMap, ids: &[SourceId]) -> Result<Checked, CheckErrors> {
+        check_in(map, Some(self), ids)
     }
 }
 
-/// Parse and check `sources` on their own.
-pub fn check(sources: &[Source]) -> Result<OperatorSet, CheckErrors> {
-    check_with(None, sources)
+/// Parse and check `sources` on their own; the errors bring the texts with them.
+pub fn check(sources: &[Source]) -> Result<OperatorSet, Sourced<CheckErrors>> {
+    check_texts(None, sources)
 }
 
-/// Parse and check `sources` on top of `base` (see [`OperatorSet::merge`]).
-pub fn check_with(
+fn check_texts(
     base: Option<&OperatorSet>,
     sources: &[Source],
-) -> Result<OperatorSet, CheckErrors> {
-    check_with_warnings(base, sources).map(|c| c.set)
+) -> Result<OperatorSet, Sourced<CheckErrors>> {
+    let mut map = SourceMap::new();
+    let ids: Vec<SourceId> = sources
+        .iter()
+        .map(|s| map.add(s.name.as_str(), s.text.as_str()))
+        .collect();
+    match check_in(&map, base, &ids) {
+        Ok(checked) => Ok(checked.set),
+        Err(e) => Err(map.attach(e)),
+    }
 }
 
-/// [`check_with`], keeping the warnings.
-pub fn check_with_warnings(
+/// Parse and check the sources `ids` of `map` on top of `base` (see [`OperatorSet::merge`]);
+/// errors and warnings point into `map`.
+pub fn check_in(
+    map: &SourceMap,
     base: Option<&OperatorSet>,
-    sources: &[Source],
+    ids: &[SourceId],
 ) -> Result<Checked, CheckErrors> {
-    let mut c = Checker::new(sources);
+    let srcs: Vec<Src<'_>> = ids.iter().map(|&id| map.src(id)).collect();
+    let mut c = Checker::new(&srcs);
     let mut files = Vec::new();
-    for (i, s) in sources.iter().enumerate() {
-        match syntax::parse(&s.name, &s.text) {
+    for (i, s) in srcs.iter().enumerate() {
+        match syntax::parse(*s) {
             Ok(f) => files.push((i, f)),
             Err(e) => c.errors.push((i, 0, e.into())),
         }
@@ -148,16 +158,18 @@ pub fn check_with_warnings(
 }
 
 /// Render every diagnostic without colour at a fixed width (for tests and logs).
-pub fn render_all(errors: &CheckErrors) -> String {
+pub fn render_all(errors: &Sourced<CheckErrors>) -> String {
     errors
+        .error
         .errors
         .iter()
-        .map(|e| render(e))
+        .map(|e| crate::diag::render(&errors.sources, e, false))
         .collect::<Vec<_>>()
         .join("\n")
 }
 
-/// Render one diagnostic as the terminal shows it, without colour, 100 columns wide.
+/// Render one diagnostic that brings its own source (a [`Sourced`] one) or needs none, as the
+/// terminal shows it, without colour, 100 columns wide.
 pub fn render(diag: &dyn miette::Diagnostic) -> String {
     crate::diag::render(&crate::diag::SourceMap::new(), diag, false)
 }
@@ -171,9 +183,8 @@ struct Sig<'f> {
 }
 
 struct Checker<'s> {
-    sources: &'s [Source],
-    /// The texts, shared by every diagnostic instead of copied into each.
-    texts: Vec<SourceText>,
+    /// The files, each a source of the map the diagnostics point into.
+    sources: &'s [Src<'s>],
     /// Byte offsets of each text's newlines, to turn offsets into lines without rescanning.
     newlines: Vec<Vec<usize>>,
     errors: Vec<(usize, usize, FileError)>,
@@ -183,13 +194,9 @@ struct Checker<'s> {
 }
 
 impl<'s> Checker<'s> {
-    fn new(sources: &'s [Source]) -> Checker<'s> {
+    fn new(sources: &'s [Src<'s>]) -> Checker<'s> {
         Checker {
             sources,
-            texts: sources
-                .iter()
-                .map(|s| SourceText::from(s.text.as_str()))
-                .collect(),
             newlines: sources
                 .iter()
                 .map(|s| s.text.match_indices('\n').map(|(i, _)| i).collect())
@@ -200,8 +207,9 @@ impl<'s> Checker<'s> {
         }
     }
 
-    fn src(&self, file: usize) -> NamedSource<SourceText> {
-        NamedSource::new(&self.sources[file].name, self.texts[file].clone())
+    /// The place of `span` in file `file`, for a diagnostic.
+    fn at(&self, file: usize, span: Span) -> Loc {
+        self.sources[file].at(span.start..span.end)
     }
 
     fn err(&mut self, file: usize, span: Span, e: CheckError) {
@@ -254,8 +262,7 @@ impl<'s> Checker<'s> {
                             CheckError::DuplicateDomain {
                                 name: dom.name.clone(),
                                 first,
-                                src: self.src(*f),
-                                span: d.name.span.into(),
+                                span: self.at(*f, d.name.span),
                             },
                         );
                         continue;
@@ -269,8 +276,7 @@ impl<'s> Checker<'s> {
                                 CheckError::ConflictingDomain {
                                     name: dom.name.clone(),
                                     difference,
-                                    src: self.src(*f),
-                                    span: d.name.span.into(),
+                                    span: self.at(*f, d.name.span),
                                 },
                             );
                         }
@@ -309,8 +315,7 @@ impl<'s> Checker<'s> {
                                             name: o.name.name.clone(),
                                             domain: domains[d].name.clone(),
                                             first: msg,
-                                            src: self.src(*f),
-                                            span: o.name.span.into(),
+                                            span: self.at(*f, o.name.span),
                                         },
                                     );
                                 }
@@ -401,8 +406,7 @@ impl<'s> Checker<'s> {
                         name: sig.decl.name.name.clone(),
                         domain: domain.name.clone(),
                         origin: shadowed.origin.clone(),
-                        src: self.src(sig.file),
-                        span: span.into(),
+                        span: self.at(sig.file, span),
                     },
                 ));
             }

@@ -542,11 +542,10 @@ pub fn print_stdout(text: &str) -> miette::Result<()> {
 
 /// Print a diagnostic on stderr, showing a bounded window of its source (never a whole file).
 /// An error that points into a source map brings it along ([`crate::diag::Sourced`]).
-pub fn print_report(diag: &dyn Diagnostic) {
+pub fn print_report(sources: &crate::diag::SourceMap, diag: &dyn Diagnostic) {
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let none = crate::diag::SourceMap::new();
     eprintln!(
         "{}",
-        crate::diag::render_with_width(&none, diag, colour, 80)
+        crate::diag::render_with_width(sources, diag, colour, 80)
     );
 }

@@ -44,7 +44,7 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(report) => {
-            cli::print_report(report.as_ref());
+            cli::print_report(&advise::diag::SourceMap::new(), report.as_ref());
             ExitCode::FAILURE
         }
     }

@@ -340,15 +340,29 @@ impl Session {
     }
 
     /// Run one statement. `origin` names it in diagnostics (`<repl>`, `script.adv:12`).
+    ///
+    /// The statement's text joins the session's source map, with whatever else it adds (an
+    /// invocation, a file that failed to load), for as long as an error may point into them: a
+    /// statement that succeeds gives them back, so a long session holds only its failures.
     pub fn execute(&mut self, text: &str, origin: &str) -> Result<Reply, SessionError> {
-        let statement = parse_statement(origin, text)?;
-        self.statement = Some((text.trim_end().to_string(), origin.to_string()));
-        let reply = match statement {
-            Statement::Empty => Ok(Reply::Nothing),
-            Statement::Item(item) => self.define(item, text, origin),
-            Statement::Command(cmd, _) => self.command(cmd),
+        let mark = self.sources.len();
+        let id = self.sources.add(origin, text);
+        let reply = match parse_statement(self.sources.src(id)) {
+            Ok(statement) => {
+                self.statement = Some((text.trim_end().to_string(), origin.to_string()));
+                let reply = match statement {
+                    Statement::Empty => Ok(Reply::Nothing),
+                    Statement::Item(item) => self.define(item, text, origin),
+                    Statement::Command(cmd, _) => self.command(cmd),
+                };
+                self.statement = None;
+                reply
+            }
+            Err(e) => Err(e.into()),
         };
-        self.statement = None;
+        if reply.is_ok() {
+            self.sources.truncate(mark);
+        }
         reply
     }
 
@@ -359,7 +373,7 @@ impl Session {
         })?;
         let warnings = std::mem::take(&mut self.warnings)
             .iter()
-            .map(|w| crate::check::render(w))
+            .map(|w| crate::diag::render(&self.sources, w, false))
             .collect();
         let item = match item {
             Item::Operator(op) => Defined::Operator {

@@ -12,13 +12,12 @@ pub mod command;
 pub mod delims;
 mod error;
 pub mod print;
-pub mod source;
 
 use pest::Parser;
-use pest::iterators::Pairs;
+use pest::iterators::{Pair, Pairs};
 
+use crate::diag::{SourceId, SourceMap, Sourced, Src};
 use ast::*;
-pub use source::SourceText;
 
 use build::Builder;
 pub use error::ParseError;
@@ -37,11 +36,13 @@ pub use delims::MAX_NESTING;
 /// thread's stack. Brackets are limited separately, before parsing ([`MAX_NESTING`]).
 pub const MAX_DEPTH: usize = 128;
 
-/// Parse a whole file. `name` is used in diagnostics, usually the path.
-pub fn parse(name: &str, src: &str) -> Result<File, ParseError> {
-    let mut pairs = run(Rule::file, name, src)?;
+/// Parse a whole file, a source of a [`SourceMap`](crate::diag::SourceMap) whose errors point
+/// into it.
+pub fn parse(source: Src<'_>) -> Result<File, ParseError> {
+    let (id, src) = (source.id, source.text);
+    let mut pairs = run(Rule::file, id, src)?;
     let file = pairs.next().expect("the file rule always yields one pair");
-    let b = Builder { name, src };
+    let b = Builder { id };
     let mut items = Vec::new();
     for p in file.into_inner() {
         if p.as_rule() != Rule::EOI {
@@ -52,10 +53,11 @@ pub fn parse(name: &str, src: &str) -> Result<File, ParseError> {
 }
 
 /// Parse exactly one item, e.g. an operator typed on one REPL line.
-pub fn parse_item(name: &str, src: &str) -> Result<Item, ParseError> {
-    let mut pairs = run(Rule::single_item, name, src)?;
+pub fn parse_item(source: Src<'_>) -> Result<Item, ParseError> {
+    let (id, src) = (source.id, source.text);
+    let mut pairs = run(Rule::single_item, id, src)?;
     let whole = pairs.next().expect("single_item always yields one pair");
-    let b = Builder { name, src };
+    let b = Builder { id };
     let item = whole
         .into_inner()
         .find(|p| p.as_rule() != Rule::EOI)
@@ -114,54 +116,78 @@ impl std::fmt::Display for Invocation {
     }
 }
 
-/// Parse an invocation such as `speed_up(rate = 0.5)`.
-pub fn parse_invocation(src: &str) -> Result<Invocation, ParseError> {
-    let name = "invocation";
-    let mut pairs = run(Rule::invocation, name, src)?;
-    let b = Builder { name, src };
-    let mut inner = pairs
-        .next()
-        .expect("invocation yields one pair")
-        .into_inner();
-    let op = b.ident(inner.next().expect("an invocation starts with a name"));
-    let mut args = Vec::new();
-    if let Some(list) = inner.next().filter(|p| p.as_rule() == Rule::inv_args) {
-        for a in list.into_inner().filter(|p| p.as_rule() == Rule::inv_arg) {
-            let span = b.span(&a);
-            let mut name = None;
-            let mut value = 0.0;
-            for part in a.into_inner() {
-                match part.as_rule() {
-                    Rule::name => name = Some(b.ident(part)),
-                    Rule::signed_number => {
-                        let text: String = part.as_str().chars().filter(|c| *c != '+').collect();
-                        value = b.number_text(&text, b.span(&part))?;
-                    }
-                    _ => {}
-                }
-            }
-            args.push(InvArg { name, value, span });
-        }
-    }
-    Ok(Invocation {
-        text: src.to_string(),
-        name: op,
-        args,
-    })
+/// Parse an invocation such as `speed_up(rate = 0.5)` typed on its own (a command-line argument,
+/// a script of the automatic teacher); an error brings the text with it, named `invocation`.
+pub fn parse_invocation(text: &str) -> Result<Invocation, Sourced<ParseError>> {
+    let (mut map, id) = SourceMap::single("invocation", text);
+    let parsed = run(Rule::invocation, id, text).and_then(|mut pairs| {
+        let b = Builder { id };
+        b.invocation(pairs.next().expect("invocation yields one pair"))
+    });
+    parsed.map_err(|e| map.attach(e))
 }
 
-fn run<'i>(rule: Rule, name: &str, src: &'i str) -> Result<Pairs<'i, Rule>, ParseError> {
+impl Builder {
+    /// An invocation from its pair (`invocation` or a command's `inv_body`: a name and maybe
+    /// arguments). Its spans are made relative to its own text, which binding diagnostics show;
+    /// its errors point into the builder's source.
+    pub(crate) fn invocation(&self, p: Pair<'_, Rule>) -> Result<Invocation, ParseError> {
+        let base = p.as_span().start();
+        let own = |s: Span| Span::new(s.start - base, s.end - base);
+        let text = p.as_str().to_string();
+        let mut inner = p.into_inner();
+        let mut op = self.ident(inner.next().expect("an invocation starts with a name"));
+        op.span = own(op.span);
+        let mut args = Vec::new();
+        if let Some(list) = inner.next().filter(|p| p.as_rule() == Rule::inv_args) {
+            for a in list.into_inner().filter(|p| p.as_rule() == Rule::inv_arg) {
+                let span = own(self.span(&a));
+                let mut name = None;
+                let mut value = 0.0;
+                for part in a.into_inner() {
+                    match part.as_rule() {
+                        Rule::name => {
+                            let mut n = self.ident(part);
+                            n.span = own(n.span);
+                            name = Some(n);
+                        }
+                        Rule::signed_number => {
+                            let text: String =
+                                part.as_str().chars().filter(|c| *c != '+').collect();
+                            value = self.number_text(&text, self.span(&part))?;
+                        }
+                        _ => {}
+                    }
+                }
+                args.push(InvArg { name, value, span });
+            }
+        }
+        Ok(Invocation {
+            text,
+            name: op,
+            args,
+        })
+    }
+}
+
+fn run<'i>(rule: Rule, id: SourceId, src: &'i str) -> Result<Pairs<'i, Rule>, ParseError> {
     // pest recurses once per bracket; refuse deep nesting before it can exhaust the stack.
     let brackets = delims::scan(src);
     if let Some(at) = brackets.too_deep {
-        return Err(nesting_too_deep(name, src, at));
+        return Err(nesting_too_deep(id, at));
     }
-    AdviceParser::parse(rule, src).map_err(|e| convert(e, name, src, &brackets))
+    AdviceParser::parse(rule, src).map_err(|e| convert(e, id, src, &brackets))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Parse `text` as a file of its own (the errors' places are only compared, never drawn).
+    fn parse(name: &str, text: &str) -> Result<File, ParseError> {
+        let (map, id) = SourceMap::single(name, text);
+        super::parse(map.src(id))
+    }
 
     fn expr(src: &str) -> String {
         let f = parse("t", &format!("operator o for d on action {{ u = {src} }}")).unwrap();

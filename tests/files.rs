@@ -359,5 +359,9 @@ fn data_files_stay_in_the_sessions_source_map_only_when_they_fail() {
     let t = transcript(&mut s, &bad);
     assert_eq!(t.matches("advise::trace::not_a_number").count(), 3, "{t}");
     assert!(t.contains(&format!("[{}/bad.csv:2:3]", d.display())), "{t}");
-    assert_eq!(s.sources().len(), 1, "{:?}", s.sources());
+    // The file once, and each failed statement (three lines of the script, three sources).
+    assert_eq!(s.sources().len(), 4, "{:?}", s.sources());
+    // A statement that succeeds gives back what it added.
+    transcript(&mut s, &format!("load trace {}/t1.csv\n", d.display()));
+    assert_eq!(s.sources().len(), 4, "{:?}", s.sources());
 }

@@ -17,6 +17,7 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 
 use advise::backend::sim::{SimBase, SimParams};
 use advise::check::{self, OperatorSet, Source};
+use advise::diag::SourceMap;
 use advise::domain::Domain;
 use advise::interp;
 use advise::policy::dataset::Dataset;
@@ -257,7 +258,12 @@ fn mutated_operator_files_are_values_or_diagnostics() {
                     Err(e) => f.check_codes("operators", &input, &e),
                     Ok(set) => {
                         for name in set.operator_names("positioning") {
-                            match check::bind(&set, &tr.domain, &Invocation::bare(name)) {
+                            match check::bind(
+                                &mut SourceMap::new(),
+                                &set,
+                                &tr.domain,
+                                &Invocation::bare(name),
+                            ) {
                                 Err(e) => f.check_codes("apply", &input, &e),
                                 Ok(call) => {
                                     if let Err(e) = interp::apply(&call, &tr, Chunk::all(8)) {

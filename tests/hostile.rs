@@ -7,14 +7,16 @@
 use std::process::Command;
 
 use advise::check::{self, MAX_STAGES, OperatorSet, Source};
+use advise::diag::SourceMap;
 use advise::domain::Domain;
 use advise::interp::{self, ApplyError};
 use advise::session::{Session, SessionOptions, script};
-use advise::syntax::{self, MAX_DEPTH, parse_invocation};
+use advise::syntax::{MAX_DEPTH, parse_invocation};
 use advise::task::TaskKind;
 use advise::trace::{Chunk, Trace};
 
 mod common;
+use common::parse;
 
 /// Run the binary; the exit code is `None` when a signal (an abort) ended it.
 fn advise(args: &[&str]) -> (Option<i32>, String, String) {
@@ -179,10 +181,10 @@ fn expressions_at_the_limit_check_print_and_apply_and_one_more_level_is_refused(
             .merge(&[Source::new("limit.adv", text.as_str())])
             .unwrap_or_else(|e| panic!("{body}:\n{}", check::render_all(&e)));
         // Printing and parsing back walk the same tree.
-        let printed = syntax::parse("limit.adv", &text).unwrap().to_string();
-        syntax::parse("printed", &printed).unwrap();
+        let printed = parse("limit.adv", &text).unwrap().to_string();
+        parse("printed", &printed).unwrap();
         let inv = parse_invocation("hostile").unwrap();
-        let call = check::bind(&set, &tr.domain, &inv).unwrap();
+        let call = check::bind(&mut SourceMap::new(), &set, &tr.domain, &inv).unwrap();
         interp::apply(&call, &tr, Chunk::all(8)).unwrap();
     }
     for deeper in [
@@ -253,13 +255,13 @@ fn compositions_past_the_stage_limit_are_refused_at_check_time_naming_the_chain(
         .merge(&[Source::new("comp.adv", compositions(14, 4))])
         .unwrap_err();
     // Only `c6` is reported: it is the first past the limit, the rest inherit its excess.
-    assert_eq!(err.errors.len(), 1, "{}", check::render_all(&err));
+    assert_eq!(err.error.errors.len(), 1, "{}", check::render_all(&err));
     let text = check::render_all(&err);
     assert!(
         text.contains("advise::check::composition_too_large"),
         "{text}"
     );
-    let help = miette::Diagnostic::help(&err.errors[0])
+    let help = miette::Diagnostic::help(&err.error.errors[0])
         .unwrap()
         .to_string();
     assert!(
@@ -270,7 +272,7 @@ fn compositions_past_the_stage_limit_are_refused_at_check_time_naming_the_chain(
     let err = OperatorSet::standard()
         .merge(&[Source::new("comp.adv", compositions(40, 4))])
         .unwrap_err();
-    assert_eq!(err.errors.len(), 1);
+    assert_eq!(err.error.errors.len(), 1);
 }
 
 #[test]
@@ -280,7 +282,13 @@ fn a_composition_at_the_stage_limit_applies_every_stage() {
         .merge(&[Source::new("comp.adv", compositions(5, 4))])
         .unwrap();
     let tr = positioning_trace(4);
-    let call = check::bind(&set, &tr.domain, &parse_invocation("c5").unwrap()).unwrap();
+    let call = check::bind(
+        &mut SourceMap::new(),
+        &set,
+        &tr.domain,
+        &parse_invocation("c5").unwrap(),
+    )
+    .unwrap();
     let out = interp::apply(&call, &tr, Chunk::all(4)).unwrap();
     for p in 0..4 {
         let want = (tr.a(p)[0] + 1024.0 * 0.0001).min(1.0);
@@ -303,7 +311,7 @@ fn a_long_chain_of_single_stage_compositions_applies_without_recursing() {
         .unwrap();
     let tr = positioning_trace(3);
     let inv = parse_invocation("c19999").unwrap();
-    let call = check::bind(&set, &tr.domain, &inv).unwrap();
+    let call = check::bind(&mut SourceMap::new(), &set, &tr.domain, &inv).unwrap();
     let out = interp::apply(&call, &tr, Chunk::all(3)).unwrap();
     assert_eq!(out.points.a(2)[0], 0.25);
 }
@@ -342,11 +350,11 @@ fn many_mistakes_stop_at_the_error_limit() {
         ));
     }
     let err = check::check(&[Source::new("wide.adv", text)]).unwrap_err();
-    assert_eq!(err.errors.len(), check::MAX_ERRORS + 1);
-    let last = check::render(err.errors.last().unwrap());
+    assert_eq!(err.error.errors.len(), check::MAX_ERRORS + 1);
+    let last = advise::diag::render(&err.sources, err.error.errors.last().unwrap(), false);
     assert!(last.contains("advise::check::too_many_errors"), "{last}");
     // 40,001 dimensions, `k`, `n` and `pi`: the first 20 are named.
-    let help = miette::Diagnostic::help(&err.errors[0])
+    let help = miette::Diagnostic::help(&err.error.errors[0])
         .unwrap()
         .to_string();
     assert!(help.ends_with("`d18`, `d19` and 39984 more"), "{help}");
@@ -411,7 +419,13 @@ operator skipped for positioning on action where k > 0 { trans = dist2[-k / k] }
         .unwrap();
     let tr = positioning_trace(4);
     let run = |inv: &str| {
-        let call = check::bind(&set, &tr.domain, &parse_invocation(inv).unwrap()).unwrap();
+        let call = check::bind(
+            &mut SourceMap::new(),
+            &set,
+            &tr.domain,
+            &parse_invocation(inv).unwrap(),
+        )
+        .unwrap();
         interp::apply(&call, &tr, Chunk::all(4))
     };
     // Before, `trans / 0` was clamped to full speed.
@@ -442,7 +456,13 @@ operator skipped for positioning on action where k > 0 { trans = dist2[-k / k] }
             format!("{user}operator both for positioning on action = slow_down then divide\n"),
         )])
         .unwrap();
-    let call = check::bind(&comp, &tr.domain, &parse_invocation("both").unwrap()).unwrap();
+    let call = check::bind(
+        &mut SourceMap::new(),
+        &comp,
+        &tr.domain,
+        &parse_invocation("both").unwrap(),
+    )
+    .unwrap();
     let err = interp::apply(&call, &tr, Chunk::all(4)).unwrap_err();
     assert!(
         matches!(err, ApplyError::NotFinite { ref operator, .. } if operator == "divide"),

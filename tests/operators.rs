@@ -2,6 +2,7 @@
 //! operator, compositions, guards, offsets, provenance and the apply-time diagnostics.
 
 use advise::check::{self, OperatorSet, Source, render};
+use advise::diag::SourceMap;
 use advise::domain::{Domain, Space};
 use advise::interp::{self, AppliedAdvice};
 use advise::number::fmt_num;
@@ -48,7 +49,9 @@ fn interception_trace(n: usize) -> Trace {
 
 fn apply(set: &OperatorSet, inv: &str, tr: &Trace, a: usize, b: usize) -> interp::Synthesized {
     let inv = parse_invocation(inv).unwrap();
-    let call = check::bind(set, &tr.domain, &inv).unwrap_or_else(|e| panic!("{}", render(&e)));
+    let mut map = SourceMap::new();
+    let call = check::bind(&mut map, set, &tr.domain, &inv)
+        .unwrap_or_else(|e| panic!("{}", advise::diag::render(&map, &e, false)));
     interp::apply(&call, tr, Chunk::new(a, b, tr.len()).unwrap())
         .unwrap_or_else(|e| panic!("{}", render(&e)))
 }
@@ -192,7 +195,7 @@ fn every_standard_operator_has_a_working_example() {
                     op.name(),
                     "example `{ex}` names another operator"
                 );
-                let call = check::bind(&set, &tr.domain, &inv)
+                let call = check::bind(&mut SourceMap::new(), &set, &tr.domain, &inv)
                     .unwrap_or_else(|e| panic!("example `{ex}`: {}", render(&e)));
                 interp::apply(&call, &tr, Chunk::all(tr.len()))
                     .unwrap_or_else(|e| panic!("example `{ex}`: {}", render(&e)));
@@ -278,7 +281,12 @@ fn advice_re_synthesizes_exactly_and_survives_json() {
     let json = serde_json::to_string(&out.advice).unwrap();
     let back: AppliedAdvice = serde_json::from_str(&json).unwrap();
     assert_eq!(back, out.advice);
-    let again = interp::apply(&check::rebind(&set, &back).unwrap(), &tr, back.chunk).unwrap();
+    let again = interp::apply(
+        &check::rebind(&mut SourceMap::new(), &set, &back).unwrap(),
+        &tr,
+        back.chunk,
+    )
+    .unwrap();
     assert_eq!(again, out);
     // Defaults are recorded too.
     let d = apply(&set, "speed_up", &tr, 0, 3);
@@ -321,8 +329,9 @@ fn apply_errors_are_diagnostics() {
     let mut out = String::new();
     for (inv, a, b) in cases {
         let i = parse_invocation(inv).unwrap();
-        let err = match check::bind(&set, &tr.domain, &i) {
-            Err(e) => render(&e),
+        let mut map = SourceMap::new();
+        let err = match check::bind(&mut map, &set, &tr.domain, &i) {
+            Err(e) => advise::diag::render(&map, &e, false),
             Ok(call) => render(&interp::apply(&call, &tr, Chunk { start: a, end: b }).unwrap_err()),
         };
         out.push_str(&format!("----- {inv} on {a}..{b}\n{err}\n"));
@@ -337,7 +346,13 @@ fn non_finite_results_are_errors_not_garbage() {
         .merge(&[Source::new("u.adv", user)])
         .unwrap();
     let tr = positioning_trace(4);
-    let call = check::bind(&set, &tr.domain, &parse_invocation("bad").unwrap()).unwrap();
+    let call = check::bind(
+        &mut SourceMap::new(),
+        &set,
+        &tr.domain,
+        &parse_invocation("bad").unwrap(),
+    )
+    .unwrap();
     let err = interp::apply(&call, &tr, Chunk::all(4)).unwrap_err();
     assert!(
         matches!(err, interp::ApplyError::NotFinite { point: 0, .. }),
@@ -375,7 +390,13 @@ fn a_compositions_argument_that_leaves_its_limits_for_this_chunk_is_refused_at_r
         .merge(&[Source::new("u.adv", user)])
         .unwrap();
     let tr = positioning_trace(12);
-    let call = check::bind(&set, &tr.domain, &parse_invocation("ramp").unwrap()).unwrap();
+    let call = check::bind(
+        &mut SourceMap::new(),
+        &set,
+        &tr.domain,
+        &parse_invocation("ramp").unwrap(),
+    )
+    .unwrap();
     assert!(interp::apply(&call, &tr, Chunk::new(0, 10, 12).unwrap()).is_ok());
     let err = interp::apply(&call, &tr, Chunk::new(0, 12, 12).unwrap()).unwrap_err();
     assert!(

@@ -3,7 +3,10 @@
 //! Adding a case means adding a file.
 
 use advise::check::{OperatorSet, Source, render_all};
-use advise::syntax::{self, ast::EraseSpans};
+use advise::syntax::ast::EraseSpans;
+
+mod common;
+use common::parse;
 
 fn source(path: &std::path::Path) -> Source {
     let name = path.file_name().unwrap().to_string_lossy().to_string();
@@ -14,10 +17,10 @@ fn source(path: &std::path::Path) -> Source {
 fn valid_programs() {
     insta::glob!("programs/ok/*.adv", |path| {
         let src = source(path);
-        let ast = syntax::parse(&src.name, &src.text).unwrap();
+        let ast = parse(&src.name, &src.text).unwrap();
         let printed = ast.to_string();
         // The canonical form parses back to the same tree.
-        let mut again = syntax::parse("printed", &printed).unwrap();
+        let mut again = parse("printed", &printed).unwrap();
         let mut orig = ast.clone();
         orig.erase_spans();
         again.erase_spans();
@@ -82,8 +85,12 @@ fn invalid_programs() {
         insta::assert_snapshot!(format!(
             "----- SOURCE CODE\n{}\n----- ERROR ({} diagnostic{})\n{}",
             src.text,
-            errors.errors.len(),
-            if errors.errors.len() == 1 { "" } else { "s" },
+            errors.error.errors.len(),
+            if errors.error.errors.len() == 1 {
+                ""
+            } else {
+                "s"
+            },
             render_all(&errors)
         ));
     });

@@ -4,12 +4,16 @@
 //! arbitrary text never makes parse+check panic.
 
 use advise::check::{self, OperatorSet, Source, render, render_all};
+use advise::diag::SourceMap;
 use advise::domain::{Domain, Space};
 use advise::interp;
 use advise::syntax::ast::*;
 use advise::syntax::{self, Invocation, parse_invocation};
 use advise::trace::{Chunk, Trace};
 use proptest::prelude::*;
+
+mod common;
+use common::parse;
 
 /// A trace of `domain` with values inside the limits, some of them exactly zero.
 fn trace(domain: Domain, max_len: usize) -> impl Strategy<Value = Trace> {
@@ -91,7 +95,7 @@ proptest! {
         let chunk = chunk_of(tr.len(), a, b);
         let inv = invocation(&set, &tr.domain, which, &u);
         let before = tr.clone();
-        let call = check::bind(&set, &tr.domain, &inv).map_err(|e| TestCaseError::fail(render(&e)))?;
+        let call = check::bind(&mut SourceMap::new(), &set, &tr.domain, &inv).map_err(|e| TestCaseError::fail(render(&e)))?;
         let out = interp::apply(&call, &tr, chunk).map_err(|e| TestCaseError::fail(render(&e)))?;
         prop_assert_eq!(&tr, &before);
         prop_assert_eq!(out.points.len(), out.source_index.len());
@@ -124,7 +128,7 @@ proptest! {
         let s = (at * (tr.len() + 1) as f64) as usize;
         let s = s.min(tr.len());
         let inv = invocation(&set, &tr.domain, which, &u);
-        let call = check::bind(&set, &tr.domain, &inv).map_err(|e| TestCaseError::fail(render(&e)))?;
+        let call = check::bind(&mut SourceMap::new(), &set, &tr.domain, &inv).map_err(|e| TestCaseError::fail(render(&e)))?;
         let out = interp::apply(&call, &tr, Chunk::new(s, s, tr.len()).unwrap())
             .map_err(|e| TestCaseError::fail(render(&e)))?;
         prop_assert!(out.points.is_empty());
@@ -140,7 +144,7 @@ proptest! {
     ) {
         let set = OperatorSet::standard();
         let chunk = chunk_of(tr.len(), a, b);
-        let call = check::bind(&set, &tr.domain, &Invocation::bare("no_turning")).unwrap();
+        let call = check::bind(&mut SourceMap::new(), &set, &tr.domain, &Invocation::bare("no_turning")).unwrap();
         let out = interp::apply(&call, &tr, chunk).unwrap();
         let turning: Vec<usize> = chunk.range().filter(|&i| tr.a(i)[1] != 0.0).collect();
         prop_assert_eq!(&out.source_index, &turning);
@@ -161,11 +165,11 @@ proptest! {
         let set = OperatorSet::standard();
         let chunk = chunk_of(tr.len(), a, b);
         let inv = invocation(&set, &tr.domain, which, &u);
-        let out = interp::apply(&check::bind(&set, &tr.domain, &inv).unwrap(), &tr, chunk).unwrap();
+        let out = interp::apply(&check::bind(&mut SourceMap::new(), &set, &tr.domain, &inv).unwrap(), &tr, chunk).unwrap();
         let json = serde_json::to_string(&out.advice).unwrap();
         let back: interp::AppliedAdvice = serde_json::from_str(&json).unwrap();
         prop_assert_eq!(&back, &out.advice, "{}", json);
-        let again = check::rebind(&set, &back).unwrap();
+        let again = check::rebind(&mut SourceMap::new(), &set, &back).unwrap();
         prop_assert_eq!(interp::apply(&again, &tr, back.chunk).unwrap(), out);
     }
 }
@@ -348,7 +352,7 @@ proptest! {
     fn print_then_parse_gives_back_the_same_tree(items in prop::collection::vec(item(), 0..4)) {
         let file = File { items };
         let text = file.to_string();
-        let mut back = syntax::parse("printed", &text)
+        let mut back = parse("printed", &text)
             .map_err(|e| TestCaseError::fail(format!("{}\n{text}", render(&e))))?;
         back.erase_spans();
         prop_assert_eq!(back, file, "{}", text);
@@ -373,7 +377,8 @@ proptest! {
 
 /// Parse, check and render whatever comes out; apply whatever checks.
 fn exercise(text: &str) {
-    let _ = syntax::parse_item("line", text);
+    let (map, id) = SourceMap::single("line", text);
+    let _ = syntax::parse_item(map.src(id));
     let _ = syntax::parse_invocation(text);
     let std = OperatorSet::standard();
     match std.merge(&[Source::new("fuzz.adv", text)]) {
@@ -395,7 +400,12 @@ fn exercise(text: &str) {
                 t
             };
             for name in set.operator_names("positioning") {
-                if let Ok(call) = check::bind(&set, &tr.domain, &Invocation::bare(name)) {
+                if let Ok(call) = check::bind(
+                    &mut SourceMap::new(),
+                    &set,
+                    &tr.domain,
+                    &Invocation::bare(name),
+                ) {
                     let _ = interp::apply(&call, &tr, Chunk::all(5));
                 }
             }

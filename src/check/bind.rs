@@ -6,25 +6,29 @@
 
 use std::sync::Arc;
 
-use miette::NamedSource;
-
 use super::error::CheckError;
 use super::hint;
+use crate::diag::{Loc, SourceId, SourceMap};
 use crate::program::{AppliedAdvice, Call, Frame, OpBody, Operator, OperatorSet, Param};
 use crate::syntax::ast::{Ident, Span};
-use crate::syntax::{self, InvArg, Invocation, SourceText};
+use crate::syntax::{self, InvArg, Invocation};
 
 /// The parameters of an operator being called, and the source its call is written in.
 pub(crate) struct Binder<'a> {
     pub operator: &'a str,
     pub params: &'a [Param],
-    pub src: &'a dyn Fn() -> NamedSource<SourceText>,
+    /// The source the call's spans are in.
+    pub at: SourceId,
     /// Whether the call was typed at the prompt (or recorded from there) rather than written in
     /// a composition: only then is the value, not the limits, the thing to change.
     pub typed: bool,
 }
 
 impl Binder<'_> {
+    fn loc(&self, span: Span) -> Loc {
+        self.at.at(span.start..span.end)
+    }
+
     /// "`speed_up(rate = 0.2 in [0, 4])`", or that it takes no arguments.
     fn signature(&self) -> String {
         if self.params.is_empty() {
@@ -54,8 +58,7 @@ impl Binder<'_> {
                         expected: self.params.len(),
                         found: count,
                         signature: self.signature(),
-                        src: (self.src)(),
-                        span: span.into(),
+                        span: self.loc(span),
                     },
                 ));
             }
@@ -75,8 +78,7 @@ impl Binder<'_> {
                             name: n.name.clone(),
                             operator: self.operator.into(),
                             help,
-                            src: (self.src)(),
-                            span: n.span.into(),
+                            span: self.loc(n.span),
                         },
                     ));
                 }
@@ -87,8 +89,7 @@ impl Binder<'_> {
                 span,
                 CheckError::DuplicateArgument {
                     name: self.params[slot].name.clone(),
-                    src: (self.src)(),
-                    span: span.into(),
+                    span: self.loc(span),
                 },
             ));
         }
@@ -111,8 +112,7 @@ impl Binder<'_> {
                 } else {
                     super::decls::widen(&p.name, l)
                 },
-                src: (self.src)(),
-                span: span.into(),
+                span: self.loc(span),
             }),
             _ => Ok(()),
         }
@@ -131,17 +131,21 @@ impl Binder<'_> {
             .map(move |(p, _)| CheckError::MissingArgument {
                 operator: self.operator.into(),
                 param: p.name.clone(),
-                src: (self.src)(),
-                span: span.into(),
+                span: self.loc(span),
             })
     }
 }
 
 /// Bind the operator `inv` names, among those of `domain` in `set`, to its arguments: every
 /// parameter's value (defaults filled in, limits checked) and its composition expanded.
-pub fn bind(set: &OperatorSet, domain: &str, inv: &Invocation) -> Result<Call, CheckError> {
-    let text = SourceText::from(inv.text.as_str());
-    let src = || NamedSource::new("advice", text.clone());
+/// `inv`'s text joins `sources` as `advice`, for the diagnostics.
+pub fn bind(
+    sources: &mut SourceMap,
+    set: &OperatorSet,
+    domain: &str,
+    inv: &Invocation,
+) -> Result<Call, CheckError> {
+    let at = sources.add("advice", inv.text.as_str());
     let Some(index) = set.find(domain, &inv.name.name) else {
         let names = set.operator_names(domain);
         let what = format!("operators for `{domain}`");
@@ -157,17 +161,20 @@ pub fn bind(set: &OperatorSet, domain: &str, inv: &Invocation) -> Result<Call, C
             name: inv.name.name.clone(),
             domain: domain.into(),
             help,
-            src: src(),
-            span: inv.name.span.into(),
+            span: at.at(inv.name.span.start..inv.name.span.end),
         });
     };
-    bind_to(set.op(index), inv, &src)
+    bind_to(set.op(index), inv, at)
 }
 
 /// The call that recorded advice was made with, on the operator of that name in `set`, provided
 /// it is still the operator the advice was given with (same definition hash; for a record older
 /// than hashes, the same definition text). Nothing is parsed: the values are the record's.
-pub fn rebind(set: &OperatorSet, advice: &AppliedAdvice) -> Result<Call, CheckError> {
+pub fn rebind(
+    sources: &mut SourceMap,
+    set: &OperatorSet,
+    advice: &AppliedAdvice,
+) -> Result<Call, CheckError> {
     // The invocation the record stands for, with spans for diagnostics, built rather than parsed.
     let mut text = advice.operator.clone();
     let name = Ident {
@@ -197,7 +204,7 @@ pub fn rebind(set: &OperatorSet, advice: &AppliedAdvice) -> Result<Call, CheckEr
     let inv = Invocation { text, name, args };
     let op = match set.find(&advice.domain, &advice.operator) {
         Some(i) => set.op(i),
-        None => return bind(set, &advice.domain, &inv),
+        None => return bind(sources, set, &advice.domain, &inv),
     };
     let same = match advice.hash {
         Some(h) => h == op.hash(),
@@ -211,19 +218,15 @@ pub fn rebind(set: &OperatorSet, advice: &AppliedAdvice) -> Result<Call, CheckEr
             origin: op.origin().into(),
         });
     }
-    let text = SourceText::from(inv.text.as_str());
-    bind_to(op, &inv, &|| NamedSource::new("advice", text.clone()))
+    let at = sources.add("advice", inv.text.as_str());
+    bind_to(op, &inv, at)
 }
 
-fn bind_to(
-    op: &Arc<Operator>,
-    inv: &Invocation,
-    src: &dyn Fn() -> NamedSource<SourceText>,
-) -> Result<Call, CheckError> {
+fn bind_to(op: &Arc<Operator>, inv: &Invocation, at: SourceId) -> Result<Call, CheckError> {
     let b = Binder {
         operator: op.name(),
         params: op.params(),
-        src,
+        at,
         typed: true,
     };
     let mut given = vec![false; op.params().len()];
@@ -303,13 +306,25 @@ mod tests {
     fn an_invocation_binds_by_position_and_name_with_defaults() {
         let set = OperatorSet::standard();
         let inv = parse_invocation("start_turning_earlier(steps = 4)").unwrap();
-        let call = bind(&set, "positioning", &inv).unwrap();
+        let call = bind(&mut SourceMap::new(), &set, "positioning", &inv).unwrap();
         assert_eq!(call.params(), &[4.0]);
         assert_eq!(call.to_string(), "start_turning_earlier(steps = 4)");
-        let call = bind(&set, "positioning", &Invocation::bare("speed_up")).unwrap();
+        let call = bind(
+            &mut SourceMap::new(),
+            &set,
+            "positioning",
+            &Invocation::bare("speed_up"),
+        )
+        .unwrap();
         assert_eq!(call.params(), &[0.2]);
         // A composition is expanded: itself, then its two stages in order.
-        let call = bind(&set, "positioning", &Invocation::bare("brake_straight")).unwrap();
+        let call = bind(
+            &mut SourceMap::new(),
+            &set,
+            "positioning",
+            &Invocation::bare("brake_straight"),
+        )
+        .unwrap();
         let names: Vec<&str> = call.frames.iter().map(|f| f.op.name()).collect();
         assert_eq!(
             names,
@@ -329,14 +344,26 @@ mod tests {
         ];
         for (text, want) in cases {
             let inv = parse_invocation(text).unwrap();
-            let e = bind(&set, "positioning", &inv).unwrap_err();
+            let e = bind(&mut SourceMap::new(), &set, "positioning", &inv).unwrap_err();
             assert_eq!(code(&e), want, "{text}");
         }
         let set = set_with("operator push(by) for positioning on action { trans += by }");
-        let e = bind(&set, "positioning", &Invocation::bare("push")).unwrap_err();
+        let e = bind(
+            &mut SourceMap::new(),
+            &set,
+            "positioning",
+            &Invocation::bare("push"),
+        )
+        .unwrap_err();
         assert_eq!(code(&e), "advise::check::missing_argument");
         // A domain without operators: nothing to bind to, and the hint says where it is.
-        let e = bind(&set, "nowhere", &Invocation::bare("push")).unwrap_err();
+        let e = bind(
+            &mut SourceMap::new(),
+            &set,
+            "nowhere",
+            &Invocation::bare("push"),
+        )
+        .unwrap_err();
         assert!(
             matches!(&e, CheckError::UnknownOperator { help, .. } if help == "`push` is an operator for the `positioning` domain; there are no operators for `nowhere`"),
             "{e:?}"
@@ -348,10 +375,10 @@ mod tests {
         let first =
             set_with("operator boost(v = 0.5 in [0, 1]) for positioning on action { trans = v }");
         let inv = parse_invocation("boost(0.25)").unwrap();
-        let record = bind(&first, "positioning", &inv)
+        let record = bind(&mut SourceMap::new(), &first, "positioning", &inv)
             .unwrap()
             .record(Chunk { start: 1, end: 4 });
-        let again = rebind(&first, &record).unwrap();
+        let again = rebind(&mut SourceMap::new(), &first, &record).unwrap();
         assert_eq!(again.params(), &[0.25]);
         assert_eq!(again.operator().hash(), record.hash.unwrap());
 
@@ -359,7 +386,7 @@ mod tests {
         let second = set_with(
             "operator boost(v = 0.5 in [0, 1]) for positioning on action { trans = v / 2 }",
         );
-        let e = rebind(&second, &record).unwrap_err();
+        let e = rebind(&mut SourceMap::new(), &second, &record).unwrap_err();
         assert_eq!(code(&e), "advise::check::redefined_operator");
 
         // A record from before hashes: its definition text decides.
@@ -367,22 +394,20 @@ mod tests {
             hash: None,
             ..record.clone()
         };
-        assert!(rebind(&first, &old).is_ok());
+        assert!(rebind(&mut SourceMap::new(), &first, &old).is_ok());
         assert_eq!(
-            code(&rebind(&second, &old).unwrap_err()),
+            code(&rebind(&mut SourceMap::new(), &second, &old).unwrap_err()),
             "advise::check::redefined_operator"
         );
 
         // Values are bound again, not trusted: a record edited out of range is refused.
         let mut edited = record.clone();
         edited.params[0].value = 3.0;
-        let e = rebind(&first, &edited).unwrap_err();
+        let mut map = SourceMap::new();
+        let e = rebind(&mut map, &first, &edited).unwrap_err();
         assert_eq!(code(&e), "advise::check::parameter_out_of_range");
-        assert!(
-            crate::check::render(&e).contains("boost(v = 3)"),
-            "{}",
-            crate::check::render(&e)
-        );
+        let shown = crate::diag::render(&map, &e, false);
+        assert!(shown.contains("boost(v = 3)"), "{shown}");
     }
 
     #[test]

@@ -42,8 +42,7 @@ impl Checker<'_> {
                         o.name.span,
                         CheckError::EmptyOperator {
                             name: o.name.name.clone(),
-                            src: self.src(f),
-                            span: o.name.span.into(),
+                            span: self.at(f, o.name.span),
                         },
                     );
                 }
@@ -70,8 +69,7 @@ impl Checker<'_> {
                             s.target.span,
                             CheckError::DuplicateAssignment {
                                 name: s.target.name.clone(),
-                                src: self.src(f),
-                                span: s.target.span.into(),
+                                span: self.at(f, s.target.span),
                             },
                         );
                         continue;
@@ -84,8 +82,7 @@ impl Checker<'_> {
                             s.value.span,
                             CheckError::NotFinite {
                                 value: v,
-                                src: self.src(f),
-                                span: s.value.span.into(),
+                                span: self.at(f, s.value.span),
                             },
                         );
                     } else if s.op == AssignOp::Set
@@ -102,8 +99,7 @@ impl Checker<'_> {
                                 lo: l.lo,
                                 hi: l.hi,
                                 clamped: l.clamp(v),
-                                src: self.src(f),
-                                span: s.value.span.into(),
+                                span: self.at(f, s.value.span),
                             },
                         );
                     }
@@ -128,8 +124,7 @@ impl Checker<'_> {
                             name: o.name.name.clone(),
                             nodes,
                             limit: MAX_NODES,
-                            src: self.src(f),
-                            span: o.name.span.into(),
+                            span: self.at(f, o.name.span),
                         },
                     );
                 }
@@ -175,8 +170,7 @@ impl Checker<'_> {
                             dim: t.name.clone(),
                             op_space: o.space.word().into(),
                             dim_space: space.word().into(),
-                            src: self.src(f),
-                            span: t.span.into(),
+                            span: self.at(f, t.span),
                         },
                     );
                     return None;
@@ -208,8 +202,7 @@ impl Checker<'_> {
                         name: t.name.clone(),
                         domain: domain.name.clone(),
                         help,
-                        src: self.src(f),
-                        span: t.span.into(),
+                        span: self.at(f, t.span),
                     },
                 );
                 None

@@ -132,8 +132,7 @@ impl Checker<'_> {
                     stages: count_text(count[i]),
                     limit: MAX_STAGES,
                     chain: format!("stages per operator: {}", chain.join(" -> ")),
-                    src: self.src(f),
-                    span: sig.decl.name.span.into(),
+                    span: self.at(f, sig.decl.name.span),
                 },
             );
         }
@@ -199,8 +198,7 @@ impl Checker<'_> {
                         name: c.name.name.clone(),
                         op_domain: (*other).into(),
                         domain: domain.name.clone(),
-                        src: self.src(f),
-                        span: c.name.span.into(),
+                        span: self.at(f, c.name.span),
                     },
                 );
                 return None;
@@ -225,8 +223,7 @@ impl Checker<'_> {
                     name: c.name.name.clone(),
                     domain: domain.name.clone(),
                     help,
-                    src: self.src(f),
-                    span: c.name.span.into(),
+                    span: self.at(f, c.name.span),
                 },
             );
             return None;
@@ -241,19 +238,16 @@ impl Checker<'_> {
                     callee: callee.name.into(),
                     op_space: o.space.word().into(),
                     callee_space: callee.space.word().into(),
-                    src: self.src(f),
-                    span: c.name.span.into(),
+                    span: self.at(f, c.name.span),
                 },
             );
             ok = false;
         }
         let cparams = callee.params;
-        let (name, text) = (self.sources[f].name.clone(), self.texts[f].clone());
-        let src = move || NamedSource::new(&name, text.clone());
         let binder = Binder {
             operator: callee.name,
             params: cparams,
-            src: &src,
+            at: self.sources[f].id,
             typed: false,
         };
         let mut args: Vec<Option<Ir>> = vec![None; cparams.len()];
@@ -354,8 +348,7 @@ impl Checker<'_> {
                                 CheckError::RecursiveOperator {
                                     name: sigs[to].decl.name.name.clone(),
                                     cycle,
-                                    src: self.src(f),
-                                    span: span.into(),
+                                    span: self.at(f, span),
                                 },
                             );
                         }

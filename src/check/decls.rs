@@ -24,8 +24,7 @@ impl Checker<'_> {
                     CheckError::ReservedName {
                         name: name.into(),
                         meaning: (*meaning).into(),
-                        src: self.src(f),
-                        span: dim.name.span.into(),
+                        span: self.at(f, dim.name.span),
                     },
                 );
             }
@@ -35,8 +34,7 @@ impl Checker<'_> {
                     dim.name.span,
                     CheckError::DuplicateDimension {
                         name: name.into(),
-                        src: self.src(f),
-                        span: dim.name.span.into(),
+                        span: self.at(f, dim.name.span),
                     },
                 );
                 continue;
@@ -66,8 +64,7 @@ impl Checker<'_> {
                 CheckError::EmptyLimits {
                     lo,
                     hi,
-                    src: self.src(f),
-                    span: l.span.into(),
+                    span: self.at(f, l.span),
                 },
             );
             return None;
@@ -92,8 +89,7 @@ impl Checker<'_> {
                 e.span,
                 CheckError::NotFinite {
                     value: v,
-                    src: self.src(f),
-                    span: e.span.into(),
+                    span: self.at(f, e.span),
                 },
             );
             return None;
@@ -129,8 +125,7 @@ impl Checker<'_> {
                 CheckError::UnknownDomain {
                     name: o.domain.name.clone(),
                     help,
-                    src: self.src(f),
-                    span: o.domain.span.into(),
+                    span: self.at(f, o.domain.span),
                 },
             );
         }
@@ -143,8 +138,7 @@ impl Checker<'_> {
                     name: o.name.name.clone(),
                     count: o.params.len(),
                     limit: MAX_PARAMS,
-                    src: self.src(f),
-                    span: extra.name.span.into(),
+                    span: self.at(f, extra.name.span),
                 },
             );
         }
@@ -157,8 +151,7 @@ impl Checker<'_> {
                     CheckError::ReservedName {
                         name: name.into(),
                         meaning: (*meaning).into(),
-                        src: self.src(f),
-                        span: p.name.span.into(),
+                        span: self.at(f, p.name.span),
                     },
                 );
             }
@@ -171,8 +164,7 @@ impl Checker<'_> {
                     CheckError::ParamShadowsDimension {
                         name: name.into(),
                         domain: domains[d].name.clone(),
-                        src: self.src(f),
-                        span: p.name.span.into(),
+                        span: self.at(f, p.name.span),
                     },
                 );
             }
@@ -182,8 +174,7 @@ impl Checker<'_> {
                     p.name.span,
                     CheckError::DuplicateParameter {
                         name: name.into(),
-                        src: self.src(f),
-                        span: p.name.span.into(),
+                        span: self.at(f, p.name.span),
                     },
                 );
             }
@@ -205,8 +196,7 @@ impl Checker<'_> {
                         lo: l.lo,
                         hi: l.hi,
                         help: widen(name, l),
-                        src: self.src(f),
-                        span: e.span.into(),
+                        span: self.at(f, e.span),
                     },
                 );
             }

@@ -1,10 +1,11 @@
 //! Check diagnostics: one variant per mistake, each with a stable code, the source, a label and,
 //! where there is an obvious fix, a hint.
 
-use miette::{Diagnostic, NamedSource, SourceSpan};
+use miette::Diagnostic;
 use thiserror::Error;
 
-use crate::syntax::{ParseError, SourceText};
+use crate::diag::Loc;
+use crate::syntax::ParseError;
 
 /// Something wrong with a program that parsed.
 #[derive(Debug, Error, Diagnostic, Clone)]
@@ -15,10 +16,8 @@ pub enum CheckError {
         name: String,
         #[help]
         help: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("unknown domain")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` is not a dimension of the `{domain}` domain")]
     #[diagnostic(code(advise::check::unknown_dimension))]
@@ -27,10 +26,8 @@ pub enum CheckError {
         domain: String,
         #[help]
         help: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("unknown dimension")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` is not a dimension, a parameter or a built-in")]
     #[diagnostic(code(advise::check::unknown_name))]
@@ -38,10 +35,8 @@ pub enum CheckError {
         name: String,
         #[help]
         help: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("unknown name")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("there is no function `{name}`")]
     #[diagnostic(code(advise::check::unknown_function))]
@@ -49,10 +44,8 @@ pub enum CheckError {
         name: String,
         #[help]
         help: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("unknown function")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{func}` takes {expected} argument{}, found {found}", if *expected == 1 { "" } else { "s" })]
     #[diagnostic(code(advise::check::function_arity), help("{signature}"))]
@@ -61,10 +54,8 @@ pub enum CheckError {
         expected: usize,
         found: usize,
         signature: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("{found} argument{}", if *found == 1 { "" } else { "s" })]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("there is no operator `{name}` for the `{domain}` domain")]
     #[diagnostic(code(advise::check::unknown_operator))]
@@ -73,10 +64,8 @@ pub enum CheckError {
         domain: String,
         #[help]
         help: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("unknown operator")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` is an operator for the `{op_domain}` domain, not `{domain}`")]
     #[diagnostic(
@@ -89,10 +78,8 @@ pub enum CheckError {
         name: String,
         op_domain: String,
         domain: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("an operator for `{op_domain}`")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{operator}` has no parameter `{name}`")]
     #[diagnostic(code(advise::check::unknown_parameter))]
@@ -101,10 +88,8 @@ pub enum CheckError {
         operator: String,
         #[help]
         help: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("unknown parameter")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{operator}` takes {expected} argument{}, found {found}", if *expected == 1 { "" } else { "s" })]
     #[diagnostic(code(advise::check::wrong_arity), help("{signature}"))]
@@ -113,10 +98,8 @@ pub enum CheckError {
         expected: usize,
         found: usize,
         signature: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("one too many")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{operator}` needs a value for `{param}`")]
     #[diagnostic(
@@ -128,19 +111,15 @@ pub enum CheckError {
     MissingArgument {
         operator: String,
         param: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("`{param}` is not given")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` is given twice")]
     #[diagnostic(code(advise::check::duplicate_argument), help("remove one of them"))]
     DuplicateArgument {
         name: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("given again here")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{operator}` modifies {op_space}s, but `{dim}` is an {dim_space} dimension")]
     #[diagnostic(
@@ -154,10 +133,8 @@ pub enum CheckError {
         dim: String,
         op_space: String,
         dim_space: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("an {dim_space} dimension")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{operator}` modifies {op_space}s, but `{callee}` modifies {callee_space}s")]
     #[diagnostic(
@@ -169,10 +146,8 @@ pub enum CheckError {
         callee: String,
         op_space: String,
         callee_space: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("modifies {callee_space}s")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("{value} is outside the limits of `{dim}`, [{lo}, {hi}]")]
     #[diagnostic(
@@ -185,10 +160,8 @@ pub enum CheckError {
         lo: f64,
         hi: f64,
         clamped: f64,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("outside [{lo}, {hi}]")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("the {what} {value} of `{param}` is outside its limits [{lo}, {hi}]")]
     #[diagnostic(code(advise::check::parameter_out_of_range), help("{help}"))]
@@ -200,20 +173,16 @@ pub enum CheckError {
         hi: f64,
         /// In a file: write another value or widen the limits; at the prompt: give another value.
         help: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("outside [{lo}, {hi}]")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("the domain `{name}` is declared twice")]
     #[diagnostic(code(advise::check::duplicate_domain), help("{first}"))]
     DuplicateDomain {
         name: String,
         first: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("declared again here")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("this `{name}` domain differs from the standard one: {difference}")]
     #[diagnostic(
@@ -225,10 +194,8 @@ pub enum CheckError {
     ConflictingDomain {
         name: String,
         difference: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("differs from the standard `{name}`")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("the dimension `{name}` is declared twice")]
     #[diagnostic(
@@ -237,10 +204,8 @@ pub enum CheckError {
     )]
     DuplicateDimension {
         name: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("declared again here")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("the operator `{name}` for `{domain}` is defined twice")]
     #[diagnostic(code(advise::check::duplicate_operator), help("{first}"))]
@@ -248,10 +213,8 @@ pub enum CheckError {
         name: String,
         domain: String,
         first: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("defined again here")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("the parameter `{name}` is declared twice")]
     #[diagnostic(
@@ -260,10 +223,8 @@ pub enum CheckError {
     )]
     DuplicateParameter {
         name: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("declared again here")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` is assigned twice")]
     #[diagnostic(
@@ -274,20 +235,16 @@ pub enum CheckError {
     )]
     DuplicateAssignment {
         name: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("assigned again here")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` is reserved: it means {meaning}")]
     #[diagnostic(code(advise::check::reserved_name), help("choose another name"))]
     ReservedName {
         name: String,
         meaning: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("reserved")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("the parameter `{name}` has the name of a dimension of `{domain}`")]
     #[diagnostic(
@@ -299,10 +256,8 @@ pub enum CheckError {
     ParamShadowsDimension {
         name: String,
         domain: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("also a dimension")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("the limits [{lo}, {hi}] are empty")]
     #[diagnostic(
@@ -312,10 +267,8 @@ pub enum CheckError {
     EmptyLimits {
         lo: f64,
         hi: f64,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("lower limit above upper limit")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("{what} must be a constant")]
     #[diagnostic(
@@ -324,20 +277,16 @@ pub enum CheckError {
     )]
     NotConstant {
         what: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("`{name}` is not a constant")]
-        span: SourceSpan,
+        span: Loc,
         name: String,
     },
     #[error("the constant is {value}, not a finite number")]
     #[diagnostic(code(advise::check::not_finite), help("a division by zero?"))]
     NotFinite {
         value: f64,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("not finite")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("expected {expected}, found {found}")]
     #[diagnostic(code(advise::check::type_mismatch))]
@@ -346,10 +295,8 @@ pub enum CheckError {
         found: String,
         #[help]
         help: Option<String>,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("this is {found}")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}[...]` reads another point, but `{name}` is not a dimension")]
     #[diagnostic(
@@ -358,10 +305,8 @@ pub enum CheckError {
     )]
     OffsetNeedsDimension {
         name: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("not a dimension")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` uses itself: {cycle}")]
     #[diagnostic(
@@ -371,10 +316,8 @@ pub enum CheckError {
     RecursiveOperator {
         name: String,
         cycle: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("this call leads back to `{name}`")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("an argument of a composition cannot use `{name}`")]
     #[diagnostic(
@@ -385,10 +328,8 @@ pub enum CheckError {
     )]
     PerPointArgument {
         name: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("differs from point to point")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("the operator `{name}` changes nothing")]
     #[diagnostic(
@@ -397,10 +338,8 @@ pub enum CheckError {
     )]
     EmptyOperator {
         name: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("no statements")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` expands to {stages} per-point stages, more than {limit}")]
     #[diagnostic(
@@ -414,10 +353,8 @@ pub enum CheckError {
         stages: String,
         limit: usize,
         chain: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("expands to {stages} stages")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` computes {nodes} terms, more than {limit}")]
     #[diagnostic(
@@ -430,10 +367,8 @@ pub enum CheckError {
         name: String,
         nodes: usize,
         limit: usize,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("{nodes} terms")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` declares {count} parameters, more than {limit}")]
     #[diagnostic(
@@ -446,10 +381,8 @@ pub enum CheckError {
         name: String,
         count: usize,
         limit: usize,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("parameter {} of {count}", limit + 1)]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{name}` for `{domain}` has changed since this advice was given")]
     #[diagnostic(
@@ -514,9 +447,7 @@ pub enum CheckWarning {
         name: String,
         domain: String,
         origin: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("shadows the standard `{name}`")]
-        span: SourceSpan,
+        span: Loc,
     },
 }

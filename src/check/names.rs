@@ -100,8 +100,7 @@ impl Checker<'_> {
                 expected: want.word().into(),
                 found: found.word().into(),
                 help: help.map(str::to_string),
-                src: self.src(f),
-                span: e.span.into(),
+                span: self.at(f, e.span),
             },
         );
         false
@@ -136,8 +135,7 @@ impl Checker<'_> {
                             offset.span,
                             CheckError::NotFinite {
                                 value: v,
-                                src: self.src(f),
-                                span: offset.span.into(),
+                                span: self.at(f, offset.span),
                             },
                         );
                         return bad;
@@ -153,8 +151,7 @@ impl Checker<'_> {
                             dim.span,
                             CheckError::OffsetNeedsDimension {
                                 name: dim.name.clone(),
-                                src: self.src(f),
-                                span: dim.span.into(),
+                                span: self.at(f, dim.span),
                             },
                         );
                         bad
@@ -169,8 +166,7 @@ impl Checker<'_> {
                                 name: dim.name.clone(),
                                 domain: domain.name.clone(),
                                 help,
-                                src: self.src(f),
-                                span: dim.span.into(),
+                                span: self.at(f, dim.span),
                             },
                         );
                         bad
@@ -191,8 +187,7 @@ impl Checker<'_> {
                         CheckError::UnknownFunction {
                             name: func.name.clone(),
                             help,
-                            src: self.src(f),
-                            span: func.span.into(),
+                            span: self.at(f, func.span),
                         },
                     );
                     return bad;
@@ -206,8 +201,7 @@ impl Checker<'_> {
                             expected: fun.arity(),
                             found: args.len(),
                             signature: fun.signature().into(),
-                            src: self.src(f),
-                            span: e.span.into(),
+                            span: self.at(f, e.span),
                         },
                     );
                     return bad;
@@ -353,8 +347,7 @@ impl Checker<'_> {
             CheckError::UnknownName {
                 name: name.into(),
                 help,
-                src: self.src(f),
-                span: span.into(),
+                span: self.at(f, span),
             },
         );
         bad
@@ -372,8 +365,7 @@ impl Checker<'_> {
         let e = match scope {
             Scope::Arg { .. } => CheckError::PerPointArgument {
                 name: name.into(),
-                src: self.src(f),
-                span: span.into(),
+                span: self.at(f, span),
             },
             _ => CheckError::NotConstant {
                 what: if what.is_empty() {
@@ -382,8 +374,7 @@ impl Checker<'_> {
                     what.into()
                 },
                 name: name.into(),
-                src: self.src(f),
-                span: span.into(),
+                span: self.at(f, span),
             },
         };
         self.err(f, span, e);

@@ -43,11 +43,16 @@ fn standard_set() -> &'static OperatorSet {
 pub(super) fn standard_domains() -> &'static [Domain] {
     static DOMAINS: OnceLock<Vec<Domain>> = OnceLock::new();
     DOMAINS.get_or_init(|| {
-        let sources = sources();
-        let mut c = Checker::new(&sources);
+        let mut map = SourceMap::new();
+        let ids: Vec<SourceId> = STANDARD_SOURCES
+            .iter()
+            .map(|(n, t)| map.add(*n, *t))
+            .collect();
+        let srcs: Vec<Src<'_>> = ids.iter().map(|&id| map.src(id)).collect();
+        let mut c = Checker::new(&srcs);
         let mut files = Vec::new();
-        for (i, s) in sources.iter().enumerate() {
-            match syntax::parse(&s.name, &s.text) {
+        for (i, s) in srcs.iter().enumerate() {
+            match syntax::parse(*s) {
                 Ok(f) => files.push((
                     i,
                     File {
@@ -58,7 +63,10 @@ pub(super) fn standard_domains() -> &'static [Domain] {
                             .collect(),
                     },
                 )),
-                Err(e) => panic!("the standard operators do not parse:\n{}", render(&e)),
+                Err(e) => panic!(
+                    "the standard operators do not parse:\n{}",
+                    crate::diag::render(&map, &e, false)
+                ),
             }
         }
         let set = c.run(None, &files);
@@ -66,7 +74,7 @@ pub(super) fn standard_domains() -> &'static [Domain] {
             let errors = c.errors.into_iter().map(|(_, _, e)| e).collect();
             panic!(
                 "the standard domains do not check:\n{}",
-                render_all(&CheckErrors { errors })
+                crate::diag::render(&map, &CheckErrors { errors }, false)
             );
         }
         set.domains

@@ -6,50 +6,47 @@ use std::process::ExitCode;
 
 use miette::{IntoDiagnostic, Report, WrapErr, miette};
 
-use crate::check::{self, OperatorSet, Source};
-use crate::diag::SourceMap;
+use crate::check::{self, OperatorSet};
+use crate::diag::{SourceId, SourceMap};
 use crate::trace::{Chunk, Episode, Trace};
 
 use super::print_report;
 
 pub fn check_standard() -> miette::Result<ExitCode> {
-    let sources: Vec<Source> = check::STANDARD_SOURCES
+    let mut map = SourceMap::new();
+    let ids: Vec<SourceId> = check::STANDARD_SOURCES
         .iter()
-        .map(|(n, t)| Source::new(*n, *t))
+        .map(|(n, t)| map.add(*n, *t))
         .collect();
-    match check::check(&sources) {
-        Ok(set) => {
+    match check::check_in(&map, None, &ids) {
+        Ok(checked) => {
             println!(
                 "checked {} domains and {} operators in operators/: all good",
-                set.domains().len(),
-                set.operator_count()
+                checked.set.domains().len(),
+                checked.set.operator_count()
             );
             Ok(ExitCode::SUCCESS)
         }
-        Err(errors) => Ok(report_check_errors(errors, sources.len())),
+        Err(errors) => Ok(report_check_errors(&map, errors, ids.len())),
     }
 }
 
-fn read_sources(files: &[PathBuf]) -> miette::Result<Vec<Source>> {
+/// Read `files` into `map`, the first unreadable one as the error.
+fn read_sources(map: &mut SourceMap, files: &[PathBuf]) -> miette::Result<Vec<SourceId>> {
     files
         .iter()
-        .map(|f| {
-            let mut files = SourceMap::new();
-            match crate::files::read_source(&mut files, f) {
-                Ok(id) => Ok(Source::new(f.display().to_string(), files.text(id))),
-                Err(e) => Err(Report::from(files.attach(e))),
-            }
-        })
+        .map(|f| crate::files::read_source(map, f).map_err(|e| Report::from(map.attach(e))))
         .collect()
 }
 
 pub fn check_files(files: &[PathBuf]) -> miette::Result<ExitCode> {
-    let sources = read_sources(files)?;
-    match OperatorSet::standard().merge_with_warnings(&sources) {
+    let mut map = SourceMap::new();
+    let ids = read_sources(&mut map, files)?;
+    match OperatorSet::standard().merge_in(&map, &ids) {
         Ok(check::Checked { set, warnings }) => {
             let n = warnings.len();
             for w in warnings {
-                eprintln!("{:?}", Report::new(w));
+                print_report(&map, &w);
             }
             let ops: usize = set.operator_count();
             println!(
@@ -66,14 +63,14 @@ pub fn check_files(files: &[PathBuf]) -> miette::Result<ExitCode> {
             );
             Ok(ExitCode::SUCCESS)
         }
-        Err(errors) => Ok(report_check_errors(errors, files.len())),
+        Err(errors) => Ok(report_check_errors(&map, errors, files.len())),
     }
 }
 
-fn report_check_errors(errors: check::CheckErrors, files: usize) -> ExitCode {
+fn report_check_errors(map: &SourceMap, errors: check::CheckErrors, files: usize) -> ExitCode {
     let n = errors.errors.len();
     for e in &errors.errors {
-        print_report(e);
+        print_report(map, e);
     }
     eprintln!(
         "advise: {n} error{} in {files} file{}",
@@ -91,14 +88,14 @@ pub fn apply(
     domain: Option<&str>,
     episode: Option<usize>,
 ) -> miette::Result<ExitCode> {
-    let sources = read_sources(operators)?;
-    let set = match OperatorSet::standard().merge(&sources) {
-        Ok(set) => set,
-        Err(errors) => return Ok(report_check_errors(errors, sources.len())),
+    let mut files = SourceMap::new();
+    let ids = read_sources(&mut files, operators)?;
+    let set = match OperatorSet::standard().merge_in(&files, &ids) {
+        Ok(checked) => checked.set,
+        Err(errors) => return Ok(report_check_errors(&files, errors, ids.len())),
     };
     let inv = crate::syntax::parse_invocation(op)?;
     let domain = set.trace_domain(trace_path, domain)?;
-    let mut files = SourceMap::new();
     let trace = match episode {
         None => Trace::load(&mut files, &domain, trace_path).map_err(|e| files.attach(e))?,
         Some(k) => {
@@ -118,7 +115,8 @@ pub fn apply(
     };
     let (a, b) = super::parse_range(range)?;
     let chunk = Chunk::new(a, b, trace.len())?;
-    let call = crate::check::bind(&set, &trace.domain, &inv)?;
+    let call =
+        crate::check::bind(&mut files, &set, &trace.domain, &inv).map_err(|e| files.attach(e))?;
     let out = crate::interp::apply(&call, &trace, chunk)?;
     let mut stdout = std::io::stdout().lock();
     out.points

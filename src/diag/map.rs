@@ -19,6 +19,10 @@ use miette::{Diagnostic, MietteError, MietteSpanContents, SourceCode, SourceSpan
 pub struct SourceId(usize);
 
 impl SourceId {
+    /// An id no map gives: for a text parsed only to inspect the result (is a line complete?),
+    /// whose errors are never drawn.
+    pub const UNMAPPED: SourceId = SourceId(usize::MAX / 2);
+
     /// The place of `range` (byte offsets into this source's text).
     pub fn at(self, range: Range<usize>) -> Loc {
         Loc {
@@ -160,16 +164,33 @@ impl SourceMap {
 
     /// Drop the source added last.
     fn pop(&mut self) {
-        let Some(last) = self.sources.pop() else {
-            return;
-        };
-        let key = key(&last.name, &last.text);
-        if let Some(same) = self.seen.get_mut(&key) {
-            same.retain(|i| *i != self.sources.len());
-            if same.is_empty() {
-                self.seen.remove(&key);
+        self.truncate(self.sources.len().saturating_sub(1));
+    }
+
+    /// Drop every source added after the first `len`: a session keeps a statement's texts only
+    /// while an error may point into them, so a statement that succeeded gives back what it added
+    /// ([`SourceMap::len`] before it, passed here after).
+    pub fn truncate(&mut self, len: usize) {
+        while self.sources.len() > len {
+            let Some(last) = self.sources.pop() else {
+                return;
+            };
+            let key = key(&last.name, &last.text);
+            if let Some(same) = self.seen.get_mut(&key) {
+                same.retain(|i| *i != self.sources.len());
+                if same.is_empty() {
+                    self.seen.remove(&key);
+                }
             }
         }
+    }
+
+    /// A map holding `text` alone, under `name`, and its id: for a call that parses one text
+    /// with no session around it (a test, a command-line argument).
+    pub fn single(name: impl Into<String>, text: impl Into<Arc<str>>) -> (SourceMap, SourceId) {
+        let mut map = SourceMap::new();
+        let id = map.add(name, text);
+        (map, id)
     }
 
     /// A source of this map, to parse.

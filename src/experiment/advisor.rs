@@ -647,7 +647,13 @@ mod tests {
             path(Pose::new(2.0, 2.0, 0.0), &[(0.5, 0.0, 60), (0.5, 0.8, 40)]),
         ] {
             for a in advise(&exec, &AdvisorRules::default()) {
-                let call = crate::check::bind(&ops, &exec.trace.domain, &a.operator).unwrap();
+                let call = crate::check::bind(
+                    &mut crate::diag::SourceMap::new(),
+                    &ops,
+                    &exec.trace.domain,
+                    &a.operator,
+                )
+                .unwrap();
                 let syn = crate::interp::apply(&call, &exec.trace, a.chunk).unwrap();
                 assert!(!syn.points.is_empty());
                 assert!(syn.source_index.iter().all(|i| a.chunk.range().contains(i)));

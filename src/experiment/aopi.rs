@@ -278,7 +278,12 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
                     let advice = advisor::advise(&exec, &params.advisor);
                     let mut id = None;
                     for a in &advice {
-                        let Ok(call) = check::bind(&ops, &exec.trace.domain, &a.operator) else {
+                        let Ok(call) = check::bind(
+                            &mut crate::diag::SourceMap::new(),
+                            &ops,
+                            &exec.trace.domain,
+                            &a.operator,
+                        ) else {
                             continue;
                         };
                         let Ok(syn) = interp::apply(&call, &exec.trace, a.chunk) else {

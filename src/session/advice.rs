@@ -89,7 +89,7 @@ impl Session {
         let (i, chunk) = self.selection()?;
         let started = Instant::now();
         let rec = &self.state.executions[i];
-        let call = check::bind(&self.ops, &rec.trace.domain, inv)?;
+        let call = check::bind(&mut self.sources, &self.ops, &rec.trace.domain, inv)?;
         let syn = interp::apply(&call, &rec.trace, chunk)?;
         let points = syn.points.len();
         let skipped = chunk.len() - points;
@@ -111,10 +111,13 @@ impl Session {
         }))
     }
 
-    pub(super) fn preview(&self, inv: &crate::syntax::Invocation) -> Result<String, SessionError> {
+    pub(super) fn preview(
+        &mut self,
+        inv: &crate::syntax::Invocation,
+    ) -> Result<String, SessionError> {
         let (i, chunk) = self.selection()?;
         let rec = &self.state.executions[i];
-        let call = check::bind(&self.ops, &rec.trace.domain, inv)?;
+        let call = check::bind(&mut self.sources, &self.ops, &rec.trace.domain, inv)?;
         let syn = interp::apply(&call, &rec.trace, chunk)?;
         let space = syn.advice.space;
         let dims = self.domain.dims(space);

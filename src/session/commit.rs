@@ -8,7 +8,6 @@ use super::journal::Journal;
 use super::text::first_chars;
 use super::undo::Edit;
 use super::{Recorded, Restored, Session, SessionError, TaskState, effect, journal};
-use crate::check::Source;
 use crate::interp::Synthesized;
 use crate::policy::dataset::{Dataset, Provenance};
 use crate::policy::learner::{Learner, LearnerError};
@@ -152,9 +151,8 @@ impl Session {
     pub(super) fn apply(&mut self, effect: &Effect) -> Result<(), SessionError> {
         match effect {
             Effect::Define { origin, text } => {
-                let checked = self
-                    .ops
-                    .merge_with_warnings(&[Source::new(origin, text.clone())])?;
+                let id = self.sources.add(origin.as_str(), text.as_str());
+                let checked = self.ops.merge_in(&self.sources, &[id])?;
                 self.ops = checked.set;
                 self.warnings = checked.warnings;
             }

@@ -97,7 +97,7 @@ impl Session {
             origin: path.to_string(),
             text,
         })?;
-        let warnings = warnings_text(&std::mem::take(&mut self.warnings));
+        let warnings = warnings_text(&self.sources, &std::mem::take(&mut self.warnings));
         Ok(format!(
             "checked {path}: {} operators now ({} for {})",
             self.ops.operator_count(),

@@ -14,7 +14,7 @@ use std::io::{self, Write};
 use std::path::Path;
 
 use super::{Session, origin};
-use crate::syntax::command::{ends_open, parse_statement, starts_command};
+use crate::syntax::command::{ends_open, is_statement, starts_command};
 use crate::syntax::delims::LineBrackets;
 
 /// One statement of a script and where it starts (1-based line).
@@ -46,7 +46,7 @@ pub fn statements(text: &str) -> Vec<ScriptStatement> {
         let goes_on = (brackets.is_open() || ends_open(line))
             // A command is one line; a first line that is whole as it stands (a path with a
             // bracket in it) ends here too.
-            && !(first && (starts_command(line) || parse_statement("<script>", line).is_ok()));
+            && !(first && (starts_command(line) || is_statement(line)));
         if goes_on {
             pending = Some(st);
         } else {

@@ -139,9 +139,12 @@ pub(super) fn first_chars(s: &str, n: usize) -> String {
 }
 
 /// Check warnings as a reply shows them, after a blank line; empty when there are none.
-pub(super) fn warnings_text(warnings: &[crate::check::CheckWarning]) -> String {
+pub(super) fn warnings_text(
+    sources: &crate::diag::SourceMap,
+    warnings: &[crate::check::CheckWarning],
+) -> String {
     warnings
         .iter()
-        .map(|w| format!("\n\n{}", crate::check::render(w).trim_end()))
+        .map(|w| format!("\n\n{}", crate::diag::render(sources, w, false).trim_end()))
         .collect()
 }

@@ -1,18 +1,18 @@
 //! The AST builder: pest pairs to spanned [`super::ast`] nodes, expressions by precedence
 //! climbing with the depth bound [`MAX_DEPTH`].
 
-use miette::NamedSource;
 use pest::iterators::Pair;
 
 use super::ast::*;
 use super::error::ParseError;
-use super::{MAX_DEPTH, Rule, SourceText};
+use super::{MAX_DEPTH, Rule};
+use crate::diag::{Loc, SourceId};
 use crate::domain::Space;
 
 /// Builds AST nodes from pest pairs.
-pub(super) struct Builder<'a> {
-    pub(super) name: &'a str,
-    pub(super) src: &'a str,
+pub(super) struct Builder {
+    /// Where errors point: the source being parsed is in a map under this id.
+    pub(super) id: SourceId,
 }
 
 /// The flat token stream of an `expr` pair, consumed by precedence climbing.
@@ -22,14 +22,15 @@ pub(super) enum Tok<'i> {
     Operand(Pair<'i, Rule>),
 }
 
-impl<'a> Builder<'a> {
+impl Builder {
     pub(super) fn span(&self, p: &Pair<'_, Rule>) -> Span {
         let s = p.as_span();
         Span::new(s.start(), s.end())
     }
 
-    pub(super) fn src(&self) -> NamedSource<SourceText> {
-        NamedSource::new(self.name, SourceText::from(self.src))
+    /// The place of `span` of this source, for an error.
+    pub(super) fn loc(&self, span: Span) -> Loc {
+        self.id.at(span.start..span.end)
     }
 
     pub(super) fn ident(&self, p: Pair<'_, Rule>) -> Ident {
@@ -58,8 +59,7 @@ impl<'a> Builder<'a> {
         };
         ParseError::NumberTooLarge {
             text,
-            src: self.src(),
-            span: span.into(),
+            span: self.loc(span),
         }
     }
 
@@ -287,8 +287,7 @@ impl<'a> Builder<'a> {
             help: format!(
                 "an expression may be at most {MAX_DEPTH} levels deep, and every term of a chain `a + b + c` is one more; split it into several operators or statements"
             ),
-            src: self.src(),
-            span: span.into(),
+            span: self.loc(span),
         }
     }
 
@@ -390,14 +389,14 @@ impl<'a> Builder<'a> {
 /// Precedence climbing over one expression's tokens. `depth` counts the tree levels above the
 /// subtree being built; every node is refused once its level would pass [`MAX_DEPTH`], before
 /// anything recurses deeper, so a hostile chain stops at the operator that passed the limit.
-pub(super) struct Climb<'b, 'a, 'i> {
-    b: &'b Builder<'a>,
+pub(super) struct Climb<'b, 'i> {
+    b: &'b Builder,
     toks: Vec<Tok<'i>>,
     at: usize,
     depth: usize,
 }
 
-impl Climb<'_, '_, '_> {
+impl Climb<'_, '_> {
     pub(super) fn expr(&mut self, min: u8) -> Result<(Expr, usize), ParseError> {
         let (mut lhs, mut height) = self.unary()?;
         while let Some(Tok::Infix(op, op_span)) = self.toks.get(self.at) {

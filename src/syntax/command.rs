@@ -3,7 +3,8 @@
 //! [`crate::session`]'s business; this module only gives them shape and spans.
 
 use super::ast::{Ident, Item, Span};
-use super::{Builder, Invocation, ParseError, Rule, delims, parse_invocation, run};
+use super::{Builder, Invocation, ParseError, Rule, delims, run};
+use crate::diag::{SourceId, Src};
 use pest::iterators::Pair;
 
 /// One statement of a session.
@@ -363,12 +364,21 @@ pub fn command_spec(name: &str) -> Option<&'static CommandSpec> {
     COMMANDS.iter().find(|c| c.name == name)
 }
 
-/// Parse one statement. `name` names the source in diagnostics (`<repl>`, or `script.adv:12`).
-pub fn parse_statement(name: &str, src: &str) -> Result<Statement, ParseError> {
+/// Parse one statement, a source of the session's map (named `<repl>`, or `script.adv:12`).
+pub fn parse_statement(source: Src<'_>) -> Result<Statement, ParseError> {
+    statement(source.id, source.text)
+}
+
+/// Whether `src` parses as a statement (only the answer is kept).
+pub fn is_statement(src: &str) -> bool {
+    statement(SourceId::UNMAPPED, src).is_ok()
+}
+
+fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
     let mut pairs =
-        run(Rule::session_line, name, src).map_err(|e| unknown_command(name, src).unwrap_or(e))?;
+        run(Rule::session_line, id, src).map_err(|e| unknown_command(id, src).unwrap_or(e))?;
     let line = pairs.next().expect("session_line always yields one pair");
-    let b = Builder { name, src };
+    let b = Builder { id };
     let Some(p) = line.into_inner().find(|p| p.as_rule() != Rule::EOI) else {
         return Ok(Statement::Empty);
     };
@@ -505,7 +515,7 @@ pub fn starts_command(src: &str) -> bool {
 
 /// A statement that failed to parse and starts with a word that is neither a command nor an
 /// item's keyword: say so, with the closest command.
-fn unknown_command(name: &str, src: &str) -> Option<ParseError> {
+fn unknown_command(id: SourceId, src: &str) -> Option<ParseError> {
     let (at, word) = first_word(src)?;
     if starts_command(src) || matches!(word, "operator" | "domain") {
         return None;
@@ -513,8 +523,7 @@ fn unknown_command(name: &str, src: &str) -> Option<ParseError> {
     let words: Vec<&str> = COMMANDS.iter().map(|c| c.name).collect();
     Some(ParseError::UnknownCommand {
         word: word.to_string(),
-        src: miette::NamedSource::new(name, super::SourceText::from(src)),
-        span: (at, word.len()).into(),
+        span: id.span(at, word.len()),
         help: crate::diag::did_you_mean(word, &words)
             .unwrap_or_else(|| "`help` lists the commands".into()),
     })
@@ -531,7 +540,7 @@ pub fn is_incomplete(src: &str) -> bool {
     if !(delims::any_open(src) || ends_open(last)) {
         return false;
     }
-    match parse_statement("<input>", src) {
+    match statement(SourceId::UNMAPPED, src) {
         Ok(_) => false,
         Err(ParseError::Unclosed { at_end, .. }) => at_end,
         Err(ParseError::Syntax { message, .. }) => message.ends_with("found the end of the input"),
@@ -567,7 +576,7 @@ fn path(p: Pair<'_, Rule>) -> String {
     }
 }
 
-impl Builder<'_> {
+impl Builder {
     fn signed(&self, p: Pair<'_, Rule>) -> Result<f64, ParseError> {
         let text: String = p.as_str().chars().filter(|c| *c != '+').collect();
         self.number_text(&text, self.span(&p))
@@ -579,17 +588,17 @@ impl Builder<'_> {
             .parse::<usize>()
             .map_err(|_| self.too_large(p.as_str(), span))
     }
-
-    /// An invocation inside a command: parsed on its own text so its spans point into it, as
-    /// [`crate::interp`]'s diagnostics expect.
-    fn invocation(&self, p: Pair<'_, Rule>) -> Result<Invocation, ParseError> {
-        parse_invocation(p.as_str())
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Parse `text` as a statement of its own (the errors' places are only compared).
+    fn parse_statement(name: &str, text: &str) -> Result<Statement, ParseError> {
+        let (map, id) = crate::diag::SourceMap::single(name, text);
+        super::parse_statement(map.src(id))
+    }
 
     /// The pieces of a command agree: each spec's example parses (its grammar rule exists) to a
     /// command whose name is the spec's, each spec is listed under a step, each step has a

@@ -1,11 +1,12 @@
 //! Parse errors: [`ParseError`] and the conversion of pest's errors into words (what was
 //! expected, the bracket a lost `}` left open, a hint for common slips).
 
-use miette::{Diagnostic, NamedSource, SourceSpan};
+use miette::Diagnostic;
 use thiserror::Error;
 
 use super::ast::Span;
-use super::{MAX_NESTING, Rule, SourceText, delims};
+use super::{MAX_NESTING, Rule, delims};
+use crate::diag::{Loc, SourceId};
 
 /// Text that does not parse.
 #[derive(Debug, Error, Diagnostic, Clone)]
@@ -14,10 +15,8 @@ pub enum ParseError {
     #[diagnostic(code(advise::parse::syntax))]
     Syntax {
         message: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("{label}")]
-        span: SourceSpan,
+        span: Loc,
         label: String,
         #[help]
         help: Option<String>,
@@ -29,42 +28,34 @@ pub enum ParseError {
     )]
     NumberTooLarge {
         text: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("overflows")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("{what} too deeply")]
     #[diagnostic(code(advise::parse::too_deep), help("{help}"))]
     TooDeep {
         what: String,
         help: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("too deep from here")]
-        span: SourceSpan,
+        span: Loc,
     },
     #[error("`{word}` is not a command")]
     #[diagnostic(code(advise::parse::unknown_command), help("{help}"))]
     UnknownCommand {
         word: String,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("unknown command")]
-        span: SourceSpan,
+        span: Loc,
         help: String,
     },
     #[error("this `{open}` is never closed")]
     #[diagnostic(code(advise::parse::unclosed_delimiter))]
     Unclosed {
         open: char,
-        #[source_code]
-        src: NamedSource<SourceText>,
         #[label("unclosed `{open}`")]
-        span: SourceSpan,
+        span: Loc,
         /// Where the parser expected the closing bracket.
         #[label("{expected_label}")]
-        expected: SourceSpan,
+        expected: Loc,
         expected_label: String,
         /// The parser stopped at the end of the input (more lines could close it).
         at_end: bool,
@@ -74,21 +65,20 @@ pub enum ParseError {
 }
 
 /// Why brackets nested too deeply are refused, for [`ParseError::TooDeep`].
-pub(super) fn nesting_too_deep(name: &str, src: &str, at: usize) -> ParseError {
+pub(super) fn nesting_too_deep(id: SourceId, at: usize) -> ParseError {
     ParseError::TooDeep {
         what: "brackets are nested".into(),
         help: format!(
             "brackets may nest at most {MAX_NESTING} deep; name a part of the computation as its own operator"
         ),
-        src: NamedSource::new(name, SourceText::from(src)),
-        span: Span::new(at, at + 1).into(),
+        span: id.at(at..at + 1),
     }
 }
 
 /// Turn a pest error into a diagnostic that names what was expected in words.
 pub(super) fn convert(
     e: pest::error::Error<Rule>,
-    name: &str,
+    id: SourceId,
     src: &str,
     brackets: &delims::Scan,
 ) -> ParseError {
@@ -108,17 +98,16 @@ pub(super) fn convert(
         }
         found = "the end of the input".into();
     }
-    let src_named = || NamedSource::new(name, SourceText::from(src));
+    let loc = |s: Span| id.at(s.start..s.end);
     match e.variant {
         pest::error::ErrorVariant::CustomError { message } => ParseError::TooDeep {
             what: "the input is nested".into(),
             help: message,
-            src: src_named(),
-            span: span.into(),
+            span: loc(span),
         },
         pest::error::ErrorVariant::ParsingError { positives, .. } => {
             if let Some(blame) = unclosed_here(src, pos, at_end, &positives, brackets) {
-                return unclosed(blame, name, src, span, at_end, &found);
+                return unclosed(blame, id, src, span, at_end, &found);
             }
             let expected = expected_words(&positives);
             let message = if expected.is_empty() {
@@ -128,8 +117,7 @@ pub(super) fn convert(
             };
             ParseError::Syntax {
                 message,
-                src: src_named(),
-                span: span.into(),
+                span: loc(span),
                 label: match (expected.is_empty(), at_end) {
                     (true, _) => "not allowed here".into(),
                     (false, false) => format!("expected {} here", join_or(&expected)),
@@ -195,7 +183,7 @@ pub(super) fn close_guess(src: &str, open_at: usize, pos: usize) -> Option<usize
 
 pub(super) fn unclosed(
     (open, guess): (delims::Open, Option<usize>),
-    name: &str,
+    id: SourceId,
     src: &str,
     stop: Span,
     at_end: bool,
@@ -237,9 +225,8 @@ pub(super) fn unclosed(
     };
     ParseError::Unclosed {
         open: open.ch,
-        src: NamedSource::new(name, SourceText::from(src)),
-        span: Span::new(open.at, open.at + 1).into(),
-        expected: expected.into(),
+        span: id.at(open.at..open.at + 1),
+        expected: id.at(expected.start..expected.end),
         expected_label,
         at_end: at_end && guess.is_none(),
         help,

@@ -199,3 +199,12 @@ pub fn assert_no_orphans(test: &str, snapshot: &str, cases: &[PathBuf]) {
 pub fn name(path: &Path) -> String {
     path.file_name().unwrap().to_string_lossy().into_owned()
 }
+
+/// Parse `text` as a file of its own, named `name` (an error's places are only inspected here).
+pub fn parse(
+    name: &str,
+    text: &str,
+) -> Result<advise::syntax::ast::File, advise::syntax::ParseError> {
+    let (map, id) = advise::diag::SourceMap::single(name, text);
+    advise::syntax::parse(map.src(id))
+}
