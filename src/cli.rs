@@ -62,8 +62,8 @@ pub enum Command {
     },
     /// Record teacher demonstrations in the simulator (one file, many episodes).
     Demo(DemoArgs),
-    /// Turn a person's recorded driving (a CSV log `time,x,y,theta,v,w`) into positioning
-    /// demonstrations that `load demos` reads. ROS 2 bags are not read yet.
+    /// Turn a person's recorded driving (ROS 2 bags, or CSV logs `time,x,y,theta,v,w`) into
+    /// positioning demonstrations that `load demos` reads.
     Import(ImportArgs),
     /// Run a policy over the task's fixed test set and print the figures.
     Eval(EvalArgs),
@@ -187,16 +187,23 @@ pub struct DemoArgs {
 
 #[derive(Args)]
 pub struct ImportArgs {
-    /// The logs, each one demonstration (or several with `--split-gap`).
-    #[arg(required = true, value_name = "LOG")]
+    /// The recordings, each one demonstration (or several with `--split-gap`): ROS 2 bags (a
+    /// rosbag2 directory or an `.mcap` file) or CSV logs `time,x,y,theta,v,w`.
+    #[arg(required = true, value_name = "BAG|LOG")]
     pub logs: Vec<PathBuf>,
+    /// A bag's command topic (geometry_msgs Twist or TwistStamped).
+    #[arg(long, value_name = "TOPIC", default_value = "/cmd_vel")]
+    pub cmd_topic: String,
+    /// A bag's odometry topic (nav_msgs Odometry).
+    #[arg(long, value_name = "TOPIC", default_value = "/odom")]
+    pub odom_topic: String,
     /// The task the demonstrations are for (only `positioning` so far).
     #[arg(long, default_value = "positioning")]
     pub task: TaskKind,
     /// The goal of every demonstration, in the log's frame; default: where each one ends.
     #[arg(long, num_args = 3, value_names = ["X", "Y", "THETA"], allow_negative_numbers = true)]
     pub goal: Option<Vec<f64>>,
-    /// Split a log where consecutive rows are more than this many seconds apart.
+    /// Split a recording where consecutive commands are more than this many seconds apart.
     #[arg(long, value_name = "SECONDS")]
     pub split_gap: Option<f64>,
     /// Output file: `.json` writes JSON episodes, anything else CSV with an `episode` column.

@@ -1,12 +1,14 @@
-//! Importing recorded teleoperation into demonstrations (issue 19, import half).
+//! Importing recorded teleoperation into demonstrations (issue 19, import half): ROS 2 bags
+//! ([`bag`]) and plain CSV logs, through [`import`].
 //!
-//! This first part reads a plain CSV log `time,x,y,theta,v,w` (one row per command, with the
-//! odometry pose at that time); rosbag2/MCAP reading is not done yet. Each row becomes one point
-//! of the positioning task: the observation from [`crate::task::positioning::observe`] of the
+//! A CSV log `time,x,y,theta,v,w` has one row per command, with the odometry pose at that time.
+//! Each row (each paired command of a bag) becomes one point of the positioning task: the observation from [`crate::task::positioning::observe`] of the
 //! pose and the goal (the last pose of the episode, or a given goal), the action `(v, w)`.
 //! `split_gap_s` splits episodes at pauses longer than it. Messy logs: a row whose time equals the
 //! previous row's is dropped and counted (a warning); a row going back in time, a non-finite
 //! value, or a row of the wrong width is refused with the row and time.
+
+pub mod bag;
 
 use std::path::{Path, PathBuf};
 
@@ -24,6 +26,51 @@ pub struct ImportOptions {
     pub goal: Option<Pose>,
     /// Split an episode where consecutive rows are more than this apart, s.
     pub split_gap_s: Option<f64>,
+    /// A bag's command and odometry topics; `None`: [`bag::DEFAULT_CMD_TOPIC`] and
+    /// [`bag::DEFAULT_ODOM_TOPIC`].
+    pub cmd_topic: Option<String>,
+    pub odom_topic: Option<String>,
+}
+
+/// One sample of a recording: time (s), the base's pose, the commanded speed and turn rate.
+pub type Sample = (f64, Pose, f64, f64);
+
+/// Whether `path` is a recording [`import`] reads: a bag, or a CSV file whose first line is a
+/// log's header (`time,x,y,theta,v,w`) rather than a demonstrations file's.
+pub fn is_recording(path: &Path) -> bool {
+    use std::io::Read;
+    if bag::is_bag(path) {
+        return true;
+    }
+    let mut head = [0u8; 64];
+    let Ok(n) = std::fs::File::open(path).and_then(|mut f| f.read(&mut head)) else {
+        return false;
+    };
+    let head = String::from_utf8_lossy(&head[..n]);
+    let first = head
+        .trim_start_matches('\u{feff}')
+        .lines()
+        .next()
+        .unwrap_or("");
+    first.replace(' ', "").trim_end() == COLUMNS.join(",")
+}
+
+/// Import a recording, a bag ([`bag::is_bag`]) or a CSV log, into positioning demonstrations and
+/// the warnings its messy parts earned.
+pub fn import(
+    path: &Path,
+    options: &ImportOptions,
+) -> Result<(Vec<Episode>, Vec<String>), ImportError> {
+    if let Some(gap) = options.split_gap_s
+        && !(gap.is_finite() && gap > 0.0)
+    {
+        return Err(ImportError::SplitGap(gap));
+    }
+    if bag::is_bag(path) {
+        bag::import_bag(path, options).map(|(e, r)| (e, r.warnings()))
+    } else {
+        import_csv_log(path, options).map(|(e, r)| (e, r.warnings()))
+    }
 }
 
 /// What an import found that it did not refuse: reported to the user as warnings.
@@ -58,15 +105,73 @@ pub enum ImportError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     File(#[from] crate::files::FileError),
-    /// A ROS 2 bag or MCAP file: not read yet.
-    #[error("{path} is a ROS 2 bag or MCAP file, which `advise import` cannot read yet")]
+    #[error("{path} is a rosbag2 bag stored in SQLite, which `advise` does not read")]
     #[diagnostic(
-        code(advise::import::bag_unsupported),
+        code(advise::import::sqlite_bag),
         help(
-            "export the topics as a CSV log with the header `time,x,y,theta,v,w` and import that"
+            "convert it to MCAP storage: `ros2 bag convert -i BAG -o out.yaml` with `storage_id: mcap` in out.yaml (or record with `ros2 bag record -s mcap`, the default since Iron)"
         )
     )]
-    BagUnsupported { path: PathBuf },
+    SqliteBag { path: PathBuf },
+    #[error("{path} holds no `.mcap` file")]
+    #[diagnostic(
+        code(advise::import::no_mcap),
+        help(
+            "give a rosbag2 directory (its `metadata.yaml` and `.mcap` files) or an `.mcap` file"
+        )
+    )]
+    NoMcap { path: PathBuf },
+    #[error("{path} is not an MCAP file: {reason}")]
+    #[diagnostic(
+        code(advise::import::not_mcap),
+        help("a bag's files are MCAP (`ros2 bag record -s mcap`); check that the file is whole")
+    )]
+    NotMcap { path: PathBuf, reason: String },
+    #[error("{path} has no messages on {topic}")]
+    #[diagnostic(
+        code(advise::import::topic_missing),
+        help(
+            "the bag has {present}; name the topics with `advise import BAG --cmd-topic TOPIC --odom-topic TOPIC` (a session's `load demos BAG` reads /cmd_vel and /odom)"
+        )
+    )]
+    TopicMissing {
+        path: PathBuf,
+        topic: String,
+        present: String,
+    },
+    #[error("{path}: {topic} is {found}, not {expected}")]
+    #[diagnostic(
+        code(advise::import::wrong_type),
+        help(
+            "commands are read from a geometry_msgs Twist or TwistStamped topic and poses from a nav_msgs Odometry topic; name others with `--cmd-topic` and `--odom-topic`"
+        )
+    )]
+    WrongType {
+        path: PathBuf,
+        topic: String,
+        found: String,
+        expected: &'static str,
+    },
+    #[error("{path}: the message on {topic} at log time {t_ns} ns does not decode: {reason}")]
+    #[diagnostic(
+        code(advise::import::bad_message),
+        help("the bag is damaged, or its topic's type differs from its schema's name")
+    )]
+    BadMessage {
+        path: PathBuf,
+        topic: String,
+        t_ns: u64,
+        reason: String,
+    },
+    #[error(
+        "{path}: none of its {commands} commands has odometry within {} s before it",
+        bag::MAX_ODOMETRY_AGE_S
+    )]
+    #[diagnostic(
+        code(advise::import::nothing_paired),
+        help("check that the odometry topic was recorded while the base was driven")
+    )]
+    NothingPaired { path: PathBuf, commands: usize },
     #[error("cannot read {path}: {source}")]
     #[diagnostic(code(advise::import::read))]
     Read {
@@ -114,15 +219,6 @@ pub fn import_csv_log(
     path: &Path,
     options: &ImportOptions,
 ) -> Result<(Vec<Episode>, ImportReport), ImportError> {
-    let is_bag = path.is_dir()
-        || path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("mcap") || e.eq_ignore_ascii_case("db3"));
-    if is_bag {
-        return Err(ImportError::BagUnsupported {
-            path: path.to_path_buf(),
-        });
-    }
     let text = crate::files::read_text(path)?;
     let stem = path.file_stem().map_or_else(
         || "recording".to_string(),
@@ -161,7 +257,7 @@ pub fn parse_csv_log(
     }
     let mut report = ImportReport::default();
     // Rows of the current run: (t, pose, v, w).
-    let mut runs: Vec<Vec<(f64, Pose, f64, f64)>> = vec![Vec::new()];
+    let mut runs: Vec<Vec<Sample>> = vec![Vec::new()];
     let mut prev: Option<f64> = None;
     for (i, record) in reader.records().enumerate() {
         let row = i + 2;
@@ -241,7 +337,7 @@ pub fn parse_csv_log(
 /// One positioning demonstration from samples `(t, pose, v, w)`: times from the first sample,
 /// observations of each pose towards `goal` (the last pose when `None`), the commanded speeds as
 /// actions. What a CSV log's run and a recorded teleoperation become.
-pub fn episode(name: String, run: &[(f64, Pose, f64, f64)], goal: Option<Pose>) -> Episode {
+pub fn episode(name: String, run: &[Sample], goal: Option<Pose>) -> Episode {
     let domain = Domain::positioning();
     let goal = goal
         .or_else(|| run.last().map(|r| r.1))

@@ -141,9 +141,9 @@ where
     }
 }
 
-/// `advise import`: CSV logs of a person's driving to a demonstrations file.
+/// `advise import`: bags and CSV logs of a person's driving to a demonstrations file.
 pub fn import(args: ImportArgs) -> miette::Result<()> {
-    use crate::recording::{ImportOptions, import_csv_log, write_demonstrations};
+    use crate::recording::{ImportOptions, write_demonstrations};
     if args.task != TaskKind::Positioning {
         return Err(miette::miette!(
             code = "advise::import::task",
@@ -168,11 +168,13 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
             .as_deref()
             .map(|g| crate::trace::Pose::new(g[0], g[1], g[2])),
         split_gap_s: args.split_gap,
+        cmd_topic: Some(args.cmd_topic),
+        odom_topic: Some(args.odom_topic),
     };
     let mut episodes = Vec::new();
     for log in &args.logs {
-        let (mut found, report) = import_csv_log(log, &options)?;
-        for w in report.warnings() {
+        let (mut found, warnings) = crate::recording::import(log, &options)?;
+        for w in warnings {
             eprintln!("warning: {}: {w}", log.display());
         }
         episodes.append(&mut found);

@@ -52,6 +52,18 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Sim(#[from] SimError),
+    /// A ROS 2 bag or a CSV log that `load demos` could not import.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Import(#[from] crate::recording::ImportError),
+    #[error("{path} is a recording of a base's drive, which makes positioning demonstrations only")]
+    #[diagnostic(
+        code(advise::session::recording_needs_positioning),
+        help(
+            "`task positioning` first; interception needs the ball's positions, which a recording of the base does not hold"
+        )
+    )]
+    RecordingNeedsPositioning { path: String },
     #[error(transparent)]
     #[diagnostic(transparent)]
     PracticeStart(#[from] task::PracticeStartOutOfRange),

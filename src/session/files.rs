@@ -17,7 +17,21 @@ impl Session {
     pub(super) fn load_demos(&mut self, path: &str) -> Result<String, SessionError> {
         let started = Instant::now();
         let mut from_dataset = String::new();
+        let recording = Path::new(path);
         let episodes = match path.strip_prefix("teacher:") {
+            None if crate::recording::is_recording(recording) => {
+                if self.task != task::TaskKind::Positioning {
+                    return Err(SessionError::RecordingNeedsPositioning {
+                        path: path.to_string(),
+                    });
+                }
+                let (episodes, warnings) =
+                    crate::recording::import(recording, &Default::default())?;
+                for w in warnings {
+                    from_dataset.push_str(&format!("\nwarning: {w}"));
+                }
+                episodes
+            }
             Some(n) => {
                 let count: usize = n
                     .parse()
@@ -66,8 +80,13 @@ impl Session {
                 })
                 .collect(),
         })?;
+        // Warnings (a recording's) go after the sentence, each on its line.
+        let (said, warned) = match from_dataset.find('\n') {
+            Some(i) => from_dataset.split_at(i),
+            None => (from_dataset.as_str(), ""),
+        };
         Ok(format!(
-            "loaded {count} demonstrations ({points} points) from {path}{from_dataset}; the {} policy now has {} points ({} ms)",
+            "loaded {count} demonstrations ({points} points) from {path}{said}; the {} policy now has {} points ({} ms){warned}",
             self.state.learner.kind_name(),
             self.state.learner.len(),
             started.elapsed().as_millis()

@@ -65,6 +65,14 @@ impl Twist {
     }
 }
 
+/// `geometry_msgs/TwistStamped`: what teleoperation publishes on newer ROS 2 (Jazzy's
+/// `teleop_twist_keyboard` with `stamped:=true`); read from bags.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TwistStamped {
+    pub header: Header,
+    pub twist: Twist,
+}
+
 /// `builtin_interfaces/Time`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Time {

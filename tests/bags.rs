@@ -1,0 +1,196 @@
+//! ROS 2 bags in, written by libraries this project did not write: `rosbags` (a rosbag2
+//! directory with MCAP storage, and its `.mcap` file alone) and `mcap-ros2-support` (one MCAP file,
+//! zstd and lz4 chunks). `tests/python/bags.py` writes each scenario and, on its own, the log the
+//! import should make (each kept command with the latest odometry before it); the import of every
+//! bag must equal it. The messy scenario's warnings and the refusals are checked as a user sees
+//! them. Without Python or the packages, each test prints why and passes without running.
+
+#[path = "python/mod.rs"]
+mod python;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Duration;
+
+use advise::recording::{ImportOptions, import};
+use advise::trace::Episode;
+
+const PACKAGES: [&str; 3] = ["rosbags==0.11.9", "mcap==1.6.0", "mcap-ros2-support==0.6.0"];
+
+fn peer() -> Option<PathBuf> {
+    match python::venv(
+        "bags",
+        &PACKAGES,
+        "import rosbags.rosbag2, mcap_ros2.writer, mcap_ros2.decoder, numpy",
+    ) {
+        Ok(p) => Some(p),
+        Err(why) => {
+            eprintln!("skipping: no Python with rosbags and mcap-ros2-support ({why})");
+            None
+        }
+    }
+}
+
+/// Write `scenario` with `writer` into `dir`; the bag's path.
+fn write(python: &Path, dir: &Path, writer: &str, scenario: &str) -> PathBuf {
+    let name = match writer {
+        "rosbags" => format!("{writer}-{scenario}"),
+        _ => format!("{writer}-{scenario}.mcap"),
+    };
+    let out = dir.join(name);
+    python::run(
+        Command::new(python)
+            .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python/bags.py"))
+            .args([writer, scenario])
+            .arg(&out),
+        Duration::from_secs(120),
+    )
+    .unwrap();
+    out
+}
+
+fn expected(bag: &Path) -> Vec<Episode> {
+    let log = PathBuf::from(format!("{}.expected.csv", bag.display()));
+    import(&log, &ImportOptions::default()).unwrap().0
+}
+
+/// The two imports hold the same points, to rounding (the bag's yaw comes from a quaternion).
+fn assert_same(got: &[Episode], want: &[Episode], what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}: episodes");
+    for (g, w) in got.iter().zip(want) {
+        assert_eq!(g.trace.len(), w.trace.len(), "{what}: points");
+        let close = |x: &[f64], y: &[f64]| x.iter().zip(y).all(|(p, q)| (p - q).abs() < 1e-9);
+        for i in 0..g.trace.len() {
+            let (gt, wt) = (g.trace.t[i], w.trace.t[i]);
+            assert!(
+                (gt - wt).abs() < 1e-9
+                    && close(g.trace.z(i), w.trace.z(i))
+                    && close(g.trace.a(i), w.trace.a(i)),
+                "{what}: point {i}: t {gt} z {:?} a {:?}, expected t {wt} z {:?} a {:?}",
+                g.trace.z(i),
+                g.trace.a(i),
+                w.trace.z(i),
+                w.trace.a(i)
+            );
+        }
+    }
+}
+
+#[test]
+fn bags_from_three_writers_import_to_the_independent_pairing() {
+    let Some(py) = peer() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    for scenario in ["clean", "messy", "stamped"] {
+        for writer in ["rosbags", "mcap-zstd", "mcap-lz4"] {
+            let bag = write(&py, dir.path(), writer, scenario);
+            let want = expected(&bag);
+            let (got, warnings) = import(&bag, &ImportOptions::default()).unwrap();
+            assert_same(&got, &want, &format!("{writer} {scenario}"));
+            assert_eq!(
+                warnings.is_empty(),
+                scenario != "messy",
+                "{writer} {scenario}: {warnings:?}"
+            );
+            if writer == "rosbags" {
+                // The rosbag2 directory's MCAP file on its own: the same demonstration.
+                let file = bag.join(format!("{writer}-{scenario}.mcap"));
+                let (alone, _) = import(&file, &ImportOptions::default()).unwrap();
+                assert_same(&alone, &want, &format!("{writer} {scenario} (.mcap alone)"));
+            }
+        }
+    }
+}
+
+fn advise(args: &[&str], dir: &Path) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_advise"))
+        .args(args)
+        .current_dir(dir)
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    let mut text = String::from_utf8_lossy(&out.stdout).into_owned();
+    text.push_str(&String::from_utf8_lossy(&out.stderr));
+    (out.status.success(), text)
+}
+
+#[test]
+fn a_messy_bag_is_imported_with_every_repair_counted() {
+    let Some(py) = peer() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    write(&py, dir.path(), "mcap-zstd", "messy");
+    let (ok, text) = advise(
+        &["import", "mcap-zstd-messy.mcap", "--out", "d.json"],
+        dir.path(),
+    );
+    assert!(ok, "{text}");
+    insta::assert_snapshot!(text);
+    // The session's `load demos` takes the bag itself, with the same warnings.
+    std::fs::write(
+        dir.path().join("s.adv"),
+        "load demos mcap-zstd-messy.mcap\n",
+    )
+    .unwrap();
+    let (ok, text) = advise(
+        &["run", "--demos", "0", "--no-journal", "s.adv"],
+        dir.path(),
+    );
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("loaded 1 demonstrations (68 points) from mcap-zstd-messy.mcap"),
+        "{text}"
+    );
+    assert!(text.contains("warning: dropped 3 of 82 commands sent before the first odometry"));
+}
+
+#[test]
+fn bags_that_cannot_be_imported_say_which_topic_file_and_time() {
+    let Some(py) = peer() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(&py, d, "rosbags", "clean");
+    let bag = write(&py, d, "mcap-zstd", "clean");
+    // A recording cut short: the messages before the damage are kept, with a warning.
+    let bytes = std::fs::read(&bag).unwrap();
+    std::fs::write(d.join("cut.mcap"), &bytes[..bytes.len() * 2 / 3]).unwrap();
+    std::fs::write(d.join("garbage.mcap"), b"not an mcap file at all").unwrap();
+    std::fs::create_dir(d.join("old_bag")).unwrap();
+    std::fs::write(
+        d.join("old_bag/metadata.yaml"),
+        "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: sqlite3\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("old_bag/old_bag_0.db3"), b"SQLite format 3\0").unwrap();
+    let mut out = String::new();
+    for args in [
+        &["import", "cut.mcap", "--out", "d.json"][..],
+        &["import", "garbage.mcap", "--out", "d.json"],
+        &["import", "old_bag", "--out", "d.json"],
+        &[
+            "import",
+            "rosbags-clean",
+            "--cmd-topic",
+            "/teleop/cmd_vel",
+            "--out",
+            "d.json",
+        ],
+        &[
+            "import",
+            "rosbags-clean",
+            "--cmd-topic",
+            "/odom",
+            "--out",
+            "d.json",
+        ],
+        &["import", "missing_bag", "--out", "d.json"],
+    ] {
+        let (ok, text) = advise(args, d);
+        out.push_str(&format!(
+            "----- advise {} ({})\n{text}\n",
+            args.join(" "),
+            if ok { "ok" } else { "refused" }
+        ));
+    }
+    insta::with_settings!({filters => vec![(r"\d+ points", "[N] points"), (r"at byte \d+", "at byte [N]")]}, {
+        insta::assert_snapshot!(out);
+    });
+}
