@@ -243,8 +243,7 @@ pub fn import_bag(
             reason: e.to_string(),
         })?;
         let mut roles: HashMap<u16, Option<Role>> = HashMap::new();
-        let mut read = 0usize;
-        for message in stream {
+        for (read, message) in stream.enumerate() {
             let message = match message {
                 Ok(m) => m,
                 Err(e) if read > 0 => {
@@ -263,7 +262,6 @@ pub fn import_bag(
                     });
                 }
             };
-            read += 1;
             let channel = &message.channel;
             let role = match roles.get(&channel.id) {
                 Some(r) => *r,
