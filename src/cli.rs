@@ -65,6 +65,8 @@ pub enum Command {
     /// Turn a person's recorded driving (ROS 2 bags, or CSV logs `time,x,y,theta,v,w`) into
     /// positioning demonstrations that `load demos` reads.
     Import(ImportArgs),
+    /// Write a saved dataset (`save FILE.json`) for other tools: MCAP for Foxglove and ROS 2.
+    Export(ExportArgs),
     /// Run a policy over the task's fixed test set and print the figures.
     Eval(EvalArgs),
     /// Run a session script (the REPL's commands, one per line); stops at the first failing
@@ -209,6 +211,17 @@ pub struct ImportArgs {
     /// Output file: `.json` writes JSON episodes, anything else CSV with an `episode` column.
     #[arg(long)]
     pub out: PathBuf,
+}
+
+#[derive(Args)]
+pub struct ExportArgs {
+    /// A dataset saved by a session (`save FILE.json`).
+    #[arg(value_name = "DATASET.json")]
+    pub dataset: PathBuf,
+    /// Write MCAP (profile ros2, ROS 2 message types in CDR): each execution on /cmd_vel and
+    /// /odom, advice and critiques on /advise/advice and /advise/critique.
+    #[arg(long, value_name = "OUT.mcap", required = true)]
+    pub mcap: PathBuf,
 }
 
 #[derive(Args)]

@@ -39,6 +39,7 @@ fn main() -> ExitCode {
         Some(Command::Experiment(args)) => tools::experiment(args).map(|()| ExitCode::SUCCESS),
         Some(Command::RmpEmulator(args)) => tools::rmp_emulator(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Import(args)) => tools::import(args).map(|()| ExitCode::SUCCESS),
+        Some(Command::Export(args)) => tools::export(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Ros2Sim(args)) => tools::ros2_sim(args).map(|()| ExitCode::SUCCESS),
     };
     match result {

@@ -9,6 +9,7 @@
 //! value, or a row of the wrong width is refused with the row and time.
 
 pub mod bag;
+pub mod mcap_export;
 
 use std::path::{Path, PathBuf};
 
@@ -172,6 +173,7 @@ pub enum ImportError {
         help("check that the odometry topic was recorded while the base was driven")
     )]
     NothingPaired { path: PathBuf, commands: usize },
+
     #[error("cannot read {path}: {source}")]
     #[diagnostic(code(advise::import::read))]
     Read {

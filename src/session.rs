@@ -420,6 +420,7 @@ impl Session {
             Command::Save(path) => self.save(&path).map(Reply::Message),
             Command::Open(path) => self.open(&path).map(Reply::Message),
             Command::ExportAdvice(path) => self.export_advice(&path).map(Reply::Message),
+            Command::ExportMcap(path) => self.export_mcap(&path).map(Reply::Message),
             Command::Help(topic) => self.help(topic.as_ref()).map(Reply::Message),
             Command::Quit => Ok(Reply::Quit),
             Command::RecordDemo {

@@ -194,3 +194,107 @@ fn bags_that_cannot_be_imported_say_which_topic_file_and_time() {
         insta::assert_snapshot!(out);
     });
 }
+
+/// A session's dataset exported as MCAP: read back by mcap-ros2-support's decoder and by
+/// rosbags, every command and pose the dataset's executions hold, the advice and critique as
+/// strings, the session in a metadata record.
+#[test]
+fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
+    let Some(py) = peer() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("s.adv"),
+        "run start 0\nselect 5..20\nadvise speed_up(0.2)\nselect 20..30\ncritique\nrun start 1\nsave s.json\nexport mcap session.mcap\n",
+    )
+    .unwrap();
+    let (ok, text) = advise(&["run", "--demos", "3", "--no-journal", "s.adv"], d);
+    assert!(ok, "{text}");
+    assert!(text.contains("wrote session.mcap: 2 executions"), "{text}");
+    let (ok, text) = advise(&["export", "s.json", "--mcap", "cli.mcap"], d);
+    assert!(ok, "{text}");
+    // The session's export and the command line's are the same file.
+    assert_eq!(
+        std::fs::read(d.join("session.mcap")).unwrap(),
+        std::fs::read(d.join("cli.mcap")).unwrap()
+    );
+    let out = Command::new(&py)
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/python/read_mcap.py"
+        ))
+        .arg(d.join("cli.mcap"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let read: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(read["profile"], "ros2");
+
+    let mut files = advise::diag::SourceMap::new();
+    let ds = advise::policy::dataset::Dataset::load(&mut files, &d.join("s.json")).unwrap();
+    let cmd = read["topics"]["/cmd_vel"].as_array().unwrap();
+    let odom = read["topics"]["/odom"].as_array().unwrap();
+    let mut k = 0;
+    let mut start = 0u64;
+    for rec in ds.executions() {
+        let tr = ds.execution(rec.id).unwrap();
+        let poses = tr.pose.as_ref().expect("simulated executions have poses");
+        for i in 0..tr.len() {
+            let t = start + ((tr.t[i] - tr.t[0]) * 1e9).round() as u64;
+            let (c, o) = (&cmd[k], &odom[k]);
+            assert_eq!(c[0].as_u64(), Some(t), "command {k}");
+            assert_eq!(c[1].as_f64(), Some(tr.a(i)[0]), "command {k}");
+            assert_eq!(c[2].as_f64(), Some(tr.a(i)[1]), "command {k}");
+            assert_eq!(o[0].as_u64(), Some(t));
+            assert_eq!(o[1].as_f64(), Some(poses[i].x_m));
+            assert_eq!(o[2].as_f64(), Some(poses[i].y_m));
+            let dyaw = o[3].as_f64().unwrap() - poses[i].theta_rad;
+            assert!(dyaw.sin().abs() < 1e-9 && dyaw.cos() > 0.0, "pose {k}: {o}");
+            assert_eq!(
+                (o[4].as_str(), o[5].as_str()),
+                (Some("odom"), Some("base_link"))
+            );
+            k += 1;
+        }
+        start += ((tr.t[tr.len() - 1] - tr.t[0]) * 1e9).round() as u64 + 1_000_000_000;
+    }
+    assert_eq!((cmd.len(), odom.len()), (k, k));
+    let advice = &read["topics"]["/advise/advice"][0];
+    assert_eq!(
+        advice[1],
+        "speed_up(rate = 0.2) on execution 0, points 5..20: 15 points synthesized (action space)"
+    );
+    assert_eq!(advice[0].as_u64(), cmd[5][0].as_u64());
+    let critique = read["topics"]["/advise/critique"][0][1].as_str().unwrap();
+    assert!(
+        critique.starts_with("critique with kappa 1 on execution 0, points 20..30:"),
+        "{critique}"
+    );
+    assert_eq!(read["metadata"]["advise"]["executions"], "2");
+    assert_eq!(read["metadata"]["advise"]["domain"], "positioning");
+    let rosbags = &read["rosbags"];
+    assert_eq!(
+        rosbags["/cmd_vel"],
+        serde_json::json!(["geometry_msgs/msg/Twist", k])
+    );
+    assert_eq!(
+        rosbags["/odom"],
+        serde_json::json!(["nav_msgs/msg/Odometry", k])
+    );
+    assert_eq!(
+        rosbags["/advise/advice"],
+        serde_json::json!(["std_msgs/msg/String", 1])
+    );
+    assert_eq!(
+        rosbags["/advise/critique"],
+        serde_json::json!(["std_msgs/msg/String", 1])
+    );
+
+    // And advise reads its own export back as a bag: each execution's commands with its poses.
+    let (demos, _) = import(&d.join("cli.mcap"), &ImportOptions::default()).unwrap();
+    assert_eq!(demos[0].trace.len(), k);
+}

@@ -191,6 +191,19 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
     Ok(())
 }
 
+/// `advise export`: a saved dataset as MCAP.
+pub fn export(args: super::ExportArgs) -> miette::Result<()> {
+    let mut files = crate::diag::SourceMap::new();
+    let dataset = crate::policy::dataset::Dataset::load(&mut files, &args.dataset)
+        .map_err(|e| files.attach(e))?;
+    let summary = crate::recording::mcap_export::export_mcap(&dataset, &args.mcap)?;
+    eprintln!(
+        "{}",
+        crate::recording::mcap_export::describe(&summary, &args.mcap.display().to_string())
+    );
+    Ok(())
+}
+
 /// `advise ros2-sim`: run the simulator as a ROS 2 robot until Ctrl-C.
 pub fn ros2_sim(args: Ros2SimArgs) -> miette::Result<()> {
     let params = sim_params(args.sim_params.as_deref())?;

@@ -169,6 +169,11 @@ impl Dataset {
         &self.advice
     }
 
+    /// The executions advice or critique was given on, in the order they were added.
+    pub fn executions(&self) -> &[ExecutionRecord] {
+        &self.executions
+    }
+
     pub fn critiques(&self) -> &[CritiqueRecord] {
         &self.critiques
     }

@@ -56,6 +56,9 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Import(#[from] crate::recording::ImportError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Export(#[from] crate::recording::mcap_export::ExportError),
     #[error("{path} is a recording of a base's drive, which makes positioning demonstrations only")]
     #[diagnostic(
         code(advise::session::recording_needs_positioning),

@@ -156,6 +156,14 @@ impl Session {
         ))
     }
 
+    pub(super) fn export_mcap(&self, path: &str) -> Result<String, SessionError> {
+        let s = crate::recording::mcap_export::export_mcap(
+            self.state.learner.dataset(),
+            Path::new(path),
+        )?;
+        Ok(crate::recording::mcap_export::describe(&s, path))
+    }
+
     pub(super) fn export_advice(&self, path: &str) -> Result<String, SessionError> {
         let n = self.state.learner.export_advice(Path::new(path))?;
         Ok(format!(

@@ -71,6 +71,8 @@ pub enum Command {
     Save(String),
     Open(String),
     ExportAdvice(String),
+    /// `export mcap FILE`: the dataset as MCAP (Foxglove, ROS 2 tools).
+    ExportMcap(String),
     Help(Option<Ident>),
     Quit,
     /// `record demo [from TOPIC] [goal X Y THETA] [for SECONDS]`.
@@ -111,7 +113,7 @@ impl Command {
             Command::Plot { .. } => "plot",
             Command::Save(_) => "save",
             Command::Open(_) => "open",
-            Command::ExportAdvice(_) => "export",
+            Command::ExportAdvice(_) | Command::ExportMcap(_) => "export",
             Command::Help(_) => "help",
             Command::Quit => "quit",
             Command::RecordDemo { .. } => "record",
@@ -324,8 +326,8 @@ pub const COMMANDS: &[CommandSpec] = &[
     },
     CommandSpec {
         name: "export",
-        signature: "export advice FILE.csv",
-        doc: "Write every advised point with its provenance as CSV.",
+        signature: "export advice FILE.csv | export mcap FILE.mcap",
+        doc: "Write every advised point with its provenance as CSV, or the dataset's executions, advice and critiques as MCAP for Foxglove and ROS 2 tools.",
         step: Step::Keep,
         example: "export advice advice.csv",
     },
@@ -490,6 +492,7 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
         Rule::c_save => Command::Save(path(req(next()))),
         Rule::c_open => Command::Open(path(req(next()))),
         Rule::c_export_advice => Command::ExportAdvice(path(req(next()))),
+        Rule::c_export_mcap => Command::ExportMcap(path(req(next()))),
         Rule::c_help => Command::Help(next().map(|n| b.ident(n))),
         Rule::c_quit => Command::Quit,
         other => unreachable!("session_line yields no {other:?}"),
