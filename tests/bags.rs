@@ -243,16 +243,16 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
     for rec in ds.executions() {
         let tr = ds.execution(rec.id).unwrap();
         let poses = tr.pose.as_ref().expect("simulated executions have poses");
-        for i in 0..tr.len() {
+        for (i, pose) in poses.iter().enumerate() {
             let t = start + ((tr.t[i] - tr.t[0]) * 1e9).round() as u64;
             let (c, o) = (&cmd[k], &odom[k]);
             assert_eq!(c[0].as_u64(), Some(t), "command {k}");
             assert_eq!(c[1].as_f64(), Some(tr.a(i)[0]), "command {k}");
             assert_eq!(c[2].as_f64(), Some(tr.a(i)[1]), "command {k}");
             assert_eq!(o[0].as_u64(), Some(t));
-            assert_eq!(o[1].as_f64(), Some(poses[i].x_m));
-            assert_eq!(o[2].as_f64(), Some(poses[i].y_m));
-            let dyaw = o[3].as_f64().unwrap() - poses[i].theta_rad;
+            assert_eq!(o[1].as_f64(), Some(pose.x_m));
+            assert_eq!(o[2].as_f64(), Some(pose.y_m));
+            let dyaw = o[3].as_f64().unwrap() - pose.theta_rad;
             assert!(dyaw.sin().abs() < 1e-9 && dyaw.cos() > 0.0, "pose {k}: {o}");
             assert_eq!(
                 (o[4].as_str(), o[5].as_str()),
