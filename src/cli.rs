@@ -65,7 +65,8 @@ pub enum Command {
     /// Turn a person's recorded driving (ROS 2 bags, or CSV logs `time,x,y,theta,v,w`) into
     /// positioning demonstrations that `load demos` reads.
     Import(ImportArgs),
-    /// Write a saved dataset (`save FILE.json`) for other tools: MCAP for Foxglove and ROS 2.
+    /// Write a saved dataset (`save FILE.json`) for other tools: MCAP for Foxglove and ROS 2,
+    /// a LeRobot dataset for training other policies.
     Export(ExportArgs),
     /// Run a policy over the task's fixed test set and print the figures.
     Eval(EvalArgs),
@@ -214,14 +215,23 @@ pub struct ImportArgs {
 }
 
 #[derive(Args)]
+#[group(id = "format", required = true, multiple = true, args = ["mcap", "lerobot"])]
 pub struct ExportArgs {
     /// A dataset saved by a session (`save FILE.json`).
     #[arg(value_name = "DATASET.json")]
     pub dataset: PathBuf,
     /// Write MCAP (profile ros2, ROS 2 message types in CDR): each execution on /cmd_vel and
     /// /odom, advice and critiques on /advise/advice and /advise/critique.
-    #[arg(long, value_name = "OUT.mcap", required = true)]
-    pub mcap: PathBuf,
+    #[arg(long, value_name = "OUT.mcap")]
+    pub mcap: Option<PathBuf>,
+    /// Write a LeRobot v3.0 dataset into this new directory: every point a frame, each
+    /// demonstration and each piece of advice an episode.
+    #[arg(long, value_name = "DIR")]
+    pub lerobot: Option<PathBuf>,
+    /// The LeRobot dataset's frames per second (a dataset keeps no times); default: the
+    /// simulator's control rate.
+    #[arg(long, value_name = "HZ", requires = "lerobot")]
+    pub fps: Option<u32>,
 }
 
 #[derive(Args)]

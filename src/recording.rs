@@ -9,6 +9,7 @@
 //! value, or a row of the wrong width is refused with the row and time.
 
 pub mod bag;
+pub mod lerobot;
 pub mod mcap_export;
 
 use std::path::{Path, PathBuf};

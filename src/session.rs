@@ -421,6 +421,7 @@ impl Session {
             Command::Open(path) => self.open(&path).map(Reply::Message),
             Command::ExportAdvice(path) => self.export_advice(&path).map(Reply::Message),
             Command::ExportMcap(path) => self.export_mcap(&path).map(Reply::Message),
+            Command::ExportLeRobot(dir) => self.export_lerobot(&dir).map(Reply::Message),
             Command::Help(topic) => self.help(topic.as_ref()).map(Reply::Message),
             Command::Quit => Ok(Reply::Quit),
             Command::RecordDemo {

@@ -1,9 +1,10 @@
-//! ROS 2 bags in, written by libraries this project did not write: `rosbags` (a rosbag2
+//! Recordings in and out. ROS 2 bags in, written by libraries this project did not write: `rosbags` (a rosbag2
 //! directory with MCAP storage, and its `.mcap` file alone) and `mcap-ros2-support` (one MCAP file,
 //! zstd and lz4 chunks). `tests/python/bags.py` writes each scenario and, on its own, the log the
 //! import should make (each kept command with the latest odometry before it); the import of every
 //! bag must equal it. The messy scenario's warnings and the refusals are checked as a user sees
-//! them. Without Python or the packages, each test prints why and passes without running.
+//! them. The MCAP export is read back by mcap-ros2-support and rosbags, the LeRobot export's
+//! tables by pyarrow. Without Python or the packages, each test prints why and passes without running.
 
 #[path = "python/mod.rs"]
 mod python;
@@ -21,7 +22,7 @@ fn peer() -> Option<PathBuf> {
     match python::venv(
         "bags",
         &PACKAGES,
-        "import rosbags.rosbag2, mcap_ros2.writer, mcap_ros2.decoder, numpy",
+        "import rosbags.rosbag2, mcap_ros2.writer, mcap_ros2.decoder, numpy, pyarrow.parquet",
     ) {
         Ok(p) => Some(p),
         Err(why) => {
@@ -297,4 +298,123 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
     // And advise reads its own export back as a bag: each execution's commands with its poses.
     let (demos, _) = import(&d.join("cli.mcap"), &ImportOptions::default()).unwrap();
     assert_eq!(demos[0].trace.len(), k);
+}
+
+/// A session's dataset exported as LeRobot v3.0: pyarrow reads every table; each frame is a
+/// dataset point (state, action, BC weight and source), each demonstration and each advice an
+/// episode whose index range holds its frames.
+#[test]
+fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
+    let Some(py) = peer() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("s.adv"),
+        "run start 0\nselect 5..20\nadvise speed_up(0.2)\nselect 20..30\ncritique\nsave s.json\nexport lerobot session_lr\n",
+    )
+    .unwrap();
+    let (ok, text) = advise(&["run", "--demos", "3", "--no-journal", "s.adv"], d);
+    assert!(ok, "{text}");
+    let (ok, text) = advise(&["export", "s.json", "--lerobot", "lr", "--fps", "10"], d);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("in 4 episodes (3 demonstrations, 1 advice)"),
+        "{text}"
+    );
+    // An export never writes into a directory that holds something.
+    let (ok, text) = advise(&["export", "s.json", "--lerobot", "lr"], d);
+    assert!(
+        !ok && text.contains("advise::export::lerobot_exists"),
+        "{text}"
+    );
+
+    let info: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("lr/meta/info.json")).unwrap()).unwrap();
+    assert_eq!(info["codebase_version"], "v3.0");
+    assert_eq!(info["fps"], 10);
+    assert_eq!(
+        info["features"]["action"]["names"],
+        serde_json::json!(["trans", "rot"])
+    );
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("lr/meta/stats.json")).unwrap()).unwrap();
+
+    let out = Command::new(&py)
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/python/read_lerobot.py"
+        ))
+        .arg(d.join("lr"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let read: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let data = &read["data"];
+    assert_eq!(
+        data["schema"]["observation.state"],
+        "fixed_size_list<item: float>[3]"
+    );
+    assert_eq!(data["schema"]["action"], "fixed_size_list<item: float>[2]");
+    assert_eq!(data["schema"]["index"], "int64");
+    assert_eq!(data["schema"]["advise.weight"], "float");
+
+    let mut files = advise::diag::SourceMap::new();
+    let ds = advise::policy::dataset::Dataset::load(&mut files, &d.join("s.json")).unwrap();
+    let rows = data["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), ds.len());
+    assert_eq!(stats["action"]["count"], serde_json::json!([ds.len()]));
+    let episodes = read["episodes"]["rows"].as_array().unwrap();
+    assert_eq!(episodes.len(), 4);
+    let f32s = |v: &serde_json::Value| -> Vec<f32> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap() as f32)
+            .collect()
+    };
+    // Every dataset point is one frame, once: match them by provenance order within episodes.
+    let mut seen = vec![false; ds.len()];
+    let mut reweighted = 0;
+    for (e, ep) in episodes.iter().enumerate() {
+        let (from, to) = (
+            ep["dataset_from_index"].as_u64().unwrap() as usize,
+            ep["dataset_to_index"].as_u64().unwrap() as usize,
+        );
+        assert_eq!(ep["length"].as_u64(), Some((to - from) as u64));
+        let source = if e < 3 { "demonstration" } else { "advice" };
+        assert_eq!(ep["advise.source"], source);
+        for (f, row) in rows[from..to].iter().enumerate() {
+            assert_eq!(row["episode_index"].as_u64(), Some(e as u64));
+            assert_eq!(row["frame_index"].as_u64(), Some(f as u64));
+            assert_eq!(row["advise.source"], source);
+            let i = (0..ds.len())
+                .find(|&i| {
+                    !seen[i]
+                        && ds.z(i).iter().map(|&x| x as f32).collect::<Vec<_>>()
+                            == f32s(&row["observation.state"])
+                        && ds.a(i).iter().map(|&x| x as f32).collect::<Vec<_>>()
+                            == f32s(&row["action"])
+                })
+                .unwrap_or_else(|| panic!("frame {from}+{f} is no dataset point: {row}"));
+            seen[i] = true;
+            assert_eq!(
+                row["advise.weight"].as_f64().map(|w| w as f32),
+                Some(ds.m(i) as f32)
+            );
+            reweighted += (ds.m(i) > 1.0) as usize;
+            assert!((row["timestamp"].as_f64().unwrap() - f as f64 / 10.0).abs() < 1e-6);
+        }
+    }
+    assert!(seen.iter().all(|&s| s));
+    assert!(reweighted > 0, "the critique's weights are carried");
+    assert_eq!(episodes[3]["advise.name"], "speed_up(rate = 0.2)");
+    assert_eq!(
+        read["tasks"]["rows"][0]["task"],
+        "drive the base to the goal pose"
+    );
+    assert!(d.join("session_lr/meta/info.json").exists());
 }

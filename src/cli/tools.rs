@@ -196,11 +196,23 @@ pub fn export(args: super::ExportArgs) -> miette::Result<()> {
     let mut files = crate::diag::SourceMap::new();
     let dataset = crate::policy::dataset::Dataset::load(&mut files, &args.dataset)
         .map_err(|e| files.attach(e))?;
-    let summary = crate::recording::mcap_export::export_mcap(&dataset, &args.mcap)?;
-    eprintln!(
-        "{}",
-        crate::recording::mcap_export::describe(&summary, &args.mcap.display().to_string())
-    );
+    if let Some(out) = &args.mcap {
+        let summary = crate::recording::mcap_export::export_mcap(&dataset, out)?;
+        let shown = out.display().to_string();
+        eprintln!(
+            "{}",
+            crate::recording::mcap_export::describe(&summary, &shown)
+        );
+    }
+    if let Some(dir) = &args.lerobot {
+        use crate::recording::lerobot;
+        let fps = args.fps.unwrap_or_else(lerobot::default_fps);
+        let summary = lerobot::export_lerobot(&dataset, dir, fps)?;
+        eprintln!(
+            "{}",
+            lerobot::describe(&summary, &dir.display().to_string())
+        );
+    }
     Ok(())
 }
 

@@ -59,6 +59,9 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Export(#[from] crate::recording::mcap_export::ExportError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    LeRobot(#[from] crate::recording::lerobot::LeRobotError),
     #[error("{path} is a recording of a base's drive, which makes positioning demonstrations only")]
     #[diagnostic(
         code(advise::session::recording_needs_positioning),

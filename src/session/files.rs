@@ -164,6 +164,13 @@ impl Session {
         Ok(crate::recording::mcap_export::describe(&s, path))
     }
 
+    pub(super) fn export_lerobot(&self, dir: &str) -> Result<String, SessionError> {
+        use crate::recording::lerobot;
+        let fps = self.sim_params().rate_hz.round().clamp(1.0, 1000.0) as u32;
+        let s = lerobot::export_lerobot(self.state.learner.dataset(), Path::new(dir), fps)?;
+        Ok(lerobot::describe(&s, dir))
+    }
+
     pub(super) fn export_advice(&self, path: &str) -> Result<String, SessionError> {
         let n = self.state.learner.export_advice(Path::new(path))?;
         Ok(format!(

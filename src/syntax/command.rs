@@ -73,6 +73,8 @@ pub enum Command {
     ExportAdvice(String),
     /// `export mcap FILE`: the dataset as MCAP (Foxglove, ROS 2 tools).
     ExportMcap(String),
+    /// `export lerobot DIR`: the dataset as a LeRobot v3.0 dataset.
+    ExportLeRobot(String),
     Help(Option<Ident>),
     Quit,
     /// `record demo [from TOPIC] [goal X Y THETA] [for SECONDS]`.
@@ -113,7 +115,9 @@ impl Command {
             Command::Plot { .. } => "plot",
             Command::Save(_) => "save",
             Command::Open(_) => "open",
-            Command::ExportAdvice(_) | Command::ExportMcap(_) => "export",
+            Command::ExportAdvice(_) | Command::ExportMcap(_) | Command::ExportLeRobot(_) => {
+                "export"
+            }
             Command::Help(_) => "help",
             Command::Quit => "quit",
             Command::RecordDemo { .. } => "record",
@@ -326,8 +330,8 @@ pub const COMMANDS: &[CommandSpec] = &[
     },
     CommandSpec {
         name: "export",
-        signature: "export advice FILE.csv | export mcap FILE.mcap",
-        doc: "Write every advised point with its provenance as CSV, or the dataset's executions, advice and critiques as MCAP for Foxglove and ROS 2 tools.",
+        signature: "export advice FILE.csv | export mcap FILE.mcap | export lerobot DIR",
+        doc: "Write every advised point with its provenance as CSV, the dataset's executions, advice and critiques as MCAP for Foxglove and ROS 2 tools, or its points as a LeRobot v3.0 dataset.",
         step: Step::Keep,
         example: "export advice advice.csv",
     },
@@ -493,6 +497,7 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
         Rule::c_open => Command::Open(path(req(next()))),
         Rule::c_export_advice => Command::ExportAdvice(path(req(next()))),
         Rule::c_export_mcap => Command::ExportMcap(path(req(next()))),
+        Rule::c_export_lerobot => Command::ExportLeRobot(path(req(next()))),
         Rule::c_help => Command::Help(next().map(|n| b.ident(n))),
         Rule::c_quit => Command::Quit,
         other => unreachable!("session_line yields no {other:?}"),
