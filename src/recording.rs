@@ -44,6 +44,11 @@ pub fn is_recording(path: &Path) -> bool {
     if bag::is_bag(path) {
         return true;
     }
+    // Only a regular file is opened: opening a FIFO would block until a writer comes. Anything
+    // else is left to the demonstrations reader, which refuses it with a diagnostic.
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return false;
+    }
     let mut head = [0u8; 64];
     let Ok(n) = std::fs::File::open(path).and_then(|mut f| f.read(&mut head)) else {
         return false;
@@ -370,5 +375,5 @@ pub fn write_demonstrations(path: &Path, episodes: &[Episode]) -> Result<(), Imp
         Episode::write_csv(&domain, episodes, &mut buf).map_err(write_err)?;
         buf
     };
-    std::fs::write(path, bytes).map_err(write_err)
+    Ok(crate::files::write_bytes(path, &bytes)?)
 }

@@ -41,12 +41,15 @@ fn special_files_are_refused_at_once() {
     mkfifo(&d.join("pipe.csv"));
     mkfifo(&d.join("pipe.json"));
     mkfifo(&d.join("pipe.svg"));
+    mkfifo(&d.join("pipe.mcap"));
+    std::fs::create_dir(d.join("bag")).unwrap();
+    mkfifo(&d.join("bag/bag_0.mcap"));
     let mut s = session(TaskKind::Positioning, 1);
     // Before, each of these blocked on the FIFO or read /dev/zero until memory ran out.
     let t = transcript(
         &mut s,
         &format!(
-            "load demos {0}/pipe.csv\nload trace {0}/pipe.csv\nopen {0}/pipe.json\noperators {0}/pipe.csv\n\
+            "load demos {0}/pipe.csv\nload demos {0}/pipe.mcap\nload demos {0}/bag\nload trace {0}/pipe.csv\nopen {0}/pipe.json\noperators {0}/pipe.csv\n\
              load demos /dev/zero\nrun goal 2 -1 0\nsave {0}/pipe.json\nexport advice {0}/pipe.csv\n\
              plot {0}/pipe.svg\nplot {0}\n",
             d.display()

@@ -108,7 +108,11 @@ fn messages(n: usize) -> String {
     }
 }
 
-/// Whether `path` names a bag rather than a CSV log: a directory, or a `.mcap` / `.db3` file.
+/// The largest MCAP file read (a bag splits its recording into files of a set size; an hour of a
+/// base at 50 Hz is about 15 MB).
+pub const MAX_BAG_FILE_BYTES: u64 = 4 * 1024 * 1024 * 1024;
+
+/// Whether `path` names a bag rather than a CSV log: a directory, or a `.mcap` or `.db3` file.
 pub fn is_bag(path: &Path) -> bool {
     path.is_dir()
         || path
@@ -135,7 +139,7 @@ fn bag_files(path: &Path) -> Result<Vec<PathBuf>, ImportError> {
         source,
     };
     let metadata = path.join("metadata.yaml");
-    if let Ok(text) = std::fs::read_to_string(&metadata)
+    if let Ok(text) = crate::files::read_text_limited(&metadata, 1024 * 1024)
         && text
             .lines()
             .any(|l| l.trim() == "storage_identifier: sqlite3")
@@ -234,10 +238,8 @@ pub fn import_bag(
     // Every topic seen, with its type, for the diagnostic of a missing one.
     let mut topics: Vec<(String, String)> = Vec::new();
     for file in bag_files(path)? {
-        let bytes = std::fs::read(&file).map_err(|source| ImportError::Read {
-            path: file.clone(),
-            source,
-        })?;
+        // Bounded, and a FIFO or device named `x.mcap` is refused without being opened.
+        let bytes = crate::files::read_bytes_limited(&file, MAX_BAG_FILE_BYTES)?;
         let stream = mcap::MessageStream::new(&bytes).map_err(|e| ImportError::NotMcap {
             path: file.clone(),
             reason: e.to_string(),
