@@ -153,7 +153,7 @@ fn advise_import_writes_demonstrations_a_session_loads() {
         ),
         (
             &["import", "run.mcap", "--out", "e.json"][..],
-            "advise::import::read",
+            "advise::file::read",
         ),
         (
             &[

@@ -330,8 +330,8 @@ pub const COMMANDS: &[CommandSpec] = &[
     },
     CommandSpec {
         name: "export",
-        signature: "export advice FILE.csv | export mcap FILE.mcap | export lerobot DIR",
-        doc: "Write every advised point with its provenance as CSV, the dataset's executions, advice and critiques as MCAP for Foxglove and ROS 2 tools, or its points as a LeRobot v3.0 dataset.",
+        signature: "export advice|mcap|lerobot PATH",
+        doc: "`advice FILE.csv`: every advised point with its provenance; `mcap FILE.mcap`: the executions, advice and critiques for Foxglove and ROS 2 tools; `lerobot DIR`: the points as a LeRobot v3.0 dataset.",
         step: Step::Keep,
         example: "export advice advice.csv",
     },
