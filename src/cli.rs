@@ -39,6 +39,24 @@ pub enum Command {
         /// Operator files (`*.adv`); with none, the standard operators are checked.
         files: Vec<PathBuf>,
     },
+    /// Rewrite operator files in the canonical layout, keeping their comments; `--check` changes
+    /// nothing and exits non-zero naming the files that would change.
+    Fmt {
+        /// Only report the files that are not formatted.
+        #[arg(long)]
+        check: bool,
+        /// Operator files (`*.adv`).
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+    },
+    /// Run the examples in operator files' doc comments (`/// Example: ...`); with no files, the
+    /// standard operators'. Prints `N examples, M failed` and exits non-zero on a failure.
+    Test {
+        /// Operator files (`*.adv`), checked on top of the standard operators.
+        files: Vec<PathBuf>,
+    },
+    /// A language server for operator files over stdin and stdout, for editors.
+    Lsp,
     /// Apply an operator to a range of a trace and print the synthesized points as CSV.
     Apply {
         /// Extra operator files, checked on top of the standard operators (repeatable).

@@ -26,6 +26,9 @@ fn main() -> ExitCode {
         Some(Command::Resume { journal }) => resume(journal),
         Some(Command::Check { files }) if files.is_empty() => operators::check_standard(),
         Some(Command::Check { files }) => operators::check_files(&files),
+        Some(Command::Fmt { check, files }) => operators::fmt(&files, check),
+        Some(Command::Test { files }) => operators::test(&files),
+        Some(Command::Lsp) => advise::lsp::run_stdio().map(|()| ExitCode::SUCCESS),
         Some(Command::Apply {
             operators,
             op,

@@ -11,6 +11,7 @@ mod build;
 pub mod command;
 pub mod delims;
 mod error;
+pub mod fmt;
 pub mod print;
 
 use pest::Parser;

@@ -17,6 +17,7 @@ const LAYERS: &[&str] = &[
     "program",
     "check",
     "interp",
+    "doctest",
     "policy",
     "backend",
     "task",
@@ -25,6 +26,7 @@ const LAYERS: &[&str] = &[
     "experiment",
     "session",
     "repl",
+    "lsp",
     "cli",
 ];
 

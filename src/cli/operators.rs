@@ -132,3 +132,15 @@ pub fn apply(
     );
     Ok(ExitCode::SUCCESS)
 }
+
+/// `advise fmt [--check] FILE...`.
+pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
+    let _ = (files, check);
+    Err(miette!("not built yet"))
+}
+
+/// `advise test [FILE...]`.
+pub fn test(files: &[PathBuf]) -> miette::Result<ExitCode> {
+    let _ = files;
+    Err(miette!("not built yet"))
+}

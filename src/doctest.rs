@@ -1,0 +1,1 @@
+//! `advise test`: the examples of operators' doc comments, run.
