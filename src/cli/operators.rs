@@ -133,14 +133,96 @@ pub fn apply(
     Ok(ExitCode::SUCCESS)
 }
 
-/// `advise fmt [--check] FILE...`.
+/// `advise fmt [--check] FILE...`: each operator file rewritten in the canonical layout (session
+/// scripts: trailing blanks and repeated blank lines only). Every file is tried; a file that does
+/// not parse is reported and left as it was.
 pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
-    let _ = (files, check);
-    Err(miette!("not built yet"))
+    let mut map = SourceMap::new();
+    let (mut changed, mut failed) = (0, 0);
+    for path in files {
+        let id = match crate::files::read_source(&mut map, path) {
+            Ok(id) => id,
+            Err(e) => {
+                print_report(&map, &e);
+                failed += 1;
+                continue;
+            }
+        };
+        let text = map.text(id);
+        let formatted = match crate::syntax::fmt::format(map.src(id)) {
+            Ok(f) => f,
+            Err(_) if crate::syntax::fmt::is_script(text) => {
+                crate::syntax::fmt::format_script(text)
+            }
+            Err(e) => {
+                print_report(&map, &e);
+                failed += 1;
+                continue;
+            }
+        };
+        if formatted == text {
+            continue;
+        }
+        changed += 1;
+        if check {
+            println!("would reformat {}", path.display());
+        } else if let Err(e) = crate::files::write_bytes(path, formatted.as_bytes()) {
+            print_report(&map, &e);
+            failed += 1;
+        } else {
+            println!("formatted {}", path.display());
+        }
+    }
+    let n = files.len();
+    let files_word = |n: usize| if n == 1 { "file" } else { "files" };
+    match (check, changed) {
+        (true, 0) => println!("{n} {} already formatted", files_word(n)),
+        (true, c) => println!("{c} of {n} {} would be reformatted", files_word(n)),
+        (false, c) => println!("{c} of {n} {} reformatted", files_word(n)),
+    }
+    Ok(if failed > 0 || (check && changed > 0) {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
 }
 
-/// `advise test [FILE...]`.
+/// `advise test [FILE...]`: the doc examples of the files' operators (checked on top of the
+/// standard ones), or of the standard operators.
 pub fn test(files: &[PathBuf]) -> miette::Result<ExitCode> {
-    let _ = files;
-    Err(miette!("not built yet"))
+    let mut map = SourceMap::new();
+    let (set, ids) = if files.is_empty() {
+        let ids: Vec<SourceId> = check::STANDARD_SOURCES
+            .iter()
+            .map(|(n, t)| map.add(*n, *t))
+            .collect();
+        (OperatorSet::standard(), ids)
+    } else {
+        let ids = read_sources(&mut map, files)?;
+        match OperatorSet::standard().merge_in(&map, &ids) {
+            Ok(checked) => (checked.set, ids),
+            Err(errors) => return Ok(report_check_errors(&map, errors, ids.len())),
+        }
+    };
+    let outcome = crate::doctest::run(&mut map, &set, &ids);
+    for f in &outcome.failures {
+        print_report(&map, f);
+    }
+    if !outcome.without_example.is_empty() {
+        println!(
+            "no example: {} (add a `/// Example: ...` line to test them)",
+            outcome.without_example.join(", ")
+        );
+    }
+    let m = outcome.failures.len();
+    println!(
+        "{} example{}, {m} failed",
+        outcome.examples,
+        if outcome.examples == 1 { "" } else { "s" }
+    );
+    Ok(if m == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
 }

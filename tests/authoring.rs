@@ -1,0 +1,159 @@
+//! The tools for operator authors, run as a user would: `advise fmt` (canonical layout, comments
+//! kept, idempotent, the meaning unchanged) and `advise test` (the doc examples, run).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use advise::diag::SourceMap;
+use advise::syntax::fmt::{format, format_script, is_script};
+
+mod common;
+
+fn advise(dir: &Path, args: &[&str]) -> (i32, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_advise"))
+        .args(args)
+        .current_dir(dir)
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        ),
+    )
+}
+
+fn files_under(dir: &str) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![Path::new(env!("CARGO_MANIFEST_DIR")).join(dir)];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|e| e == "adv") {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// The `//` comment texts of a file, in order (doc comments are the AST's).
+fn comment_texts(text: &str) -> Vec<String> {
+    text.lines()
+        .filter_map(|l| {
+            let i = l.find("//")?;
+            let c = &l[i..];
+            (!c.starts_with("///") && !l[..i].contains('"')).then(|| c.trim_end().to_string())
+        })
+        .collect()
+}
+
+fn fmt(name: &str, text: &str) -> String {
+    let (map, id) = SourceMap::single(name, text);
+    match format(map.src(id)) {
+        Ok(f) => f,
+        Err(e) if is_script(text) => {
+            let _ = e;
+            format_script(text)
+        }
+        Err(e) => panic!("{name}: {e}"),
+    }
+}
+
+#[test]
+fn fmt_round_trips_every_shipped_file_keeping_meaning_and_comments() {
+    let mut files = files_under("operators");
+    files.extend(files_under("examples"));
+    files.extend(files_under("tests/programs/ok"));
+    assert!(files.len() >= 14, "{files:?}");
+    for path in files {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let once = fmt(&name, &text);
+        assert_eq!(fmt(&name, &once), once, "{name}: formatting is idempotent");
+        assert_eq!(
+            comment_texts(&once),
+            comment_texts(&text),
+            "{name}: comments kept"
+        );
+        if !is_script(&text) {
+            let before = common::parse(&name, &text).unwrap().to_string();
+            let after = common::parse(&name, &once).unwrap().to_string();
+            assert_eq!(after, before, "{name}: the same program");
+        }
+        // The shipped operators and examples are already formatted; test inputs may be compact.
+        if !name.contains("tests/programs") {
+            assert_eq!(
+                once, text,
+                "{name} is not formatted: run `advise fmt {name}`"
+            );
+        }
+    }
+}
+
+#[test]
+fn fmt_rewrites_checks_and_reports_what_it_cannot_parse() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let messy = "// the lab's operators\noperator creep(f = 0.5 in [0, 1])   for positioning on action where trans!=0 {trans=trans*f // halve\n\n\n rot = rot*f}\n";
+    std::fs::write(d.join("messy.adv"), messy).unwrap();
+    std::fs::write(
+        d.join("tidy.adv"),
+        "operator halt for positioning on action {\n  trans = 0\n}\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("broken.adv"),
+        "operator oops for positioning on action { trans = }\n",
+    )
+    .unwrap();
+    let (code, check) = advise(d, &["fmt", "--check", "messy.adv", "tidy.adv"]);
+    assert_eq!(code, 1, "{check}");
+    assert_eq!(
+        std::fs::read_to_string(d.join("messy.adv")).unwrap(),
+        messy,
+        "--check writes nothing"
+    );
+    let (code, write) = advise(d, &["fmt", "messy.adv", "tidy.adv", "broken.adv"]);
+    assert_eq!(code, 1, "{write}");
+    let formatted = std::fs::read_to_string(d.join("messy.adv")).unwrap();
+    let (code, again) = advise(d, &["fmt", "--check", "messy.adv", "tidy.adv"]);
+    assert_eq!(code, 0, "{again}");
+    insta::assert_snapshot!(format!(
+        "$ advise fmt --check messy.adv tidy.adv\n{check}\n$ advise fmt messy.adv tidy.adv broken.adv\n{write}\n$ cat messy.adv\n{formatted}\n$ advise fmt --check messy.adv tidy.adv\n{again}"
+    ));
+}
+
+#[test]
+fn advise_test_runs_the_standard_librarys_examples() {
+    let dir = tempfile::tempdir().unwrap();
+    let (code, out) = advise(dir.path(), &["test"]);
+    assert_eq!(code, 0, "{out}");
+    assert_eq!(out.trim(), "25 examples, 0 failed");
+}
+
+#[test]
+fn a_wrong_example_is_a_diagnostic_at_its_line_with_expected_and_got() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("lab.adv"),
+        "/// Creep: scale both speeds by `f`.\n\
+         /// Example: creep(0.5) on {trans: 0.4, rot: 0.2} gives {trans: 0.2, rot: 0.1}\n\
+         /// Example: creep on 4 of {trans: 0.4} gives 4 of {trans: 0.1 .. 0.4}\n\
+         /// Example: creep on {trans: 0} gives {trans: 0}\n\
+         /// Example: creep(0.5) on {trans: 0.4} gives {speed: 0.2}\n\
+         operator creep(f = 0.5 in [0, 1]) for positioning on action where trans != 0 {\n  trans *= f\n  rot *= f\n}\n\n\
+         operator halt for positioning on action {\n  trans = 0\n}\n",
+    )
+    .unwrap();
+    let (code, out) = advise(d, &["test", "lab.adv"]);
+    assert_eq!(code, 1, "{out}");
+    insta::assert_snapshot!(out);
+}
