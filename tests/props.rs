@@ -359,6 +359,43 @@ proptest! {
     }
 
     #[test]
+    fn fmt_keeps_every_comment_and_the_program(
+        items in prop::collection::vec(item(), 1..4),
+        marks in prop::collection::vec((0usize..200, any::<bool>()), 0..8),
+    ) {
+        // A printed file with comments put at the ends of some lines and on lines of their own.
+        let printed = File { items }.to_string();
+        let mut lines: Vec<String> = printed.lines().map(str::to_string).collect();
+        for (n, (at, own_line)) in marks.iter().enumerate() {
+            let i = at % (lines.len() + 1);
+            if *own_line || i == lines.len() {
+                lines.insert(i, format!("// c{n}"));
+            } else {
+                lines[i].push_str(&format!(" // c{n}"));
+            }
+        }
+        let text = lines.join("\n") + "\n";
+        let (map, id) = SourceMap::single("commented", text.as_str());
+        let once = syntax::fmt::format(map.src(id))
+            .map_err(|e| TestCaseError::fail(format!("{e}\n{text}")))?;
+        let (m2, id2) = SourceMap::single("formatted", once.as_str());
+        let twice = syntax::fmt::format(m2.src(id2))
+            .map_err(|e| TestCaseError::fail(format!("{e}\n{once}")))?;
+        prop_assert_eq!(&twice, &once, "not idempotent; input:\n{}", text);
+        // The program, but for trailing blanks in doc comments, which `fmt` removes.
+        let tree = |t: &str| {
+            parse("t", t)
+                .map(|f| f.to_string().lines().map(str::trim_end).collect::<Vec<_>>().join("\n"))
+                .ok()
+        };
+        prop_assert_eq!(tree(&once), tree(&text), "the program changed:\n{}", text);
+        for n in 0..marks.len() {
+            let c = format!("// c{n}");
+            prop_assert_eq!(once.matches(&c).count(), text.matches(&c).count(), "{} lost:\n{}\n---\n{}", c, text, once);
+        }
+    }
+
+    #[test]
     fn arbitrary_text_never_panics(text in "[ -~\n]{0,300}") {
         exercise(&text);
     }
@@ -369,7 +406,7 @@ proptest! {
         "then", "and", "or", "not", "in", "positioning", "interception", "trans", "rot", "dist2",
         "bearing", "k", "n", "pi", "rate", "speed_up", "no_turning", "{", "}", "(", ")", "[", "]",
         ",", ";", "=", "==", "!=", "<", "<=", "*=", "+=", "-", "+", "*", "/", "0", "1.5", "1e999",
-        "\"m/s\"", "///", "\n", "min", "clamp", "sign",
+        "\"m/s\"", "///", "\n", "min", "clamp", "sign", "// note\n", "// two\n",
     ]), 0..60)) {
         exercise(&tokens.join(" "));
     }
@@ -379,6 +416,25 @@ proptest! {
 fn exercise(text: &str) {
     let (map, id) = SourceMap::single("line", text);
     let _ = syntax::parse_item(map.src(id));
+    // `advise fmt`: what it formats, it formats once, to the same program, losing no comment.
+    if let Ok(once) = syntax::fmt::format(map.src(id)) {
+        let (m2, id2) = SourceMap::single("formatted", once.as_str());
+        let twice = syntax::fmt::format(m2.src(id2)).unwrap_or_else(|e| {
+            panic!(
+                "the formatted text does not parse: {e}\n--- input\n{text}\n--- formatted\n{once}"
+            )
+        });
+        assert_eq!(twice, once, "formatting twice changed it; input:\n{text}");
+        let tree = |t: &str| parse("t", t).map(|f| f.to_string()).ok();
+        assert_eq!(tree(&once), tree(text), "formatting changed the program");
+        for comment in ["// note", "// two"] {
+            assert_eq!(
+                once.matches(comment).count(),
+                text.matches(comment).count(),
+                "a comment was lost or copied; input:\n{text}\n--- formatted\n{once}"
+            );
+        }
+    }
     let _ = syntax::parse_invocation(text);
     let std = OperatorSet::standard();
     match std.merge(&[Source::new("fuzz.adv", text)]) {

@@ -128,8 +128,11 @@ fn layout(text: &str, file: &File) -> String {
     // Where the text already written ends, and whether something was written.
     let mut cursor = 0;
     let mut wrote_any = false;
+    let refs: Vec<&Comment> = all.iter().collect();
     for item in &file.items {
+        // An item's span may run over the blanks and comments after it (a composition's does).
         let span = item.span();
+        let span = Span::new(span.start, own_end(text, span, &refs));
         let before: Vec<&Comment> = all
             .iter()
             .filter(|c| c.span.start >= cursor && c.span.end <= span.start)
@@ -141,7 +144,7 @@ fn layout(text: &str, file: &File) -> String {
             .iter()
             .filter(|c| c.span.start >= span.start && c.span.start < span.end)
             .collect();
-        out.push_str(&item_text(text, &lines, item, &inside));
+        out.push_str(&item_text(text, &lines, item, span, &inside));
         out.push('\n');
         cursor = span.end;
         wrote_any = true;
@@ -219,8 +222,8 @@ fn gap(
 
 /// An item's text: printed, with its comments put back, or as written when a comment is where
 /// the printer has no place for it.
-fn item_text(text: &str, lines: &Lines, item: &Item, comments: &[&Comment]) -> String {
-    let verbatim = || text[item.span().start..item.span().end].to_string();
+fn item_text(text: &str, lines: &Lines, item: &Item, span: Span, comments: &[&Comment]) -> String {
+    let verbatim = || text[span.start..span.end].to_string();
     if comments.is_empty() {
         // Blank lines between statements are kept even without comments.
         if let Item::Operator(op) = item {
@@ -291,7 +294,8 @@ fn operator_text(
     events.sort_by_key(|e| e.0);
     // The header as the printer writes it: everything up to the block's opening line.
     let printed = op.to_string();
-    let header_end = printed.find(" {\n")?;
+    // The last ` {` line end: doc lines before it may hold one too, statements never do.
+    let header_end = printed.rfind(" {\n")?;
     let mut out = String::from(&printed[..header_end]);
     out.push_str(" {\n");
     let mut prev_end: Option<usize> = None;
