@@ -98,6 +98,19 @@ fn fmt_round_trips_every_shipped_file_keeping_meaning_and_comments() {
 }
 
 #[test]
+fn the_shipped_operators_and_examples_pass_advise_fmt_check() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = files_under("operators");
+    files.extend(files_under("examples"));
+    let mut args = vec!["fmt".to_string(), "--check".to_string()];
+    args.extend(files.iter().map(|f| f.display().to_string()));
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let (code, out) = advise(root, &args);
+    assert_eq!(code, 0, "{out}");
+    assert!(out.ends_with(&format!("{} files already formatted\n", files.len())), "{out}");
+}
+
+#[test]
 fn fmt_rewrites_checks_and_reports_what_it_cannot_parse() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
