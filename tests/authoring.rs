@@ -107,7 +107,10 @@ fn the_shipped_operators_and_examples_pass_advise_fmt_check() {
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let (code, out) = advise(root, &args);
     assert_eq!(code, 0, "{out}");
-    assert!(out.ends_with(&format!("{} files already formatted\n", files.len())), "{out}");
+    assert!(
+        out.ends_with(&format!("{} files already formatted\n", files.len())),
+        "{out}"
+    );
 }
 
 #[test]
