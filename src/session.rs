@@ -235,7 +235,10 @@ impl Session {
                 format!("load demos teacher:{}", opts.default_demos),
                 "--demos".into(),
             ));
-            let r = s.load_demos(&format!("teacher:{}", opts.default_demos));
+            let r = s.load_demos(
+                &format!("teacher:{}", opts.default_demos),
+                &Default::default(),
+            );
             s.statement = None;
             r?;
         }
@@ -390,7 +393,18 @@ impl Session {
         match cmd {
             Command::Task(name) => self.set_task(&name),
             Command::Backend(spec) => self.set_backend(&spec),
-            Command::LoadDemos(path) => self.load_demos(&path).map(Reply::Message),
+            Command::LoadDemos {
+                path,
+                cmd_topic,
+                odom_topic,
+            } => {
+                let options = crate::recording::ImportOptions {
+                    cmd_topic,
+                    odom_topic,
+                    ..Default::default()
+                };
+                self.load_demos(&path, &options).map(Reply::Message)
+            }
             Command::LoadTrace(path) => self.load_trace(&path).map(Reply::Message),
             Command::Operators(path) => self.load_operators(&path).map(Reply::Message),
             Command::RunGoal {

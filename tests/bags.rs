@@ -16,7 +16,12 @@ use std::time::Duration;
 use advise::recording::{ImportOptions, import};
 use advise::trace::Episode;
 
-const PACKAGES: [&str; 3] = ["rosbags==0.11.9", "mcap==1.6.0", "mcap-ros2-support==0.6.0"];
+const PACKAGES: [&str; 4] = [
+    "rosbags==0.11.9",
+    "mcap==1.6.0",
+    "mcap-ros2-support==0.6.0",
+    "pyarrow==26.0.1",
+];
 
 fn peer() -> Option<PathBuf> {
     match python::venv(
@@ -141,6 +146,75 @@ fn a_messy_bag_is_imported_with_every_repair_counted() {
         "{text}"
     );
     assert!(text.contains("warning: dropped 3 of 82 commands sent before the first odometry"));
+}
+
+#[test]
+fn a_robots_namespace_and_a_pause_in_the_driving() {
+    let Some(py) = peer() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let bag = write(&py, d, "rosbags", "namespaced");
+    // The library, with the robot's topics: the independent pairing.
+    let options = ImportOptions {
+        cmd_topic: Some("/robot1/cmd_vel".into()),
+        odom_topic: Some("robot1/odom".into()),
+        ..Default::default()
+    };
+    let (got, warnings) = import(&bag, &options).unwrap();
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_same(&got, &expected(&bag), "namespaced");
+    // The command line splits the drive at the pause.
+    let (ok, text) = advise(
+        &[
+            "import",
+            "rosbags-namespaced",
+            "--cmd-topic",
+            "/robot1/cmd_vel",
+            "--odom-topic",
+            "/robot1/odom",
+            "--split-gap",
+            "1",
+            "--out",
+            "d.json",
+        ],
+        d,
+    );
+    assert!(ok, "{text}");
+    assert!(text.contains("2 demonstrations"), "{text}");
+    // The session names the topics after the bag; topics for a file that is not a bag, or the
+    // default topics for this bag, are refused.
+    std::fs::write(
+        d.join("s.adv"),
+        "load demos rosbags-namespaced odom /robot1/odom cmd /robot1/cmd_vel
+         load demos d.json cmd /robot1/cmd_vel
+         load demos rosbags-namespaced
+",
+    )
+    .unwrap();
+    let (ok, text) = advise(
+        &[
+            "run",
+            "--demos",
+            "0",
+            "--no-journal",
+            "--keep-going",
+            "s.adv",
+        ],
+        d,
+    );
+    assert!(!ok, "{text}");
+    let points: usize = got.iter().map(|e| e.trace.len()).sum();
+    assert!(
+        text.contains(&format!(
+            "loaded 1 demonstrations ({points} points) from rosbags-namespaced"
+        )),
+        "{text}"
+    );
+    assert!(
+        text.contains("advise::session::topics_need_a_bag"),
+        "{text}"
+    );
+    assert!(text.contains("advise::import::topic_missing"), "{text}");
 }
 
 #[test]

@@ -70,6 +70,14 @@ pub enum SessionError {
         )
     )]
     RecordingNeedsPositioning { path: String },
+    #[error("`{path}` is not a ROS 2 bag, so `cmd` and `odom` topics do not apply to it")]
+    #[diagnostic(
+        code(advise::session::topics_need_a_bag),
+        help(
+            "name topics only for a bag (a rosbag2 folder or a `.mcap` file): `load demos run1/ cmd /robot1/cmd_vel odom /robot1/odom`"
+        )
+    )]
+    TopicsNeedABag { path: String },
     #[error(transparent)]
     #[diagnostic(transparent)]
     PracticeStart(#[from] task::PracticeStartOutOfRange),

@@ -14,10 +14,22 @@ use crate::trace::Trace;
 impl Session {
     /// `teacher:N` records N demonstrations by the task's teacher in the simulator; anything else
     /// is a demonstrations file.
-    pub(super) fn load_demos(&mut self, path: &str) -> Result<String, SessionError> {
+    /// `options` name a bag's topics; a topic given for a file that is not a bag is refused.
+    pub(super) fn load_demos(
+        &mut self,
+        path: &str,
+        options: &crate::recording::ImportOptions,
+    ) -> Result<String, SessionError> {
         let started = Instant::now();
         let mut from_dataset = String::new();
         let recording = Path::new(path);
+        if (options.cmd_topic.is_some() || options.odom_topic.is_some())
+            && !crate::recording::bag::is_bag(recording)
+        {
+            return Err(SessionError::TopicsNeedABag {
+                path: path.to_string(),
+            });
+        }
         let episodes = match path.strip_prefix("teacher:") {
             None if crate::recording::is_recording(recording) => {
                 if self.task != task::TaskKind::Positioning {
@@ -25,8 +37,7 @@ impl Session {
                         path: path.to_string(),
                     });
                 }
-                let (episodes, warnings) =
-                    crate::recording::import(recording, &Default::default())?;
+                let (episodes, warnings) = crate::recording::import(recording, options)?;
                 for w in warnings {
                     from_dataset.push_str(&format!("\nwarning: {w}"));
                 }

@@ -34,7 +34,12 @@ pub enum PlotKind {
 pub enum Command {
     Task(Ident),
     Backend(String),
-    LoadDemos(String),
+    /// `load demos PATH [cmd TOPIC] [odom TOPIC]`: the topics apply to a bag.
+    LoadDemos {
+        path: String,
+        cmd_topic: Option<String>,
+        odom_topic: Option<String>,
+    },
     LoadTrace(String),
     Operators(String),
     RunGoal {
@@ -97,7 +102,7 @@ impl Command {
         match self {
             Command::Task(_) => "task",
             Command::Backend(_) => "backend",
-            Command::LoadDemos(_) | Command::LoadTrace(_) => "load",
+            Command::LoadDemos { .. } | Command::LoadTrace(_) => "load",
             Command::Operators(_) => "operators",
             Command::RunGoal { .. } | Command::RunStart(_) => "run",
             Command::Show(_) => "show",
@@ -205,7 +210,7 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "load",
         signature: "load demos FILE | load trace FILE",
-        doc: "Load demonstrations (a file, or `teacher:N` to record N teacher runs in the simulator) or a trace to advise.",
+        doc: "Load demonstrations (a file; a ROS 2 bag or CSV log, `cmd TOPIC` and `odom TOPIC` naming a bag's topics; or `teacher:N` to record N teacher runs in the simulator) or a trace to advise.",
         step: Step::Demonstrate,
         example: "load demos teacher:5",
     },
@@ -400,7 +405,27 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
     let cmd = match rule {
         Rule::c_task => Command::Task(b.ident(req(next()))),
         Rule::c_backend => Command::Backend(req(next()).as_str().to_string()),
-        Rule::c_load_demos => Command::LoadDemos(path(req(next()))),
+        Rule::c_load_demos => {
+            let file = path(req(next()));
+            let (mut cmd_topic, mut odom_topic) = (None, None);
+            while let Some(part) = next() {
+                let rule = part.as_rule();
+                let topic = part
+                    .into_inner()
+                    .find(|t| t.as_rule() == Rule::topic_name)
+                    .map(|t| t.as_str().to_string());
+                if rule == Rule::load_cmd_topic {
+                    cmd_topic = topic;
+                } else {
+                    odom_topic = topic;
+                }
+            }
+            Command::LoadDemos {
+                path: file,
+                cmd_topic,
+                odom_topic,
+            }
+        }
         Rule::c_load_trace => Command::LoadTrace(path(req(next()))),
         Rule::c_operators => Command::Operators(path(req(next()))),
         Rule::c_run_goal => {
@@ -694,7 +719,19 @@ mod tests {
         assert_eq!(cmd("critique 0.5"), Command::Critique(Some(0.5)));
         assert_eq!(
             cmd("load demos \"my runs/d.csv\""),
-            Command::LoadDemos("my runs/d.csv".into())
+            Command::LoadDemos {
+                path: "my runs/d.csv".into(),
+                cmd_topic: None,
+                odom_topic: None,
+            }
+        );
+        assert_eq!(
+            cmd("load demos bags/run1 odom /robot1/odom cmd /robot1/cmd_vel"),
+            Command::LoadDemos {
+                path: "bags/run1".into(),
+                cmd_topic: Some("/robot1/cmd_vel".into()),
+                odom_topic: Some("/robot1/odom".into()),
+            }
         );
         assert_eq!(
             cmd("backend rmp:127.0.0.1:9000"),

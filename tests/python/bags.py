@@ -65,14 +65,19 @@ def scenario(name):
         odom_times = [t for t in odom_times if t >= 120_000_000 and not 2_000_000_000 <= t < 3_000_000_000]
         # A command repeated at the same time (the later one is kept: it says 0.25 m/s).
         cmd_times.insert(30, cmd_times[30])
-    msgs = [('/odom', t, 'odom', None) for t in odom_times]
+    ns = ''
+    if name == 'namespaced':
+        # A robot's namespace, and a 2 s pause in the driving (odometry goes on).
+        ns = '/robot1'
+        cmd_times = [t for t in cmd_times if not 1_500_000_000 < t < 3_500_000_000]
+    msgs = [(ns + '/odom', t, 'odom', None) for t in odom_times]
     for i, t in enumerate(cmd_times):
         v = 0.25 if name == 'messy' and i == 31 else 0.5
-        msgs.append(('/cmd_vel', t, 'stamped' if name == 'stamped' else 'twist', (v, 0.1)))
+        msgs.append((ns + '/cmd_vel', t, 'stamped' if name == 'stamped' else 'twist', (v, 0.1)))
     msgs.sort(key=lambda m: m[1])
     if name == 'messy':
         # Five commands written a second late, as a reordering recorder would.
-        late = [m for m in msgs if m[0] == '/cmd_vel'][10:15]
+        late = [m for m in msgs if m[0].endswith('/cmd_vel')][10:15]
         msgs = [m for m in msgs if not any(m is l for l in late)]
         at = next(i for i, m in enumerate(msgs) if m[1] > late[-1][1] + 1_000_000_000)
         msgs[at:at] = late
@@ -83,9 +88,9 @@ def expected(msgs):
     """The log the import should make, computed independently of advise."""
     cmds = {}
     for topic, t, kind, payload in msgs:
-        if topic == '/cmd_vel':
+        if topic.endswith('/cmd_vel'):
             cmds[t] = payload  # the later of equal times wins
-    odoms = sorted(t for topic, t, _, _ in msgs if topic == '/odom')
+    odoms = sorted(t for topic, t, _, _ in msgs if topic.endswith('/odom'))
     rows = []
     for t in sorted(cmds):
         before = [o for o in odoms if o <= t]

@@ -51,7 +51,20 @@ pub fn run(cmd: &mut Command, limit: Duration) -> Result<(), String> {
 /// The Python of the virtual environment `py-venv-NAME` under the target directory, with
 /// `packages` installed; `probe` is Python code that succeeds only when they are usable. Made once
 /// and reused while `probe` passes.
+///
+/// With `ADVISE_REQUIRE_PEERS=1` (as `.ci/run` sets where Python 3 is), a peer that cannot be
+/// made fails the test instead: an interoperability test must not pass by skipping unnoticed.
 pub fn venv(name: &str, packages: &[&str], probe: &str) -> Result<PathBuf, String> {
+    let made = make_venv(name, packages, probe);
+    if let Err(why) = &made
+        && std::env::var("ADVISE_REQUIRE_PEERS").is_ok_and(|v| v == "1")
+    {
+        panic!("ADVISE_REQUIRE_PEERS=1, but the Python peer `{name}` cannot be made: {why}");
+    }
+    made
+}
+
+fn make_venv(name: &str, packages: &[&str], probe: &str) -> Result<PathBuf, String> {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("py-venv-{name}"));
     let python = dir.join("bin").join("python");
     let usable = |p: &Path| run(Command::new(p).args(["-c", probe]), Duration::from_secs(60));
