@@ -219,15 +219,6 @@ impl Operator {
         format!("{}({})", self.name, ps.join(", "))
     }
 
-    /// Invocations quoted on the doc comment's `Example:` lines, e.g. `speed_up(0.5)`.
-    pub fn examples(&self) -> Vec<String> {
-        self.doc
-            .lines()
-            .filter_map(|l| l.trim().strip_prefix("Example:"))
-            .filter_map(|rest| rest.split('`').nth(1).map(str::to_string))
-            .collect()
-    }
-
     /// Where it was defined, e.g. `operators/positioning.adv at line 12`.
     pub fn origin(&self) -> &str {
         &self.origin
