@@ -185,8 +185,10 @@ fn every_standard_operator_has_a_working_example() {
         for op in set.operators(&domain.name) {
             let own = format!("Example: {}", op.name());
             assert!(
-                op.doc().lines().any(|l| l.trim().starts_with(&own)
-                    && l.trim()[own.len()..].starts_with([' ', '('])),
+                op.doc()
+                    .lines()
+                    .any(|l| l.trim().starts_with(&own)
+                        && l.trim()[own.len()..].starts_with([' ', '('])),
                 "{} has no `{own} ...` line",
                 op.name()
             );
