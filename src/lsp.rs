@@ -1,6 +1,452 @@
-//! `advise lsp`: a language server for operator files over stdio.
+//! `advise lsp`: a language server for operator files (and session scripts) over stdio.
+//!
+//! The protocol is `lsp-server`'s (rust-analyzer's synchronous scaffold) with `lsp-types`; what
+//! the server knows is [`analysis`], in byte offsets, and this module converts to the protocol's
+//! positions (lines and UTF-16 code units) and back. Documents are synced whole. Capabilities:
+//! diagnostics on open and change (the same codes, messages, help and labels as `advise check`),
+//! hover, completion, go to definition (the standard library is written once into a cache folder
+//! so any editor can open it), formatting (`advise fmt`) and document symbols.
+
+pub mod analysis;
+
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::PathBuf;
+use std::str::FromStr;
+
+use lsp_server::{Connection, ErrorCode, Message, Notification, Request, RequestId, Response};
+use lsp_types::notification::{
+    DidChangeTextDocument, DidCloseTextDocument, DidOpenTextDocument,
+    Notification as NotificationTrait, PublishDiagnostics,
+};
+use lsp_types::request::{
+    Completion, DocumentSymbolRequest, Formatting, GotoDefinition, HoverRequest,
+    Request as RequestTrait,
+};
+use lsp_types::{
+    CompletionItem, CompletionItemKind, CompletionOptions, CompletionParams, CompletionResponse,
+    Diagnostic, DiagnosticRelatedInformation, DiagnosticSeverity, DidChangeTextDocumentParams,
+    DidCloseTextDocumentParams, DidOpenTextDocumentParams, DocumentFormattingParams,
+    DocumentSymbol, DocumentSymbolParams, DocumentSymbolResponse, GotoDefinitionParams,
+    GotoDefinitionResponse, Hover, HoverContents, HoverParams, HoverProviderCapability, Location,
+    MarkupContent, MarkupKind, NumberOrString, OneOf, Position, PublishDiagnosticsParams,
+    ServerCapabilities, ServerInfo, TextDocumentSyncCapability, TextDocumentSyncKind, TextEdit,
+    Uri,
+};
+
+use analysis::{CompletionKind, SymbolKind, Target};
 
 /// Serve the language server protocol on stdin and stdout until the client exits.
 pub fn run_stdio() -> miette::Result<()> {
-    Err(miette::miette!("the language server is not built yet"))
+    let (connection, io) = Connection::stdio();
+    let capabilities = ServerCapabilities {
+        text_document_sync: Some(TextDocumentSyncCapability::Kind(TextDocumentSyncKind::FULL)),
+        hover_provider: Some(HoverProviderCapability::Simple(true)),
+        completion_provider: Some(CompletionOptions::default()),
+        definition_provider: Some(OneOf::Left(true)),
+        document_formatting_provider: Some(OneOf::Left(true)),
+        document_symbol_provider: Some(OneOf::Left(true)),
+        ..Default::default()
+    };
+    let init = serde_json::json!({
+        "capabilities": capabilities,
+        "serverInfo": ServerInfo { name: "advise".into(), version: Some(env!("CARGO_PKG_VERSION").into()) },
+    });
+    let protocol = |e: lsp_server::ProtocolError| miette::miette!("language server protocol: {e}");
+    let (id, _params) = connection.initialize_start().map_err(protocol)?;
+    connection.initialize_finish(id, init).map_err(protocol)?;
+    Server::default().serve(&connection)?;
+    drop(connection);
+    io.join()
+        .map_err(|e| miette::miette!("language server I/O: {e}"))?;
+    Ok(())
+}
+
+/// The open documents.
+#[derive(Default)]
+struct Server {
+    docs: HashMap<String, String>,
+}
+
+impl Server {
+    fn serve(&mut self, connection: &Connection) -> miette::Result<()> {
+        let send = |m: Message| {
+            connection
+                .sender
+                .send(m)
+                .map_err(|e| miette::miette!("the client went away: {e}"))
+        };
+        for message in &connection.receiver {
+            match message {
+                Message::Request(req) => {
+                    if connection
+                        .handle_shutdown(&req)
+                        .map_err(|e| miette::miette!("language server protocol: {e}"))?
+                    {
+                        return Ok(());
+                    }
+                    send(Message::Response(self.respond(req)))?;
+                }
+                Message::Notification(n) => {
+                    if let Some(uri) = self.notify(n) {
+                        send(Message::Notification(self.diagnostics(&uri)))?;
+                    }
+                }
+                Message::Response(_) => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Apply a document notification; the document whose diagnostics to publish.
+    fn notify(&mut self, n: Notification) -> Option<String> {
+        match n.method.as_str() {
+            DidOpenTextDocument::METHOD => {
+                let p: DidOpenTextDocumentParams = serde_json::from_value(n.params).ok()?;
+                let uri = p.text_document.uri.as_str().to_string();
+                self.docs.insert(uri.clone(), p.text_document.text);
+                Some(uri)
+            }
+            DidChangeTextDocument::METHOD => {
+                let p: DidChangeTextDocumentParams = serde_json::from_value(n.params).ok()?;
+                let uri = p.text_document.uri.as_str().to_string();
+                // Full sync: the last change is the whole text.
+                let text = p.content_changes.into_iter().last()?.text;
+                self.docs.insert(uri.clone(), text);
+                Some(uri)
+            }
+            DidCloseTextDocument::METHOD => {
+                let p: DidCloseTextDocumentParams = serde_json::from_value(n.params).ok()?;
+                self.docs.remove(p.text_document.uri.as_str());
+                None
+            }
+            _ => None,
+        }
+    }
+
+    fn diagnostics(&self, uri: &str) -> Notification {
+        let text = self.docs.get(uri).map_or("", String::as_str);
+        let params = PublishDiagnosticsParams {
+            uri: parse_uri(uri),
+            diagnostics: publish(uri, text),
+            version: None,
+        };
+        Notification::new(PublishDiagnostics::METHOD.to_string(), params)
+    }
+
+    fn respond(&self, req: Request) -> Response {
+        let id = req.id.clone();
+        let result = match req.method.as_str() {
+            HoverRequest::METHOD => self.hover(req).map(|r| serde_json::to_value(r).ok()),
+            Completion::METHOD => self.completion(req).map(|r| serde_json::to_value(r).ok()),
+            GotoDefinition::METHOD => self.definition(req).map(|r| serde_json::to_value(r).ok()),
+            Formatting::METHOD => self.formatting(req).map(|r| serde_json::to_value(r).ok()),
+            DocumentSymbolRequest::METHOD => {
+                self.symbols(req).map(|r| serde_json::to_value(r).ok())
+            }
+            _ => Err((
+                ErrorCode::MethodNotFound,
+                format!("`advise lsp` does not handle `{}`", req.method),
+            )),
+        };
+        match result {
+            Ok(value) => Response::new_ok(id, value.unwrap_or(serde_json::Value::Null)),
+            Err((code, message)) => error(id, code, message),
+        }
+    }
+
+    fn text<'s>(&'s self, uri: &Uri) -> Result<&'s str, (ErrorCode, String)> {
+        self.docs.get(uri.as_str()).map(String::as_str).ok_or((
+            ErrorCode::InvalidParams,
+            format!("`{}` is not open", uri.as_str()),
+        ))
+    }
+
+    fn hover(&self, req: Request) -> Result<Option<Hover>, (ErrorCode, String)> {
+        let p: HoverParams = params(req)?;
+        let doc = &p.text_document_position_params;
+        let text = self.text(&doc.text_document.uri)?;
+        let lines = Lines::new(text);
+        let offset = lines.offset(doc.position);
+        Ok(analysis::hover(text, offset).map(|(range, value)| Hover {
+            contents: HoverContents::Markup(MarkupContent {
+                kind: MarkupKind::Markdown,
+                value,
+            }),
+            range: Some(lines.range(range)),
+        }))
+    }
+
+    fn completion(&self, req: Request) -> Result<Option<CompletionResponse>, (ErrorCode, String)> {
+        let p: CompletionParams = params(req)?;
+        let doc = &p.text_document_position;
+        let text = self.text(&doc.text_document.uri)?;
+        let offset = Lines::new(text).offset(doc.position);
+        let items = analysis::completion(text, offset)
+            .into_iter()
+            .map(|c| CompletionItem {
+                label: c.label,
+                kind: Some(match c.kind {
+                    CompletionKind::Keyword => CompletionItemKind::KEYWORD,
+                    CompletionKind::Operator => CompletionItemKind::FUNCTION,
+                    CompletionKind::Parameter => CompletionItemKind::VARIABLE,
+                    CompletionKind::Dimension => CompletionItemKind::FIELD,
+                    CompletionKind::Function => CompletionItemKind::FUNCTION,
+                    CompletionKind::Command => CompletionItemKind::KEYWORD,
+                }),
+                detail: Some(c.detail),
+                ..Default::default()
+            })
+            .collect();
+        Ok(Some(CompletionResponse::Array(items)))
+    }
+
+    fn definition(
+        &self,
+        req: Request,
+    ) -> Result<Option<GotoDefinitionResponse>, (ErrorCode, String)> {
+        let p: GotoDefinitionParams = params(req)?;
+        let doc = &p.text_document_position_params;
+        let text = self.text(&doc.text_document.uri)?;
+        let lines = Lines::new(text);
+        let offset = lines.offset(doc.position);
+        let location = match analysis::definition(text, offset) {
+            None => return Ok(None),
+            Some(Target::Here(range)) => Location {
+                uri: doc.text_document.uri.clone(),
+                range: lines.range(range),
+            },
+            Some(Target::Standard { file, range }) => {
+                let (path, std_text) =
+                    standard_file(file).map_err(|e| (ErrorCode::InternalError, e))?;
+                Location {
+                    uri: parse_uri(&format!("file://{}", path.display())),
+                    range: Lines::new(std_text).range(range),
+                }
+            }
+        };
+        Ok(Some(GotoDefinitionResponse::Scalar(location)))
+    }
+
+    fn formatting(&self, req: Request) -> Result<Option<Vec<TextEdit>>, (ErrorCode, String)> {
+        let p: DocumentFormattingParams = params(req)?;
+        let text = self.text(&p.text_document.uri)?;
+        let formatted = if analysis::is_script(text) {
+            crate::syntax::fmt::format_script(text)
+        } else {
+            let (map, id) = crate::diag::SourceMap::single("document", text);
+            crate::syntax::fmt::format(map.src(id)).map_err(|e| {
+                (
+                    ErrorCode::RequestFailed,
+                    format!("the file does not parse, so it is not formatted: {e}"),
+                )
+            })?
+        };
+        if formatted == text {
+            return Ok(Some(Vec::new()));
+        }
+        let lines = Lines::new(text);
+        Ok(Some(vec![TextEdit {
+            range: lines.range(0..text.len()),
+            new_text: formatted,
+        }]))
+    }
+
+    fn symbols(&self, req: Request) -> Result<Option<DocumentSymbolResponse>, (ErrorCode, String)> {
+        let p: DocumentSymbolParams = params(req)?;
+        let text = self.text(&p.text_document.uri)?;
+        let lines = Lines::new(text);
+        let symbols = analysis::symbols(text)
+            .into_iter()
+            .map(|s| symbol(&lines, s))
+            .collect();
+        Ok(Some(DocumentSymbolResponse::Nested(symbols)))
+    }
+}
+
+#[allow(deprecated)] // `DocumentSymbol::deprecated` must be written, as `None`.
+fn symbol(lines: &Lines<'_>, s: analysis::Symbol) -> DocumentSymbol {
+    DocumentSymbol {
+        name: s.name,
+        detail: Some(s.detail),
+        kind: match s.kind {
+            SymbolKind::Domain => lsp_types::SymbolKind::NAMESPACE,
+            SymbolKind::Dimension => lsp_types::SymbolKind::FIELD,
+            SymbolKind::Operator => lsp_types::SymbolKind::FUNCTION,
+            SymbolKind::Parameter => lsp_types::SymbolKind::VARIABLE,
+        },
+        tags: None,
+        deprecated: None,
+        range: lines.range(s.range),
+        selection_range: lines.range(s.selection),
+        children: Some(s.children.into_iter().map(|c| symbol(lines, c)).collect()),
+    }
+}
+
+fn params<P: serde::de::DeserializeOwned>(req: Request) -> Result<P, (ErrorCode, String)> {
+    serde_json::from_value(req.params).map_err(|e| {
+        (
+            ErrorCode::InvalidParams,
+            format!("bad parameters for `{}`: {e}", req.method),
+        )
+    })
+}
+
+fn error(id: RequestId, code: ErrorCode, message: String) -> Response {
+    Response::new_err(id, code as i32, message)
+}
+
+fn parse_uri(s: &str) -> Uri {
+    Uri::from_str(s)
+        .or_else(|_| Uri::from_str(&s.replace(' ', "%20")))
+        .unwrap_or_else(|_| Uri::from_str("file:///").expect("a valid URI"))
+}
+
+/// The diagnostics of document `uri` in the protocol's form.
+fn publish(uri: &str, text: &str) -> Vec<Diagnostic> {
+    let name = uri.strip_prefix("file://").unwrap_or(uri);
+    let lines = Lines::new(text);
+    analysis::diagnostics(name, text)
+        .into_iter()
+        .map(|d| Diagnostic {
+            range: lines.range(d.range),
+            severity: Some(if d.warning {
+                DiagnosticSeverity::WARNING
+            } else {
+                DiagnosticSeverity::ERROR
+            }),
+            code: d.code.map(NumberOrString::String),
+            source: Some("advise".into()),
+            message: d.message,
+            related_information: (!d.related.is_empty()).then(|| {
+                d.related
+                    .into_iter()
+                    .map(|(range, message)| DiagnosticRelatedInformation {
+                        location: Location {
+                            uri: parse_uri(uri),
+                            range: lines.range(range),
+                        },
+                        message,
+                    })
+                    .collect()
+            }),
+            ..Default::default()
+        })
+        .collect()
+}
+
+/// The standard library file `name`, written into the cache folder once; its path and text.
+fn standard_file(name: &str) -> Result<(PathBuf, &'static str), String> {
+    let (_, text) = crate::check::STANDARD_SOURCES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .ok_or_else(|| format!("no standard file `{name}`"))?;
+    let base = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
+        .unwrap_or_else(std::env::temp_dir);
+    let dir = base
+        .join("advise")
+        .join(concat!("std-", env!("CARGO_PKG_VERSION")));
+    let file = name.rsplit('/').next().unwrap_or(name);
+    let path = dir.join(file);
+    if std::fs::read_to_string(&path).ok().as_deref() != Some(*text) {
+        std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        crate::files::write_bytes(&path, text.as_bytes()).map_err(|e| e.to_string())?;
+    }
+    Ok((path, text))
+}
+
+/// Byte offsets to the protocol's positions (line, UTF-16 code units) and back.
+pub struct Lines<'t> {
+    text: &'t str,
+    starts: Vec<usize>,
+}
+
+impl<'t> Lines<'t> {
+    pub fn new(text: &'t str) -> Lines<'t> {
+        let mut starts = vec![0];
+        starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
+        Lines { text, starts }
+    }
+
+    /// The position of byte `offset` (clamped to the text, and back to a character boundary).
+    pub fn position(&self, offset: usize) -> Position {
+        let mut offset = offset.min(self.text.len());
+        while !self.text.is_char_boundary(offset) {
+            offset -= 1;
+        }
+        let line = self.starts.partition_point(|&s| s <= offset) - 1;
+        let character = self.text[self.starts[line]..offset].encode_utf16().count();
+        Position::new(line as u32, character as u32)
+    }
+
+    pub fn range(&self, r: Range<usize>) -> lsp_types::Range {
+        lsp_types::Range::new(self.position(r.start), self.position(r.end))
+    }
+
+    /// The byte offset of `p` (a position past a line's end is its end; past the last line, the
+    /// text's end).
+    pub fn offset(&self, p: Position) -> usize {
+        let Some(&start) = self.starts.get(p.line as usize) else {
+            return self.text.len();
+        };
+        let end = self
+            .starts
+            .get(p.line as usize + 1)
+            .map_or(self.text.len(), |&e| e);
+        let line = &self.text[start..end];
+        let mut units = 0;
+        for (i, c) in line.char_indices() {
+            if units >= p.character as usize || c == '\n' {
+                return start + i;
+            }
+            units += c.len_utf16();
+        }
+        end
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn positions_count_utf16_units_and_round_trip() {
+        let text = "é😀x\nab\n";
+        let l = Lines::new(text);
+        // é is 2 bytes and 1 unit; 😀 is 4 bytes and 2 units.
+        assert_eq!(l.position(2), Position::new(0, 1));
+        assert_eq!(l.position(6), Position::new(0, 3));
+        assert_eq!(l.position(8), Position::new(1, 0));
+        assert_eq!(
+            l.position(3),
+            Position::new(0, 1),
+            "inside a character: its start"
+        );
+        for offset in [0, 2, 6, 7, 8, 9, 10, 11] {
+            assert_eq!(l.offset(l.position(offset)), offset);
+        }
+        assert_eq!(
+            l.offset(Position::new(0, 99)),
+            7,
+            "past the end: the line's end"
+        );
+        assert_eq!(l.offset(Position::new(9, 0)), text.len());
+    }
+
+    #[test]
+    fn published_diagnostics_point_past_non_ascii_text() {
+        let text = "// café 😀\noperator x for positioning on action { rott = 0 }\n";
+        let d = publish("file:///x.adv", text);
+        assert_eq!(d.len(), 1);
+        let col = "operator x for positioning on action { ".len() as u32;
+        assert_eq!(d[0].range.start, Position::new(1, col));
+        assert_eq!(
+            d[0].code,
+            Some(NumberOrString::String(
+                "advise::check::unknown_dimension".into()
+            ))
+        );
+    }
 }

@@ -1,0 +1,625 @@
+//! What the language server knows about one document, in byte offsets: diagnostics, hover,
+//! completion, definitions and symbols. Pure functions of the text, so each is tested without a
+//! client; [`super`] converts to and from the protocol's positions.
+
+use std::ops::Range;
+
+use miette::Diagnostic;
+
+use crate::check::{self, Checked, OperatorSet};
+use crate::diag::{SourceId, SourceMap};
+use crate::domain::Space;
+use crate::program::Operator;
+use crate::syntax::ast::{File, Item, OperatorDecl};
+use crate::syntax::command::{self, COMMANDS};
+
+/// One diagnostic: where, how bad, the code, the message with its help, and the other labels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diag {
+    pub range: Range<usize>,
+    pub warning: bool,
+    pub code: Option<String>,
+    pub message: String,
+    pub related: Vec<(Range<usize>, String)>,
+}
+
+/// Whether the document is a session script (REPL commands) rather than an operator file.
+pub fn is_script(text: &str) -> bool {
+    crate::syntax::fmt::is_script(text)
+}
+
+/// The document's diagnostics: an operator file checked on top of the standard operators (the
+/// errors and warnings `advise check FILE` reports), or a session script's lines that are not
+/// statements.
+pub fn diagnostics(name: &str, text: &str) -> Vec<Diag> {
+    if is_script(text) {
+        return script_diagnostics(text);
+    }
+    let mut map = SourceMap::new();
+    let id = map.add(name, text);
+    match OperatorSet::standard().merge_in(&map, &[id]) {
+        Ok(Checked { warnings, .. }) => warnings
+            .iter()
+            .map(|w| diag(w, id, text.len(), 0, true))
+            .collect(),
+        Err(errors) => errors
+            .errors
+            .iter()
+            .map(|e| diag(e, id, text.len(), 0, false))
+            .collect(),
+    }
+}
+
+fn script_diagnostics(text: &str) -> Vec<Diag> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for line in text.split_inclusive('\n') {
+        let code = line.trim_end_matches(['\n', '\r']);
+        let trimmed = code.trim();
+        if !trimmed.is_empty() && !trimmed.starts_with("//") {
+            let (map, id) = SourceMap::single("line", code);
+            if let Err(e) = command::parse_statement(map.src(id)) {
+                out.push(diag(&e, id, code.len(), start, false));
+            }
+        }
+        start += line.len();
+    }
+    out
+}
+
+/// A miette diagnostic of source `id` (`len` bytes, at byte `shift` of the document) as a
+/// [`Diag`]: its first label is the range, the others related information.
+fn diag(d: &dyn Diagnostic, id: SourceId, len: usize, shift: usize, warning: bool) -> Diag {
+    let base = miette::SourceSpan::from(id.at(0..0)).offset();
+    let mut labels: Vec<(Range<usize>, String)> = d
+        .labels()
+        .into_iter()
+        .flatten()
+        .filter(|l| l.offset() >= base && l.offset() <= base + len)
+        .map(|l| {
+            let start = l.offset() - base;
+            let end = (start + l.len()).min(len);
+            (
+                shift + start..shift + end,
+                l.label().unwrap_or("here").to_string(),
+            )
+        })
+        .collect();
+    let range = if labels.is_empty() {
+        shift..shift
+    } else {
+        labels.remove(0).0
+    };
+    let mut message = d.to_string();
+    if let Some(help) = d.help() {
+        message.push_str(&format!("\nhelp: {help}"));
+    }
+    Diag {
+        range,
+        warning,
+        code: d.code().map(|c| c.to_string()),
+        message,
+        related: labels,
+    }
+}
+
+/// The word (a name) at byte `offset`, and its range.
+fn word_at(text: &str, offset: usize) -> Option<(&str, Range<usize>)> {
+    let offset = offset.min(text.len());
+    let is_word = |c: char| c.is_ascii_alphanumeric() || c == '_';
+    let start = text[..offset]
+        .char_indices()
+        .rev()
+        .take_while(|(_, c)| is_word(*c))
+        .last()
+        .map_or(offset, |(i, _)| i);
+    let end = offset
+        + text[offset..]
+            .char_indices()
+            .find(|(_, c)| !is_word(*c))
+            .map_or(text.len() - offset, |(i, _)| i);
+    (start < end).then(|| (&text[start..end], start..end))
+}
+
+/// The document's operators checked on top of the standard ones; the standard set alone when the
+/// document has errors.
+fn operator_set(text: &str) -> OperatorSet {
+    let mut map = SourceMap::new();
+    let id = map.add("document", text);
+    OperatorSet::standard()
+        .merge_in(&map, &[id])
+        .map(|c| c.set)
+        .unwrap_or_else(|_| OperatorSet::standard())
+}
+
+/// The parsed document, when it parses.
+fn parsed(text: &str) -> Option<File> {
+    let (map, id) = SourceMap::single("document", text);
+    crate::syntax::parse(map.src(id)).ok()
+}
+
+/// The operator declaration whose text holds `offset`.
+fn enclosing(file: &File, offset: usize) -> Option<&OperatorDecl> {
+    file.items.iter().find_map(|i| match i {
+        Item::Operator(o) if o.span.start <= offset && offset <= o.span.end => Some(o),
+        _ => None,
+    })
+}
+
+/// The help text of an operator: its signature, domain and space, and its doc comment.
+pub fn operator_help(op: &Operator) -> String {
+    let space = match op.space() {
+        Space::Observation => "observation",
+        Space::Action => "action",
+    };
+    let mut s = format!(
+        "```advise\noperator {} for {} on {space}\n```",
+        op.signature(),
+        op.domain()
+    );
+    if !op.doc().is_empty() {
+        s.push_str("\n\n");
+        s.push_str(op.doc());
+    }
+    s
+}
+
+/// Hover: the operator, parameter or dimension under `offset`.
+pub fn hover(text: &str, offset: usize) -> Option<(Range<usize>, String)> {
+    let (word, range) = word_at(text, offset)?;
+    let set = operator_set(text);
+    let file = parsed(text);
+    let here = file.as_ref().and_then(|f| enclosing(f, offset));
+    if let Some(decl) = here {
+        if let Some(p) = decl.params.iter().find(|p| p.name.name == word) {
+            return Some((range, format!("parameter `{}`", p)));
+        }
+        if let Some(domain) = set.domain(&decl.domain.name)
+            && let Some((space, i)) = domain.find(word)
+        {
+            let d = &domain.dims(space)[i];
+            let mut s = format!(
+                "{} dimension `{}` of `{}`",
+                match space {
+                    Space::Observation => "observation",
+                    Space::Action => "action",
+                },
+                d.name,
+                domain.name
+            );
+            if !d.unit.is_empty() {
+                s.push_str(&format!(", in {}", d.unit));
+            }
+            if let Some(l) = d.limits {
+                s.push_str(&format!(
+                    ", limits [{}, {}]",
+                    crate::number::fmt_num(l.lo),
+                    crate::number::fmt_num(l.hi)
+                ));
+            }
+            return Some((range, s));
+        }
+    }
+    // An operator: of the enclosing operator's domain first, then any domain.
+    let domains: Vec<String> = here
+        .map(|d| d.domain.name.clone())
+        .into_iter()
+        .chain(set.domains().iter().map(|d| d.name.clone()))
+        .collect();
+    for domain in &domains {
+        if let Some(op) = set.operator(domain, word) {
+            return Some((range, operator_help(op)));
+        }
+    }
+    if let Some(d) = set.domain(word) {
+        let dims = |space| {
+            d.dims(space)
+                .iter()
+                .map(|x| x.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        return Some((
+            range,
+            format!(
+                "domain `{}`: observe {}; act {}",
+                d.name,
+                dims(Space::Observation),
+                dims(Space::Action)
+            ),
+        ));
+    }
+    None
+}
+
+/// What a completion offers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CompletionKind {
+    Keyword,
+    Operator,
+    Parameter,
+    Dimension,
+    Function,
+    Command,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Completion {
+    pub label: String,
+    pub kind: CompletionKind,
+    pub detail: String,
+}
+
+/// The language's keywords.
+pub const KEYWORDS: &[&str] = &[
+    "operator",
+    "domain",
+    "for",
+    "on",
+    "action",
+    "observation",
+    "where",
+    "then",
+    "in",
+    "observe",
+    "act",
+    "and",
+    "or",
+    "not",
+    "k",
+    "n",
+    "pi",
+];
+
+/// The built-in functions, with their signatures.
+pub const FUNCTIONS: &[(&str, &str)] = &[
+    ("min", "min(a, b)"),
+    ("max", "max(a, b)"),
+    ("abs", "abs(x)"),
+    ("clamp", "clamp(x, lo, hi)"),
+    ("sign", "sign(x)"),
+];
+
+/// Completion at `offset`: in a session script, the commands; in an operator file, the
+/// keywords, functions, every operator, and inside an operator its parameters and its domain's
+/// dimensions.
+pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
+    if is_script(text) {
+        return COMMANDS
+            .iter()
+            .map(|c| Completion {
+                label: c.name.to_string(),
+                kind: CompletionKind::Command,
+                detail: c.signature.to_string(),
+            })
+            .collect();
+    }
+    let mut out: Vec<Completion> = KEYWORDS
+        .iter()
+        .map(|k| Completion {
+            label: k.to_string(),
+            kind: CompletionKind::Keyword,
+            detail: "keyword".into(),
+        })
+        .chain(FUNCTIONS.iter().map(|(f, sig)| Completion {
+            label: f.to_string(),
+            kind: CompletionKind::Function,
+            detail: sig.to_string(),
+        }))
+        .collect();
+    let set = operator_set(text);
+    let file = parsed(text).or_else(|| parsed(&without_line(text, offset)));
+    let here = file.as_ref().and_then(|f| enclosing(f, offset));
+    if let Some(decl) = here {
+        for p in &decl.params {
+            out.push(Completion {
+                label: p.name.name.clone(),
+                kind: CompletionKind::Parameter,
+                detail: format!("parameter {p}"),
+            });
+        }
+        if let Some(domain) = set.domain(&decl.domain.name) {
+            for space in [Space::Observation, Space::Action] {
+                for d in domain.dims(space) {
+                    out.push(Completion {
+                        label: d.name.clone(),
+                        kind: CompletionKind::Dimension,
+                        detail: format!("{} {}", domain.name, d.unit).trim().to_string(),
+                    });
+                }
+            }
+        }
+    }
+    for domain in set.domains() {
+        if here.is_some_and(|d| d.domain.name != domain.name) {
+            continue;
+        }
+        for op in set.operators(&domain.name) {
+            out.push(Completion {
+                label: op.name().to_string(),
+                kind: CompletionKind::Operator,
+                detail: format!("{} ({})", op.signature(), domain.name),
+            });
+        }
+    }
+    out.dedup_by(|a, b| a.label == b.label && a.kind == b.kind);
+    out
+}
+
+/// `text` with the line holding `offset` blanked: a half-typed line should not hide the
+/// operator around it.
+fn without_line(text: &str, offset: usize) -> String {
+    let offset = offset.min(text.len());
+    let start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let end = text[offset..].find('\n').map_or(text.len(), |i| offset + i);
+    let mut s = text[..start].to_string();
+    s.push_str(&" ".repeat(text[start..end].chars().count()));
+    s.push_str(&text[end..]);
+    s
+}
+
+/// Where a name is defined.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Target {
+    /// In the document itself.
+    Here(Range<usize>),
+    /// In a standard library file (`check::STANDARD_SOURCES`' name and its text's range).
+    Standard {
+        file: &'static str,
+        range: Range<usize>,
+    },
+}
+
+/// Go to definition: the operator or domain named at `offset`, in the document or the standard
+/// library; a parameter to its declaration.
+pub fn definition(text: &str, offset: usize) -> Option<Target> {
+    let (word, _) = word_at(text, offset)?;
+    if let Some(file) = parsed(text) {
+        if let Some(decl) = enclosing(&file, offset)
+            && let Some(p) = decl.params.iter().find(|p| p.name.name == word)
+        {
+            return Some(Target::Here(p.name.span.start..p.name.span.end));
+        }
+        for item in &file.items {
+            let name = match item {
+                Item::Operator(o) => &o.name,
+                Item::Domain(d) => &d.name,
+            };
+            if name.name == word {
+                return Some(Target::Here(name.span.start..name.span.end));
+            }
+        }
+    }
+    for (file, std_text) in check::STANDARD_SOURCES {
+        let (map, id) = SourceMap::single(file, std_text);
+        let Ok(parsed) = crate::syntax::parse(map.src(id)) else {
+            continue;
+        };
+        for item in &parsed.items {
+            let name = match item {
+                Item::Operator(o) => &o.name,
+                Item::Domain(d) => &d.name,
+            };
+            if name.name == word {
+                return Some(Target::Standard {
+                    file,
+                    range: name.span.start..name.span.end,
+                });
+            }
+        }
+    }
+    None
+}
+
+/// A document symbol: a domain with its dimensions, an operator with its parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Symbol {
+    pub name: String,
+    pub detail: String,
+    pub kind: SymbolKind,
+    pub range: Range<usize>,
+    pub selection: Range<usize>,
+    pub children: Vec<Symbol>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SymbolKind {
+    Domain,
+    Dimension,
+    Operator,
+    Parameter,
+}
+
+/// The document's symbols (none when it does not parse).
+pub fn symbols(text: &str) -> Vec<Symbol> {
+    let Some(file) = parsed(text) else {
+        return Vec::new();
+    };
+    file.items
+        .iter()
+        .map(|item| match item {
+            Item::Domain(d) => Symbol {
+                name: d.name.name.clone(),
+                detail: "domain".into(),
+                kind: SymbolKind::Domain,
+                range: d.span.start..d.span.end,
+                selection: d.name.span.start..d.name.span.end,
+                children: d
+                    .dims
+                    .iter()
+                    .map(|x| Symbol {
+                        name: x.name.name.clone(),
+                        detail: x.to_string(),
+                        kind: SymbolKind::Dimension,
+                        range: x.span.start..x.span.end,
+                        selection: x.name.span.start..x.name.span.end,
+                        children: Vec::new(),
+                    })
+                    .collect(),
+            },
+            Item::Operator(o) => Symbol {
+                name: o.name.name.clone(),
+                detail: format!("for {} on {}", o.domain.name, o.space),
+                kind: SymbolKind::Operator,
+                range: o.span.start..o.span.end,
+                selection: o.name.span.start..o.name.span.end,
+                children: o
+                    .params
+                    .iter()
+                    .map(|p| Symbol {
+                        name: p.name.name.clone(),
+                        detail: p.to_string(),
+                        kind: SymbolKind::Parameter,
+                        range: p.span.start..p.span.end,
+                        selection: p.name.span.start..p.name.span.end,
+                        children: Vec::new(),
+                    })
+                    .collect(),
+            },
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DOC: &str = "// café: a comment with non-ASCII text\n\
+        /// Creep along.\n\
+        operator creep(f = 0.5 in [0, 1]) for positioning on action where trans != 0 {\n  trans *= f\n  rott = 0\n}\n\
+        operator twice for positioning on action = creep then speed_up\n";
+
+    #[test]
+    fn diagnostics_are_the_checkers_with_codes_ranges_and_help() {
+        let d = diagnostics("doc.adv", DOC);
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert_eq!(
+            d[0].code.as_deref(),
+            Some("advise::check::unknown_dimension")
+        );
+        assert_eq!(&DOC[d[0].range.clone()], "rott");
+        assert!(
+            d[0].message.contains("did you mean `rot`"),
+            "{}",
+            d[0].message
+        );
+        assert!(!d[0].warning);
+        let parse = diagnostics(
+            "p.adv",
+            "operator x for positioning on action { trans = }\n",
+        );
+        assert_eq!(parse[0].code.as_deref(), Some("advise::parse::syntax"));
+        assert!(
+            diagnostics(
+                "ok.adv",
+                "operator halt for positioning on action { trans = 0 }\n"
+            )
+            .is_empty()
+        );
+    }
+
+    #[test]
+    fn a_session_script_gets_its_bad_lines() {
+        let d = diagnostics(
+            "s.adv",
+            "task positioning\nload demos teacher:3\nrunn goal 1 2 3\n",
+        );
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert!(d[0].range.start >= "task positioning\nload demos teacher:3\n".len());
+        assert!(
+            completion("task positioning\n", 17)
+                .iter()
+                .any(|c| c.label == "advise")
+        );
+    }
+
+    #[test]
+    fn hover_names_operators_parameters_and_dimensions() {
+        let at = |s: &str| DOC.find(s).unwrap() + 1;
+        let (_, h) = hover(DOC, at("speed_up")).unwrap();
+        assert!(
+            h.contains("operator speed_up(rate = 0.2 in [0, 4]) for positioning on action"),
+            "{h}"
+        );
+        assert!(h.contains("Move faster"), "{h}");
+        let (_, h) = hover(DOC, at("f\n")).unwrap();
+        assert_eq!(h, "parameter `f = 0.5 in [0, 1]`");
+        let (r, h) = hover(DOC, at("trans *=")).unwrap();
+        assert_eq!(&DOC[r], "trans");
+        assert!(
+            h.contains("action dimension `trans` of `positioning`, in m/s, limits [-1, 1]"),
+            "{h}"
+        );
+    }
+
+    #[test]
+    fn completion_offers_the_operators_parameters_and_dimensions_in_scope() {
+        let at = DOC.find("trans *=").unwrap();
+        let c = completion(DOC, at);
+        let has = |l: &str, k| c.iter().any(|x| x.label == l && x.kind == k);
+        assert!(has("f", CompletionKind::Parameter));
+        assert!(has("dist2", CompletionKind::Dimension));
+        assert!(has("no_turning", CompletionKind::Operator));
+        assert!(has("where", CompletionKind::Keyword));
+        assert!(has("clamp", CompletionKind::Function));
+        assert!(
+            !has("hold_speed", CompletionKind::Operator),
+            "interception's are out of scope"
+        );
+        // A half-typed line inside an operator still knows the operator.
+        let typing = DOC.replace("  rott = 0\n", "  tra\n");
+        let c = completion(&typing, typing.find("tra\n").unwrap() + 3);
+        assert!(
+            c.iter()
+                .any(|x| x.label == "trans" && x.kind == CompletionKind::Dimension)
+        );
+    }
+
+    #[test]
+    fn definitions_in_the_document_and_the_standard_library() {
+        let at = DOC.rfind("creep").unwrap() + 1;
+        assert_eq!(
+            definition(DOC, at),
+            Some(Target::Here(
+                DOC.find("creep").unwrap()..DOC.find("creep").unwrap() + 5
+            ))
+        );
+        let at = DOC.find("speed_up").unwrap() + 2;
+        match definition(DOC, at) {
+            Some(Target::Standard { file, range }) => {
+                assert_eq!(file, "operators/positioning.adv");
+                let text = check::STANDARD_SOURCES[0].1;
+                assert_eq!(&text[range], "speed_up");
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn symbols_nest_parameters_and_dimensions() {
+        let s = symbols(DOC);
+        assert_eq!(s.len(), 2);
+        assert_eq!(s[0].name, "creep");
+        assert_eq!(s[0].children[0].name, "f");
+        let d = symbols("domain rover {\n  observe range_m \"m\"\n  act v \"m/s\"\n}\n");
+        assert_eq!(d[0].kind, SymbolKind::Domain);
+        assert_eq!(d[0].children.len(), 2);
+    }
+
+    #[test]
+    fn nothing_panics_on_any_offset() {
+        for text in [DOC, "", "operator", "é\u{1F600}", "task positioning\n"] {
+            for offset in 0..=text.len() + 2 {
+                let offset = offset.min(text.len());
+                if !text.is_char_boundary(offset) {
+                    continue;
+                }
+                let _ = hover(text, offset);
+                let _ = completion(text, offset);
+                let _ = definition(text, offset);
+            }
+            let _ = diagnostics("t.adv", text);
+            let _ = symbols(text);
+        }
+    }
+}
