@@ -302,8 +302,9 @@ fn parse_uri(s: &str) -> Uri {
         .unwrap_or_else(|_| Uri::from_str("file:///").expect("a valid URI"))
 }
 
-/// The diagnostics of document `uri` in the protocol's form.
-fn publish(uri: &str, text: &str) -> Vec<Diagnostic> {
+/// The diagnostics of document `uri` in the protocol's form: what the server publishes after
+/// each change (public for the latency bench, `benches/lsp.rs`).
+pub fn publish(uri: &str, text: &str) -> Vec<Diagnostic> {
     let name = uri.strip_prefix("file://").unwrap_or(uri);
     let lines = Lines::new(text);
     analysis::diagnostics(name, text)

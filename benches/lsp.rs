@@ -1,0 +1,53 @@
+//! The language server's latency on a large file: one change of a 1,000-operator document (every
+//! tenth with a doc comment, every tenth a composition; one misspelt dimension so there is a
+//! diagnostic to publish) re-checked on top of the standard library and converted to protocol
+//! diagnostics, as `advise lsp` does on each `didChange`. Target: well under 100 ms. Also the
+//! completion list inside the last operator, which re-checks the document too.
+
+use std::hint::black_box;
+
+use advise::lsp::{analysis, publish};
+use criterion::{Criterion, criterion_group, criterion_main};
+
+const OPERATORS: usize = 1_000;
+
+fn document() -> String {
+    let mut text: String = (0..OPERATORS)
+        .map(|i| match i % 10 {
+            0 => format!(
+                "/// Op {i}: a little faster.\noperator op{i}(f = 1.01 in [1, 2]) for positioning on action where trans != 0 {{\n  trans *= f\n}}\n\n"
+            ),
+            9 => format!(
+                "operator op{i} for positioning on action = op{} then op{}\n\n",
+                i - 1,
+                i - 1
+            ),
+            _ => format!("operator op{i} for positioning on action {{\n  trans *= 1.01\n}}\n\n"),
+        })
+        .collect();
+    text.push_str("operator last for positioning on action {\n  rott = 0\n}\n");
+    text
+}
+
+fn bench(c: &mut Criterion) {
+    let text = document();
+    let d = publish("file:///bench/many.adv", &text);
+    assert_eq!(d.len(), 1, "one diagnostic: {d:?}");
+    eprintln!(
+        "lsp: a {}-byte document of {} operators",
+        text.len(),
+        OPERATORS + 1
+    );
+    let mut g = c.benchmark_group("lsp");
+    g.bench_function("diagnostics_1000_operators", |b| {
+        b.iter(|| black_box(publish("file:///bench/many.adv", black_box(&text)).len()))
+    });
+    let at = text.rfind("rott").unwrap();
+    g.bench_function("completion_1000_operators", |b| {
+        b.iter(|| black_box(analysis::completion(black_box(&text), at).len()))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
