@@ -310,6 +310,26 @@ pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
     let set = operator_set(text);
     let file = parsed(text).or_else(|| parsed(&without_line(text, offset)));
     let here = file.as_ref().and_then(|f| enclosing(f, offset));
+    // Inside a call's parentheses (`slow_down(ra|`): the callee's parameters first.
+    if let Some(callee) = open_call(text, offset) {
+        let domains: Vec<&str> = here
+            .map(|d| d.domain.name.as_str())
+            .into_iter()
+            .chain(set.domains().iter().map(|d| d.name.as_str()))
+            .collect();
+        if let Some(op) = domains.iter().find_map(|d| set.operator(d, callee)) {
+            for p in op.params() {
+                out.insert(
+                    0,
+                    Completion {
+                        label: p.name.clone(),
+                        kind: CompletionKind::Parameter,
+                        detail: format!("parameter {p} of {}", op.name()),
+                    },
+                );
+            }
+        }
+    }
     if let Some(decl) = here {
         for p in &decl.params {
             out.push(Completion {
@@ -344,6 +364,29 @@ pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
     }
     out.dedup_by(|a, b| a.label == b.label && a.kind == b.kind);
     out
+}
+
+/// The name before the innermost `(` still open at `offset` on its line, if any.
+fn open_call(text: &str, offset: usize) -> Option<&str> {
+    let offset = offset.min(text.len());
+    let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let mut depth = 0i32;
+    for (i, c) in text[line_start..offset].char_indices().rev() {
+        match c {
+            ')' => depth += 1,
+            '(' if depth > 0 => depth -= 1,
+            '(' => {
+                let before = &text[line_start..line_start + i];
+                let name_start = before
+                    .rfind(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                    .map_or(0, |j| j + 1);
+                let name = &before[name_start..];
+                return (!name.is_empty()).then_some(name);
+            }
+            _ => {}
+        }
+    }
+    None
 }
 
 /// `text` with the line holding `offset` blanked: a half-typed line should not hide the
