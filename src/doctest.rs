@@ -387,17 +387,11 @@ fn run_one(
     for g in inputs.iter().chain(&outputs) {
         for (name, span, _) in g.dims.iter().flatten() {
             if domain.find(name).is_none() {
-                let names: Vec<&str> = domain
-                    .observe
-                    .iter()
-                    .chain(&domain.act)
-                    .map(|d| d.name.as_str())
-                    .collect();
                 return Err(bad(
                     format!(
                         "`{name}` is not a dimension of `{}` (it has {})",
                         domain.name,
-                        names.join(", ")
+                        domain.names().join(", ")
                     ),
                     span.clone(),
                 ));

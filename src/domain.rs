@@ -112,6 +112,15 @@ impl Domain {
             .find_map(|s| self.index_of(s, name).map(|i| (s, i)))
     }
 
+    /// Every dimension's name: the observations', then the actions'.
+    pub fn names(&self) -> Vec<&str> {
+        self.observe
+            .iter()
+            .chain(&self.act)
+            .map(|d| d.name.as_str())
+            .collect()
+    }
+
     pub fn obs_dim(&self) -> usize {
         self.observe.len()
     }

@@ -113,12 +113,7 @@ fn required_operator_names_exist() {
 /// Renders the chunk before and after as a table; skipped points say so.
 fn table(domain: &Domain, tr: &Trace, out: &interp::Synthesized) -> String {
     let mut s = String::new();
-    let names: Vec<&str> = domain
-        .observe
-        .iter()
-        .chain(&domain.act)
-        .map(|d| d.name.as_str())
-        .collect();
+    let names = domain.names();
     s.push_str(&format!("advice: {}\n", out.advice.invocation()));
     s.push_str(&format!(
         "chunk {}, {} of {} points synthesized, {} modified\n\n",

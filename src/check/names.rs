@@ -157,7 +157,7 @@ impl Checker<'_> {
                         bad
                     }
                     None => {
-                        let names = dim_names(domain);
+                        let names = domain.names();
                         let help = hint(&dim.name, "dimensions", &names);
                         self.err(
                             f,
@@ -301,7 +301,7 @@ impl Checker<'_> {
                 if let Some((space, idx)) = domain.find(name) {
                     return (Ir::Dim(space, idx), Ty::Num);
                 }
-                dim_names(domain)
+                domain.names()
             }
             Scope::Arg { domain, .. } => {
                 if domain.find(name).is_some() {
@@ -379,15 +379,6 @@ impl Checker<'_> {
         };
         self.err(f, span, e);
     }
-}
-
-pub(super) fn dim_names(domain: &Domain) -> Vec<&str> {
-    domain
-        .observe
-        .iter()
-        .chain(&domain.act)
-        .map(|d| d.name.as_str())
-        .collect()
 }
 
 /// The built-in domain other than `exclude` that has a dimension `name` (for hints).
