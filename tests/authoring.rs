@@ -72,6 +72,22 @@ fn fmt_round_trips_every_shipped_file_keeping_meaning_and_comments() {
     files.extend(files_under("examples"));
     files.extend(files_under("tests/programs/ok"));
     assert!(files.len() >= 14, "{files:?}");
+    for dir in ["operators", "tests/programs/ok"] {
+        for f in files_under(dir) {
+            let text = std::fs::read_to_string(&f).unwrap();
+            assert!(!is_script(&text), "{} is an operator file", f.display());
+        }
+    }
+    // Scripts, one of them starting with an operator definition.
+    let first_an_operator = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/sessions/an_operator_defined_at_the_repl_is_used_at_once.adv");
+    for f in files_under("examples")
+        .into_iter()
+        .chain([first_an_operator])
+    {
+        let text = std::fs::read_to_string(&f).unwrap();
+        assert!(is_script(&text), "{} is a session script", f.display());
+    }
     for path in files {
         let name = path.display().to_string();
         let text = std::fs::read_to_string(&path).unwrap();

@@ -33,6 +33,7 @@ fn pytest_lsp_drives_every_capability() {
     let out = {
         let mut cmd = Command::new(&python);
         cmd.args(["-m", "pytest", "-q", "-p", "no:cacheprovider"])
+            .args(["-o", "asyncio_default_fixture_loop_scope=function"])
             .arg(concat!(
                 env!("CARGO_MANIFEST_DIR"),
                 "/tests/python/test_lsp.py"

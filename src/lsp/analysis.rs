@@ -50,19 +50,23 @@ pub fn diagnostics(name: &str, text: &str) -> Vec<Diag> {
     }
 }
 
+/// A script's statements as the session splits them (an operator definition may span lines),
+/// each parsed as a statement.
 fn script_diagnostics(text: &str) -> Vec<Diag> {
+    let line_starts: Vec<usize> = std::iter::once(0)
+        .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+        .collect();
     let mut out = Vec::new();
-    let mut start = 0;
-    for line in text.split_inclusive('\n') {
-        let code = line.trim_end_matches(['\n', '\r']);
-        let trimmed = code.trim();
-        if !trimmed.is_empty() && !trimmed.starts_with("//") {
-            let (map, id) = SourceMap::single("line", code);
-            if let Err(e) = command::parse_statement(map.src(id)) {
-                out.push(diag(&e, id, code.len(), start, false));
-            }
+    for st in crate::session::script::statements(text) {
+        let trimmed = st.text.trim();
+        if trimmed.is_empty() || (trimmed.starts_with("//") && !trimmed.contains('\n')) {
+            continue;
         }
-        start += line.len();
+        let start = line_starts.get(st.line - 1).copied().unwrap_or(text.len());
+        let (map, id) = SourceMap::single("statement", st.text.as_str());
+        if let Err(e) = command::parse_statement(map.src(id)) {
+            out.push(diag(&e, id, st.text.len(), start, false));
+        }
     }
     out
 }
@@ -569,6 +573,11 @@ mod tests {
         );
         assert_eq!(d.len(), 1, "{d:?}");
         assert!(d[0].range.start >= "task positioning\nload demos teacher:3\n".len());
+        // An operator defined over several lines among the commands is one statement.
+        let script = "/// Creep.\noperator creep for positioning on action {\n  trans = 0.1\n}\nrun goal 2 -1 0\nselec 0..3\n";
+        let d = diagnostics("s.adv", script);
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert_eq!(&script[d[0].range.clone()], "selec");
         assert!(
             completion("task positioning\n", 17)
                 .iter()

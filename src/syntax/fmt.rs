@@ -20,17 +20,17 @@ pub fn format(source: Src<'_>) -> Result<String, ParseError> {
     Ok(layout(source.text, &file))
 }
 
-/// Whether `text` is a session script (REPL commands, one per line) rather than an operator file:
-/// its first line that is neither blank nor a comment is a command.
+/// Whether `text` is a session script (REPL commands, one per line, operators defined among them)
+/// rather than an operator file: some line that is neither blank, a comment nor the start of an
+/// item is a command. No line of an operator file is one (a body's lines are assignments).
 pub fn is_script(text: &str) -> bool {
-    text.lines()
-        .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with("//"))
-        .is_some_and(|l| {
-            !l.starts_with("operator")
-                && !l.starts_with("domain")
-                && super::command::is_statement(l)
-        })
+    text.lines().map(str::trim).any(|l| {
+        !l.is_empty()
+            && !l.starts_with("//")
+            && !l.starts_with("operator")
+            && !l.starts_with("domain")
+            && super::command::is_statement(l)
+    })
 }
 
 /// A session script's canonical text: its lines as written, without trailing blanks, at most one
@@ -366,6 +366,20 @@ mod tests {
             "operator a(x = 1, // the gain\n  y = 2) for positioning on action { trans = x + y }\n"
         );
         assert_eq!(fmt(&got), got);
+    }
+
+    #[test]
+    fn scripts_are_told_from_operator_files_whatever_their_first_line() {
+        assert!(is_script("task positioning\nrun goal 1 2 3\n"));
+        assert!(is_script(
+            "/// Creep.\noperator creep for positioning on action {\n  trans = 0.1\n}\nrun goal 2 -1 0\n"
+        ));
+        for file in crate::check::STANDARD_SOURCES {
+            assert!(!is_script(file.1), "{}", file.0);
+        }
+        assert!(!is_script(
+            "operator a for positioning on action {\n  trans = 0\n  rot *= 1 - k / n\n}\n"
+        ));
     }
 
     #[test]
