@@ -55,6 +55,10 @@ pub fn run(cmd: &mut Command, limit: Duration) -> Result<(), String> {
 /// With `ADVISE_REQUIRE_PEERS=1` (as `.ci/run` sets where Python 3 is), a peer that cannot be
 /// made fails the test instead: an interoperability test must not pass by skipping unnoticed.
 pub fn venv(name: &str, packages: &[&str], probe: &str) -> Result<PathBuf, String> {
+    // Tests of one file run in parallel threads: one makes a venv while the others wait, instead
+    // of racing `python -m venv` into the same folder.
+    static MAKING: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_at_a_time = MAKING.lock().unwrap_or_else(|e| e.into_inner());
     let made = make_venv(name, packages, probe);
     if let Err(why) = &made
         && std::env::var("ADVISE_REQUIRE_PEERS").is_ok_and(|v| v == "1")
