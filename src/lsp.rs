@@ -11,6 +11,7 @@ pub mod analysis;
 
 use std::collections::HashMap;
 use std::ops::Range;
+use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
 use std::str::FromStr;
 
@@ -62,6 +63,8 @@ pub fn run_stdio() -> miette::Result<()> {
     Ok(())
 }
 
+const PANICKED: &str = "advise lsp failed on this request (a bug; please report it with the file)";
+
 /// The open documents.
 #[derive(Default)]
 struct Server {
@@ -85,11 +88,19 @@ impl Server {
                     {
                         return Ok(());
                     }
-                    send(Message::Response(self.respond(req)))?;
+                    // A bug must cost one answer, not the editor's server.
+                    let id = req.id.clone();
+                    let response = catch_unwind(AssertUnwindSafe(|| self.respond(req)))
+                        .unwrap_or_else(|_| {
+                            error(id, ErrorCode::InternalError, PANICKED.to_string())
+                        });
+                    send(Message::Response(response))?;
                 }
                 Message::Notification(n) => {
-                    if let Some(uri) = self.notify(n) {
-                        send(Message::Notification(self.diagnostics(&uri)))?;
+                    if let Some(uri) = self.notify(n)
+                        && let Ok(d) = catch_unwind(AssertUnwindSafe(|| self.diagnostics(&uri)))
+                    {
+                        send(Message::Notification(d))?;
                     }
                 }
                 Message::Response(_) => {}
@@ -220,7 +231,7 @@ impl Server {
                 let (path, std_text) =
                     standard_file(file).map_err(|e| (ErrorCode::InternalError, e))?;
                 Location {
-                    uri: parse_uri(&format!("file://{}", path.display())),
+                    uri: file_uri(&path),
                     range: Lines::new(std_text).range(range),
                 }
             }
@@ -336,26 +347,63 @@ pub fn publish(uri: &str, text: &str) -> Vec<Diagnostic> {
         .collect()
 }
 
-/// The standard library file `name`, written into the cache folder once; its path and text.
+/// The standard library file `name`, written once into the first writable of
+/// `$XDG_CACHE_HOME/advise/std-VERSION/`, `~/.cache/advise/std-VERSION/` and the temporary
+/// folder's; its path and text.
 fn standard_file(name: &str) -> Result<(PathBuf, &'static str), String> {
     let (_, text) = crate::check::STANDARD_SOURCES
         .iter()
         .find(|(n, _)| *n == name)
         .ok_or_else(|| format!("no standard file `{name}`"))?;
-    let base = std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
-        .unwrap_or_else(std::env::temp_dir);
-    let dir = base
-        .join("advise")
-        .join(concat!("std-", env!("CARGO_PKG_VERSION")));
+    let bases = [
+        std::env::var_os("XDG_CACHE_HOME")
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from),
+        std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")),
+        Some(std::env::temp_dir()),
+    ];
     let file = name.rsplit('/').next().unwrap_or(name);
-    let path = dir.join(file);
-    if std::fs::read_to_string(&path).ok().as_deref() != Some(*text) {
-        std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        crate::files::write_bytes(&path, text.as_bytes()).map_err(|e| e.to_string())?;
+    let mut why = Vec::new();
+    for base in bases.into_iter().flatten() {
+        let dir = base
+            .join("advise")
+            .join(concat!("std-", env!("CARGO_PKG_VERSION")));
+        let path = dir.join(file);
+        if std::fs::read_to_string(&path).ok().as_deref() == Some(*text) {
+            return Ok((path, text));
+        }
+        let written = std::fs::create_dir_all(&dir)
+            .map_err(|e| format!("{}: {e}", dir.display()))
+            .and_then(|()| {
+                crate::files::write_bytes(&path, text.as_bytes()).map_err(|e| e.to_string())
+            });
+        match written {
+            Ok(()) => return Ok((path, text)),
+            Err(e) => why.push(e),
+        }
     }
-    Ok((path, text))
+    Err(format!(
+        "the standard library could not be written: {}",
+        why.join("; ")
+    ))
+}
+
+/// The `file://` URI of an absolute path, percent-encoding every byte but the unreserved ones
+/// and `/` (a cache folder may hold spaces or non-ASCII letters).
+fn file_uri(path: &std::path::Path) -> Uri {
+    let text = path.to_string_lossy().replace('\\', "/");
+    let mut uri = String::from("file://");
+    if !text.starts_with('/') {
+        uri.push('/');
+    }
+    for b in text.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~/".contains(&b) {
+            uri.push(b as char);
+        } else {
+            uri.push_str(&format!("%{b:02X}"));
+        }
+    }
+    parse_uri(&uri)
 }
 
 /// Byte offsets to the protocol's positions (line, UTF-16 code units) and back.
@@ -434,6 +482,26 @@ mod tests {
             "past the end: the line's end"
         );
         assert_eq!(l.offset(Position::new(9, 0)), text.len());
+    }
+
+    #[test]
+    fn cache_paths_become_percent_encoded_file_uris() {
+        let uri = file_uri(std::path::Path::new("/home/ana maría/.cache/advise/x.adv"));
+        assert_eq!(
+            uri.as_str(),
+            "file:///home/ana%20mar%C3%ADa/.cache/advise/x.adv"
+        );
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn offsets_and_positions_round_trip(text in "(a|é|\u{1F600}|\n|\r\n| ){0,40}", at in 0usize..200) {
+            let l = Lines::new(&text);
+            let p = l.position(at);
+            let back = l.offset(p);
+            proptest::prop_assert!(text.is_char_boundary(back));
+            proptest::prop_assert_eq!(l.position(back), p);
+        }
     }
 
     #[test]

@@ -10,6 +10,7 @@ use crate::check::{self, Checked, OperatorSet};
 use crate::diag::{SourceId, SourceMap};
 use crate::domain::Space;
 use crate::program::Operator;
+use crate::program::ir::Func;
 use crate::syntax::ast::{File, Item, OperatorDecl};
 use crate::syntax::command::{self, COMMANDS};
 
@@ -107,9 +108,19 @@ fn diag(d: &dyn Diagnostic, id: SourceId, len: usize, shift: usize, warning: boo
     }
 }
 
+/// `offset` clamped to the text and moved back to a character boundary: the public functions
+/// take any offset without panicking.
+fn floor(text: &str, offset: usize) -> usize {
+    let mut offset = offset.min(text.len());
+    while !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    offset
+}
+
 /// The word (a name) at byte `offset`, and its range.
 fn word_at(text: &str, offset: usize) -> Option<(&str, Range<usize>)> {
-    let offset = offset.min(text.len());
+    let offset = floor(text, offset);
     let is_word = |c: char| c.is_ascii_alphanumeric() || c == '_';
     let start = text[..offset]
         .char_indices()
@@ -170,10 +181,29 @@ pub fn operator_help(op: &Operator) -> String {
 
 /// Hover: the operator, parameter or dimension under `offset`.
 pub fn hover(text: &str, offset: usize) -> Option<(Range<usize>, String)> {
+    let offset = floor(text, offset);
     let (word, range) = word_at(text, offset)?;
     let set = operator_set(text);
     let file = parsed(text);
     let here = file.as_ref().and_then(|f| enclosing(f, offset));
+    // A named argument of a call (`slow_down(rate = f / 2)`): the callee's parameter.
+    let rest = text[range.end..].trim_start();
+    if rest.starts_with('=')
+        && !rest.starts_with("==")
+        && let Some(callee) = open_call(text, range.end)
+    {
+        let domains = here
+            .map(|d| d.domain.name.as_str())
+            .into_iter()
+            .chain(set.domains().iter().map(|d| d.name.as_str()));
+        for domain in domains {
+            if let Some(op) = set.operator(domain, callee)
+                && let Some(p) = op.params().iter().find(|p| p.name == word)
+            {
+                return Some((range, format!("parameter `{p}` of `{}`", op.name())));
+            }
+        }
+    }
     if let Some(decl) = here {
         if let Some(p) = decl.params.iter().find(|p| p.name.name == word) {
             return Some((range, format!("parameter `{}`", p)));
@@ -254,7 +284,7 @@ pub struct Completion {
     pub detail: String,
 }
 
-/// The language's keywords.
+/// The language's keywords (`grammar/advice.pest`) and its reserved names `k`, `n` and `pi`.
 pub const KEYWORDS: &[&str] = &[
     "operator",
     "domain",
@@ -275,19 +305,11 @@ pub const KEYWORDS: &[&str] = &[
     "pi",
 ];
 
-/// The built-in functions, with their signatures.
-pub const FUNCTIONS: &[(&str, &str)] = &[
-    ("min", "min(a, b)"),
-    ("max", "max(a, b)"),
-    ("abs", "abs(x)"),
-    ("clamp", "clamp(x, lo, hi)"),
-    ("sign", "sign(x)"),
-];
-
 /// Completion at `offset`: in a session script, the commands; in an operator file, the
 /// keywords, functions, every operator, and inside an operator its parameters and its domain's
 /// dimensions.
 pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
+    let offset = floor(text, offset);
     if is_script(text) {
         return COMMANDS
             .iter()
@@ -305,10 +327,18 @@ pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
             kind: CompletionKind::Keyword,
             detail: "keyword".into(),
         })
-        .chain(FUNCTIONS.iter().map(|(f, sig)| Completion {
-            label: f.to_string(),
-            kind: CompletionKind::Function,
-            detail: sig.to_string(),
+        .chain(Func::ALL.iter().map(|&f| {
+            // A match, so a new function cannot be added without its signature here.
+            let args = match f {
+                Func::Min | Func::Max => "a, b",
+                Func::Abs | Func::Sign => "x",
+                Func::Clamp => "x, lo, hi",
+            };
+            Completion {
+                label: f.name().to_string(),
+                kind: CompletionKind::Function,
+                detail: format!("{}({args})", f.name()),
+            }
         }))
         .collect();
     let set = operator_set(text);
@@ -372,7 +402,7 @@ pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
 
 /// The name before the innermost `(` still open at `offset` on its line, if any.
 fn open_call(text: &str, offset: usize) -> Option<&str> {
-    let offset = offset.min(text.len());
+    let offset = floor(text, offset);
     let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
     let mut depth = 0i32;
     for (i, c) in text[line_start..offset].char_indices().rev() {
@@ -382,8 +412,11 @@ fn open_call(text: &str, offset: usize) -> Option<&str> {
             '(' => {
                 let before = &text[line_start..line_start + i];
                 let name_start = before
-                    .rfind(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
-                    .map_or(0, |j| j + 1);
+                    .char_indices()
+                    .rev()
+                    .take_while(|(_, c)| c.is_ascii_alphanumeric() || *c == '_')
+                    .last()
+                    .map_or(before.len(), |(j, _)| j);
                 let name = &before[name_start..];
                 return (!name.is_empty()).then_some(name);
             }
@@ -396,11 +429,12 @@ fn open_call(text: &str, offset: usize) -> Option<&str> {
 /// `text` with the line holding `offset` blanked: a half-typed line should not hide the
 /// operator around it.
 fn without_line(text: &str, offset: usize) -> String {
-    let offset = offset.min(text.len());
+    let offset = floor(text, offset);
     let start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
     let end = text[offset..].find('\n').map_or(text.len(), |i| offset + i);
     let mut s = text[..start].to_string();
-    s.push_str(&" ".repeat(text[start..end].chars().count()));
+    // As many spaces as the line has bytes, so every span after it keeps its offset.
+    s.push_str(&" ".repeat(end - start));
     s.push_str(&text[end..]);
     s
 }
@@ -420,6 +454,7 @@ pub enum Target {
 /// Go to definition: the operator or domain named at `offset`, in the document or the standard
 /// library; a parameter to its declaration.
 pub fn definition(text: &str, offset: usize) -> Option<Target> {
+    let offset = floor(text, offset);
     let (word, _) = word_at(text, offset)?;
     if let Some(file) = parsed(text) {
         if let Some(decl) = enclosing(&file, offset)
@@ -628,6 +663,34 @@ mod tests {
     }
 
     #[test]
+    fn completion_on_a_half_typed_line_with_non_ascii_text_keeps_the_operator() {
+        // The blanked line must keep its byte length, or the operator's span would end before
+        // the cursor.
+        let typing = DOC.replace(
+            "  rott = 0\n",
+            &format!("  tra // {}\n", "\u{1F600}".repeat(8)),
+        );
+        let at = typing.find("\u{1F600}\n").unwrap() + 4;
+        let c = completion(&typing, at);
+        assert!(
+            c.iter()
+                .any(|x| x.label == "trans" && x.kind == CompletionKind::Dimension),
+            "{c:?}"
+        );
+    }
+
+    #[test]
+    fn hover_on_a_named_argument_is_the_callees_parameter() {
+        let text =
+            "operator gentle for positioning on action = slow_down(rate = 0.3) then speed_up\n";
+        let at = text.find("rate").unwrap() + 1;
+        let (r, h) = hover(text, at).unwrap();
+        assert_eq!(&text[r], "rate");
+        assert!(h.starts_with("parameter `rate = "), "{h}");
+        assert!(h.ends_with("of `slow_down`"), "{h}");
+    }
+
+    #[test]
     fn definitions_in_the_document_and_the_standard_library() {
         let at = DOC.rfind("creep").unwrap() + 1;
         assert_eq!(
@@ -656,6 +719,20 @@ mod tests {
         let d = symbols("domain rover {\n  observe range_m \"m\"\n  act v \"m/s\"\n}\n");
         assert_eq!(d[0].kind, SymbolKind::Domain);
         assert_eq!(d[0].children.len(), 2);
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn nothing_panics_on_any_text_or_offset(
+            text in "(operator |domain |for |on |action |where |then |[a-z_]{1,6}|[(){}=,.*+<>!-]| |\n|[0-9.]{1,3}|é|\u{1F600}|/// |// )*",
+            offset in 0usize..400,
+        ) {
+            let _ = hover(&text, offset);
+            let _ = completion(&text, offset);
+            let _ = definition(&text, offset);
+            let _ = diagnostics("p.adv", &text);
+            let _ = symbols(&text);
+        }
     }
 
     #[test]

@@ -46,6 +46,11 @@ def position(text, needle, delta=0):
     return types.Position(line=line, character=len(text[start:offset].encode("utf-16-le")) // 2)
 
 
+async def ask(request, params):
+    """A request, answered within ten seconds."""
+    return await asyncio.wait_for(request(params), 10)
+
+
 async def open_doc(client, text=DOC, uri=URI):
     client.text_document_did_open(
         types.DidOpenTextDocumentParams(
@@ -78,7 +83,8 @@ async def test_diagnostics_on_open_and_change(client: LanguageClient):
 @pytest.mark.asyncio(loop_scope="function")
 async def test_hover(client: LanguageClient):
     await open_doc(client)
-    hover = await client.text_document_hover_async(
+    hover = await ask(
+        client.text_document_hover_async,
         types.HoverParams(
             text_document=types.TextDocumentIdentifier(uri=URI),
             position=position(DOC, "speed_up", 2),
@@ -86,19 +92,29 @@ async def test_hover(client: LanguageClient):
     )
     assert "operator speed_up(rate = 0.2 in [0, 4]) for positioning on action" in hover.contents.value
     assert "Move faster along the same path" in hover.contents.value
-    hover = await client.text_document_hover_async(
+    hover = await ask(
+        client.text_document_hover_async,
         types.HoverParams(
             text_document=types.TextDocumentIdentifier(uri=URI),
             position=position(DOC, "trans *=", 1),
         )
     )
     assert "action dimension `trans` of `positioning`, in m/s" in hover.contents.value
+    hover = await ask(
+        client.text_document_hover_async,
+        types.HoverParams(
+            text_document=types.TextDocumentIdentifier(uri=URI),
+            position=position(DOC, "f\n"),
+        )
+    )
+    assert hover.contents.value == "parameter `f = 0.5 in [0, 1]`"
 
 
 @pytest.mark.asyncio(loop_scope="function")
 async def test_completion(client: LanguageClient):
     await open_doc(client)
-    result = await client.text_document_completion_async(
+    result = await ask(
+        client.text_document_completion_async,
         types.CompletionParams(
             text_document=types.TextDocumentIdentifier(uri=URI),
             position=position(DOC, "trans *="),
@@ -115,7 +131,8 @@ async def test_completion(client: LanguageClient):
 @pytest.mark.asyncio(loop_scope="function")
 async def test_definition_in_the_document_and_the_standard_library(client: LanguageClient):
     await open_doc(client)
-    here = await client.text_document_definition_async(
+    here = await ask(
+        client.text_document_definition_async,
         types.DefinitionParams(
             text_document=types.TextDocumentIdentifier(uri=URI),
             position=position(DOC, "creep then", 1),
@@ -123,7 +140,8 @@ async def test_definition_in_the_document_and_the_standard_library(client: Langu
     )
     assert here.uri == URI
     assert here.range.start == position(DOC, "creep")
-    std = await client.text_document_definition_async(
+    std = await ask(
+        client.text_document_definition_async,
         types.DefinitionParams(
             text_document=types.TextDocumentIdentifier(uri=URI),
             position=position(DOC, "speed_up", 1),
@@ -140,7 +158,8 @@ async def test_formatting(client: LanguageClient):
     messy = "operator halt  for positioning on action {trans=0 // stop\n}\n"
     uri = "file:///lab/messy.adv"
     await open_doc(client, messy, uri)
-    edits = await client.text_document_formatting_async(
+    edits = await ask(
+        client.text_document_formatting_async,
         types.DocumentFormattingParams(
             text_document=types.TextDocumentIdentifier(uri=uri),
             options=types.FormattingOptions(tab_size=2, insert_spaces=True),
@@ -148,12 +167,37 @@ async def test_formatting(client: LanguageClient):
     )
     (edit,) = edits
     assert edit.new_text == "operator halt for positioning on action {\n  trans = 0 // stop\n}\n"
+    # A formatted file: no edit.
+    tidy = "file:///lab/tidy.adv"
+    await open_doc(client, edit.new_text, tidy)
+    edits = await ask(
+        client.text_document_formatting_async,
+        types.DocumentFormattingParams(
+            text_document=types.TextDocumentIdentifier(uri=tidy),
+            options=types.FormattingOptions(tab_size=2, insert_spaces=True),
+        )
+    )
+    assert not edits
+    # A file that does not parse: an error response, not a mangled file.
+    broken = "file:///lab/broken.adv"
+    await open_doc(client, "operator halt for positioning on action { trans = }\n", broken)
+    with pytest.raises(Exception, match="does not parse"):
+        await asyncio.wait_for(
+            client.text_document_formatting_async(
+                types.DocumentFormattingParams(
+                    text_document=types.TextDocumentIdentifier(uri=broken),
+                    options=types.FormattingOptions(tab_size=2, insert_spaces=True),
+                )
+            ),
+            10,
+        )
 
 
 @pytest.mark.asyncio(loop_scope="function")
 async def test_document_symbols(client: LanguageClient):
     await open_doc(client)
-    symbols = await client.text_document_document_symbol_async(
+    symbols = await ask(
+        client.text_document_document_symbol_async,
         types.DocumentSymbolParams(text_document=types.TextDocumentIdentifier(uri=URI))
     )
     assert [s.name for s in symbols] == ["creep", "twice"]
@@ -169,7 +213,8 @@ async def test_a_session_script(client: LanguageClient):
     await open_doc(client, script, uri)
     (d,) = client.diagnostics[uri]
     assert d.range.start.line == 2
-    result = await client.text_document_completion_async(
+    result = await ask(
+        client.text_document_completion_async,
         types.CompletionParams(
             text_document=types.TextDocumentIdentifier(uri=uri),
             position=types.Position(line=2, character=0),
