@@ -210,6 +210,12 @@ impl Operator {
         self.hash
     }
 
+    /// What the session's `help NAME` shows, and the language server's hover: the signature,
+    /// the space it modifies, then the doc comment.
+    pub fn help(&self) -> String {
+        format!("{}  (on {})\n{}", self.signature(), self.space, self.doc)
+    }
+
     /// `speed_up(rate = 0.2 in [0, 1])`
     pub fn signature(&self) -> String {
         if self.params.is_empty() {

@@ -161,20 +161,15 @@ fn enclosing(file: &File, offset: usize) -> Option<&OperatorDecl> {
     })
 }
 
-/// The help text of an operator: its signature, domain and space, and its doc comment.
+/// An operator's hover: the session's `help NAME` text (its first line, the signature and
+/// space, as code), with the domain.
 pub fn operator_help(op: &Operator) -> String {
-    let space = match op.space() {
-        Space::Observation => "observation",
-        Space::Action => "action",
-    };
-    let mut s = format!(
-        "```advise\noperator {} for {} on {space}\n```",
-        op.signature(),
-        op.domain()
-    );
-    if !op.doc().is_empty() {
+    let help = op.help();
+    let (head, doc) = help.split_once('\n').unwrap_or((&help, ""));
+    let mut s = format!("```advise\n{head}\n```\nan operator for `{}`", op.domain());
+    if !doc.trim().is_empty() {
         s.push_str("\n\n");
-        s.push_str(op.doc());
+        s.push_str(doc);
     }
     s
 }
@@ -625,7 +620,7 @@ mod tests {
         let at = |s: &str| DOC.find(s).unwrap() + 1;
         let (_, h) = hover(DOC, at("speed_up")).unwrap();
         assert!(
-            h.contains("operator speed_up(rate = 0.2 in [0, 4]) for positioning on action"),
+            h.starts_with("```advise\nspeed_up(rate = 0.2 in [0, 4])  (on action)\n```\nan operator for `positioning`\n\n"),
             "{h}"
         );
         assert!(h.contains("Move faster"), "{h}");

@@ -34,12 +34,7 @@ impl Session {
             return Ok(format!("{}\n  {}", c.signature, c.doc));
         }
         if let Some(op) = self.ops.operator(&self.domain.name, name) {
-            return Ok(format!(
-                "{}  (on {})\n{}",
-                op.signature(),
-                op.space(),
-                op.doc()
-            ));
+            return Ok(op.help());
         }
         let mut known: Vec<&str> = COMMANDS.iter().map(|c| c.name).collect();
         known.extend(self.ops.operator_names(&self.domain.name));

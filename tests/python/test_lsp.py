@@ -90,7 +90,8 @@ async def test_hover(client: LanguageClient):
             position=position(DOC, "speed_up", 2),
         )
     )
-    assert "operator speed_up(rate = 0.2 in [0, 4]) for positioning on action" in hover.contents.value
+    assert "speed_up(rate = 0.2 in [0, 4])  (on action)" in hover.contents.value
+    assert "an operator for `positioning`" in hover.contents.value
     assert "Move faster along the same path" in hover.contents.value
     hover = await ask(
         client.text_document_hover_async,
