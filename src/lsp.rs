@@ -109,7 +109,7 @@ impl Server {
         Ok(())
     }
 
-    /// Apply a document notification; the document whose diagnostics to publish.
+    /// Apply a document notification; the document whose diagnostics to publish (again).
     fn notify(&mut self, n: Notification) -> Option<String> {
         match n.method.as_str() {
             DidOpenTextDocument::METHOD => {
@@ -128,18 +128,23 @@ impl Server {
             }
             DidCloseTextDocument::METHOD => {
                 let p: DidCloseTextDocumentParams = serde_json::from_value(n.params).ok()?;
-                self.docs.remove(p.text_document.uri.as_str());
-                None
+                // Published once more, empty: a closed file's diagnostics leave the editor.
+                let uri = p.text_document.uri.as_str().to_string();
+                self.docs.remove(&uri);
+                Some(uri)
             }
             _ => None,
         }
     }
 
+    /// The diagnostics of `uri` (none when it is not open).
     fn diagnostics(&self, uri: &str) -> Notification {
-        let text = self.docs.get(uri).map_or("", String::as_str);
         let params = PublishDiagnosticsParams {
             uri: parse_uri(uri),
-            diagnostics: publish(uri, text),
+            diagnostics: self
+                .docs
+                .get(uri)
+                .map_or_else(Vec::new, |text| publish(uri, text)),
             version: None,
         };
         Notification::new(PublishDiagnostics::METHOD.to_string(), params)

@@ -78,6 +78,20 @@ async def test_diagnostics_on_open_and_change(client: LanguageClient):
     )
     await asyncio.wait_for(client.wait_for_notification(types.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS), 10)
     assert list(client.diagnostics[URI]) == []
+    # Closing a file with an error clears its diagnostics.
+    client.text_document_did_change(
+        types.DidChangeTextDocumentParams(
+            text_document=types.VersionedTextDocumentIdentifier(uri=URI, version=3),
+            content_changes=[types.TextDocumentContentChangeWholeDocument(text=DOC)],
+        )
+    )
+    await asyncio.wait_for(client.wait_for_notification(types.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS), 10)
+    assert len(client.diagnostics[URI]) == 1
+    client.text_document_did_close(
+        types.DidCloseTextDocumentParams(text_document=types.TextDocumentIdentifier(uri=URI))
+    )
+    await asyncio.wait_for(client.wait_for_notification(types.TEXT_DOCUMENT_PUBLISH_DIAGNOSTICS), 10)
+    assert list(client.diagnostics[URI]) == []
 
 
 @pytest.mark.asyncio(loop_scope="function")
