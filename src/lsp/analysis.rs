@@ -458,46 +458,50 @@ pub enum Target {
     },
 }
 
-/// Go to definition: the operator or domain named at `offset`, in the document or the standard
-/// library; a parameter to its declaration.
+/// Go to definition: the operator, domain or dimension named at `offset`, in the document or
+/// the standard library (inside an operator, of its domain: `speed_up` in an interception
+/// operator is interception's); a parameter to its declaration.
 pub fn definition(text: &str, offset: usize) -> Option<Target> {
     let offset = floor(text, offset);
     let (word, _) = word_at(text, offset)?;
-    if let Some(file) = parsed(text) {
-        if let Some(decl) = enclosing(&file, offset)
-            && let Some(p) = decl.params.iter().find(|p| p.name.name == word)
-        {
-            return Some(Target::Here(p.name.span.start..p.name.span.end));
-        }
-        for item in &file.items {
-            let name = match item {
-                Item::Operator(o) => &o.name,
-                Item::Domain(d) => &d.name,
-            };
-            if name.name == word {
-                return Some(Target::Here(name.span.start..name.span.end));
-            }
-        }
+    let file = parsed(text);
+    let here = file.as_ref().and_then(|f| enclosing(f, offset));
+    if let Some(decl) = here
+        && let Some(p) = decl.params.iter().find(|p| p.name.name == word)
+    {
+        return Some(Target::Here(p.name.span.start..p.name.span.end));
+    }
+    let domain = here.map(|d| d.domain.name.as_str());
+    if let Some(range) = file.as_ref().and_then(|f| declared(&f.items, word, domain)) {
+        return Some(Target::Here(range));
     }
     for (file, std_text) in check::STANDARD_SOURCES {
         let (map, id) = SourceMap::single(file, std_text);
         let Ok(parsed) = crate::syntax::parse(map.src(id)) else {
             continue;
         };
-        for item in &parsed.items {
-            let name = match item {
-                Item::Operator(o) => &o.name,
-                Item::Domain(d) => &d.name,
-            };
-            if name.name == word {
-                return Some(Target::Standard {
-                    file,
-                    range: name.span.start..name.span.end,
-                });
-            }
+        if let Some(range) = declared(&parsed.items, word, domain) {
+            return Some(Target::Standard { file, range });
         }
     }
     None
+}
+
+/// Where `items` declare `word`: an operator (of `domain`, when one is in scope), a domain, or a
+/// dimension of `domain`.
+fn declared(items: &[Item], word: &str, domain: Option<&str>) -> Option<Range<usize>> {
+    items.iter().find_map(|item| match item {
+        Item::Operator(o) if o.name.name == word && domain.is_none_or(|d| d == o.domain.name) => {
+            Some(o.name.span.start..o.name.span.end)
+        }
+        Item::Domain(d) if d.name.name == word => Some(d.name.span.start..d.name.span.end),
+        Item::Domain(d) if domain == Some(d.name.name.as_str()) => d
+            .dims
+            .iter()
+            .find(|x| x.name.name == word)
+            .map(|x| x.name.span.start..x.name.span.end),
+        _ => None,
+    })
 }
 
 /// A document symbol: a domain with its dimensions, an operator with its parameters.
@@ -732,6 +736,24 @@ mod tests {
                 assert_eq!(file, "operators/positioning.adv");
                 let text = check::STANDARD_SOURCES[0].1;
                 assert_eq!(&text[range], "speed_up");
+            }
+            other => panic!("{other:?}"),
+        }
+        // A dimension: its declaration in the standard domain.
+        let at = DOC.find("trans *=").unwrap() + 1;
+        match definition(DOC, at) {
+            Some(Target::Standard { file, range }) => {
+                assert_eq!(file, "operators/positioning.adv");
+                assert_eq!(&check::STANDARD_SOURCES[0].1[range], "trans");
+            }
+            other => panic!("{other:?}"),
+        }
+        // Inside an interception operator, `speed_up` is interception's.
+        let text = "operator quick for interception on action = speed_up then brake\n";
+        match definition(text, text.find("speed_up").unwrap()) {
+            Some(Target::Standard { file, range }) => {
+                assert_eq!(file, "operators/interception.adv");
+                assert_eq!(&check::STANDARD_SOURCES[1].1[range], "speed_up");
             }
             other => panic!("{other:?}"),
         }

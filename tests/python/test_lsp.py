@@ -166,6 +166,16 @@ async def test_definition_in_the_document_and_the_standard_library(client: Langu
     assert path.name == "positioning.adv" and str(path).startswith(CACHE)
     line = path.read_text().splitlines()[std.range.start.line]
     assert line[std.range.start.character:].startswith("speed_up")
+    dim = await ask(
+        client.text_document_definition_async,
+        types.DefinitionParams(
+            text_document=types.TextDocumentIdentifier(uri=URI),
+            position=position(DOC, "trans *=", 1),
+        ),
+    )
+    assert dim.uri == std.uri
+    line = path.read_text().splitlines()[dim.range.start.line]
+    assert line[dim.range.start.character:].startswith("trans")
 
 
 @pytest.mark.asyncio(loop_scope="function")
