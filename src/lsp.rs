@@ -17,7 +17,7 @@ use std::str::FromStr;
 
 use lsp_server::{Connection, ErrorCode, Message, Notification, Request, RequestId, Response};
 use lsp_types::notification::{
-    DidChangeTextDocument, DidCloseTextDocument, DidOpenTextDocument,
+    DidChangeTextDocument, DidCloseTextDocument, DidOpenTextDocument, Exit,
     Notification as NotificationTrait, PublishDiagnostics,
 };
 use lsp_types::request::{
@@ -65,10 +65,16 @@ pub fn run_stdio() -> miette::Result<()> {
 
 const PANICKED: &str = "advise lsp failed on this request (a bug; please report it with the file)";
 
+/// An open document: its text and the client's version of it.
+struct Doc {
+    text: String,
+    version: i32,
+}
+
 /// The open documents.
 #[derive(Default)]
 struct Server {
-    docs: HashMap<String, String>,
+    docs: HashMap<String, Doc>,
 }
 
 impl Server {
@@ -96,6 +102,7 @@ impl Server {
                         });
                     send(Message::Response(response))?;
                 }
+                Message::Notification(n) if n.method == Exit::METHOD => return Ok(()),
                 Message::Notification(n) => {
                     if let Some(uri) = self.notify(n)
                         && let Ok(d) = catch_unwind(AssertUnwindSafe(|| self.diagnostics(&uri)))
@@ -115,15 +122,32 @@ impl Server {
             DidOpenTextDocument::METHOD => {
                 let p: DidOpenTextDocumentParams = serde_json::from_value(n.params).ok()?;
                 let uri = p.text_document.uri.as_str().to_string();
-                self.docs.insert(uri.clone(), p.text_document.text);
+                let doc = Doc {
+                    text: p.text_document.text,
+                    version: p.text_document.version,
+                };
+                self.docs.insert(uri.clone(), doc);
                 Some(uri)
             }
             DidChangeTextDocument::METHOD => {
                 let p: DidChangeTextDocumentParams = serde_json::from_value(n.params).ok()?;
                 let uri = p.text_document.uri.as_str().to_string();
-                // Full sync: the last change is the whole text.
-                let text = p.content_changes.into_iter().last()?.text;
-                self.docs.insert(uri.clone(), text);
+                let doc = self.docs.entry(uri.clone()).or_insert(Doc {
+                    text: String::new(),
+                    version: 0,
+                });
+                // The server asks for whole texts, but a change with a range is applied as one.
+                for change in p.content_changes {
+                    match change.range {
+                        None => doc.text = change.text,
+                        Some(range) => {
+                            let lines = Lines::new(&doc.text);
+                            let (start, end) = (lines.offset(range.start), lines.offset(range.end));
+                            doc.text.replace_range(start..end.max(start), &change.text);
+                        }
+                    }
+                }
+                doc.version = p.text_document.version;
                 Some(uri)
             }
             DidCloseTextDocument::METHOD => {
@@ -139,13 +163,11 @@ impl Server {
 
     /// The diagnostics of `uri` (none when it is not open).
     fn diagnostics(&self, uri: &str) -> Notification {
+        let doc = self.docs.get(uri);
         let params = PublishDiagnosticsParams {
             uri: parse_uri(uri),
-            diagnostics: self
-                .docs
-                .get(uri)
-                .map_or_else(Vec::new, |text| publish(uri, text)),
-            version: None,
+            diagnostics: doc.map_or_else(Vec::new, |d| publish(uri, &d.text)),
+            version: doc.map(|d| d.version),
         };
         Notification::new(PublishDiagnostics::METHOD.to_string(), params)
     }
@@ -172,7 +194,7 @@ impl Server {
     }
 
     fn text<'s>(&'s self, uri: &Uri) -> Result<&'s str, (ErrorCode, String)> {
-        self.docs.get(uri.as_str()).map(String::as_str).ok_or((
+        self.docs.get(uri.as_str()).map(|d| d.text.as_str()).ok_or((
             ErrorCode::InvalidParams,
             format!("`{}` is not open", uri.as_str()),
         ))
@@ -487,6 +509,39 @@ mod tests {
             "past the end: the line's end"
         );
         assert_eq!(l.offset(Position::new(9, 0)), text.len());
+    }
+
+    #[test]
+    fn changes_with_ranges_are_applied_and_diagnostics_carry_the_version() {
+        let note =
+            |method: &str, params: serde_json::Value| Notification::new(method.into(), params);
+        let uri = "file:///x.adv";
+        let mut server = Server::default();
+        let text = "// é\noperator x for positioning on action { rot = 0 }\n";
+        server.notify(note(
+            DidOpenTextDocument::METHOD,
+            serde_json::json!({"textDocument": {"uri": uri, "languageId": "advise", "version": 1, "text": text}}),
+        ));
+        // `rot` becomes `rott` (one character inserted after the non-ASCII line).
+        let col = "operator x for positioning on action { rot".len();
+        server.notify(note(
+            DidChangeTextDocument::METHOD,
+            serde_json::json!({"textDocument": {"uri": uri, "version": 2}, "contentChanges": [
+                {"range": {"start": {"line": 1, "character": col}, "end": {"line": 1, "character": col}}, "text": "t"}
+            ]}),
+        ));
+        assert_eq!(server.docs[uri].text, text.replace("rot", "rott"));
+        let n = server.diagnostics(uri);
+        let p: PublishDiagnosticsParams = serde_json::from_value(n.params).unwrap();
+        assert_eq!(p.version, Some(2));
+        assert_eq!(p.diagnostics.len(), 1);
+        server.notify(note(
+            DidCloseTextDocument::METHOD,
+            serde_json::json!({"textDocument": {"uri": uri}}),
+        ));
+        let n = server.diagnostics(uri);
+        let p: PublishDiagnosticsParams = serde_json::from_value(n.params).unwrap();
+        assert!(p.diagnostics.is_empty());
     }
 
     #[test]
