@@ -318,14 +318,7 @@ pub const KEYWORDS: &[&str] = &[
 pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
     let offset = floor(text, offset);
     if is_script(text) {
-        return COMMANDS
-            .iter()
-            .map(|c| Completion {
-                label: c.name.to_string(),
-                kind: CompletionKind::Command,
-                detail: c.signature.to_string(),
-            })
-            .collect();
+        return script_completion(text, offset);
     }
     let mut out: Vec<Completion> = KEYWORDS
         .iter()
@@ -404,6 +397,52 @@ pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
         }
     }
     out.dedup_by(|a, b| a.label == b.label && a.kind == b.kind);
+    out
+}
+
+/// Completion in a session script: after `advise`, `preview` or `help`, the operators of the task
+/// (the last `task NAME` above, `positioning` before any), the script's own among them; the
+/// commands otherwise (and after `help`).
+fn script_completion(text: &str, offset: usize) -> Vec<Completion> {
+    let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let before = text[line_start..offset].trim_start();
+    let first = before.split_whitespace().next().unwrap_or("");
+    let commands = COMMANDS.iter().map(|c| Completion {
+        label: c.name.to_string(),
+        kind: CompletionKind::Command,
+        detail: c.signature.to_string(),
+    });
+    let takes_operator =
+        matches!(first, "advise" | "preview" | "help") && before.len() > first.len();
+    if !takes_operator {
+        return commands.collect();
+    }
+    let domain = text[..line_start]
+        .lines()
+        .rev()
+        .find_map(|l| l.trim().strip_prefix("task "))
+        .map_or("positioning", str::trim);
+    // The script's definitions, checked together on top of the standard operators.
+    let definitions: String = crate::session::script::statements(text)
+        .into_iter()
+        .filter(|st| {
+            let t = st.text.trim_start();
+            t.starts_with("operator") || t.starts_with("domain") || t.starts_with("///")
+        })
+        .map(|st| st.text + "\n")
+        .collect();
+    let set = operator_set(&definitions);
+    let mut out: Vec<Completion> = set
+        .operators(domain)
+        .map(|op| Completion {
+            label: op.name().to_string(),
+            kind: CompletionKind::Operator,
+            detail: format!("{} ({domain})", op.signature()),
+        })
+        .collect();
+    if first == "help" {
+        out.extend(commands);
+    }
     out
 }
 
@@ -648,6 +687,15 @@ mod tests {
             completion("task positioning\n", 17)
                 .iter()
                 .any(|c| c.label == "advise")
+        );
+        // After `advise`: the task's operators, the script's own among them.
+        let script = "task interception\noperator lunge for interception on action {\n  trans_delta = 0.1\n}\nrun start 0\nadvise \n";
+        let c = completion(script, script.len() - 1);
+        let ops: Vec<&str> = c.iter().map(|c| c.label.as_str()).collect();
+        assert!(ops.contains(&"lunge") && ops.contains(&"brake"), "{ops:?}");
+        assert!(
+            !ops.contains(&"no_turning") && !ops.contains(&"advise"),
+            "{ops:?}"
         );
     }
 

@@ -247,3 +247,17 @@ async def test_a_session_script(client: LanguageClient):
     )
     items = result if isinstance(result, list) else result.items
     assert "advise" in {i.label for i in items}
+    # After `advise`: the task's operators.
+    typing = "task positioning\nrun goal 2 -1 0\nadvise sp\n"
+    uri = "file:///lab/typing.adv"
+    await open_doc(client, typing, uri)
+    result = await ask(
+        client.text_document_completion_async,
+        types.CompletionParams(
+            text_document=types.TextDocumentIdentifier(uri=uri),
+            position=types.Position(line=2, character=9),
+        ),
+    )
+    items = result if isinstance(result, list) else result.items
+    labels = {i.label for i in items}
+    assert "speed_up" in labels and "advise" not in labels
