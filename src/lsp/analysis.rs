@@ -64,21 +64,44 @@ pub fn diagnostics(name: &str, text: &str) -> Vec<Diag> {
 }
 
 /// A script's statements as the session splits them (an operator definition may span lines),
-/// each parsed as a statement.
+/// each parsed as a statement; a definition is checked as the session checks it, merged into the
+/// standard operators and the script's definitions before it.
 fn script_diagnostics(text: &str) -> Vec<Diag> {
     let line_starts: Vec<usize> = std::iter::once(0)
         .chain(text.match_indices('\n').map(|(i, _)| i + 1))
         .collect();
     let mut out = Vec::new();
+    let mut set = OperatorSet::standard();
+    let mut definitions = SourceMap::new();
     for st in crate::session::script::statements(text) {
         let trimmed = st.text.trim();
         if trimmed.is_empty() || (trimmed.starts_with("//") && !trimmed.contains('\n')) {
             continue;
         }
-        let start = line_starts.get(st.line - 1).copied().unwrap_or(text.len());
+        let start = line_starts
+            .get(st.line.saturating_sub(1))
+            .copied()
+            .unwrap_or(text.len());
+        let len = st.text.len();
         let (map, id) = SourceMap::single("statement", st.text.as_str());
-        if let Err(e) = command::parse_statement(map.src(id)) {
-            out.push(diag(&e, id, st.text.len(), start, false));
+        match command::parse_statement(map.src(id)) {
+            Err(e) => out.push(diag(&e, id, len, start, false)),
+            Ok(command::Statement::Item(_)) => {
+                let id = definitions.add(format!("line {}", st.line), st.text.as_str());
+                match set.merge_in(&definitions, &[id]) {
+                    Ok(Checked {
+                        set: merged,
+                        warnings,
+                    }) => {
+                        out.extend(warnings.iter().map(|w| diag(w, id, len, start, true)));
+                        set = merged;
+                    }
+                    Err(errors) => {
+                        out.extend(errors.errors.iter().map(|e| diag(e, id, len, start, false)))
+                    }
+                }
+            }
+            Ok(_) => {}
         }
     }
     out
@@ -666,6 +689,10 @@ mod tests {
         for t in &texts {
             assert_eq!(is_script(t), crate::syntax::fmt::is_script(t), "{t}");
         }
+        // The example sessions and the standard files are clean.
+        for t in &texts[..texts.len() - 1 - COMMANDS.len()] {
+            assert_eq!(diagnostics("t.adv", t), Vec::new(), "{t}");
+        }
         assert!(!is_script(DOC));
         assert!(is_script(&format!("{DOC}run goal 1 2 3\n")));
     }
@@ -683,6 +710,15 @@ mod tests {
         let d = diagnostics("s.adv", script);
         assert_eq!(d.len(), 1, "{d:?}");
         assert_eq!(&script[d[0].range.clone()], "selec");
+        // A definition is checked on top of the standard operators and the ones before it.
+        let script = "operator creep for positioning on action {\n  trans = 0.1\n}\noperator crawl for positioning on action = creep then slow_down\noperator bad for positioning on action {\n  rott = 0\n}\nrun goal 2 -1 0\n";
+        let d = diagnostics("s.adv", script);
+        assert_eq!(d.len(), 1, "{d:?}");
+        assert_eq!(&script[d[0].range.clone()], "rott");
+        assert_eq!(
+            d[0].code.as_deref(),
+            Some("advise::check::unknown_dimension")
+        );
         assert!(
             completion("task positioning\n", 17)
                 .iter()
