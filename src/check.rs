@@ -23,6 +23,7 @@ mod decls;
 pub mod error;
 mod names;
 mod standard;
+mod task;
 mod trace_domain;
 
 use std::collections::HashMap;
@@ -243,6 +244,7 @@ impl<'s> Checker<'s> {
             .map(|(i, d)| (d.name.clone(), i))
             .collect();
         let mut declared: HashMap<String, (usize, Span)> = HashMap::new();
+        let mut tasks = base.map(|b| b.tasks.clone()).unwrap_or_default();
         for (f, file) in files {
             for item in &file.items {
                 if let Item::Domain(d) = item {
@@ -281,6 +283,9 @@ impl<'s> Checker<'s> {
                             );
                         }
                         continue;
+                    }
+                    if let Some(t) = self.task(*f, d, &dom) {
+                        tasks.push(Arc::new(t));
                     }
                     by_name.insert(dom.name.clone(), domains.len());
                     domains.push(dom);
@@ -353,6 +358,7 @@ impl<'s> Checker<'s> {
 
         let mut set = OperatorSet {
             domains,
+            tasks,
             ops: base.map(|b| b.ops.clone()).unwrap_or_default(),
             visible: HashMap::new(),
         };

@@ -15,6 +15,7 @@ use crate::backend::rmp::codec::{Platform, WordOrder};
 use crate::backend::sim::SimParams;
 use crate::eval::EvalPolicy;
 use crate::experiment::study::{Seeds, Study};
+use crate::program::OperatorSet;
 use crate::task::TaskKind;
 
 pub mod operators;
@@ -189,9 +190,13 @@ pub struct EmulatorArgs {
 
 #[derive(Args)]
 pub struct DemoArgs {
-    /// The task to demonstrate.
-    #[arg(long)]
-    pub task: TaskKind,
+    /// The task to demonstrate: `positioning`, `interception`, or a task of `--tasks FILE`.
+    #[arg(long, value_name = "TASK")]
+    pub task: String,
+    /// Files of task declarations (`domain NAME { goal ... success when ... }`) whose tasks
+    /// `--task` may name.
+    #[arg(long = "tasks", value_name = "FILE")]
+    pub tasks: Vec<PathBuf>,
     /// How many demonstrations (episodes) to record.
     #[arg(long, default_value_t = 9, value_parser = clap::value_parser!(u64).range(1..=100_000))]
     pub count: u64,
@@ -218,11 +223,17 @@ pub struct ImportArgs {
     /// A bag's odometry topic (nav_msgs Odometry).
     #[arg(long, value_name = "TOPIC", default_value = "/odom")]
     pub odom_topic: String,
-    /// The task the demonstrations are for (only `positioning` so far).
-    #[arg(long, default_value = "positioning")]
-    pub task: TaskKind,
-    /// The goal of every demonstration, in the log's frame; default: where each one ends.
-    #[arg(long, num_args = 3, value_names = ["X", "Y", "THETA"], allow_negative_numbers = true)]
+    /// The task the demonstrations are for: `positioning`, or a task of `--tasks FILE` that
+    /// reads its goal from a recording (a `recorded` clause).
+    #[arg(long, default_value = "positioning", value_name = "TASK")]
+    pub task: String,
+    /// Files of task declarations (`domain NAME { goal ... success when ... }`) whose tasks
+    /// `--task` may name.
+    #[arg(long = "tasks", value_name = "FILE")]
+    pub tasks: Vec<PathBuf>,
+    /// The goal of every demonstration, in the log's frame (positioning: X Y THETA; a declared
+    /// task: a value for each goal parameter); default: read from where each one ends.
+    #[arg(long, num_args = 1.., value_name = "VALUE", allow_negative_numbers = true)]
     pub goal: Option<Vec<f64>>,
     /// Split a recording where consecutive commands are more than this many seconds apart.
     #[arg(long, value_name = "SECONDS")]
@@ -254,9 +265,14 @@ pub struct ExportArgs {
 
 #[derive(Args)]
 pub struct EvalArgs {
-    /// The task whose test set to run.
-    #[arg(long)]
-    pub task: TaskKind,
+    /// The task whose test set to run: `positioning`, `interception`, or a task of
+    /// `--tasks FILE`.
+    #[arg(long, value_name = "TASK")]
+    pub task: String,
+    /// Files of task declarations (`domain NAME { goal ... success when ... }`) whose tasks
+    /// `--task` may name.
+    #[arg(long = "tasks", value_name = "FILE")]
+    pub tasks: Vec<PathBuf>,
     /// Demonstrations to derive the policy from (a file written by `advise demo`).
     #[arg(long, value_name = "FILE")]
     pub dataset: Option<PathBuf>,
@@ -312,6 +328,15 @@ pub enum CliError {
         )
     )]
     NoDataset { policy: &'static str },
+    #[error("unknown task `{name}`")]
+    #[diagnostic(code(advise::cli::unknown_task), help("{help}"))]
+    UnknownTask { name: String, help: String },
+    #[error("the task `{task}` has no teacher to demonstrate it")]
+    #[diagnostic(
+        code(advise::cli::no_teacher),
+        help("declare one in the task (`teacher {{ trans = ...  rot = ... }}`), or record demonstrations on a base and `advise import` them")
+    )]
+    NoTeacher { task: String },
     #[error("`--{flag}` names a ROS 2 topic, but the backend is `{backend}`")]
     #[diagnostic(
         code(advise::cli::topic_without_ros2),
@@ -436,9 +461,13 @@ mod tests {
 /// How a session starts.
 #[derive(Args, Clone)]
 pub struct SessionArgs {
-    /// The task to start on.
-    #[arg(long, default_value = "positioning")]
-    pub task: TaskKind,
+    /// The task to start on: `positioning`, `interception`, or a task of `--tasks FILE`.
+    #[arg(long, default_value = "positioning", value_name = "TASK")]
+    pub task: String,
+    /// Files of task declarations (`domain NAME { goal ... success when ... }`) whose tasks
+    /// `--task` may name.
+    #[arg(long = "tasks", value_name = "FILE")]
+    pub tasks: Vec<PathBuf>,
     /// Seeds the simulator, the practice starts and LWR tuning.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -467,7 +496,8 @@ pub struct SessionArgs {
 impl Default for SessionArgs {
     fn default() -> Self {
         SessionArgs {
-            task: TaskKind::Positioning,
+            task: "positioning".into(),
+            tasks: Vec::new(),
             seed: 0,
             demos: 9,
             no_journal: false,
@@ -478,19 +508,55 @@ impl Default for SessionArgs {
     }
 }
 
+/// The task `name`: one of the paper's, or one declared in `files` (checked on top of the
+/// standard operators, every mistake reported).
+pub fn resolve_task(name: &str, files: &[PathBuf]) -> miette::Result<TaskKind> {
+    if files.is_empty()
+        && let Some(t) = TaskKind::builtin(name)
+    {
+        return Ok(t);
+    }
+    let set = load_task_files(files)?;
+    if let Some(t) = TaskKind::builtin(name) {
+        return Ok(t);
+    }
+    if let Some(def) = set.task(name) {
+        return Ok(TaskKind::Declared(def.clone()));
+    }
+    let mut names: Vec<String> = vec!["positioning".into(), "interception".into()];
+    names.extend(set.tasks().iter().map(|t| t.name().to_string()));
+    let listed = names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
+    let help = match crate::diag::suggest::closest(name, names.iter().map(String::as_str)) {
+        Some(s) => format!("did you mean `{s}`?"),
+        None if files.is_empty() => format!(
+            "the tasks are {listed}; a task declared in a file is named after `--tasks FILE`"
+        ),
+        None => format!("the tasks are {listed}"),
+    };
+    Err(CliError::UnknownTask {
+        name: name.into(),
+        help,
+    }
+    .into())
+}
+
+/// The standard operators with the task files checked on top.
+pub fn load_task_files(files: &[PathBuf]) -> miette::Result<OperatorSet> {
+    let mut map = crate::diag::SourceMap::new();
+    let mut ids = Vec::new();
+    for f in files {
+        ids.push(crate::files::read_source(&mut map, f).map_err(|e| map.attach(e))?);
+    }
+    let base = OperatorSet::standard();
+    match base.merge_in(&map, &ids) {
+        Ok(c) => Ok(c.set),
+        Err(e) => Err(map.attach(e).into()),
+    }
+}
+
 // The command line's spelling of library types that have no `clap` derive of their own (their
 // modules know nothing of the command line): one table each, read by clap for parsing, help and
 // completion.
-
-impl ValueEnum for TaskKind {
-    fn value_variants<'a>() -> &'a [Self] {
-        &[TaskKind::Positioning, TaskKind::Interception]
-    }
-
-    fn to_possible_value(&self) -> Option<PossibleValue> {
-        Some(PossibleValue::new(self.name()))
-    }
-}
 
 impl ValueEnum for Platform {
     fn value_variants<'a>() -> &'a [Self] {

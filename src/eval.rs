@@ -134,6 +134,7 @@ fn ending_name(e: Ending) -> &'static str {
         Ending::BallOut => "ball_out",
         Ending::RobotOut => "robot_out",
         Ending::Interrupted => "interrupted",
+        Ending::Rule => "rule",
     }
 }
 
@@ -145,7 +146,7 @@ pub fn evaluate(kind: TaskKind, policy: &dyn Policy, opts: &EvalOptions) -> Repo
 /// Evaluate the task's own teacher on its test set.
 pub fn evaluate_teacher(kind: TaskKind, opts: &EvalOptions) -> Report {
     let period = opts.params.period_s();
-    evaluate_with(kind, || kind.teacher(period), opts)
+    evaluate_with(kind.clone(), || kind.teacher(period), opts)
 }
 
 /// Evaluate controllers made by `make` (one per episode, so stateful teachers work) on the task's

@@ -12,6 +12,7 @@ use miette::{IntoDiagnostic, WrapErr, miette};
 use advise::cli::{self, Cli, CliError, Command, SessionArgs, operators, tools};
 use advise::diag::SourceMap;
 use advise::session::{Session, SessionOptions, journal, script};
+use advise::task::TaskKind;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -54,15 +55,34 @@ fn main() -> ExitCode {
     }
 }
 
+/// A session on `--task`, with `--tasks FILE...` loaded. A declared task is reached as a teacher
+/// would reach it, by the statements `tasks FILE` and `task NAME` (journalled, so a resumed
+/// session has them), then `load demos teacher:N` when the task has a teacher.
 fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
+    // Every mistake in the files, or an unknown name, is reported before anything starts.
+    let kind = cli::resolve_task(&args.task, &args.tasks)?;
+    let builtin = TaskKind::builtin(&args.task);
     let opts = SessionOptions {
-        task: args.task,
+        task: builtin.clone().unwrap_or(TaskKind::Positioning),
         seed: args.seed,
-        default_demos: demos,
+        default_demos: if builtin.is_some() { demos } else { 0 },
         progress: true,
         ..SessionOptions::default()
     };
-    Ok(Session::new(opts)?)
+    let mut session = Session::new(opts)?;
+    for file in &args.tasks {
+        let quoted = format!("\"{}\"", file.display());
+        let reply = session.execute(&format!("tasks {quoted}"), "--tasks")?;
+        eprintln!("{reply}");
+    }
+    if builtin.is_none() {
+        session.execute(&format!("task {}", args.task), "--task")?;
+        if demos > 0 && kind.has_teacher() {
+            let reply = session.execute(&format!("load demos teacher:{demos}"), "--demos")?;
+            eprintln!("{reply}");
+        }
+    }
+    Ok(session)
 }
 
 /// The main job: the REPL on the simulator with the default demonstrations loaded.

@@ -11,6 +11,7 @@
 
 pub mod code;
 pub mod ir;
+pub mod task;
 
 use std::collections::HashMap;
 use std::fmt;
@@ -250,6 +251,8 @@ impl Operator {
 #[derive(Clone, Debug, Default)]
 pub struct OperatorSet {
     pub(crate) domains: Vec<Domain>,
+    /// The domains that are also tasks, checked.
+    pub(crate) tasks: Vec<Arc<task::TaskDef>>,
     /// In definition order; a later operator with the same domain and name shadows an earlier one
     /// (a user's file over the standard library) while compositions keep what they were built on.
     pub(crate) ops: Vec<Arc<Operator>>,
@@ -277,6 +280,16 @@ impl OperatorSet {
 
     pub fn domain(&self, name: &str) -> Option<&Domain> {
         self.domains.iter().find(|d| d.name == name)
+    }
+
+    /// The domains that are also tasks.
+    pub fn tasks(&self) -> &[Arc<task::TaskDef>] {
+        &self.tasks
+    }
+
+    /// The task declared by the domain `name`.
+    pub fn task(&self, name: &str) -> Option<&Arc<task::TaskDef>> {
+        self.tasks.iter().find(|t| t.name() == name)
     }
 
     /// Index of the visible operator `name` of `domain`.

@@ -2,8 +2,10 @@
 //! ([`bag`]) and plain CSV logs, through [`import`].
 //!
 //! A CSV log `time,x,y,theta,v,w` has one row per command, with the odometry pose at that time.
-//! Each row (each paired command of a bag) becomes one point of the positioning task: the observation from [`crate::task::positioning::observe`] of the
-//! pose and the goal (the last pose of the episode, or a given goal), the action `(v, w)`.
+//! Each row (each paired command of a bag) becomes one point of a task that reads its goal from a
+//! recording (positioning, or a declared task with a `recorded` clause): the observation the
+//! task's declaration computes from the pose and the goal (read by `recorded` from the pose the
+//! episode ends at, or given), the action `(v, w)`.
 //! `split_gap_s` splits episodes at pauses longer than it. Messy logs: a row whose time equals the
 //! previous row's is dropped and counted (a warning); a row going back in time, a non-finite
 //! value, or a row of the wrong width is refused with the row and time.
@@ -17,15 +19,25 @@ use std::path::{Path, PathBuf};
 use miette::Diagnostic;
 use thiserror::Error;
 
+use std::sync::Arc;
+
+use crate::backend::BaseState;
 use crate::domain::Domain;
-use crate::task::positioning::observe;
+use crate::program::task::TaskDef;
+use crate::task::{Declared, Task, positioning_def};
 use crate::trace::{Episode, Pose, Trace};
 
 /// How a log is turned into episodes.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ImportOptions {
-    /// The goal of every episode; `None`: each episode's final pose.
+    /// The goal of every episode (positioning); `None`: each episode's final pose.
     pub goal: Option<Pose>,
+    /// The task the demonstrations are for; `None`: positioning. Its `recorded` clause reads
+    /// each episode's goal from where it ends.
+    pub task: Option<Arc<TaskDef>>,
+    /// The goal of every episode of a declared task, a value for each goal parameter (overrides
+    /// `recorded`).
+    pub goal_values: Option<Vec<f64>>,
     /// Split an episode where consecutive rows are more than this apart, s.
     pub split_gap_s: Option<f64>,
     /// A bag's command and odometry topics; `None`: [`bag::DEFAULT_CMD_TOPIC`] and
@@ -335,7 +347,18 @@ pub fn parse_csv_log(
             } else {
                 stem.to_string()
             };
-            episode(name, run, options.goal)
+            match &options.task {
+                Some(def) => episode_for(
+                    def,
+                    name,
+                    run,
+                    options
+                        .goal_values
+                        .as_deref()
+                        .or(options.goal.map(|g| vec![g.x_m, g.y_m, g.theta_rad]).as_deref()),
+                ),
+                None => episode(name, run, options.goal),
+            }
         })
         .collect();
     report.episodes = episodes.len();
@@ -346,22 +369,64 @@ pub fn parse_csv_log(
 /// observations of each pose towards `goal` (the last pose when `None`), the commanded speeds as
 /// actions. What a CSV log's run and a recorded teleoperation become.
 pub fn episode(name: String, run: &[Sample], goal: Option<Pose>) -> Episode {
-    let domain = Domain::positioning();
-    let goal = goal
-        .or_else(|| run.last().map(|r| r.1))
-        .unwrap_or(Pose::new(0.0, 0.0, 0.0));
+    let goal = goal.map(|g| vec![g.x_m, g.y_m, g.theta_rad]);
+    episode_for(&positioning_def(), name, run, goal.as_deref())
+}
+
+/// One demonstration of the declared task `def` from samples `(t, pose, v, w)`: the task's
+/// observations computed along the samples exactly as a run computes them (`prev` reads the
+/// sample before), towards `goal` or, when `None`, the goal its `recorded` clause reads from
+/// the last pose (all zeros for a task without one). The commanded speeds are the actions (a task
+/// whose actions are changes of speed is not importable this way; the caller checks) and stand
+/// in for the measured speeds `v` and `w`, which a log does not hold.
+pub fn episode_for(def: &Arc<TaskDef>, name: String, run: &[Sample], goal: Option<&[f64]>) -> Episode {
+    let goal: Vec<f64> = match goal {
+        Some(g) => g.to_vec(),
+        None => run
+            .last()
+            .and_then(|r| crate::task::declared::recorded_goal(def, r.1))
+            .unwrap_or_else(|| vec![0.0; def.goal.len()]),
+    };
+    let domain = &def.domain;
+    let mut task = Declared::new(def.clone(), &goal);
     let t0 = run.first().map_or(0.0, |r| r.0);
-    let mut trace = Trace::new(&domain);
+    let mut trace = Trace::new(domain);
+    let mut z = vec![0.0; domain.obs_dim()];
+    let mut a = vec![0.0; domain.act_dim()];
+    let state = |t: f64, pose: Pose, v: f64, w: f64| BaseState {
+        t_s: t - t0,
+        pose,
+        speed_mps: v,
+        rot_radps: w,
+        ..BaseState::default()
+    };
+    if let Some(&(t, pose, v, w)) = run.first() {
+        task.begin(&state(t, pose, v, w));
+    }
     for &(t, pose, v, w) in run {
-        trace.push(t - t0, &observe(goal, pose), &[v, w], Some(pose));
+        let s = state(t, pose, v, w);
+        task.observe(&s, &mut z);
+        // The speeds by axis, in the domain's action order.
+        a.iter_mut().for_each(|x| *x = 0.0);
+        if let Some(d) = &def.speed {
+            a[d.action] = v;
+        }
+        if let Some(d) = &def.turn {
+            a[d.action] = w;
+        }
+        trace.push(t - t0, &z, &a, Some(pose));
+        task.command(&s, &a);
     }
     Episode { name, trace }
 }
 
 /// Write `episodes` as a demonstration file `load demos FILE` reads: JSON when `path` ends in
 /// `.json`, CSV with an `episode` column otherwise.
-pub fn write_demonstrations(path: &Path, episodes: &[Episode]) -> Result<(), ImportError> {
-    let domain = Domain::positioning();
+pub fn write_demonstrations(
+    path: &Path,
+    domain: &Domain,
+    episodes: &[Episode],
+) -> Result<(), ImportError> {
     let write_err = |source| ImportError::Read {
         path: path.to_path_buf(),
         source,

@@ -74,7 +74,8 @@ pub fn install_ctrl_c(signal: &StopSignal) -> bool {
 fn facts_of(session: &Session) -> Facts {
     Facts {
         operators: session.operator_signatures(),
-        tasks: vec!["positioning".into(), "interception".into()],
+        // The paper's tasks and those loaded with `tasks FILE`: refreshed after every statement.
+        tasks: session.task_names(),
     }
 }
 

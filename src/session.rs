@@ -132,7 +132,7 @@ struct TaskState {
 }
 
 impl TaskState {
-    fn new(task: TaskKind, seed: u64) -> TaskState {
+    fn new(task: &TaskKind, seed: u64) -> TaskState {
         TaskState::with_learner(Learner::new(&task.domain(), task.learner(), seed))
     }
 
@@ -248,11 +248,11 @@ impl Session {
     fn empty(task: TaskKind, seed: u64, sim: SimParams) -> Session {
         Session {
             ops: OperatorSet::standard(),
-            task,
             domain: task.domain(),
+            state: TaskState::new(&task, seed),
+            task,
             backend: BackendChoice::Sim(sim),
             seed,
-            state: TaskState::new(task, seed),
             parked: Vec::new(),
             journal: None,
             restoring: false,
@@ -271,7 +271,7 @@ impl Session {
     }
 
     pub fn task(&self) -> TaskKind {
-        self.task
+        self.task.clone()
     }
 
     pub fn operators(&self) -> &OperatorSet {
@@ -392,6 +392,7 @@ impl Session {
     fn command(&mut self, cmd: Command) -> Result<Reply, SessionError> {
         match cmd {
             Command::Task(name) => self.set_task(&name),
+            Command::Tasks(path) => self.load_tasks(&path).map(Reply::Message),
             Command::Backend(spec) => self.set_backend(&spec),
             Command::LoadDemos {
                 path,
@@ -450,17 +451,7 @@ impl Session {
     }
 
     fn set_task(&mut self, name: &Ident) -> Result<Reply, SessionError> {
-        let task = match name.name.as_str() {
-            "positioning" => TaskKind::Positioning,
-            "interception" => TaskKind::Interception,
-            other => {
-                return Err(SessionError::UnknownTask {
-                    name: other.to_string(),
-                    help: did_you_mean(other, ["positioning", "interception"])
-                        .unwrap_or_else(|| "the tasks are `positioning` and `interception`".into()),
-                });
-            }
-        };
+        let task = self.resolve_task(&name.name)?;
         if task == self.task {
             return Ok(Reply::Message(format!(
                 "already on task {task}: nothing changed ({} data points, {} executions)",
@@ -469,7 +460,9 @@ impl Session {
             )));
         }
         let fresh = !self.parked.iter().any(|(t, _)| *t == task);
-        self.commit(Effect::Task { task })?;
+        self.commit(Effect::Task {
+            task: task.name().to_string(),
+        })?;
         let st = &self.state;
         Ok(Reply::Message(if fresh {
             format!(
@@ -486,6 +479,45 @@ impl Session {
         }))
     }
 
+    /// The task called `name`: one of the paper's, or one declared by a file loaded with
+    /// `tasks FILE` (or `operators FILE`).
+    pub(crate) fn resolve_task(&self, name: &str) -> Result<TaskKind, SessionError> {
+        if let Some(t) = TaskKind::builtin(name) {
+            return Ok(t);
+        }
+        if name != "positioning"
+            && let Some(def) = self.ops.task(name)
+        {
+            return Ok(TaskKind::Declared(def.clone()));
+        }
+        let names = self.task_names();
+        let help = match did_you_mean(name, names.iter().map(String::as_str)) {
+            Some(h) => h,
+            None if self.ops.domain(name).is_some() => format!(
+                "`{name}` is a domain without task clauses (goal, observations' definitions, drives, success and end rules): see `operators/README.md`, Tasks"
+            ),
+            None => format!(
+                "the tasks are {}; load a file of task declarations with `tasks FILE`",
+                names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+            ),
+        };
+        Err(SessionError::UnknownTask {
+            name: name.to_string(),
+            help,
+        })
+    }
+
+    /// Every task the session knows: the paper's two, then the declared ones.
+    pub fn task_names(&self) -> Vec<String> {
+        let mut names = vec!["positioning".to_string(), "interception".to_string()];
+        for t in self.ops.tasks() {
+            if !names.iter().any(|n| n == t.name()) {
+                names.push(t.name().to_string());
+            }
+        }
+        names
+    }
+
     /// Park the current task's work and take up `task`'s (new if it has none yet).
     fn switch_task(&mut self, task: TaskKind) {
         if task == self.task {
@@ -493,10 +525,10 @@ impl Session {
         }
         let next = match self.parked.iter().position(|(t, _)| *t == task) {
             Some(i) => self.parked.swap_remove(i).1,
-            None => TaskState::new(task, self.seed),
+            None => TaskState::new(&task, self.seed),
         };
         let previous = std::mem::replace(&mut self.state, next);
-        self.parked.push((self.task, previous));
+        self.parked.push((self.task.clone(), previous));
         self.task = task;
         self.domain = self.state.learner.domain().clone();
     }

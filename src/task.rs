@@ -11,6 +11,8 @@
 //!
 //! This module does no file IO and prints nothing; it does not know how policies are derived.
 
+use std::sync::Arc;
+
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -20,13 +22,17 @@ use crate::domain::Domain;
 use crate::geometry::Pose;
 use crate::policy::Policy;
 use crate::policy::learner::{Learner, LearnerError, LearnerKind};
+use crate::program::OperatorSet;
+use crate::program::task::TaskDef;
 use crate::trace::{Episode, Trace};
 
+pub mod declared;
 pub mod interception;
 pub mod positioning;
 
 pub use interception::{BallStart, Interception, InterceptionRules, InterceptionTeacher};
-pub use positioning::{Positioning, PositioningRules, PositioningTeacher};
+pub use declared::{Declared, DeclaredTeacher};
+pub use positioning::PositioningTeacher;
 
 /// One episode of a task: its world, its observation and its scoring.
 ///
@@ -76,6 +82,8 @@ pub enum Ending {
     BallOut,
     /// The robot left the arena (interception).
     RobotOut,
+    /// An end rule of a declared task held (`end when COND` without `for`).
+    Rule,
     /// The backend failed (lost link, fault); the execution so far is kept.
     Interrupted,
 }
@@ -316,14 +324,58 @@ pub fn episode_seed(seed: u64, index: u64) -> u64 {
     x ^ (x >> 31)
 }
 
-/// The paper's two tasks.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+/// A task: one of the paper's two, or one declared in the language.
+///
+/// The paper's positioning task is itself a declaration (`operators/positioning.adv`) run by
+/// [`Declared`]; it keeps its name here for its Rust teleoperator model and its fixed place in
+/// the paper's studies. Interception stays in Rust (see ARCHITECTURE.md: its ball is a simulated
+/// world object with dynamics of its own, which the language does not declare).
+#[derive(Clone, Debug)]
 pub enum TaskKind {
     /// Segway RMP spatial positioning (A-OPI).
     Positioning,
     /// Simulated ball interception (BC).
     Interception,
+    /// A task declared in a file (`domain NAME { goal ... success when ... }`).
+    Declared(Arc<TaskDef>),
+}
+
+impl PartialEq for TaskKind {
+    fn eq(&self, other: &TaskKind) -> bool {
+        match (self, other) {
+            (TaskKind::Positioning, TaskKind::Positioning)
+            | (TaskKind::Interception, TaskKind::Interception) => true,
+            (TaskKind::Declared(a), TaskKind::Declared(b)) => Arc::ptr_eq(a, b) || a == b,
+            _ => false,
+        }
+    }
+}
+
+impl Eq for TaskKind {}
+
+impl std::hash::Hash for TaskKind {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.name().hash(state)
+    }
+}
+
+/// A task is written as its name (reports, journals).
+impl Serialize for TaskKind {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+/// Only the paper's tasks can be read back by name alone; a declared task needs its file.
+impl<'de> Deserialize<'de> for TaskKind {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<TaskKind, D::Error> {
+        let name = String::deserialize(d)?;
+        TaskKind::builtin(&name).ok_or_else(|| {
+            serde::de::Error::custom(format!(
+                "`{name}` is not one of the built-in tasks (positioning, interception); a declared task is loaded from its file"
+            ))
+        })
+    }
 }
 
 /// The highest practice start number, `run start 999999999`. Any `u64` could be drawn in constant
@@ -345,55 +397,99 @@ pub struct PracticeStartOutOfRange {
 }
 
 /// The initial condition of one episode.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Start {
     /// A positioning goal; the robot starts at the origin, heading 0.
     Goal(Pose),
     /// An interception start; the robot starts at the origin, heading 0.
     Ball(BallStart),
+    /// A goal of a declared task: a value for each goal parameter.
+    #[serde(skip)]
+    Declared(Arc<TaskDef>, Vec<f64>),
+}
+
+/// The standard positioning task, as `operators/positioning.adv` declares it.
+pub fn positioning_def() -> Arc<TaskDef> {
+    // The embedded library is checked by a test; its positioning domain is a task.
+    OperatorSet::standard_task("positioning")
+        .unwrap_or_else(|| panic!("operators/positioning.adv declares no positioning task"))
 }
 
 impl TaskKind {
-    pub fn name(self) -> &'static str {
+    /// The paper's task of that name.
+    pub fn builtin(name: &str) -> Option<TaskKind> {
+        match name {
+            "positioning" => Some(TaskKind::Positioning),
+            "interception" => Some(TaskKind::Interception),
+            _ => None,
+        }
+    }
+
+    pub fn name(&self) -> &str {
         match self {
             TaskKind::Positioning => "positioning",
             TaskKind::Interception => "interception",
+            TaskKind::Declared(d) => d.name(),
         }
     }
 
-    pub fn domain(self) -> Domain {
+    /// The declaration a task runs by: positioning's and the declared tasks'.
+    pub fn def(&self) -> Option<Arc<TaskDef>> {
+        match self {
+            TaskKind::Positioning => Some(positioning_def()),
+            TaskKind::Interception => None,
+            TaskKind::Declared(d) => Some(d.clone()),
+        }
+    }
+
+    pub fn domain(&self) -> Domain {
         match self {
             TaskKind::Positioning => Domain::positioning(),
             TaskKind::Interception => Domain::interception(),
+            TaskKind::Declared(d) => d.domain.clone(),
         }
     }
 
-    /// The fixed test set (25 goals; 100 interception starts). It never depends on a user's seed
-    /// and never overlaps [`TaskKind::practice_set`].
-    pub fn test_set(self) -> Vec<Start> {
+    /// Whether a recording's goal can be read from where it ends (the task's `recorded` clause):
+    /// what teleoperated demonstrations and imported bags need.
+    pub fn reads_recorded_goals(&self) -> bool {
+        self.def().is_some_and(|d| d.recorded.is_some())
+    }
+
+    /// The fixed test set (25 goals; 100 interception starts; a declared task's `test` count).
+    /// It never depends on a user's seed and never overlaps [`TaskKind::practice_set`].
+    pub fn test_set(&self) -> Vec<Start> {
         match self {
-            TaskKind::Positioning => positioning::test_goals()
-                .into_iter()
-                .map(Start::Goal)
+            TaskKind::Positioning => declared::test_goals(&positioning_def())
+                .iter()
+                .map(|g| Start::Goal(goal_pose(g)))
                 .collect(),
             TaskKind::Interception => interception::test_starts()
                 .into_iter()
                 .map(Start::Ball)
                 .collect(),
+            TaskKind::Declared(d) => declared::test_goals(d)
+                .into_iter()
+                .map(|g| Start::Declared(d.clone(), g))
+                .collect(),
         }
     }
 
     /// `n` practice/demonstration starts drawn from `seed` (a stream disjoint from the test set's).
-    pub fn practice_set(self, seed: u64, n: usize) -> Vec<Start> {
+    pub fn practice_set(&self, seed: u64, n: usize) -> Vec<Start> {
         match self {
-            TaskKind::Positioning => positioning::practice_goals(seed, n)
-                .into_iter()
-                .map(Start::Goal)
+            TaskKind::Positioning => declared::practice_goals(&positioning_def(), seed, n)
+                .iter()
+                .map(|g| Start::Goal(goal_pose(g)))
                 .collect(),
             TaskKind::Interception => interception::practice_starts(seed, n)
                 .into_iter()
                 .map(Start::Ball)
+                .collect(),
+            TaskKind::Declared(d) => declared::practice_goals(d, seed, n)
+                .into_iter()
+                .map(|g| Start::Declared(d.clone(), g))
                 .collect(),
         }
     }
@@ -401,21 +497,28 @@ impl TaskKind {
     /// Practice start `index` of `seed`, the same as `practice_set(seed, index + 1)[index]` but
     /// computed directly, in constant time and memory. Starts are numbered 0 to
     /// [`MAX_PRACTICE_START`].
-    pub fn practice_start(self, seed: u64, index: u64) -> Result<Start, PracticeStartOutOfRange> {
+    pub fn practice_start(&self, seed: u64, index: u64) -> Result<Start, PracticeStartOutOfRange> {
         if index > MAX_PRACTICE_START {
             return Err(PracticeStartOutOfRange { index });
         }
         Ok(match self {
-            TaskKind::Positioning => Start::Goal(positioning::practice_goal(seed, index)),
+            TaskKind::Positioning => Start::Goal(goal_pose(&declared::practice_goal(
+                &positioning_def(),
+                seed,
+                index,
+            ))),
             TaskKind::Interception => Start::Ball(interception::practice_start(seed, index)),
+            TaskKind::Declared(d) => {
+                Start::Declared(d.clone(), declared::practice_goal(d, seed, index))
+            }
         })
     }
 
     /// The paper's learner for the task: A-OPI (LWR) for positioning, BC (1-NN) for
-    /// interception.
-    pub fn learner(self) -> LearnerKind {
+    /// interception; LWR for declared tasks (continuous actions, as positioning's).
+    pub fn learner(&self) -> LearnerKind {
         match self {
-            TaskKind::Positioning => LearnerKind::Lwr,
+            TaskKind::Positioning | TaskKind::Declared(_) => LearnerKind::Lwr,
             TaskKind::Interception => LearnerKind::Bc,
         }
     }
@@ -423,7 +526,7 @@ impl TaskKind {
     /// Open a saved dataset for this task ([`Learner::open`]): a dataset of another task's
     /// domain is refused with the task to switch to.
     pub fn open_learner(
-        self,
+        &self,
         sources: &mut crate::diag::SourceMap,
         path: &std::path::Path,
         seed: u64,
@@ -445,19 +548,51 @@ impl TaskKind {
                         Some(t) => {
                             format!("switch to its task first with `task {t}`, then `open` it")
                         }
-                        None => format!("no task uses the `{found}` domain"),
+                        None => format!(
+                            "if `{found}` is a task declared in a file, load it with `tasks FILE` and switch with `task {found}`"
+                        ),
                     },
                 }
             },
         )
     }
 
-    /// The task's teacher (the stand-in for teleoperation), for a base running at `period_s`.
-    pub fn teacher(self, period_s: f64) -> Box<dyn Controller + Send> {
+    /// Whether the task has a teacher to demonstrate it in the simulator (the paper's tasks
+    /// do; a declared task when it declares `teacher { ... }`).
+    pub fn has_teacher(&self) -> bool {
+        match self {
+            TaskKind::Positioning | TaskKind::Interception => true,
+            TaskKind::Declared(d) => d.teacher.is_some(),
+        }
+    }
+
+    /// The task's teacher (the stand-in for teleoperation), for a base running at `period_s`. A
+    /// declared task without a teacher gets one that stands still (ask [`TaskKind::has_teacher`]
+    /// first).
+    pub fn teacher(&self, period_s: f64) -> Box<dyn Controller + Send> {
         match self {
             TaskKind::Positioning => Box::new(PositioningTeacher::new(period_s)),
             TaskKind::Interception => Box::new(InterceptionTeacher::new(period_s)),
+            TaskKind::Declared(d) => match DeclaredTeacher::new(d.clone()) {
+                Some(t) => Box::new(t),
+                None => Box::new(StandStill),
+            },
         }
+    }
+}
+
+/// A positioning goal `[x_g, y_g, theta_g]` as a pose.
+fn goal_pose(g: &[f64]) -> Pose {
+    let at = |i: usize| g.get(i).copied().unwrap_or(0.0);
+    Pose::new(at(0), at(1), at(2))
+}
+
+/// A controller that commands nothing.
+struct StandStill;
+
+impl Controller for StandStill {
+    fn act(&mut self, _z: &[f64], a: &mut [f64]) {
+        a.iter_mut().for_each(|v| *v = 0.0);
     }
 }
 
@@ -467,14 +602,28 @@ impl Start {
         match self {
             Start::Goal(_) => TaskKind::Positioning,
             Start::Ball(_) => TaskKind::Interception,
+            Start::Declared(d, _) => TaskKind::Declared(d.clone()),
         }
     }
 
     /// A fresh episode of the task from this start.
     pub fn task(&self) -> Box<dyn Task> {
         match self {
-            Start::Goal(g) => Box::new(Positioning::new(*g)),
+            Start::Goal(g) => Box::new(Declared::new(
+                positioning_def(),
+                &[g.x_m, g.y_m, g.theta_rad],
+            )),
             Start::Ball(b) => Box::new(Interception::new(*b)),
+            Start::Declared(d, g) => Box::new(Declared::new(d.clone(), g)),
+        }
+    }
+
+    /// The goal's values (a positioning goal is `x_g, y_g, theta_g`); none for interception.
+    pub fn goal_values(&self) -> Option<Vec<f64>> {
+        match self {
+            Start::Goal(g) => Some(vec![g.x_m, g.y_m, g.theta_rad]),
+            Start::Ball(_) => None,
+            Start::Declared(_, g) => Some(g.clone()),
         }
     }
 }
@@ -505,7 +654,7 @@ pub fn run_sim(
 /// `seed`, in parallel. Episode `i` is named `demo-i` and runs on a simulator seeded with
 /// [`episode_seed`]`(seed, i)`, so the result does not depend on thread scheduling.
 pub fn record_demos(
-    kind: TaskKind,
+    kind: &TaskKind,
     count: usize,
     seed: u64,
     params: &SimParams,

@@ -321,7 +321,7 @@ fn mutated_session_statements_are_replies_or_diagnostics() {
         };
         let fresh = || {
             Session::new(SessionOptions {
-                task,
+                task: task.clone(),
                 default_demos: 2,
                 ..SessionOptions::default()
             })

@@ -34,7 +34,7 @@ fn a_log_becomes_demonstrations_that_load_back() {
     let domain = Domain::positioning();
     for out in ["demos.json", "demos.csv"] {
         let out = dir.path().join(out);
-        write_demonstrations(&out, &episodes).unwrap();
+        write_demonstrations(&out, &advise::domain::Domain::positioning(), &episodes).unwrap();
         let loaded = Episode::load_all(&mut advise::diag::SourceMap::new(), &domain, &out).unwrap();
         assert_eq!(loaded.len(), 1);
         assert_eq!(loaded[0].name, "drive");

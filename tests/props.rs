@@ -270,6 +270,7 @@ fn item() -> impl Strategy<Value = Item> {
             name,
             unit,
             limits,
+            meaning: None,
             span: Span::default(),
         });
     let domain =
@@ -278,6 +279,7 @@ fn item() -> impl Strategy<Value = Item> {
                 doc,
                 name,
                 dims,
+                clauses: Vec::new(),
                 span: Span::default(),
             })
         });

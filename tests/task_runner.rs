@@ -6,7 +6,7 @@ use std::f64::consts::FRAC_PI_2;
 use advise::backend::sim::{SimBackend, SimParams};
 use advise::backend::{Backend, BackendError, BaseState};
 use advise::task::{
-    Ending, Positioning, Start, Task, TaskKind, episode_seed, run_episode, run_sim,
+    Declared, Ending, Start, Task, TaskKind, episode_seed, run_episode, run_sim,
 };
 use advise::trace::Pose;
 
@@ -14,9 +14,17 @@ fn zero(_z: &[f64], a: &mut [f64]) {
     a.fill(0.0);
 }
 
+/// A run of the standard positioning task (its declaration) toward `goal`.
+fn positioning(goal: Pose) -> Declared {
+    Declared::new(
+        advise::task::positioning_def(),
+        &[goal.x_m, goal.y_m, goal.theta_rad],
+    )
+}
+
 fn run_positioning(goal: Pose, policy: &dyn advise::policy::Policy) -> advise::task::Execution {
     let mut backend = SimBackend::new(SimParams::default(), 1);
-    let mut task = Positioning::new(goal);
+    let mut task = positioning(goal);
     run_episode(&mut backend, &mut task, &mut &*policy, 1).unwrap()
 }
 
@@ -47,7 +55,7 @@ fn a_perfect_stop_at_the_goal_succeeds_and_a_point_1_01_m_away_does_not() {
             .success
     );
     // Headings wrap: -3.1 and 3.1 are 0.08 rad apart.
-    let task = Positioning::new(Pose::new(0.0, 0.0, -3.1));
+    let task = positioning(Pose::new(0.0, 0.0, -3.1));
     let s = task.score(Ending::Rested, Pose::new(0.0, 0.0, 3.1));
     assert!((s.heading_error_rad.unwrap() - (std::f64::consts::TAU - 6.2)).abs() < 1e-12);
 }
@@ -73,6 +81,15 @@ fn a_policy_that_never_rests_meets_the_time_limit() {
     assert!((e.outcome.duration_s - 60.0).abs() < 1e-6);
 }
 
+/// The standard positioning declaration with another time limit, s.
+fn positioning_with_limit(limit_s: u32) -> std::sync::Arc<advise::program::task::TaskDef> {
+    let (name, text) = advise::check::STANDARD_SOURCES[0];
+    let text = text.replace("end after 60", &format!("end after {limit_s}"));
+    assert!(text.contains(&format!("end after {limit_s}")));
+    let set = advise::check::check(&[advise::check::Source::new(name, text)]).unwrap();
+    set.task("positioning").unwrap().clone()
+}
+
 #[test]
 fn actions_are_clamped_and_nan_becomes_zero_as_recorded() {
     let wild = |_z: &[f64], a: &mut [f64]| {
@@ -80,13 +97,7 @@ fn actions_are_clamped_and_nan_becomes_zero_as_recorded() {
         a[1] = f64::NAN;
     };
     let mut backend = SimBackend::new(SimParams::default(), 1);
-    let mut task = Positioning::with_rules(
-        Pose::new(3.0, 0.0, 0.0),
-        advise::task::PositioningRules {
-            time_limit_s: 1.0,
-            ..Default::default()
-        },
-    );
+    let mut task = Declared::new(positioning_with_limit(1), &[3.0, 0.0, 0.0]);
     let e = run_episode(&mut backend, &mut task, &mut &wild, 1).unwrap();
     assert_eq!(e.trace.a(0), &[1.0, 0.0]);
     assert!(e.outcome.length_m > 0.1);
@@ -101,13 +112,7 @@ fn the_policy_sees_odometry_and_the_score_uses_the_true_pose() {
         a[1] = 0.3;
     };
     let mut backend = SimBackend::new(SimParams::default(), 3);
-    let mut task = Positioning::with_rules(
-        Pose::new(3.0, 0.0, 0.0),
-        advise::task::PositioningRules {
-            time_limit_s: 20.0,
-            ..Default::default()
-        },
-    );
+    let mut task = Declared::new(positioning_with_limit(20), &[3.0, 0.0, 0.0]);
     let e = run_episode(&mut backend, &mut task, &mut &curve, 3).unwrap();
     let odom = *e.trace.pose.as_ref().unwrap().last().unwrap();
     let truth = *e.true_poses.as_ref().unwrap().last().unwrap();

@@ -35,6 +35,7 @@ fn the_last_start_is_drawn_at_once_and_in_range() {
                 assert!((1.0..=3.0).contains(&d), "{b:?}");
                 assert!(b.vx_mps.hypot(b.vy_mps) <= 0.8 + 1e-12, "{b:?}");
             }
+            other => panic!("not a start of the paper's tasks: {other:?}"),
         }
     }
 }
@@ -51,5 +52,28 @@ fn starts_past_the_maximum_are_refused() {
                 "there is no practice start {index}: practice starts are numbered 0 to 999999999"
             )
         );
+    }
+}
+
+/// Positioning runs by its declaration: the goals it draws from `goal ... in [..]` and `test 25
+/// seed ...` are the paper task's goals as the Rust reference draws them, bit for bit.
+#[test]
+fn the_declared_positioning_goals_are_the_reference_goals() {
+    use advise::task::positioning;
+    let as_starts =
+        |goals: Vec<advise::geometry::Pose>| goals.into_iter().map(Start::Goal).collect::<Vec<_>>();
+    let kind = TaskKind::Positioning;
+    assert_eq!(kind.test_set(), as_starts(positioning::test_goals()));
+    for seed in [0, 1, 7, u64::MAX] {
+        assert_eq!(
+            kind.practice_set(seed, 40),
+            as_starts(positioning::practice_goals(seed, 40))
+        );
+        for i in [0, 1, 39, 1_000_000] {
+            assert_eq!(
+                kind.practice_start(seed, i).unwrap(),
+                Start::Goal(positioning::practice_goal(seed, i))
+            );
+        }
     }
 }

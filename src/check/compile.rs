@@ -29,7 +29,7 @@ enum InsR {
     Bin(BinOp, R, R),
     Func1(Func, R),
     Func2(Func, R, R),
-    Clamp(R, R, R),
+    Func3(Func, R, R, R),
 }
 
 impl Compiler {
@@ -55,7 +55,8 @@ impl Compiler {
     /// Emit `ir` when it varies from point to point; `None` (emitting nothing) when it is uniform.
     fn emit_varying(&mut self, ir: &Ir) -> Option<R> {
         Some(match ir {
-            Ir::Num(_) | Ir::Param(_) | Ir::N => return None,
+            // Task slots never reach an operator body; as uniforms they evaluate to NaN.
+            Ir::Num(_) | Ir::Param(_) | Ir::N | Ir::Slot(_) | Ir::Prev(_) => return None,
             Ir::K => self.push(InsR::K),
             Ir::Dim(s, d) => self.push(InsR::Load(*s, *d)),
             Ir::At(s, d, off) => {
@@ -90,7 +91,7 @@ impl Compiler {
                     .map(|(r, a)| r.unwrap_or_else(|| self.uniform(a)))
                     .collect();
                 match (f, rs.as_slice()) {
-                    (Func::Clamp, [x, lo, hi]) => self.push(InsR::Clamp(*x, *lo, *hi)),
+                    (_, [x, y, z]) => self.push(InsR::Func3(*f, *x, *y, *z)),
                     (_, [x, y]) => self.push(InsR::Func2(*f, *x, *y)),
                     (_, [x]) => self.push(InsR::Func1(*f, *x)),
                     _ => unreachable!("the checker verified the arity of `{}`", f.name()),
@@ -130,7 +131,7 @@ pub(crate) fn compile(block: &BlockIr, domain: &Domain) -> Program {
             InsR::Bin(op, x, y) => Ins::Bin(op, reg(x), reg(y)),
             InsR::Func1(f, x) => Ins::Func1(f, reg(x)),
             InsR::Func2(f, x, y) => Ins::Func2(f, reg(x), reg(y)),
-            InsR::Clamp(x, lo, hi) => Ins::Clamp(reg(x), reg(lo), reg(hi)),
+            InsR::Func3(f, x, y, z) => Ins::Func3(f, reg(x), reg(y), reg(z)),
         })
         .collect();
     let snapshot = block.guard.iter().any(|g| g.reads_offset(block.space))

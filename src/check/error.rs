@@ -403,6 +403,180 @@ pub enum CheckError {
         help("fix these and check again to see the rest")
     )]
     TooManyErrors { shown: usize },
+
+    // Task declarations.
+    #[error("`{name}` is not a value of the task `{task}`")]
+    #[diagnostic(code(advise::check::task_unknown_name))]
+    TaskUnknownName {
+        name: String,
+        task: String,
+        #[help]
+        help: String,
+        #[label("unknown name")]
+        span: Loc,
+    },
+    #[error("`{name}` cannot be read in {context}")]
+    #[diagnostic(code(advise::check::task_name_not_here))]
+    TaskNameNotHere {
+        name: String,
+        context: String,
+        #[help]
+        help: String,
+        #[label("not available here")]
+        span: Loc,
+    },
+    #[error("`{name}` depends on itself: {chain}")]
+    #[diagnostic(
+        code(advise::check::task_cycle),
+        help(
+            "a value is computed from the pose, the goal and values before it; to use the previous step's value write `prev(NAME)` of a value that does not itself read `prev`"
+        )
+    )]
+    TaskCycle {
+        name: String,
+        chain: String,
+        #[label("defined in terms of itself")]
+        span: Loc,
+    },
+    #[error("the task `{task}` has no {what}")]
+    #[diagnostic(code(advise::check::task_incomplete))]
+    TaskIncomplete {
+        task: String,
+        what: String,
+        #[help]
+        help: String,
+        #[label("this task")]
+        span: Loc,
+    },
+    #[error("the task `{task}` has no success rule")]
+    #[diagnostic(
+        code(advise::check::task_missing_success),
+        help("say when a run succeeds, judged on its final state, e.g. `success when error < 0.2`")
+    )]
+    TaskMissingSuccess {
+        task: String,
+        #[label("this task")]
+        span: Loc,
+    },
+    #[error("the observation `{name}` has no definition")]
+    #[diagnostic(
+        code(advise::check::task_undefined_observation),
+        help("in a task every observation says how it is computed, e.g. `{name} = hypot(x_g - x, y_g - y)`")
+    )]
+    TaskUndefinedObservation {
+        name: String,
+        #[label("computed how?")]
+        span: Loc,
+    },
+    #[error("the action `{name}` does not drive the base")]
+    #[diagnostic(
+        code(advise::check::task_undriven_action),
+        help("say what it commands: `{name} drives speed`, `{name} drives turn`, or `{name} changes speed in [-1, 1]` for a change of speed the task adds up")
+    )]
+    TaskUndrivenAction {
+        name: String,
+        #[label("drives what?")]
+        span: Loc,
+    },
+    #[error("{what}")]
+    #[diagnostic(code(advise::check::task_wrong_meaning))]
+    TaskWrongMeaning {
+        what: String,
+        #[help]
+        help: String,
+        #[label("here")]
+        span: Loc,
+    },
+    #[error("there is no axis `{name}` to drive")]
+    #[diagnostic(
+        code(advise::check::task_unknown_axis),
+        help("a base has two axes: `speed` (translational, m/s) and `turn` (rotational, rad/s)")
+    )]
+    TaskUnknownAxis {
+        name: String,
+        #[label("not an axis")]
+        span: Loc,
+    },
+    #[error("`{axis}` is driven by two actions")]
+    #[diagnostic(
+        code(advise::check::task_axis_driven_twice),
+        help("each axis takes its command from one action; the first is `{first}`")
+    )]
+    TaskAxisTwice {
+        axis: String,
+        first: String,
+        #[label("driven again here")]
+        span: Loc,
+    },
+    #[error("`{name}` is declared twice in the task")]
+    #[diagnostic(
+        code(advise::check::task_duplicate_name),
+        help("{help}")
+    )]
+    TaskDuplicateName {
+        name: String,
+        help: String,
+        #[label("declared again here")]
+        span: Loc,
+    },
+    #[error("a task has one `{clause}` clause")]
+    #[diagnostic(
+        code(advise::check::task_clause_twice),
+        help("merge the two into one")
+    )]
+    TaskClauseTwice {
+        clause: String,
+        #[label("a second one")]
+        span: Loc,
+    },
+    #[error("the goal parameter `{name}` has no range")]
+    #[diagnostic(
+        code(advise::check::task_goal_needs_range),
+        help("practice and test goals are drawn from it: `{name} \"m\" in [-2, 2]`")
+    )]
+    TaskGoalNeedsRange {
+        name: String,
+        #[label("drawn from where?")]
+        span: Loc,
+    },
+    #[error("{what} cannot hold: {why}")]
+    #[diagnostic(code(advise::check::task_impossible_limit))]
+    TaskImpossibleLimit {
+        what: String,
+        why: String,
+        #[help]
+        help: String,
+        #[label("here")]
+        span: Loc,
+    },
+    #[error("the teacher writes `{name}`, which is not an action")]
+    #[diagnostic(code(advise::check::teacher_writes_non_action))]
+    TeacherWritesNonAction {
+        name: String,
+        #[help]
+        help: String,
+        #[label("not an action of the domain")]
+        span: Loc,
+    },
+    #[error("`{name}` is not a goal parameter")]
+    #[diagnostic(code(advise::check::task_recorded_unknown))]
+    TaskRecordedUnknown {
+        name: String,
+        #[help]
+        help: String,
+        #[label("not a goal parameter")]
+        span: Loc,
+    },
+    #[error("`recorded` does not say how to read the goal parameter `{name}`")]
+    #[diagnostic(
+        code(advise::check::task_recorded_incomplete),
+        help("a recording's goal is read from the pose it ends at: add `{name} = ...` (an expression of `x`, `y` and `theta`)")
+    )]
+    TaskRecordedIncomplete {
+        name: String,
+        #[label("this clause")]
+        span: Loc,
+    },
 }
 
 /// A diagnostic from either front-end phase, so one list can hold all of a check's errors.

@@ -47,6 +47,8 @@ pub(super) enum Scope<'a> {
         domain: &'a Dom<'a>,
         params: &'a [Param],
     },
+    /// A clause of a task declaration: the task's named values that clause may read.
+    Task(&'a super::task::TaskScope<'a>),
 }
 
 /// A domain with its dimensions indexed by name, so that resolving a name does not scan them.
@@ -114,6 +116,19 @@ impl Checker<'_> {
         match &e.kind {
             ExprKind::Num(v) => (Ir::Num(*v), Ty::Num),
             ExprKind::Var(name) => self.var(f, scope, name, e.span, what),
+            ExprKind::At { dim, .. } if matches!(scope, Scope::Task(_)) => {
+                self.err(
+                    f,
+                    e.span,
+                    CheckError::TaskNameNotHere {
+                        name: dim.name.clone(),
+                        context: "a task (`NAME[offset]` reads other points of a chunk, in operators)".into(),
+                        help: "a task reads the previous control step with `prev(NAME)`".into(),
+                        span: self.at(f, e.span),
+                    },
+                );
+                bad
+            }
             ExprKind::At { dim, offset } => {
                 let Scope::Point { domain, params } = scope else {
                     self.not_here(f, scope, &dim.name, e.span, what);
@@ -173,6 +188,10 @@ impl Checker<'_> {
                     }
                 }
             }
+            ExprKind::Call { func, args } if func.name == "prev" && matches!(scope, Scope::Task(_)) => {
+                let Scope::Task(ts) = scope else { return bad };
+                self.task_prev(f, ts, args, e.span)
+            }
             ExprKind::Call { func, args } => {
                 let resolved: Vec<(Ir, Ty)> = args
                     .iter()
@@ -207,8 +226,13 @@ impl Checker<'_> {
                     return bad;
                 }
                 let mut ok = true;
-                for (a, (_, ty)) in args.iter().zip(&resolved) {
-                    ok &= self.expect(f, a, *ty, Ty::Num, None);
+                for (i, (a, (_, ty))) in args.iter().zip(&resolved).enumerate() {
+                    let want = if fun.takes_condition(i) {
+                        Ty::Bool
+                    } else {
+                        Ty::Num
+                    };
+                    ok &= self.expect(f, a, *ty, want, None);
                 }
                 let irs = resolved.into_iter().map(|(ir, _)| ir).collect();
                 (Ir::Func(fun, irs), if ok { Ty::Num } else { Ty::Err })
@@ -280,8 +304,11 @@ impl Checker<'_> {
         if name == "pi" {
             return (Ir::Num(std::f64::consts::PI), Ty::Num);
         }
+        if let Scope::Task(ts) = scope {
+            return self.task_var(f, ts, name, span);
+        }
         let params: &[Param] = match scope {
-            Scope::Const => &[],
+            Scope::Const | Scope::Task(_) => &[],
             Scope::Point { params, .. } | Scope::Arg { params, .. } => params,
         };
         if let Some(i) = params.iter().position(|p| p.name == name) {
@@ -310,7 +337,7 @@ impl Checker<'_> {
                 }
                 Vec::new()
             }
-            Scope::Const => Vec::new(),
+            Scope::Const | Scope::Task(_) => Vec::new(),
         };
         let mut candidates: Vec<&str> = params.iter().map(|p| p.name.as_str()).collect();
         candidates.extend(dims);
@@ -321,7 +348,7 @@ impl Checker<'_> {
         let mut help = match suggest(name, candidates.iter().copied()) {
             Some(s) => format!("did you mean `{s}`?"),
             None => match scope {
-                Scope::Const => {
+                Scope::Const | Scope::Task(_) => {
                     "limits and defaults are constants: numbers, `pi` and arithmetic".into()
                 }
                 Scope::Arg { .. } => {

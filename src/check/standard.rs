@@ -86,6 +86,11 @@ impl OperatorSet {
     pub fn standard() -> OperatorSet {
         standard_set().clone()
     }
+
+    /// A task the standard files declare (`positioning`), shared.
+    pub fn standard_task(name: &str) -> Option<Arc<crate::program::task::TaskDef>> {
+        standard_set().task(name).cloned()
+    }
 }
 
 impl Domain {

@@ -17,10 +17,16 @@ use super::{
 
 /// `advise demo`: record teacher demonstrations in the simulator into one file.
 pub fn demo(args: DemoArgs) -> miette::Result<()> {
-    let kind = args.task;
+    let kind = super::resolve_task(&args.task, &args.tasks)?;
+    if !kind.has_teacher() {
+        return Err(CliError::NoTeacher {
+            task: kind.name().to_string(),
+        }
+        .into());
+    }
     let params = sim_params(args.sim_params.as_deref())?;
     let domain = kind.domain();
-    let recorded = crate::task::record_demos(kind, args.count as usize, args.seed, &params);
+    let recorded = crate::task::record_demos(&kind, args.count as usize, args.seed, &params);
     let successes = recorded.iter().filter(|(_, o)| o.success).count();
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
@@ -45,7 +51,13 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
 
 /// `advise eval`: run a policy (or the teacher) over the task's test set and print the report.
 pub fn eval(args: EvalArgs) -> miette::Result<()> {
-    let kind = args.task;
+    let kind = super::resolve_task(&args.task, &args.tasks)?;
+    if matches!(args.policy, EvalPolicy::Teacher) && !kind.has_teacher() {
+        return Err(CliError::NoTeacher {
+            task: kind.name().to_string(),
+        }
+        .into());
+    }
     let backend: BackendSpec = crate::cli::backend_with_topics(
         &args.backend,
         args.cmd_topic.as_deref(),
@@ -61,9 +73,9 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
     let report = match args.policy {
         EvalPolicy::Teacher if backend != BackendSpec::Sim => {
             let period = opts.params.period_s();
-            eval_on_base(kind, backend.clone(), &opts, limit, || kind.teacher(period))?
+            eval_on_base(kind.clone(), backend.clone(), &opts, limit, || kind.teacher(period))?
         }
-        EvalPolicy::Teacher => eval::evaluate_teacher(kind, &opts),
+        EvalPolicy::Teacher => eval::evaluate_teacher(kind.clone(), &opts),
         EvalPolicy::Learned(learner) => {
             let path = args.dataset.as_deref().ok_or(CliError::NoDataset {
                 policy: learner.name(),
@@ -74,10 +86,10 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
                 .map_err(|e| files.attach(e))?;
             let policy = eval::derive_policy(learner, &domain, &demos.episodes)?;
             if backend == BackendSpec::Sim {
-                eval::evaluate(kind, policy.as_ref(), &opts)
+                eval::evaluate(kind.clone(), policy.as_ref(), &opts)
             } else {
                 let p: &dyn crate::policy::Policy = policy.as_ref();
-                eval_on_base(kind, backend.clone(), &opts, limit, || p)?
+                eval_on_base(kind.clone(), backend.clone(), &opts, limit, || p)?
             }
         }
     };
@@ -144,29 +156,53 @@ where
 /// `advise import`: bags and CSV logs of a person's driving to a demonstrations file.
 pub fn import(args: ImportArgs) -> miette::Result<()> {
     use crate::recording::{ImportOptions, write_demonstrations};
-    if args.task != TaskKind::Positioning {
-        return Err(miette::miette!(
-            code = "advise::import::task",
-            help = "import positioning demonstrations (`--task positioning`)",
-            "`advise import` makes positioning demonstrations only; interception needs the ball's positions, which a log of the base does not hold"
-        ));
-    }
-    if let Some(g) = args
-        .goal
-        .as_deref()
-        .filter(|g| g.iter().any(|v| !v.is_finite()))
+    let kind = super::resolve_task(&args.task, &args.tasks)?;
+    let def = match kind.def() {
+        Some(d) if d.recorded.is_some() || args.goal.is_some() => d,
+        Some(d) if d.goal.is_empty() => d,
+        _ => {
+            return Err(miette::miette!(
+                code = "advise::import::task",
+                help = "import for `positioning`, or for a task whose declaration says how a recording's goal is read from where it ends (`recorded NAME = ...`)",
+                "`advise import` cannot make `{kind}` demonstrations: {}",
+                if kind == TaskKind::Interception {
+                    "interception needs the ball's positions, which a log of the base does not hold".to_string()
+                } else {
+                    format!("the task `{kind}` does not say how a recording's goal is read (no `recorded` clause); give it with `--goal`")
+                }
+            ));
+        }
+    };
+    if [&def.speed, &def.turn]
+        .iter()
+        .any(|d| d.as_ref().is_some_and(|d| d.integrate.is_some()))
     {
         return Err(miette::miette!(
-            code = "advise::import::goal",
-            help = "give the goal as three finite numbers: `--goal X Y THETA` (metres, metres, radians)",
-            "the goal {g:?} is not a pose"
+            code = "advise::import::task",
+            help = "import for a task whose actions drive the base's speeds directly (`drives speed`, `drives turn`)",
+            "the task `{kind}`'s actions are changes of speed; a log holds the speeds commanded, not how they were reached"
         ));
     }
+    if let Some(g) = args.goal.as_deref() {
+        let want = def.goal.len();
+        if g.len() != want || g.iter().any(|v| !v.is_finite()) {
+            let names: Vec<&str> = def.goal.iter().map(|p| p.name.as_str()).collect();
+            return Err(miette::miette!(
+                code = "advise::import::goal",
+                help = format!(
+                    "give the goal as {want} finite number{}: `--goal {}`",
+                    if want == 1 { "" } else { "s" },
+                    names.iter().map(|n| n.to_uppercase()).collect::<Vec<_>>().join(" ")
+                ),
+                "the goal {g:?} is not a goal of `{kind}` ({})",
+                names.join(", ")
+            ));
+        }
+    }
     let options = ImportOptions {
-        goal: args
-            .goal
-            .as_deref()
-            .map(|g| crate::trace::Pose::new(g[0], g[1], g[2])),
+        goal: None,
+        task: Some(def.clone()),
+        goal_values: args.goal.clone(),
         split_gap_s: args.split_gap,
         cmd_topic: Some(args.cmd_topic),
         odom_topic: Some(args.odom_topic),
@@ -179,7 +215,7 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
         }
         episodes.append(&mut found);
     }
-    write_demonstrations(&args.out, &episodes)?;
+    write_demonstrations(&args.out, &def.domain, &episodes)?;
     let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
     eprintln!(
         "wrote {} demonstration{} ({points} points) to {}; `load demos {}` adds them to a session",

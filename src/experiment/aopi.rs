@@ -215,7 +215,7 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
     let eseed = eval_seed(seed);
     let evaluate = |learner: &Learner| -> Report {
         let policy: &dyn Policy = learner.policy();
-        evaluate_starts(kind, test, || policy, sim, eseed)
+        evaluate_starts(kind.clone(), test, || policy, sim, eseed)
     };
     let base_report = evaluate(&baseline_learner);
     let base_point = arm_point(0, params.seed_demos, seed_demo_points, &base_report);

@@ -4,7 +4,7 @@
 
 use crate::domain::Space;
 use crate::program::code::{Ins, Program};
-use crate::program::ir::{Func, binop};
+use crate::program::ir::binop;
 use crate::syntax::ast::BinOp;
 use crate::trace::{Chunk, Trace};
 
@@ -272,9 +272,9 @@ impl Program {
                         *v = f.eval(&[*a, *b]);
                     }
                 }
-                Ins::Clamp(x, l, h) => {
-                    for (((v, a), lo), hi) in d.iter_mut().zip(r(x)).zip(r(l)).zip(r(h)) {
-                        *v = Func::Clamp.eval(&[*a, *lo, *hi]);
+                Ins::Func3(f, x, y, z) => {
+                    for (((v, a), b), c) in d.iter_mut().zip(r(x)).zip(r(y)).zip(r(z)) {
+                        *v = f.eval(&[*a, *b, *c]);
                     }
                 }
             }

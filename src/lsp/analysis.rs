@@ -354,8 +354,12 @@ pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
             // A match, so a new function cannot be added without its signature here.
             let args = match f {
                 Func::Min | Func::Max => "a, b",
-                Func::Abs | Func::Sign => "x",
+                Func::Abs | Func::Sign | Func::Sqrt => "x",
+                Func::Cos | Func::Sin | Func::Wrap => "a",
+                Func::Hypot => "dx, dy",
+                Func::Atan2 => "y, x",
                 Func::Clamp => "x, lo, hi",
+                Func::If => "cond, a, b",
             };
             Completion {
                 label: f.name().to_string(),

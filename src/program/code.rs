@@ -42,7 +42,7 @@ pub(crate) enum Ins {
     Bin(BinOp, usize, usize),
     Func1(Func, usize),
     Func2(Func, usize, usize),
-    Clamp(usize, usize, usize),
+    Func3(Func, usize, usize, usize),
 }
 
 impl Program {

@@ -93,6 +93,7 @@ impl AdviseHelper {
             ["load", "demos"]
                 | ["load", "trace"]
                 | ["operators"]
+                | ["tasks"]
                 | ["plot"]
                 | ["save"]
                 | ["open"]
@@ -219,6 +220,14 @@ mod tests {
         assert!(AdviseHelper::wants_path("load demos ", 11));
         assert!(AdviseHelper::wants_path("plot ru", 7));
         assert!(!AdviseHelper::wants_path("advise sp", 9));
+        assert!(AdviseHelper::wants_path("tasks ex", 8));
+    }
+
+    #[test]
+    fn completes_the_tasks_a_file_declared() {
+        let h = helper();
+        h.facts.lock().unwrap().tasks.push("standoff".into());
+        assert_eq!(h.candidates("task st", 7).1, vec!["standoff"]);
     }
 
     #[test]

@@ -19,7 +19,7 @@ impl Session {
     pub fn journal_header(&self) -> Header {
         Header {
             format: effect::JOURNAL_FORMAT.into(),
-            task: self.task,
+            task: self.task.clone(),
             seed: self.seed,
             sim: self.sim_params(),
             started_unix_s: std::time::SystemTime::now()
@@ -49,7 +49,7 @@ impl Session {
         let h = &loaded.header;
         // A header edited by hand is held to the simulator's ranges like any parameters file.
         h.sim.validate()?;
-        let mut s = Session::empty(h.task, h.seed, h.sim.clone());
+        let mut s = Session::empty(h.task.clone(), h.seed, h.sim.clone());
         s.restoring = true;
         let mut notes = Vec::new();
         let mut damaged = loaded.damaged.clone();
@@ -156,7 +156,10 @@ impl Session {
                 self.ops = checked.set;
                 self.warnings = checked.warnings;
             }
-            Effect::Task { task } => self.switch_task(*task),
+            Effect::Task { task } => {
+                let task = self.resolve_task(task)?;
+                self.switch_task(task)
+            }
             Effect::Backend { spec } => {
                 if self.restoring {
                     self.restored_backend = Some(spec.clone());

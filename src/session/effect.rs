@@ -58,9 +58,10 @@ pub enum Effect {
         origin: String,
         text: String,
     },
-    /// The session switched task (each task keeps its own dataset and executions).
+    /// The session switched task (each task keeps its own dataset and executions): its name, a
+    /// declared task's resolved against the definitions journalled before it.
     Task {
-        task: TaskKind,
+        task: String,
     },
     /// The session connected to a base. Restoring it does not connect: the session is on `sim`
     /// until the teacher connects again.

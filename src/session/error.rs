@@ -84,6 +84,12 @@ pub enum SessionError {
     #[error("unknown task `{name}`")]
     #[diagnostic(code(advise::session::unknown_task), help("{help}"))]
     UnknownTask { name: String, help: String },
+    #[error("{path} declares no task")]
+    #[diagnostic(
+        code(advise::session::no_tasks),
+        help("a task is a domain with a goal, observations' definitions, drives, success and end rules (see `operators/README.md`, Tasks); for operators alone use `operators FILE`")
+    )]
+    NoTasksInFile { path: String },
     #[error("there is no execution yet")]
     #[diagnostic(
         code(advise::session::no_execution),

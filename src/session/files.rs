@@ -57,7 +57,7 @@ impl Session {
                     })?;
                 let params = self.sim_params();
                 // A distinct stream from the practice starts the teacher's runs use.
-                task::record_demos(self.task, count, self.seed ^ 0xD3E0, &params)
+                task::record_demos(&self.task, count, self.seed ^ 0xD3E0, &params)
                     .into_iter()
                     .map(|(e, _)| e)
                     .collect()
@@ -116,6 +116,51 @@ impl Session {
         Ok(format!(
             "loaded execution {} from {path}: {n} points",
             self.state.executions.len() - 1
+        ))
+    }
+
+    /// `tasks FILE`: the file is checked and added as `operators FILE` does; the reply names
+    /// its tasks. A file that declares none is refused before anything changes.
+    pub(super) fn load_tasks(&mut self, path: &str) -> Result<String, SessionError> {
+        let id = crate::files::read_source(&mut self.sources, Path::new(path))?;
+        let text = self.sources.text(id).to_string();
+        let before: Vec<String> = self.ops.tasks().iter().map(|t| t.name().to_string()).collect();
+        let checked = self.ops.merge_in(&self.sources, &[id])?;
+        let new: Vec<std::sync::Arc<crate::program::task::TaskDef>> = checked
+            .set
+            .tasks()
+            .iter()
+            .filter(|t| !before.iter().any(|b| b == t.name()))
+            .cloned()
+            .collect();
+        if new.is_empty() {
+            return Err(SessionError::NoTasksInFile {
+                path: path.to_string(),
+            });
+        }
+        self.commit(Effect::Define {
+            origin: path.to_string(),
+            text,
+        })?;
+        let described: Vec<String> = new
+            .iter()
+            .map(|t| {
+                let goal: Vec<&str> = t.goal.iter().map(|g| g.name.as_str()).collect();
+                format!(
+                    "`{}` (goal {}; {} observations, {} actions; {})",
+                    t.name(),
+                    if goal.is_empty() { "none".into() } else { goal.join(", ") },
+                    t.domain.obs_dim(),
+                    t.domain.act_dim(),
+                    if t.teacher.is_some() { "a teacher" } else { "no teacher" }
+                )
+            })
+            .collect();
+        Ok(format!(
+            "checked {path}: task{} {}; switch with `task {}`",
+            if new.len() == 1 { "" } else { "s" },
+            described.join(", "),
+            new[0].name()
         ))
     }
 

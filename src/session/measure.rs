@@ -28,7 +28,7 @@ impl Session {
 
     pub(super) fn eval(&mut self, detail: bool) -> Result<Reply, SessionError> {
         if self.state.learner.is_empty() {
-            return Err(SessionError::EmptyPolicy { task: self.task });
+            return Err(SessionError::EmptyPolicy { task: self.task.clone() });
         }
         self.state.learner.ensure_derived();
         let opts = EvalOptions {
@@ -36,7 +36,7 @@ impl Session {
             params: self.sim_params(),
             progress: self.progress,
         };
-        let report = eval::evaluate(self.task, self.state.learner.policy(), &opts);
+        let report = eval::evaluate(self.task.clone(), self.state.learner.policy(), &opts);
         // The whole test set on a robot takes minutes and needs room: not from the prompt.
         let robot = match &self.backend {
             BackendChoice::Sim(_) => None,

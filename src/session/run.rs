@@ -45,7 +45,7 @@ impl Session {
         let start = self.task.practice_start(self.seed, n as u64)?;
         let goal = match start {
             Start::Goal(g) => Some(g),
-            Start::Ball(_) => None,
+            Start::Ball(_) | Start::Declared(..) => None,
         };
         self.run(start, format!("run start {n}"), goal)
     }
@@ -57,7 +57,7 @@ impl Session {
         goal: Option<Pose>,
     ) -> Result<Reply, SessionError> {
         if self.state.learner.is_empty() {
-            return Err(SessionError::EmptyPolicy { task: self.task });
+            return Err(SessionError::EmptyPolicy { task: self.task.clone() });
         }
         self.state.learner.ensure_derived();
         let number = self.state.runs;

@@ -76,7 +76,84 @@ pub struct DomainDecl {
     pub name: Ident,
     /// Dimensions in declaration order; each knows its space.
     pub dims: Vec<DimDecl>,
+    /// The task clauses (goal, let, success, end, score, recorded, test, teacher) in source
+    /// order; none for a domain that only declares shapes.
+    pub clauses: Vec<Clause>,
     pub span: Span,
+}
+
+/// What a dimension is, in a domain that is also a task.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DimMeaning {
+    /// An observation's definition: `= hypot(dx, dy)`.
+    Def(Expr),
+    /// An action commanding the base directly: `drives speed`.
+    Drives(Ident),
+    /// An action whose value is added to the command each step, which is kept in the limits:
+    /// `changes speed in [-1, 1]`.
+    Changes(Ident, LimitsExpr),
+}
+
+/// `name = expr` in a `let`, `score`, `recorded` or teacher statement.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Binding {
+    pub name: Ident,
+    pub value: Expr,
+    pub span: Span,
+}
+
+/// A task clause of a domain.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Clause {
+    /// `goal x_g "m" in [-0.33, 4.5], ...`: the goal's parameters (their `space` is unused).
+    Goal(Vec<DimDecl>),
+    /// `let dx = x_g - x, ...`
+    Let(Vec<Binding>),
+    /// `success when COND`
+    Success { cond: Expr, span: Span },
+    /// `end when COND [for SECONDS]`
+    EndWhen {
+        cond: Expr,
+        hold: Option<Expr>,
+        span: Span,
+    },
+    /// `end after SECONDS`
+    EndAfter { limit: Expr, span: Span },
+    /// `score error = ..., heading_error = ...`
+    Score(Vec<Binding>),
+    /// `recorded x_g = x, ...`
+    Recorded(Vec<Binding>),
+    /// `test COUNT [seed SEED]`
+    Test {
+        count: f64,
+        seed: Option<f64>,
+        span: Span,
+    },
+    /// `teacher { let d = ..  trans = .. }`
+    Teacher { stmts: Vec<TeacherStmt>, span: Span },
+}
+
+impl Clause {
+    /// The clause's keyword, as diagnostics name it.
+    pub fn keyword(&self) -> &'static str {
+        match self {
+            Clause::Goal(_) => "goal",
+            Clause::Let(_) => "let",
+            Clause::Success { .. } => "success",
+            Clause::EndWhen { .. } | Clause::EndAfter { .. } => "end",
+            Clause::Score(_) => "score",
+            Clause::Recorded(_) => "recorded",
+            Clause::Test { .. } => "test",
+            Clause::Teacher { .. } => "teacher",
+        }
+    }
+}
+
+/// A statement of a teacher: `let d = sqrt(dist2)` (a local value) or `trans = d` (an action).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TeacherStmt {
+    pub is_let: bool,
+    pub binding: Binding,
 }
 
 /// One dimension: `trans "m/s" in [-1, 1]`.
@@ -86,6 +163,8 @@ pub struct DimDecl {
     pub name: Ident,
     pub unit: Option<String>,
     pub limits: Option<LimitsExpr>,
+    /// In a task: the observation's definition or how the action drives the base.
+    pub meaning: Option<DimMeaning>,
     pub span: Span,
 }
 
@@ -344,6 +423,7 @@ impl EraseSpans for DomainDecl {
     fn erase_spans(&mut self) {
         self.name.erase_spans();
         self.dims.erase_spans();
+        self.clauses.erase_spans();
         self.span.erase_spans();
     }
 }
@@ -352,7 +432,62 @@ impl EraseSpans for DimDecl {
     fn erase_spans(&mut self) {
         self.name.erase_spans();
         self.limits.erase_spans();
+        self.meaning.erase_spans();
         self.span.erase_spans();
+    }
+}
+
+impl EraseSpans for DimMeaning {
+    fn erase_spans(&mut self) {
+        match self {
+            DimMeaning::Def(e) => e.erase_spans(),
+            DimMeaning::Drives(a) => a.erase_spans(),
+            DimMeaning::Changes(a, l) => {
+                a.erase_spans();
+                l.erase_spans();
+            }
+        }
+    }
+}
+
+impl EraseSpans for Binding {
+    fn erase_spans(&mut self) {
+        self.name.erase_spans();
+        self.value.erase_spans();
+        self.span.erase_spans();
+    }
+}
+
+impl EraseSpans for TeacherStmt {
+    fn erase_spans(&mut self) {
+        self.binding.erase_spans();
+    }
+}
+
+impl EraseSpans for Clause {
+    fn erase_spans(&mut self) {
+        match self {
+            Clause::Goal(d) => d.erase_spans(),
+            Clause::Let(b) | Clause::Score(b) | Clause::Recorded(b) => b.erase_spans(),
+            Clause::Success { cond, span } => {
+                cond.erase_spans();
+                span.erase_spans();
+            }
+            Clause::EndWhen { cond, hold, span } => {
+                cond.erase_spans();
+                hold.erase_spans();
+                span.erase_spans();
+            }
+            Clause::EndAfter { limit, span } => {
+                limit.erase_spans();
+                span.erase_spans();
+            }
+            Clause::Test { span, .. } => span.erase_spans(),
+            Clause::Teacher { stmts, span } => {
+                stmts.erase_spans();
+                span.erase_spans();
+            }
+        }
     }
 }
 

@@ -82,6 +82,7 @@ impl Builder {
         let mut doc = Vec::new();
         let mut name = None;
         let mut dims = Vec::new();
+        let mut clauses = Vec::new();
         for part in p.into_inner() {
             match part.as_rule() {
                 Rule::doc => doc.push(self.doc_line(part)),
@@ -98,6 +99,55 @@ impl Builder {
                         dims.push(self.dim(space, d)?);
                     }
                 }
+                Rule::goal_group => {
+                    let goal = part
+                        .into_inner()
+                        .filter(|d| d.as_rule() == Rule::dim)
+                        .map(|d| self.dim(Space::Observation, d))
+                        .collect::<Result<_, _>>()?;
+                    clauses.push(Clause::Goal(goal));
+                }
+                Rule::let_group => clauses.push(Clause::Let(self.bindings(part)?)),
+                Rule::score_group => clauses.push(Clause::Score(self.bindings(part)?)),
+                Rule::recorded_group => clauses.push(Clause::Recorded(self.bindings(part)?)),
+                Rule::success_rule => {
+                    let span = self.span(&part);
+                    let e = part.into_inner().find(|e| e.as_rule() == Rule::expr);
+                    let cond = self.expr(e.expect("a success rule has a condition"), 0)?;
+                    clauses.push(Clause::Success { cond, span });
+                }
+                Rule::end_rule => clauses.push(self.end_rule(part)?),
+                Rule::test_set => {
+                    let span = self.span(&part);
+                    let mut nums = part.into_inner().filter(|e| e.as_rule() == Rule::number);
+                    let count = nums.next().expect("a test set has a size");
+                    let count = self.number_text(count.as_str(), self.span(&count))?;
+                    let seed = match nums.next() {
+                        Some(n) => Some(self.number_text(n.as_str(), self.span(&n))?),
+                        None => None,
+                    };
+                    clauses.push(Clause::Test { count, seed, span });
+                }
+                Rule::teacher => {
+                    let span = self.span(&part);
+                    let mut stmts = Vec::new();
+                    for st in part.into_inner().filter(|s| s.as_rule() == Rule::teacher_stmt) {
+                        let mut is_let = false;
+                        let mut binding = None;
+                        for x in st.into_inner() {
+                            match x.as_rule() {
+                                Rule::kw_let => is_let = true,
+                                Rule::binding => binding = Some(self.binding(x)?),
+                                _ => {}
+                            }
+                        }
+                        stmts.push(TeacherStmt {
+                            is_let,
+                            binding: binding.expect("a teacher statement binds a name"),
+                        });
+                    }
+                    clauses.push(Clause::Teacher { stmts, span });
+                }
                 _ => {}
             }
         }
@@ -105,7 +155,57 @@ impl Builder {
             doc,
             name: name.expect("a domain has a name"),
             dims,
+            clauses,
             span,
+        })
+    }
+
+    fn bindings(&self, p: Pair<'_, Rule>) -> Result<Vec<Binding>, ParseError> {
+        p.into_inner()
+            .filter(|b| b.as_rule() == Rule::binding)
+            .map(|b| self.binding(b))
+            .collect()
+    }
+
+    fn binding(&self, p: Pair<'_, Rule>) -> Result<Binding, ParseError> {
+        let span = self.span(&p);
+        let mut name = None;
+        let mut value = None;
+        for x in p.into_inner() {
+            match x.as_rule() {
+                Rule::name => name = Some(self.ident(x)),
+                Rule::expr => value = Some(self.expr(x, 0)?),
+                _ => {}
+            }
+        }
+        Ok(Binding {
+            name: name.expect("a binding has a name"),
+            value: value.expect("a binding has a value"),
+            span,
+        })
+    }
+
+    fn end_rule(&self, p: Pair<'_, Rule>) -> Result<Clause, ParseError> {
+        let span = self.span(&p);
+        let mut after = false;
+        let mut exprs = Vec::new();
+        for x in p.into_inner() {
+            match x.as_rule() {
+                Rule::kw_after => after = true,
+                Rule::expr => exprs.push(self.expr(x, 0)?),
+                _ => {}
+            }
+        }
+        let mut exprs = exprs.into_iter();
+        let first = exprs.next().expect("an end rule has an expression");
+        Ok(if after {
+            Clause::EndAfter { limit: first, span }
+        } else {
+            Clause::EndWhen {
+                cond: first,
+                hold: exprs.next(),
+                span,
+            }
         })
     }
 
@@ -114,6 +214,7 @@ impl Builder {
         let mut name = None;
         let mut unit = None;
         let mut limits = None;
+        let mut meaning = None;
         for part in p.into_inner() {
             match part.as_rule() {
                 Rule::name => name = Some(self.ident(part)),
@@ -125,6 +226,7 @@ impl Builder {
                     )
                 }
                 Rule::limits => limits = Some(self.limits(part)?),
+                Rule::dim_meaning => meaning = Some(self.dim_meaning(part)?),
                 _ => {}
             }
         }
@@ -133,7 +235,32 @@ impl Builder {
             name: name.expect("a dimension has a name"),
             unit,
             limits,
+            meaning,
             span,
+        })
+    }
+
+    fn dim_meaning(&self, p: Pair<'_, Rule>) -> Result<DimMeaning, ParseError> {
+        let mut kind = Rule::assign;
+        let mut expr = None;
+        let mut axis = None;
+        let mut limits = None;
+        for x in p.into_inner() {
+            match x.as_rule() {
+                r @ (Rule::kw_drives | Rule::kw_changes) => kind = r,
+                Rule::expr => expr = Some(self.expr(x, 0)?),
+                Rule::name => axis = Some(self.ident(x)),
+                Rule::limits => limits = Some(self.limits(x)?),
+                _ => {}
+            }
+        }
+        Ok(match kind {
+            Rule::kw_drives => DimMeaning::Drives(axis.expect("`drives` names an axis")),
+            Rule::kw_changes => DimMeaning::Changes(
+                axis.expect("`changes` names an axis"),
+                limits.expect("`changes` has limits"),
+            ),
+            _ => DimMeaning::Def(expr.expect("a definition has a value")),
         })
     }
 

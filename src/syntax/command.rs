@@ -33,6 +33,8 @@ pub enum PlotKind {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Command {
     Task(Ident),
+    /// `tasks FILE`: check a file and add the tasks it declares.
+    Tasks(String),
     Backend(String),
     /// `load demos PATH [cmd TOPIC] [odom TOPIC]`: the topics apply to a bag.
     LoadDemos {
@@ -101,6 +103,7 @@ impl Command {
     pub fn name(&self) -> &'static str {
         match self {
             Command::Task(_) => "task",
+            Command::Tasks(_) => "tasks",
             Command::Backend(_) => "backend",
             Command::LoadDemos { .. } | Command::LoadTrace(_) => "load",
             Command::Operators(_) => "operators",
@@ -195,10 +198,17 @@ impl Step {
 pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "task",
-        signature: "task positioning|interception",
-        doc: "Switch task (positioning: A-OPI with LWR; interception: BC with 1-NN). Each task keeps its own dataset, executions and history.",
+        signature: "task positioning|interception|NAME",
+        doc: "Switch task (positioning: A-OPI with LWR; interception: BC with 1-NN; a task loaded with `tasks FILE`: LWR). Each task keeps its own dataset, executions and history.",
         step: Step::Demonstrate,
         example: "task interception",
+    },
+    CommandSpec {
+        name: "tasks",
+        signature: "tasks FILE.adv",
+        doc: "Check a file of task declarations (`domain NAME { goal ... success when ... }`) and add its tasks and operators; `task NAME` switches to one.",
+        step: Step::Demonstrate,
+        example: "tasks examples/tasks/standoff.adv",
     },
     CommandSpec {
         name: "backend",
@@ -404,6 +414,7 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
     let mut next = || args.next();
     let cmd = match rule {
         Rule::c_task => Command::Task(b.ident(req(next()))),
+        Rule::c_tasks => Command::Tasks(path(req(next()))),
         Rule::c_backend => Command::Backend(req(next()).as_str().to_string()),
         Rule::c_load_demos => {
             let file = path(req(next()));

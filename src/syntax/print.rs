@@ -58,6 +58,12 @@ impl Display for DomainDecl {
             let mut first = true;
             while i < self.dims.len() && self.dims[i].space == space {
                 if !first {
+                    // A defined observation has a line of its own.
+                    if matches!(self.dims[i].meaning, Some(DimMeaning::Def(_)))
+                        || matches!(self.dims[i - 1].meaning, Some(DimMeaning::Def(_)))
+                    {
+                        break;
+                    }
                     f.write_str(", ")?;
                 }
                 first = false;
@@ -65,6 +71,9 @@ impl Display for DomainDecl {
                 i += 1;
             }
             f.write_char('\n')?;
+        }
+        for c in &self.clauses {
+            writeln!(f, "  {c}")?;
         }
         f.write_char('}')
     }
@@ -79,7 +88,68 @@ impl Display for DimDecl {
         if let Some(l) = &self.limits {
             write!(f, " {l}")?;
         }
+        match &self.meaning {
+            None => {}
+            Some(DimMeaning::Def(e)) => write!(f, " = {e}")?,
+            Some(DimMeaning::Drives(a)) => write!(f, " drives {}", a.name)?,
+            Some(DimMeaning::Changes(a, l)) => write!(f, " changes {} {l}", a.name)?,
+        }
         Ok(())
+    }
+}
+
+impl Display for Binding {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        write!(f, "{} = {}", self.name.name, self.value)
+    }
+}
+
+fn write_list<T: Display>(f: &mut Formatter<'_>, items: &[T]) -> fmt::Result {
+    for (i, x) in items.iter().enumerate() {
+        if i > 0 {
+            f.write_str(", ")?;
+        }
+        x.fmt(f)?;
+    }
+    Ok(())
+}
+
+impl Display for Clause {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        match self {
+            Clause::Goal(dims) => {
+                f.write_str("goal ")?;
+                write_list(f, dims)
+            }
+            Clause::Let(b) | Clause::Score(b) | Clause::Recorded(b) => {
+                write!(f, "{} ", self.keyword())?;
+                write_list(f, b)
+            }
+            Clause::Success { cond, .. } => write!(f, "success when {cond}"),
+            Clause::EndWhen { cond, hold, .. } => {
+                write!(f, "end when {cond}")?;
+                match hold {
+                    Some(h) => write!(f, " for {h}"),
+                    None => Ok(()),
+                }
+            }
+            Clause::EndAfter { limit, .. } => write!(f, "end after {limit}"),
+            Clause::Test { count, seed, .. } => {
+                write!(f, "test {}", number(*count))?;
+                match seed {
+                    Some(s) => write!(f, " seed {}", number(*s)),
+                    None => Ok(()),
+                }
+            }
+            Clause::Teacher { stmts, .. } => {
+                f.write_str("teacher {\n")?;
+                for st in stmts {
+                    let kw = if st.is_let { "let " } else { "" };
+                    writeln!(f, "    {kw}{}", st.binding)?;
+                }
+                f.write_str("  }")
+            }
+        }
     }
 }
 

@@ -6,21 +6,19 @@
 //! the robot's start). Observation: squared distance to the goal, the angle between the goal
 //! vector and the heading, and `theta_g - theta_r` (both angles wrapped to (-pi, pi]); all from
 //! odometry. Action: translational and rotational speed, the command itself. The episode ends when
-//! the controller comes to rest ([`PositioningRules`]) or at the time limit; it succeeds when the
-//! true final pose is within 1.0 m and pi/2 rad of the goal. This module owns the goal sets and
-//! these rules; it does not run episodes (see [`crate::task::run_episode`]).
-
-use std::f64::consts::FRAC_PI_2;
+//! the controller comes to rest or at the time limit; it succeeds when the true final pose is
+//! within 1.0 m and pi/2 rad of the goal. The observations, drives and rules are declared in
+//! `operators/positioning.adv` and run by [`crate::task::declared`]; this module keeps the goal
+//! sets, the Rust reference of the observation, and the teleoperation teacher (a model of a
+//! person, with lag and misjudgement, which the language does not express).
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use crate::backend::BaseState;
 use crate::backend::sim::normal_pair;
-use crate::domain::Domain;
 use crate::geometry::{Pose, bearing, wrap_angle};
-use crate::task::{Controller, Ending, Score, Task};
+use crate::task::Controller;
 
 /// Goal bounds, from the paper.
 pub const GOAL_X_M: (f64, f64) = (-0.33, 4.5);
@@ -32,36 +30,6 @@ pub const TEST_GOALS: usize = 25;
 /// Seed of the test set. The test set is drawn from stream 0 of this seed; practice goals come
 /// from stream 1 of the user's seed, so the two never coincide.
 pub const TEST_SEED: u64 = 0x7E57_2009;
-
-/// The stopping rule and the success thresholds.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct PositioningRules {
-    /// Success: final position error below this, m (paper: 1.0).
-    pub success_position_m: f64,
-    /// Success: final heading error below this, rad (paper: pi/2).
-    pub success_heading_rad: f64,
-    /// At rest: commanded and measured translational speed below this, m/s.
-    pub rest_speed_mps: f64,
-    /// At rest: commanded and measured rotational speed below this, rad/s.
-    pub rest_rot_radps: f64,
-    /// The episode ends once the controller has been at rest this long, s.
-    pub rest_s: f64,
-    /// The episode ends at this time whatever happens, s.
-    pub time_limit_s: f64,
-}
-
-impl Default for PositioningRules {
-    fn default() -> Self {
-        PositioningRules {
-            success_position_m: 1.0,
-            success_heading_rad: FRAC_PI_2,
-            rest_speed_mps: 0.02,
-            rest_rot_radps: 0.02,
-            rest_s: 0.5,
-            time_limit_s: 60.0,
-        }
-    }
-}
 
 /// The fixed test set: 25 goals.
 pub fn test_goals() -> Vec<Pose> {
@@ -104,8 +72,10 @@ fn sample_goal(rng: &mut ChaCha8Rng) -> Pose {
     )
 }
 
-/// The observation of `goal` from `pose`: `[dist2, bearing, dheading]`. Exactly at the goal
-/// position the goal vector has no direction and the bearing is 0.
+/// The observation of `goal` from `pose`: `[dist2, bearing, dheading]`, written out in Rust. The
+/// task runs by its declaration in `operators/positioning.adv`; this is the reference the tests
+/// hold that declaration to, bit for bit. Exactly at the goal position the goal vector has no
+/// direction and the bearing is 0.
 pub fn observe(goal: Pose, pose: Pose) -> [f64; 3] {
     let (dx, dy) = (goal.x_m - pose.x_m, goal.y_m - pose.y_m);
     let bearing = if dx == 0.0 && dy == 0.0 {
@@ -118,97 +88,6 @@ pub fn observe(goal: Pose, pose: Pose) -> [f64; 3] {
         bearing,
         wrap_angle(goal.theta_rad - pose.theta_rad),
     ]
-}
-
-/// One positioning episode.
-#[derive(Clone, Debug)]
-pub struct Positioning {
-    domain: Domain,
-    goal: Pose,
-    rules: PositioningRules,
-    command: (f64, f64),
-    rest_for_s: f64,
-}
-
-impl Positioning {
-    pub fn new(goal: Pose) -> Positioning {
-        Positioning::with_rules(goal, PositioningRules::default())
-    }
-
-    pub fn with_rules(goal: Pose, rules: PositioningRules) -> Positioning {
-        Positioning {
-            domain: Domain::positioning(),
-            goal,
-            rules,
-            command: (0.0, 0.0),
-            rest_for_s: 0.0,
-        }
-    }
-
-    pub fn goal(&self) -> Pose {
-        self.goal
-    }
-
-    pub fn rules(&self) -> &PositioningRules {
-        &self.rules
-    }
-}
-
-impl Task for Positioning {
-    fn domain(&self) -> &Domain {
-        &self.domain
-    }
-
-    fn start(&self) -> Pose {
-        Pose::default()
-    }
-
-    fn begin(&mut self, _state: &BaseState) {
-        self.command = (0.0, 0.0);
-        self.rest_for_s = 0.0;
-    }
-
-    fn observe(&self, state: &BaseState, z: &mut [f64]) {
-        z.copy_from_slice(&observe(self.goal, state.pose));
-    }
-
-    fn command(&mut self, _state: &BaseState, a: &[f64]) -> (f64, f64) {
-        self.command = (a[0], a[1]);
-        self.command
-    }
-
-    fn advance(
-        &mut self,
-        dt_s: f64,
-        state: &BaseState,
-        _true_pose: Option<Pose>,
-    ) -> Option<Ending> {
-        let r = &self.rules;
-        let resting = self.command.0.abs() < r.rest_speed_mps
-            && self.command.1.abs() < r.rest_rot_radps
-            && state.speed_mps.abs() < r.rest_speed_mps
-            && state.rot_radps.abs() < r.rest_rot_radps;
-        self.rest_for_s = if resting { self.rest_for_s + dt_s } else { 0.0 };
-        // A small tolerance so that 30 periods of 1/30 s count as one second.
-        if self.rest_for_s >= r.rest_s - 1e-9 {
-            Some(Ending::Rested)
-        } else if state.t_s >= r.time_limit_s - 1e-9 {
-            Some(Ending::TimeLimit)
-        } else {
-            None
-        }
-    }
-
-    fn score(&self, _ending: Ending, pose: Pose) -> Score {
-        let position_error_m = self.goal.distance_to(pose);
-        let heading_error_rad = wrap_angle(self.goal.theta_rad - pose.theta_rad).abs();
-        Score {
-            success: position_error_m < self.rules.success_position_m
-                && heading_error_rad < self.rules.success_heading_rad,
-            position_error_m,
-            heading_error_rad: Some(heading_error_rad),
-        }
-    }
 }
 
 /// How the positioning teacher drives: a human at a joystick, watching the robot.

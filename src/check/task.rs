@@ -1,0 +1,963 @@
+//! Task declarations: a domain's goal, values, drives, rules, scores and teacher checked into a
+//! [`TaskDef`]. Names resolve through the same resolver as operator bodies ([`Scope::Task`]), so
+//! functions, types and "did you mean" work alike; what is new here is which values each clause
+//! may read, the order values are computed in (a cycle is an error), and what a task must say.
+
+use std::collections::HashMap;
+
+use super::names::{RESERVED, Scope, Ty};
+use super::*;
+use crate::domain::Space;
+use crate::program::ir::{Func, Ir};
+use crate::program::task::{
+    Axis, BASE, Drive, EndRule, GoalParam, MAX_GOAL_PARAMS, MAX_TEST_GOALS, TaskDef,
+    TeacherDef, TeacherTarget,
+};
+
+/// What kind of value a task name is; each clause may read some kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Kind {
+    Base,
+    Goal,
+    Action,
+    /// A `let` or an observation.
+    Value,
+    Score,
+    /// In a teacher: an observation.
+    TeacherObs,
+    /// In a teacher: one of its `let`s.
+    TeacherLocal,
+}
+
+impl Kind {
+    fn word(self) -> &'static str {
+        match self {
+            Kind::Base => "the robot's state",
+            Kind::Goal => "a goal parameter",
+            Kind::Action => "an action",
+            Kind::Value => "a value",
+            Kind::Score => "a score",
+            Kind::TeacherObs => "an observation",
+            Kind::TeacherLocal => "a teacher's value",
+        }
+    }
+}
+
+/// The names an expression of a task may use, and where it is.
+pub(super) struct TaskScope<'a> {
+    pub(super) task: &'a str,
+    pub(super) names: &'a HashMap<String, (usize, Kind)>,
+    pub(super) allowed: &'a [Kind],
+    /// Where the expression is, for messages: "an observation's definition".
+    pub(super) context: &'a str,
+    pub(super) prev_ok: bool,
+}
+
+const DEFAULT_TEST_GOALS: usize = 25;
+/// The longest time limit, s (a day).
+const MAX_TIME_S: f64 = 86_400.0;
+
+impl Checker<'_> {
+    /// A task name in an expression: its slot, or a diagnostic.
+    pub(super) fn task_var(&mut self, f: usize, ts: &TaskScope<'_>, name: &str, span: Span) -> (Ir, Ty) {
+        let bad = (Ir::Num(f64::NAN), Ty::Err);
+        match ts.names.get(name) {
+            Some(&(slot, kind)) if ts.allowed.contains(&kind) => (Ir::Slot(slot), Ty::Num),
+            Some(&(_, kind)) => {
+                let help = match kind {
+                    Kind::Action => "an action is chosen after the observations are computed; end rules, scores and the success rule may read it".to_string(),
+                    Kind::Score => "scores are computed at the end of a run, after everything else; only the success rule (and later scores) may read them".to_string(),
+                    Kind::Goal | Kind::Base | Kind::Value if ts.context.contains("teacher") => {
+                        "a teacher sees what a learned policy sees: the observations (and its own `let`s)".to_string()
+                    }
+                    _ => format!("{} may read: {}", ts.context, kinds(ts.allowed)),
+                };
+                self.err(
+                    f,
+                    span,
+                    CheckError::TaskNameNotHere {
+                        name: name.into(),
+                        context: format!("{} ({name} is {})", ts.context, kind.word()),
+                        help,
+                        span: self.at(f, span),
+                    },
+                );
+                bad
+            }
+            None => {
+                let mut candidates: Vec<&str> = ts
+                    .names
+                    .iter()
+                    .filter(|(_, (_, k))| ts.allowed.contains(k))
+                    .map(|(n, _)| n.as_str())
+                    .collect();
+                candidates.sort_unstable();
+                candidates.push("pi");
+                let help = hint(name, "names here", &candidates);
+                self.err(
+                    f,
+                    span,
+                    CheckError::TaskUnknownName {
+                        name: name.into(),
+                        task: ts.task.into(),
+                        help,
+                        span: self.at(f, span),
+                    },
+                );
+                bad
+            }
+        }
+    }
+
+    /// `prev(NAME)`: the named value at the previous step.
+    pub(super) fn task_prev(&mut self, f: usize, ts: &TaskScope<'_>, args: &[Expr], span: Span) -> (Ir, Ty) {
+        let bad = (Ir::Num(f64::NAN), Ty::Err);
+        let help = "write `prev(NAME)` with the name of the pose (`x`, `y`, `theta`), a speed (`v`, `w`), `t`, a `let` or an observation";
+        if !ts.prev_ok {
+            self.err(
+                f,
+                span,
+                CheckError::TaskNameNotHere {
+                    name: "prev".into(),
+                    context: ts.context.into(),
+                    help: "only the task's values, end rules, scores and success rule read the previous step".into(),
+                    span: self.at(f, span),
+                },
+            );
+            return bad;
+        }
+        let [arg] = args else {
+            self.err(
+                f,
+                span,
+                CheckError::WrongArity {
+                    func: "prev".into(),
+                    expected: 1,
+                    found: args.len(),
+                    signature: "prev(NAME): NAME's value at the previous control step (at the first step, its value now)".into(),
+                    span: self.at(f, span),
+                },
+            );
+            return bad;
+        };
+        let ExprKind::Var(name) = &arg.kind else {
+            self.err(
+                f,
+                arg.span,
+                CheckError::TaskWrongMeaning {
+                    what: "`prev` takes a name, not an expression".into(),
+                    help: help.into(),
+                    span: self.at(f, arg.span),
+                },
+            );
+            return bad;
+        };
+        match ts.names.get(name.as_str()) {
+            Some(&(slot, Kind::Base | Kind::Value)) => (Ir::Prev(slot), Ty::Num),
+            Some(&(_, kind)) => {
+                self.err(
+                    f,
+                    arg.span,
+                    CheckError::TaskNameNotHere {
+                        name: name.clone(),
+                        context: format!("`prev` ({name} is {})", kind.word()),
+                        help: help.into(),
+                        span: self.at(f, arg.span),
+                    },
+                );
+                bad
+            }
+            None => self.task_var(f, ts, name, arg.span),
+        }
+    }
+
+    /// The task a domain declares, when it has task clauses; `None` for a domain of shapes only
+    /// or when the task has mistakes (they are reported).
+    pub(super) fn task(&mut self, f: usize, d: &DomainDecl, domain: &Domain) -> Option<TaskDef> {
+        let is_task = !d.clauses.is_empty() || d.dims.iter().any(|x| x.meaning.is_some());
+        if !is_task || self.full() {
+            return None;
+        }
+        let before = self.error_count();
+        let task = domain.name.as_str();
+        let mut names: HashMap<String, (usize, Kind)> = HashMap::new();
+        let mut slot_names: Vec<String> = Vec::new();
+        let mut spans: HashMap<String, Span> = HashMap::new();
+        for (i, (n, _, _)) in BASE.iter().enumerate() {
+            names.insert((*n).into(), (i, Kind::Base));
+            slot_names.push((*n).into());
+        }
+        // A new name, or a diagnostic when it is taken.
+        let declare = |c: &mut Self,
+                           names: &mut HashMap<String, (usize, Kind)>,
+                           slot_names: &mut Vec<String>,
+                           id: &Ident,
+                           kind: Kind|
+         -> Option<usize> {
+            let n = id.name.as_str();
+            let taken = if BASE.iter().any(|(b, _, _)| *b == n) {
+                Some(format!("`{n}` is the robot's state ({}); choose another name", BASE.iter().find(|(b, _, _)| *b == n).map_or("", |b| b.2)))
+            } else if let Some((_, meaning)) = RESERVED.iter().find(|(r, _)| *r == n) {
+                Some(format!("`{n}` is {meaning}; choose another name"))
+            } else if n == "prev" || Func::by_name(n).is_some() {
+                Some(format!("`{n}` is a built-in function; choose another name"))
+            } else if names.contains_key(n) {
+                Some("each goal parameter, `let`, observation, action and score has its own name".into())
+            } else {
+                None
+            };
+            if let Some(help) = taken {
+                c.err(
+                    f,
+                    id.span,
+                    CheckError::TaskDuplicateName {
+                        name: n.into(),
+                        help,
+                        span: c.at(f, id.span),
+                    },
+                );
+                return None;
+            }
+            let slot = slot_names.len();
+            names.insert(n.into(), (slot, kind));
+            slot_names.push(n.into());
+            Some(slot)
+        };
+
+        // The goal.
+        let mut goal = Vec::new();
+        for c in &d.clauses {
+            let Clause::Goal(params) = c else { continue };
+            for p in params {
+                if goal.len() == MAX_GOAL_PARAMS {
+                    self.err(
+                        f,
+                        p.span,
+                        CheckError::TaskImpossibleLimit {
+                            what: "this goal".into(),
+                            why: format!("a goal has at most {MAX_GOAL_PARAMS} parameters"),
+                            help: "describe the goal with fewer numbers".into(),
+                            span: self.at(f, p.span),
+                        },
+                    );
+                    break;
+                }
+                if let Some(m) = &p.meaning {
+                    let span = meaning_span(m, p.span);
+                    self.err(
+                        f,
+                        span,
+                        CheckError::TaskWrongMeaning {
+                            what: format!("the goal parameter `{}` is drawn, not defined", p.name.name),
+                            help: "a goal parameter has a name, a unit and a range; compute other values with `let`".into(),
+                            span: self.at(f, span),
+                        },
+                    );
+                }
+                declare(self, &mut names, &mut slot_names, &p.name, Kind::Goal);
+                let Some(l) = &p.limits else {
+                    self.err(
+                        f,
+                        p.span,
+                        CheckError::TaskGoalNeedsRange {
+                            name: p.name.name.clone(),
+                            span: self.at(f, p.span),
+                        },
+                    );
+                    continue;
+                };
+                if let Some(lim) = self.limits(f, l) {
+                    goal.push(GoalParam {
+                        name: p.name.name.clone(),
+                        unit: p.unit.clone().unwrap_or_default(),
+                        lo: lim.lo,
+                        hi: lim.hi,
+                    });
+                }
+            }
+        }
+        // The actions, then the `let`s and observations.
+        let mut action_dims = Vec::new();
+        for dim in d.dims.iter().filter(|x| x.space == Space::Action) {
+            if let Some(slot) = declare(self, &mut names, &mut slot_names, &dim.name, Kind::Action) {
+                action_dims.push((slot, dim));
+            }
+        }
+        // `(slot, name, expression)` of every value to compute.
+        let mut values: Vec<(usize, &Ident, &Expr)> = Vec::new();
+        for c in &d.clauses {
+            let Clause::Let(bs) = c else { continue };
+            for b in bs {
+                if let Some(slot) = declare(self, &mut names, &mut slot_names, &b.name, Kind::Value) {
+                    values.push((slot, &b.name, &b.value));
+                    spans.insert(b.name.name.clone(), b.name.span);
+                }
+            }
+        }
+        let mut observe = Vec::new();
+        for dim in d.dims.iter().filter(|x| x.space == Space::Observation) {
+            let slot = declare(self, &mut names, &mut slot_names, &dim.name, Kind::Value);
+            match (&dim.meaning, slot) {
+                (Some(DimMeaning::Def(e)), Some(slot)) => {
+                    values.push((slot, &dim.name, e));
+                    observe.push(slot);
+                }
+                (Some(m @ (DimMeaning::Drives(..) | DimMeaning::Changes(..))), _) => {
+                    let span = meaning_span(m, dim.span);
+                    self.err(
+                        f,
+                        span,
+                        CheckError::TaskWrongMeaning {
+                            what: format!("the observation `{}` cannot drive the base", dim.name.name),
+                            help: "actions drive the base (`act trans \"m/s\" in [-1, 1] drives speed`); an observation is computed: `= EXPR`".into(),
+                            span: self.at(f, span),
+                        },
+                    );
+                }
+                (None, _) => self.err(
+                    f,
+                    dim.span,
+                    CheckError::TaskUndefinedObservation {
+                        name: dim.name.name.clone(),
+                        span: self.at(f, dim.span),
+                    },
+                ),
+                _ => {}
+            }
+        }
+        let mut score_decls: Vec<(usize, &Binding)> = Vec::new();
+        for c in &d.clauses {
+            let Clause::Score(bs) = c else { continue };
+            for b in bs {
+                if let Some(slot) = declare(self, &mut names, &mut slot_names, &b.name, Kind::Score) {
+                    score_decls.push((slot, b));
+                }
+            }
+        }
+
+        // The values, and the order to compute them in.
+        const VALUE_READS: &[Kind] = &[Kind::Base, Kind::Goal, Kind::Value];
+        let mut resolved: HashMap<usize, Ir> = HashMap::new();
+        for (slot, name, e) in &values {
+            let context = format!("the definition of `{}`", name.name);
+            let ts = TaskScope {
+                task,
+                names: &names,
+                allowed: VALUE_READS,
+                context: &context,
+                prev_ok: true,
+            };
+            let (ir, ty) = self.resolve(f, Scope::Task(&ts), e, "");
+            self.expect(f, e, ty, Ty::Num, Some("a value is a number; use `if(cond, a, b)` to choose between two"));
+            resolved.insert(*slot, ir);
+        }
+        let order = self.value_order(f, &values, &resolved, &slot_names);
+        let computed: Vec<(usize, Ir)> = order
+            .into_iter()
+            .filter_map(|slot| resolved.remove(&slot).map(|ir| (slot, ir)))
+            .collect();
+
+        // Drives.
+        let (mut speed, mut turn): (Option<(Drive, String)>, Option<(Drive, String)>) = (None, None);
+        for (i, (_, dim)) in action_dims.iter().enumerate() {
+            let (axis, integrate) = match &dim.meaning {
+                None => {
+                    self.err(
+                        f,
+                        dim.span,
+                        CheckError::TaskUndrivenAction {
+                            name: dim.name.name.clone(),
+                            span: self.at(f, dim.span),
+                        },
+                    );
+                    continue;
+                }
+                Some(DimMeaning::Def(e)) => {
+                    self.err(
+                        f,
+                        e.span,
+                        CheckError::TaskWrongMeaning {
+                            what: format!("the action `{}` is chosen by the controller, not computed", dim.name.name),
+                            help: format!("say what it commands instead: `{} drives speed` or `drives turn`; a value computed from others is a `let`", dim.name.name),
+                            span: self.at(f, e.span),
+                        },
+                    );
+                    continue;
+                }
+                Some(DimMeaning::Drives(a)) => (a, None),
+                Some(DimMeaning::Changes(a, l)) => (a, Some(l)),
+            };
+            let axis_kind = match axis.name.as_str() {
+                "speed" => Axis::Speed,
+                "turn" => Axis::Turn,
+                _ => {
+                    self.err(
+                        f,
+                        axis.span,
+                        CheckError::TaskUnknownAxis {
+                            name: axis.name.clone(),
+                            span: self.at(f, axis.span),
+                        },
+                    );
+                    continue;
+                }
+            };
+            let integrate = match integrate {
+                Some(l) => match self.limits(f, l) {
+                    Some(lim) => Some(lim),
+                    None => continue,
+                },
+                None => None,
+            };
+            let slot = match axis_kind {
+                Axis::Speed => &mut speed,
+                Axis::Turn => &mut turn,
+            };
+            if let Some((_, first)) = slot {
+                self.err(
+                    f,
+                    axis.span,
+                    CheckError::TaskAxisTwice {
+                        axis: axis_kind.word().into(),
+                        first: first.clone(),
+                        span: self.at(f, axis.span),
+                    },
+                );
+                continue;
+            }
+            *slot = Some((Drive { action: i, integrate }, dim.name.name.clone()));
+        }
+        if action_dims.is_empty() {
+            self.err(
+                f,
+                d.name.span,
+                CheckError::TaskIncomplete {
+                    task: task.into(),
+                    what: "action".into(),
+                    help: "declare what the controller commands: `act trans \"m/s\" in [-1, 1] drives speed, rot \"rad/s\" in [-1, 1] drives turn`".into(),
+                    span: self.at(f, d.name.span),
+                },
+            );
+        }
+
+        // End rules.
+        const RULE_READS: &[Kind] = &[Kind::Base, Kind::Goal, Kind::Action, Kind::Value];
+        let mut ends = Vec::new();
+        let mut limit_seen = false;
+        for c in &d.clauses {
+            match c {
+                Clause::EndWhen { cond, hold, .. } => {
+                    let ts = TaskScope {
+                        task,
+                        names: &names,
+                        allowed: RULE_READS,
+                        context: "an end rule",
+                        prev_ok: true,
+                    };
+                    let (ir, ty) = self.resolve(f, Scope::Task(&ts), cond, "");
+                    self.expect(f, cond, ty, Ty::Bool, Some("an end rule is a condition such as `abs(v) < 0.02`"));
+                    let hold_s = match hold {
+                        None => Some(0.0),
+                        Some(h) => self.seconds(f, h, "the time a condition must hold", false),
+                    };
+                    if let Some(hold_s) = hold_s {
+                        ends.push(EndRule::When { cond: ir, hold_s });
+                    }
+                }
+                Clause::EndAfter { limit, span } => {
+                    if limit_seen {
+                        self.err(
+                            f,
+                            *span,
+                            CheckError::TaskClauseTwice {
+                                clause: "end after".into(),
+                                span: self.at(f, *span),
+                            },
+                        );
+                        continue;
+                    }
+                    limit_seen = true;
+                    if let Some(limit_s) = self.seconds(f, limit, "the time limit", true) {
+                        ends.push(EndRule::After { limit_s });
+                    }
+                }
+                _ => {}
+            }
+        }
+        if !limit_seen {
+            self.err(
+                f,
+                d.name.span,
+                CheckError::TaskIncomplete {
+                    task: task.into(),
+                    what: "time limit".into(),
+                    help: "every run must end, on a real base too: add `end after 60` (seconds)".into(),
+                    span: self.at(f, d.name.span),
+                },
+            );
+        }
+
+        // Scores, in order: each may read the ones before it.
+        let mut score = Vec::new();
+        let mut error = None;
+        let mut heading_error = None;
+        for (slot, b) in &score_decls {
+            let context = format!("the score `{}`", b.name.name);
+            let ts = TaskScope {
+                task,
+                names: &names,
+                allowed: &[Kind::Base, Kind::Goal, Kind::Action, Kind::Value, Kind::Score],
+                context: &context,
+                prev_ok: true,
+            };
+            let (ir, ty) = self.resolve(f, Scope::Task(&ts), &b.value, "");
+            self.expect(f, &b.value, ty, Ty::Num, None);
+            let mut reads = Vec::new();
+            ir.slots(&mut reads);
+            if let Some((later, _)) = reads.iter().find(|(s, _)| *s >= *slot && names.values().any(|(x, k)| x == s && *k == Kind::Score)) {
+                let later = &slot_names[*later];
+                self.err(
+                    f,
+                    b.value.span,
+                    CheckError::TaskNameNotHere {
+                        name: later.clone(),
+                        context: context.clone(),
+                        help: "scores are computed in the order they are written; a score reads only the ones before it".into(),
+                        span: self.at(f, b.value.span),
+                    },
+                );
+            }
+            match b.name.name.as_str() {
+                "error" => error = Some(*slot),
+                "heading_error" => heading_error = Some(*slot),
+                _ => {}
+            }
+            score.push((*slot, ir));
+        }
+        if error.is_none() {
+            self.err(
+                f,
+                d.name.span,
+                CheckError::TaskIncomplete {
+                    task: task.into(),
+                    what: "`error` score".into(),
+                    help: "say how far a run's end is from what was asked, e.g. `score error = hypot(x - x_g, y - y_g)`; evaluations report its mean".into(),
+                    span: self.at(f, d.name.span),
+                },
+            );
+        }
+
+        // Success.
+        let mut success = None;
+        for c in &d.clauses {
+            let Clause::Success { cond, span } = c else { continue };
+            if success.is_some() {
+                self.err(
+                    f,
+                    *span,
+                    CheckError::TaskClauseTwice {
+                        clause: "success".into(),
+                        span: self.at(f, *span),
+                    },
+                );
+                continue;
+            }
+            let ts = TaskScope {
+                task,
+                names: &names,
+                allowed: &[Kind::Base, Kind::Goal, Kind::Action, Kind::Value, Kind::Score],
+                context: "the success rule",
+                prev_ok: true,
+            };
+            let (ir, ty) = self.resolve(f, Scope::Task(&ts), cond, "");
+            self.expect(f, cond, ty, Ty::Bool, Some("success is a condition such as `error < 0.2`"));
+            success = Some(ir);
+        }
+        if success.is_none() {
+            self.err(
+                f,
+                d.name.span,
+                CheckError::TaskMissingSuccess {
+                    task: task.into(),
+                    span: self.at(f, d.name.span),
+                },
+            );
+        }
+
+        let recorded = self.recorded(f, d, task, &names, &goal);
+        let (test_count, test_seed) = self.test_set(f, d, task);
+        let teacher = self.teacher(f, d, task, domain);
+
+        if self.error_count() > before {
+            return None;
+        }
+        Some(TaskDef {
+            domain: domain.clone(),
+            doc: d.doc.join("\n"),
+            goal,
+            test_count,
+            test_seed,
+            slot_names,
+            computed,
+            observe,
+            speed: speed.map(|(d, _)| d),
+            turn: turn.map(|(d, _)| d),
+            ends,
+            score,
+            error: error?,
+            heading_error,
+            success: success?,
+            recorded,
+            teacher,
+        })
+    }
+
+    /// A constant number of seconds: positive (or, where `zero_ok`, zero) and at most a day.
+    fn seconds(&mut self, f: usize, e: &Expr, what: &str, positive: bool) -> Option<f64> {
+        let v = self.constant(f, e, what)?;
+        let why = if v < 0.0 || (positive && v == 0.0) {
+            Some(format!("{} s is not a time a run can take", crate::syntax::print::number(v)))
+        } else if v > MAX_TIME_S {
+            Some(format!("{} s is longer than a day", crate::syntax::print::number(v)))
+        } else {
+            None
+        };
+        if let Some(why) = why {
+            self.err(
+                f,
+                e.span,
+                CheckError::TaskImpossibleLimit {
+                    what: what.into(),
+                    why,
+                    help: "write a number of seconds, e.g. `end after 60` or `for 0.5`".into(),
+                    span: self.at(f, e.span),
+                },
+            );
+            return None;
+        }
+        Some(v)
+    }
+
+    /// The order to compute values in: each after the values it reads (this step's, and at the
+    /// first step the ones it reads with `prev`, which are then this step's). A cycle is reported.
+    fn value_order(
+        &mut self,
+        f: usize,
+        values: &[(usize, &Ident, &Expr)],
+        resolved: &HashMap<usize, Ir>,
+        slot_names: &[String],
+    ) -> Vec<usize> {
+        let ids: HashMap<usize, usize> = values.iter().enumerate().map(|(i, (s, _, _))| (*s, i)).collect();
+        let deps: Vec<Vec<usize>> = values
+            .iter()
+            .map(|(slot, _, _)| {
+                let mut reads = Vec::new();
+                if let Some(ir) = resolved.get(slot) {
+                    ir.slots(&mut reads);
+                }
+                let mut d: Vec<usize> = reads.into_iter().filter_map(|(s, _)| ids.get(&s).copied()).collect();
+                d.sort_unstable();
+                d.dedup();
+                d
+            })
+            .collect();
+        // Iterative depth-first search: 0 unvisited, 1 on the path, 2 done.
+        let mut state = vec![0u8; values.len()];
+        let mut order = Vec::with_capacity(values.len());
+        let mut reported = false;
+        for root in 0..values.len() {
+            if state[root] != 0 {
+                continue;
+            }
+            let mut stack: Vec<(usize, usize)> = vec![(root, 0)];
+            state[root] = 1;
+            while let Some(&mut (node, ref mut next)) = stack.last_mut() {
+                if let Some(&dep) = deps[node].get(*next) {
+                    *next += 1;
+                    match state[dep] {
+                        0 => {
+                            state[dep] = 1;
+                            stack.push((dep, 0));
+                        }
+                        1 if !reported => {
+                            reported = true;
+                            let start = stack.iter().position(|(n, _)| *n == dep).unwrap_or(0);
+                            let mut chain: Vec<&str> = stack[start..]
+                                .iter()
+                                .map(|(n, _)| slot_names[values[*n].0].as_str())
+                                .collect();
+                            chain.push(slot_names[values[dep].0].as_str());
+                            let (_, id, _) = values[dep];
+                            self.err(
+                                f,
+                                id.span,
+                                CheckError::TaskCycle {
+                                    name: id.name.clone(),
+                                    chain: chain.join(" -> "),
+                                    span: self.at(f, id.span),
+                                },
+                            );
+                        }
+                        _ => {}
+                    }
+                } else {
+                    state[node] = 2;
+                    order.push(values[node].0);
+                    stack.pop();
+                }
+            }
+        }
+        order
+    }
+
+    fn recorded(
+        &mut self,
+        f: usize,
+        d: &DomainDecl,
+        task: &str,
+        names: &HashMap<String, (usize, Kind)>,
+        goal: &[GoalParam],
+    ) -> Option<Vec<Ir>> {
+        let mut out: Option<Vec<Option<Ir>>> = None;
+        let mut clause_span = None;
+        for c in &d.clauses {
+            let Clause::Recorded(bs) = c else { continue };
+            let span = bs.first().map_or(d.name.span, |b| b.span);
+            if out.is_some() {
+                self.err(
+                    f,
+                    span,
+                    CheckError::TaskClauseTwice {
+                        clause: "recorded".into(),
+                        span: self.at(f, span),
+                    },
+                );
+                continue;
+            }
+            clause_span = Some(span);
+            let mut got: Vec<Option<Ir>> = vec![None; goal.len()];
+            for b in bs {
+                let Some(i) = goal.iter().position(|g| g.name == b.name.name) else {
+                    let gnames: Vec<&str> = goal.iter().map(|g| g.name.as_str()).collect();
+                    self.err(
+                        f,
+                        b.name.span,
+                        CheckError::TaskRecordedUnknown {
+                            name: b.name.name.clone(),
+                            help: hint(&b.name.name, "goal parameters", &gnames),
+                            span: self.at(f, b.name.span),
+                        },
+                    );
+                    continue;
+                };
+                if got[i].is_some() {
+                    self.err(
+                        f,
+                        b.name.span,
+                        CheckError::TaskDuplicateName {
+                            name: b.name.name.clone(),
+                            help: "each goal parameter is read once".into(),
+                            span: self.at(f, b.name.span),
+                        },
+                    );
+                    continue;
+                }
+                let ts = TaskScope {
+                    task,
+                    names,
+                    allowed: &[Kind::Base],
+                    context: "`recorded` (the pose a recording ends at)",
+                    prev_ok: false,
+                };
+                let (ir, ty) = self.resolve(f, Scope::Task(&ts), &b.value, "");
+                self.expect(f, &b.value, ty, Ty::Num, None);
+                got[i] = Some(ir);
+            }
+            out = Some(got);
+        }
+        let got = out?;
+        let mut all = Vec::with_capacity(got.len());
+        for (g, ir) in goal.iter().zip(got) {
+            match ir {
+                Some(ir) => all.push(ir),
+                None => {
+                    let span = clause_span.unwrap_or(d.name.span);
+                    self.err(
+                        f,
+                        span,
+                        CheckError::TaskRecordedIncomplete {
+                            name: g.name.clone(),
+                            span: self.at(f, span),
+                        },
+                    );
+                }
+            }
+        }
+        (all.len() == goal.len()).then_some(all)
+    }
+
+    fn test_set(&mut self, f: usize, d: &DomainDecl, task: &str) -> (usize, u64) {
+        let mut out = None;
+        for c in &d.clauses {
+            let Clause::Test { count, seed, span } = c else { continue };
+            if out.is_some() {
+                self.err(
+                    f,
+                    *span,
+                    CheckError::TaskClauseTwice {
+                        clause: "test".into(),
+                        span: self.at(f, *span),
+                    },
+                );
+                continue;
+            }
+            let whole = |v: f64, max: f64| v.fract() == 0.0 && v >= 0.0 && v <= max;
+            if !whole(*count, MAX_TEST_GOALS as f64) || *count < 1.0 {
+                self.err(
+                    f,
+                    *span,
+                    CheckError::TaskImpossibleLimit {
+                        what: "the test set".into(),
+                        why: format!("{} is not a number of goals from 1 to {MAX_TEST_GOALS}", crate::syntax::print::number(*count)),
+                        help: "write a whole number, e.g. `test 25`".into(),
+                        span: self.at(f, *span),
+                    },
+                );
+                out = Some((DEFAULT_TEST_GOALS, 0));
+                continue;
+            }
+            let max_seed = 9_007_199_254_740_992.0; // 2^53: every whole number below is exact.
+            let seed = match seed {
+                Some(s) if whole(*s, max_seed) => *s as u64,
+                Some(s) => {
+                    self.err(
+                        f,
+                        *span,
+                        CheckError::TaskImpossibleLimit {
+                            what: "the test seed".into(),
+                            why: format!("{} is not a whole number from 0 to 2^53", crate::syntax::print::number(*s)),
+                            help: "write a whole number, e.g. `test 25 seed 7`".into(),
+                            span: self.at(f, *span),
+                        },
+                    );
+                    0
+                }
+                None => name_seed(task),
+            };
+            out = Some((*count as usize, seed));
+        }
+        out.unwrap_or((DEFAULT_TEST_GOALS, name_seed(task)))
+    }
+
+    fn teacher(&mut self, f: usize, d: &DomainDecl, task: &str, domain: &Domain) -> Option<TeacherDef> {
+        let mut out = None;
+        for c in &d.clauses {
+            let Clause::Teacher { stmts, span } = c else { continue };
+            if out.is_some() {
+                self.err(
+                    f,
+                    *span,
+                    CheckError::TaskClauseTwice {
+                        clause: "teacher".into(),
+                        span: self.at(f, *span),
+                    },
+                );
+                continue;
+            }
+            let mut names: HashMap<String, (usize, Kind)> = domain
+                .observe
+                .iter()
+                .enumerate()
+                .map(|(i, o)| (o.name.clone(), (i, Kind::TeacherObs)))
+                .collect();
+            let mut slots = domain.obs_dim();
+            let mut written: Vec<usize> = Vec::new();
+            let mut out_stmts = Vec::new();
+            for st in stmts {
+                let b = &st.binding;
+                let ts = TaskScope {
+                    task,
+                    names: &names,
+                    allowed: &[Kind::TeacherObs, Kind::TeacherLocal],
+                    context: "the teacher",
+                    prev_ok: false,
+                };
+                let (ir, ty) = self.resolve(f, Scope::Task(&ts), &b.value, "");
+                self.expect(f, &b.value, ty, Ty::Num, None);
+                let n = b.name.name.as_str();
+                if st.is_let {
+                    if names.contains_key(n) || domain.find(n).is_some() || RESERVED.iter().any(|(r, _)| *r == n) {
+                        self.err(
+                            f,
+                            b.name.span,
+                            CheckError::TaskDuplicateName {
+                                name: n.into(),
+                                help: "a teacher's `let` needs a name of its own".into(),
+                                span: self.at(f, b.name.span),
+                            },
+                        );
+                        continue;
+                    }
+                    names.insert(n.into(), (slots, Kind::TeacherLocal));
+                    out_stmts.push((TeacherTarget::Local(slots), ir));
+                    slots += 1;
+                } else if let Some(i) = domain.index_of(Space::Action, n) {
+                    if written.contains(&i) {
+                        self.err(
+                            f,
+                            b.name.span,
+                            CheckError::TaskDuplicateName {
+                                name: n.into(),
+                                help: "the teacher sets each action once".into(),
+                                span: self.at(f, b.name.span),
+                            },
+                        );
+                        continue;
+                    }
+                    written.push(i);
+                    out_stmts.push((TeacherTarget::Action(i), ir));
+                } else {
+                    let actions: Vec<&str> = domain.act.iter().map(|a| a.name.as_str()).collect();
+                    let help = if domain.index_of(Space::Observation, n).is_some() {
+                        format!("`{n}` is an observation: the teacher reads observations and sets actions ({})", listing(&actions))
+                    } else {
+                        format!("{}; for a value of its own write `let {n} = ...`", hint(n, "actions", &actions))
+                    };
+                    self.err(
+                        f,
+                        b.name.span,
+                        CheckError::TeacherWritesNonAction {
+                            name: n.into(),
+                            help,
+                            span: self.at(f, b.name.span),
+                        },
+                    );
+                }
+            }
+            out = Some(TeacherDef { slots, stmts: out_stmts });
+        }
+        out
+    }
+}
+
+fn meaning_span(m: &DimMeaning, fallback: Span) -> Span {
+    let s = match m {
+        DimMeaning::Def(e) => e.span,
+        DimMeaning::Drives(a) | DimMeaning::Changes(a, _) => a.span,
+    };
+    if s.end > s.start { s } else { fallback }
+}
+
+fn kinds(allowed: &[Kind]) -> String {
+    allowed.iter().map(|k| k.word()).collect::<Vec<_>>().join(", ")
+}
+
+/// The test seed of a task that names none: FNV-1a of its name, so it is the same everywhere.
+pub(crate) fn name_seed(name: &str) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in name.bytes() {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
