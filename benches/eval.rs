@@ -39,11 +39,11 @@ fn dataset(kind: TaskKind, points: usize) -> Vec<Episode> {
 
 fn bench(c: &mut Criterion) {
     let kind = TaskKind::Interception;
-    let eps = dataset(kind, 10_000);
+    let eps = dataset(kind.clone(), 10_000);
     let policy = NearestNeighbour::new(&kind.domain(), &eps).unwrap();
     assert_eq!(policy.len(), 10_000);
     let opts = EvalOptions::default();
-    let report = evaluate(kind, &policy, &opts);
+    let report = evaluate(kind.clone(), &policy, &opts);
     let steps: usize = report.outcomes.iter().map(|o| o.steps).sum();
     eprintln!(
         "1-NN (10,000 points) on {} interception starts: {} policy queries, success {:.0}%",
@@ -55,14 +55,14 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     let learner = advise::eval::derive_policy(LearnerKind::Bc, &kind.domain(), &eps).unwrap();
     g.bench_function("interception_100_starts_bc_10k", |b| {
-        b.iter(|| black_box(evaluate(kind, black_box(learner.as_ref()), &opts)))
+        b.iter(|| black_box(evaluate(kind.clone(), black_box(learner.as_ref()), &opts)))
     });
     g.bench_function("interception_100_starts_bc_10k_brute_force", |b| {
-        b.iter(|| black_box(evaluate(kind, black_box(&policy), &opts)))
+        b.iter(|| black_box(evaluate(kind.clone(), black_box(&policy), &opts)))
     });
     let teacher_opts = opts.clone();
     g.bench_function("interception_100_starts_teacher", |b| {
-        b.iter(|| black_box(advise::eval::evaluate_teacher(kind, &teacher_opts)))
+        b.iter(|| black_box(advise::eval::evaluate_teacher(kind.clone(), &teacher_opts)))
     });
     g.finish();
 }

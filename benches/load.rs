@@ -11,7 +11,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 
 fn bench(c: &mut Criterion) {
     let kind = TaskKind::Positioning;
-    let episodes: Vec<Episode> = record_demos(kind, 500, 0xD3E0, &SimParams::default())
+    let episodes: Vec<Episode> = record_demos(kind.clone(), 500, 0xD3E0, &SimParams::default())
         .into_iter()
         .map(|(e, _)| e)
         .collect();

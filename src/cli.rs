@@ -334,7 +334,9 @@ pub enum CliError {
     #[error("the task `{task}` has no teacher to demonstrate it")]
     #[diagnostic(
         code(advise::cli::no_teacher),
-        help("declare one in the task (`teacher {{ trans = ...  rot = ... }}`), or record demonstrations on a base and `advise import` them")
+        help(
+            "declare one in the task (`teacher {{ trans = ...  rot = ... }}`), or record demonstrations on a base and `advise import` them"
+        )
     )]
     NoTeacher { task: String },
     #[error("`--{flag}` names a ROS 2 topic, but the backend is `{backend}`")]
@@ -525,7 +527,11 @@ pub fn resolve_task(name: &str, files: &[PathBuf]) -> miette::Result<TaskKind> {
     }
     let mut names: Vec<String> = vec!["positioning".into(), "interception".into()];
     names.extend(set.tasks().iter().map(|t| t.name().to_string()));
-    let listed = names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
+    let listed = names
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ");
     let help = match crate::diag::suggest::closest(name, names.iter().map(String::as_str)) {
         Some(s) => format!("did you mean `{s}`?"),
         None if files.is_empty() => format!(

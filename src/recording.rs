@@ -352,10 +352,10 @@ pub fn parse_csv_log(
                     def,
                     name,
                     run,
-                    options
-                        .goal_values
-                        .as_deref()
-                        .or(options.goal.map(|g| vec![g.x_m, g.y_m, g.theta_rad]).as_deref()),
+                    options.goal_values.as_deref().or(options
+                        .goal
+                        .map(|g| vec![g.x_m, g.y_m, g.theta_rad])
+                        .as_deref()),
                 ),
                 None => episode(name, run, options.goal),
             }
@@ -379,7 +379,12 @@ pub fn episode(name: String, run: &[Sample], goal: Option<Pose>) -> Episode {
 /// the last pose (all zeros for a task without one). The commanded speeds are the actions (a task
 /// whose actions are changes of speed is not importable this way; the caller checks) and stand
 /// in for the measured speeds `v` and `w`, which a log does not hold.
-pub fn episode_for(def: &Arc<TaskDef>, name: String, run: &[Sample], goal: Option<&[f64]>) -> Episode {
+pub fn episode_for(
+    def: &Arc<TaskDef>,
+    name: String,
+    run: &[Sample],
+    goal: Option<&[f64]>,
+) -> Episode {
     let goal: Vec<f64> = match goal {
         Some(g) => g.to_vec(),
         None => run
@@ -398,7 +403,6 @@ pub fn episode_for(def: &Arc<TaskDef>, name: String, run: &[Sample], goal: Optio
         pose,
         speed_mps: v,
         rot_radps: w,
-        ..BaseState::default()
     };
     if let Some(&(t, pose, v, w)) = run.first() {
         task.begin(&state(t, pose, v, w));
@@ -433,11 +437,11 @@ pub fn write_demonstrations(
     };
     let is_json = path.extension().is_some_and(|e| e == "json");
     let bytes = if is_json {
-        serde_json::to_vec_pretty(&Episode::to_json(&domain, episodes))
+        serde_json::to_vec_pretty(&Episode::to_json(domain, episodes))
             .map_err(|e| write_err(std::io::Error::other(e)))?
     } else {
         let mut buf = Vec::new();
-        Episode::write_csv(&domain, episodes, &mut buf).map_err(write_err)?;
+        Episode::write_csv(domain, episodes, &mut buf).map_err(write_err)?;
         buf
     };
     Ok(crate::files::write_bytes(path, &bytes)?)

@@ -498,7 +498,11 @@ impl Session {
             ),
             None => format!(
                 "the tasks are {}; load a file of task declarations with `tasks FILE`",
-                names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+                names
+                    .iter()
+                    .map(|n| format!("`{n}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
         };
         Err(SessionError::UnknownTask {

@@ -30,8 +30,8 @@ pub mod declared;
 pub mod interception;
 pub mod positioning;
 
-pub use interception::{BallStart, Interception, InterceptionRules, InterceptionTeacher};
 pub use declared::{Declared, DeclaredTeacher};
+pub use interception::{BallStart, Interception, InterceptionRules, InterceptionTeacher};
 pub use positioning::PositioningTeacher;
 
 /// One episode of a task: its world, its observation and its scoring.
@@ -654,7 +654,7 @@ pub fn run_sim(
 /// `seed`, in parallel. Episode `i` is named `demo-i` and runs on a simulator seeded with
 /// [`episode_seed`]`(seed, i)`, so the result does not depend on thread scheduling.
 pub fn record_demos(
-    kind: &TaskKind,
+    kind: TaskKind,
     count: usize,
     seed: u64,
     params: &SimParams,

@@ -162,7 +162,7 @@ fn the_teacher_and_an_lwr_policy_reach_a_goal_over_the_wire_as_in_the_simulator(
     // An LWR policy derived from teacher demonstrations recorded in the simulator, run on the
     // same base after the first episode: reset re-zeroes the frame where the base stands.
     // The session's default: 9 demonstrations from seed 0's demonstration stream.
-    let demos: Vec<Episode> = record_demos(&kind, 9, 0xD3E0, &params())
+    let demos: Vec<Episode> = record_demos(kind.clone(), 9, 0xD3E0, &params())
         .into_iter()
         .map(|(e, _)| e)
         .collect();

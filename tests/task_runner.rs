@@ -5,9 +5,7 @@ use std::f64::consts::FRAC_PI_2;
 
 use advise::backend::sim::{SimBackend, SimParams};
 use advise::backend::{Backend, BackendError, BaseState};
-use advise::task::{
-    Declared, Ending, Start, Task, TaskKind, episode_seed, run_episode, run_sim,
-};
+use advise::task::{Declared, Ending, Start, Task, TaskKind, episode_seed, run_episode, run_sim};
 use advise::trace::Pose;
 
 fn zero(_z: &[f64], a: &mut [f64]) {

@@ -63,7 +63,7 @@ fn often_but_not_always(kind: TaskKind) -> (f64, f64) {
             ..Default::default()
         },
     );
-    let demos = record_demos(&kind, 100, 11, &SimParams::default());
+    let demos = record_demos(kind.clone(), 100, 11, &SimParams::default());
     let demo_rate = demos.iter().filter(|(_, o)| o.success).count() as f64 / 100.0;
     (test.success_rate, demo_rate)
 }
@@ -103,7 +103,7 @@ fn the_interception_teacher_loops_and_overshoots() {
 fn reproduces(kind: TaskKind) {
     let params = SimParams::default();
     let seed = 21;
-    let demos = record_demos(&kind, 12, seed, &params);
+    let demos = record_demos(kind.clone(), 12, seed, &params);
     let episodes: Vec<Episode> = demos.iter().map(|(e, _)| e.clone()).collect();
     let policy = OneNn::new(&episodes);
     let stand_in = advise::eval::derive_policy(

@@ -451,7 +451,9 @@ pub enum CheckError {
     #[error("the task `{task}` has no success rule")]
     #[diagnostic(
         code(advise::check::task_missing_success),
-        help("say when a run succeeds, judged on its final state, e.g. `success when error < 0.2`")
+        help(
+            "say when a run succeeds, judged on its final state, e.g. `success when error < 0.2`"
+        )
     )]
     TaskMissingSuccess {
         task: String,
@@ -461,7 +463,9 @@ pub enum CheckError {
     #[error("the observation `{name}` has no definition")]
     #[diagnostic(
         code(advise::check::task_undefined_observation),
-        help("in a task every observation says how it is computed, e.g. `{name} = hypot(x_g - x, y_g - y)`")
+        help(
+            "in a task every observation says how it is computed: `{name} = EXPR`, an expression of the pose (`x`, `y`, `theta`), the speeds (`v`, `w`), `t`, the goal and the task's `let`s"
+        )
     )]
     TaskUndefinedObservation {
         name: String,
@@ -471,7 +475,9 @@ pub enum CheckError {
     #[error("the action `{name}` does not drive the base")]
     #[diagnostic(
         code(advise::check::task_undriven_action),
-        help("say what it commands: `{name} drives speed`, `{name} drives turn`, or `{name} changes speed in [-1, 1]` for a change of speed the task adds up")
+        help(
+            "say what it commands: `{name} drives speed`, `{name} drives turn`, or `{name} changes speed in [-1, 1]` for a change of speed the task adds up"
+        )
     )]
     TaskUndrivenAction {
         name: String,
@@ -509,10 +515,7 @@ pub enum CheckError {
         span: Loc,
     },
     #[error("`{name}` is declared twice in the task")]
-    #[diagnostic(
-        code(advise::check::task_duplicate_name),
-        help("{help}")
-    )]
+    #[diagnostic(code(advise::check::task_duplicate_name), help("{help}"))]
     TaskDuplicateName {
         name: String,
         help: String,
@@ -520,10 +523,7 @@ pub enum CheckError {
         span: Loc,
     },
     #[error("a task has one `{clause}` clause")]
-    #[diagnostic(
-        code(advise::check::task_clause_twice),
-        help("merge the two into one")
-    )]
+    #[diagnostic(code(advise::check::task_clause_twice), help("merge the two into one"))]
     TaskClauseTwice {
         clause: String,
         #[label("a second one")]
@@ -570,7 +570,9 @@ pub enum CheckError {
     #[error("`recorded` does not say how to read the goal parameter `{name}`")]
     #[diagnostic(
         code(advise::check::task_recorded_incomplete),
-        help("a recording's goal is read from the pose it ends at: add `{name} = ...` (an expression of `x`, `y` and `theta`)")
+        help(
+            "a recording's goal is read from the pose it ends at: add `{name} = ...` (an expression of `x`, `y` and `theta`)"
+        )
     )]
     TaskRecordedIncomplete {
         name: String,

@@ -122,7 +122,9 @@ impl Checker<'_> {
                     e.span,
                     CheckError::TaskNameNotHere {
                         name: dim.name.clone(),
-                        context: "a task (`NAME[offset]` reads other points of a chunk, in operators)".into(),
+                        context:
+                            "a task (`NAME[offset]` reads other points of a chunk, in operators)"
+                                .into(),
                         help: "a task reads the previous control step with `prev(NAME)`".into(),
                         span: self.at(f, e.span),
                     },
@@ -188,7 +190,9 @@ impl Checker<'_> {
                     }
                 }
             }
-            ExprKind::Call { func, args } if func.name == "prev" && matches!(scope, Scope::Task(_)) => {
+            ExprKind::Call { func, args }
+                if func.name == "prev" && matches!(scope, Scope::Task(_)) =>
+            {
                 let Scope::Task(ts) = scope else { return bad };
                 self.task_prev(f, ts, args, e.span)
             }

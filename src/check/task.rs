@@ -10,8 +10,8 @@ use super::*;
 use crate::domain::Space;
 use crate::program::ir::{Func, Ir};
 use crate::program::task::{
-    Axis, BASE, Drive, EndRule, GoalParam, MAX_GOAL_PARAMS, MAX_TEST_GOALS, TaskDef,
-    TeacherDef, TeacherTarget,
+    Axis, BASE, Drive, EndRule, GoalParam, MAX_GOAL_PARAMS, MAX_TEST_GOALS, TaskDef, TeacherDef,
+    TeacherTarget,
 };
 
 /// What kind of value a task name is; each clause may read some kinds.
@@ -51,6 +51,8 @@ pub(super) struct TaskScope<'a> {
     /// Where the expression is, for messages: "an observation's definition".
     pub(super) context: &'a str,
     pub(super) prev_ok: bool,
+    /// The task's names a teacher cannot see (so a use of one is explained, not "unknown").
+    pub(super) hidden: Option<&'a HashMap<String, (usize, Kind)>>,
 }
 
 const DEFAULT_TEST_GOALS: usize = 25;
@@ -59,7 +61,13 @@ const MAX_TIME_S: f64 = 86_400.0;
 
 impl Checker<'_> {
     /// A task name in an expression: its slot, or a diagnostic.
-    pub(super) fn task_var(&mut self, f: usize, ts: &TaskScope<'_>, name: &str, span: Span) -> (Ir, Ty) {
+    pub(super) fn task_var(
+        &mut self,
+        f: usize,
+        ts: &TaskScope<'_>,
+        name: &str,
+        span: Span,
+    ) -> (Ir, Ty) {
         let bad = (Ir::Num(f64::NAN), Ty::Err);
         match ts.names.get(name) {
             Some(&(slot, kind)) if ts.allowed.contains(&kind) => (Ir::Slot(slot), Ty::Num),
@@ -79,6 +87,19 @@ impl Checker<'_> {
                         name: name.into(),
                         context: format!("{} ({name} is {})", ts.context, kind.word()),
                         help,
+                        span: self.at(f, span),
+                    },
+                );
+                bad
+            }
+            None if ts.hidden.is_some_and(|h| h.contains_key(name)) => {
+                self.err(
+                    f,
+                    span,
+                    CheckError::TaskNameNotHere {
+                        name: name.into(),
+                        context: ts.context.into(),
+                        help: "a teacher sees what a learned policy sees: the observations (and its own `let`s); make what it needs an observation".into(),
                         span: self.at(f, span),
                     },
                 );
@@ -110,7 +131,13 @@ impl Checker<'_> {
     }
 
     /// `prev(NAME)`: the named value at the previous step.
-    pub(super) fn task_prev(&mut self, f: usize, ts: &TaskScope<'_>, args: &[Expr], span: Span) -> (Ir, Ty) {
+    pub(super) fn task_prev(
+        &mut self,
+        f: usize,
+        ts: &TaskScope<'_>,
+        args: &[Expr],
+        span: Span,
+    ) -> (Ir, Ty) {
         let bad = (Ir::Num(f64::NAN), Ty::Err);
         let help = "write `prev(NAME)` with the name of the pose (`x`, `y`, `theta`), a speed (`v`, `w`), `t`, a `let` or an observation";
         if !ts.prev_ok {
@@ -189,20 +216,26 @@ impl Checker<'_> {
         }
         // A new name, or a diagnostic when it is taken.
         let declare = |c: &mut Self,
-                           names: &mut HashMap<String, (usize, Kind)>,
-                           slot_names: &mut Vec<String>,
-                           id: &Ident,
-                           kind: Kind|
+                       names: &mut HashMap<String, (usize, Kind)>,
+                       slot_names: &mut Vec<String>,
+                       id: &Ident,
+                       kind: Kind|
          -> Option<usize> {
             let n = id.name.as_str();
             let taken = if BASE.iter().any(|(b, _, _)| *b == n) {
-                Some(format!("`{n}` is the robot's state ({}); choose another name", BASE.iter().find(|(b, _, _)| *b == n).map_or("", |b| b.2)))
+                Some(format!(
+                    "`{n}` is the robot's state ({}); choose another name",
+                    BASE.iter().find(|(b, _, _)| *b == n).map_or("", |b| b.2)
+                ))
             } else if let Some((_, meaning)) = RESERVED.iter().find(|(r, _)| *r == n) {
                 Some(format!("`{n}` is {meaning}; choose another name"))
             } else if n == "prev" || Func::by_name(n).is_some() {
                 Some(format!("`{n}` is a built-in function; choose another name"))
             } else if names.contains_key(n) {
-                Some("each goal parameter, `let`, observation, action and score has its own name".into())
+                Some(
+                    "each goal parameter, `let`, observation, action and score has its own name"
+                        .into(),
+                )
             } else {
                 None
             };
@@ -279,7 +312,8 @@ impl Checker<'_> {
         // The actions, then the `let`s and observations.
         let mut action_dims = Vec::new();
         for dim in d.dims.iter().filter(|x| x.space == Space::Action) {
-            if let Some(slot) = declare(self, &mut names, &mut slot_names, &dim.name, Kind::Action) {
+            if let Some(slot) = declare(self, &mut names, &mut slot_names, &dim.name, Kind::Action)
+            {
                 action_dims.push((slot, dim));
             }
         }
@@ -288,7 +322,8 @@ impl Checker<'_> {
         for c in &d.clauses {
             let Clause::Let(bs) = c else { continue };
             for b in bs {
-                if let Some(slot) = declare(self, &mut names, &mut slot_names, &b.name, Kind::Value) {
+                if let Some(slot) = declare(self, &mut names, &mut slot_names, &b.name, Kind::Value)
+                {
                     values.push((slot, &b.name, &b.value));
                     spans.insert(b.name.name.clone(), b.name.span);
                 }
@@ -316,10 +351,10 @@ impl Checker<'_> {
                 }
                 (None, _) => self.err(
                     f,
-                    dim.span,
+                    dim.name.span,
                     CheckError::TaskUndefinedObservation {
                         name: dim.name.name.clone(),
-                        span: self.at(f, dim.span),
+                        span: self.at(f, dim.name.span),
                     },
                 ),
                 _ => {}
@@ -329,7 +364,8 @@ impl Checker<'_> {
         for c in &d.clauses {
             let Clause::Score(bs) = c else { continue };
             for b in bs {
-                if let Some(slot) = declare(self, &mut names, &mut slot_names, &b.name, Kind::Score) {
+                if let Some(slot) = declare(self, &mut names, &mut slot_names, &b.name, Kind::Score)
+                {
                     score_decls.push((slot, b));
                 }
             }
@@ -346,9 +382,16 @@ impl Checker<'_> {
                 allowed: VALUE_READS,
                 context: &context,
                 prev_ok: true,
+                hidden: None,
             };
             let (ir, ty) = self.resolve(f, Scope::Task(&ts), e, "");
-            self.expect(f, e, ty, Ty::Num, Some("a value is a number; use `if(cond, a, b)` to choose between two"));
+            self.expect(
+                f,
+                e,
+                ty,
+                Ty::Num,
+                Some("a value is a number; use `if(cond, a, b)` to choose between two"),
+            );
             resolved.insert(*slot, ir);
         }
         let order = self.value_order(f, &values, &resolved, &slot_names);
@@ -358,16 +401,17 @@ impl Checker<'_> {
             .collect();
 
         // Drives.
-        let (mut speed, mut turn): (Option<(Drive, String)>, Option<(Drive, String)>) = (None, None);
+        let mut speed: Option<(Drive, String)> = None;
+        let mut turn: Option<(Drive, String)> = None;
         for (i, (_, dim)) in action_dims.iter().enumerate() {
             let (axis, integrate) = match &dim.meaning {
                 None => {
                     self.err(
                         f,
-                        dim.span,
+                        dim.name.span,
                         CheckError::TaskUndrivenAction {
                             name: dim.name.name.clone(),
-                            span: self.at(f, dim.span),
+                            span: self.at(f, dim.name.span),
                         },
                     );
                     continue;
@@ -425,7 +469,13 @@ impl Checker<'_> {
                 );
                 continue;
             }
-            *slot = Some((Drive { action: i, integrate }, dim.name.name.clone()));
+            *slot = Some((
+                Drive {
+                    action: i,
+                    integrate,
+                },
+                dim.name.name.clone(),
+            ));
         }
         if action_dims.is_empty() {
             self.err(
@@ -453,9 +503,16 @@ impl Checker<'_> {
                         allowed: RULE_READS,
                         context: "an end rule",
                         prev_ok: true,
+                        hidden: None,
                     };
                     let (ir, ty) = self.resolve(f, Scope::Task(&ts), cond, "");
-                    self.expect(f, cond, ty, Ty::Bool, Some("an end rule is a condition such as `abs(v) < 0.02`"));
+                    self.expect(
+                        f,
+                        cond,
+                        ty,
+                        Ty::Bool,
+                        Some("an end rule is a condition such as `abs(v) < 0.02`"),
+                    );
                     let hold_s = match hold {
                         None => Some(0.0),
                         Some(h) => self.seconds(f, h, "the time a condition must hold", false),
@@ -491,7 +548,8 @@ impl Checker<'_> {
                 CheckError::TaskIncomplete {
                     task: task.into(),
                     what: "time limit".into(),
-                    help: "every run must end, on a real base too: add `end after 60` (seconds)".into(),
+                    help: "every run must end, on a real base too: add `end after 60` (seconds)"
+                        .into(),
                     span: self.at(f, d.name.span),
                 },
             );
@@ -506,15 +564,24 @@ impl Checker<'_> {
             let ts = TaskScope {
                 task,
                 names: &names,
-                allowed: &[Kind::Base, Kind::Goal, Kind::Action, Kind::Value, Kind::Score],
+                allowed: &[
+                    Kind::Base,
+                    Kind::Goal,
+                    Kind::Action,
+                    Kind::Value,
+                    Kind::Score,
+                ],
                 context: &context,
                 prev_ok: true,
+                hidden: None,
             };
             let (ir, ty) = self.resolve(f, Scope::Task(&ts), &b.value, "");
             self.expect(f, &b.value, ty, Ty::Num, None);
             let mut reads = Vec::new();
             ir.slots(&mut reads);
-            if let Some((later, _)) = reads.iter().find(|(s, _)| *s >= *slot && names.values().any(|(x, k)| x == s && *k == Kind::Score)) {
+            if let Some((later, _)) = reads.iter().find(|(s, _)| {
+                *s >= *slot && names.values().any(|(x, k)| x == s && *k == Kind::Score)
+            }) {
                 let later = &slot_names[*later];
                 self.err(
                     f,
@@ -550,7 +617,9 @@ impl Checker<'_> {
         // Success.
         let mut success = None;
         for c in &d.clauses {
-            let Clause::Success { cond, span } = c else { continue };
+            let Clause::Success { cond, span } = c else {
+                continue;
+            };
             if success.is_some() {
                 self.err(
                     f,
@@ -565,12 +634,25 @@ impl Checker<'_> {
             let ts = TaskScope {
                 task,
                 names: &names,
-                allowed: &[Kind::Base, Kind::Goal, Kind::Action, Kind::Value, Kind::Score],
+                allowed: &[
+                    Kind::Base,
+                    Kind::Goal,
+                    Kind::Action,
+                    Kind::Value,
+                    Kind::Score,
+                ],
                 context: "the success rule",
                 prev_ok: true,
+                hidden: None,
             };
             let (ir, ty) = self.resolve(f, Scope::Task(&ts), cond, "");
-            self.expect(f, cond, ty, Ty::Bool, Some("success is a condition such as `error < 0.2`"));
+            self.expect(
+                f,
+                cond,
+                ty,
+                Ty::Bool,
+                Some("success is a condition such as `error < 0.2`"),
+            );
             success = Some(ir);
         }
         if success.is_none() {
@@ -584,9 +666,18 @@ impl Checker<'_> {
             );
         }
 
-        let recorded = self.recorded(f, d, task, &names, &goal);
+        let goal_names: Vec<String> = d
+            .clauses
+            .iter()
+            .filter_map(|c| match c {
+                Clause::Goal(ps) => Some(ps.iter().map(|p| p.name.name.clone())),
+                _ => None,
+            })
+            .flatten()
+            .collect();
+        let recorded = self.recorded(f, d, task, &names, &goal_names);
         let (test_count, test_seed) = self.test_set(f, d, task);
-        let teacher = self.teacher(f, d, task, domain);
+        let teacher = self.teacher(f, d, task, domain, &names);
 
         if self.error_count() > before {
             return None;
@@ -616,9 +707,15 @@ impl Checker<'_> {
     fn seconds(&mut self, f: usize, e: &Expr, what: &str, positive: bool) -> Option<f64> {
         let v = self.constant(f, e, what)?;
         let why = if v < 0.0 || (positive && v == 0.0) {
-            Some(format!("{} s is not a time a run can take", crate::syntax::print::number(v)))
+            Some(format!(
+                "{} s is not a time a run can take",
+                crate::syntax::print::number(v)
+            ))
         } else if v > MAX_TIME_S {
-            Some(format!("{} s is longer than a day", crate::syntax::print::number(v)))
+            Some(format!(
+                "{} s is longer than a day",
+                crate::syntax::print::number(v)
+            ))
         } else {
             None
         };
@@ -647,7 +744,11 @@ impl Checker<'_> {
         resolved: &HashMap<usize, Ir>,
         slot_names: &[String],
     ) -> Vec<usize> {
-        let ids: HashMap<usize, usize> = values.iter().enumerate().map(|(i, (s, _, _))| (*s, i)).collect();
+        let ids: HashMap<usize, usize> = values
+            .iter()
+            .enumerate()
+            .map(|(i, (s, _, _))| (*s, i))
+            .collect();
         let deps: Vec<Vec<usize>> = values
             .iter()
             .map(|(slot, _, _)| {
@@ -655,7 +756,10 @@ impl Checker<'_> {
                 if let Some(ir) = resolved.get(slot) {
                     ir.slots(&mut reads);
                 }
-                let mut d: Vec<usize> = reads.into_iter().filter_map(|(s, _)| ids.get(&s).copied()).collect();
+                let mut d: Vec<usize> = reads
+                    .into_iter()
+                    .filter_map(|(s, _)| ids.get(&s).copied())
+                    .collect();
                 d.sort_unstable();
                 d.dedup();
                 d
@@ -716,7 +820,7 @@ impl Checker<'_> {
         d: &DomainDecl,
         task: &str,
         names: &HashMap<String, (usize, Kind)>,
-        goal: &[GoalParam],
+        goal: &[String],
     ) -> Option<Vec<Ir>> {
         let mut out: Option<Vec<Option<Ir>>> = None;
         let mut clause_span = None;
@@ -737,8 +841,8 @@ impl Checker<'_> {
             clause_span = Some(span);
             let mut got: Vec<Option<Ir>> = vec![None; goal.len()];
             for b in bs {
-                let Some(i) = goal.iter().position(|g| g.name == b.name.name) else {
-                    let gnames: Vec<&str> = goal.iter().map(|g| g.name.as_str()).collect();
+                let Some(i) = goal.iter().position(|g| *g == b.name.name) else {
+                    let gnames: Vec<&str> = goal.iter().map(String::as_str).collect();
                     self.err(
                         f,
                         b.name.span,
@@ -768,6 +872,7 @@ impl Checker<'_> {
                     allowed: &[Kind::Base],
                     context: "`recorded` (the pose a recording ends at)",
                     prev_ok: false,
+                    hidden: None,
                 };
                 let (ir, ty) = self.resolve(f, Scope::Task(&ts), &b.value, "");
                 self.expect(f, &b.value, ty, Ty::Num, None);
@@ -786,7 +891,7 @@ impl Checker<'_> {
                         f,
                         span,
                         CheckError::TaskRecordedIncomplete {
-                            name: g.name.clone(),
+                            name: g.clone(),
                             span: self.at(f, span),
                         },
                     );
@@ -799,7 +904,9 @@ impl Checker<'_> {
     fn test_set(&mut self, f: usize, d: &DomainDecl, task: &str) -> (usize, u64) {
         let mut out = None;
         for c in &d.clauses {
-            let Clause::Test { count, seed, span } = c else { continue };
+            let Clause::Test { count, seed, span } = c else {
+                continue;
+            };
             if out.is_some() {
                 self.err(
                     f,
@@ -818,7 +925,10 @@ impl Checker<'_> {
                     *span,
                     CheckError::TaskImpossibleLimit {
                         what: "the test set".into(),
-                        why: format!("{} is not a number of goals from 1 to {MAX_TEST_GOALS}", crate::syntax::print::number(*count)),
+                        why: format!(
+                            "{} is not a number of goals from 1 to {MAX_TEST_GOALS}",
+                            crate::syntax::print::number(*count)
+                        ),
                         help: "write a whole number, e.g. `test 25`".into(),
                         span: self.at(f, *span),
                     },
@@ -835,7 +945,10 @@ impl Checker<'_> {
                         *span,
                         CheckError::TaskImpossibleLimit {
                             what: "the test seed".into(),
-                            why: format!("{} is not a whole number from 0 to 2^53", crate::syntax::print::number(*s)),
+                            why: format!(
+                                "{} is not a whole number from 0 to 2^53",
+                                crate::syntax::print::number(*s)
+                            ),
                             help: "write a whole number, e.g. `test 25 seed 7`".into(),
                             span: self.at(f, *span),
                         },
@@ -849,10 +962,19 @@ impl Checker<'_> {
         out.unwrap_or((DEFAULT_TEST_GOALS, name_seed(task)))
     }
 
-    fn teacher(&mut self, f: usize, d: &DomainDecl, task: &str, domain: &Domain) -> Option<TeacherDef> {
+    fn teacher(
+        &mut self,
+        f: usize,
+        d: &DomainDecl,
+        task: &str,
+        domain: &Domain,
+        outer: &HashMap<String, (usize, Kind)>,
+    ) -> Option<TeacherDef> {
         let mut out = None;
         for c in &d.clauses {
-            let Clause::Teacher { stmts, span } = c else { continue };
+            let Clause::Teacher { stmts, span } = c else {
+                continue;
+            };
             if out.is_some() {
                 self.err(
                     f,
@@ -881,12 +1003,16 @@ impl Checker<'_> {
                     allowed: &[Kind::TeacherObs, Kind::TeacherLocal],
                     context: "the teacher",
                     prev_ok: false,
+                    hidden: Some(outer),
                 };
                 let (ir, ty) = self.resolve(f, Scope::Task(&ts), &b.value, "");
                 self.expect(f, &b.value, ty, Ty::Num, None);
                 let n = b.name.name.as_str();
                 if st.is_let {
-                    if names.contains_key(n) || domain.find(n).is_some() || RESERVED.iter().any(|(r, _)| *r == n) {
+                    if names.contains_key(n)
+                        || domain.find(n).is_some()
+                        || RESERVED.iter().any(|(r, _)| *r == n)
+                    {
                         self.err(
                             f,
                             b.name.span,
@@ -919,9 +1045,15 @@ impl Checker<'_> {
                 } else {
                     let actions: Vec<&str> = domain.act.iter().map(|a| a.name.as_str()).collect();
                     let help = if domain.index_of(Space::Observation, n).is_some() {
-                        format!("`{n}` is an observation: the teacher reads observations and sets actions ({})", listing(&actions))
+                        format!(
+                            "`{n}` is an observation: the teacher reads observations and sets actions ({})",
+                            listing(&actions)
+                        )
                     } else {
-                        format!("{}; for a value of its own write `let {n} = ...`", hint(n, "actions", &actions))
+                        format!(
+                            "{}; for a value of its own write `let {n} = ...`",
+                            hint(n, "actions", &actions)
+                        )
                     };
                     self.err(
                         f,
@@ -934,7 +1066,10 @@ impl Checker<'_> {
                     );
                 }
             }
-            out = Some(TeacherDef { slots, stmts: out_stmts });
+            out = Some(TeacherDef {
+                slots,
+                stmts: out_stmts,
+            });
         }
         out
     }
@@ -949,7 +1084,11 @@ fn meaning_span(m: &DimMeaning, fallback: Span) -> Span {
 }
 
 fn kinds(allowed: &[Kind]) -> String {
-    allowed.iter().map(|k| k.word()).collect::<Vec<_>>().join(", ")
+    allowed
+        .iter()
+        .map(|k| k.word())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The test seed of a task that names none: FNV-1a of its name, so it is the same everywhere.

@@ -26,7 +26,7 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
     }
     let params = sim_params(args.sim_params.as_deref())?;
     let domain = kind.domain();
-    let recorded = crate::task::record_demos(&kind, args.count as usize, args.seed, &params);
+    let recorded = crate::task::record_demos(kind.clone(), args.count as usize, args.seed, &params);
     let successes = recorded.iter().filter(|(_, o)| o.success).count();
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
@@ -73,7 +73,9 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
     let report = match args.policy {
         EvalPolicy::Teacher if backend != BackendSpec::Sim => {
             let period = opts.params.period_s();
-            eval_on_base(kind.clone(), backend.clone(), &opts, limit, || kind.teacher(period))?
+            eval_on_base(kind.clone(), backend.clone(), &opts, limit, || {
+                kind.teacher(period)
+            })?
         }
         EvalPolicy::Teacher => eval::evaluate_teacher(kind.clone(), &opts),
         EvalPolicy::Learned(learner) => {
@@ -166,9 +168,12 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
                 help = "import for `positioning`, or for a task whose declaration says how a recording's goal is read from where it ends (`recorded NAME = ...`)",
                 "`advise import` cannot make `{kind}` demonstrations: {}",
                 if kind == TaskKind::Interception {
-                    "interception needs the ball's positions, which a log of the base does not hold".to_string()
+                    "interception needs the ball's positions, which a log of the base does not hold"
+                        .to_string()
                 } else {
-                    format!("the task `{kind}` does not say how a recording's goal is read (no `recorded` clause); give it with `--goal`")
+                    format!(
+                        "the task `{kind}` does not say how a recording's goal is read (no `recorded` clause); give it with `--goal`"
+                    )
                 }
             ));
         }
@@ -192,7 +197,11 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
                 help = format!(
                     "give the goal as {want} finite number{}: `--goal {}`",
                     if want == 1 { "" } else { "s" },
-                    names.iter().map(|n| n.to_uppercase()).collect::<Vec<_>>().join(" ")
+                    names
+                        .iter()
+                        .map(|n| n.to_uppercase())
+                        .collect::<Vec<_>>()
+                        .join(" ")
                 ),
                 "the goal {g:?} is not a goal of `{kind}` ({})",
                 names.join(", ")

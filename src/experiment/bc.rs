@@ -164,7 +164,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         "bc: demonstrations",
     );
 
-    let recorded = record_demos(&kind, params.demos, seed, sim);
+    let recorded = record_demos(kind.clone(), params.demos, seed, sim);
     let demo_successes = recorded.iter().filter(|(_, o)| o.success).count();
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let mut ds = Dataset::new(&kind.domain());
@@ -182,7 +182,13 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         evaluate_starts(kind.clone(), test, || policy, sim, eseed)
     };
     bar.set_message("bc: teacher and initial policy");
-    let teacher = evaluate_starts(kind.clone(), test, || kind.teacher(sim.period_s()), sim, eseed);
+    let teacher = evaluate_starts(
+        kind.clone(),
+        test,
+        || kind.teacher(sim.period_s()),
+        sim,
+        eseed,
+    );
     let initial = evaluate(&learner);
     bar.inc(1);
 

@@ -15,8 +15,16 @@ use super::ir::Ir;
 
 /// The values every task can read, in slot order: name, unit, meaning.
 pub const BASE: [(&str, &str, &str); 6] = [
-    ("x", "m", "the robot's x position (odometry; the true pose when scoring in the simulator)"),
-    ("y", "m", "the robot's y position (odometry; the true pose when scoring in the simulator)"),
+    (
+        "x",
+        "m",
+        "the robot's x position (odometry; the true pose when scoring in the simulator)",
+    ),
+    (
+        "y",
+        "m",
+        "the robot's y position (odometry; the true pose when scoring in the simulator)",
+    ),
     ("theta", "rad", "the robot's heading, in (-pi, pi]"),
     ("v", "m/s", "the measured translational speed"),
     ("w", "rad/s", "the measured rotational speed"),

@@ -87,7 +87,9 @@ pub enum SessionError {
     #[error("{path} declares no task")]
     #[diagnostic(
         code(advise::session::no_tasks),
-        help("a task is a domain with a goal, observations' definitions, drives, success and end rules (see `operators/README.md`, Tasks); for operators alone use `operators FILE`")
+        help(
+            "a task is a domain with a goal, observations' definitions, drives, success and end rules (see `operators/README.md`, Tasks); for operators alone use `operators FILE`"
+        )
     )]
     NoTasksInFile { path: String },
     #[error("there is no execution yet")]
@@ -135,7 +137,9 @@ pub enum SessionError {
     #[error("`run goal` is for the positioning task")]
     #[diagnostic(
         code(advise::session::goal_for_wrong_task),
-        help("interception runs start from a ball: `run start N`")
+        help(
+            "other tasks run from their practice starts, drawn from the goal ranges: `run start N`"
+        )
     )]
     GoalForWrongTask,
     #[error("the goal ({goal}) is not a pose a run can reach")]

@@ -57,7 +57,7 @@ impl Session {
                     })?;
                 let params = self.sim_params();
                 // A distinct stream from the practice starts the teacher's runs use.
-                task::record_demos(&self.task, count, self.seed ^ 0xD3E0, &params)
+                task::record_demos(self.task.clone(), count, self.seed ^ 0xD3E0, &params)
                     .into_iter()
                     .map(|(e, _)| e)
                     .collect()
@@ -124,7 +124,12 @@ impl Session {
     pub(super) fn load_tasks(&mut self, path: &str) -> Result<String, SessionError> {
         let id = crate::files::read_source(&mut self.sources, Path::new(path))?;
         let text = self.sources.text(id).to_string();
-        let before: Vec<String> = self.ops.tasks().iter().map(|t| t.name().to_string()).collect();
+        let before: Vec<String> = self
+            .ops
+            .tasks()
+            .iter()
+            .map(|t| t.name().to_string())
+            .collect();
         let checked = self.ops.merge_in(&self.sources, &[id])?;
         let new: Vec<std::sync::Arc<crate::program::task::TaskDef>> = checked
             .set
@@ -149,10 +154,18 @@ impl Session {
                 format!(
                     "`{}` (goal {}; {} observations, {} actions; {})",
                     t.name(),
-                    if goal.is_empty() { "none".into() } else { goal.join(", ") },
+                    if goal.is_empty() {
+                        "none".into()
+                    } else {
+                        goal.join(", ")
+                    },
                     t.domain.obs_dim(),
                     t.domain.act_dim(),
-                    if t.teacher.is_some() { "a teacher" } else { "no teacher" }
+                    if t.teacher.is_some() {
+                        "a teacher"
+                    } else {
+                        "no teacher"
+                    }
                 )
             })
             .collect();

@@ -28,7 +28,9 @@ impl Session {
 
     pub(super) fn eval(&mut self, detail: bool) -> Result<Reply, SessionError> {
         if self.state.learner.is_empty() {
-            return Err(SessionError::EmptyPolicy { task: self.task.clone() });
+            return Err(SessionError::EmptyPolicy {
+                task: self.task.clone(),
+            });
         }
         self.state.learner.ensure_derived();
         let opts = EvalOptions {

@@ -32,7 +32,9 @@ impl Session {
         seconds: Option<f64>,
     ) -> Result<String, SessionError> {
         if self.task != TaskKind::Positioning {
-            return Err(SessionError::RecordTask { task: self.task.clone() });
+            return Err(SessionError::RecordTask {
+                task: self.task.clone(),
+            });
         }
         let BackendChoice::Ros2 { backend, .. } = &self.backend else {
             return Err(SessionError::RecordNeedsRos2 {
@@ -103,7 +105,9 @@ impl Session {
         seconds: Option<f64>,
     ) -> Result<String, SessionError> {
         if self.task != TaskKind::Positioning {
-            return Err(SessionError::RecordTask { task: self.task.clone() });
+            return Err(SessionError::RecordTask {
+                task: self.task.clone(),
+            });
         }
         let (max_s, goal) = checked_limits(goal, seconds)?;
         if !std::io::stdin().is_terminal() {

@@ -57,7 +57,9 @@ impl Session {
         goal: Option<Pose>,
     ) -> Result<Reply, SessionError> {
         if self.state.learner.is_empty() {
-            return Err(SessionError::EmptyPolicy { task: self.task.clone() });
+            return Err(SessionError::EmptyPolicy {
+                task: self.task.clone(),
+            });
         }
         self.state.learner.ensure_derived();
         let number = self.state.runs;

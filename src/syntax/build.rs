@@ -131,7 +131,10 @@ impl Builder {
                 Rule::teacher => {
                     let span = self.span(&part);
                     let mut stmts = Vec::new();
-                    for st in part.into_inner().filter(|s| s.as_rule() == Rule::teacher_stmt) {
+                    for st in part
+                        .into_inner()
+                        .filter(|s| s.as_rule() == Rule::teacher_stmt)
+                    {
                         let mut is_let = false;
                         let mut binding = None;
                         for x in st.into_inner() {

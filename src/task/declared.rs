@@ -142,7 +142,12 @@ impl Task for Declared {
         self.command
     }
 
-    fn advance(&mut self, dt_s: f64, state: &BaseState, _true_pose: Option<Pose>) -> Option<Ending> {
+    fn advance(
+        &mut self,
+        dt_s: f64,
+        state: &BaseState,
+        _true_pose: Option<Pose>,
+    ) -> Option<Ending> {
         self.last = *state;
         let env = self.env(state, state.pose);
         let mut ending = None;
