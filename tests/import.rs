@@ -179,3 +179,54 @@ fn advise_import_writes_demonstrations_a_session_loads() {
         "a refused import writes nothing"
     );
 }
+
+/// A declared task's demonstrations from a log: its `recorded` clause reads the goal from where
+/// the log ends (standoff: the point 1 m ahead), and its observations are computed along the log
+/// as a run computes them (`closing` reads the row before). Checked against the formulas
+/// written out here.
+#[test]
+fn a_declared_task_reads_its_goal_and_observations_from_a_log() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/tasks/standoff.adv"
+    ))
+    .unwrap();
+    let set = advise::check::check(&[advise::check::Source::new("standoff.adv", text)]).unwrap();
+    let def = set.task("standoff").unwrap().clone();
+    let log = "time,x,y,theta,v,w
+0.0,0.0,0.0,0.0,0.3,0.2
+0.1,0.03,0.0,0.02,0.3,0.2
+0.2,0.06,0.001,0.04,0.3,0.0
+0.3,0.09,0.002,0.05,0.0,0.0
+";
+    let options = ImportOptions {
+        task: Some(def),
+        ..ImportOptions::default()
+    };
+    let (episodes, _) = parse_csv_log(Path::new("log.csv"), "log", log, &options).unwrap();
+    let trace = &episodes[0].trace;
+    assert_eq!(trace.domain, "standoff");
+    let rows: Vec<[f64; 6]> = log
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            [v[0], v[1], v[2], v[3], v[4], v[5]]
+        })
+        .collect();
+    let end = rows[rows.len() - 1];
+    let (px, py) = (end[1] + end[3].cos(), end[2] + end[3].sin());
+    let mut prev_range = None;
+    for (i, r) in rows.iter().enumerate() {
+        let (dx, dy) = (px - r[1], py - r[2]);
+        let range = dx.hypot(dy);
+        let bearing = advise::geometry::wrap_angle(dy.atan2(dx) - r[3]);
+        let closing = prev_range.unwrap_or(range) - range;
+        prev_range = Some(range);
+        assert_eq!(trace.z(i), &[range, bearing, closing], "row {i}");
+        assert_eq!(trace.a(i), &[r[4], r[5]], "row {i}");
+    }
+    // The log ends 1 m from the point, facing it: the standoff's goal state.
+    let last = trace.z(rows.len() - 1);
+    assert!((last[0] - 1.0).abs() < 1e-12 && last[1].abs() < 1e-12);
+}

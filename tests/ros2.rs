@@ -124,6 +124,47 @@ fn a_positioning_evaluation_over_ros2_against_the_cyclone_robot() {
     assert_last_is_zero(&peer);
 }
 
+/// A task declared in a file (no Rust) drives a ROS 2 base as the paper's do: its own teacher,
+/// its drives and limits, its end rules, and the stop at the end.
+#[test]
+fn a_declared_task_over_ros2_against_the_cyclone_robot() {
+    if !isolated_with_peer("a_declared_task_over_ros2_against_the_cyclone_robot") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::start(dir.path(), &["--odom-qos", "best-effort"]);
+    let tasks = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/tasks/standoff.adv");
+    let mut c = advise();
+    c.args([
+        "eval", "--tasks", tasks, "--task", "standoff", "--policy", "teacher",
+    ])
+    .args(["--backend", "ros2", "--limit", "1", "--json"])
+    .stdout(Stdio::piped())
+    .stderr(Stdio::piped());
+    let out = finish(
+        Running(c.spawn().expect("advise starts")),
+        Duration::from_secs(150),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("a JSON report");
+    assert_eq!(report["task"], "standoff", "{report}");
+    assert_eq!(report["episodes"], 1, "{report}");
+    assert_eq!(report["successes"], 1, "{report}");
+    let commands = peer.commands();
+    // The declaration's action limits: trans in [-0.5, 0.6], rot in [-1, 1]; its teacher
+    // drives forward at most 0.5 m/s and turns at most 0.8 rad/s.
+    assert!(commands.len() > 30, "{} commands", commands.len());
+    assert!(
+        commands
+            .iter()
+            .all(|c| (-0.5..=0.6).contains(&c.1) && c.2.abs() <= 1.0),
+        "{commands:?}"
+    );
+    assert!(commands.iter().any(|c| c.1 > 0.1));
+    assert_last_is_zero(&peer);
+}
+
 #[test]
 fn ctrl_c_stops_the_cyclone_robot_at_once_and_keeps_the_record() {
     if !isolated_with_peer("ctrl_c_stops_the_cyclone_robot_at_once_and_keeps_the_record") {

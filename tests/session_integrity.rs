@@ -265,6 +265,59 @@ fn a_resume_after_an_rmp_session_never_connects_or_drives() {
     assert_eq!(saved(&mut s, &dir.path().join("b.json")), expected);
 }
 
+/// A task declared in a file runs on an (emulated) RMP like the paper's, and its session restores
+/// from the journal alone: the file's definitions come back from the journal, `task standoff`
+/// resolves against them, and nothing is sent to the robot.
+#[test]
+fn a_declared_task_on_the_rmp_restores_without_its_file_or_its_robot() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("standoff.adv");
+    std::fs::copy(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/examples/tasks/standoff.adv"),
+        &file,
+    )
+    .unwrap();
+    let emu = Emulator::bind_sim(
+        "127.0.0.1:0".parse::<SocketAddr>().unwrap(),
+        EmulatorConfig {
+            init_s: 0.05,
+            ..EmulatorConfig::default()
+        },
+        SimParams::default(),
+        0,
+    )
+    .unwrap();
+    let addr = emu.addr();
+    let mut live = positioning(0);
+    let journal = live.start_journal(dir.path()).unwrap();
+    run(
+        &mut live,
+        &format!(
+            "tasks {}\ntask standoff\nload demos teacher:3\nbackend rmp:{addr}\nrun start 0\nselect 0..10\nadvise creep",
+            file.display()
+        ),
+    );
+    let last = live.execute("show", "<test>").unwrap().to_string();
+    assert!(last.contains("execution 0"), "{last}");
+    let expected = saved(&mut live, &dir.path().join("a.json"));
+    drop(live);
+    drop(emu);
+    std::fs::remove_file(&file).unwrap();
+    let robot = UdpSocket::bind(addr).unwrap();
+    robot
+        .set_read_timeout(Some(Duration::from_millis(300)))
+        .unwrap();
+    let restored = Session::restore(&journal, dir.path()).unwrap();
+    let mut buf = [0u8; 64];
+    assert!(
+        robot.recv_from(&mut buf).is_err(),
+        "a resume sent a datagram to the robot"
+    );
+    let mut s = restored.session;
+    assert_eq!(s.task().name(), "standoff");
+    assert_eq!(saved(&mut s, &dir.path().join("b.json")), expected);
+}
+
 // ---- the real binary ----
 
 fn advise(home: &Path) -> Command {

@@ -62,11 +62,13 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     LeRobot(#[from] crate::recording::lerobot::LeRobotError),
-    #[error("{path} is a recording of a base's drive, which makes positioning demonstrations only")]
+    #[error(
+        "{path} is a recording of a base's drive, which makes demonstrations of a task that reads its goal from where a recording ends"
+    )]
     #[diagnostic(
         code(advise::session::recording_needs_positioning),
         help(
-            "`task positioning` first; interception needs the ball's positions, which a recording of the base does not hold"
+            "`task positioning` first, or a declared task with a `recorded` clause and actions that drive the speeds; interception needs the ball's positions, which a recording of the base does not hold"
         )
     )]
     RecordingNeedsPositioning { path: String },
@@ -218,11 +220,11 @@ pub enum SessionError {
         )
     )]
     RecordNeedsRos2 { backend: String },
-    #[error("recorded drives are positioning demonstrations; the task is {task}")]
+    #[error("a recorded drive cannot be a demonstration of the task {task}")]
     #[diagnostic(
         code(advise::session::record_task),
         help(
-            "`task positioning` first: an interception demonstration needs the ball, which odometry does not see"
+            "`task positioning` first, or a declared task whose goal is read from where a drive ends (`recorded`, and `goal X Y THETA` is positioning's); an interception demonstration needs the ball, which odometry does not see"
         )
     )]
     RecordTask { task: TaskKind },

@@ -32,12 +32,22 @@ impl Session {
         }
         let episodes = match path.strip_prefix("teacher:") {
             None if crate::recording::is_recording(recording) => {
-                if self.task != task::TaskKind::Positioning {
+                let def = self.task.def().filter(|d| {
+                    d.recorded.is_some()
+                        && [&d.speed, &d.turn]
+                            .iter()
+                            .all(|x| x.as_ref().is_none_or(|x| x.integrate.is_none()))
+                });
+                let Some(def) = def else {
                     return Err(SessionError::RecordingNeedsPositioning {
                         path: path.to_string(),
                     });
-                }
-                let (episodes, warnings) = crate::recording::import(recording, options)?;
+                };
+                let options = crate::recording::ImportOptions {
+                    task: Some(def),
+                    ..options.clone()
+                };
+                let (episodes, warnings) = crate::recording::import(recording, &options)?;
                 for w in warnings {
                     from_dataset.push_str(&format!("\nwarning: {w}"));
                 }

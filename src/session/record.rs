@@ -31,11 +31,7 @@ impl Session {
         goal: Option<[f64; 3]>,
         seconds: Option<f64>,
     ) -> Result<String, SessionError> {
-        if self.task != TaskKind::Positioning {
-            return Err(SessionError::RecordTask {
-                task: self.task.clone(),
-            });
-        }
+        self.check_recordable(goal.is_some())?;
         let BackendChoice::Ros2 { backend, .. } = &self.backend else {
             return Err(SessionError::RecordNeedsRos2 {
                 backend: self.backend_name(),
@@ -104,11 +100,7 @@ impl Session {
         goal: Option<[f64; 3]>,
         seconds: Option<f64>,
     ) -> Result<String, SessionError> {
-        if self.task != TaskKind::Positioning {
-            return Err(SessionError::RecordTask {
-                task: self.task.clone(),
-            });
-        }
+        self.check_recordable(goal.is_some())?;
         let (max_s, goal) = checked_limits(goal, seconds)?;
         if !std::io::stdin().is_terminal() {
             return Err(SessionError::TeleopNeedsTerminal);
@@ -169,6 +161,29 @@ impl Session {
         ))
     }
 
+    /// Whether a drive of the base makes a demonstration of the current task: its goal is read
+    /// from where the drive ends (positioning, a declared task's `recorded`) and its actions are
+    /// the commanded speeds; a goal given on the command line is a positioning goal pose.
+    fn check_recordable(&self, goal_given: bool) -> Result<(), SessionError> {
+        let ok = match self.task.def() {
+            Some(d) => {
+                d.recorded.is_some()
+                    && [&d.speed, &d.turn]
+                        .iter()
+                        .all(|x| x.as_ref().is_none_or(|x| x.integrate.is_none()))
+                    && (!goal_given || self.task == TaskKind::Positioning)
+            }
+            None => false,
+        };
+        if ok {
+            Ok(())
+        } else {
+            Err(SessionError::RecordTask {
+                task: self.task.clone(),
+            })
+        }
+    }
+
     /// A driven recording as the next demonstration (`teleop N`), journalled; its name and size.
     fn add_driven_demo(
         &mut self,
@@ -177,7 +192,13 @@ impl Session {
         source: String,
     ) -> Result<(String, usize), SessionError> {
         let number = self.state.learner.dataset().demos().len();
-        let episode = crate::recording::episode(format!("teleop {number}"), samples, goal);
+        let name = format!("teleop {number}");
+        let episode = match self.task.def() {
+            Some(def) if self.task != TaskKind::Positioning => {
+                crate::recording::episode_for(&def, name, samples, None)
+            }
+            _ => crate::recording::episode(name, samples, goal),
+        };
         let points = episode.trace.len();
         let name = episode.name.clone();
         self.commit(Effect::Demos {
