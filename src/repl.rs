@@ -103,9 +103,12 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
             "the starting policy comes from a few teacher demonstrations and is meant to be weak (the paper's baseline): run it, see where it goes wrong, advise it"
         );
     }
-    println!(
-        "type `help` for the commands, Tab to complete; e.g. `run goal 2 -1 0`, then `select 40..70`, `advise slow_down`"
-    );
+    let example = if session.task() == crate::task::TaskKind::Positioning {
+        "`run goal 2 -1 0`, then `select 40..70`, `advise slow_down`"
+    } else {
+        "`run start 0`, then `select 40..70`, `advise NAME` (`help` lists the task's operators)"
+    };
+    println!("type `help` for the commands, Tab to complete; e.g. {example}");
     let signal = session.stop_signal();
     install_ctrl_c(&signal);
     let mut n = 0;
