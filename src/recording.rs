@@ -27,6 +27,20 @@ use crate::program::task::TaskDef;
 use crate::task::{Declared, Task, positioning_def};
 use crate::trace::{Episode, Pose, Trace};
 
+impl ImportOptions {
+    /// One run of samples as a demonstration of the options' task (positioning by default).
+    pub fn episode(&self, name: String, run: &[Sample]) -> Episode {
+        match &self.task {
+            Some(def) => {
+                let pose_goal = self.goal.map(|g| vec![g.x_m, g.y_m, g.theta_rad]);
+                let goal = self.goal_values.as_deref().or(pose_goal.as_deref());
+                episode_for(def, name, run, goal)
+            }
+            None => episode(name, run, self.goal),
+        }
+    }
+}
+
 /// How a log is turned into episodes.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ImportOptions {
@@ -347,18 +361,7 @@ pub fn parse_csv_log(
             } else {
                 stem.to_string()
             };
-            match &options.task {
-                Some(def) => episode_for(
-                    def,
-                    name,
-                    run,
-                    options.goal_values.as_deref().or(options
-                        .goal
-                        .map(|g| vec![g.x_m, g.y_m, g.theta_rad])
-                        .as_deref()),
-                ),
-                None => episode(name, run, options.goal),
-            }
+            options.episode(name, run)
         })
         .collect();
     report.episodes = episodes.len();

@@ -492,3 +492,36 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
     );
     assert!(d.join("session_lr/meta/info.json").exists());
 }
+
+/// A bag of a person's driving is a demonstration of a task declared in a file: the standoff's
+/// goal read from where the drive ends (`recorded`), its observations computed along the bag,
+/// equal to the same task over the independent pairing of the bag's messages.
+#[test]
+fn a_bag_imports_as_demonstrations_of_a_declared_task() {
+    let Some(py) = peer() else { return };
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/tasks/standoff.adv"
+    ))
+    .unwrap();
+    let set = advise::check::check(&[advise::check::Source::new("standoff.adv", text)]).unwrap();
+    let options = ImportOptions {
+        task: Some(set.task("standoff").unwrap().clone()),
+        ..ImportOptions::default()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for writer in ["rosbags", "mcap-zstd"] {
+        let bag = write(&py, dir.path(), writer, "clean");
+        let log = PathBuf::from(format!("{}.expected.csv", bag.display()));
+        let (want, _) = import(&log, &options).unwrap();
+        let (got, _) = import(&bag, &options).unwrap();
+        assert_eq!(got[0].trace.domain, "standoff");
+        assert_same(&got, &want, &format!("{writer} standoff"));
+        // The drive ends at the standoff: 1 m from the point it faces.
+        let last = got[0].trace.z(got[0].trace.len() - 1);
+        assert!(
+            (last[0] - 1.0).abs() < 1e-9 && last[1].abs() < 1e-9,
+            "{last:?}"
+        );
+    }
+}

@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 use byteorder::{BigEndian, LittleEndian};
 use serde::de::DeserializeOwned;
 
-use super::{ImportError, ImportOptions, Sample, episode};
+use super::{ImportError, ImportOptions, Sample};
 use crate::backend::ros2::msg::{Odometry, Twist, TwistStamped};
 use crate::trace::{Episode, Pose};
 
@@ -396,7 +396,7 @@ pub fn import_bag(
             } else {
                 stem.clone()
             };
-            episode(name, run, options.goal)
+            options.episode(name, run)
         })
         .collect();
     report.episodes = episodes.len();
