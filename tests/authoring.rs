@@ -72,7 +72,7 @@ fn fmt_round_trips_every_shipped_file_keeping_meaning_and_comments() {
     files.extend(files_under("examples"));
     files.extend(files_under("tests/programs/ok"));
     assert!(files.len() >= 14, "{files:?}");
-    for dir in ["operators", "tests/programs/ok"] {
+    for dir in ["operators", "tests/programs/ok", "examples/tasks"] {
         for f in files_under(dir) {
             let text = std::fs::read_to_string(&f).unwrap();
             assert!(!is_script(&text), "{} is an operator file", f.display());
@@ -81,7 +81,7 @@ fn fmt_round_trips_every_shipped_file_keeping_meaning_and_comments() {
     // Scripts, one of them starting with an operator definition.
     let first_an_operator = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/sessions/an_operator_defined_at_the_repl_is_used_at_once.adv");
-    for f in files_under("examples")
+    for f in files_under("examples/sessions")
         .into_iter()
         .chain([first_an_operator])
     {

@@ -258,6 +258,63 @@ fn space() -> impl Strategy<Value = advise::domain::Space> {
     prop_oneof![Just(Space::Observation), Just(Space::Action)]
 }
 
+fn binding() -> impl Strategy<Value = Binding> {
+    (ident(), expr()).prop_map(|(name, value)| Binding {
+        name,
+        value,
+        span: Span::default(),
+    })
+}
+
+/// A task clause, as the printer must write it back.
+fn clause() -> impl Strategy<Value = Clause> {
+    let goal_dim =
+        (ident(), prop::option::of("[^\"\n\r]{0,6}"), limits()).prop_map(|(name, unit, limits)| {
+            DimDecl {
+                space: Space::Observation,
+                name,
+                unit,
+                limits,
+                meaning: None,
+                span: Span::default(),
+            }
+        });
+    let bindings = || prop::collection::vec(binding(), 1..3);
+    prop_oneof![
+        prop::collection::vec(goal_dim, 1..3).prop_map(Clause::Goal),
+        bindings().prop_map(Clause::Let),
+        bindings().prop_map(Clause::Score),
+        bindings().prop_map(Clause::Recorded),
+        expr().prop_map(|cond| Clause::Success {
+            cond,
+            span: Span::default()
+        }),
+        (expr(), prop::option::of(expr())).prop_map(|(cond, hold)| Clause::EndWhen {
+            cond,
+            hold,
+            span: Span::default()
+        }),
+        expr().prop_map(|limit| Clause::EndAfter {
+            limit,
+            span: Span::default()
+        }),
+        (number(), prop::option::of(number())).prop_map(|(count, seed)| Clause::Test {
+            count,
+            seed,
+            span: Span::default()
+        }),
+        prop::collection::vec((any::<bool>(), binding()), 0..3).prop_map(|stmts| {
+            Clause::Teacher {
+                stmts: stmts
+                    .into_iter()
+                    .map(|(is_let, binding)| TeacherStmt { is_let, binding })
+                    .collect(),
+                span: Span::default(),
+            }
+        }),
+    ]
+}
+
 fn item() -> impl Strategy<Value = Item> {
     let dim = (
         space(),
@@ -265,21 +322,43 @@ fn item() -> impl Strategy<Value = Item> {
         prop::option::of("[^\"\n\r]{0,6}"),
         limits(),
     )
-        .prop_map(|(space, name, unit, limits)| DimDecl {
-            space,
-            name,
-            unit,
-            limits,
-            meaning: None,
-            span: Span::default(),
+        .prop_flat_map(|(space, name, unit, limits)| {
+            let meaning = match space {
+                Space::Observation => prop::option::of(expr().prop_map(DimMeaning::Def)).boxed(),
+                Space::Action => prop::option::of(prop_oneof![
+                    ident().prop_map(DimMeaning::Drives),
+                    (ident(), expr(), expr()).prop_map(|(a, lo, hi)| DimMeaning::Changes(
+                        a,
+                        LimitsExpr {
+                            lo,
+                            hi,
+                            span: Span::default()
+                        }
+                    )),
+                ])
+                .boxed(),
+            };
+            meaning.prop_map(move |meaning| DimDecl {
+                space,
+                name: name.clone(),
+                unit: unit.clone(),
+                limits: limits.clone(),
+                meaning,
+                span: Span::default(),
+            })
         });
-    let domain =
-        (doc(), ident(), prop::collection::vec(dim, 0..4)).prop_map(|(doc, name, dims)| {
+    let domain = (
+        doc(),
+        ident(),
+        prop::collection::vec(dim, 0..4),
+        prop::collection::vec(clause(), 0..4),
+    )
+        .prop_map(|(doc, name, dims, clauses)| {
             Item::Domain(DomainDecl {
                 doc,
                 name,
                 dims,
-                clauses: Vec::new(),
+                clauses,
                 span: Span::default(),
             })
         });
