@@ -22,7 +22,7 @@ fn check_without_files_checks_the_standard_operators() {
     assert_eq!(code, 0);
     assert_eq!(
         out.trim(),
-        "checked 2 domains and 25 operators in operators/: all good"
+        "checked 2 domains (task: positioning) and 25 operators in operators/: all good"
     );
 }
 

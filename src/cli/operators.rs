@@ -21,13 +21,24 @@ pub fn check_standard() -> miette::Result<ExitCode> {
     match check::check_in(&map, None, &ids) {
         Ok(checked) => {
             println!(
-                "checked {} domains and {} operators in operators/: all good",
+                "checked {} domains ({}) and {} operators in operators/: all good",
                 checked.set.domains().len(),
+                tasks_listed(&checked.set),
                 checked.set.operator_count()
             );
             Ok(ExitCode::SUCCESS)
         }
         Err(errors) => Ok(report_check_errors(&map, errors, ids.len())),
+    }
+}
+
+/// The domains that are tasks: "tasks: positioning, standoff".
+fn tasks_listed(set: &OperatorSet) -> String {
+    let names: Vec<&str> = set.tasks().iter().map(|t| t.name()).collect();
+    match names.len() {
+        0 => "no task".into(),
+        1 => format!("task: {}", names[0]),
+        _ => format!("tasks: {}", names.join(", ")),
     }
 }
 
@@ -50,10 +61,11 @@ pub fn check_files(files: &[PathBuf]) -> miette::Result<ExitCode> {
             }
             let ops: usize = set.operator_count();
             println!(
-                "checked {} file{}: {} domains and {} operators in all, no errors{}",
+                "checked {} file{}: {} domains ({}) and {} operators in all, no errors{}",
                 files.len(),
                 if files.len() == 1 { "" } else { "s" },
                 set.domains().len(),
+                tasks_listed(&set),
                 ops,
                 match n {
                     0 => String::new(),
