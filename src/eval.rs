@@ -38,7 +38,9 @@ pub struct EvalOptions {
 /// The figures of one evaluation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Report {
-    pub task: TaskKind,
+    /// The task's name (a declared task's too: a journalled report is read back without its
+    /// file).
+    pub task: String,
     pub seed: u64,
     pub episodes: usize,
     pub successes: usize,
@@ -75,7 +77,7 @@ impl Report {
                 .or_insert(0) += 1;
         }
         Report {
-            task,
+            task: task.name().to_string(),
             seed,
             episodes: n,
             successes,

@@ -293,7 +293,7 @@ fn a_declared_task_on_the_rmp_restores_without_its_file_or_its_robot() {
     run(
         &mut live,
         &format!(
-            "tasks {}\ntask standoff\nload demos teacher:3\nbackend rmp:{addr}\nrun start 0\nselect 0..10\nadvise creep",
+            "tasks {}\ntask standoff\nload demos teacher:3\nbackend rmp:{addr}\nrun start 0\nselect 0..10\nadvise creep\neval",
             file.display()
         ),
     );
@@ -312,6 +312,13 @@ fn a_declared_task_on_the_rmp_restores_without_its_file_or_its_robot() {
     assert!(
         robot.recv_from(&mut buf).is_err(),
         "a resume sent a datagram to the robot"
+    );
+    // The one note says the session is on `sim` now; no line was damaged (the journalled
+    // evaluation of a declared task reads back by the task's name).
+    assert!(
+        restored.notes.len() == 1 && restored.notes[0].contains("nothing was driven"),
+        "{:?}",
+        restored.notes
     );
     let mut s = restored.session;
     assert_eq!(s.task().name(), "standoff");
