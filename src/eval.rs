@@ -55,6 +55,10 @@ pub struct Report {
     pub mean_length_m: f64,
     /// Mean path length over the successful episodes (the paper's efficiency measure), m.
     pub mean_length_success_m: Option<f64>,
+    /// A declared task's own efficiency measure (`score efficiency`), mean over the successful
+    /// episodes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mean_efficiency_success: Option<f64>,
     /// How many episodes ended each way.
     pub endings: BTreeMap<String, usize>,
     /// Every episode, in test-set order.
@@ -90,6 +94,7 @@ impl Report {
             mean_heading_error_rad: mean(&|o| o.heading_error_rad),
             mean_length_m: mean(&|o| Some(o.length_m)).unwrap_or(0.0),
             mean_length_success_m: mean(&|o| o.success.then_some(o.length_m)),
+            mean_efficiency_success: mean(&|o| o.efficiency.filter(|_| o.success)),
             endings,
             outcomes,
         }
@@ -118,6 +123,11 @@ impl Report {
             s.push_str(&format!(" ({l:.3} m over successes)"));
         }
         s.push('\n');
+        if let Some(e) = self.mean_efficiency_success {
+            s.push_str(&format!(
+                "  mean efficiency     {e:.3} over successes (the task's own measure)\n"
+            ));
+        }
         let endings: Vec<String> = self
             .endings
             .iter()

@@ -96,6 +96,9 @@ pub struct Score {
     pub position_error_m: f64,
     /// Positioning: `|theta_g - theta_r|`, wrapped. Interception: none.
     pub heading_error_rad: Option<f64>,
+    /// A declared task's own efficiency measure (`score efficiency = ...`); none: the path
+    /// length is the measure.
+    pub efficiency: Option<f64>,
 }
 
 /// The measures of one execution.
@@ -108,6 +111,9 @@ pub struct Outcome {
     pub heading_error_rad: Option<f64>,
     /// Path length driven, m (true path where known, else odometry).
     pub length_m: f64,
+    /// A declared task's own efficiency measure, when it declares one (`score efficiency`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub efficiency: Option<f64>,
     /// Control steps taken (points in the trace).
     pub steps: usize,
     pub duration_s: f64,
@@ -274,6 +280,7 @@ impl Recorder {
                 position_error_m: score.position_error_m,
                 heading_error_rad: score.heading_error_rad,
                 length_m,
+                efficiency: score.efficiency,
                 steps: self.trace.len(),
                 duration_s: state.t_s,
                 final_pose,

@@ -53,6 +53,7 @@ fn outcome(success: bool, err: f64, len: f64) -> Outcome {
         position_error_m: err,
         heading_error_rad: None,
         length_m: len,
+        efficiency: None,
         steps: 10,
         duration_s: 1.0,
         final_pose: Pose::default(),

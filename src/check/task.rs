@@ -559,6 +559,7 @@ impl Checker<'_> {
         let mut score = Vec::new();
         let mut error = None;
         let mut heading_error = None;
+        let mut efficiency = None;
         for (slot, b) in &score_decls {
             let context = format!("the score `{}`", b.name.name);
             let ts = TaskScope {
@@ -597,6 +598,7 @@ impl Checker<'_> {
             match b.name.name.as_str() {
                 "error" => error = Some(*slot),
                 "heading_error" => heading_error = Some(*slot),
+                "efficiency" => efficiency = Some(*slot),
                 _ => {}
             }
             score.push((*slot, ir));
@@ -697,6 +699,7 @@ impl Checker<'_> {
             score,
             error: error?,
             heading_error,
+            efficiency,
             success: success?,
             recorded,
             teacher,

@@ -472,6 +472,7 @@ mod tests {
                 position_error_m: 0.0,
                 heading_error_rad: None,
                 length_m,
+                efficiency: None,
                 steps: trace.len(),
                 duration_s: trace.len() as f64 / 30.0,
                 final_pose: crate::trace::Pose {

@@ -130,6 +130,8 @@ pub struct TaskDef {
     /// Slots of the `error` and `heading_error` scores.
     pub error: usize,
     pub heading_error: Option<usize>,
+    /// Slot of the `efficiency` score, when declared (else the path length is the measure).
+    pub efficiency: Option<usize>,
     pub success: Ir,
     /// How each goal parameter is read from the pose a recording ends at.
     pub recorded: Option<Vec<Ir>>,

@@ -186,6 +186,7 @@ impl Task for Declared {
             success: d.success.eval_task(&env, &self.prev) != 0.0,
             position_error_m: env[d.error],
             heading_error_rad: d.heading_error.map(|s| env[s]),
+            efficiency: d.efficiency.map(|s| env[s]),
         }
     }
 }

@@ -270,6 +270,7 @@ impl Task for Interception {
             success: ending == Ending::Captured,
             position_error_m: distance(pose.x_m, pose.y_m, self.ball[0], self.ball[1]),
             heading_error_rad: None,
+            efficiency: None,
         }
     }
 
