@@ -522,15 +522,7 @@ impl Checker<'_> {
                     }
                 }
                 Clause::EndAfter { limit, span } => {
-                    if limit_seen {
-                        self.err(
-                            f,
-                            *span,
-                            CheckError::TaskClauseTwice {
-                                clause: "end after".into(),
-                                span: self.at(f, *span),
-                            },
-                        );
+                    if self.twice(f, limit_seen, "end after", *span) {
                         continue;
                     }
                     limit_seen = true;
@@ -622,15 +614,7 @@ impl Checker<'_> {
             let Clause::Success { cond, span } = c else {
                 continue;
             };
-            if success.is_some() {
-                self.err(
-                    f,
-                    *span,
-                    CheckError::TaskClauseTwice {
-                        clause: "success".into(),
-                        span: self.at(f, *span),
-                    },
-                );
+            if self.twice(f, success.is_some(), "success", *span) {
                 continue;
             }
             let ts = TaskScope {
@@ -704,6 +688,21 @@ impl Checker<'_> {
             recorded,
             teacher,
         })
+    }
+
+    /// Report a second clause of a kind a task has once; whether it was one.
+    fn twice(&mut self, f: usize, seen: bool, clause: &str, span: Span) -> bool {
+        if seen {
+            self.err(
+                f,
+                span,
+                CheckError::TaskClauseTwice {
+                    clause: clause.into(),
+                    span: self.at(f, span),
+                },
+            );
+        }
+        seen
     }
 
     /// A constant number of seconds: positive (or, where `zero_ok`, zero) and at most a day.
@@ -830,15 +829,7 @@ impl Checker<'_> {
         for c in &d.clauses {
             let Clause::Recorded(bs) = c else { continue };
             let span = bs.first().map_or(d.name.span, |b| b.span);
-            if out.is_some() {
-                self.err(
-                    f,
-                    span,
-                    CheckError::TaskClauseTwice {
-                        clause: "recorded".into(),
-                        span: self.at(f, span),
-                    },
-                );
+            if self.twice(f, out.is_some(), "recorded", span) {
                 continue;
             }
             clause_span = Some(span);
@@ -910,15 +901,7 @@ impl Checker<'_> {
             let Clause::Test { count, seed, span } = c else {
                 continue;
             };
-            if out.is_some() {
-                self.err(
-                    f,
-                    *span,
-                    CheckError::TaskClauseTwice {
-                        clause: "test".into(),
-                        span: self.at(f, *span),
-                    },
-                );
+            if self.twice(f, out.is_some(), "test", *span) {
                 continue;
             }
             let whole = |v: f64, max: f64| v.fract() == 0.0 && v >= 0.0 && v <= max;
@@ -978,15 +961,7 @@ impl Checker<'_> {
             let Clause::Teacher { stmts, span } = c else {
                 continue;
             };
-            if out.is_some() {
-                self.err(
-                    f,
-                    *span,
-                    CheckError::TaskClauseTwice {
-                        clause: "teacher".into(),
-                        span: self.at(f, *span),
-                    },
-                );
+            if self.twice(f, out.is_some(), "teacher", *span) {
                 continue;
             }
             let mut names: HashMap<String, (usize, Kind)> = domain
