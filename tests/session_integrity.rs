@@ -218,10 +218,9 @@ fn redo_puts_back_the_points_undo_took_even_after_a_redefinition() {
     assert!(points(&s)[20..].iter().all(|(_, a)| a[0] == 0.1));
 }
 
-#[test]
-fn a_resume_after_an_rmp_session_never_connects_or_drives() {
-    let dir = tempfile::tempdir().unwrap();
-    let emu = Emulator::bind_sim(
+/// An RMP emulator on the loopback address, quick to initialise.
+fn emulator() -> advise::backend::rmp::EmulatorHandle {
+    Emulator::bind_sim(
         "127.0.0.1:0".parse::<SocketAddr>().unwrap(),
         EmulatorConfig {
             init_s: 0.05,
@@ -230,7 +229,13 @@ fn a_resume_after_an_rmp_session_never_connects_or_drives() {
         SimParams::default(),
         0,
     )
-    .unwrap();
+    .unwrap()
+}
+
+#[test]
+fn a_resume_after_an_rmp_session_never_connects_or_drives() {
+    let dir = tempfile::tempdir().unwrap();
+    let emu = emulator();
     let addr = emu.addr();
     let mut live = positioning(9);
     let journal = live.start_journal(dir.path()).unwrap();
@@ -277,16 +282,7 @@ fn a_declared_task_on_the_rmp_restores_without_its_file_or_its_robot() {
         &file,
     )
     .unwrap();
-    let emu = Emulator::bind_sim(
-        "127.0.0.1:0".parse::<SocketAddr>().unwrap(),
-        EmulatorConfig {
-            init_s: 0.05,
-            ..EmulatorConfig::default()
-        },
-        SimParams::default(),
-        0,
-    )
-    .unwrap();
+    let emu = emulator();
     let addr = emu.addr();
     let mut live = positioning(0);
     let journal = live.start_journal(dir.path()).unwrap();
