@@ -109,6 +109,10 @@ pub enum Command {
     Repl(SessionArgs),
     /// Reproduce one of the paper's studies with automated teachers and print its figures.
     Experiment(ExperimentArgs),
+    /// Fit the constants the paper leaves open to the figures it gives as a study's starting
+    /// conditions (never its claims), on held-out practice sets; prints what was fitted to what
+    /// and how closely, and with `--write` saves the file the defaults are read from.
+    Calibrate(CalibrateArgs),
     /// Emulate a Segway RMP v3 on a UDP port, with the simulator behind it: what `--backend
     /// rmp:HOST:PORT` drives when no robot is at hand. Runs until Ctrl-C.
     RmpEmulator(EmulatorArgs),
@@ -149,6 +153,22 @@ pub struct ExperimentArgs {
     /// Write the study's plots as SVG files into this folder (created if needed).
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
+    /// Simulator parameters (JSON; omitted fields keep their defaults).
+    #[arg(long, value_name = "FILE")]
+    pub sim_params: Option<PathBuf>,
+}
+
+#[derive(Args)]
+pub struct CalibrateArgs {
+    /// Which study's constants.
+    pub study: Study,
+    /// Write the calibration (values and record) to this file: `calibration/bc.json` or
+    /// `calibration/aopi.json` in a checkout, which the defaults are built from.
+    #[arg(long, value_name = "FILE")]
+    pub write: Option<PathBuf>,
+    /// Print the calibration file's JSON instead of the report.
+    #[arg(long)]
+    pub json: bool,
     /// Simulator parameters (JSON; omitted fields keep their defaults).
     #[arg(long, value_name = "FILE")]
     pub sim_params: Option<PathBuf>,

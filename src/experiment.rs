@@ -20,11 +20,12 @@ use thiserror::Error;
 
 use crate::backend::sim::SimParams;
 use crate::eval::{ControllerBox, Report};
-use crate::task::{Outcome, Start, TaskKind, episode_seed, run_sim};
+use crate::task::{InterceptionRules, Outcome, Start, TaskKind, episode_seed, run_sim_in};
 
 pub mod advisor;
 pub mod aopi;
 pub mod bc;
+pub mod calibrate;
 pub mod critic;
 pub mod pilot;
 pub mod plot;
@@ -129,13 +130,37 @@ where
     C: ControllerBox,
     F: Fn() -> C + Sync,
 {
+    evaluate_starts_in(
+        &InterceptionRules::default(),
+        kind,
+        starts,
+        make,
+        params,
+        eval_seed,
+    )
+}
+
+/// [`evaluate_starts`] with interception starts played in `world`.
+pub fn evaluate_starts_in<C, F>(
+    world: &InterceptionRules,
+    kind: TaskKind,
+    starts: &[Start],
+    make: F,
+    params: &SimParams,
+    eval_seed: u64,
+) -> Report
+where
+    C: ControllerBox,
+    F: Fn() -> C + Sync,
+{
     let outcomes: Vec<Outcome> = starts
         .par_iter()
         .enumerate()
         .map(|(i, start)| {
             let mut c = make();
-            run_sim(
+            run_sim_in(
                 start,
+                world,
                 c.controller(),
                 params,
                 episode_seed(eval_seed, i as u64),

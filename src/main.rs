@@ -41,6 +41,7 @@ fn main() -> ExitCode {
         Some(Command::Demo(args)) => tools::demo(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Eval(args)) => tools::eval(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Experiment(args)) => tools::experiment(args).map(|()| ExitCode::SUCCESS),
+        Some(Command::Calibrate(args)) => tools::calibrate(args).map(|()| ExitCode::SUCCESS),
         Some(Command::RmpEmulator(args)) => tools::rmp_emulator(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Import(args)) => tools::import(args).map(|()| ExitCode::SUCCESS),
         Some(Command::Export(args)) => tools::export(args).map(|()| ExitCode::SUCCESS),

@@ -625,6 +625,15 @@ impl Start {
         }
     }
 
+    /// [`Start::task`], with an interception start played in `world` instead of the default
+    /// interception world (the BC study's world, or a candidate world under calibration).
+    pub fn task_in(&self, world: &InterceptionRules) -> Box<dyn Task> {
+        match self {
+            Start::Ball(b) => Box::new(Interception::with_rules(*b, world.clone())),
+            other => other.task(),
+        }
+    }
+
     /// The goal's values (a positioning goal is `x_g, y_g, theta_g`); none for interception.
     pub fn goal_values(&self) -> Option<Vec<f64>> {
         match self {
@@ -648,8 +657,27 @@ pub fn run_sim(
     params: &SimParams,
     seed: u64,
 ) -> Execution {
+    run_sim_task(start.task(), controller, params, seed)
+}
+
+/// [`run_sim`] with an interception start played in `world` ([`Start::task_in`]).
+pub fn run_sim_in(
+    start: &Start,
+    world: &InterceptionRules,
+    controller: &mut dyn Controller,
+    params: &SimParams,
+    seed: u64,
+) -> Execution {
+    run_sim_task(start.task_in(world), controller, params, seed)
+}
+
+fn run_sim_task(
+    mut task: Box<dyn Task>,
+    controller: &mut dyn Controller,
+    params: &SimParams,
+    seed: u64,
+) -> Execution {
     let mut backend = SimBackend::new(params.clone(), seed);
-    let mut task = start.task();
     match run_episode(&mut backend, task.as_mut(), controller, seed) {
         Ok(e) => e,
         // The simulator never fails; keep what was recorded if that ever changes.

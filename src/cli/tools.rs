@@ -11,8 +11,8 @@ use crate::task::TaskKind;
 use crate::trace::Episode;
 
 use super::{
-    CliError, DemoArgs, EmulatorArgs, EvalArgs, ExperimentArgs, ImportArgs, Ros2SimArgs,
-    parse_seeds, print_stdout, sim_params,
+    CalibrateArgs, CliError, DemoArgs, EmulatorArgs, EvalArgs, ExperimentArgs, ImportArgs,
+    Ros2SimArgs, parse_seeds, print_stdout, sim_params,
 };
 
 /// `advise demo`: record teacher demonstrations in the simulator into one file.
@@ -124,6 +124,18 @@ pub fn experiment(args: ExperimentArgs) -> miette::Result<()> {
     for p in out.plots {
         eprintln!("wrote {}", p.display());
     }
+    Ok(())
+}
+
+/// `advise calibrate bc|aopi`: fit, report, and write the file when asked.
+pub fn calibrate(args: CalibrateArgs) -> miette::Result<()> {
+    let sim = sim_params(args.sim_params.as_deref())?;
+    let out = crate::experiment::calibrate::run(args.study, sim, true);
+    if let Some(path) = &args.write {
+        crate::files::write_bytes(path, out.json.as_bytes())?;
+        eprintln!("wrote {}", path.display());
+    }
+    print_stdout(if args.json { &out.json } else { &out.text })?;
     Ok(())
 }
 

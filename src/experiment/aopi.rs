@@ -41,7 +41,7 @@ use crate::experiment::{Progress, eval_seed, evaluate_starts, pct, practice_seed
 use crate::interp;
 use crate::policy::Policy;
 use crate::policy::dataset::Dataset;
-use crate::policy::learner::{Learner, LearnerKind};
+use crate::policy::learner::{Learner, LearnerKind, Retune};
 use crate::task::{Controller, Outcome, Start, TaskKind, episode_seed, run_sim};
 use crate::trace::Episode;
 use rayon::prelude::*;
@@ -86,6 +86,8 @@ pub struct AopiParams {
     /// Re-derive the policy from scratch (new scaling, re-tuned LWR) after each advised
     /// execution, as after a demonstration; otherwise advice is added incrementally.
     pub rederive_after_advice: bool,
+    /// How each arm's re-derivations re-tune the kernel (the baseline is tuned in full).
+    pub retune: Retune,
     /// The person teleoperating every demonstration (seed, hybrid and teleoperation arms alike):
     /// see [`crate::experiment::pilot`].
     pub teacher: PilotStyle,
@@ -97,12 +99,13 @@ impl Default for AopiParams {
     fn default() -> Self {
         AopiParams {
             seed_demos: 9,
-            max_practice: 60,
+            max_practice: crate::experiment::pilot::calibrated().max_practice,
             hybrid_teleop: 10,
             eval_every: 5,
-            patience: 6,
+            patience: crate::experiment::pilot::calibrated().patience,
             test_goals: crate::task::positioning::TEST_GOALS,
             rederive_after_advice: true,
+            retune: Retune::Warm { full_every: 10 },
             teacher: PilotStyle::default(),
             advisor: AdvisorRules::default(),
             sim: SimParams::default(),
@@ -204,12 +207,7 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
         1 + 3 * params.max_practice as u64,
         "a-opi: demonstrations",
     );
-    let recorded = record_pilot_demos(params, seed);
-    let mut ds = Dataset::new(&kind.domain());
-    for (e, _) in &recorded {
-        // Recorded in the task's own domain: this cannot fail.
-        let _ = ds.add_demonstration(&e.name, &e.trace);
-    }
+    let (ds, _) = seed_dataset(params, seed);
     let seed_demo_points = ds.len();
     let baseline_learner = Learner::with_dataset(ds.clone(), LearnerKind::Lwr, seed);
     let eseed = eval_seed(seed);
@@ -231,7 +229,7 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
     let ops = OperatorSet::standard();
     let arm = |mode: Mode| {
         bar.set_message(&format!("a-opi: {} arm", mode.name()));
-        let mut learner = Learner::with_dataset(ds.clone(), LearnerKind::Lwr, seed);
+        let mut learner = Learner::with_retune(ds.clone(), LearnerKind::Lwr, seed, params.retune);
         let mut tally = Tally::default();
         let mut executions = params.seed_demos;
         let mut best = (base_report.clone(), base_point.clone(), 0, tally.clone());
@@ -348,6 +346,36 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
         seed_demo_points,
         paper: PAPER,
     }
+}
+
+/// The seed dataset: the person's `seed_demos` demonstrations.
+fn seed_dataset(params: &AopiParams, seed: u64) -> (Dataset, usize) {
+    let mut ds = Dataset::new(&TaskKind::Positioning.domain());
+    let mut successes = 0;
+    for (e, o) in &record_pilot_demos(params, seed) {
+        // Recorded in the task's own domain: this cannot fail.
+        let _ = ds.add_demonstration(&e.name, &e.trace);
+        successes += usize::from(o.success);
+    }
+    (ds, successes)
+}
+
+/// The baseline policy of `seed` (derived from the seed demonstrations) evaluated on `test`,
+/// the seed dataset's size and how many of its demonstrations succeeded: the study's starting
+/// conditions, which the calibration fits.
+pub fn baseline_on(seed: u64, params: &AopiParams, test: &[Start]) -> (Report, usize, usize) {
+    let (ds, demo_successes) = seed_dataset(params, seed);
+    let points = ds.len();
+    let learner = Learner::with_dataset(ds, LearnerKind::Lwr, seed);
+    let policy: &dyn Policy = learner.policy();
+    let report = evaluate_starts(
+        TaskKind::Positioning,
+        test,
+        || policy,
+        &params.sim,
+        eval_seed(seed),
+    );
+    (report, points, demo_successes)
 }
 
 /// The person's seed demonstrations: from the seed's first `seed_demos` practice goals,

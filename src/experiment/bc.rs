@@ -24,12 +24,17 @@ use serde::{Deserialize, Serialize};
 use crate::backend::sim::SimParams;
 use crate::eval::Report;
 use crate::experiment::critic::{self, CriticRules};
-use crate::experiment::{Progress, eval_seed, evaluate_starts, opt_m, pct, practice_seed};
+use crate::experiment::{Progress, eval_seed, evaluate_starts_in, opt_m, pct, practice_seed};
 use crate::policy::Policy;
 use crate::policy::dataset::Dataset;
 use crate::policy::learner::{Learner, LearnerKind};
-use crate::task::{Controller, Start, TaskKind, record_demos, run_sim};
+use crate::task::interception::practice_starts_in;
+use crate::task::{
+    Controller, InterceptionRules, InterceptionTeacher, Outcome, Start, TaskKind, episode_seed,
+    run_sim_in,
+};
 use crate::trace::Episode;
+use rayon::prelude::*;
 
 /// The paper's Table 1.
 pub const PAPER: PaperBc = PaperBc {
@@ -67,6 +72,10 @@ pub struct BcParams {
     /// `m += kappa / distance` (the paper leaves it open).
     pub kappa: f64,
     pub critic: CriticRules,
+    /// The interception world (arena, capture distance, the ball's starts and friction) and the
+    /// teacher's gains: the constants the paper leaves open, calibrated by `advise calibrate bc`.
+    pub world: InterceptionRules,
+    pub teacher: InterceptionTeacher,
     pub sim: SimParams,
 }
 
@@ -79,6 +88,8 @@ impl Default for BcParams {
             test_starts: crate::task::interception::TEST_STARTS,
             kappa: 0.1,
             critic: CriticRules::default(),
+            world: InterceptionRules::default(),
+            teacher: InterceptionTeacher::new(SimParams::default().period_s()),
             sim: SimParams::default(),
         }
     }
@@ -146,7 +157,10 @@ pub struct BcResult {
 
 /// Run the BC study. `progress` draws a bar on a terminal.
 pub fn run(seed: u64, params: &BcParams, progress: bool) -> BcResult {
-    let mut test = TaskKind::Interception.test_set();
+    let mut test: Vec<Start> = crate::task::interception::test_starts_in(&params.world)
+        .into_iter()
+        .map(Start::Ball)
+        .collect();
     test.truncate(params.test_starts.max(1));
     run_on(seed, params, &test, progress)
 }
@@ -164,7 +178,14 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         "bc: demonstrations",
     );
 
-    let recorded = record_demos(kind.clone(), params.demos, seed, sim);
+    // Demonstrations and practice: one stream of starts in the study's world, the first
+    // `demos` demonstrated, the rest practised, so none repeats.
+    let starts: Vec<Start> = practice_starts_in(seed, params.demos + params.rounds, &params.world)
+        .into_iter()
+        .map(Start::Ball)
+        .collect();
+    let (demo_starts, practice) = starts.split_at(params.demos);
+    let recorded = record_teacher(demo_starts, params, seed);
     let demo_successes = recorded.iter().filter(|(_, o)| o.success).count();
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let mut ds = Dataset::new(&kind.domain());
@@ -179,23 +200,20 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
     let eseed = eval_seed(seed);
     let evaluate = |learner: &Learner| -> Report {
         let policy: &dyn Policy = learner.policy();
-        evaluate_starts(kind.clone(), test, || policy, sim, eseed)
+        evaluate_starts_in(&params.world, kind.clone(), test, || policy, sim, eseed)
     };
     bar.set_message("bc: teacher and initial policy");
-    let teacher = evaluate_starts(
+    let teacher = evaluate_starts_in(
+        &params.world,
         kind.clone(),
         test,
-        || kind.teacher(sim.period_s()),
+        || -> Box<dyn Controller + Send> { Box::new(params.teacher_for(sim)) },
         sim,
         eseed,
     );
     let initial = evaluate(&learner);
     bar.inc(1);
 
-    // Practice starts: after the demonstrations' in the same stream, so none repeats.
-    let practice: Vec<Start> = kind
-        .practice_set(seed, params.demos + params.rounds)
-        .split_off(params.demos);
     let mut curve = vec![point(0, &initial, 0)];
     let mut summary = CritiqueSummary {
         rounds: params.rounds,
@@ -212,7 +230,13 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         let exec = {
             let mut policy: &dyn Policy = learner.policy();
             let controller: &mut dyn Controller = &mut policy;
-            run_sim(start, controller, sim, practice_seed(seed, r as u64))
+            run_sim_in(
+                start,
+                &params.world,
+                controller,
+                sim,
+                practice_seed(seed, r as u64),
+            )
         };
         practice_successes += usize::from(exec.outcome.success);
         let flags = critic::critique_execution(&exec, &params.critic);
@@ -275,6 +299,46 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         critiques: summary,
         paper: PAPER,
     }
+}
+
+impl BcParams {
+    /// The study's teacher at the simulator's control period.
+    pub fn teacher_for(&self, sim: &SimParams) -> InterceptionTeacher {
+        InterceptionTeacher {
+            period_s: sim.period_s(),
+            ..self.teacher.clone()
+        }
+    }
+}
+
+/// The teacher's demonstrations from `starts` in the study's world, in parallel: demonstration
+/// `i` on the simulator noise [`crate::task::record_demos`] would give it.
+pub(crate) fn record_teacher(
+    starts: &[Start],
+    params: &BcParams,
+    seed: u64,
+) -> Vec<(Episode, Outcome)> {
+    starts
+        .par_iter()
+        .enumerate()
+        .map(|(i, start)| {
+            let mut teacher = params.teacher_for(&params.sim);
+            let exec = run_sim_in(
+                start,
+                &params.world,
+                &mut teacher,
+                &params.sim,
+                episode_seed(seed, i as u64),
+            );
+            (
+                Episode {
+                    name: format!("demo-{i}"),
+                    trace: exec.trace,
+                },
+                exec.outcome,
+            )
+        })
+        .collect()
 }
 
 fn point(round: usize, r: &Report, critiques: usize) -> BcCurvePoint {

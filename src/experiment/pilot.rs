@@ -45,19 +45,37 @@ pub struct PilotStyle {
     pub heading_misjudge_rad: [f64; 2],
     pub blend_m: [f64; 2],
     pub k_alpha: [f64; 2],
+    /// The cruising speed's range, m/s (drawn by the driver within each episode, as the
+    /// hand-written teacher does), and the speed per metre of remaining distance, 1/s.
+    pub cruise_mps: [f64; 2],
+    pub k_rho: f64,
 }
 
 impl Default for PilotStyle {
+    /// The calibrated driver: `calibration/aopi.json`, written by `advise calibrate aopi`.
     fn default() -> Self {
-        PilotStyle {
-            arrive_m: [0.2, 0.6],
-            heading_tol_rad: [0.08, 0.35],
-            perception_frac: [0.05, 0.25],
-            heading_misjudge_rad: [0.1, 0.4],
-            blend_m: [0.6, 1.8],
-            k_alpha: [0.9, 2.0],
-        }
+        calibrated().pilot.clone()
     }
+}
+
+/// The constants `advise calibrate aopi` fitted to the paper's starting conditions, as shipped
+/// in `calibration/aopi.json` (which also records what they were fitted to and how closely).
+#[derive(Clone, Debug, Deserialize)]
+pub struct Calibrated {
+    pub pilot: PilotStyle,
+    /// Test-set evaluations without improvement before an arm stops, and the practice goals an
+    /// arm may run at most.
+    pub patience: usize,
+    pub max_practice: usize,
+}
+
+/// The shipped A-OPI calibration.
+pub fn calibrated() -> &'static Calibrated {
+    static CALIBRATED: std::sync::LazyLock<Calibrated> = std::sync::LazyLock::new(|| {
+        serde_json::from_str(include_str!("../../calibration/aopi.json"))
+            .expect("the shipped calibration/aopi.json holds a pilot (a test reads it)")
+    });
+    &CALIBRATED
 }
 
 impl PilotStyle {
@@ -71,6 +89,8 @@ impl PilotStyle {
             heading_misjudge_rad: [t.heading_misjudge_rad; 2],
             blend_m: [t.blend_m; 2],
             k_alpha: [t.k_alpha; 2],
+            cruise_mps: [t.cruise_mps.0, t.cruise_mps.1],
+            k_rho: t.k_rho,
         }
     }
 
@@ -92,6 +112,8 @@ impl PilotStyle {
             heading_misjudge_rad: draw(self.heading_misjudge_rad),
             blend_m: draw(self.blend_m),
             k_alpha: draw(self.k_alpha),
+            cruise_mps: (self.cruise_mps[0], self.cruise_mps[1]),
+            k_rho: self.k_rho,
             ..TeacherStyle::default()
         }
     }

@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::{ExperimentError, aopi, bc, ensure_dir, plot, summary};
+use rayon::prelude::*;
+
+use super::{ExperimentError, Progress, aopi, bc, ensure_dir, plot, summary};
 use crate::backend::sim::SimParams;
 
 /// Which of the paper's studies.
@@ -57,7 +59,8 @@ pub fn run(
             each_seed(
                 seeds,
                 plot_dir,
-                |seed| bc::run(seed, &params, progress),
+                progress,
+                |seed, bar| bc::run(seed, &params, bar),
                 plot::bc,
                 bc::BcResult::render,
                 summary::bc,
@@ -72,7 +75,8 @@ pub fn run(
             each_seed(
                 seeds,
                 plot_dir,
-                |seed| aopi::run(seed, &params, progress),
+                progress,
+                |seed, bar| aopi::run(seed, &params, bar),
                 plot::aopi,
                 aopi::AopiResult::render,
                 summary::aopi,
@@ -83,27 +87,42 @@ pub fn run(
 }
 
 /// The seed loop of either study: run, plot, then report the one run or summarise them all.
-fn each_seed<R: Serialize, S: Serialize>(
+/// A range's seeds run in parallel (each study also spreads its own evaluations over the
+/// cores), with one progress bar counting seeds; results keep the seeds' order, so the output
+/// is the same however the runs were scheduled.
+#[allow(clippy::too_many_arguments)]
+fn each_seed<R: Serialize + Send, S: Serialize>(
     seeds: &Seeds,
     plot_dir: Option<&Path>,
-    run: impl Fn(u64) -> R,
+    progress: bool,
+    run: impl Fn(u64, bool) -> R + Sync,
     draw: impl Fn(&R, &Path) -> Result<Vec<PathBuf>, ExperimentError>,
     render: impl Fn(&R) -> String,
     summarise: impl FnOnce(Vec<R>) -> S,
     render_summary: impl Fn(&S) -> String,
 ) -> Result<StudyOutput, ExperimentError> {
-    let list: Vec<u64> = match seeds {
-        Seeds::One(seed) => vec![*seed],
-        Seeds::Range(range) => range.clone().collect(),
+    let runs: Vec<R> = match seeds {
+        Seeds::One(seed) => vec![run(*seed, progress)],
+        Seeds::Range(range) => {
+            let list: Vec<u64> = range.clone().collect();
+            let bar = Progress::new(progress, list.len() as u64, "seeds");
+            let runs = list
+                .par_iter()
+                .map(|&seed| {
+                    let r = run(seed, false);
+                    bar.inc(1);
+                    r
+                })
+                .collect();
+            bar.finish();
+            runs
+        }
     };
     let mut plots = Vec::new();
-    let mut runs = Vec::with_capacity(list.len());
-    for seed in list {
-        let result = run(seed);
-        if let Some(dir) = plot_dir {
-            plots.extend(draw(&result, dir)?);
+    if let Some(dir) = plot_dir {
+        for r in &runs {
+            plots.extend(draw(r, dir)?);
         }
-        runs.push(result);
     }
     let (text, json) = match seeds {
         Seeds::One(_) => {

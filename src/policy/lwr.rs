@@ -146,6 +146,22 @@ pub const BANDWIDTH_GRID: [f64; 7] = [0.01, 0.02, 0.035, 0.05, 0.08, 0.12, 0.2];
 ///
 /// Deterministic for a seed: per-query errors are computed in parallel and summed in order.
 pub fn tune(ds: &Dataset, range_scale: &[f64], k: usize, seed: u64) -> LwrParams {
+    tune_from(ds, range_scale, k, seed, None)
+}
+
+/// [`tune`], warm-started from `start` (the parameters of the last tuning) when given: the same
+/// folds and loss, but only the bandwidths next to `start`'s on [`BANDWIDTH_GRID`] are tried (the
+/// smallest within 5% of the best of those wins), and `start`'s per-dimension scales are kept.
+/// Three loss evaluations instead of about thirteen: what a learner re-derived after every
+/// advised execution needs, since a few dozen added points move the optimum by a grid step at
+/// most. A bandwidth off the grid (a loaded parameter set) starts from the nearest grid value.
+pub fn tune_from(
+    ds: &Dataset,
+    range_scale: &[f64],
+    k: usize,
+    seed: u64,
+    start: Option<&LwrParams>,
+) -> LwrParams {
     let n = ds.len();
     let dim = range_scale.len();
     let mut params = LwrParams::default_for(dim);
@@ -208,6 +224,34 @@ pub fn tune(ds: &Dataset, range_scale: &[f64], k: usize, seed: u64) -> LwrParams
             .collect();
         errors.iter().sum::<f64>() / errors.len().max(1) as f64
     };
+    if let Some(start) = start.filter(|s| s.scales.len() == dim) {
+        let at = BANDWIDTH_GRID
+            .iter()
+            .enumerate()
+            .min_by(|(_, a), (_, b)| {
+                (*a - start.bandwidth)
+                    .abs()
+                    .total_cmp(&(*b - start.bandwidth).abs())
+            })
+            .map_or(0, |(i, _)| i);
+        let near = &BANDWIDTH_GRID[at.saturating_sub(1)..(at + 2).min(BANDWIDTH_GRID.len())];
+        params.scales = start.scales.clone();
+        params.tolerance = start.tolerance;
+        let losses: Vec<f64> = near
+            .iter()
+            .map(|&h| {
+                loss(&LwrParams {
+                    bandwidth: h,
+                    ..params.clone()
+                })
+            })
+            .collect();
+        let min = losses.iter().copied().fold(f64::INFINITY, f64::min);
+        if let Some(i) = losses.iter().position(|l| *l <= min * 1.05) {
+            params.bandwidth = near[i];
+        }
+        return params;
+    }
     // Prefer locality: the smallest bandwidth whose loss is within 5% of the best, and a scale
     // change only when it gains more than 1%. A wider kernel that is barely better costs a
     // neighbourhood many times larger on every query (the volume grows as h^dim) and blurs the

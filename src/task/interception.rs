@@ -55,18 +55,27 @@ pub struct InterceptionRules {
 }
 
 impl Default for InterceptionRules {
+    /// The calibrated world: `calibration/bc.json`, written by `advise calibrate bc`.
     fn default() -> Self {
-        InterceptionRules {
-            arena_half_m: 4.0,
-            capture_m: 0.3,
-            time_limit_s: 20.0,
-            ball_dist_m: (1.0, 3.0),
-            ball_speed_mps: (0.0, 0.8),
-            ball_decel_mps2: 0.05,
-            max_speed_mps: 1.0,
-            max_rot_radps: 1.0,
-        }
+        calibrated().world.clone()
     }
+}
+
+/// The constants `advise calibrate bc` fitted to the paper's starting conditions, as shipped in
+/// `calibration/bc.json` (the file also records what they were fitted to and how closely; only
+/// the values are read here).
+#[derive(Deserialize)]
+struct Calibrated {
+    world: InterceptionRules,
+    teacher: InterceptionTeacher,
+}
+
+fn calibrated() -> &'static Calibrated {
+    static CALIBRATED: std::sync::LazyLock<Calibrated> = std::sync::LazyLock::new(|| {
+        serde_json::from_str(include_str!("../../calibration/bc.json"))
+            .expect("the shipped calibration/bc.json holds a world and a teacher (a test reads it)")
+    });
+    &CALIBRATED
 }
 
 /// An initial condition: the ball's position and velocity relative to the robot, which starts at
@@ -92,16 +101,27 @@ impl Default for BallStart {
 
 /// The fixed test set: 100 starts.
 pub fn test_starts() -> Vec<BallStart> {
+    test_starts_in(&InterceptionRules::default())
+}
+
+/// The fixed test set drawn from `world`'s ranges.
+pub fn test_starts_in(world: &InterceptionRules) -> Vec<BallStart> {
     let mut rng = ChaCha8Rng::seed_from_u64(TEST_SEED);
     rng.set_stream(0);
-    sample_starts(&mut rng, TEST_STARTS, &InterceptionRules::default())
+    sample_starts(&mut rng, TEST_STARTS, world)
 }
 
 /// `n` practice/demonstration starts drawn uniformly from `seed`.
 pub fn practice_starts(seed: u64, n: usize) -> Vec<BallStart> {
+    practice_starts_in(seed, n, &InterceptionRules::default())
+}
+
+/// [`practice_starts`] drawn from `world`'s ranges (the same stream: a world that differs only
+/// in its ranges draws its starts from the same random words).
+pub fn practice_starts_in(seed: u64, n: usize, world: &InterceptionRules) -> Vec<BallStart> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(1);
-    sample_starts(&mut rng, n, &InterceptionRules::default())
+    sample_starts(&mut rng, n, world)
 }
 
 /// Practice start `index` of `seed`: `practice_starts(seed, index + 1)[index]`, computed
@@ -303,15 +323,11 @@ pub struct InterceptionTeacher {
 }
 
 impl InterceptionTeacher {
+    /// The calibrated teacher (`calibration/bc.json`) at control period `period_s`.
     pub fn new(period_s: f64) -> InterceptionTeacher {
         InterceptionTeacher {
             period_s,
-            cruise_mps: 0.8,
-            behind_frac: 0.6,
-            k_turn: 1.5,
-            max_rot_radps: 0.9,
-            gain_speed: 0.35,
-            gain_rot: 0.5,
+            ..calibrated().teacher.clone()
         }
     }
 }
