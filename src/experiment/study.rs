@@ -60,6 +60,7 @@ pub fn run(
                 seeds,
                 plot_dir,
                 progress,
+                super::calibrate::shipped(study),
                 |seed, bar| bc::run(seed, &params, bar),
                 plot::bc,
                 bc::BcResult::render,
@@ -76,6 +77,7 @@ pub fn run(
                 seeds,
                 plot_dir,
                 progress,
+                super::calibrate::shipped(study),
                 |seed, bar| aopi::run(seed, &params, bar),
                 plot::aopi,
                 aopi::AopiResult::render,
@@ -95,6 +97,7 @@ fn each_seed<R: Serialize + Send, S: Serialize>(
     seeds: &Seeds,
     plot_dir: Option<&Path>,
     progress: bool,
+    calibration: Option<serde_json::Value>,
     run: impl Fn(u64, bool) -> R + Sync,
     draw: impl Fn(&R, &Path) -> Result<Vec<PathBuf>, ExperimentError>,
     render: impl Fn(&R) -> String,
@@ -127,14 +130,34 @@ fn each_seed<R: Serialize + Send, S: Serialize>(
     let (text, json) = match seeds {
         Seeds::One(_) => {
             let r = &runs[0];
-            (render(r), pretty(r))
+            (
+                render(r),
+                pretty(&WithCalibration {
+                    result: r,
+                    calibration,
+                }),
+            )
         }
         Seeds::Range(_) => {
             let s = summarise(runs);
-            (render_summary(&s), pretty(&s))
+            let json = pretty(&WithCalibration {
+                result: &s,
+                calibration,
+            });
+            (render_summary(&s), json)
         }
     };
     Ok(StudyOutput { text, json, plots })
+}
+
+/// A study's JSON with the shipped calibration's record (what the defaults were fitted to, and
+/// how closely) under `calibration`.
+#[derive(Serialize)]
+struct WithCalibration<'a, T: Serialize> {
+    #[serde(flatten)]
+    result: &'a T,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    calibration: Option<serde_json::Value>,
 }
 
 fn pretty(value: &impl Serialize) -> String {

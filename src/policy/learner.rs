@@ -686,3 +686,33 @@ fn fmt4(v: &[f64]) -> String {
         .collect::<Vec<_>>()
         .join(", ")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::task::{TaskKind, record_demos};
+
+    /// A warm schedule re-tunes from the last tuning between full tunings every `full_every`-th
+    /// re-derivation; a full schedule always tunes from scratch.
+    #[test]
+    fn a_warm_schedule_tunes_in_full_every_nth_rederivation() {
+        let kind = TaskKind::Positioning;
+        let sim = crate::backend::sim::SimParams::default();
+        let mut ds = Dataset::new(&kind.domain());
+        for (e, _) in record_demos(kind.clone(), 6, 4, &sim) {
+            ds.add_demonstration(&e.name, &e.trace).unwrap();
+        }
+        let mut warm = Learner::with_retune(
+            ds.clone(),
+            LearnerKind::Lwr,
+            1,
+            Retune::Warm { full_every: 3 },
+        );
+        let notes: Vec<bool> = (0..5)
+            .map(|_| warm.rederive().contains("re-tuned from the last tuning"))
+            .collect();
+        assert_eq!(notes, [true, true, false, true, true]);
+        let mut full = Learner::with_dataset(ds, LearnerKind::Lwr, 1);
+        assert!(!full.rederive().contains("re-tuned"));
+    }
+}
