@@ -621,6 +621,17 @@ impl Learner {
                 fmt4(self.ds.a(s.point)),
                 self.describe(s.point, advice_name)
             );
+            let (incs, _) = self.ds.directional(s.point);
+            if !incs.is_empty() {
+                let _ = writeln!(
+                    out,
+                    "  m from this side: {:.4} (paper's rule) + {:.4} of its {:.4} directional penalty ({} directional increments)",
+                    self.ds.m(s.point),
+                    s.m - self.ds.m(s.point),
+                    self.ds.max_weight(s.point) - self.ds.m(s.point),
+                    incs.len()
+                );
+            }
         }
         let mut a = vec![0.0; self.ds.domain().act_dim()];
         let ans = self.regress(z, &mut a);

@@ -275,7 +275,7 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "critique",
         signature: "critique [--directional] [KAPPA]",
-        doc: "Flag the selection as poor: the data points that recommended its actions are pushed away (BC), each by KAPPA / distance (KAPPA 1 if omitted). `--directional` uses the paper's proposed improvement: a point is penalised only for observations on the flagged side of it (in full from the flagged direction, by the cosine of the angle otherwise), so it still acts for observations that approach it from elsewhere.",
+        doc: "Flag the selection as poor: the data points that recommended its actions are pushed away (BC); `--directional` penalises each only for observations on the flagged side of it (the paper's proposed improvement).",
         step: Step::Correct,
         example: "critique 2",
     },
