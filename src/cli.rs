@@ -387,7 +387,9 @@ pub enum CliError {
         help("a ROS 2 topic has no spaces, `?` or `&`: `cmd_vel`, `/robot1/odom`")
     )]
     BadTopic { topic: String },
-    #[error("`--critique` chooses the BC study's critique rule; the `{study}` study has no critiques")]
+    #[error(
+        "`--critique` chooses the BC study's critique rule; the `{study}` study has no critiques"
+    )]
     #[diagnostic(
         code(advise::cli::critique_without_bc),
         help("use it with `advise experiment bc`, or leave it out")

@@ -112,8 +112,14 @@ fn reduced_bc_study_reports_table_1() {
         false,
     );
     let dir = result.directional.as_ref().unwrap();
-    assert_eq!(dir_only.rule, advise::policy::dataset::CritiqueRule::Directional);
-    assert_eq!(dir_only.learner_final.success_rate, dir.learner_final.success_rate);
+    assert_eq!(
+        dir_only.rule,
+        advise::policy::dataset::CritiqueRule::Directional
+    );
+    assert_eq!(
+        dir_only.learner_final.success_rate,
+        dir.learner_final.success_rate
+    );
     assert_eq!(dir_only.curve, dir.curve);
     assert!(dir_only.render().contains("learner final π (directional)"));
 }
@@ -301,7 +307,10 @@ fn summaries_count_the_shape_claims_seed_by_seed() {
         / 2.0;
     assert!((d.learner_final_success.mean - dmean).abs() < 1e-12);
     assert!(text.contains("learner final π (directional)"), "{text}");
-    assert!(text.contains("with the directional rule's final π"), "{text}");
+    assert!(
+        text.contains("with the directional rule's final π"),
+        "{text}"
+    );
     assert!(v["directional"]["shape"]["claims"].is_array());
 
     let a = AopiParams {

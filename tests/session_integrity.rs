@@ -193,7 +193,11 @@ fn a_directional_critique_is_restored_from_the_journal() {
             live.learner().support(exec.z(t)).unwrap(),
             back.learner().support(exec.z(t)).unwrap(),
         );
-        assert_eq!((x.point, x.m.to_bits()), (y.point, y.m.to_bits()), "step {t}");
+        assert_eq!(
+            (x.point, x.m.to_bits()),
+            (y.point, y.m.to_bits()),
+            "step {t}"
+        );
     }
     assert_eq!(
         saved(&mut back, &dir.path().join("back.json")),

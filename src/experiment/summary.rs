@@ -16,8 +16,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::experiment::aopi::{AopiResult, ArmFigures};
 use crate::experiment::bc::{BcResult, BcRuleResult};
-use crate::policy::dataset::CritiqueRule;
 use crate::experiment::{mean_sd, pct};
+use crate::policy::dataset::CritiqueRule;
 
 /// Mean and sample standard deviation of one figure across seeds.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -174,13 +174,16 @@ pub fn bc(runs: Vec<BcResult>) -> BcSummary {
         .collect();
     let directional = (!with_dir.is_empty()).then(|| {
         let spread = |f: &dyn Fn(&BcRuleResult) -> Option<f64>| {
-            Spread::of(&with_dir.iter().filter_map(|(_, d)| f(d)).collect::<Vec<_>>())
+            Spread::of(
+                &with_dir
+                    .iter()
+                    .filter_map(|(_, d)| f(d))
+                    .collect::<Vec<_>>(),
+            )
         };
         let dir_seeds: Vec<u64> = with_dir.iter().map(|(r, _)| r.seed).collect();
-        let dir_checks: Vec<Vec<bool>> = with_dir
-            .iter()
-            .map(|(r, d)| bc_rule_checks(r, d))
-            .collect();
+        let dir_checks: Vec<Vec<bool>> =
+            with_dir.iter().map(|(r, d)| bc_rule_checks(r, d)).collect();
         BcRuleSummary {
             rule: CritiqueRule::Directional,
             learner_final_success: spread(&|d| Some(d.learner_final.success_rate)),
@@ -226,20 +229,21 @@ impl BcSummary {
             "  {:<29} {:>11} {:>13}   {:>13} {:>12}",
             "Table 1", "success", "length (m)", "paper success", "paper length"
         );
-        let row = |s: &mut String, name: &str, sr: Spread, ln: Spread, paper: Option<(f64, f64)>| {
-            let (ps, pl) = paper.map_or(("-".to_string(), "-".to_string()), |(ps, pl)| {
-                (pct(ps), format!("{pl:.2}"))
-            });
-            let _ = writeln!(
-                s,
-                "  {:<29} {:>11} {:>13}   {:>13} {:>12}",
-                name,
-                rate(sr),
-                num(ln, 2),
-                ps,
-                pl
-            );
-        };
+        let row =
+            |s: &mut String, name: &str, sr: Spread, ln: Spread, paper: Option<(f64, f64)>| {
+                let (ps, pl) = paper.map_or(("-".to_string(), "-".to_string()), |(ps, pl)| {
+                    (pct(ps), format!("{pl:.2}"))
+                });
+                let _ = writeln!(
+                    s,
+                    "  {:<29} {:>11} {:>13}   {:>13} {:>12}",
+                    name,
+                    rate(sr),
+                    num(ln, 2),
+                    ps,
+                    pl
+                );
+            };
         row(
             &mut s,
             "learner initial π",
@@ -290,7 +294,8 @@ impl BcSummary {
         s.push('\n');
         self.shape.render(&mut s, "");
         if let Some(d) = &self.directional {
-            d.shape.render(&mut s, " with the directional rule's final π");
+            d.shape
+                .render(&mut s, " with the directional rule's final π");
         }
         s
     }

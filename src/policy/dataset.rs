@@ -235,7 +235,10 @@ impl Dataset {
     /// The largest weight point `i` can have: `m_i` plus all its directional increments (what a
     /// query from exactly a flagged direction meets).
     pub fn max_weight(&self, i: usize) -> f64 {
-        self.directional(i).0.iter().fold(self.m[i], |m, inc| m + inc)
+        self.directional(i)
+            .0
+            .iter()
+            .fold(self.m[i], |m, inc| m + inc)
     }
 
     pub fn provenance(&self, i: usize) -> Provenance {
