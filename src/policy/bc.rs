@@ -128,9 +128,14 @@ fn directional_factor(u: &[f64], zs: &[f64], zt: &[f64], scale: &[f64]) -> f64 {
     if uu == 0.0 || vv == 0.0 {
         return 1.0;
     }
+    let cos = uv / (uu.sqrt() * vv.sqrt());
     // NaN (from an overflowing, astronomically far query) counts as no penalty; rounding never
     // lifts the factor above 1.
-    (uv / (uu.sqrt() * vv.sqrt())).max(0.0).min(1.0)
+    if cos.is_nan() {
+        0.0
+    } else {
+        cos.clamp(0.0, 1.0)
+    }
 }
 
 /// Reusable buffers for queries.
