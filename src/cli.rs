@@ -156,6 +156,11 @@ pub struct ExperimentArgs {
     /// Simulator parameters (JSON; omitted fields keep their defaults).
     #[arg(long, value_name = "FILE")]
     pub sim_params: Option<PathBuf>,
+    /// `bc` only: which critique rule the rounds use: the paper's, the directional one (the
+    /// paper's proposed improvement), or both, each with its own learner from the same
+    /// demonstrations and practice starts [default: both].
+    #[arg(long, value_name = "RULE")]
+    pub critique: Option<crate::experiment::bc::Rules>,
 }
 
 #[derive(Args)]
@@ -382,6 +387,14 @@ pub enum CliError {
         help("a ROS 2 topic has no spaces, `?` or `&`: `cmd_vel`, `/robot1/odom`")
     )]
     BadTopic { topic: String },
+    #[error(
+        "`--critique` chooses the BC study's critique rule; the `{study}` study has no critiques"
+    )]
+    #[diagnostic(
+        code(advise::cli::critique_without_bc),
+        help("use it with `advise experiment bc`, or leave it out")
+    )]
+    CritiqueWithoutBc { study: String },
 }
 
 /// `--backend` with `--cmd-topic` and `--odom-topic` folded into a ROS 2 spec's options

@@ -36,7 +36,7 @@ use crate::check::OperatorSet;
 use crate::diag::did_you_mean;
 use crate::domain::Domain;
 use crate::eval::Report;
-use crate::policy::dataset::Provenance;
+use crate::policy::dataset::{CritiqueRule, Provenance};
 use crate::policy::learner::{self, Learner};
 use crate::syntax::ast::{Ident, Item};
 use crate::syntax::command::{Command, Statement, parse_statement};
@@ -421,7 +421,14 @@ impl Session {
                 execution,
                 ..
             } => self.select(start, end, execution),
-            Command::Critique(kappa) => self.critique(kappa.unwrap_or(DEFAULT_KAPPA)),
+            Command::Critique { kappa, directional } => {
+                let rule = if directional {
+                    CritiqueRule::Directional
+                } else {
+                    CritiqueRule::Paper
+                };
+                self.critique(kappa.unwrap_or(DEFAULT_KAPPA), rule)
+            }
             Command::Advise(inv) => self.advise(&inv),
             Command::Preview(inv) => self.preview(&inv).map(Reply::Message),
             Command::Undo => self.undo().map(Reply::Message),

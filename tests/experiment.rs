@@ -60,6 +60,68 @@ fn reduced_bc_study_reports_table_1() {
     // Same seed, same figures.
     assert_eq!(bc::run(3, &params, false), result);
     assert!(result.render().contains("learner final π"));
+
+    // The directional rule ran beside the paper's (the default), from the same starts.
+    assert_eq!(v["rule"], "paper");
+    let d = &v["directional"];
+    assert_eq!(d["rule"], "directional");
+    rate(&v, "/directional/learner_final/success_rate");
+    assert_eq!(d["learner_final"]["episodes"], 20);
+    let paired = d["paired_runs"].as_u64().unwrap();
+    for key in ["learner_initial_length_m", "teacher_length_m"] {
+        assert_eq!(d[key].is_f64(), paired > 0, "{key}");
+    }
+    assert_eq!(d["learner_final"]["mean_length_m"].is_f64(), paired > 0);
+    let rounds: Vec<u64> = d["curve"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["round"].as_u64().unwrap())
+        .collect();
+    assert_eq!(rounds, [0, 4, 8, 12]);
+    assert_eq!(d["curve"][0], v["curve"][0], "the same initial policy");
+    assert_eq!(d["critiques"]["rounds"], 12);
+    let text = result.render();
+    assert!(text.contains("learner final π (directional)"), "{text}");
+    assert!(text.contains("Figure 5 (directional rule)"), "{text}");
+
+    // The paper's rule alone gives the paper's figures unchanged: the directional rounds run on a
+    // learner of their own.
+    let paper_only = bc::run(
+        3,
+        &BcParams {
+            critique: bc::Rules::Paper,
+            ..params.clone()
+        },
+        false,
+    );
+    assert!(paper_only.directional.is_none());
+    assert_eq!(paper_only.learner_final, result.learner_final);
+    assert_eq!(paper_only.curve, result.curve);
+    assert_eq!(paper_only.critiques, result.critiques);
+    assert_eq!(paper_only.paired_runs, result.paired_runs);
+    assert!(!paper_only.render().contains("directional"));
+
+    // The directional rule alone is reported as the first rule, named as such.
+    let dir_only = bc::run(
+        3,
+        &BcParams {
+            critique: bc::Rules::Directional,
+            ..params.clone()
+        },
+        false,
+    );
+    let dir = result.directional.as_ref().unwrap();
+    assert_eq!(
+        dir_only.rule,
+        advise::policy::dataset::CritiqueRule::Directional
+    );
+    assert_eq!(
+        dir_only.learner_final.success_rate,
+        dir.learner_final.success_rate
+    );
+    assert_eq!(dir_only.curve, dir.curve);
+    assert!(dir_only.render().contains("learner final π (directional)"));
 }
 
 #[test]
@@ -227,6 +289,29 @@ fn summaries_count_the_shape_claims_seed_by_seed() {
     assert!(text.contains("of 2 seeds"));
     let v = serde_json::to_value(&s).unwrap();
     assert_eq!(v["runs"].as_array().unwrap().len(), 2);
+    // The directional rule's own spreads and claim counts.
+    let d = s.directional.as_ref().unwrap();
+    assert_eq!(d.shape.seeds, 2);
+    for (c, claim) in d.shape.claims.iter().enumerate() {
+        let expect: Vec<u64> = runs
+            .iter()
+            .filter(|r| summary::bc_rule_checks(r, r.directional.as_ref().unwrap())[c])
+            .map(|r| r.seed)
+            .collect();
+        assert_eq!(claim.seeds_held, expect, "{}", claim.claim);
+    }
+    let dmean = runs
+        .iter()
+        .map(|r| r.directional.as_ref().unwrap().learner_final.success_rate)
+        .sum::<f64>()
+        / 2.0;
+    assert!((d.learner_final_success.mean - dmean).abs() < 1e-12);
+    assert!(text.contains("learner final π (directional)"), "{text}");
+    assert!(
+        text.contains("with the directional rule's final π"),
+        "{text}"
+    );
+    assert!(v["directional"]["shape"]["claims"].is_array());
 
     let a = AopiParams {
         max_practice: 4,
@@ -256,6 +341,14 @@ fn bad_seed_ranges_are_diagnostics() {
         (
             &["experiment", "aopi", "--seed", "1", "--seeds", "0..2"][..],
             "cannot be used with",
+        ),
+        (
+            &["experiment", "aopi", "--critique", "paper"][..],
+            "advise::cli::critique_without_bc",
+        ),
+        (
+            &["experiment", "bc", "--critique", "sideways"][..],
+            "possible values: paper, directional, both",
         ),
     ] {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_advise"))

@@ -4,7 +4,7 @@
 use advise::domain::{Dim, Domain};
 use advise::interp::{AppliedAdvice, ParamValue};
 use advise::policy::Policy;
-use advise::policy::dataset::Dataset;
+use advise::policy::dataset::{CritiqueRule, Dataset};
 use advise::policy::learner::{Learner, LearnerKind};
 use advise::policy::lwr::LwrParams;
 use advise::trace::{Chunk, Trace};
@@ -81,6 +81,49 @@ fn weighted(d: &Domain, rows: &[(Vec<f64>, [f64; 2])], raises: &[(usize, f64)]) 
     ds
 }
 
+/// [`weighted`], then a directional critique of `flags` (point index, increment, flagged
+/// observation): each penalises its point only for queries from the flagged side.
+fn directional(
+    d: &Domain,
+    rows: &[(Vec<f64>, [f64; 2])],
+    raises: &[(usize, f64)],
+    flags: &[(usize, f64, Vec<f64>)],
+) -> Dataset {
+    let mut ds = weighted(d, rows, raises);
+    let ex = ds.add_execution(&trace(d, &rows[..1])).unwrap();
+    let incs = flags
+        .iter()
+        .map(|(i, inc, _)| (ds.provenance(i % rows.len()), *inc))
+        .collect();
+    let flagged = flags.iter().map(|(_, _, z)| z.clone()).collect();
+    ds.add_critique_with(ex, Chunk { start: 0, end: 0 }, 1.0, incs, Some(flagged))
+        .unwrap();
+    ds
+}
+
+/// The directional weight written out from its definition: `m_i` plus each directional increment
+/// times `max(0, cos angle(q - z_i, z_t - z_i))` in the range-scaled space, 1 where a direction is
+/// undefined.
+fn directional_weight(ds: &Dataset, i: usize, q: &[f64], s: &[f64]) -> f64 {
+    let (incs, zs) = ds.directional(i);
+    let zi = ds.z(i);
+    let dim = zi.len();
+    let mut m = ds.m(i);
+    for (inc, zt) in incs.iter().zip(zs.chunks(dim)) {
+        let u: Vec<f64> = (0..dim).map(|k| q[k] * s[k] - zi[k] * s[k]).collect();
+        let v: Vec<f64> = (0..dim).map(|k| zt[k] * s[k] - zi[k] * s[k]).collect();
+        let norm = |w: &[f64]| w.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let factor = if norm(&u) == 0.0 || norm(&v) == 0.0 {
+            1.0
+        } else {
+            let dot: f64 = u.iter().zip(&v).map(|(a, b)| a * b).sum();
+            (dot / (norm(&u) * norm(&v))).max(0.0)
+        };
+        m += inc * factor;
+    }
+    m
+}
+
 fn rows_strategy(dim: usize) -> impl Strategy<Value = Vec<(Vec<f64>, [f64; 2])>> {
     prop::collection::vec(
         (
@@ -94,6 +137,74 @@ fn rows_strategy(dim: usize) -> impl Strategy<Value = Vec<(Vec<f64>, [f64; 2])>>
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn directional_weighted_nearest_neighbour_equals_a_linear_scan(
+        rows in rows_strategy(3),
+        raises in prop::collection::vec((0usize..1000, 0.0f64..5.0), 0..20),
+        flags in prop::collection::vec(
+            (
+                0usize..1000,
+                0.0f64..40.0,
+                // Coarse, like the rows, so flagged observations often sit on data points.
+                prop::collection::vec((-20i32..20).prop_map(|v| v as f64 * 0.25), 3),
+            ),
+            0..60,
+        ),
+        queries in prop::collection::vec(
+            prop::collection::vec((-24i32..24).prop_map(|v| v as f64 * 0.25), 3),
+            1..20,
+        ),
+    ) {
+        let d = domain(3);
+        let ds = directional(&d, &rows, &raises, &flags);
+        let s = scale(&ds, 3);
+        let learner = Learner::with_dataset(ds.clone(), LearnerKind::Bc, 0);
+        for q in &queries {
+            let got = learner.support(q).unwrap();
+            let scan = |i: usize| directional_weight(&ds, i, q, &s) * sq_dist(q, ds.z(i), &s).sqrt();
+            let best = (0..ds.len()).map(scan).fold(f64::INFINITY, f64::min);
+            prop_assert!((got.weighted - best).abs() <= 1e-9 * best.max(1.0), "tree {} scan {}", got.weighted, best);
+            prop_assert!((scan(got.point) - got.weighted).abs() <= 1e-9 * best.max(1.0));
+            prop_assert!(got.m >= ds.m(got.point) && got.m <= ds.max_weight(got.point) + 1e-12);
+            let mut a = [0.0; 2];
+            learner.act(q, &mut a);
+            prop_assert_eq!(&a[..], ds.a(got.point));
+        }
+    }
+
+    #[test]
+    fn a_directional_critique_undone_leaves_the_weights_bit_for_bit(
+        rows in rows_strategy(2),
+        raises in prop::collection::vec((0usize..1000, 0.0f64..5.0), 0..10),
+        flags in prop::collection::vec(
+            (0usize..1000, 0.0f64..40.0, prop::collection::vec(-6.0f64..6.0, 2)),
+            1..20,
+        ),
+    ) {
+        let d = domain(2);
+        let ds0 = directional(&d, &rows, &raises, &flags);
+        let mut ds = ds0.clone();
+        // Another directional critique, and a paper's one after it; both undone.
+        let ex = ds.add_execution(&trace(&d, &rows[..1])).unwrap();
+        let (p0, z0) = (ds.provenance(0), rows[0].0.clone());
+        let a = ds.add_critique_with(ex, Chunk { start: 0, end: 0 }, 1.0, vec![(p0, 3.0)], Some(vec![z0])).unwrap();
+        ds.add_critique(ex, Chunk { start: 0, end: 0 }, 1.0, vec![(p0, 2.0)]).unwrap();
+        ds.remove_critique(ds.critiques().last().unwrap().id).unwrap();
+        ds.remove_critique(a).unwrap();
+        for i in 0..ds.len() {
+            prop_assert_eq!(ds.m(i).to_bits(), ds0.m(i).to_bits());
+            let (x, y) = (ds.directional(i), ds0.directional(i));
+            prop_assert_eq!(x.0.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), y.0.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+            prop_assert_eq!(x.1, y.1);
+        }
+        prop_assert_eq!(ds.critiques(), ds0.critiques());
+        // Saved and loaded, the same dataset (records, weights and directional penalties).
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("d.json");
+        ds.save(&path).unwrap();
+        prop_assert_eq!(Dataset::load(&mut advise::diag::SourceMap::new(), &path).unwrap(), ds);
+    }
 
     #[test]
     fn weighted_nearest_neighbour_equals_a_linear_scan(
@@ -274,4 +385,68 @@ fn a_query_far_from_all_data_is_detected() {
     assert_eq!(ans.total_weight, 0.0);
     assert_eq!(ans.neighbours, 0);
     assert_eq!(a, [2.0, 0.0], "falls back to the nearest point's action");
+}
+
+/// The paper's example of what its rule misses: "two query points located at identical distances,
+/// but orthogonal directions ... to a given training point. The training point's recommended
+/// action might be appropriate for one but not the other." Point P at the origin is critiqued from
+/// (0.1, 0); queries at distance 0.2 from P along +x (the critiqued side), +y (orthogonal) and -x
+/// (opposite). The paper's rule penalises P for all three; the directional rule only for +x.
+#[test]
+fn a_directional_critique_penalises_only_queries_from_the_critiqued_side() {
+    let d = domain(2);
+    let rows = vec![
+        (vec![0.0, 0.0], [1.0, 0.0]), // P
+        (vec![1.0, 1.0], [2.0, 0.0]), // Q, the alternative (scaled range 1 in each dimension)
+    ];
+    let queries = [[0.2, 0.0], [0.0, 0.2], [-0.2, 0.0]];
+    let answer = |rule: CritiqueRule| {
+        let mut ds = Dataset::new(&d);
+        ds.add_demonstration("demo", &trace(&d, &rows)).unwrap();
+        let mut learner = Learner::with_dataset(ds, LearnerKind::Bc, 0);
+        let exec = trace(&d, &[(vec![0.1, 0.0], [1.0, 0.0])]);
+        let id = learner.add_execution(&exec);
+        let done = learner
+            .critique_with(id, &exec, Chunk { start: 0, end: 1 }, 2.0, rule)
+            .unwrap();
+        // kappa / distance = 2 / 0.1 on P, whichever the rule.
+        assert_eq!(done.increments.len(), 1);
+        assert!((done.increments[0].1 - 20.0).abs() < 1e-9);
+        queries.map(|q| learner.support(&q).unwrap())
+    };
+    let paper = answer(CritiqueRule::Paper);
+    for s in &paper {
+        assert_eq!(s.point, 1, "the paper's rule penalises P from every side");
+        assert!((s.m - 1.0).abs() < 1e-12, "Q is not penalised");
+    }
+    let [side, orthogonal, opposite] = answer(CritiqueRule::Directional);
+    assert_eq!(side.point, 1, "from the critiqued side Q answers");
+    assert_eq!(orthogonal.point, 0, "orthogonally P still answers");
+    assert_eq!(orthogonal.m, 1.0, "and is not penalised at all");
+    assert!((orthogonal.distance - 0.2).abs() < 1e-12);
+    assert_eq!(opposite.point, 0, "from the other side P answers");
+    assert_eq!(opposite.m, 1.0);
+    // P's weight seen from the critiqued side is the paper's m = 1 + 20.
+    let mut ds = Dataset::new(&d);
+    ds.add_demonstration("demo", &trace(&d, &rows)).unwrap();
+    let ex = ds.add_execution(&trace(&d, &rows[..1])).unwrap();
+    let p = ds.provenance(0);
+    ds.add_critique_with(
+        ex,
+        Chunk { start: 0, end: 0 },
+        2.0,
+        vec![(p, 20.0)],
+        Some(vec![vec![0.1, 0.0]]),
+    )
+    .unwrap();
+    assert_eq!(ds.m(0), 1.0, "the isotropic weight is untouched");
+    assert_eq!(ds.max_weight(0), 21.0);
+    let s = [1.0, 1.0];
+    assert_eq!(directional_weight(&ds, 0, &[0.2, 0.0], &s), 21.0);
+    assert_eq!(directional_weight(&ds, 0, &[0.0, 0.2], &s), 1.0);
+    // 45 degrees: half the square root of two of the increment.
+    let diag = directional_weight(&ds, 0, &[0.2, 0.2], &s);
+    assert!((diag - (1.0 + 20.0 * std::f64::consts::FRAC_1_SQRT_2)).abs() < 1e-12);
+    // At P itself no direction is known: the penalty counts in full.
+    assert_eq!(directional_weight(&ds, 0, &[0.0, 0.0], &s), 21.0);
 }

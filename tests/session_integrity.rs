@@ -158,6 +158,53 @@ fn a_damaged_line_restores_up_to_it_and_continues_in_a_new_journal() {
     assert_eq!(restored.session.learner().dataset().advice().len(), 0);
 }
 
+/// A directional critique, undone, redone and followed by a `rederive`, comes back from the
+/// journal with the same records, weights and directional penalties, and the restored policy
+/// answers every observation of the run as the live one does.
+#[test]
+fn a_directional_critique_is_restored_from_the_journal() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = Session::new(SessionOptions {
+        task: advise::task::TaskKind::Interception,
+        default_demos: 6,
+        ..SessionOptions::default()
+    })
+    .unwrap();
+    let journal = live.start_journal(dir.path()).unwrap();
+    run(
+        &mut live,
+        "run start 0\nselect 0..30\ncritique --directional 0.5\nselect 30..50\ncritique 0.2\nundo\nundo\nredo\nrederive",
+    );
+    let ds = live.learner().dataset();
+    assert!(ds.has_directional(), "the directional critique was redone");
+    assert!(
+        (0..ds.len()).all(|i| ds.m(i) == 1.0),
+        "a directional critique leaves the isotropic weights alone"
+    );
+    let mut back = Session::restore(&journal, dir.path()).unwrap().session;
+    let (a, b) = (live.learner().dataset(), back.learner().dataset());
+    assert_eq!(a, b, "records, weights and directional penalties");
+    for i in 0..a.len() {
+        assert_eq!(a.max_weight(i).to_bits(), b.max_weight(i).to_bits());
+    }
+    let exec = a.execution(a.critiques()[0].execution).unwrap();
+    for t in 0..exec.len() {
+        let (x, y) = (
+            live.learner().support(exec.z(t)).unwrap(),
+            back.learner().support(exec.z(t)).unwrap(),
+        );
+        assert_eq!(
+            (x.point, x.m.to_bits()),
+            (y.point, y.m.to_bits()),
+            "step {t}"
+        );
+    }
+    assert_eq!(
+        saved(&mut back, &dir.path().join("back.json")),
+        saved(&mut live, &dir.path().join("live.json"))
+    );
+}
+
 #[test]
 fn critique_penalises_the_points_that_acted_not_advice_added_after_the_run() {
     let mut s = positioning(9);

@@ -119,7 +119,24 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
 pub fn experiment(args: ExperimentArgs) -> miette::Result<()> {
     let sim = sim_params(args.sim_params.as_deref())?;
     let seeds = parse_seeds(args.seed, args.seeds.as_deref())?;
-    let out = study::run(args.study, &seeds, sim, args.plot.as_deref(), true)?;
+    let critique = match (args.study, args.critique) {
+        (study::Study::Bc, rules) => rules.unwrap_or_default(),
+        (study::Study::Aopi, Some(_)) => {
+            return Err(CliError::CritiqueWithoutBc {
+                study: "aopi".into(),
+            }
+            .into());
+        }
+        (study::Study::Aopi, None) => Default::default(),
+    };
+    let out = study::run(
+        args.study,
+        &seeds,
+        sim,
+        critique,
+        args.plot.as_deref(),
+        true,
+    )?;
     print_stdout(if args.json { &out.json } else { &out.text })?;
     for p in out.plots {
         eprintln!("wrote {}", p.display());

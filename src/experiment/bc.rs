@@ -14,6 +14,14 @@
 //! policy, the final policy and the teacher all succeeded (the paper compares only runs "in which
 //! both learner and teacher are successful"; one common set keeps the three lengths comparable).
 //!
+//! By default the critique rounds run twice from the same demonstrations and practice starts,
+//! each with its own learner: under the paper's rule (`learner_final`, `curve`, `critiques`) and
+//! under the paper's proposed improvement, the directional rule ([`CritiqueRule::Directional`];
+//! `directional`). The directional row's lengths use its own paired set (the initial policy, the
+//! directional final policy and the teacher succeeded), with the initial policy's and the
+//! teacher's lengths over that set beside it, so the paper's rows are the same whether or not the
+//! directional rule also ran, and each rule's length claim compares like with like.
+//!
 //! [`critic`]: crate::experiment::critic
 
 use std::collections::BTreeMap;
@@ -26,7 +34,7 @@ use crate::eval::Report;
 use crate::experiment::critic::{self, CriticRules};
 use crate::experiment::{Progress, eval_seed, evaluate_starts_in, opt_m, pct, practice_seed};
 use crate::policy::Policy;
-use crate::policy::dataset::Dataset;
+use crate::policy::dataset::{CritiqueRule, Dataset};
 use crate::policy::learner::{Learner, LearnerKind};
 use crate::task::interception::practice_starts_in;
 use crate::task::{
@@ -57,6 +65,30 @@ pub struct PaperBc {
     pub teacher_length: f64,
 }
 
+/// Which critique rules the study runs (`advise experiment bc --critique`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Rules {
+    /// The paper's rule only.
+    Paper,
+    /// The directional rule only (the paper's proposed improvement).
+    Directional,
+    /// Both, each with its own learner, from the same demonstrations and practice starts.
+    #[default]
+    Both,
+}
+
+impl Rules {
+    /// The rules to run, the first reported as `learner_final`.
+    fn list(self) -> &'static [CritiqueRule] {
+        match self {
+            Rules::Paper => &[CritiqueRule::Paper],
+            Rules::Directional => &[CritiqueRule::Directional],
+            Rules::Both => &[CritiqueRule::Paper, CritiqueRule::Directional],
+        }
+    }
+}
+
 /// The study's configuration. The defaults are the paper's protocol.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BcParams {
@@ -77,6 +109,9 @@ pub struct BcParams {
     pub world: InterceptionRules,
     pub teacher: InterceptionTeacher,
     pub sim: SimParams,
+    /// Which critique rules run (default both).
+    #[serde(default)]
+    pub critique: Rules,
 }
 
 impl Default for BcParams {
@@ -91,6 +126,7 @@ impl Default for BcParams {
             world: InterceptionRules::default(),
             teacher: InterceptionTeacher::new(SimParams::default().period_s()),
             sim: SimParams::default(),
+            critique: Rules::default(),
         }
     }
 }
@@ -143,6 +179,8 @@ pub struct BcResult {
     pub seed: u64,
     pub params: BcParams,
     pub learner_initial: BcFigures,
+    /// The final policy under [`BcResult::rule`] (the paper's rule, unless only the directional
+    /// one ran).
     pub learner_final: BcFigures,
     pub teacher: BcFigures,
     /// Test starts on which all three succeeded (the length comparison's runs).
@@ -152,7 +190,36 @@ pub struct BcResult {
     pub demo_successes: usize,
     pub curve: Vec<BcCurvePoint>,
     pub critiques: CritiqueSummary,
+    /// The rule of `learner_final`, `curve` and `critiques`.
+    #[serde(default)]
+    pub rule: CritiqueRule,
+    /// The directional rule's rounds, when both rules ran.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub directional: Option<BcRuleResult>,
     pub paper: PaperBc,
+}
+
+/// One critique rule's rounds beside the paper's: its final policy, curve and critiques, and the
+/// lengths over its own paired runs (initial, this final policy and the teacher all succeeded).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BcRuleResult {
+    pub rule: CritiqueRule,
+    /// The final policy; `mean_length_m` over `paired_runs`.
+    pub learner_final: BcFigures,
+    /// The initial policy's mean length over `paired_runs`, m.
+    pub learner_initial_length_m: Option<f64>,
+    /// The teacher's mean length over `paired_runs`, m.
+    pub teacher_length_m: Option<f64>,
+    pub paired_runs: usize,
+    pub curve: Vec<BcCurvePoint>,
+    pub critiques: CritiqueSummary,
+}
+
+/// What one rule's critique rounds ended with.
+struct Rounds {
+    last: Report,
+    curve: Vec<BcCurvePoint>,
+    summary: CritiqueSummary,
 }
 
 /// Run the BC study. `progress` draws a bar on a terminal.
@@ -171,10 +238,11 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
     let kind = TaskKind::Interception;
     let sim = &params.sim;
     let eval_every = params.eval_every.max(1);
-    let evals = params.rounds.div_ceil(eval_every) as u64;
+    let rules = params.critique.list();
+    let per_rule = params.rounds as u64 + params.rounds.div_ceil(eval_every) as u64;
     let bar = Progress::new(
         progress,
-        params.rounds as u64 + 2 + evals,
+        2 + per_rule * rules.len() as u64,
         "bc: demonstrations",
     );
 
@@ -194,7 +262,11 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         let _ = ds.add_demonstration(&e.name, &e.trace);
     }
     let demo_points = ds.len();
-    let mut learner = Learner::with_dataset(ds, LearnerKind::Bc, seed);
+    // One learner per rule, from the same demonstrations: the initial policy is theirs alike.
+    let learners: Vec<Learner> = rules
+        .iter()
+        .map(|_| Learner::with_dataset(ds.clone(), LearnerKind::Bc, seed))
+        .collect();
     bar.inc(1);
 
     let eseed = eval_seed(seed);
@@ -211,10 +283,103 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         sim,
         eseed,
     );
-    let initial = evaluate(&learner);
+    let initial = evaluate(&learners[0]);
     bar.inc(1);
 
-    let mut curve = vec![point(0, &initial, 0)];
+    let mut results: Vec<Rounds> = rules
+        .iter()
+        .zip(learners)
+        .map(|(&rule, mut learner)| {
+            bar.set_message(match rule {
+                CritiqueRule::Paper => "bc: critique rounds (paper's rule)",
+                CritiqueRule::Directional => "bc: critique rounds (directional rule)",
+            });
+            critique_rounds(
+                seed,
+                params,
+                rule,
+                &mut learner,
+                practice,
+                &initial,
+                &evaluate,
+                &bar,
+            )
+        })
+        .collect();
+    bar.finish();
+
+    // Each rule's paired runs: the initial policy, its final policy and the teacher succeeded.
+    let paired_with = |last: &Report| -> Vec<usize> {
+        (0..test.len())
+            .filter(|&i| {
+                initial.outcomes[i].success
+                    && last.outcomes[i].success
+                    && teacher.outcomes[i].success
+            })
+            .collect()
+    };
+    let mean_over = |paired: &[usize], r: &Report| {
+        (!paired.is_empty()).then(|| {
+            paired.iter().map(|&i| r.outcomes[i].length_m).sum::<f64>() / paired.len() as f64
+        })
+    };
+    let figures = |paired: &[usize], r: &Report| BcFigures {
+        success_rate: r.success_rate,
+        successes: r.successes,
+        episodes: r.episodes,
+        mean_length_m: mean_over(paired, r),
+        mean_length_own_successes_m: r.mean_length_success_m,
+        endings: r.endings.clone(),
+    };
+    let directional = (results.len() > 1).then(|| {
+        let d = results.remove(1);
+        let paired = paired_with(&d.last);
+        BcRuleResult {
+            rule: CritiqueRule::Directional,
+            learner_final: figures(&paired, &d.last),
+            learner_initial_length_m: mean_over(&paired, &initial),
+            teacher_length_m: mean_over(&paired, &teacher),
+            paired_runs: paired.len(),
+            curve: d.curve,
+            critiques: d.summary,
+        }
+    });
+    let first = results.remove(0);
+    let paired = paired_with(&first.last);
+    BcResult {
+        experiment: "bc".into(),
+        seed,
+        params: params.clone(),
+        learner_initial: figures(&paired, &initial),
+        learner_final: figures(&paired, &first.last),
+        teacher: figures(&paired, &teacher),
+        paired_runs: paired.len(),
+        demo_points,
+        demo_successes,
+        curve: first.curve,
+        critiques: first.summary,
+        rule: rules[0],
+        directional,
+        paper: PAPER,
+    }
+}
+
+/// The critique rounds under `rule` on `learner`: each practice start run, judged by the critic,
+/// its flagged chunks critiqued; the test set every `eval_every` rounds.
+#[allow(clippy::too_many_arguments)]
+fn critique_rounds(
+    seed: u64,
+    params: &BcParams,
+    rule: CritiqueRule,
+    learner: &mut Learner,
+    practice: &[Start],
+    initial: &Report,
+    evaluate: &dyn Fn(&Learner) -> Report,
+    bar: &Progress,
+) -> Rounds {
+    let sim = &params.sim;
+    let eval_every = params.eval_every.max(1);
+    let mut curve = vec![point(0, initial, 0)];
     let mut summary = CritiqueSummary {
         rounds: params.rounds,
         rounds_flagged: 0,
@@ -225,7 +390,6 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
     };
     let mut practice_successes = 0;
     let mut last = initial.clone();
-    bar.set_message("bc: critique rounds");
     for (r, start) in practice.iter().enumerate() {
         let exec = {
             let mut policy: &dyn Policy = learner.policy();
@@ -246,7 +410,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
             for f in &flags {
                 // The learner has data and the chunk lies within the trace: this cannot fail.
                 if learner
-                    .critique(id, &exec.trace, f.chunk, params.kappa)
+                    .critique_with(id, &exec.trace, f.chunk, params.kappa, rule)
                     .is_ok()
                 {
                     summary.chunks_flagged += 1;
@@ -258,46 +422,20 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         bar.inc(1);
         let round = r + 1;
         if round % eval_every == 0 || round == params.rounds {
-            last = evaluate(&learner);
+            last = evaluate(learner);
             curve.push(point(round, &last, summary.chunks_flagged));
             bar.inc(1);
         }
     }
-    bar.finish();
     summary.practice_success_rate = if params.rounds == 0 {
         0.0
     } else {
         practice_successes as f64 / params.rounds as f64
     };
-
-    let paired: Vec<usize> = (0..test.len())
-        .filter(|&i| {
-            initial.outcomes[i].success && last.outcomes[i].success && teacher.outcomes[i].success
-        })
-        .collect();
-    let figures = |r: &Report| BcFigures {
-        success_rate: r.success_rate,
-        successes: r.successes,
-        episodes: r.episodes,
-        mean_length_m: (!paired.is_empty()).then(|| {
-            paired.iter().map(|&i| r.outcomes[i].length_m).sum::<f64>() / paired.len() as f64
-        }),
-        mean_length_own_successes_m: r.mean_length_success_m,
-        endings: r.endings.clone(),
-    };
-    BcResult {
-        experiment: "bc".into(),
-        seed,
-        params: params.clone(),
-        learner_initial: figures(&initial),
-        learner_final: figures(&last),
-        teacher: figures(&teacher),
-        paired_runs: paired.len(),
-        demo_points,
-        demo_successes,
+    Rounds {
+        last,
         curve,
-        critiques: summary,
-        paper: PAPER,
+        summary,
     }
 }
 
@@ -360,80 +498,125 @@ impl BcResult {
         );
         let _ = writeln!(
             s,
-            "  {:<18} {:>8} {:>11}   {:>14} {:>13}",
+            "  {:<29} {:>8} {:>11}   {:>14} {:>13}",
             "Table 1", "success", "length (m)", "paper success", "paper length"
         );
-        let rows = [
-            (
-                "learner initial π",
-                &self.learner_initial,
-                PAPER.learner_initial_success,
-                PAPER.learner_initial_length,
-            ),
-            (
-                "learner final π",
-                &self.learner_final,
-                PAPER.learner_final_success,
-                PAPER.learner_final_length,
-            ),
-            (
-                "teacher",
-                &self.teacher,
-                PAPER.teacher_success,
-                PAPER.teacher_length,
-            ),
-        ];
-        for (name, f, ps, pl) in rows {
+        let row = |s: &mut String, name: &str, f: &BcFigures, paper: Option<(f64, f64)>| {
+            let (ps, pl) = paper.map_or(("-".to_string(), "-".to_string()), |(ps, pl)| {
+                (pct(ps), format!("{pl:.2}"))
+            });
             let _ = writeln!(
                 s,
-                "  {:<18} {:>8} {:>11}   {:>14} {:>13}",
+                "  {:<29} {:>8} {:>11}   {:>14} {:>13}",
                 name,
                 pct(f.success_rate),
                 opt_m(f.mean_length_m),
-                pct(ps),
-                format!("{pl:.2}")
+                ps,
+                pl
+            );
+        };
+        row(
+            &mut s,
+            "learner initial π",
+            &self.learner_initial,
+            Some((PAPER.learner_initial_success, PAPER.learner_initial_length)),
+        );
+        let final_paper = Some((PAPER.learner_final_success, PAPER.learner_final_length));
+        match self.rule {
+            CritiqueRule::Paper => row(&mut s, "learner final π", &self.learner_final, final_paper),
+            CritiqueRule::Directional => row(
+                &mut s,
+                "learner final π (directional)",
+                &self.learner_final,
+                None,
+            ),
+        }
+        if let Some(d) = &self.directional {
+            row(
+                &mut s,
+                "learner final π (directional)",
+                &d.learner_final,
+                None,
             );
         }
+        row(
+            &mut s,
+            "teacher",
+            &self.teacher,
+            Some((PAPER.teacher_success, PAPER.teacher_length)),
+        );
         let _ = writeln!(
             s,
-            "  lengths: mean path over the {} test starts where all three succeeded\n",
+            "  lengths: mean path over the {} test starts where all three succeeded",
             self.paired_runs
         );
-        let _ = writeln!(s, "  Figure 5: test-set success against critique rounds");
-        for c in &self.curve {
+        if let Some(d) = &self.directional {
             let _ = writeln!(
                 s,
-                "  round {:>4}  {:>5}  {}  ({} chunks critiqued)",
-                c.round,
-                pct(c.success_rate),
-                bar(c.success_rate, 40),
-                c.critiques
+                "  the directional row's: over its own {} (initial π {}, teacher {} there)",
+                d.paired_runs,
+                opt_m(d.learner_initial_length_m),
+                opt_m(d.teacher_length_m)
             );
         }
-        let _ = writeln!(
-            s,
-            "  {:<11} {:>5}",
-            "teacher",
-            pct(self.teacher.success_rate)
-        );
-        let c = &self.critiques;
-        let flaws: Vec<String> = c.flaws.iter().map(|(k, v)| format!("{k} {v}")).collect();
-        let _ = writeln!(
-            s,
-            "\n  critic: {} chunks ({} points) flagged in {} of {} rounds ({}); practice success {}",
-            c.chunks_flagged,
-            c.points_flagged,
-            c.rounds_flagged,
-            c.rounds,
-            if flaws.is_empty() {
-                "none".to_string()
-            } else {
-                flaws.join(", ")
-            },
-            pct(c.practice_success_rate)
-        );
+        s.push('\n');
+        let label = match self.rule {
+            CritiqueRule::Paper => "",
+            CritiqueRule::Directional => " (directional rule)",
+        };
+        render_curve(&mut s, label, &self.curve, self.teacher.success_rate);
+        if let Some(d) = &self.directional {
+            s.push('\n');
+            render_curve(
+                &mut s,
+                " (directional rule)",
+                &d.curve,
+                self.teacher.success_rate,
+            );
+        }
+        s.push('\n');
+        render_critic(&mut s, label, &self.critiques);
+        if let Some(d) = &self.directional {
+            render_critic(&mut s, " (directional rule)", &d.critiques);
+        }
         s
     }
+}
+
+fn render_curve(s: &mut String, label: &str, curve: &[BcCurvePoint], teacher: f64) {
+    let _ = writeln!(
+        s,
+        "  Figure 5{label}: test-set success against critique rounds"
+    );
+    for c in curve {
+        let _ = writeln!(
+            s,
+            "  round {:>4}  {:>5}  {}  ({} chunks critiqued)",
+            c.round,
+            pct(c.success_rate),
+            bar(c.success_rate, 40),
+            c.critiques
+        );
+    }
+    let _ = writeln!(s, "  {:<11} {:>5}", "teacher", pct(teacher));
+}
+
+fn render_critic(s: &mut String, label: &str, c: &CritiqueSummary) {
+    let flaws: Vec<String> = c.flaws.iter().map(|(k, v)| format!("{k} {v}")).collect();
+    let _ = writeln!(
+        s,
+        "  critic{label}: {} chunks ({} points) flagged in {} of {} rounds ({}); practice success {}",
+        c.chunks_flagged,
+        c.points_flagged,
+        c.rounds_flagged,
+        c.rounds,
+        if flaws.is_empty() {
+            "none".to_string()
+        } else {
+            flaws.join(", ")
+        },
+        pct(c.practice_success_rate)
+    );
 }
 
 /// A bar of `width` characters for a rate in [0, 1].

@@ -38,12 +38,14 @@ pub struct StudyOutput {
     pub plots: Vec<PathBuf>,
 }
 
-/// Run `study` for `seeds` on the simulator with `sim`, plotting each run into `plot_dir` (created
-/// if needed, before anything runs) when given.
+/// Run `study` for `seeds` on the simulator with `sim` (the BC study under the critique rules
+/// `critique`), plotting each run into `plot_dir` (created if needed, before anything runs) when
+/// given.
 pub fn run(
     study: Study,
     seeds: &Seeds,
     sim: SimParams,
+    critique: bc::Rules,
     plot_dir: Option<&Path>,
     progress: bool,
 ) -> Result<StudyOutput, ExperimentError> {
@@ -54,6 +56,7 @@ pub fn run(
         Study::Bc => {
             let params = bc::BcParams {
                 sim,
+                critique,
                 ..bc::BcParams::default()
             };
             each_seed(

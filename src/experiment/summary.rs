@@ -3,7 +3,8 @@
 //!
 //! The shape claims are the issue's, checked per seed on the figures the study printed:
 //! - BC: the final policy beats the initial one on success and on length (mean path over the
-//!   paired runs), and matches or beats the teacher on success;
+//!   paired runs), and matches or beats the teacher on success; the same three claims again
+//!   with the directional rule's final policy when it ran (its lengths over its own paired runs);
 //! - A-OPI: the advised and hybrid policies beat the baseline on success, match or beat
 //!   teleoperation on success, and end with a smaller dataset than teleoperation.
 //!
@@ -14,8 +15,9 @@ use std::fmt::Write as _;
 use serde::{Deserialize, Serialize};
 
 use crate::experiment::aopi::{AopiResult, ArmFigures};
-use crate::experiment::bc::BcResult;
+use crate::experiment::bc::{BcResult, BcRuleResult};
 use crate::experiment::{mean_sd, pct};
+use crate::policy::dataset::CritiqueRule;
 
 /// Mean and sample standard deviation of one figure across seeds.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -74,8 +76,8 @@ impl Shape {
         }
     }
 
-    fn render(&self, s: &mut String) {
-        let _ = writeln!(s, "  shape of the paper's result, per seed:");
+    fn render(&self, s: &mut String, label: &str) {
+        let _ = writeln!(s, "  shape of the paper's result{label}, per seed:");
         for c in &self.claims {
             let _ = writeln!(
                 s,
@@ -108,7 +110,28 @@ pub struct BcSummary {
     pub teacher_success: Spread,
     pub teacher_length_m: Spread,
     pub shape: Shape,
+    /// The rule of `learner_final_*` and `shape` (the paper's, unless only the directional rule
+    /// ran).
+    #[serde(default)]
+    pub rule: CritiqueRule,
+    /// The directional rule's final policy across the seeds, when both rules ran.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub directional: Option<BcRuleSummary>,
     pub runs: Vec<BcResult>,
+}
+
+/// One more critique rule across seeds: its final policy, the lengths over its own paired runs,
+/// and the shape claims with its final policy.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BcRuleSummary {
+    pub rule: CritiqueRule,
+    pub learner_final_success: Spread,
+    pub learner_final_length_m: Spread,
+    /// The initial policy's mean length over this rule's paired runs.
+    pub learner_initial_length_m: Spread,
+    /// The teacher's mean length over this rule's paired runs.
+    pub teacher_length_m: Spread,
+    pub shape: Shape,
 }
 
 /// The BC shape claims of one seed, in the order of [`BC_CLAIMS`].
@@ -117,6 +140,17 @@ pub fn bc_checks(r: &BcResult) -> Vec<bool> {
     vec![
         f.success_rate > i.success_rate,
         matches!((f.mean_length_m, i.mean_length_m), (Some(f), Some(i)) if f < i),
+        f.success_rate >= t.success_rate,
+    ]
+}
+
+/// The BC shape claims of one seed with another rule's final policy (lengths over that rule's
+/// paired runs), in the order of [`BC_CLAIMS`].
+pub fn bc_rule_checks(r: &BcResult, d: &BcRuleResult) -> Vec<bool> {
+    let (i, f, t) = (&r.learner_initial, &d.learner_final, &r.teacher);
+    vec![
+        f.success_rate > i.success_rate,
+        matches!((f.mean_length_m, d.learner_initial_length_m), (Some(f), Some(i)) if f < i),
         f.success_rate >= t.success_rate,
     ]
 }
@@ -133,8 +167,36 @@ pub fn bc(runs: Vec<BcResult>) -> BcSummary {
         Spread::of(&runs.iter().filter_map(f).collect::<Vec<_>>())
     };
     let checks: Vec<Vec<bool>> = runs.iter().map(bc_checks).collect();
+    // The directional rule over the seeds that ran it (all of them, with `--critique both`).
+    let with_dir: Vec<(&BcResult, &BcRuleResult)> = runs
+        .iter()
+        .filter_map(|r| r.directional.as_ref().map(|d| (r, d)))
+        .collect();
+    let directional = (!with_dir.is_empty()).then(|| {
+        let spread = |f: &dyn Fn(&BcRuleResult) -> Option<f64>| {
+            Spread::of(
+                &with_dir
+                    .iter()
+                    .filter_map(|(_, d)| f(d))
+                    .collect::<Vec<_>>(),
+            )
+        };
+        let dir_seeds: Vec<u64> = with_dir.iter().map(|(r, _)| r.seed).collect();
+        let dir_checks: Vec<Vec<bool>> =
+            with_dir.iter().map(|(r, d)| bc_rule_checks(r, d)).collect();
+        BcRuleSummary {
+            rule: CritiqueRule::Directional,
+            learner_final_success: spread(&|d| Some(d.learner_final.success_rate)),
+            learner_final_length_m: spread(&|d| d.learner_final.mean_length_m),
+            learner_initial_length_m: spread(&|d| d.learner_initial_length_m),
+            teacher_length_m: spread(&|d| d.teacher_length_m),
+            shape: Shape::from_checks(&dir_seeds, &BC_CLAIMS, &dir_checks),
+        }
+    });
     BcSummary {
         experiment: "bc".into(),
+        rule: runs.first().map_or(CritiqueRule::Paper, |r| r.rule),
+        directional,
         learner_initial_success: spread(&|r| Some(r.learner_initial.success_rate)),
         learner_initial_length_m: spread(&|r| r.learner_initial.mean_length_m),
         learner_final_success: spread(&|r| Some(r.learner_final.success_rate)),
@@ -164,44 +226,77 @@ impl BcSummary {
         );
         let _ = writeln!(
             s,
-            "  {:<18} {:>11} {:>13}   {:>13} {:>12}",
+            "  {:<29} {:>11} {:>13}   {:>13} {:>12}",
             "Table 1", "success", "length (m)", "paper success", "paper length"
         );
-        for (name, sr, ln, ps, pl) in [
-            (
-                "learner initial π",
-                self.learner_initial_success,
-                self.learner_initial_length_m,
-                p.learner_initial_success,
-                p.learner_initial_length,
-            ),
-            (
+        let row =
+            |s: &mut String, name: &str, sr: Spread, ln: Spread, paper: Option<(f64, f64)>| {
+                let (ps, pl) = paper.map_or(("-".to_string(), "-".to_string()), |(ps, pl)| {
+                    (pct(ps), format!("{pl:.2}"))
+                });
+                let _ = writeln!(
+                    s,
+                    "  {:<29} {:>11} {:>13}   {:>13} {:>12}",
+                    name,
+                    rate(sr),
+                    num(ln, 2),
+                    ps,
+                    pl
+                );
+            };
+        row(
+            &mut s,
+            "learner initial π",
+            self.learner_initial_success,
+            self.learner_initial_length_m,
+            Some((p.learner_initial_success, p.learner_initial_length)),
+        );
+        match self.rule {
+            CritiqueRule::Paper => row(
+                &mut s,
                 "learner final π",
                 self.learner_final_success,
                 self.learner_final_length_m,
-                p.learner_final_success,
-                p.learner_final_length,
+                Some((p.learner_final_success, p.learner_final_length)),
             ),
-            (
-                "teacher",
-                self.teacher_success,
-                self.teacher_length_m,
-                p.teacher_success,
-                p.teacher_length,
+            CritiqueRule::Directional => row(
+                &mut s,
+                "learner final π (directional)",
+                self.learner_final_success,
+                self.learner_final_length_m,
+                None,
             ),
-        ] {
+        }
+        if let Some(d) = &self.directional {
+            row(
+                &mut s,
+                "learner final π (directional)",
+                d.learner_final_success,
+                d.learner_final_length_m,
+                None,
+            );
+        }
+        row(
+            &mut s,
+            "teacher",
+            self.teacher_success,
+            self.teacher_length_m,
+            Some((p.teacher_success, p.teacher_length)),
+        );
+        if let Some(d) = &self.directional {
             let _ = writeln!(
                 s,
-                "  {:<18} {:>11} {:>13}   {:>13} {:>12.2}",
-                name,
-                rate(sr),
-                num(ln, 2),
-                pct(ps),
-                pl
+                "  the directional row's lengths: over its own paired runs (initial π {}, teacher {} there)",
+                num(d.learner_initial_length_m, 2),
+                num(d.teacher_length_m, 2)
             );
         }
         s.push('\n');
-        self.shape.render(&mut s);
+        self.shape.render(&mut s, "");
+        if let Some(d) = &self.directional {
+            d.shape
+                .render(&mut s, " with the directional rule's final π");
+        }
         s
     }
 }
@@ -345,7 +440,7 @@ impl AopiSummary {
             s,
             "  (executions in the final dataset; the paper's in brackets)\n"
         );
-        self.shape.render(&mut s);
+        self.shape.render(&mut s, "");
         s
     }
 }

@@ -83,6 +83,61 @@ pub struct CritiqueRecord {
     pub kappa: f64,
     /// (point, increment of its m), in the order they were applied.
     pub increments: Vec<(Provenance, f64)>,
+    /// The directional rule ([`CritiqueRule::Directional`]): each increment penalises its point
+    /// only for queries from the side of the observation that was flagged. Absent in files and
+    /// journals written before the rule existed (the paper's rule).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub directional: bool,
+    /// With `directional`, the flagged observation (raw, unscaled) of each increment, in the same
+    /// order: the direction is recomputed under the current range scaling after a `rederive`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub flagged: Vec<Vec<f64>>,
+}
+
+/// How a critique's increments weigh a data point.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CritiqueRule {
+    /// The paper's: `m_i += kappa / d` whatever direction the point is later queried from.
+    #[default]
+    Paper,
+    /// The paper's proposed improvement: the increment counts in full for queries from the
+    /// flagged observation's side, scaled by the cosine of the angle between the query's and the
+    /// flagged observation's directions from the point, and not at all from the other half-space
+    /// ([`crate::policy::bc`] has the rule).
+    Directional,
+}
+
+impl CritiqueRule {
+    /// The rule's name as the session and the experiment print it.
+    pub fn name(self) -> &'static str {
+        match self {
+            CritiqueRule::Paper => "paper",
+            CritiqueRule::Directional => "directional",
+        }
+    }
+}
+
+/// The directional penalties of every point, laid out for the BC query: point `i`'s are entries
+/// `start[i]..start[i + 1]`, each an increment and the flagged observation it came from (raw, a
+/// row of `z`). Most points have none, which costs the query one comparison.
+#[derive(Clone, Debug, PartialEq)]
+struct DirectionalPenalties {
+    /// `len + 1` offsets into `inc`.
+    start: Vec<u32>,
+    inc: Vec<f64>,
+    /// Flagged observations, `inc.len() * obs_dim`, row after row.
+    z: Vec<f64>,
+}
+
+impl DirectionalPenalties {
+    fn new() -> DirectionalPenalties {
+        DirectionalPenalties {
+            start: vec![0],
+            inc: Vec::new(),
+            z: Vec::new(),
+        }
+    }
 }
 
 /// Points with provenance and weights.
@@ -94,8 +149,10 @@ pub struct Dataset {
     /// Actions, `len * act_dim`.
     a: Vec<f64>,
     provenance: Vec<Provenance>,
-    /// BC weight `m_i >= 1` of each point.
+    /// BC weight `m_i >= 1` of each point: 1 plus the paper's (isotropic) increments.
     m: Vec<f64>,
+    /// The directional critiques' increments by point (derived from the records, like `m`).
+    directional: DirectionalPenalties,
     demos: Vec<DemoRecord>,
     executions: Vec<ExecutionRecord>,
     advice: Vec<AdviceRecord>,
@@ -111,6 +168,7 @@ impl Dataset {
             a: Vec::new(),
             provenance: Vec::new(),
             m: Vec::new(),
+            directional: DirectionalPenalties::new(),
             demos: Vec::new(),
             executions: Vec::new(),
             advice: Vec::new(),
@@ -153,8 +211,34 @@ impl Dataset {
         self.m[i]
     }
 
+    /// The isotropic weights `m_i` (the paper's rule); directional increments are apart
+    /// ([`Dataset::directional`]).
     pub fn weights(&self) -> &[f64] {
         &self.m
+    }
+
+    /// Point `i`'s directional increments and, row after row, the flagged observation (raw) each
+    /// came from; empty for most points.
+    #[inline]
+    pub fn directional(&self, i: usize) -> (&[f64], &[f64]) {
+        let d = self.domain.obs_dim();
+        let p = &self.directional;
+        let (a, b) = (p.start[i] as usize, p.start[i + 1] as usize);
+        (&p.inc[a..b], &p.z[a * d..b * d])
+    }
+
+    /// Whether any point has a directional increment.
+    pub fn has_directional(&self) -> bool {
+        !self.directional.inc.is_empty()
+    }
+
+    /// The largest weight point `i` can have: `m_i` plus all its directional increments (what a
+    /// query from exactly a flagged direction meets).
+    pub fn max_weight(&self, i: usize) -> f64 {
+        self.directional(i)
+            .0
+            .iter()
+            .fold(self.m[i], |m, inc| m + inc)
     }
 
     pub fn provenance(&self, i: usize) -> Provenance {
@@ -201,6 +285,8 @@ impl Dataset {
         self.a.extend_from_slice(a);
         self.provenance.push(p);
         self.m.push(1.0);
+        let last = *self.directional.start.last().unwrap_or(&0);
+        self.directional.start.push(last);
     }
 
     /// Add a demonstration; its points are appended in order.
@@ -333,15 +419,29 @@ impl Dataset {
         self.a.truncate(w * ad);
     }
 
-    /// Record a critique and make its increments: each applies to the point of that provenance if
-    /// it is still in the dataset. The weights are recomputed from the records in critique order,
-    /// so a critique made, redone or restored from the journal gives bit for bit the same weights.
+    /// Record a critique under the paper's rule and make its increments: each applies to the point
+    /// of that provenance if it is still in the dataset. The weights are recomputed from the
+    /// records in critique order, so a critique made, redone or restored from the journal gives bit
+    /// for bit the same weights.
     pub fn add_critique(
         &mut self,
         execution: ExecutionId,
         chunk: Chunk,
         kappa: f64,
         increments: Vec<(Provenance, f64)>,
+    ) -> Result<CritiqueId, DatasetError> {
+        self.add_critique_with(execution, chunk, kappa, increments, None)
+    }
+
+    /// Record a critique under either rule: `flagged` is `None` for the paper's rule, or under
+    /// the directional rule the flagged observation (raw) of each increment, in order.
+    pub fn add_critique_with(
+        &mut self,
+        execution: ExecutionId,
+        chunk: Chunk,
+        kappa: f64,
+        increments: Vec<(Provenance, f64)>,
+        flagged: Option<Vec<Vec<f64>>>,
     ) -> Result<CritiqueId, DatasetError> {
         if !self.executions.iter().any(|e| e.id == execution) {
             return Err(DatasetError::UnknownExecution(execution));
@@ -354,6 +454,11 @@ impl Dataset {
                 what: format!("the critique's increment for {p:?} is {inc}"),
             });
         }
+        let directional = flagged.is_some();
+        let flagged = flagged.unwrap_or_default();
+        if directional {
+            self.check_flagged(&increments, &flagged)?;
+        }
         let id = self.fresh_id();
         self.critiques.push(CritiqueRecord {
             id,
@@ -361,9 +466,47 @@ impl Dataset {
             chunk,
             kappa,
             increments,
+            directional,
+            flagged,
         });
         self.recompute_weights();
         Ok(id)
+    }
+
+    /// A directional critique's flagged observations: one per increment, each of the domain's
+    /// observation dimension and finite.
+    fn check_flagged(
+        &self,
+        increments: &[(Provenance, f64)],
+        flagged: &[Vec<f64>],
+    ) -> Result<(), DatasetError> {
+        if flagged.len() != increments.len() {
+            return Err(DatasetError::Inconsistent {
+                what: format!(
+                    "a directional critique has {} increments and {} flagged observations",
+                    increments.len(),
+                    flagged.len()
+                ),
+            });
+        }
+        let dim = self.domain.obs_dim();
+        for (k, z) in flagged.iter().enumerate() {
+            if z.len() != dim {
+                return Err(DatasetError::Inconsistent {
+                    what: format!(
+                        "flagged observation {k} of a directional critique has {} values; the `{}` domain observes {dim}",
+                        z.len(),
+                        self.domain.name
+                    ),
+                });
+            }
+            if let Some(v) = z.iter().find(|v| !v.is_finite()) {
+                return Err(DatasetError::NonFinite {
+                    what: format!("flagged observation {k} of a directional critique has {v}"),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Where each point is, by provenance (provenance survives removals; positions do not).
@@ -387,10 +530,15 @@ impl Dataset {
         Ok(record)
     }
 
-    /// `m_i = 1 + increments`, summed in critique order, so the result depends only on the records.
+    /// `m_i = 1 + increments` of the paper's rule, summed in critique order, and the directional
+    /// increments of each point in critique order, so the result depends only on the records.
     fn recompute_weights(&mut self) {
         self.m.iter_mut().for_each(|m| *m = 1.0);
+        let n = self.provenance.len();
+        let mut dir = DirectionalPenalties::new();
         if self.critiques.is_empty() {
+            dir.start.resize(n + 1, 0);
+            self.directional = dir;
             return;
         }
         let index: HashMap<Provenance, usize> = self
@@ -399,13 +547,32 @@ impl Dataset {
             .enumerate()
             .map(|(i, p)| (*p, i))
             .collect();
-        for c in &self.critiques {
-            for (p, inc) in &c.increments {
-                if let Some(&i) = index.get(p) {
+        // Directional increments: (point, critique, increment), gathered in critique order and
+        // then grouped by point with a stable sort, so each point's stay in critique order.
+        let mut by_point: Vec<(usize, usize, usize)> = Vec::new();
+        for (c_at, c) in self.critiques.iter().enumerate() {
+            for (k, (p, inc)) in c.increments.iter().enumerate() {
+                let Some(&i) = index.get(p) else { continue };
+                if c.directional {
+                    by_point.push((i, c_at, k));
+                } else {
                     self.m[i] += inc;
                 }
             }
         }
+        by_point.sort_by_key(|&(i, _, _)| i);
+        let mut counts = vec![0u32; n + 1];
+        for &(i, c, k) in &by_point {
+            let rec = &self.critiques[c];
+            counts[i + 1] += 1;
+            dir.inc.push(rec.increments[k].1);
+            dir.z.extend_from_slice(&rec.flagged[k]);
+        }
+        for i in 0..n {
+            counts[i + 1] += counts[i];
+        }
+        dir.start = counts;
+        self.directional = dir;
     }
 }
 /// Refuse a trace with a value that is not finite (a point that cannot be saved as JSON, and

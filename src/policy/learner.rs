@@ -18,7 +18,7 @@ use crate::domain::Domain;
 use crate::interp::Synthesized;
 use crate::policy::Policy;
 use crate::policy::bc;
-use crate::policy::dataset::{Dataset, DatasetError, Provenance, SavedFormat};
+use crate::policy::dataset::{CritiqueRule, Dataset, DatasetError, Provenance, SavedFormat};
 use crate::policy::index::{Index, MAX_DIM};
 use crate::policy::lwr::{self, LwrAnswer, LwrParams};
 use crate::trace::{Chunk, Episode, Trace};
@@ -96,6 +96,9 @@ pub enum LearnerError {
 pub struct CritiquePlan {
     /// (supporting point, increment of its m), in step order.
     pub increments: Vec<(Provenance, f64)>,
+    /// Under the directional rule, the flagged observation (raw) of each increment; `None` under
+    /// the paper's.
+    pub flagged: Option<Vec<Vec<f64>>>,
     /// Steps whose supporting point was removed since the run; `None` when the supporting points
     /// were not recorded and the nearest ones now were used.
     pub gone: Option<usize>,
@@ -108,6 +111,8 @@ pub struct CritiqueResult {
     pub summary: String,
     /// The weight increments it made, by provenance (what a redo or the journal puts back).
     pub increments: Vec<(Provenance, f64)>,
+    /// Under the directional rule, the flagged observation of each increment.
+    pub flagged: Option<Vec<Vec<f64>>>,
 }
 
 thread_local! {
@@ -285,10 +290,10 @@ impl Learner {
         Ok(())
     }
 
-    /// Flag `chunk` of an execution: each flagged point's supporting data point gets
-    /// `m += kappa / max(d, MIN)` (see [`bc::MIN_CRITIQUE_DISTANCE`]). The supporting points are
-    /// the nearest now, which is what acted only when nothing was added since the run; a session
-    /// records what acted when it ran and uses [`Learner::plan_critique`] with it.
+    /// Flag `chunk` of an execution under the paper's rule: each flagged point's supporting data
+    /// point gets `m += kappa / max(d, MIN)` (see [`bc::MIN_CRITIQUE_DISTANCE`]). The supporting
+    /// points are the nearest now, which is what acted only when nothing was added since the
+    /// run; a session records what acted when it ran and uses [`Learner::plan_critique`] with it.
     pub fn critique(
         &mut self,
         execution: ExecutionId,
@@ -296,41 +301,66 @@ impl Learner {
         chunk: Chunk,
         kappa: f64,
     ) -> Result<CritiqueResult, LearnerError> {
-        let plan = self.plan_critique(trace, chunk, kappa, None)?;
-        let id = self.restore_critique(execution, chunk, kappa, plan.increments.clone())?;
+        self.critique_with(execution, trace, chunk, kappa, CritiqueRule::Paper)
+    }
+
+    /// [`Learner::critique`] under either rule.
+    pub fn critique_with(
+        &mut self,
+        execution: ExecutionId,
+        trace: &Trace,
+        chunk: Chunk,
+        kappa: f64,
+        rule: CritiqueRule,
+    ) -> Result<CritiqueResult, LearnerError> {
+        let plan = self.plan_critique(trace, chunk, kappa, None, rule)?;
+        let id = self.restore_critique(
+            execution,
+            chunk,
+            kappa,
+            plan.increments.clone(),
+            plan.flagged.clone(),
+        )?;
         Ok(CritiqueResult {
             id,
             summary: self.critique_summary(chunk, &plan),
             increments: plan.increments,
+            flagged: plan.flagged,
         })
     }
 
-    /// The increments a critique of `chunk` makes, without making them.
+    /// The increments a critique of `chunk` makes under `rule`, without making them.
     ///
     /// With `support` (for each step, the provenance of the data point that recommended its action
     /// when it ran: [`Learner::support_provenance`]), the paper's rule holds exactly: the points
     /// that acted are penalised, never data added after the run; a supporting point removed since
     /// (undone advice) is skipped and counted. Without it (a trace loaded from a file), the
-    /// points nearest now are penalised.
+    /// points nearest now are penalised. The increments are the same under both rules; the
+    /// directional rule also keeps each flagged observation.
     pub fn plan_critique(
         &mut self,
         trace: &Trace,
         chunk: Chunk,
         kappa: f64,
         support: Option<&[Option<Provenance>]>,
+        rule: CritiqueRule,
     ) -> Result<CritiquePlan, LearnerError> {
         if self.ds.is_empty() {
             return Err(LearnerError::Empty);
         }
         self.ensure_derived();
+        let directional = rule == CritiqueRule::Directional;
         let Some(support) = support else {
             let zs = chunk.range().map(|t| trace.z(t).to_vec());
-            let increments = bc::critique_increments(&self.index, &self.ds, zs, kappa)
-                .into_iter()
-                .map(|(i, inc)| (self.ds.provenance(i), inc))
+            let found = bc::critique_increments(&self.index, &self.ds, zs, kappa);
+            let increments = found
+                .iter()
+                .map(|(i, inc, _)| (self.ds.provenance(*i), *inc))
                 .collect();
+            let flagged = directional.then(|| found.into_iter().map(|(_, _, z)| z).collect());
             return Ok(CritiquePlan {
                 increments,
+                flagged,
                 gone: None,
             });
         };
@@ -338,6 +368,7 @@ impl Learner {
         let scale = self.index.scale();
         let mut gone = 0;
         let mut increments = Vec::with_capacity(chunk.len());
+        let mut flagged = Vec::new();
         for t in chunk.range() {
             let Some(p) = support.get(t).copied().flatten() else {
                 continue;
@@ -355,9 +386,13 @@ impl Learner {
                 .sum::<f64>()
                 .sqrt();
             increments.push((p, kappa / d.max(bc::MIN_CRITIQUE_DISTANCE)));
+            if directional {
+                flagged.push(trace.z(t).to_vec());
+            }
         }
         Ok(CritiquePlan {
             increments,
+            flagged: directional.then_some(flagged),
             gone: Some(gone),
         })
     }
@@ -372,12 +407,23 @@ impl Learner {
             .collect();
         points.sort_unstable();
         points.dedup();
-        let max_m = points.iter().map(|&i| self.ds.m(i)).fold(1.0, f64::max);
-        let mut summary = format!(
-            "critiqued {chunk} ({} points): raised the weight of {} data points (largest m now {max_m:.2})",
-            chunk.len(),
-            points.len()
-        );
+        let max_m = points
+            .iter()
+            .map(|&i| self.ds.max_weight(i))
+            .fold(1.0, f64::max);
+        let mut summary = if plan.flagged.is_some() {
+            format!(
+                "critiqued {chunk} ({} points, directional rule): raised the weight of {} data points for queries from the flagged side (largest m now {max_m:.2}, from the flagged direction itself)",
+                chunk.len(),
+                points.len()
+            )
+        } else {
+            format!(
+                "critiqued {chunk} ({} points, paper's rule): raised the weight of {} data points (largest m now {max_m:.2})",
+                chunk.len(),
+                points.len()
+            )
+        };
         match plan.gone {
             None => summary.push_str(
                 "; the points that drove this execution were not recorded (a loaded trace), so the points nearest now were penalised",
@@ -396,15 +442,19 @@ impl Learner {
         summary
     }
 
-    /// Make a critique's increments exactly (a new critique, a redo, or a journal being restored).
+    /// Make a critique's increments exactly (a new critique, a redo, or a journal being restored):
+    /// `flagged` is `None` under the paper's rule, the flagged observations under the directional.
     pub fn restore_critique(
         &mut self,
         execution: ExecutionId,
         chunk: Chunk,
         kappa: f64,
         increments: Vec<(Provenance, f64)>,
+        flagged: Option<Vec<Vec<f64>>>,
     ) -> Result<CritiqueId, LearnerError> {
-        Ok(self.ds.add_critique(execution, chunk, kappa, increments)?)
+        Ok(self
+            .ds
+            .add_critique_with(execution, chunk, kappa, increments, flagged)?)
     }
 
     /// For each observation of `trace`, the provenance of the data point the BC 1-NN picks now:
@@ -566,11 +616,22 @@ impl Learner {
                 "nearest (BC): point {} at scaled distance {:.4}, m = {:.4} (weighted {:.4}), a = [{}]\n  from {}",
                 s.point,
                 s.distance,
-                self.ds.m(s.point),
+                s.m,
                 s.weighted,
                 fmt4(self.ds.a(s.point)),
                 self.describe(s.point, advice_name)
             );
+            let (incs, _) = self.ds.directional(s.point);
+            if !incs.is_empty() {
+                let _ = writeln!(
+                    out,
+                    "  m from this side: {:.4} (paper's rule) + {:.4} of its {:.4} directional penalty ({} directional increments)",
+                    self.ds.m(s.point),
+                    s.m - self.ds.m(s.point),
+                    self.ds.max_weight(s.point) - self.ds.m(s.point),
+                    incs.len()
+                );
+            }
         }
         let mut a = vec![0.0; self.ds.domain().act_dim()];
         let ans = self.regress(z, &mut a);

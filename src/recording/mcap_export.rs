@@ -225,11 +225,16 @@ fn mcap_bytes(dataset: &Dataset) -> Result<(Vec<u8>, McapSummary), String> {
     for rec in dataset.critiques() {
         let (number, t_ns) = at(rec.execution, rec.chunk.start)?;
         let text = format!(
-            "critique with kappa {} on execution {number}, points {}..{}: {} dataset points reweighted",
+            "critique with kappa {} on execution {number}, points {}..{}: {} dataset points reweighted{}",
             rec.kappa,
             rec.chunk.start,
             rec.chunk.end,
-            rec.increments.len()
+            rec.increments.len(),
+            if rec.directional {
+                " (directional)"
+            } else {
+                ""
+            }
         );
         write(
             &mut out,

@@ -8,6 +8,7 @@ use super::effect::Effect;
 use super::text::{fmt_vec, short_num};
 use super::undo::Edit;
 use super::{Advised, MAX_KAPPA, Recorded, Reply, Session, SessionError};
+use crate::policy::dataset::CritiqueRule;
 use crate::policy::learner;
 use crate::trace::Chunk;
 use crate::{check, interp};
@@ -57,7 +58,11 @@ impl Session {
         Ok((i, chunk))
     }
 
-    pub(super) fn critique(&mut self, kappa: f64) -> Result<Reply, SessionError> {
+    pub(super) fn critique(
+        &mut self,
+        kappa: f64,
+        rule: CritiqueRule,
+    ) -> Result<Reply, SessionError> {
         if !(kappa.is_finite() && kappa > 0.0 && kappa <= MAX_KAPPA) {
             return Err(SessionError::BadKappa {
                 kappa: short_num(kappa),
@@ -66,14 +71,16 @@ impl Session {
         let (i, chunk) = self.selection()?;
         let st = &mut self.state;
         let rec = &st.executions[i];
-        let plan = st
-            .learner
-            .plan_critique(&rec.trace, chunk, kappa, rec.support.as_deref())?;
+        let plan =
+            st.learner
+                .plan_critique(&rec.trace, chunk, kappa, rec.support.as_deref(), rule)?;
         self.commit(Effect::Critique {
             execution: i,
             chunk,
             kappa,
             increments: plan.increments.clone(),
+            directional: plan.flagged.is_some(),
+            flagged: plan.flagged.clone().unwrap_or_default(),
         })?;
         Ok(Reply::Critiqued {
             execution: i,

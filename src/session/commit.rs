@@ -235,9 +235,19 @@ impl Session {
                 chunk,
                 kappa,
                 increments,
+                directional,
+                flagged,
             } => {
                 let number = self.state.take_number();
-                self.add_critique(*execution, *chunk, *kappa, increments.clone(), number)?;
+                let flagged = directional.then(|| flagged.clone());
+                self.add_critique(
+                    *execution,
+                    *chunk,
+                    *kappa,
+                    increments.clone(),
+                    flagged,
+                    number,
+                )?;
                 self.state.redo.clear();
             }
             Effect::Undo => self.undo_edit()?,
@@ -293,13 +303,17 @@ impl Session {
         chunk: Chunk,
         kappa: f64,
         increments: Vec<(Provenance, f64)>,
+        flagged: Option<Vec<Vec<f64>>>,
         number: usize,
     ) -> Result<(), SessionError> {
         let rec = self.numbered(execution)?;
-        let id = self
-            .state
-            .learner
-            .restore_critique(rec.id, chunk, kappa, increments.clone())?;
+        let id = self.state.learner.restore_critique(
+            rec.id,
+            chunk,
+            kappa,
+            increments.clone(),
+            flagged.clone(),
+        )?;
         let st = &mut self.state;
         st.executions[execution].flagged.push(chunk);
         st.undo.push(Edit::Critique {
@@ -309,6 +323,7 @@ impl Session {
             chunk,
             kappa,
             increments,
+            flagged,
         });
         Ok(())
     }

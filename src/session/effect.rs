@@ -93,6 +93,12 @@ pub enum Effect {
         chunk: Chunk,
         kappa: f64,
         increments: Vec<(Provenance, f64)>,
+        /// `critique --directional` (absent in journals written before it existed).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        directional: bool,
+        /// With `directional`, the flagged observation (raw) of each increment.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        flagged: Vec<Vec<f64>>,
     },
     Undo,
     Redo,

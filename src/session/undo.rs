@@ -29,6 +29,8 @@ pub(super) enum Edit {
         chunk: Chunk,
         kappa: f64,
         increments: Vec<(Provenance, f64)>,
+        /// The directional rule's flagged observations (`None`: the paper's rule).
+        flagged: Option<Vec<Vec<f64>>>,
     },
 }
 
@@ -54,11 +56,17 @@ impl Edit {
                 execution,
                 chunk,
                 kappa,
+                flagged,
                 ..
             } => format!(
-                "#{} critique {chunk} of execution {execution} ({}) with kappa {kappa}",
+                "#{} critique {chunk} of execution {execution} ({}) with kappa {kappa}{}",
                 self.number(),
                 executions.get(*execution).map_or("?", |e| e.label.as_str()),
+                if flagged.is_some() {
+                    " (directional)"
+                } else {
+                    ""
+                }
             ),
         }
     }
@@ -128,8 +136,9 @@ impl Session {
                 chunk,
                 kappa,
                 increments,
+                flagged,
                 ..
-            } => self.add_critique(execution, chunk, kappa, increments, number),
+            } => self.add_critique(execution, chunk, kappa, increments, flagged, number),
         };
         if result.is_err() {
             self.state.redo.push(edit);

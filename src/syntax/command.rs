@@ -59,7 +59,13 @@ pub enum Command {
         span: Span,
         execution: Option<usize>,
     },
-    Critique(Option<f64>),
+    /// `critique [--directional] [KAPPA]`.
+    Critique {
+        kappa: Option<f64>,
+        /// `--directional`: the paper's proposed rule, the penalty depends on the query's
+        /// direction from the point.
+        directional: bool,
+    },
     Advise(Invocation),
     Preview(Invocation),
     Undo,
@@ -110,7 +116,7 @@ impl Command {
             Command::RunGoal { .. } | Command::RunStart(_) => "run",
             Command::Show(_) => "show",
             Command::Select { .. } => "select",
-            Command::Critique(_) => "critique",
+            Command::Critique { .. } => "critique",
             Command::Advise(_) => "advise",
             Command::Preview(_) => "preview",
             Command::Undo => "undo",
@@ -268,8 +274,8 @@ pub const COMMANDS: &[CommandSpec] = &[
     },
     CommandSpec {
         name: "critique",
-        signature: "critique [KAPPA]",
-        doc: "Flag the selection as poor: the data points that recommended its actions are pushed away (BC).",
+        signature: "critique [--directional] [KAPPA]",
+        doc: "Flag the selection as poor: the data points that recommended its actions are pushed away (BC); `--directional` penalises each only for observations on the flagged side of it (the paper's proposed improvement).",
         step: Step::Correct,
         example: "critique 2",
     },
@@ -494,7 +500,17 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
                 }
             }
         }
-        Rule::c_critique => Command::Critique(next().map(|k| b.signed(k)).transpose()?),
+        Rule::c_critique => {
+            let mut directional = false;
+            let mut kappa = None;
+            while let Some(p) = next() {
+                match p.as_rule() {
+                    Rule::directional_flag => directional = true,
+                    _ => kappa = Some(b.signed(p)?),
+                }
+            }
+            Command::Critique { kappa, directional }
+        }
         Rule::c_advise => Command::Advise(b.invocation(req(next()))?),
         Rule::c_preview => Command::Preview(b.invocation(req(next()))?),
         Rule::c_undo => Command::Undo,
@@ -726,8 +742,36 @@ mod tests {
                 ..
             }
         ));
-        assert_eq!(cmd("critique"), Command::Critique(None));
-        assert_eq!(cmd("critique 0.5"), Command::Critique(Some(0.5)));
+        assert_eq!(
+            cmd("critique"),
+            Command::Critique {
+                kappa: None,
+                directional: false
+            }
+        );
+        assert_eq!(
+            cmd("critique 0.5"),
+            Command::Critique {
+                kappa: Some(0.5),
+                directional: false
+            }
+        );
+        assert_eq!(
+            cmd("critique --directional"),
+            Command::Critique {
+                kappa: None,
+                directional: true
+            }
+        );
+        for line in ["critique --directional 0.5", "critique 0.5 --directional"] {
+            assert_eq!(
+                cmd(line),
+                Command::Critique {
+                    kappa: Some(0.5),
+                    directional: true
+                }
+            );
+        }
         assert_eq!(
             cmd("load demos \"my runs/d.csv\""),
             Command::LoadDemos {

@@ -515,6 +515,47 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
         for (k, (_, inc)) in c.increments.iter().enumerate() {
             finite(format!("critiques[{i}].increments[{k}]"), *inc)?;
         }
+        let negative = c.increments.iter().position(|(_, inc)| *inc < 0.0);
+        if let (true, Some(k)) = (c.directional, negative) {
+            // The BC search is exact only while no weight falls below 1 (the isotropic weights
+            // are checked point by point below).
+            return Err(DatasetError::Record {
+                at: format!("critiques[{i}].increments[{k}]"),
+                what: "a directional critique's increment is never negative".into(),
+            });
+        }
+        if c.directional && c.flagged.len() != c.increments.len() {
+            return Err(DatasetError::Record {
+                at: format!("critiques[{i}].flagged"),
+                what: format!(
+                    "a directional critique keeps one flagged observation per increment: {} increments, {} observations",
+                    c.increments.len(),
+                    c.flagged.len()
+                ),
+            });
+        }
+        if !c.directional && !c.flagged.is_empty() {
+            return Err(DatasetError::Record {
+                at: format!("critiques[{i}].flagged"),
+                what: "only a directional critique keeps flagged observations".into(),
+            });
+        }
+        for (k, z) in c.flagged.iter().enumerate() {
+            if z.len() != domain.obs_dim() {
+                return Err(DatasetError::Record {
+                    at: format!("critiques[{i}].flagged[{k}]"),
+                    what: format!(
+                        "the observation has {} values; the `{}` domain observes {}",
+                        z.len(),
+                        domain.name,
+                        domain.obs_dim()
+                    ),
+                });
+            }
+            for (j, v) in z.iter().enumerate() {
+                finite(format!("critiques[{i}].flagged[{k}][{j}]"), *v)?;
+            }
+        }
     }
 
     let mut demo_points: HashMap<u32, u32> = file.demos.iter().map(|d| (d.id, 0)).collect();
