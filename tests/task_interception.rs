@@ -18,9 +18,10 @@ fn run(start: BallStart, policy: &dyn advise::policy::Policy) -> advise::task::E
 
 #[test]
 fn a_ball_within_the_threshold_is_captured_and_one_outside_is_not() {
+    let capture = InterceptionRules::default().capture_m;
     let near = run(
         BallStart {
-            x_m: 0.29,
+            x_m: capture - 0.01,
             y_m: 0.0,
             vx_mps: 0.0,
             vy_mps: 0.0,
@@ -33,7 +34,7 @@ fn a_ball_within_the_threshold_is_captured_and_one_outside_is_not() {
 
     let far = run(
         BallStart {
-            x_m: 0.31,
+            x_m: capture + 0.01,
             y_m: 0.0,
             vx_mps: 0.0,
             vy_mps: 0.0,
@@ -46,9 +47,11 @@ fn a_ball_within_the_threshold_is_captured_and_one_outside_is_not() {
 
 #[test]
 fn a_ball_rolling_out_of_the_arena_ends_the_episode_as_a_failure() {
+    let world = InterceptionRules::default();
+    let x0 = world.arena_half_m - 0.5;
     let e = run(
         BallStart {
-            x_m: 3.5,
+            x_m: x0,
             y_m: 0.0,
             vx_mps: 0.8,
             vy_mps: 0.0,
@@ -57,12 +60,19 @@ fn a_ball_rolling_out_of_the_arena_ends_the_episode_as_a_failure() {
     );
     assert_eq!(e.outcome.ending, Ending::BallOut);
     assert!(!e.outcome.success);
-    // 0.5 m at 0.8 m/s slowing by 0.05 m/s^2: a little over 0.6 s.
+    // 0.5 m at 0.8 m/s slowing by `ball_decel_mps2`: 0.625 s without friction, a little more
+    // with it, and whole control periods.
+    let a = world.ball_decel_mps2;
+    let exact = (0.8 - (0.64 - 2.0 * a * 0.5_f64).sqrt()) / a;
     let t = e.outcome.duration_s;
-    assert!(t > 0.6 && t < 0.7, "{t}");
+    let period = SimParams::default().period_s();
+    assert!(
+        t >= exact - 1e-9 && t < exact + 2.0 * period,
+        "{t} vs {exact}"
+    );
     let ball = e.ball.unwrap();
     assert_eq!(ball.len(), e.trace.len());
-    assert_eq!(ball[0], [3.5, 0.0]);
+    assert_eq!(ball[0], [x0, 0.0]);
 }
 
 #[test]

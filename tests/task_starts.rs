@@ -31,9 +31,14 @@ fn the_last_start_is_drawn_at_once_and_in_range() {
                 assert!((GOAL_THETA_RAD.0..GOAL_THETA_RAD.1).contains(&g.theta_rad));
             }
             Start::Ball(b) => {
+                let w = advise::task::InterceptionRules::default();
                 let d = b.x_m.hypot(b.y_m);
-                assert!((1.0..=3.0).contains(&d), "{b:?}");
-                assert!(b.vx_mps.hypot(b.vy_mps) <= 0.8 + 1e-12, "{b:?}");
+                let (lo, hi) = w.ball_dist_m;
+                assert!((lo - 1e-12..=hi + 1e-12).contains(&d), "{b:?}");
+                assert!(
+                    b.vx_mps.hypot(b.vy_mps) <= w.ball_speed_mps.1 + 1e-12,
+                    "{b:?}"
+                );
             }
             other => panic!("not a start of the paper's tasks: {other:?}"),
         }

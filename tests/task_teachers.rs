@@ -79,9 +79,10 @@ fn the_positioning_teacher_succeeds_often_but_not_always() {
 #[test]
 fn the_interception_teacher_succeeds_often_but_not_always() {
     let (test, demos) = often_but_not_always(TaskKind::Interception);
-    // Measured: 75% on the test set (seed 0), 74% over 100 practice starts (seed 11).
-    assert!((0.6..0.9).contains(&test), "test set: {test}");
-    assert!((0.6..0.9).contains(&demos), "practice starts: {demos}");
+    // Calibrated to the paper's 62% (`advise calibrate bc`); measured: 66% on the test set
+    // (seed 0), 55% over 100 practice starts (seed 11).
+    assert!((0.45..0.8).contains(&test), "test set: {test}");
+    assert!((0.45..0.8).contains(&demos), "practice starts: {demos}");
 }
 
 #[test]

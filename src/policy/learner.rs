@@ -751,17 +751,31 @@ fn fmt4(v: &[f64]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::task::{TaskKind, record_demos};
+    use crate::domain::Dim;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
 
     /// A warm schedule re-tunes from the last tuning between full tunings every `full_every`-th
     /// re-derivation; a full schedule always tunes from scratch.
     #[test]
     fn a_warm_schedule_tunes_in_full_every_nth_rederivation() {
-        let kind = TaskKind::Positioning;
-        let sim = crate::backend::sim::SimParams::default();
-        let mut ds = Dataset::new(&kind.domain());
-        for (e, _) in record_demos(kind.clone(), 6, 4, &sim) {
-            ds.add_demonstration(&e.name, &e.trace).unwrap();
+        let d = Domain {
+            name: "test".into(),
+            observe: vec![Dim::new("x", "", None), Dim::new("y", "", None)],
+            act: vec![Dim::new("u", "", None)],
+        };
+        let mut ds = Dataset::new(&d);
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        for k in 0..8 {
+            let mut t = Trace::new(&d);
+            let (mut x, mut y): (f64, f64) =
+                (rng.random_range(0.0..1.0), rng.random_range(0.0..1.0));
+            for i in 0..50 {
+                x += rng.random_range(-0.02..0.02);
+                y += rng.random_range(-0.02..0.02);
+                t.push(i as f64, &[x, y], &[(3.0 * x).sin() + y], None);
+            }
+            ds.add_demonstration(&format!("d{k}"), &t).unwrap();
         }
         let mut warm = Learner::with_retune(
             ds.clone(),
