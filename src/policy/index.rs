@@ -9,21 +9,273 @@
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
+use std::sync::OnceLock;
 
 use kiddo::{KdTree, SquaredEuclidean};
 
 /// The largest observation dimension the index supports.
 pub const MAX_DIM: usize = 8;
 
+/// Groups added since the bulk tree was last planned that a small kiddo tree answers for, at
+/// least; past `max(RECENT_MIN, planned / RECENT_FRACTION)` the bulk tree is planned anew over
+/// every group (and built at the next query).
+const RECENT_MIN: usize = 1024;
+const RECENT_FRACTION: usize = 16;
+
+/// Points per leaf of the bulk tree.
+const LEAF: usize = 8;
+
+/// The squared Euclidean distance, summed in dimension order from zero exactly as kiddo's
+/// `SquaredEuclidean` does, so either tree reports the same bits for the same pair.
+#[inline(always)]
+fn dist2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
+    let mut s = 0.0;
+    for k in 0..D {
+        let d = a[k] - b[k];
+        s += d * d;
+    }
+    s
+}
+
+/// The squared distance from `q` to the box `[lo, hi]` (zero inside).
+#[inline(always)]
+fn box_dist2<const D: usize>(q: &[f64; D], lo: &[f64; D], hi: &[f64; D]) -> f64 {
+    let mut s = 0.0;
+    for k in 0..D {
+        let d = (lo[k] - q[k]).max(q[k] - hi[k]).max(0.0);
+        s += d * d;
+    }
+    s
+}
+
+/// `(distance, group)` ordered by distance, then by group (ties to the lower group).
+#[inline(always)]
+fn before(a: (f64, u64), b: (f64, u64)) -> bool {
+    a.0 < b.0 || (a.0 == b.0 && a.1 < b.1)
+}
+
+/// A node of the bulk tree: the tight bounding box of its points, and either its children (the
+/// left one follows it; `right` is the other's position) or, for a leaf, its points' range.
+struct Node<const D: usize> {
+    lo: [f64; D],
+    hi: [f64; D],
+    start: u32,
+    end: u32,
+    /// 0 for a leaf (the root is never anyone's right child).
+    right: u32,
+}
+
+/// A balanced kd-tree built once over a fixed set of groups: each node split at the median of
+/// its widest dimension, every node keeping the tight box of its points, the points stored in
+/// leaf order. The tight boxes matter on trajectory data: points lie along curves, so a cell's
+/// points fill a sliver of it, and a query prunes on the sliver. Queries allocate nothing.
+struct Bulk<const D: usize> {
+    nodes: Vec<Node<D>>,
+    points: Vec<[f64; D]>,
+    ids: Vec<u32>,
+}
+
+impl<const D: usize> Bulk<D> {
+    /// The tree over groups `0..n` of `group_z` (rows of `D` values).
+    fn build(group_z: &[f64], n: usize) -> Bulk<D> {
+        let mut order: Vec<(u32, [f64; D])> = (0..n)
+            .map(|g| {
+                let row: [f64; D] = group_z[g * D..(g + 1) * D]
+                    .try_into()
+                    .expect("rows of D values");
+                (g as u32, row)
+            })
+            .collect();
+        let mut nodes = Vec::with_capacity(2 * n / LEAF + 1);
+        if n > 0 {
+            Self::build_node(&mut nodes, &mut order, 0);
+        }
+        Bulk {
+            nodes,
+            points: order.iter().map(|(_, p)| *p).collect(),
+            ids: order.iter().map(|(g, _)| *g).collect(),
+        }
+    }
+
+    fn build_node(nodes: &mut Vec<Node<D>>, part: &mut [(u32, [f64; D])], start: usize) {
+        let mut lo = [f64::INFINITY; D];
+        let mut hi = [f64::NEG_INFINITY; D];
+        for (_, p) in part.iter() {
+            for k in 0..D {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let me = nodes.len();
+        nodes.push(Node {
+            lo,
+            hi,
+            start: start as u32,
+            end: (start + part.len()) as u32,
+            right: 0,
+        });
+        let (split, spread) = (0..D)
+            .map(|k| (k, hi[k] - lo[k]))
+            .fold((0, 0.0), |best, c| if c.1 > best.1 { c } else { best });
+        if part.len() <= LEAF || spread <= 0.0 {
+            return;
+        }
+        let mid = part.len() / 2;
+        part.select_nth_unstable_by(mid, |a, b| a.1[split].total_cmp(&b.1[split]));
+        let (left, right) = part.split_at_mut(mid);
+        Self::build_node(nodes, left, start);
+        nodes[me].right = nodes.len() as u32;
+        Self::build_node(nodes, right, start + mid);
+    }
+
+    fn nearest_one(&self, q: &[f64; D], best: &mut (f64, u64)) {
+        if !self.nodes.is_empty() {
+            self.nearest_one_in(0, q, best);
+        }
+    }
+
+    fn nearest_one_in(&self, at: usize, q: &[f64; D], best: &mut (f64, u64)) {
+        let node = &self.nodes[at];
+        if node.right == 0 {
+            for i in node.start as usize..node.end as usize {
+                let c = (dist2(q, &self.points[i]), u64::from(self.ids[i]));
+                if before(c, *best) {
+                    *best = c;
+                }
+            }
+            return;
+        }
+        let (l, r) = (at + 1, node.right as usize);
+        let dl = box_dist2(q, &self.nodes[l].lo, &self.nodes[l].hi);
+        let dr = box_dist2(q, &self.nodes[r].lo, &self.nodes[r].hi);
+        let [(d1, n1), (d2, n2)] = if dl <= dr {
+            [(dl, l), (dr, r)]
+        } else {
+            [(dr, r), (dl, l)]
+        };
+        if d1 <= best.0 {
+            self.nearest_one_in(n1, q, best);
+        }
+        if d2 <= best.0 {
+            self.nearest_one_in(n2, q, best);
+        }
+    }
+
+    /// The `n` nearest into `heap`, a max-heap under [`before`] holding at most `n`.
+    fn nearest_n(&self, q: &[f64; D], n: usize, heap: &mut Vec<(f64, u64)>) {
+        if !self.nodes.is_empty() && n > 0 {
+            self.nearest_n_in(0, q, n, heap);
+        }
+    }
+
+    fn nearest_n_in(&self, at: usize, q: &[f64; D], n: usize, heap: &mut Vec<(f64, u64)>) {
+        let node = &self.nodes[at];
+        if node.right == 0 {
+            for i in node.start as usize..node.end as usize {
+                heap_offer(heap, n, (dist2(q, &self.points[i]), u64::from(self.ids[i])));
+            }
+            return;
+        }
+        let (l, r) = (at + 1, node.right as usize);
+        let dl = box_dist2(q, &self.nodes[l].lo, &self.nodes[l].hi);
+        let dr = box_dist2(q, &self.nodes[r].lo, &self.nodes[r].hi);
+        let [(d1, n1), (d2, n2)] = if dl <= dr {
+            [(dl, l), (dr, r)]
+        } else {
+            [(dr, r), (dl, l)]
+        };
+        for (d, next) in [(d1, n1), (d2, n2)] {
+            if heap.len() < n || d <= heap[0].0 {
+                self.nearest_n_in(next, q, n, heap);
+            }
+        }
+    }
+
+    fn within(&self, q: &[f64; D], r2: f64, out: &mut Vec<(f64, u64)>) {
+        if !self.nodes.is_empty() {
+            self.within_in(0, q, r2, out);
+        }
+    }
+
+    fn within_in(&self, at: usize, q: &[f64; D], r2: f64, out: &mut Vec<(f64, u64)>) {
+        let node = &self.nodes[at];
+        if box_dist2(q, &node.lo, &node.hi) > r2 {
+            return;
+        }
+        if node.right == 0 {
+            for i in node.start as usize..node.end as usize {
+                let d = dist2(q, &self.points[i]);
+                if d <= r2 {
+                    out.push((d, u64::from(self.ids[i])));
+                }
+            }
+            return;
+        }
+        self.within_in(at + 1, q, r2, out);
+        self.within_in(node.right as usize, q, r2, out);
+    }
+}
+
+/// Offer `c` to the max-heap `heap` (under [`before`]) of at most `n` entries.
+fn heap_offer(heap: &mut Vec<(f64, u64)>, n: usize, c: (f64, u64)) {
+    if heap.len() < n {
+        heap.push(c);
+        let mut i = heap.len() - 1;
+        while i > 0 {
+            let parent = (i - 1) / 2;
+            if before(heap[parent], heap[i]) {
+                heap.swap(parent, i);
+                i = parent;
+            } else {
+                break;
+            }
+        }
+    } else if before(c, heap[0]) {
+        heap[0] = c;
+        let mut i = 0;
+        loop {
+            let (l, r) = (2 * i + 1, 2 * i + 2);
+            let mut top = i;
+            if l < heap.len() && before(heap[top], heap[l]) {
+                top = l;
+            }
+            if r < heap.len() && before(heap[top], heap[r]) {
+                top = r;
+            }
+            if top == i {
+                break;
+            }
+            heap.swap(i, top);
+            i = top;
+        }
+    }
+}
+
+/// The trees of one dimension: the bulk tree over the groups planned for it (built at the first
+/// query that needs it), and kiddo's mutable tree over the groups added since, while they are few.
+struct Trees<const D: usize> {
+    bulk: OnceLock<Bulk<D>>,
+    recent: KdTree<f64, D>,
+}
+
+impl<const D: usize> Trees<D> {
+    fn new() -> Self {
+        Trees {
+            bulk: OnceLock::new(),
+            recent: KdTree::new(),
+        }
+    }
+}
+
 enum Tree {
-    D1(KdTree<f64, 1>),
-    D2(KdTree<f64, 2>),
-    D3(KdTree<f64, 3>),
-    D4(KdTree<f64, 4>),
-    D5(KdTree<f64, 5>),
-    D6(KdTree<f64, 6>),
-    D7(KdTree<f64, 7>),
-    D8(KdTree<f64, 8>),
+    D1(Trees<1>),
+    D2(Trees<2>),
+    D3(Trees<3>),
+    D4(Trees<4>),
+    D5(Trees<5>),
+    D6(Trees<6>),
+    D7(Trees<7>),
+    D8(Trees<8>),
 }
 
 macro_rules! each_tree {
@@ -44,43 +296,81 @@ macro_rules! each_tree {
 impl Tree {
     fn new(dim: usize) -> Option<Tree> {
         Some(match dim {
-            1 => Tree::D1(KdTree::new()),
-            2 => Tree::D2(KdTree::new()),
-            3 => Tree::D3(KdTree::new()),
-            4 => Tree::D4(KdTree::new()),
-            5 => Tree::D5(KdTree::new()),
-            6 => Tree::D6(KdTree::new()),
-            7 => Tree::D7(KdTree::new()),
-            8 => Tree::D8(KdTree::new()),
+            1 => Tree::D1(Trees::new()),
+            2 => Tree::D2(Trees::new()),
+            3 => Tree::D3(Trees::new()),
+            4 => Tree::D4(Trees::new()),
+            5 => Tree::D5(Trees::new()),
+            6 => Tree::D6(Trees::new()),
+            7 => Tree::D7(Trees::new()),
+            8 => Tree::D8(Trees::new()),
             _ => return None,
         })
     }
 
-    fn add(&mut self, q: &[f64], item: u64) {
-        each_tree!(self, t => t.add(q.try_into().expect("dimension checked at construction"), item))
+    /// Forget both trees: the bulk is now planned over every group (`Plan::planned`).
+    fn replan(&mut self) {
+        each_tree!(self, t => *t = Trees::new())
     }
 
-    fn nearest_one(&self, q: &[f64]) -> (f64, u64) {
+    fn add_recent(&mut self, q: &[f64], item: u64) {
+        each_tree!(self, t => t.recent.add(q.try_into().expect("dimension checked at construction"), item))
+    }
+
+    fn nearest_one(&self, plan: &Plan, q: &[f64]) -> (f64, u64) {
         each_tree!(self, t => {
-            let n = t.nearest_one::<SquaredEuclidean>(q.try_into().expect("dimension checked at construction"));
-            (n.distance, n.item)
+            let q = q.try_into().expect("dimension checked at construction");
+            let mut best = (f64::INFINITY, u64::MAX);
+            plan.bulk(t).nearest_one(q, &mut best);
+            if plan.recent > 0 {
+                let n = t.recent.nearest_one::<SquaredEuclidean>(q);
+                if before((n.distance, n.item), best) {
+                    best = (n.distance, n.item);
+                }
+            }
+            best
         })
     }
 
-    fn nearest_n(&self, q: &[f64], n: usize, out: &mut Vec<(f64, u64)>) {
+    fn nearest_n(&self, plan: &Plan, q: &[f64], n: usize, out: &mut Vec<(f64, u64)>) {
         out.clear();
         each_tree!(self, t => {
-            let found = t.nearest_n::<SquaredEuclidean>(q.try_into().expect("dimension checked at construction"), n);
-            out.extend(found.into_iter().map(|n| (n.distance, n.item)));
-        })
+            let q = q.try_into().expect("dimension checked at construction");
+            plan.bulk(t).nearest_n(q, n, out);
+            if plan.recent > 0 {
+                out.extend(t.recent.nearest_n::<SquaredEuclidean>(q, n).into_iter().map(|n| (n.distance, n.item)));
+            }
+        });
+        out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        out.truncate(n);
     }
 
-    fn within(&self, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
+    fn within(&self, plan: &Plan, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
         out.clear();
         each_tree!(self, t => {
-            let found = t.within_unsorted::<SquaredEuclidean>(q.try_into().expect("dimension checked at construction"), r2);
-            out.extend(found.into_iter().map(|n| (n.distance, n.item)));
+            let q = q.try_into().expect("dimension checked at construction");
+            plan.bulk(t).within(q, r2, out);
+            if plan.recent > 0 {
+                let found = t.recent.within_unsorted::<SquaredEuclidean>(q, r2);
+                out.extend(found.into_iter().map(|n| (n.distance, n.item)));
+            }
         })
+    }
+}
+
+/// Which groups each tree holds: the bulk tree groups `0..planned`, kiddo's the `recent` after.
+/// Decided by the sequence of additions alone (never by when queries came), so the trees, and
+/// the order a radius query reports its groups in, are a function of the data's history.
+struct Plan<'a> {
+    planned: usize,
+    recent: usize,
+    group_z: &'a [f64],
+}
+
+impl Plan<'_> {
+    fn bulk<'t, const D: usize>(&self, t: &'t Trees<D>) -> &'t Bulk<D> {
+        t.bulk
+            .get_or_init(|| Bulk::build(self.group_z, self.planned))
     }
 }
 
@@ -89,6 +379,8 @@ pub struct Index {
     dim: usize,
     scale: Vec<f64>,
     tree: Tree,
+    /// Groups `0..planned` are the bulk tree's; the rest are in kiddo's.
+    planned: usize,
     /// Dataset point indices of each group.
     groups: Vec<Members>,
     /// Scaled observation of each group (row after row).
@@ -149,6 +441,7 @@ impl Index {
         Some(Index {
             dim,
             tree: Tree::new(dim)?,
+            planned: 0,
             scale,
             groups: Vec::new(),
             group_z: Vec::new(),
@@ -243,7 +536,13 @@ impl Index {
         self.group_z.extend_from_slice(q);
         self.same_hash
             .push(self.by_key.insert(hash, g).unwrap_or(u32::MAX));
-        self.tree.add(q, g as u64);
+        let recent = g as usize - self.planned;
+        if recent >= RECENT_MIN.max(self.planned / RECENT_FRACTION) {
+            self.planned = self.groups.len();
+            self.tree.replan();
+        } else {
+            self.tree.add_recent(q, g as u64);
+        }
         g
     }
 
@@ -259,7 +558,7 @@ impl Index {
         if self.is_empty() {
             return None;
         }
-        Some(self.tree.nearest_one(q))
+        Some(self.tree.nearest_one(&self.plan(), q))
     }
 
     /// The `n` nearest groups to scaled query `q`, nearest first: (squared distance, group).
@@ -269,7 +568,15 @@ impl Index {
             out.clear();
             return;
         }
-        self.tree.nearest_n(q, n, out)
+        self.tree.nearest_n(&self.plan(), q, n, out)
+    }
+
+    fn plan(&self) -> Plan<'_> {
+        Plan {
+            planned: self.planned,
+            recent: self.groups.len() - self.planned,
+            group_z: &self.group_z,
+        }
     }
 
     /// How many groups (distinct observations) the index holds.
@@ -284,7 +591,7 @@ impl Index {
             out.clear();
             return;
         }
-        self.tree.within(q, r2, out)
+        self.tree.within(&self.plan(), q, r2, out)
     }
 
     /// Scaled observation of group `g`.
@@ -324,5 +631,62 @@ mod tests {
         let mut found = Vec::new();
         idx.within(&[1.0, 0.0], 1e-12, &mut found);
         assert_eq!(found, [(0.0, 0)]);
+    }
+}
+
+#[cfg(test)]
+mod tree_tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn scan(idx: &Index, q: &[f64]) -> Vec<(f64, u64)> {
+        let mut all: Vec<(f64, u64)> = (0..idx.groups() as u64)
+            .map(|g| {
+                let d = idx
+                    .group_z(g)
+                    .iter()
+                    .zip(q)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .fold(0.0, |s, v| s + v);
+                (d, g)
+            })
+            .collect();
+        all.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        all
+    }
+
+    /// Through several re-plans (the bulk tree over the first groups, kiddo's over the rest),
+    /// every query equals a linear scan: nearest (ties to the lower group), the n nearest in
+    /// order, and the groups within a radius. Points on a coarse grid make ties and repeated
+    /// observations common.
+    #[test]
+    fn queries_equal_a_linear_scan_across_replans() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut idx = Index::new(vec![1.0, 0.5, 2.0]).unwrap();
+        let mut found = Vec::new();
+        for i in 0..6000u32 {
+            let z: Vec<f64> = (0..3)
+                .map(|_| f64::from(rng.random_range(0..40u8)) / 8.0)
+                .collect();
+            idx.add(i, &z);
+            if i % 397 != 0 && i != 1024 && i != 1025 {
+                continue;
+            }
+            for _ in 0..20 {
+                let q: Vec<f64> = (0..3).map(|_| rng.random_range(-0.5..5.5)).collect();
+                let want = scan(&idx, &q);
+                assert_eq!(idx.nearest(&q), Some(want[0]), "after {i} points");
+                for n in [1, 4, 17] {
+                    idx.nearest_n(&q, n, &mut found);
+                    assert_eq!(found, want[..n.min(want.len())], "n {n} after {i} points");
+                }
+                let r2 = rng.random_range(0.0..0.6);
+                idx.within(&q, r2, &mut found);
+                found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                let inside: Vec<(f64, u64)> = want.iter().copied().filter(|w| w.0 <= r2).collect();
+                assert_eq!(found, inside, "r2 {r2} after {i} points");
+            }
+        }
     }
 }
