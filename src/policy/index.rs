@@ -20,8 +20,10 @@ pub const MAX_DIM: usize = 8;
 /// least; past `max(RECENT_MIN, planned / RECENT_FRACTION)` the bulk tree is planned anew over
 /// every group (and built at the next query).
 const RECENT_MIN: usize = 1024;
-const RECENT_FRACTION: usize = 16;
+const RECENT_FRACTION: usize = 64;
 
+fn leaf_exp() -> usize { static L: OnceLock<usize> = OnceLock::new(); *L.get_or_init(|| std::env::var("LEAF").ok().and_then(|v| v.parse().ok()).unwrap_or(LEAF)) }
+fn frac_exp() -> usize { static L: OnceLock<usize> = OnceLock::new(); *L.get_or_init(|| std::env::var("FRAC").ok().and_then(|v| v.parse().ok()).unwrap_or(RECENT_FRACTION)) }
 /// Points per leaf of the bulk tree.
 const LEAF: usize = 8;
 
@@ -39,10 +41,10 @@ fn dist2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
 
 /// The squared distance from `q` to the box `[lo, hi]` (zero inside).
 #[inline(always)]
-fn box_dist2<const D: usize>(q: &[f64; D], lo: &[f64; D], hi: &[f64; D]) -> f64 {
+fn box_dist2<const D: usize>(q: &[f64; D], lo: &[f32; D], hi: &[f32; D]) -> f64 {
     let mut s = 0.0;
     for k in 0..D {
-        let d = (lo[k] - q[k]).max(q[k] - hi[k]).max(0.0);
+        let d = (f64::from(lo[k]) - q[k]).max(q[k] - f64::from(hi[k])).max(0.0);
         s += d * d;
     }
     s
@@ -54,15 +56,32 @@ fn before(a: (f64, u64), b: (f64, u64)) -> bool {
     a.0 < b.0 || (a.0 == b.0 && a.1 < b.1)
 }
 
-/// A node of the bulk tree: the tight bounding box of its points, and either its children (the
-/// left one follows it; `right` is the other's position) or, for a leaf, its points' range.
+/// A node of the bulk tree: a box around its points, and either its children (the left one
+/// follows it) or, for a leaf, its points' range. The box is kept in `f32`, rounded outwards: it
+/// only prunes, so a slightly larger box changes no answer, and a 6-D node fits one cache line
+/// (the queries are bound by memory, not arithmetic).
+#[repr(align(64))]
 struct Node<const D: usize> {
-    lo: [f64; D],
-    hi: [f64; D],
-    start: u32,
+    lo: [f32; D],
+    hi: [f32; D],
+    /// A leaf's first point, or an inner node's right child.
+    first_or_right: u32,
+    /// A leaf's end; [`INNER`] for an inner node.
     end: u32,
-    /// 0 for a leaf (the root is never anyone's right child).
-    right: u32,
+}
+
+const INNER: u32 = u32::MAX;
+
+/// `x` as an `f32` no greater (`down`) or no smaller than it.
+fn f32_outwards(x: f64, down: bool) -> f32 {
+    let f = x as f32;
+    if down && f64::from(f) > x {
+        f.next_down()
+    } else if !down && f64::from(f) < x {
+        f.next_up()
+    } else {
+        f
+    }
 }
 
 /// A balanced kd-tree built once over a fixed set of groups: each node split at the median of
@@ -108,23 +127,23 @@ impl<const D: usize> Bulk<D> {
         }
         let me = nodes.len();
         nodes.push(Node {
-            lo,
-            hi,
-            start: start as u32,
+            lo: lo.map(|v| f32_outwards(v, true)),
+            hi: hi.map(|v| f32_outwards(v, false)),
+            first_or_right: start as u32,
             end: (start + part.len()) as u32,
-            right: 0,
         });
         let (split, spread) = (0..D)
             .map(|k| (k, hi[k] - lo[k]))
             .fold((0, 0.0), |best, c| if c.1 > best.1 { c } else { best });
-        if part.len() <= LEAF || spread <= 0.0 {
+        if part.len() <= leaf_exp() || spread <= 0.0 {
             return;
         }
         let mid = part.len() / 2;
         part.select_nth_unstable_by(mid, |a, b| a.1[split].total_cmp(&b.1[split]));
         let (left, right) = part.split_at_mut(mid);
+        nodes[me].end = INNER;
         Self::build_node(nodes, left, start);
-        nodes[me].right = nodes.len() as u32;
+        nodes[me].first_or_right = nodes.len() as u32;
         Self::build_node(nodes, right, start + mid);
     }
 
@@ -136,8 +155,8 @@ impl<const D: usize> Bulk<D> {
 
     fn nearest_one_in(&self, at: usize, q: &[f64; D], best: &mut (f64, u64)) {
         let node = &self.nodes[at];
-        if node.right == 0 {
-            for i in node.start as usize..node.end as usize {
+        if node.end != INNER {
+            for i in node.first_or_right as usize..node.end as usize {
                 let c = (dist2(q, &self.points[i]), u64::from(self.ids[i]));
                 if before(c, *best) {
                     *best = c;
@@ -145,7 +164,7 @@ impl<const D: usize> Bulk<D> {
             }
             return;
         }
-        let (l, r) = (at + 1, node.right as usize);
+        let (l, r) = (at + 1, node.first_or_right as usize);
         let dl = box_dist2(q, &self.nodes[l].lo, &self.nodes[l].hi);
         let dr = box_dist2(q, &self.nodes[r].lo, &self.nodes[r].hi);
         let [(d1, n1), (d2, n2)] = if dl <= dr {
@@ -170,13 +189,13 @@ impl<const D: usize> Bulk<D> {
 
     fn nearest_n_in(&self, at: usize, q: &[f64; D], n: usize, heap: &mut Vec<(f64, u64)>) {
         let node = &self.nodes[at];
-        if node.right == 0 {
-            for i in node.start as usize..node.end as usize {
+        if node.end != INNER {
+            for i in node.first_or_right as usize..node.end as usize {
                 heap_offer(heap, n, (dist2(q, &self.points[i]), u64::from(self.ids[i])));
             }
             return;
         }
-        let (l, r) = (at + 1, node.right as usize);
+        let (l, r) = (at + 1, node.first_or_right as usize);
         let dl = box_dist2(q, &self.nodes[l].lo, &self.nodes[l].hi);
         let dr = box_dist2(q, &self.nodes[r].lo, &self.nodes[r].hi);
         let [(d1, n1), (d2, n2)] = if dl <= dr {
@@ -202,8 +221,8 @@ impl<const D: usize> Bulk<D> {
         if box_dist2(q, &node.lo, &node.hi) > r2 {
             return;
         }
-        if node.right == 0 {
-            for i in node.start as usize..node.end as usize {
+        if node.end != INNER {
+            for i in node.first_or_right as usize..node.end as usize {
                 let d = dist2(q, &self.points[i]);
                 if d <= r2 {
                     out.push((d, u64::from(self.ids[i])));
@@ -212,7 +231,7 @@ impl<const D: usize> Bulk<D> {
             return;
         }
         self.within_in(at + 1, q, r2, out);
-        self.within_in(node.right as usize, q, r2, out);
+        self.within_in(node.first_or_right as usize, q, r2, out);
     }
 }
 
@@ -323,9 +342,12 @@ impl Tree {
             let mut best = (f64::INFINITY, u64::MAX);
             plan.bulk(t).nearest_one(q, &mut best);
             if plan.recent > 0 {
-                let n = t.recent.nearest_one::<SquaredEuclidean>(q);
-                if before((n.distance, n.item), best) {
-                    best = (n.distance, n.item);
+                // Only groups at most as far as the bulk's nearest can change the answer: a
+                // radius search that small visits a few of kiddo's leaves.
+                for n in t.recent.within_unsorted::<SquaredEuclidean>(q, best.0) {
+                    if before((n.distance, n.item), best) {
+                        best = (n.distance, n.item);
+                    }
                 }
             }
             best
@@ -338,7 +360,13 @@ impl Tree {
             let q = q.try_into().expect("dimension checked at construction");
             plan.bulk(t).nearest_n(q, n, out);
             if plan.recent > 0 {
-                out.extend(t.recent.nearest_n::<SquaredEuclidean>(q, n).into_iter().map(|n| (n.distance, n.item)));
+                if out.len() < n {
+                    out.extend(t.recent.nearest_n::<SquaredEuclidean>(q, n).into_iter().map(|n| (n.distance, n.item)));
+                } else {
+                    // As in `nearest_one`: only groups within the bulk's n-th can take part.
+                    let bound = out[0].0;
+                    out.extend(t.recent.within_unsorted::<SquaredEuclidean>(q, bound).into_iter().map(|n| (n.distance, n.item)));
+                }
             }
         });
         out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -537,7 +565,7 @@ impl Index {
         self.same_hash
             .push(self.by_key.insert(hash, g).unwrap_or(u32::MAX));
         let recent = g as usize - self.planned;
-        if recent >= RECENT_MIN.max(self.planned / RECENT_FRACTION) {
+        if recent >= RECENT_MIN.max(self.planned / frac_exp()) {
             self.planned = self.groups.len();
             self.tree.replan();
         } else {
@@ -577,6 +605,11 @@ impl Index {
             recent: self.groups.len() - self.planned,
             group_z: &self.group_z,
         }
+    }
+
+    /// How many groups the bulk tree holds (the rest are in the small mutable tree).
+    pub fn bulk_groups(&self) -> usize {
+        self.planned
     }
 
     /// How many groups (distinct observations) the index holds.
