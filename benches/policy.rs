@@ -94,7 +94,7 @@ fn write_csv(data: &Trace, qs: &[Vec<f64>]) {
                 .join(",")
         })
         .collect::<Vec<_>>()
-            .join("\n")
+        .join("\n")
     };
     let points = rows(&mut (0..data.len()).map(|i| data.z(i)));
     let queries = rows(&mut qs.iter().map(|q| q.as_slice()));
@@ -123,7 +123,10 @@ fn cpu_rate(name: &str, qs: &[Vec<f64>], f: impl Fn(&[f64])) {
         qs.iter().for_each(|q| f(q));
     }
     let s = cpu() - start;
-    eprintln!("{name}: {:.0} queries per CPU second", 10.0 * qs.len() as f64 / s);
+    eprintln!(
+        "{name}: {:.0} queries per CPU second",
+        10.0 * qs.len() as f64 / s
+    );
 }
 
 fn bench(c: &mut Criterion) {

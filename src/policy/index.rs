@@ -22,10 +22,8 @@ pub const MAX_DIM: usize = 8;
 const RECENT_MIN: usize = 1024;
 const RECENT_FRACTION: usize = 64;
 
-fn leaf_exp() -> usize { static L: OnceLock<usize> = OnceLock::new(); *L.get_or_init(|| std::env::var("LEAF").ok().and_then(|v| v.parse().ok()).unwrap_or(LEAF)) }
-fn frac_exp() -> usize { static L: OnceLock<usize> = OnceLock::new(); *L.get_or_init(|| std::env::var("FRAC").ok().and_then(|v| v.parse().ok()).unwrap_or(RECENT_FRACTION)) }
 /// Points per leaf of the bulk tree.
-const LEAF: usize = 8;
+const LEAF: usize = 16;
 
 /// The squared Euclidean distance, summed in dimension order from zero exactly as kiddo's
 /// `SquaredEuclidean` does, so either tree reports the same bits for the same pair.
@@ -44,7 +42,9 @@ fn dist2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
 fn box_dist2<const D: usize>(q: &[f64; D], lo: &[f32; D], hi: &[f32; D]) -> f64 {
     let mut s = 0.0;
     for k in 0..D {
-        let d = (f64::from(lo[k]) - q[k]).max(q[k] - f64::from(hi[k])).max(0.0);
+        let d = (f64::from(lo[k]) - q[k])
+            .max(q[k] - f64::from(hi[k]))
+            .max(0.0);
         s += d * d;
     }
     s
@@ -92,11 +92,17 @@ struct Bulk<const D: usize> {
     nodes: Vec<Node<D>>,
     points: Vec<[f64; D]>,
     ids: Vec<u32>,
+    /// With action sums: each point's group's sum and count (`act_dim + 1` values) in leaf
+    /// order, so a kernel sum reads the rows beside the points it found instead of one scattered
+    /// row per neighbour; `at[g]` is group `g`'s position, to keep the copy current.
+    sums: Vec<f64>,
+    at: Vec<u32>,
 }
 
 impl<const D: usize> Bulk<D> {
-    /// The tree over groups `0..n` of `group_z` (rows of `D` values).
-    fn build(group_z: &[f64], n: usize) -> Bulk<D> {
+    /// The tree over groups `0..n` of `group_z` (rows of `D` values), with a copy of their action
+    /// sums when the index keeps them.
+    fn build(group_z: &[f64], n: usize, action_sums: Option<&ActionSums>) -> Bulk<D> {
         let mut order: Vec<(u32, [f64; D])> = (0..n)
             .map(|g| {
                 let row: [f64; D] = group_z[g * D..(g + 1) * D]
@@ -109,10 +115,23 @@ impl<const D: usize> Bulk<D> {
         if n > 0 {
             Self::build_node(&mut nodes, &mut order, 0);
         }
+        let (mut sums, mut at) = (Vec::new(), Vec::new());
+        if let Some(s) = action_sums {
+            sums.reserve(n * (s.act_dim + 1));
+            at.resize(n, 0);
+            for (i, &(g, _)) in order.iter().enumerate() {
+                let (row, count) = s.row(g as usize);
+                sums.extend_from_slice(row);
+                sums.push(f64::from(count));
+                at[g as usize] = i as u32;
+            }
+        }
         Bulk {
             nodes,
             points: order.iter().map(|(_, p)| *p).collect(),
             ids: order.iter().map(|(g, _)| *g).collect(),
+            sums,
+            at,
         }
     }
 
@@ -135,7 +154,7 @@ impl<const D: usize> Bulk<D> {
         let (split, spread) = (0..D)
             .map(|k| (k, hi[k] - lo[k]))
             .fold((0, 0.0), |best, c| if c.1 > best.1 { c } else { best });
-        if part.len() <= leaf_exp() || spread <= 0.0 {
+        if part.len() <= LEAF || spread <= 0.0 {
             return;
         }
         let mid = part.len() / 2;
@@ -210,13 +229,14 @@ impl<const D: usize> Bulk<D> {
         }
     }
 
-    fn within(&self, q: &[f64; D], r2: f64, out: &mut Vec<(f64, u64)>) {
+    /// Every point within squared distance `r2` of `q`: `f(squared distance, leaf position)`.
+    fn within(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize)) {
         if !self.nodes.is_empty() {
-            self.within_in(0, q, r2, out);
+            self.within_in(0, q, r2, f);
         }
     }
 
-    fn within_in(&self, at: usize, q: &[f64; D], r2: f64, out: &mut Vec<(f64, u64)>) {
+    fn within_in(&self, at: usize, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize)) {
         let node = &self.nodes[at];
         if box_dist2(q, &node.lo, &node.hi) > r2 {
             return;
@@ -225,13 +245,13 @@ impl<const D: usize> Bulk<D> {
             for i in node.first_or_right as usize..node.end as usize {
                 let d = dist2(q, &self.points[i]);
                 if d <= r2 {
-                    out.push((d, u64::from(self.ids[i])));
+                    f(d, i);
                 }
             }
             return;
         }
-        self.within_in(at + 1, q, r2, out);
-        self.within_in(node.first_or_right as usize, q, r2, out);
+        self.within_in(at + 1, q, r2, f);
+        self.within_in(node.first_or_right as usize, q, r2, f);
     }
 }
 
@@ -377,10 +397,44 @@ impl Tree {
         out.clear();
         each_tree!(self, t => {
             let q = q.try_into().expect("dimension checked at construction");
-            plan.bulk(t).within(q, r2, out);
+            let bulk = plan.bulk(t);
+            bulk.within(q, r2, &mut |d, i| out.push((d, u64::from(bulk.ids[i]))));
             if plan.recent > 0 {
                 let found = t.recent.within_unsorted::<SquaredEuclidean>(q, r2);
                 out.extend(found.into_iter().map(|n| (n.distance, n.item)));
+            }
+        })
+    }
+
+    /// `f(squared distance, action sum, count)` for every group within `r2` of `q`.
+    fn sums_within(&self, plan: &Plan, q: &[f64], r2: f64, f: &mut impl FnMut(f64, &[f64], f64)) {
+        let Some(s) = plan.sums else { return };
+        each_tree!(self, t => {
+            let q = q.try_into().expect("dimension checked at construction");
+            let bulk = plan.bulk(t);
+            let w = s.act_dim + 1;
+            bulk.within(q, r2, &mut |d, i| {
+                let row = &bulk.sums[i * w..(i + 1) * w];
+                f(d, &row[..s.act_dim], row[s.act_dim]);
+            });
+            if plan.recent > 0 {
+                for n in t.recent.within_unsorted::<SquaredEuclidean>(q, r2) {
+                    let (row, count) = s.row(n.item as usize);
+                    f(n.distance, row, f64::from(count));
+                }
+            }
+        })
+    }
+
+    /// After group `g`'s action sum changed: the bulk tree's copy, if it holds `g` and is built.
+    fn sum_changed(&mut self, planned: usize, g: usize, s: &ActionSums) {
+        each_tree!(self, t => {
+            if let Some(bulk) = t.bulk.get_mut().filter(|_| g < planned) {
+                let w = s.act_dim + 1;
+                let i = bulk.at[g] as usize;
+                let (row, count) = s.row(g);
+                bulk.sums[i * w..i * w + s.act_dim].copy_from_slice(row);
+                bulk.sums[i * w + s.act_dim] = f64::from(count);
             }
         })
     }
@@ -393,12 +447,13 @@ struct Plan<'a> {
     planned: usize,
     recent: usize,
     group_z: &'a [f64],
+    sums: Option<&'a ActionSums>,
 }
 
 impl Plan<'_> {
     fn bulk<'t, const D: usize>(&self, t: &'t Trees<D>) -> &'t Bulk<D> {
         t.bulk
-            .get_or_init(|| Bulk::build(self.group_z, self.planned))
+            .get_or_init(|| Bulk::build(self.group_z, self.planned, self.sums))
     }
 }
 
@@ -461,6 +516,13 @@ struct ActionSums {
     n: Vec<u32>,
 }
 
+impl ActionSums {
+    #[inline]
+    fn row(&self, g: usize) -> (&[f64], u32) {
+        (&self.a[g * self.act_dim..(g + 1) * self.act_dim], self.n[g])
+    }
+}
+
 impl Index {
     /// An empty index for `dim`-dimensional observations multiplied by `scale`; `None` if the
     /// dimension is unsupported.
@@ -504,6 +566,7 @@ impl Index {
             for (t, v) in s.a[g * s.act_dim..(g + 1) * s.act_dim].iter_mut().zip(a) {
                 *t += v;
             }
+            self.tree.sum_changed(self.planned, g, s);
         }
     }
 
@@ -565,7 +628,7 @@ impl Index {
         self.same_hash
             .push(self.by_key.insert(hash, g).unwrap_or(u32::MAX));
         let recent = g as usize - self.planned;
-        if recent >= RECENT_MIN.max(self.planned / frac_exp()) {
+        if recent >= RECENT_MIN.max(self.planned / RECENT_FRACTION) {
             self.planned = self.groups.len();
             self.tree.replan();
         } else {
@@ -604,6 +667,7 @@ impl Index {
             planned: self.planned,
             recent: self.groups.len() - self.planned,
             group_z: &self.group_z,
+            sums: self.sums.as_ref(),
         }
     }
 
@@ -625,6 +689,15 @@ impl Index {
             return;
         }
         self.tree.within(&self.plan(), q, r2, out)
+    }
+
+    /// `f(squared distance, action sum, point count)` for every group within squared distance `r2`
+    /// of scaled query `q`, in no set order (nothing when the index keeps no action sums).
+    #[inline]
+    pub fn sums_within(&self, q: &[f64], r2: f64, mut f: impl FnMut(f64, &[f64], f64)) {
+        if !self.is_empty() {
+            self.tree.sums_within(&self.plan(), q, r2, &mut f)
+        }
     }
 
     /// Scaled observation of group `g`.
@@ -719,6 +792,52 @@ mod tree_tests {
                 found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
                 let inside: Vec<(f64, u64)> = want.iter().copied().filter(|w| w.0 <= r2).collect();
                 assert_eq!(found, inside, "r2 {r2} after {i} points");
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod sums_tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The kernel sums' view (`sums_within`) reports each group within the radius once, with its
+    /// current action sum and count, through re-plans and while points keep joining groups the
+    /// built bulk tree already holds (its copy of the sums must follow).
+    #[test]
+    fn sums_within_equal_a_scan_of_the_groups() {
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let mut idx = Index::with_action_sums(vec![1.0, 2.0], 2).unwrap();
+        for i in 0..5000u32 {
+            let z = [
+                f64::from(rng.random_range(0..60u8)) / 10.0,
+                f64::from(rng.random_range(0..30u8)) / 10.0,
+            ];
+            let a = [rng.random_range(-1.0..1.0), f64::from(i)];
+            idx.add_with_action(i, &z, &a);
+            if i % 211 != 0 {
+                continue;
+            }
+            for _ in 0..10 {
+                let q = [rng.random_range(-0.5..6.5), rng.random_range(-0.5..6.5)];
+                let r2 = rng.random_range(0.0..0.8);
+                let mut got: Vec<(u64, f64, Vec<f64>, f64)> = Vec::new();
+                idx.sums_within(&q, r2, |d, sum, n| {
+                    got.push((sum[1].to_bits(), d, sum.to_vec(), n))
+                });
+                got.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+                let mut want: Vec<(u64, f64, Vec<f64>, f64)> = (0..idx.groups() as u64)
+                    .filter_map(|g| {
+                        let z = idx.group_z(g);
+                        let d = (z[0] - q[0]) * (z[0] - q[0]) + (z[1] - q[1]) * (z[1] - q[1]);
+                        let (sum, n) = idx.action_sum(g).unwrap();
+                        (d <= r2).then(|| (sum[1].to_bits(), d, sum.to_vec(), f64::from(n)))
+                    })
+                    .collect();
+                want.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+                assert_eq!(got, want, "after {i} points");
             }
         }
     }
