@@ -1,11 +1,19 @@
 //! The spatial index behind both learners: the only code that touches kiddo.
 //!
 //! Observations are stored scaled (each dimension multiplied by a fixed factor chosen when the
-//! index is built), and identical scaled observations share one kd-tree entry: a *group* of
-//! dataset points. Grouping matters twice: kiddo's mutable trees cannot hold more than a bucket's
-//! worth of identical points, and advice routinely adds points whose observation repeats (advice on
-//! the same chunk twice, a robot at rest). The tree's dimension is a const generic, so the index
-//! dispatches over the dimensions it supports (1 to [`MAX_DIM`]).
+//! index is built), and identical scaled observations share one entry: a *group* of dataset
+//! points. Grouping matters twice: kiddo's mutable trees cannot hold more than a bucket's worth of
+//! identical points, and advice routinely adds points whose observation repeats (advice on the
+//! same chunk twice, a robot at rest).
+//!
+//! Two trees answer together. The groups planned for the *bulk* are in a balanced kd-tree of this
+//! module's own, built once at the first query that needs it (so a load of many points builds it
+//! once, not point by point); the few added since are in kiddo's mutable tree. When those pass
+//! `max(RECENT_MIN, planned / RECENT_FRACTION)`, the bulk is planned anew over every group. The
+//! plan follows from the sequence of additions alone, never from when queries came, so the order
+//! a radius query reports its groups in (and the last bits of a kernel sum) depends on the data's
+//! history only. Every query is exact: the bulk's boxes only prune. The tree's dimension is a
+//! const generic, so the index dispatches over the dimensions it supports (1 to [`MAX_DIM`]).
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
