@@ -3,7 +3,8 @@
 //! along trajectories; uniform noise in 6-D would leave every kernel empty or huge), queried with
 //! the observations of 1,000 points from runs on other starts. `bc_query_100k`: weighted 1-NN after 1,000 critiqued points;
 //! `lwr_query_100k`: truncated-kernel regression; `rederive_30`: add 30 advised points and bring
-//! the policy up to date. Throughput is set so criterion prints queries (or advice points) per
+//! the policy up to date (one query included: the first query after a re-plan builds the index's
+//! bulk tree). Throughput is set so criterion prints queries (or advice points) per
 //! second.
 
 use advise::diag::SourceMap;
@@ -80,12 +81,64 @@ fn learner(kind: LearnerKind, data: &Trace, critique: &[Vec<f64>]) -> Learner {
     l
 }
 
+/// With `ADVISE_BENCH_CSV` set, the data and the queries as CSV under `target/bench-data/`, for
+/// `benches/sklearn_1nn.py` to answer the same 1-NN queries.
+fn write_csv(data: &Trace, qs: &[Vec<f64>]) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench-data");
+    std::fs::create_dir_all(&dir).expect("target/bench-data");
+    let rows = |zs: &mut dyn Iterator<Item = &[f64]>| -> String {
+        zs.map(|z| {
+            z.iter()
+                .map(|v| format!("{v:?}"))
+                .collect::<Vec<_>>()
+                .join(",")
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+    };
+    let points = rows(&mut (0..data.len()).map(|i| data.z(i)));
+    let queries = rows(&mut qs.iter().map(|q| q.as_slice()));
+    std::fs::write(dir.join("policy_points.csv"), points + "\n").expect("write points");
+    std::fs::write(dir.join("policy_queries.csv"), queries + "\n").expect("write queries");
+    eprintln!("wrote {}", dir.display());
+}
+
+/// With `ADVISE_BENCH_CPU` set, queries per second of this thread's CPU time (10 passes): on a
+/// loaded machine criterion's wall-clock figures measure the other processes too.
+fn cpu_rate(name: &str, qs: &[Vec<f64>], f: impl Fn(&[f64])) {
+    if std::env::var_os("ADVISE_BENCH_CPU").is_none() {
+        return;
+    }
+    let cpu = || {
+        let mut t = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: a valid clock id and a valid pointer to a timespec.
+        unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
+        t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+    };
+    let start = cpu();
+    for _ in 0..10 {
+        qs.iter().for_each(|q| f(q));
+    }
+    let s = cpu() - start;
+    eprintln!(
+        "{name}: {:.0} queries per CPU second",
+        10.0 * qs.len() as f64 / s
+    );
+}
+
 fn bench(c: &mut Criterion) {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let (data, qs) = data();
+    if std::env::var_os("ADVISE_BENCH_CSV").is_some() {
+        write_csv(&data, &qs);
+    }
     let critiqued: Vec<Vec<f64>> = (0..1000).map(|i| data.z(i * 97).to_vec()).collect();
 
     let bc = learner(LearnerKind::Bc, &data, &critiqued);
+    cpu_rate("bc_query_100k", &qs, |q| bc.act(q, &mut [0.0; 2]));
     let mut g = c.benchmark_group("policy");
     g.throughput(Throughput::Elements(qs.len() as u64));
     g.bench_function("bc_query_100k", |b| {
@@ -107,12 +160,14 @@ fn bench(c: &mut Criterion) {
         far += usize::from(ans.total_weight == 0.0);
     }
     eprintln!(
-        "lwr tuned: {:?}; {} distinct observations; {:.1} neighbours per query, {far} of {} queries far from data",
+        "lwr tuned: {:?}; {} distinct observations; {} bulk; {:.1} neighbours per query, {far} of {} queries far from data",
         lwr.lwr_params(),
         lwr.index().groups(),
+        lwr.index().bulk_groups(),
         neighbours as f64 / qs.len() as f64,
         qs.len()
     );
+    cpu_rate("lwr_query_100k", &qs, |q| lwr.act(q, &mut [0.0; 2]));
     g.bench_function("lwr_query_100k", |b| {
         let mut a = [0.0; 2];
         b.iter(|| {
@@ -137,7 +192,13 @@ fn bench(c: &mut Criterion) {
     let id = l.add_execution(&exec);
     g.throughput(Throughput::Elements(syn.points.len() as u64));
     g.bench_function("rederive_30", |b| {
-        b.iter(|| l.add_advice(id, &syn).unwrap())
+        b.iter(|| {
+            l.add_advice(id, &syn).unwrap();
+            // Ready means answering: the first query after a re-plan builds the bulk tree.
+            let mut a = [0.0; 2];
+            l.act(&qs[0], &mut a);
+            a
+        })
     });
     g.finish();
 }

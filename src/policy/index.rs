@@ -1,29 +1,328 @@
 //! The spatial index behind both learners: the only code that touches kiddo.
 //!
 //! Observations are stored scaled (each dimension multiplied by a fixed factor chosen when the
-//! index is built), and identical scaled observations share one kd-tree entry: a *group* of
-//! dataset points. Grouping matters twice: kiddo's mutable trees cannot hold more than a bucket's
-//! worth of identical points, and advice routinely adds points whose observation repeats (advice on
-//! the same chunk twice, a robot at rest). The tree's dimension is a const generic, so the index
-//! dispatches over the dimensions it supports (1 to [`MAX_DIM`]).
+//! index is built), and identical scaled observations share one entry: a *group* of dataset
+//! points. Grouping matters twice: kiddo's mutable trees cannot hold more than a bucket's worth of
+//! identical points, and advice routinely adds points whose observation repeats (advice on the
+//! same chunk twice, a robot at rest).
+//!
+//! Two trees answer together. The groups planned for the *bulk* are in a balanced kd-tree of this
+//! module's own, built once at the first query that needs it (so a load of many points builds it
+//! once, not point by point); the few added since are in kiddo's mutable tree. When those pass
+//! `max(RECENT_MIN, planned / RECENT_FRACTION)`, the bulk is planned anew over every group. The
+//! plan follows from the sequence of additions alone, never from when queries came, so the order
+//! a radius query reports its groups in (and the last bits of a kernel sum) depends on the data's
+//! history only. Every query is exact: the bulk's boxes only prune. The tree's dimension is a
+//! const generic, so the index dispatches over the dimensions it supports (1 to [`MAX_DIM`]).
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
+use std::sync::OnceLock;
 
 use kiddo::{KdTree, SquaredEuclidean};
 
 /// The largest observation dimension the index supports.
 pub const MAX_DIM: usize = 8;
 
+/// Groups added since the bulk tree was last planned that a small kiddo tree answers for, at
+/// least; past `max(RECENT_MIN, planned / RECENT_FRACTION)` the bulk tree is planned anew over
+/// every group (and built at the next query).
+const RECENT_MIN: usize = 1024;
+const RECENT_FRACTION: usize = 64;
+
+/// Points per leaf of the bulk tree.
+const LEAF: usize = 16;
+
+/// The squared Euclidean distance, summed in dimension order from zero exactly as kiddo's
+/// `SquaredEuclidean` does, so either tree reports the same bits for the same pair.
+#[inline(always)]
+fn dist2<const D: usize>(a: &[f64; D], b: &[f64; D]) -> f64 {
+    let mut s = 0.0;
+    for k in 0..D {
+        let d = a[k] - b[k];
+        s += d * d;
+    }
+    s
+}
+
+/// The squared distance from `q` to the box `[lo, hi]` (zero inside).
+#[inline(always)]
+fn box_dist2<const D: usize>(q: &[f64; D], lo: &[f32; D], hi: &[f32; D]) -> f64 {
+    let mut s = 0.0;
+    for k in 0..D {
+        let d = (f64::from(lo[k]) - q[k])
+            .max(q[k] - f64::from(hi[k]))
+            .max(0.0);
+        s += d * d;
+    }
+    s
+}
+
+/// `(distance, group)` ordered by distance, then by group (ties to the lower group).
+#[inline(always)]
+fn before(a: (f64, u64), b: (f64, u64)) -> bool {
+    a.0 < b.0 || (a.0 == b.0 && a.1 < b.1)
+}
+
+/// A node of the bulk tree: a box around its points, and either its children (the left one
+/// follows it) or, for a leaf, its points' range. The box is kept in `f32`, rounded outwards: it
+/// only prunes, so a slightly larger box changes no answer, and a 6-D node fits one cache line
+/// (the queries are bound by memory, not arithmetic).
+#[repr(align(64))]
+struct Node<const D: usize> {
+    lo: [f32; D],
+    hi: [f32; D],
+    /// A leaf's first point, or an inner node's right child.
+    first_or_right: u32,
+    /// A leaf's end; [`INNER`] for an inner node.
+    end: u32,
+}
+
+const INNER: u32 = u32::MAX;
+
+/// `x` as an `f32` no greater (`down`) or no smaller than it.
+fn f32_outwards(x: f64, down: bool) -> f32 {
+    let f = x as f32;
+    if down && f64::from(f) > x {
+        f.next_down()
+    } else if !down && f64::from(f) < x {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+/// A balanced kd-tree built once over a fixed set of groups: each node split at the median of
+/// its widest dimension, every node keeping the tight box of its points, the points stored in
+/// leaf order. The tight boxes matter on trajectory data: points lie along curves, so a cell's
+/// points fill a sliver of it, and a query prunes on the sliver. Queries allocate nothing.
+struct Bulk<const D: usize> {
+    nodes: Vec<Node<D>>,
+    points: Vec<[f64; D]>,
+    ids: Vec<u32>,
+    /// With action sums: each point's group's sum and count (`act_dim + 1` values) in leaf
+    /// order, so a kernel sum reads the rows beside the points it found instead of one scattered
+    /// row per neighbour; `at[g]` is group `g`'s position, to keep the copy current.
+    sums: Vec<f64>,
+    at: Vec<u32>,
+}
+
+impl<const D: usize> Bulk<D> {
+    /// The tree over groups `0..n` of `group_z` (rows of `D` values), with a copy of their action
+    /// sums when the index keeps them.
+    fn build(group_z: &[f64], n: usize, action_sums: Option<&ActionSums>) -> Bulk<D> {
+        let mut order: Vec<(u32, [f64; D])> = (0..n)
+            .map(|g| {
+                let row: [f64; D] = group_z[g * D..(g + 1) * D]
+                    .try_into()
+                    .expect("rows of D values");
+                (g as u32, row)
+            })
+            .collect();
+        let mut nodes = Vec::with_capacity(2 * n / LEAF + 1);
+        if n > 0 {
+            Self::build_node(&mut nodes, &mut order, 0);
+        }
+        let (mut sums, mut at) = (Vec::new(), Vec::new());
+        if let Some(s) = action_sums {
+            sums.reserve(n * (s.act_dim + 1));
+            at.resize(n, 0);
+            for (i, &(g, _)) in order.iter().enumerate() {
+                let (row, count) = s.row(g as usize);
+                sums.extend_from_slice(row);
+                sums.push(f64::from(count));
+                at[g as usize] = i as u32;
+            }
+        }
+        Bulk {
+            nodes,
+            points: order.iter().map(|(_, p)| *p).collect(),
+            ids: order.iter().map(|(g, _)| *g).collect(),
+            sums,
+            at,
+        }
+    }
+
+    fn build_node(nodes: &mut Vec<Node<D>>, part: &mut [(u32, [f64; D])], start: usize) {
+        let mut lo = [f64::INFINITY; D];
+        let mut hi = [f64::NEG_INFINITY; D];
+        for (_, p) in part.iter() {
+            for k in 0..D {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let me = nodes.len();
+        nodes.push(Node {
+            lo: lo.map(|v| f32_outwards(v, true)),
+            hi: hi.map(|v| f32_outwards(v, false)),
+            first_or_right: start as u32,
+            end: (start + part.len()) as u32,
+        });
+        let (split, spread) = (0..D)
+            .map(|k| (k, hi[k] - lo[k]))
+            .fold((0, 0.0), |best, c| if c.1 > best.1 { c } else { best });
+        if part.len() <= LEAF || spread <= 0.0 {
+            return;
+        }
+        let mid = part.len() / 2;
+        part.select_nth_unstable_by(mid, |a, b| a.1[split].total_cmp(&b.1[split]));
+        let (left, right) = part.split_at_mut(mid);
+        nodes[me].end = INNER;
+        Self::build_node(nodes, left, start);
+        nodes[me].first_or_right = nodes.len() as u32;
+        Self::build_node(nodes, right, start + mid);
+    }
+
+    fn nearest_one(&self, q: &[f64; D], best: &mut (f64, u64)) {
+        if !self.nodes.is_empty() {
+            self.nearest_one_in(0, q, best);
+        }
+    }
+
+    fn nearest_one_in(&self, at: usize, q: &[f64; D], best: &mut (f64, u64)) {
+        let node = &self.nodes[at];
+        if node.end != INNER {
+            for i in node.first_or_right as usize..node.end as usize {
+                let c = (dist2(q, &self.points[i]), u64::from(self.ids[i]));
+                if before(c, *best) {
+                    *best = c;
+                }
+            }
+            return;
+        }
+        let (l, r) = (at + 1, node.first_or_right as usize);
+        let dl = box_dist2(q, &self.nodes[l].lo, &self.nodes[l].hi);
+        let dr = box_dist2(q, &self.nodes[r].lo, &self.nodes[r].hi);
+        let [(d1, n1), (d2, n2)] = if dl <= dr {
+            [(dl, l), (dr, r)]
+        } else {
+            [(dr, r), (dl, l)]
+        };
+        if d1 <= best.0 {
+            self.nearest_one_in(n1, q, best);
+        }
+        if d2 <= best.0 {
+            self.nearest_one_in(n2, q, best);
+        }
+    }
+
+    /// The `n` nearest into `heap`, a max-heap under [`before`] holding at most `n`.
+    fn nearest_n(&self, q: &[f64; D], n: usize, heap: &mut Vec<(f64, u64)>) {
+        if !self.nodes.is_empty() && n > 0 {
+            self.nearest_n_in(0, q, n, heap);
+        }
+    }
+
+    fn nearest_n_in(&self, at: usize, q: &[f64; D], n: usize, heap: &mut Vec<(f64, u64)>) {
+        let node = &self.nodes[at];
+        if node.end != INNER {
+            for i in node.first_or_right as usize..node.end as usize {
+                heap_offer(heap, n, (dist2(q, &self.points[i]), u64::from(self.ids[i])));
+            }
+            return;
+        }
+        let (l, r) = (at + 1, node.first_or_right as usize);
+        let dl = box_dist2(q, &self.nodes[l].lo, &self.nodes[l].hi);
+        let dr = box_dist2(q, &self.nodes[r].lo, &self.nodes[r].hi);
+        let [(d1, n1), (d2, n2)] = if dl <= dr {
+            [(dl, l), (dr, r)]
+        } else {
+            [(dr, r), (dl, l)]
+        };
+        for (d, next) in [(d1, n1), (d2, n2)] {
+            if heap.len() < n || d <= heap[0].0 {
+                self.nearest_n_in(next, q, n, heap);
+            }
+        }
+    }
+
+    /// Every point within squared distance `r2` of `q`: `f(squared distance, leaf position)`.
+    fn within(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize)) {
+        if !self.nodes.is_empty() {
+            self.within_in(0, q, r2, f);
+        }
+    }
+
+    fn within_in(&self, at: usize, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize)) {
+        let node = &self.nodes[at];
+        if box_dist2(q, &node.lo, &node.hi) > r2 {
+            return;
+        }
+        if node.end != INNER {
+            for i in node.first_or_right as usize..node.end as usize {
+                let d = dist2(q, &self.points[i]);
+                if d <= r2 {
+                    f(d, i);
+                }
+            }
+            return;
+        }
+        self.within_in(at + 1, q, r2, f);
+        self.within_in(node.first_or_right as usize, q, r2, f);
+    }
+}
+
+/// Offer `c` to the max-heap `heap` (under [`before`]) of at most `n` entries.
+fn heap_offer(heap: &mut Vec<(f64, u64)>, n: usize, c: (f64, u64)) {
+    if heap.len() < n {
+        heap.push(c);
+        let mut i = heap.len() - 1;
+        while i > 0 {
+            let parent = (i - 1) / 2;
+            if before(heap[parent], heap[i]) {
+                heap.swap(parent, i);
+                i = parent;
+            } else {
+                break;
+            }
+        }
+    } else if before(c, heap[0]) {
+        heap[0] = c;
+        let mut i = 0;
+        loop {
+            let (l, r) = (2 * i + 1, 2 * i + 2);
+            let mut top = i;
+            if l < heap.len() && before(heap[top], heap[l]) {
+                top = l;
+            }
+            if r < heap.len() && before(heap[top], heap[r]) {
+                top = r;
+            }
+            if top == i {
+                break;
+            }
+            heap.swap(i, top);
+            i = top;
+        }
+    }
+}
+
+/// The trees of one dimension: the bulk tree over the groups planned for it (built at the first
+/// query that needs it), and kiddo's mutable tree over the groups added since, while they are few.
+struct Trees<const D: usize> {
+    bulk: OnceLock<Bulk<D>>,
+    recent: KdTree<f64, D>,
+}
+
+impl<const D: usize> Trees<D> {
+    fn new() -> Self {
+        Trees {
+            bulk: OnceLock::new(),
+            recent: KdTree::new(),
+        }
+    }
+}
+
 enum Tree {
-    D1(KdTree<f64, 1>),
-    D2(KdTree<f64, 2>),
-    D3(KdTree<f64, 3>),
-    D4(KdTree<f64, 4>),
-    D5(KdTree<f64, 5>),
-    D6(KdTree<f64, 6>),
-    D7(KdTree<f64, 7>),
-    D8(KdTree<f64, 8>),
+    D1(Trees<1>),
+    D2(Trees<2>),
+    D3(Trees<3>),
+    D4(Trees<4>),
+    D5(Trees<5>),
+    D6(Trees<6>),
+    D7(Trees<7>),
+    D8(Trees<8>),
 }
 
 macro_rules! each_tree {
@@ -44,43 +343,125 @@ macro_rules! each_tree {
 impl Tree {
     fn new(dim: usize) -> Option<Tree> {
         Some(match dim {
-            1 => Tree::D1(KdTree::new()),
-            2 => Tree::D2(KdTree::new()),
-            3 => Tree::D3(KdTree::new()),
-            4 => Tree::D4(KdTree::new()),
-            5 => Tree::D5(KdTree::new()),
-            6 => Tree::D6(KdTree::new()),
-            7 => Tree::D7(KdTree::new()),
-            8 => Tree::D8(KdTree::new()),
+            1 => Tree::D1(Trees::new()),
+            2 => Tree::D2(Trees::new()),
+            3 => Tree::D3(Trees::new()),
+            4 => Tree::D4(Trees::new()),
+            5 => Tree::D5(Trees::new()),
+            6 => Tree::D6(Trees::new()),
+            7 => Tree::D7(Trees::new()),
+            8 => Tree::D8(Trees::new()),
             _ => return None,
         })
     }
 
-    fn add(&mut self, q: &[f64], item: u64) {
-        each_tree!(self, t => t.add(q.try_into().expect("dimension checked at construction"), item))
+    /// Forget both trees: the bulk is now planned over every group (`Plan::planned`).
+    fn replan(&mut self) {
+        each_tree!(self, t => *t = Trees::new())
     }
 
-    fn nearest_one(&self, q: &[f64]) -> (f64, u64) {
+    fn add_recent(&mut self, q: &[f64], item: u64) {
+        each_tree!(self, t => t.recent.add(q.try_into().expect("dimension checked at construction"), item))
+    }
+
+    fn nearest_one(&self, plan: &Plan, q: &[f64]) -> (f64, u64) {
         each_tree!(self, t => {
-            let n = t.nearest_one::<SquaredEuclidean>(q.try_into().expect("dimension checked at construction"));
-            (n.distance, n.item)
+            let q = q.try_into().expect("dimension checked at construction");
+            let mut best = (f64::INFINITY, u64::MAX);
+            plan.bulk(t).nearest_one(q, &mut best);
+            if plan.recent > 0 {
+                // Only groups at most as far as the bulk's nearest can change the answer: a
+                // radius search that small visits a few of kiddo's leaves.
+                for n in t.recent.within_unsorted::<SquaredEuclidean>(q, best.0) {
+                    if before((n.distance, n.item), best) {
+                        best = (n.distance, n.item);
+                    }
+                }
+            }
+            best
         })
     }
 
-    fn nearest_n(&self, q: &[f64], n: usize, out: &mut Vec<(f64, u64)>) {
+    fn nearest_n(&self, plan: &Plan, q: &[f64], n: usize, out: &mut Vec<(f64, u64)>) {
         out.clear();
         each_tree!(self, t => {
-            let found = t.nearest_n::<SquaredEuclidean>(q.try_into().expect("dimension checked at construction"), n);
-            out.extend(found.into_iter().map(|n| (n.distance, n.item)));
+            let q = q.try_into().expect("dimension checked at construction");
+            plan.bulk(t).nearest_n(q, n, out);
+            if plan.recent > 0 {
+                if out.len() < n {
+                    out.extend(t.recent.nearest_n::<SquaredEuclidean>(q, n).into_iter().map(|n| (n.distance, n.item)));
+                } else {
+                    // As in `nearest_one`: only groups within the bulk's n-th can take part.
+                    let bound = out[0].0;
+                    out.extend(t.recent.within_unsorted::<SquaredEuclidean>(q, bound).into_iter().map(|n| (n.distance, n.item)));
+                }
+            }
+        });
+        out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        out.truncate(n);
+    }
+
+    fn within(&self, plan: &Plan, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
+        out.clear();
+        each_tree!(self, t => {
+            let q = q.try_into().expect("dimension checked at construction");
+            let bulk = plan.bulk(t);
+            bulk.within(q, r2, &mut |d, i| out.push((d, u64::from(bulk.ids[i]))));
+            if plan.recent > 0 {
+                let found = t.recent.within_unsorted::<SquaredEuclidean>(q, r2);
+                out.extend(found.into_iter().map(|n| (n.distance, n.item)));
+            }
         })
     }
 
-    fn within(&self, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
-        out.clear();
+    /// `f(squared distance, action sum, count)` for every group within `r2` of `q`.
+    fn sums_within(&self, plan: &Plan, q: &[f64], r2: f64, f: &mut impl FnMut(f64, &[f64], f64)) {
+        let Some(s) = plan.sums else { return };
         each_tree!(self, t => {
-            let found = t.within_unsorted::<SquaredEuclidean>(q.try_into().expect("dimension checked at construction"), r2);
-            out.extend(found.into_iter().map(|n| (n.distance, n.item)));
+            let q = q.try_into().expect("dimension checked at construction");
+            let bulk = plan.bulk(t);
+            let w = s.act_dim + 1;
+            bulk.within(q, r2, &mut |d, i| {
+                let row = &bulk.sums[i * w..(i + 1) * w];
+                f(d, &row[..s.act_dim], row[s.act_dim]);
+            });
+            if plan.recent > 0 {
+                for n in t.recent.within_unsorted::<SquaredEuclidean>(q, r2) {
+                    let (row, count) = s.row(n.item as usize);
+                    f(n.distance, row, f64::from(count));
+                }
+            }
         })
+    }
+
+    /// After group `g`'s action sum changed: the bulk tree's copy, if it holds `g` and is built.
+    fn sum_changed(&mut self, planned: usize, g: usize, s: &ActionSums) {
+        each_tree!(self, t => {
+            if let Some(bulk) = t.bulk.get_mut().filter(|_| g < planned) {
+                let w = s.act_dim + 1;
+                let i = bulk.at[g] as usize;
+                let (row, count) = s.row(g);
+                bulk.sums[i * w..i * w + s.act_dim].copy_from_slice(row);
+                bulk.sums[i * w + s.act_dim] = f64::from(count);
+            }
+        })
+    }
+}
+
+/// Which groups each tree holds: the bulk tree groups `0..planned`, kiddo's the `recent` after.
+/// Decided by the sequence of additions alone (never by when queries came), so the trees, and
+/// the order a radius query reports its groups in, are a function of the data's history.
+struct Plan<'a> {
+    planned: usize,
+    recent: usize,
+    group_z: &'a [f64],
+    sums: Option<&'a ActionSums>,
+}
+
+impl Plan<'_> {
+    fn bulk<'t, const D: usize>(&self, t: &'t Trees<D>) -> &'t Bulk<D> {
+        t.bulk
+            .get_or_init(|| Bulk::build(self.group_z, self.planned, self.sums))
     }
 }
 
@@ -89,6 +470,8 @@ pub struct Index {
     dim: usize,
     scale: Vec<f64>,
     tree: Tree,
+    /// Groups `0..planned` are the bulk tree's; the rest are in kiddo's.
+    planned: usize,
     /// Dataset point indices of each group.
     groups: Vec<Members>,
     /// Scaled observation of each group (row after row).
@@ -141,6 +524,13 @@ struct ActionSums {
     n: Vec<u32>,
 }
 
+impl ActionSums {
+    #[inline]
+    fn row(&self, g: usize) -> (&[f64], u32) {
+        (&self.a[g * self.act_dim..(g + 1) * self.act_dim], self.n[g])
+    }
+}
+
 impl Index {
     /// An empty index for `dim`-dimensional observations multiplied by `scale`; `None` if the
     /// dimension is unsupported.
@@ -149,6 +539,7 @@ impl Index {
         Some(Index {
             dim,
             tree: Tree::new(dim)?,
+            planned: 0,
             scale,
             groups: Vec::new(),
             group_z: Vec::new(),
@@ -183,6 +574,7 @@ impl Index {
             for (t, v) in s.a[g * s.act_dim..(g + 1) * s.act_dim].iter_mut().zip(a) {
                 *t += v;
             }
+            self.tree.sum_changed(self.planned, g, s);
         }
     }
 
@@ -243,7 +635,13 @@ impl Index {
         self.group_z.extend_from_slice(q);
         self.same_hash
             .push(self.by_key.insert(hash, g).unwrap_or(u32::MAX));
-        self.tree.add(q, g as u64);
+        let recent = g as usize - self.planned;
+        if recent >= RECENT_MIN.max(self.planned / RECENT_FRACTION) {
+            self.planned = self.groups.len();
+            self.tree.replan();
+        } else {
+            self.tree.add_recent(q, g as u64);
+        }
         g
     }
 
@@ -259,7 +657,7 @@ impl Index {
         if self.is_empty() {
             return None;
         }
-        Some(self.tree.nearest_one(q))
+        Some(self.tree.nearest_one(&self.plan(), q))
     }
 
     /// The `n` nearest groups to scaled query `q`, nearest first: (squared distance, group).
@@ -269,7 +667,21 @@ impl Index {
             out.clear();
             return;
         }
-        self.tree.nearest_n(q, n, out)
+        self.tree.nearest_n(&self.plan(), q, n, out)
+    }
+
+    fn plan(&self) -> Plan<'_> {
+        Plan {
+            planned: self.planned,
+            recent: self.groups.len() - self.planned,
+            group_z: &self.group_z,
+            sums: self.sums.as_ref(),
+        }
+    }
+
+    /// How many groups the bulk tree holds (the rest are in the small mutable tree).
+    pub fn bulk_groups(&self) -> usize {
+        self.planned
     }
 
     /// How many groups (distinct observations) the index holds.
@@ -284,7 +696,16 @@ impl Index {
             out.clear();
             return;
         }
-        self.tree.within(q, r2, out)
+        self.tree.within(&self.plan(), q, r2, out)
+    }
+
+    /// `f(squared distance, action sum, point count)` for every group within squared distance `r2`
+    /// of scaled query `q`, in no set order (nothing when the index keeps no action sums).
+    #[inline]
+    pub fn sums_within(&self, q: &[f64], r2: f64, mut f: impl FnMut(f64, &[f64], f64)) {
+        if !self.is_empty() {
+            self.tree.sums_within(&self.plan(), q, r2, &mut f)
+        }
     }
 
     /// Scaled observation of group `g`.
@@ -324,5 +745,108 @@ mod tests {
         let mut found = Vec::new();
         idx.within(&[1.0, 0.0], 1e-12, &mut found);
         assert_eq!(found, [(0.0, 0)]);
+    }
+}
+
+#[cfg(test)]
+mod tree_tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn scan(idx: &Index, q: &[f64]) -> Vec<(f64, u64)> {
+        let mut all: Vec<(f64, u64)> = (0..idx.groups() as u64)
+            .map(|g| {
+                let d = idx
+                    .group_z(g)
+                    .iter()
+                    .zip(q)
+                    .map(|(a, b)| (a - b) * (a - b))
+                    .fold(0.0, |s, v| s + v);
+                (d, g)
+            })
+            .collect();
+        all.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        all
+    }
+
+    /// Through several re-plans (the bulk tree over the first groups, kiddo's over the rest),
+    /// every query equals a linear scan: nearest (ties to the lower group), the n nearest in
+    /// order, and the groups within a radius. Points on a coarse grid make ties and repeated
+    /// observations common.
+    #[test]
+    fn queries_equal_a_linear_scan_across_replans() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut idx = Index::new(vec![1.0, 0.5, 2.0]).unwrap();
+        let mut found = Vec::new();
+        for i in 0..6000u32 {
+            let z: Vec<f64> = (0..3)
+                .map(|_| f64::from(rng.random_range(0..40u8)) / 8.0)
+                .collect();
+            idx.add(i, &z);
+            if i % 397 != 0 && i != 1024 && i != 1025 {
+                continue;
+            }
+            for _ in 0..20 {
+                let q: Vec<f64> = (0..3).map(|_| rng.random_range(-0.5..5.5)).collect();
+                let want = scan(&idx, &q);
+                assert_eq!(idx.nearest(&q), Some(want[0]), "after {i} points");
+                for n in [1, 4, 17] {
+                    idx.nearest_n(&q, n, &mut found);
+                    assert_eq!(found, want[..n.min(want.len())], "n {n} after {i} points");
+                }
+                let r2 = rng.random_range(0.0..0.6);
+                idx.within(&q, r2, &mut found);
+                found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                let inside: Vec<(f64, u64)> = want.iter().copied().filter(|w| w.0 <= r2).collect();
+                assert_eq!(found, inside, "r2 {r2} after {i} points");
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod sums_tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The kernel sums' view (`sums_within`) reports each group within the radius once, with its
+    /// current action sum and count, through re-plans and while points keep joining groups the
+    /// built bulk tree already holds (its copy of the sums must follow).
+    #[test]
+    fn sums_within_equal_a_scan_of_the_groups() {
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        let mut idx = Index::with_action_sums(vec![1.0, 2.0], 2).unwrap();
+        for i in 0..5000u32 {
+            let z = [
+                f64::from(rng.random_range(0..60u8)) / 10.0,
+                f64::from(rng.random_range(0..30u8)) / 10.0,
+            ];
+            let a = [rng.random_range(-1.0..1.0), f64::from(i)];
+            idx.add_with_action(i, &z, &a);
+            if i % 211 != 0 {
+                continue;
+            }
+            for _ in 0..10 {
+                let q = [rng.random_range(-0.5..6.5), rng.random_range(-0.5..6.5)];
+                let r2 = rng.random_range(0.0..0.8);
+                let mut got: Vec<(u64, f64, Vec<f64>, f64)> = Vec::new();
+                idx.sums_within(&q, r2, |d, sum, n| {
+                    got.push((sum[1].to_bits(), d, sum.to_vec(), n))
+                });
+                got.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+                let mut want: Vec<(u64, f64, Vec<f64>, f64)> = (0..idx.groups() as u64)
+                    .filter_map(|g| {
+                        let z = idx.group_z(g);
+                        let d = (z[0] - q[0]) * (z[0] - q[0]) + (z[1] - q[1]) * (z[1] - q[1]);
+                        let (sum, n) = idx.action_sum(g).unwrap();
+                        (d <= r2).then(|| (sum[1].to_bits(), d, sum.to_vec(), f64::from(n)))
+                    })
+                    .collect();
+                want.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+                assert_eq!(got, want, "after {i} points");
+            }
+        }
     }
 }

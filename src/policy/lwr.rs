@@ -73,28 +73,26 @@ pub fn query(
     scratch: &mut Scratch,
 ) -> LwrAnswer {
     a.iter_mut().for_each(|v| *v = 0.0);
-    let inv = gather(index, params, z, scratch);
     let r2 = params.r2();
     let mut total = 0.0;
     let mut count = 0;
     if index.has_action_sums() && params.scales.iter().all(|s| *s == 1.0) {
         // The index already measures the kernel's distance (its scale includes the tuned
-        // multipliers): kiddo's squared distance is the kernel's, and each group's action sum
-        // stands for its points.
-        for &(d2, g) in &scratch.found {
-            if d2 > r2 {
-                continue;
-            }
+        // multipliers): its squared distance is the kernel's, the radius search is the kernel's
+        // support, and each group's action sum stands for its points.
+        scratch.q.resize(z.len(), 0.0);
+        index.scaled(z, &mut scratch.q);
+        let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
+        index.sums_within(&scratch.q, r2, |d2, sum, n| {
             let w = (-d2 * inv).exp();
-            if let Some((sum, n)) = index.action_sum(g) {
-                for (out, v) in a.iter_mut().zip(sum) {
-                    *out += w * v;
-                }
-                total += w * f64::from(n);
-                count += n as usize;
+            for (out, v) in a.iter_mut().zip(sum) {
+                *out += w * v;
             }
-        }
+            total += w * n;
+            count += n as usize;
+        });
     } else {
+        let inv = gather(index, params, z, scratch);
         for &(_, g) in &scratch.found {
             let Some(w) = group_weight(index, g, &scratch.q, params, r2, inv) else {
                 continue;
