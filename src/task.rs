@@ -694,14 +694,33 @@ pub fn record_demos(
     seed: u64,
     params: &SimParams,
 ) -> Vec<(Episode, Outcome)> {
-    let starts = kind.practice_set(seed, count);
+    record_demos_in(
+        &kind.practice_set(seed, count),
+        &InterceptionRules::default(),
+        || kind.teacher(params.period_s()),
+        params,
+        seed,
+    )
+}
+
+/// Demonstrations from `starts` by the teachers `teacher` makes, interception starts played in
+/// `world`: demonstration `i` is named `demo-i` and runs on a simulator seeded with
+/// [`episode_seed`]`(seed, i)`, in parallel, as [`record_demos`] does.
+pub fn record_demos_in(
+    starts: &[Start],
+    world: &InterceptionRules,
+    teacher: impl Fn() -> Box<dyn Controller + Send> + Sync,
+    params: &SimParams,
+    seed: u64,
+) -> Vec<(Episode, Outcome)> {
     starts
         .par_iter()
         .enumerate()
         .map(|(i, start)| {
-            let mut teacher = kind.teacher(params.period_s());
-            let exec = run_sim(
+            let mut teacher = teacher();
+            let exec = run_sim_in(
                 start,
+                world,
                 teacher.as_mut(),
                 params,
                 episode_seed(seed, i as u64),

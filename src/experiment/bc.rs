@@ -38,11 +38,10 @@ use crate::policy::dataset::{CritiqueRule, Dataset};
 use crate::policy::learner::{Learner, LearnerKind};
 use crate::task::interception::practice_starts_in;
 use crate::task::{
-    Controller, InterceptionRules, InterceptionTeacher, Outcome, Start, TaskKind, episode_seed,
+    Controller, InterceptionRules, InterceptionTeacher, Outcome, Start, TaskKind, record_demos_in,
     run_sim_in,
 };
 use crate::trace::Episode;
-use rayon::prelude::*;
 
 /// The paper's Table 1.
 pub const PAPER: PaperBc = PaperBc {
@@ -456,27 +455,13 @@ pub(crate) fn record_teacher(
     params: &BcParams,
     seed: u64,
 ) -> Vec<(Episode, Outcome)> {
-    starts
-        .par_iter()
-        .enumerate()
-        .map(|(i, start)| {
-            let mut teacher = params.teacher_for(&params.sim);
-            let exec = run_sim_in(
-                start,
-                &params.world,
-                &mut teacher,
-                &params.sim,
-                episode_seed(seed, i as u64),
-            );
-            (
-                Episode {
-                    name: format!("demo-{i}"),
-                    trace: exec.trace,
-                },
-                exec.outcome,
-            )
-        })
-        .collect()
+    record_demos_in(
+        starts,
+        &params.world,
+        || -> Box<dyn Controller + Send> { Box::new(params.teacher_for(&params.sim)) },
+        &params.sim,
+        seed,
+    )
 }
 
 fn point(round: usize, r: &Report, critiques: usize) -> BcCurvePoint {

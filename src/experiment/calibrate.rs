@@ -202,6 +202,21 @@ fn descend<T: Clone>(
 /// Passes of the coordinate descent at most (it stops early once a pass moves nothing).
 const PASSES: usize = 3;
 
+/// The targets `(figure, paper, unit)` with the figures measured before and after.
+fn fitted(targets: &[(&str, f64, f64)], before: &[f64], after: &[f64]) -> Vec<Target> {
+    targets
+        .iter()
+        .zip(before.iter().zip(after))
+        .map(|((figure, paper, unit), (b, a))| Target {
+            figure: figure.to_string(),
+            paper: *paper,
+            unit: *unit,
+            before: *b,
+            after: *a,
+        })
+        .collect()
+}
+
 fn miss(got: f64, paper: f64, unit: f64) -> f64 {
     ((got - paper) / unit).powi(2)
 }
@@ -337,17 +352,7 @@ fn calibrate_bc(sim: &SimParams, progress: bool) -> BcFile {
     bar.finish();
     let before = bc_figures(&start.0, &start.1, sim);
     let after = bc_figures(&best.0, &best.1, sim);
-    let targets: Vec<Target> = BC_TARGETS
-        .iter()
-        .enumerate()
-        .map(|(i, (figure, paper, unit))| Target {
-            figure: figure.to_string(),
-            paper: *paper,
-            unit: *unit,
-            before: before[i],
-            after: after[i],
-        })
-        .collect();
+    let targets = fitted(&BC_TARGETS, &before, &after);
     let knobs = params
         .iter()
         .map(|p| Knob {
@@ -538,17 +543,7 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
     }
     bar.finish();
     let (_, patience, length_after) = best;
-    let mut targets: Vec<Target> = targets_base
-        .iter()
-        .enumerate()
-        .map(|(i, (figure, paper, unit))| Target {
-            figure: figure.to_string(),
-            paper: *paper,
-            unit: *unit,
-            before: before[i],
-            after: after[i],
-        })
-        .collect();
+    let mut targets = fitted(&targets_base, &before, &after);
     targets.push(Target {
         figure: "seed demonstrations that succeed (ours, at least)".into(),
         paper: DEMO_SUCCESS,
