@@ -160,18 +160,30 @@ struct Param<T> {
     set: fn(&mut T, f64),
 }
 
-/// Coordinate descent over `params`' grids from `start`, two passes, minimising `loss`
-/// (ties keep the current value, so the result depends only on the grids and the loss).
-fn descend<T: Clone>(
+/// Where a coordinate descent ended: the constants it chose, and the figures measured with them
+/// and with the constants it started from.
+struct Descent<T, F> {
+    best: T,
+    best_figures: F,
+    start_figures: F,
+}
+
+/// Coordinate descent over `params`' grids from `start`, at most [`PASSES`] passes, minimising
+/// `loss` of the figures `measure` gives (ties keep the current value, so the result depends
+/// only on the grids and the loss). Each candidate is measured once.
+fn descend<T: Clone, F: Clone>(
     start: &T,
     params: &[Param<T>],
-    loss: &dyn Fn(&T) -> f64,
+    measure: &dyn Fn(&T) -> F,
+    loss: &dyn Fn(&F) -> f64,
     bar: &Progress,
     evaluations: &mut usize,
-) -> T {
-    let mut best = start.clone();
-    let mut best_loss = loss(&best);
+) -> Descent<T, F> {
+    let start_figures = measure(start);
     *evaluations += 1;
+    let mut best = start.clone();
+    let mut best_figures = start_figures.clone();
+    let mut best_loss = loss(&best_figures);
     for _pass in 0..PASSES {
         let mut moved = false;
         for p in params {
@@ -182,12 +194,14 @@ fn descend<T: Clone>(
                 }
                 let mut cand = best.clone();
                 (p.set)(&mut cand, v);
-                let l = loss(&cand);
+                let f = measure(&cand);
+                let l = loss(&f);
                 *evaluations += 1;
                 bar.inc(1);
                 if l < best_loss {
                     best_loss = l;
                     best = cand;
+                    best_figures = f;
                     moved = true;
                 }
             }
@@ -196,7 +210,24 @@ fn descend<T: Clone>(
             break;
         }
     }
-    best
+    Descent {
+        best,
+        best_figures,
+        start_figures,
+    }
+}
+
+/// Each constant's grid and where the search took it.
+fn knobs<T>(params: &[Param<T>], start: &T, best: &T) -> Vec<Knob> {
+    params
+        .iter()
+        .map(|p| Knob {
+            name: p.name.to_string(),
+            grid: p.grid.clone(),
+            before: (p.get)(start),
+            after: (p.get)(best),
+        })
+        .collect()
 }
 
 /// Passes of the coordinate descent at most (it stops early once a pass moves nothing).
@@ -339,36 +370,29 @@ fn calibrate_bc(sim: &SimParams, progress: bool) -> BcFile {
         InterceptionRules::default(),
         InterceptionTeacher::new(sim.period_s()),
     );
-    let loss = |p: &BcPair| -> f64 {
-        let f = bc_figures(&p.0, &p.1, sim);
-        BC_TARGETS
-            .iter()
-            .zip(f)
-            .map(|((_, paper, unit), got)| miss(got, *paper, *unit))
-            .sum()
-    };
-    let mut evaluations = 0;
-    let best = descend(&start, &params, &loss, &bar, &mut evaluations);
-    bar.finish();
-    let before = bc_figures(&start.0, &start.1, sim);
-    let after = bc_figures(&best.0, &best.1, sim);
-    let targets = fitted(&BC_TARGETS, &before, &after);
-    let knobs = params
-        .iter()
-        .map(|p| Knob {
-            name: p.name.to_string(),
-            grid: p.grid.clone(),
-            before: (p.get)(&start),
-            after: (p.get)(&best),
-        })
-        .collect();
-    let total = |f: &[f64; 4]| -> f64 {
+    let loss = |f: &[f64; 4]| -> f64 {
         BC_TARGETS
             .iter()
             .zip(f)
             .map(|((_, paper, unit), got)| miss(*got, *paper, *unit))
             .sum()
     };
+    let mut evaluations = 0;
+    let Descent {
+        best,
+        best_figures: after,
+        start_figures: before,
+    } = descend(
+        &start,
+        &params,
+        &|p: &BcPair| bc_figures(&p.0, &p.1, sim),
+        &loss,
+        &bar,
+        &mut evaluations,
+    );
+    bar.finish();
+    let targets = fitted(&BC_TARGETS, &before, &after);
+    let knobs = knobs(&params, &start, &best);
     BcFile {
         study: "bc".into(),
         calibration: Record {
@@ -377,8 +401,8 @@ fn calibrate_bc(sim: &SimParams, progress: bool) -> BcFile {
             held_out: format!(
                 "per seed: the teacher's 100 demonstrations from its practice stream, evaluated with the initial BC learner on {BC_HELD_OUT} practice starts of the seed xor {HELD_OUT_SALT:#x}; never the test set"
             ),
-            loss_before: total(&before),
-            loss_after: total(&after),
+            loss_before: loss(&before),
+            loss_after: loss(&after),
             targets,
             knobs,
             evaluations,
@@ -430,6 +454,9 @@ fn aopi_arm_length(params: &AopiParams) -> f64 {
 /// The floor on the seed demonstrations' success (ours: the paper's demonstrator reached its
 /// goals; it gives no figure).
 const DEMO_SUCCESS: f64 = 0.9;
+/// The tolerances of the demonstrations' success and of an arm's length (executions).
+const DEMO_SUCCESS_UNIT: f64 = 0.04;
+const ARM_LENGTH_UNIT: f64 = 5.0;
 
 /// The paper's seed dataset: "9 demonstrations, 900 data points".
 const AOPI_DEMO_POINTS: f64 = 900.0;
@@ -503,19 +530,27 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
     // ours, one-sided (at least DEMO_SUCCESS of the seed demonstrations succeed), and it keeps
     // the fit from lowering the baseline by making the demonstrator fail instead of leaving the
     // learner too little data.
-    let loss = |p: &PilotStyle| -> f64 {
-        let f = aopi_baseline(p, sim);
+    let loss = |f: &[f64; 3]| -> f64 {
         let fit: f64 = targets_base
             .iter()
             .zip(f)
-            .map(|((_, paper, unit), got)| miss(got, *paper, *unit))
+            .map(|((_, paper, unit), got)| miss(*got, *paper, *unit))
             .sum();
-        fit + miss(f[2].min(DEMO_SUCCESS), DEMO_SUCCESS, 0.04)
+        fit + miss(f[2].min(DEMO_SUCCESS), DEMO_SUCCESS, DEMO_SUCCESS_UNIT)
     };
     let mut evaluations = 0;
-    let pilot = descend(&start, &params, &loss, &bar, &mut evaluations);
-    let before = aopi_baseline(&start, sim);
-    let after = aopi_baseline(&pilot, sim);
+    let Descent {
+        best: pilot,
+        best_figures: after,
+        start_figures: before,
+    } = descend(
+        &start,
+        &params,
+        &|p: &PilotStyle| aopi_baseline(p, sim),
+        &loss,
+        &bar,
+        &mut evaluations,
+    );
 
     // Stage two: how long the arms run, with the calibrated driver.
     let defaults = AopiParams::default();
@@ -531,12 +566,13 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
         sim: sim.clone(),
         ..AopiParams::default()
     });
+    let arm_miss = |len: f64| miss(len, paper_arm_length(), ARM_LENGTH_UNIT);
     let mut best = (f64::INFINITY, defaults.patience, length_before);
     for &patience in &PATIENCE_GRID {
         let len = aopi_arm_length(&arm_params(patience, ARM_MAX_PRACTICE));
         evaluations += 1;
         bar.inc(1);
-        let l = miss(len, paper_arm_length(), 5.0);
+        let l = arm_miss(len);
         if l < best.0 {
             best = (l, patience, len);
         }
@@ -547,26 +583,18 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
     targets.push(Target {
         figure: "seed demonstrations that succeed (ours, at least)".into(),
         paper: DEMO_SUCCESS,
-        unit: 0.04,
+        unit: DEMO_SUCCESS_UNIT,
         before: before[2],
         after: after[2],
     });
     targets.push(Target {
         figure: "executions in an arm's final dataset (mean of the three arms)".into(),
         paper: paper_arm_length(),
-        unit: 5.0,
+        unit: ARM_LENGTH_UNIT,
         before: length_before,
         after: length_after,
     });
-    let mut knobs: Vec<Knob> = params
-        .iter()
-        .map(|p| Knob {
-            name: p.name.to_string(),
-            grid: p.grid.clone(),
-            before: (p.get)(&start),
-            after: (p.get)(&pilot),
-        })
-        .collect();
+    let mut knobs = knobs(&params, &start, &pilot);
     knobs.push(Knob {
         name: "patience (evaluations without improvement)".into(),
         grid: PATIENCE_GRID.iter().map(|&p| p as f64).collect(),
@@ -579,17 +607,6 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
         before: defaults.max_practice as f64,
         after: ARM_MAX_PRACTICE as f64,
     });
-    // The demonstrations' success is a floor: a miss only below it.
-    let score = |t: &Target, got: f64| {
-        let got = if t.figure.contains("at least") {
-            got.min(t.paper)
-        } else {
-            got
-        };
-        miss(got, t.paper, t.unit)
-    };
-    let total = |t: &[Target]| t.iter().map(|t| score(t, t.before)).sum();
-    let total_after = |t: &[Target]| t.iter().map(|t| score(t, t.after)).sum();
     AopiFile {
         study: "aopi".into(),
         calibration: Record {
@@ -598,8 +615,8 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
             held_out: format!(
                 "per seed: the driver's 9 demonstrations from its practice stream, the baseline evaluated on {AOPI_HELD_OUT} practice goals of the seed xor {HELD_OUT_SALT:#x}; arm lengths from whole arms on those held-out goals for seeds {AOPI_ARM_SEEDS:?}; never the test set"
             ),
-            loss_before: total(&targets),
-            loss_after: total_after(&targets),
+            loss_before: loss(&before) + arm_miss(length_before),
+            loss_after: loss(&after) + arm_miss(length_after),
             targets,
             knobs,
             evaluations,

@@ -191,19 +191,23 @@ impl<const D: usize> Bulk<D> {
             }
             return;
         }
-        let (l, r) = (at + 1, node.first_or_right as usize);
+        for (d, next) in self.children_nearest_first(at, q) {
+            if d <= best.0 {
+                self.nearest_one_in(next, q, best);
+            }
+        }
+    }
+
+    /// Inner node `at`'s two children with the squared distance from `q` to each one's box,
+    /// the nearer first (the left one on a tie): the order both nearest searches descend in.
+    fn children_nearest_first(&self, at: usize, q: &[f64; D]) -> [(f64, usize); 2] {
+        let (l, r) = (at + 1, self.nodes[at].first_or_right as usize);
         let dl = box_dist2(q, &self.nodes[l].lo, &self.nodes[l].hi);
         let dr = box_dist2(q, &self.nodes[r].lo, &self.nodes[r].hi);
-        let [(d1, n1), (d2, n2)] = if dl <= dr {
+        if dl <= dr {
             [(dl, l), (dr, r)]
         } else {
             [(dr, r), (dl, l)]
-        };
-        if d1 <= best.0 {
-            self.nearest_one_in(n1, q, best);
-        }
-        if d2 <= best.0 {
-            self.nearest_one_in(n2, q, best);
         }
     }
 
@@ -222,15 +226,7 @@ impl<const D: usize> Bulk<D> {
             }
             return;
         }
-        let (l, r) = (at + 1, node.first_or_right as usize);
-        let dl = box_dist2(q, &self.nodes[l].lo, &self.nodes[l].hi);
-        let dr = box_dist2(q, &self.nodes[r].lo, &self.nodes[r].hi);
-        let [(d1, n1), (d2, n2)] = if dl <= dr {
-            [(dl, l), (dr, r)]
-        } else {
-            [(dr, r), (dl, l)]
-        };
-        for (d, next) in [(d1, n1), (d2, n2)] {
+        for (d, next) in self.children_nearest_first(at, q) {
             if heap.len() < n || d <= heap[0].0 {
                 self.nearest_n_in(next, q, n, heap);
             }
