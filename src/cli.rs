@@ -345,6 +345,12 @@ pub enum CliError {
         #[source]
         source: std::io::Error,
     },
+    #[error("cannot write `{path}`: the folder `{folder}` does not exist")]
+    #[diagnostic(
+        code(advise::cli::no_folder),
+        help("create the folder first, or name a file in an existing one")
+    )]
+    NoFolder { path: String, folder: String },
     #[error("`--policy {policy}` needs demonstrations to learn from")]
     #[diagnostic(
         code(advise::cli::no_dataset),

@@ -361,3 +361,23 @@ fn bad_seed_ranges_are_diagnostics() {
         assert!(err.contains(expect), "{args:?}: {err}");
     }
 }
+
+/// `calibrate --write` into a folder that does not exist is refused before the calibration runs
+/// (it takes a minute), naming the folder; nothing is written.
+#[test]
+fn calibrating_into_a_missing_folder_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("no-such-folder").join("bc.json");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_advise"))
+        .args(["calibrate", "bc", "--write"])
+        .arg(&target)
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("advise::cli::no_folder"), "{err}");
+    assert!(err.contains("no-such-folder"), "{err}");
+    assert!(out.stdout.is_empty(), "nothing ran, nothing printed");
+    assert!(!target.exists());
+}

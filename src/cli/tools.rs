@@ -145,11 +145,29 @@ pub fn experiment(args: ExperimentArgs) -> miette::Result<()> {
 }
 
 /// `advise calibrate bc|aopi`: fit, report, and write the file when asked.
+/// A folder to write into that is missing is refused before the calibration runs (it takes a
+/// minute); a write that fails after it prints the calibration's JSON, so the result is not lost.
 pub fn calibrate(args: CalibrateArgs) -> miette::Result<()> {
     let sim = sim_params(args.sim_params.as_deref())?;
+    if let Some(path) = &args.write {
+        let folder = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => std::path::Path::new("."),
+        };
+        if !folder.is_dir() {
+            return Err(CliError::NoFolder {
+                path: path.display().to_string(),
+                folder: folder.display().to_string(),
+            }
+            .into());
+        }
+    }
     let out = crate::experiment::calibrate::run(args.study, sim, true);
     if let Some(path) = &args.write {
-        crate::files::write_bytes(path, out.json.as_bytes())?;
+        if let Err(e) = crate::files::write_bytes(path, out.json.as_bytes()) {
+            print_stdout(&out.json)?;
+            return Err(e.into());
+        }
         eprintln!("wrote {}", path.display());
     }
     print_stdout(if args.json { &out.json } else { &out.text })?;
