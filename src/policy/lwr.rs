@@ -83,14 +83,17 @@ pub fn query(
         scratch.q.resize(z.len(), 0.0);
         index.scaled(z, &mut scratch.q);
         let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
+        // Counted as the sums store it (a whole f64, exact), converted once.
+        let mut points = 0.0;
         index.sums_within(&scratch.q, r2, |d2, sum, n| {
             let w = (-d2 * inv).exp();
             for (out, v) in a.iter_mut().zip(sum) {
                 *out += w * v;
             }
             total += w * n;
-            count += n as usize;
+            points += n;
         });
+        count = points as usize;
     } else {
         let inv = gather(index, params, z, scratch);
         for &(_, g) in &scratch.found {
