@@ -235,6 +235,12 @@ fn plots_are_written() {
         assert!(!text.contains(">-0.0"), "{}", f.display());
     }
     let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).unwrap();
+    // Figure 5 draws both critique rules' curves, each named.
+    let figure5 = read("bc-seed1-success.svg");
+    assert!(
+        figure5.contains("learner, paper&apos;s rule") || figure5.contains("learner, paper's rule")
+    );
+    assert!(figure5.contains("learner, directional rule"), "{figure5}");
     // Value labels on the bars, the paper's value beside ours.
     let success = read("aopi-seed1-success.svg");
     let ours = format!("{:.0}%", 100.0 * a.arms.advised.success_rate);

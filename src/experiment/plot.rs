@@ -1,4 +1,5 @@
-//! SVG figures of the experiments (plotters): success against critique rounds (Figure 5), and
+//! SVG figures of the experiments (plotters): success against critique rounds under each critique
+//! rule that ran (Figure 5), and
 //! for A-OPI success, errors and dataset size per arm (Figures 8, 9, 11). Each figure is drawn in
 //! memory and written with [`crate::files::write_bytes`]; no other IO.
 
@@ -9,6 +10,7 @@ use plotters::prelude::*;
 use crate::experiment::ExperimentError;
 use crate::experiment::aopi::{AopiResult, ArmFigures};
 use crate::experiment::bc::BcResult;
+use crate::policy::dataset::CritiqueRule;
 
 fn err(path: &Path) -> impl Fn(&dyn std::fmt::Display) -> ExperimentError + '_ {
     move |e| ExperimentError::Plot {
@@ -52,19 +54,28 @@ fn bc_success(result: &BcResult, path: &Path) -> Result<(), ExperimentError> {
             .y_desc("test set success (%)")
             .draw()
             .map_err(|x| e(&x))?;
-        let pts: Vec<(f64, f64)> = result
-            .curve
-            .iter()
-            .map(|c| (c.round as f64, 100.0 * c.success_rate))
-            .collect();
-        chart
-            .draw_series(LineSeries::new(pts.clone(), BLUE.stroke_width(2)))
-            .map_err(|x| e(&x))?
-            .label("learner")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLUE));
-        chart
-            .draw_series(pts.iter().map(|&p| Circle::new(p, 3, BLUE.filled())))
-            .map_err(|x| e(&x))?;
+        // One curve per critique rule that ran, each named by its rule.
+        let orange = RGBColor(230, 120, 20);
+        let curves = std::iter::once((result.rule, &result.curve, BLUE)).chain(
+            result
+                .directional
+                .as_ref()
+                .map(|d| (d.rule, &d.curve, orange)),
+        );
+        for (rule, curve, colour) in curves {
+            let pts: Vec<(f64, f64)> = curve
+                .iter()
+                .map(|c| (c.round as f64, 100.0 * c.success_rate))
+                .collect();
+            chart
+                .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
+                .map_err(|x| e(&x))?
+                .label(format!("learner, {}", rule_label(rule)))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour));
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+                .map_err(|x| e(&x))?;
+        }
         let t = 100.0 * result.teacher.success_rate;
         chart
             .draw_series(DashedLineSeries::new(
@@ -87,6 +98,14 @@ fn bc_success(result: &BcResult, path: &Path) -> Result<(), ExperimentError> {
     }
     crate::files::write_bytes(path, svg.as_bytes())?;
     Ok(())
+}
+
+/// A critique rule as the figure's legend names it.
+fn rule_label(rule: CritiqueRule) -> &'static str {
+    match rule {
+        CritiqueRule::Paper => "paper's rule",
+        CritiqueRule::Directional => "directional rule",
+    }
 }
 
 /// A bar chart's file stem, axis label, value per arm, and the paper's value per arm where the
