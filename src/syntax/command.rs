@@ -402,8 +402,11 @@ pub fn is_statement(src: &str) -> bool {
 }
 
 fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
-    let mut pairs =
-        run(Rule::session_line, id, src).map_err(|e| unknown_command(id, src).unwrap_or(e))?;
+    let mut pairs = run(Rule::session_line, id, src).map_err(|e| {
+        unknown_command(id, src)
+            .or_else(|| unknown_option(id, src))
+            .unwrap_or(e)
+    })?;
     let line = pairs.next().expect("session_line always yields one pair");
     let b = Builder { id };
     let Some(p) = line.into_inner().find(|p| p.as_rule() != Rule::EOI) else {
@@ -587,6 +590,40 @@ fn unknown_command(id: SourceId, src: &str) -> Option<ParseError> {
         help: crate::diag::did_you_mean(word, &words)
             .unwrap_or_else(|| "`help` lists the commands".into()),
     })
+}
+
+/// A command statement that failed to parse and holds a `--word` its command does not take (the
+/// options are the ones its signature shows): say so, with the closest option.
+fn unknown_option(id: SourceId, src: &str) -> Option<ParseError> {
+    let (_, word) = first_word(src)?;
+    let spec = command_spec(word)?;
+    let options: Vec<&str> = spec
+        .signature
+        .split(|c: char| !(c.is_alphanumeric() || c == '-' || c == '_'))
+        .filter(|t| t.starts_with("--"))
+        .collect();
+    let mut at = 0;
+    for token in src.split_whitespace() {
+        at += src[at..].find(token)?;
+        let option = token
+            .split(|c: char| !(c.is_alphanumeric() || c == '-' || c == '_'))
+            .next()
+            .unwrap_or(token);
+        if option.starts_with("--") && !options.contains(&option) {
+            let help = match options.as_slice() {
+                [] => format!("`{word}` takes no options: `{}`", spec.signature),
+                _ => crate::diag::hint(option, &format!("options of `{word}`"), &options),
+            };
+            return Some(ParseError::UnknownOption {
+                command: word.to_string(),
+                option: option.to_string(),
+                span: id.span(at, option.len()),
+                help,
+            });
+        }
+        at += token.len();
+    }
+    None
 }
 
 /// Whether `src` is an unfinished statement that more lines could complete (an open `{` or `(`,

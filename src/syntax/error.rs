@@ -47,6 +47,15 @@ pub enum ParseError {
         span: Loc,
         help: String,
     },
+    #[error("`{command}` has no option `{option}`")]
+    #[diagnostic(code(advise::parse::unknown_option), help("{help}"))]
+    UnknownOption {
+        command: String,
+        option: String,
+        #[label("unknown option")]
+        span: Loc,
+        help: String,
+    },
     #[error("this `{open}` is never closed")]
     #[diagnostic(code(advise::parse::unclosed_delimiter))]
     Unclosed {
