@@ -444,15 +444,16 @@ impl<const D: usize> Bulk<D> {
                 continue;
             }
             let node = &self.wide[at as usize];
-            let mut dist2 = [0.0f64; WIDE];
+            // Each child's box's squared distance from `q`, as `box_dist2` sums it.
+            let mut to_box = [0.0f64; WIDE];
             for ((qk, lo), hi) in q.iter().zip(&node.lo).zip(&node.hi) {
-                for ((s, lo), hi) in dist2.iter_mut().zip(lo).zip(hi) {
+                for ((s, lo), hi) in to_box.iter_mut().zip(lo).zip(hi) {
                     let d = gap(f64::from(*lo), *qk, f64::from(*hi));
                     *s += d * d;
                 }
             }
             for c in (0..WIDE).rev() {
-                if dist2[c] <= r2 {
+                if to_box[c] <= r2 {
                     stack[top] = node.child[c];
                     top += 1;
                 }
@@ -833,9 +834,7 @@ impl Index {
     /// Group `g`'s action sum and point count, when the index keeps sums.
     #[inline]
     pub fn action_sum(&self, g: u64) -> Option<(&[f64], u32)> {
-        let s = self.sums.as_ref()?;
-        let g = g as usize;
-        Some((&s.a[g * s.act_dim..(g + 1) * s.act_dim], s.n[g]))
+        Some(self.sums.as_ref()?.row(g as usize))
     }
 
     /// Whether the index keeps action sums.
@@ -1022,6 +1021,15 @@ mod tree_tests {
         all
     }
 
+    /// `idx.within(q, r2)` reports exactly the groups of `want` (a [`scan`] of `q`) within `r2`.
+    fn assert_within_is_the_scan(idx: &Index, q: &[f64], r2: f64, want: &[(f64, u64)], what: &str) {
+        let mut found = Vec::new();
+        idx.within(q, r2, &mut found);
+        found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let inside: Vec<(f64, u64)> = want.iter().copied().filter(|w| w.0 <= r2).collect();
+        assert_eq!(found, inside, "{what}");
+    }
+
     /// Through several re-plans (the bulk tree over the first groups, kiddo's over the rest),
     /// every query equals a linear scan: nearest (ties to the lower group), the n nearest in
     /// order, and the groups within a radius. Points on a coarse grid make ties and repeated
@@ -1048,17 +1056,21 @@ mod tree_tests {
                     assert_eq!(found, want[..n.min(want.len())], "n {n} after {i} points");
                 }
                 let r2 = rng.random_range(0.0..0.6);
-                idx.within(&q, r2, &mut found);
-                found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-                let inside: Vec<(f64, u64)> = want.iter().copied().filter(|w| w.0 <= r2).collect();
-                assert_eq!(found, inside, "r2 {r2} after {i} points");
+                assert_within_is_the_scan(
+                    &idx,
+                    &q,
+                    r2,
+                    &want,
+                    &format!("r2 {r2} after {i} points"),
+                );
             }
         }
     }
+
     /// The radius query's coarse `f32` test never rules out a point inside: radii set to a
     /// point's exact distance (the boundary, where rounding bites), coordinates far from zero
     /// (where `f32` keeps few bits of the differences), and coordinates too large for it (the
-    /// exact path). Also a leaf's worth of points at one place and a NaN query.
+    /// exact path). Also a NaN query, and a radius of zero on points in three groups.
     #[test]
     fn radius_queries_at_the_boundary_and_far_from_zero_equal_a_linear_scan() {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
@@ -1084,11 +1096,8 @@ mod tree_tests {
                 // Radii exactly at the 1st, 10th, 100th and 1000th nearest.
                 for n in [0, 9, 99, 999] {
                     let r2 = want[n.min(want.len() - 1)].0;
-                    idx.within(&q, r2, &mut found);
-                    found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-                    let inside: Vec<(f64, u64)> =
-                        want.iter().copied().filter(|w| w.0 <= r2).collect();
-                    assert_eq!(found, inside, "offset {offset}, radius at the {n}th");
+                    let what = format!("offset {offset}, radius at the {n}th");
+                    assert_within_is_the_scan(&idx, &q, r2, &want, &what);
                 }
             }
         }
