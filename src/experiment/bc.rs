@@ -289,10 +289,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         .iter()
         .zip(learners)
         .map(|(&rule, mut learner)| {
-            bar.set_message(match rule {
-                CritiqueRule::Paper => "bc: critique rounds (paper's rule)",
-                CritiqueRule::Directional => "bc: critique rounds (directional rule)",
-            });
+            bar.set_message(&format!("bc: critique rounds ({})", rule.label()));
             critique_rounds(
                 seed,
                 params,
@@ -545,24 +542,21 @@ impl BcResult {
             );
         }
         s.push('\n');
-        let label = match self.rule {
-            CritiqueRule::Paper => "",
-            CritiqueRule::Directional => " (directional rule)",
+        // The paper's rule goes unnamed; another rule's blocks say which.
+        let named = |rule: CritiqueRule| match rule {
+            CritiqueRule::Paper => String::new(),
+            _ => format!(" ({})", rule.label()),
         };
-        render_curve(&mut s, label, &self.curve, self.teacher.success_rate);
+        let label = named(self.rule);
+        render_curve(&mut s, &label, &self.curve, self.teacher.success_rate);
         if let Some(d) = &self.directional {
             s.push('\n');
-            render_curve(
-                &mut s,
-                " (directional rule)",
-                &d.curve,
-                self.teacher.success_rate,
-            );
+            render_curve(&mut s, &named(d.rule), &d.curve, self.teacher.success_rate);
         }
         s.push('\n');
-        render_critic(&mut s, label, &self.critiques);
+        render_critic(&mut s, &label, &self.critiques);
         if let Some(d) = &self.directional {
-            render_critic(&mut s, " (directional rule)", &d.critiques);
+            render_critic(&mut s, &named(d.rule), &d.critiques);
         }
         s
     }

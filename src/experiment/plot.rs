@@ -1,7 +1,6 @@
 //! SVG figures of the experiments (plotters): success against critique rounds under each critique
-//! rule that ran (Figure 5), and
-//! for A-OPI success, errors and dataset size per arm (Figures 8, 9, 11). Each figure is drawn in
-//! memory and written with [`crate::files::write_bytes`]; no other IO.
+//! rule that ran (Figure 5), and for A-OPI success, errors and dataset size per arm (Figures 8, 9,
+//! 11). Each figure is drawn in memory and written with [`crate::files::write_bytes`]; no other IO.
 
 use std::path::{Path, PathBuf};
 
@@ -10,7 +9,6 @@ use plotters::prelude::*;
 use crate::experiment::ExperimentError;
 use crate::experiment::aopi::{AopiResult, ArmFigures};
 use crate::experiment::bc::BcResult;
-use crate::policy::dataset::CritiqueRule;
 
 fn err(path: &Path) -> impl Fn(&dyn std::fmt::Display) -> ExperimentError + '_ {
     move |e| ExperimentError::Plot {
@@ -70,7 +68,7 @@ fn bc_success(result: &BcResult, path: &Path) -> Result<(), ExperimentError> {
             chart
                 .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
                 .map_err(|x| e(&x))?
-                .label(format!("learner, {}", rule_label(rule)))
+                .label(format!("learner, {}", rule.label()))
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour));
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))
@@ -98,14 +96,6 @@ fn bc_success(result: &BcResult, path: &Path) -> Result<(), ExperimentError> {
     }
     crate::files::write_bytes(path, svg.as_bytes())?;
     Ok(())
-}
-
-/// A critique rule as the figure's legend names it.
-fn rule_label(rule: CritiqueRule) -> &'static str {
-    match rule {
-        CritiqueRule::Paper => "paper's rule",
-        CritiqueRule::Directional => "directional rule",
-    }
 }
 
 /// A bar chart's file stem, axis label, value per arm, and the paper's value per arm where the

@@ -116,6 +116,14 @@ impl CritiqueRule {
             CritiqueRule::Directional => "directional",
         }
     }
+
+    /// The rule as a reply, a figure or a progress message names it: "paper's rule".
+    pub fn label(self) -> &'static str {
+        match self {
+            CritiqueRule::Paper => "paper's rule",
+            CritiqueRule::Directional => "directional rule",
+        }
+    }
 }
 
 /// The directional penalties of every point, laid out for the BC query: point `i`'s are entries
