@@ -13,6 +13,16 @@ fn rate(v: &Value, path: &str) -> f64 {
     r
 }
 
+/// The rounds of a Figure 5 curve in the JSON.
+fn rounds(curve: &Value) -> Vec<u64> {
+    curve
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["round"].as_u64().unwrap())
+        .collect()
+}
+
 #[test]
 fn reduced_bc_study_reports_table_1() {
     let params = BcParams {
@@ -38,13 +48,7 @@ fn reduced_bc_study_reports_table_1() {
         }
     }
     // Figure 5: round 0, then every 4 rounds; the last point is the final policy.
-    let rounds: Vec<u64> = v["curve"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|c| c["round"].as_u64().unwrap())
-        .collect();
-    assert_eq!(rounds, [0, 4, 8, 12]);
+    assert_eq!(rounds(&v["curve"]), [0, 4, 8, 12]);
     assert_eq!(
         v["curve"][0]["success_rate"],
         v["learner_initial"]["success_rate"]
@@ -72,13 +76,7 @@ fn reduced_bc_study_reports_table_1() {
         assert_eq!(d[key].is_f64(), paired > 0, "{key}");
     }
     assert_eq!(d["learner_final"]["mean_length_m"].is_f64(), paired > 0);
-    let rounds: Vec<u64> = d["curve"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|c| c["round"].as_u64().unwrap())
-        .collect();
-    assert_eq!(rounds, [0, 4, 8, 12]);
+    assert_eq!(rounds(&d["curve"]), [0, 4, 8, 12]);
     assert_eq!(d["curve"][0], v["curve"][0], "the same initial policy");
     assert_eq!(d["critiques"]["rounds"], 12);
     let text = result.render();

@@ -597,18 +597,16 @@ fn unknown_command(id: SourceId, src: &str) -> Option<ParseError> {
 fn unknown_option(id: SourceId, src: &str) -> Option<ParseError> {
     let (_, word) = first_word(src)?;
     let spec = command_spec(word)?;
+    let not_in_option = |c: char| !(c.is_alphanumeric() || c == '-' || c == '_');
     let options: Vec<&str> = spec
         .signature
-        .split(|c: char| !(c.is_alphanumeric() || c == '-' || c == '_'))
+        .split(not_in_option)
         .filter(|t| t.starts_with("--"))
         .collect();
     let mut at = 0;
     for token in src.split_whitespace() {
         at += src[at..].find(token)?;
-        let option = token
-            .split(|c: char| !(c.is_alphanumeric() || c == '-' || c == '_'))
-            .next()
-            .unwrap_or(token);
+        let option = token.split(not_in_option).next().unwrap_or(token);
         if option.starts_with("--") && !options.contains(&option) {
             let help = match options.as_slice() {
                 [] => format!("`{word}` takes no options: `{}`", spec.signature),
