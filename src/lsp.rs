@@ -8,12 +8,15 @@
 //! so any editor can open it), formatting (`advise fmt`) and document symbols.
 
 pub mod analysis;
+pub mod frame;
 
 use std::collections::HashMap;
+use std::io::{BufRead, Write};
 use std::ops::Range;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::PathBuf;
 use std::str::FromStr;
+use std::sync::{Arc, Mutex};
 
 use lsp_server::{Connection, ErrorCode, Message, Notification, Request, RequestId, Response};
 use lsp_types::notification::{
@@ -21,8 +24,8 @@ use lsp_types::notification::{
     Notification as NotificationTrait, PublishDiagnostics,
 };
 use lsp_types::request::{
-    Completion, DocumentSymbolRequest, Formatting, GotoDefinition, HoverRequest,
-    Request as RequestTrait,
+    Completion, DocumentSymbolRequest, Formatting, GotoDefinition, HoverRequest, Initialize,
+    Request as RequestTrait, Shutdown,
 };
 use lsp_types::{
     CompletionItem, CompletionItemKind, CompletionOptions, CompletionParams, CompletionResponse,
@@ -34,41 +37,210 @@ use lsp_types::{
     ServerCapabilities, ServerInfo, TextDocumentSyncCapability, TextDocumentSyncKind, TextEdit,
     Uri,
 };
+use thiserror::Error;
 
 use analysis::{CompletionKind, SymbolKind, Target};
+use frame::{Frame, FrameError, FrameReader};
 
 /// Serve the language server protocol on stdin and stdout until the client exits.
 pub fn run_stdio() -> miette::Result<()> {
-    let (connection, io) = Connection::stdio();
-    let capabilities = ServerCapabilities {
-        text_document_sync: Some(TextDocumentSyncCapability::Kind(TextDocumentSyncKind::FULL)),
-        hover_provider: Some(HoverProviderCapability::Simple(true)),
-        completion_provider: Some(CompletionOptions::default()),
-        definition_provider: Some(OneOf::Left(true)),
-        document_formatting_provider: Some(OneOf::Left(true)),
-        document_symbol_provider: Some(OneOf::Left(true)),
-        ..Default::default()
+    serve_io(std::io::BufReader::new(std::io::stdin()), std::io::stdout())
+}
+
+/// What ends a connection, besides a broken frame.
+#[derive(Debug, Error, miette::Diagnostic)]
+pub enum LspError {
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Frame(#[from] FrameError),
+    #[error("the client closed the connection {when}")]
+    #[diagnostic(
+        code(advise::lsp::closed),
+        help("a client ends a session with a `shutdown` request and then an `exit` notification")
+    )]
+    Closed { when: &'static str },
+    #[error("the client sent `exit` without `shutdown` first")]
+    #[diagnostic(
+        code(advise::lsp::exit_without_shutdown),
+        help("the protocol asks a server to exit with code 1 then; send `shutdown` before `exit`")
+    )]
+    ExitWithoutShutdown,
+    #[error("cannot write to the client")]
+    #[diagnostic(code(advise::lsp::io))]
+    Write {
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+/// How the message loop ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum End {
+    /// The client's `exit`, after a `shutdown` or not.
+    Exit { shut_down: bool },
+    /// The input ended (or broke) before an `exit`.
+    Closed { initialized: bool, shut_down: bool },
+}
+
+/// Serve the protocol on `input` and `output`: [`frame::FrameReader`] reads the frames (on a
+/// thread of its own, one message in flight), the server answers them in order, and a writer
+/// thread frames the answers. A broken frame ends the session with its coded error; a frame
+/// that is not a message is answered with a JSON-RPC error, logged on stderr, and skipped.
+pub fn serve_io<R, W>(input: R, output: W) -> miette::Result<()>
+where
+    R: BufRead + Send + 'static,
+    W: Write + Send + 'static,
+{
+    let output = Arc::new(Mutex::new(output));
+    // Rendezvous channels, as `lsp-server`'s own transport has: the reader holds at most one
+    // message the server has not taken.
+    let (to_server, server_inbox) = crossbeam_channel::bounded::<Message>(0);
+    let (server_outbox, to_client) = crossbeam_channel::bounded::<Message>(0);
+    let writer = {
+        let output = Arc::clone(&output);
+        std::thread::spawn(move || write_messages(&to_client, &output))
     };
-    let init = serde_json::json!({
-        "capabilities": capabilities,
-        "serverInfo": ServerInfo { name: "advise".into(), version: Some(env!("CARGO_PKG_VERSION").into()) },
-    });
-    let protocol = |e: lsp_server::ProtocolError| miette::miette!("language server protocol: {e}");
-    let (id, _params) = connection.initialize_start().map_err(protocol)?;
-    connection.initialize_finish(id, init).map_err(protocol)?;
-    Server::default().serve(&connection)?;
+    let reader = {
+        let output = Arc::clone(&output);
+        std::thread::spawn(move || read_messages(input, &to_server, &output))
+    };
+    let connection = Connection {
+        sender: server_outbox,
+        receiver: server_inbox,
+    };
+    let end = Server::default().run(&connection);
     drop(connection);
-    io.join()
-        .map_err(|e| miette::miette!("language server I/O: {e}"))?;
+    let written = writer
+        .join()
+        .unwrap_or_else(|_| Err(std::io::Error::other("the writer thread panicked")));
+    let read = match end {
+        // The reader may be waiting for input that never comes; the process ends it.
+        End::Exit { .. } => Ok(()),
+        End::Closed { .. } => reader.join().unwrap_or_else(|_| {
+            Err(FrameError::Io {
+                source: std::io::Error::other("the reader thread panicked"),
+            })
+        }),
+    };
+    read.map_err(LspError::from)?;
+    written.map_err(|source| LspError::Write { source })?;
+    match end {
+        End::Exit { shut_down: true }
+        | End::Closed {
+            shut_down: true, ..
+        } => Ok(()),
+        End::Exit { shut_down: false } => Err(LspError::ExitWithoutShutdown.into()),
+        End::Closed {
+            initialized: false, ..
+        } => Err(LspError::Closed {
+            when: "before `initialize`",
+        }
+        .into()),
+        End::Closed { .. } => Err(LspError::Closed {
+            when: "without `shutdown` and `exit`",
+        }
+        .into()),
+    }
+}
+
+/// Read frames from `input` and hand their messages to the server until the input ends, breaks,
+/// or brings `exit`. A frame that is not a message is answered here (the server never sees it)
+/// and its diagnostic logged on stderr.
+fn read_messages<R: BufRead, W: Write>(
+    input: R,
+    to_server: &crossbeam_channel::Sender<Message>,
+    output: &Mutex<W>,
+) -> Result<(), FrameError> {
+    let mut frames = FrameReader::new(input);
+    while let Some(frame) = frames.next_frame()? {
+        match frame {
+            Frame::Message(message) => {
+                let exit = matches!(&message, Message::Notification(n) if n.method == Exit::METHOD);
+                if to_server.send(message).is_err() || exit {
+                    break;
+                }
+            }
+            Frame::Bad(e) => {
+                eprintln!(
+                    "{}",
+                    crate::diag::render_with_width(&crate::diag::SourceMap::new(), &e, false, 100)
+                );
+                let answer = e.response().to_string();
+                // A client that is gone is noticed by the writer.
+                let _ = write_frame(output, &answer);
+            }
+        }
+    }
     Ok(())
 }
 
+/// Write the server's messages to `output` until the server drops its sender. After a failed
+/// write the rest are taken and dropped, so the server never blocks on a client that is gone;
+/// the first error is the result.
+fn write_messages<W: Write>(
+    from_server: &crossbeam_channel::Receiver<Message>,
+    output: &Mutex<W>,
+) -> std::io::Result<()> {
+    let mut result = Ok(());
+    for message in from_server {
+        if result.is_ok() {
+            let mut out = output.lock().unwrap_or_else(|p| p.into_inner());
+            result = message.write(&mut *out);
+        }
+    }
+    result
+}
+
+/// One frame of `body` on `output`, whole (the writer thread frames under the same lock).
+fn write_frame<W: Write>(output: &Mutex<W>, body: &str) -> std::io::Result<()> {
+    let mut out = output.lock().unwrap_or_else(|p| p.into_inner());
+    write!(out, "Content-Length: {}\r\n\r\n{body}", body.len())?;
+    out.flush()
+}
+
 const PANICKED: &str = "advise lsp failed on this request (a bug; please report it with the file)";
+
+/// The largest document the server holds and analyses, in bytes (16 MiB, about 250,000
+/// operators): each analysis parses and checks the whole text, so this bounds the memory and
+/// time of every answer. A larger document is not held; it gets one diagnostic saying so, and
+/// `advise check FILE` checks it.
+pub const MAX_DOCUMENT_BYTES: usize = 16 * 1024 * 1024;
 
 /// An open document: its text and the client's version of it.
 struct Doc {
     text: String,
     version: i32,
+    /// The size of a text too large to hold ([`MAX_DOCUMENT_BYTES`]); `text` is then empty.
+    too_large: Option<usize>,
+}
+
+impl Doc {
+    /// Replace the whole text (not held when too large).
+    fn replace(&mut self, text: String) {
+        if text.len() > MAX_DOCUMENT_BYTES {
+            self.too_large = Some(text.len());
+            self.text = String::new();
+        } else {
+            self.too_large = None;
+            self.text = text;
+        }
+    }
+}
+
+/// The one diagnostic of a document too large to hold, at its start.
+fn too_large(size: usize) -> Diagnostic {
+    Diagnostic {
+        range: lsp_types::Range::default(),
+        severity: Some(DiagnosticSeverity::ERROR),
+        code: Some(NumberOrString::String(
+            "advise::lsp::document_too_large".into(),
+        )),
+        source: Some("advise".into()),
+        message: format!(
+            "this document is {size} bytes, more than the {MAX_DOCUMENT_BYTES} bytes `advise lsp` analyses, so it is not checked here\nhelp: check it with `advise check FILE`"
+        ),
+        ..Default::default()
+    }
 }
 
 /// The open documents.
@@ -78,42 +250,99 @@ struct Server {
 }
 
 impl Server {
-    fn serve(&mut self, connection: &Connection) -> miette::Result<()> {
+    /// The handshake (`initialize`; requests before it are refused as the protocol says), then
+    /// [`Server::serve`].
+    fn run(&mut self, connection: &Connection) -> End {
         let send = |m: Message| {
-            connection
-                .sender
-                .send(m)
-                .map_err(|e| miette::miette!("the client went away: {e}"))
+            // The writer takes every message while the connection lives.
+            let _ = connection.sender.send(m);
         };
+        let id = loop {
+            match connection.receiver.recv() {
+                Err(_) => {
+                    return End::Closed {
+                        initialized: false,
+                        shut_down: false,
+                    };
+                }
+                Ok(Message::Request(req)) if req.method == Initialize::METHOD => break req.id,
+                Ok(Message::Request(req)) => send(Message::Response(error(
+                    req.id,
+                    ErrorCode::ServerNotInitialized,
+                    format!("`{}` before `initialize`", req.method),
+                ))),
+                Ok(Message::Notification(n)) if n.method == Exit::METHOD => {
+                    return End::Exit { shut_down: false };
+                }
+                Ok(_) => {}
+            }
+        };
+        let capabilities = ServerCapabilities {
+            text_document_sync: Some(TextDocumentSyncCapability::Kind(TextDocumentSyncKind::FULL)),
+            hover_provider: Some(HoverProviderCapability::Simple(true)),
+            completion_provider: Some(CompletionOptions::default()),
+            definition_provider: Some(OneOf::Left(true)),
+            document_formatting_provider: Some(OneOf::Left(true)),
+            document_symbol_provider: Some(OneOf::Left(true)),
+            ..Default::default()
+        };
+        let init = serde_json::json!({
+            "capabilities": capabilities,
+            "serverInfo": ServerInfo { name: "advise".into(), version: Some(env!("CARGO_PKG_VERSION").into()) },
+        });
+        send(Message::Response(Response::new_ok(id, init)));
+        self.serve(connection)
+    }
+
+    fn serve(&mut self, connection: &Connection) -> End {
+        let send = |m: Message| {
+            let _ = connection.sender.send(m);
+        };
+        let mut shut_down = false;
         for message in &connection.receiver {
             match message {
+                Message::Request(req) if req.method == Shutdown::METHOD => {
+                    shut_down = true;
+                    send(Message::Response(Response::new_ok(req.id, ())));
+                }
+                Message::Request(req) if shut_down || req.method == Initialize::METHOD => {
+                    let why = if shut_down {
+                        format!("`{}` after `shutdown`", req.method)
+                    } else {
+                        "the server is already initialized".to_string()
+                    };
+                    send(Message::Response(error(
+                        req.id,
+                        ErrorCode::InvalidRequest,
+                        why,
+                    )));
+                }
                 Message::Request(req) => {
-                    if connection
-                        .handle_shutdown(&req)
-                        .map_err(|e| miette::miette!("language server protocol: {e}"))?
-                    {
-                        return Ok(());
-                    }
                     // A bug must cost one answer, not the editor's server.
                     let id = req.id.clone();
                     let response = catch_unwind(AssertUnwindSafe(|| self.respond(req)))
                         .unwrap_or_else(|_| {
                             error(id, ErrorCode::InternalError, PANICKED.to_string())
                         });
-                    send(Message::Response(response))?;
+                    send(Message::Response(response));
                 }
-                Message::Notification(n) if n.method == Exit::METHOD => return Ok(()),
+                Message::Notification(n) if n.method == Exit::METHOD => {
+                    return End::Exit { shut_down };
+                }
                 Message::Notification(n) => {
                     if let Some(uri) = self.notify(n)
                         && let Ok(d) = catch_unwind(AssertUnwindSafe(|| self.diagnostics(&uri)))
                     {
-                        send(Message::Notification(d))?;
+                        send(Message::Notification(d));
                     }
                 }
                 Message::Response(_) => {}
             }
         }
-        Ok(())
+        End::Closed {
+            initialized: true,
+            shut_down,
+        }
     }
 
     /// Apply a document notification; the document whose diagnostics to publish (again).
@@ -122,10 +351,12 @@ impl Server {
             DidOpenTextDocument::METHOD => {
                 let p: DidOpenTextDocumentParams = serde_json::from_value(n.params).ok()?;
                 let uri = p.text_document.uri.as_str().to_string();
-                let doc = Doc {
-                    text: p.text_document.text,
+                let mut doc = Doc {
+                    text: String::new(),
                     version: p.text_document.version,
+                    too_large: None,
                 };
+                doc.replace(p.text_document.text);
                 self.docs.insert(uri.clone(), doc);
                 Some(uri)
             }
@@ -135,15 +366,26 @@ impl Server {
                 let doc = self.docs.entry(uri.clone()).or_insert(Doc {
                     text: String::new(),
                     version: 0,
+                    too_large: None,
                 });
                 // The server asks for whole texts, but a change with a range is applied as one.
                 for change in p.content_changes {
                     match change.range {
-                        None => doc.text = change.text,
+                        None => doc.replace(change.text),
+                        // A document not held has no text to apply a range to: it stays too
+                        // large until a whole text comes.
+                        Some(_) if doc.too_large.is_some() => {}
                         Some(range) => {
                             let lines = Lines::new(&doc.text);
                             let (start, end) = (lines.offset(range.start), lines.offset(range.end));
-                            doc.text.replace_range(start..end.max(start), &change.text);
+                            let end = end.max(start);
+                            let size = doc.text.len() - (end - start) + change.text.len();
+                            if size > MAX_DOCUMENT_BYTES {
+                                doc.too_large = Some(size);
+                                doc.text = String::new();
+                            } else {
+                                doc.text.replace_range(start..end, &change.text);
+                            }
                         }
                     }
                 }
@@ -161,12 +403,20 @@ impl Server {
         }
     }
 
-    /// The diagnostics of `uri` (none when it is not open).
+    /// The diagnostics of `uri` (none when it is not open; one when it is too large to hold).
     fn diagnostics(&self, uri: &str) -> Notification {
         let doc = self.docs.get(uri);
+        let diagnostics = match doc {
+            None => Vec::new(),
+            Some(Doc {
+                too_large: Some(size),
+                ..
+            }) => vec![too_large(*size)],
+            Some(d) => publish(uri, &d.text),
+        };
         let params = PublishDiagnosticsParams {
             uri: parse_uri(uri),
-            diagnostics: doc.map_or_else(Vec::new, |d| publish(uri, &d.text)),
+            diagnostics,
             version: doc.map(|d| d.version),
         };
         Notification::new(PublishDiagnostics::METHOD.to_string(), params)
@@ -194,10 +444,23 @@ impl Server {
     }
 
     fn text<'s>(&'s self, uri: &Uri) -> Result<&'s str, (ErrorCode, String)> {
-        self.docs.get(uri.as_str()).map(|d| d.text.as_str()).ok_or((
-            ErrorCode::InvalidParams,
-            format!("`{}` is not open", uri.as_str()),
-        ))
+        match self.docs.get(uri.as_str()) {
+            None => Err((
+                ErrorCode::InvalidParams,
+                format!("`{}` is not open", uri.as_str()),
+            )),
+            Some(Doc {
+                too_large: Some(size),
+                ..
+            }) => Err((
+                ErrorCode::RequestFailed,
+                format!(
+                    "`{}` is {size} bytes, more than the {MAX_DOCUMENT_BYTES} bytes `advise lsp` analyses",
+                    uri.as_str()
+                ),
+            )),
+            Some(d) => Ok(d.text.as_str()),
+        }
     }
 
     fn hover(&self, req: Request) -> Result<Option<Hover>, (ErrorCode, String)> {
@@ -269,17 +532,15 @@ impl Server {
     fn formatting(&self, req: Request) -> Result<Option<Vec<TextEdit>>, (ErrorCode, String)> {
         let p: DocumentFormattingParams = params(req)?;
         let text = self.text(&p.text_document.uri)?;
-        let formatted = if analysis::is_script(text) {
-            crate::syntax::fmt::format_script(text)
-        } else {
-            let (map, id) = crate::diag::SourceMap::single("document", text);
-            crate::syntax::fmt::format(map.src(id)).map_err(|e| {
-                (
-                    ErrorCode::RequestFailed,
-                    format!("the file does not parse, so it is not formatted: {e}"),
-                )
-            })?
-        };
+        let (map, id) = crate::diag::SourceMap::single("document", text);
+        let formatted = crate::session::script::format_file(map.src(id)).map_err(|e| {
+            (
+                ErrorCode::RequestFailed,
+                format!(
+                    "the file does not parse as an operator file or a session script, so it is not formatted: {e}"
+                ),
+            )
+        })?;
         if formatted == text {
             return Ok(Some(Vec::new()));
         }

@@ -39,18 +39,53 @@ pub const MAX_DEPTH: usize = 128;
 
 /// Parse a whole file, a source of a [`SourceMap`](crate::diag::SourceMap) whose errors point
 /// into it.
+///
+/// The file is parsed one item at a time (`next_item`), each from where the one before ended, so
+/// pest's token queue (about 80 bytes per token, 40 times the text) holds one item, never the
+/// whole file. A mistake is reported as a whole-file parse reports it: the text is parsed again
+/// with `file`, from the start of the item before the one that failed (whose continuation pest
+/// also tries where the next item starts), and the error's place shifted back.
 pub fn parse(source: Src<'_>) -> Result<File, ParseError> {
     let (id, src) = (source.id, source.text);
-    let mut pairs = run(Rule::file, id, src)?;
-    let file = pairs.next().expect("the file rule always yields one pair");
-    let b = Builder { id };
+    // pest recurses once per bracket; refuse deep nesting before it can exhaust the stack.
+    let brackets = delims::scan(src);
+    if let Some(at) = brackets.too_deep {
+        return Err(nesting_too_deep(id, at));
+    }
     let mut items = Vec::new();
-    for p in file.into_inner() {
-        if p.as_rule() != Rule::EOI {
-            items.push(b.item(p)?);
-        }
+    // Where the next item is looked for, and where the last one read started.
+    let (mut pos, mut last_start) = (0, 0);
+    loop {
+        let step = match AdviceParser::parse(Rule::next_item, &src[pos..]) {
+            Ok(mut pairs) => pairs.next().expect("next_item always yields one pair"),
+            Err(e) => {
+                let e = match AdviceParser::parse(Rule::file, &src[last_start..]) {
+                    Err(whole) => shifted(whole, last_start),
+                    // Cannot happen (the item before parsed the same way); the step's own error.
+                    Ok(_) => shifted(e, pos),
+                };
+                return Err(convert(e, id, src, &brackets));
+            }
+        };
+        let Some(p) = step.into_inner().find(|p| p.as_rule() != Rule::EOI) else {
+            break;
+        };
+        let b = Builder { id, base: pos };
+        let span = b.span(&p);
+        items.push(b.item(p)?);
+        (last_start, pos) = (span.start, span.end);
     }
     Ok(File { items })
+}
+
+/// A pest error of text that starts at byte `base` of the source, placed in the source.
+fn shifted(mut e: pest::error::Error<Rule>, base: usize) -> pest::error::Error<Rule> {
+    use pest::error::InputLocation;
+    e.location = match e.location {
+        InputLocation::Pos(p) => InputLocation::Pos(base + p),
+        InputLocation::Span((s, t)) => InputLocation::Span((base + s, base + t)),
+    };
+    e
 }
 
 /// Parse exactly one item, e.g. an operator typed on one REPL line.
@@ -58,7 +93,7 @@ pub fn parse_item(source: Src<'_>) -> Result<Item, ParseError> {
     let (id, src) = (source.id, source.text);
     let mut pairs = run(Rule::single_item, id, src)?;
     let whole = pairs.next().expect("single_item always yields one pair");
-    let b = Builder { id };
+    let b = Builder::new(id);
     let item = whole
         .into_inner()
         .find(|p| p.as_rule() != Rule::EOI)
@@ -122,7 +157,7 @@ impl std::fmt::Display for Invocation {
 pub fn parse_invocation(text: &str) -> Result<Invocation, Sourced<ParseError>> {
     let (mut map, id) = SourceMap::single("invocation", text);
     let parsed = run(Rule::invocation, id, text).and_then(|mut pairs| {
-        let b = Builder { id };
+        let b = Builder::new(id);
         b.invocation(pairs.next().expect("invocation yields one pair"))
     });
     parsed.map_err(|e| map.attach(e))
@@ -133,7 +168,7 @@ impl Builder {
     /// arguments). Its spans are made relative to its own text, which binding diagnostics show;
     /// its errors point into the builder's source.
     pub(crate) fn invocation(&self, p: Pair<'_, Rule>) -> Result<Invocation, ParseError> {
-        let base = p.as_span().start();
+        let base = self.span(&p).start;
         let own = |s: Span| Span::new(s.start - base, s.end - base);
         let text = p.as_str().to_string();
         let mut inner = p.into_inner();

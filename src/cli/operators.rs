@@ -146,8 +146,9 @@ pub fn apply(
 }
 
 /// `advise fmt [--check] FILE...`: each operator file rewritten in the canonical layout (session
-/// scripts: trailing blanks and repeated blank lines only). Every file is tried; a file that does
-/// not parse is reported and left as it was.
+/// scripts: trailing blanks and repeated blank lines only). Every file is tried; a file that is
+/// neither an operator file nor a script (every statement one) is reported and left as it was
+/// ([`crate::session::script::format_file`]).
 pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
     let mut map = SourceMap::new();
     let (mut changed, mut failed) = (0, 0);
@@ -161,11 +162,8 @@ pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
             }
         };
         let text = map.text(id);
-        let formatted = match crate::syntax::fmt::format(map.src(id)) {
+        let formatted = match crate::session::script::format_file(map.src(id)) {
             Ok(f) => f,
-            Err(_) if crate::syntax::fmt::is_script(text) => {
-                crate::syntax::fmt::format_script(text)
-            }
             Err(e) => {
                 print_report(&map, &e);
                 failed += 1;

@@ -82,10 +82,20 @@ pub struct Src<'a> {
     pub text: &'a str,
 }
 
-impl Src<'_> {
+impl<'a> Src<'a> {
     /// The place of `range` in this source.
     pub fn at(&self, range: Range<usize>) -> Loc {
         self.id.at(range)
+    }
+
+    /// The bytes `range` of this source as a source of their own whose errors point into this
+    /// one (a statement of a script, parsed alone, reported at its line of the file).
+    pub fn slice(&self, range: Range<usize>) -> Src<'a> {
+        Src {
+            id: SourceId(self.id.0 + range.start),
+            name: self.name,
+            text: &self.text[range],
+        }
     }
 }
 

@@ -14,7 +14,9 @@ use std::io::{self, Write};
 use std::path::Path;
 
 use super::{Session, origin};
-use crate::syntax::command::{ends_open, is_statement, starts_command};
+use crate::diag::Src;
+use crate::syntax::ParseError;
+use crate::syntax::command::{ends_open, is_statement, parse_statement, starts_command};
 use crate::syntax::delims::LineBrackets;
 
 /// One statement of a script and where it starts (1-based line).
@@ -57,6 +59,50 @@ pub fn statements(text: &str) -> Vec<ScriptStatement> {
     // An unfinished statement at the end is still handed on, so its error is reported.
     out.extend(pending);
     out
+}
+
+/// A file in its canonical layout, as `advise fmt` and the language server's formatting read it:
+/// an operator file when it parses as one ([`crate::syntax::fmt::format`]); a session script when
+/// every statement is one ([`crate::syntax::fmt::format_script`]); otherwise neither, and the
+/// error is that of the reading that got further into the file (on a tie, the operator file's:
+/// a file of operators with a stray command-like line such as `history` is an operator file with
+/// a mistake, not a script).
+pub fn format_file(source: Src<'_>) -> Result<String, ParseError> {
+    let as_operators = match crate::syntax::fmt::format(source) {
+        Ok(formatted) => return Ok(formatted),
+        Err(e) => e,
+    };
+    match first_bad_statement(source) {
+        None => Ok(crate::syntax::fmt::format_script(source.text)),
+        Some(as_script) if reach(&as_script) > reach(&as_operators) => Err(as_script),
+        Some(_) => Err(as_operators),
+    }
+}
+
+/// The error of the first statement of `source` that is not one, read from the file's own bytes
+/// so that it points at its line.
+fn first_bad_statement(source: Src<'_>) -> Option<ParseError> {
+    let text = source.text;
+    let starts: Vec<usize> = std::iter::once(0)
+        .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+        .collect();
+    statements(text).into_iter().find_map(|st| {
+        let start = *starts.get(st.line - 1)?;
+        let next_line = st.line + st.text.matches('\n').count();
+        let end = starts.get(next_line).map_or(text.len(), |&s| s - 1);
+        parse_statement(source.slice(start..end.max(start))).err()
+    })
+}
+
+/// How far into its source an error's reading got: its last label.
+fn reach(e: &ParseError) -> usize {
+    use miette::Diagnostic;
+    e.labels()
+        .into_iter()
+        .flatten()
+        .map(|l| l.offset() + l.len())
+        .max()
+        .unwrap_or(0)
 }
 
 /// Run the statements of the script `text` (read from `path`) on `session` as the REPL would:

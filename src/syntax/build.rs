@@ -13,6 +13,9 @@ use crate::domain::Space;
 pub(super) struct Builder {
     /// Where errors point: the source being parsed is in a map under this id.
     pub(super) id: SourceId,
+    /// Where the text pest parsed starts in the source (a file is parsed one item at a time, each
+    /// from where the one before ended); spans are the source's.
+    pub(super) base: usize,
 }
 
 /// The flat token stream of an `expr` pair, consumed by precedence climbing.
@@ -23,9 +26,14 @@ pub(super) enum Tok<'i> {
 }
 
 impl Builder {
+    /// A builder of spans of the source `id`, for text parsed from its start.
+    pub(super) fn new(id: SourceId) -> Builder {
+        Builder { id, base: 0 }
+    }
+
     pub(super) fn span(&self, p: &Pair<'_, Rule>) -> Span {
         let s = p.as_span();
-        Span::new(s.start(), s.end())
+        Span::new(self.base + s.start(), self.base + s.end())
     }
 
     /// The place of `span` of this source, for an error.

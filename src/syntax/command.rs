@@ -408,7 +408,7 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
             .unwrap_or(e)
     })?;
     let line = pairs.next().expect("session_line always yields one pair");
-    let b = Builder { id };
+    let b = Builder::new(id);
     let Some(p) = line.into_inner().find(|p| p.as_rule() != Rule::EOI) else {
         return Ok(Statement::Empty);
     };
