@@ -1,8 +1,11 @@
 //! `advise lsp`: a language server for operator files (and session scripts) over stdio.
 //!
-//! The protocol is `lsp-server`'s (rust-analyzer's synchronous scaffold) with `lsp-types`; what
-//! the server knows is [`analysis`], in byte offsets, and this module converts to the protocol's
-//! positions (lines and UTF-16 code units) and back. Documents are synced whole. Capabilities:
+//! The messages are `lsp-server`'s (rust-analyzer's synchronous scaffold) with `lsp-types`, but
+//! the framing is ours ([`frame`]: every size bounded before it is allocated, every broken frame a
+//! coded error) and so are the handshake and shutdown ([`serve_io`]); what the server knows is
+//! [`analysis`], in byte offsets, and this module converts to the protocol's positions (lines
+//! and UTF-16 code units) and back. Documents are synced whole and held up to
+//! [`MAX_DOCUMENT_BYTES`]. Capabilities:
 //! diagnostics on open and change (the same codes, messages, help and labels as `advise check`),
 //! hover, completion, go to definition (the standard library is written once into a cache folder
 //! so any editor can open it), formatting (`advise fmt`) and document symbols.

@@ -509,4 +509,32 @@ mod tests {
         let got = frames(&frame(&deep));
         assert!(matches!(&got[0], Ok(Frame::Bad(BodyError::BadJson { .. }))));
     }
+
+    proptest::proptest! {
+        /// Any bytes: frames, coded errors or the end, never a panic; every frame read consumed
+        /// bytes, so reading ends.
+        #[test]
+        fn any_input_is_read_to_an_end(
+            input in proptest::collection::vec(
+                proptest::prop_oneof![
+                    proptest::strategy::Just(b"Content-Length: 2\r\n\r\n{}".to_vec()),
+                    proptest::strategy::Just(b"\r\n".to_vec()),
+                    proptest::strategy::Just(b"Content-Length: 99999999999\r\n".to_vec()),
+                    proptest::collection::vec(proptest::prelude::any::<u8>(), 0..8),
+                ],
+                0..12,
+            )
+        ) {
+            let input: Vec<u8> = input.concat();
+            let mut r = FrameReader::new(input.as_slice());
+            let mut n = 0;
+            while let Ok(Some(f)) = r.next_frame() {
+                if let Frame::Bad(e) = f {
+                    let _ = e.response().to_string();
+                }
+                n += 1;
+                proptest::prop_assert!(n <= input.len());
+            }
+        }
+    }
 }
