@@ -37,17 +37,16 @@ fn standard_operators(bare: bool) -> Vec<String> {
         let (mut docs, mut current): (Vec<&str>, Option<Vec<&str>>) = (Vec::new(), None);
         for line in text.lines().chain([""]) {
             let starts = line.starts_with("operator ") || line.starts_with("domain ");
-            if starts
+            let ends = starts
                 || line.starts_with("///")
                 || line.trim().is_empty()
-                || line.starts_with("// ")
-            {
-                if let Some(c) = current
+                || line.starts_with("// ");
+            if ends
+                && let Some(c) = current
                     .take()
                     .filter(|c| c.iter().any(|l| l.starts_with("operator ")))
-                {
-                    items.push(c.join("\n") + "\n");
-                }
+            {
+                items.push(c.join("\n") + "\n");
             }
             if line.starts_with("///") {
                 if !bare {

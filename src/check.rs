@@ -33,7 +33,6 @@ use std::sync::Arc;
 use crate::diag::suggest::{closest as suggest, hint, listing};
 use crate::diag::{Loc, SourceId, SourceMap, Sourced, Src};
 use crate::domain::Domain;
-use crate::program::ir::BlockIr;
 pub use crate::program::{Call, OperatorSet, Param};
 use crate::program::{DefinitionHash, OpBody, Operator, Stage};
 use crate::syntax::{self, ast::*};
@@ -380,10 +379,9 @@ impl<'s> Checker<'s> {
             def.doc.clear();
             let definition = def.to_string();
             let (body, hash) = match body {
-                Body2::Block(b) => (
-                    OpBody::Block(compile::compile(&b, domain)),
-                    DefinitionHash::of(&definition, []),
-                ),
+                Body2::Block(program) => {
+                    (OpBody::Block(program), DefinitionHash::of(&definition, []))
+                }
                 Body2::Pipeline(steps) => {
                     let stages: Vec<Stage> = steps
                         .into_iter()
@@ -442,9 +440,9 @@ impl<'s> Checker<'s> {
     }
 }
 
-/// A body that passed the checker, before compilation.
+/// A body that passed the checker: a block already compiled, a composition's stages.
 enum Body2 {
-    Block(BlockIr),
+    Block(crate::program::code::Program),
     Pipeline(Vec<Step>),
 }
 

@@ -231,10 +231,14 @@ fn expr() -> impl Strategy<Value = Expr> {
                 inner.clone()
             )
                 .prop_map(|(op, e)| ExprKind::Unary(op, Box::new(e))),
-            (ident(), prop::collection::vec(inner.clone(), 0..4))
-                .prop_map(|(func, args)| ExprKind::Call { func, args }),
+            (ident(), prop::collection::vec(inner.clone(), 0..4)).prop_map(|(func, args)| {
+                ExprKind::Call {
+                    func: Box::new(func),
+                    args,
+                }
+            }),
             (ident(), inner).prop_map(|(dim, off)| ExprKind::At {
-                dim,
+                dim: Box::new(dim),
                 offset: Box::new(off)
             }),
         ]

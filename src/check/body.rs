@@ -128,11 +128,18 @@ impl Checker<'_> {
                         },
                     );
                 }
-                Body2::Block(BlockIr {
+                if self.error_count() != before {
+                    return None;
+                }
+                // Compiled now, not after every body is checked: the program is what the set
+                // keeps, and the IR of all of a large file's operators at once was a third of
+                // the check's peak memory (issue 31).
+                let block = BlockIr {
                     space: o.space,
                     guard,
                     writes,
-                })
+                };
+                Body2::Block(super::compile::compile(&block, domain.domain()))
             }
             Body::Pipeline(calls) => {
                 let mut stages = Vec::new();

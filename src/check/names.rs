@@ -58,6 +58,11 @@ pub(super) struct Dom<'d> {
 }
 
 impl<'d> Dom<'d> {
+    /// The domain itself.
+    pub(super) fn domain(&self) -> &'d Domain {
+        self.domain
+    }
+
     pub(super) fn new(domain: &'d Domain) -> Dom<'d> {
         let mut names = HashMap::new();
         for space in [Space::Observation, Space::Action] {

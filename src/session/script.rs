@@ -199,6 +199,40 @@ mod tests {
         assert_eq!(st.len(), 2, "{st:?}");
     }
 
+    #[test]
+    fn a_file_is_formatted_as_what_it_parses_as_or_refused_with_the_error_that_got_further() {
+        let fmt = |text: &str| {
+            let (map, id) = crate::diag::SourceMap::single("f.adv", text);
+            format_file(map.src(id)).map_err(|e| {
+                let code = miette::Diagnostic::code(&e).unwrap().to_string();
+                // The map's one source starts at global offset 0.
+                let line = text[..reach(&e).min(text.len())].matches('\n').count() + 1;
+                (code, line)
+            })
+        };
+        // The file: an operator file with a mistake and a stray `history`.
+        let broken = "operator c for positioning on action {\n  trans *= 0.5 +\n}\n\nhistory\n";
+        assert_eq!(fmt(broken), Err(("advise::parse::syntax".into(), 3)));
+        // A script with a misspelt command: the script's error, at its line.
+        let script =
+            "task positioning\noperator c for positioning on action {\n trans = 1\n}\nhistroy\n";
+        assert_eq!(
+            fmt(script),
+            Err(("advise::parse::unknown_command".into(), 5))
+        );
+        // A script whose statements all are ones is tidied.
+        assert_eq!(
+            fmt("task positioning  \n\n\nshow\n").unwrap(),
+            "task positioning\n\nshow\n"
+        );
+        // An operator file that parses is laid out.
+        assert!(
+            fmt("operator c for positioning on action {trans=1}")
+                .unwrap()
+                .contains("trans = 1")
+        );
+    }
+
     fn replayed(text: &str, keep_going: bool) -> (usize, String, String) {
         let opts = crate::session::SessionOptions {
             default_demos: 0,

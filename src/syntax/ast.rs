@@ -272,12 +272,13 @@ pub enum ExprKind {
     Var(String),
     /// `bearing[-3]`: a dimension read at a relative offset from the point.
     At {
-        dim: Ident,
+        dim: Box<Ident>,
         offset: Box<Expr>,
     },
-    /// `min(a, b)`
+    /// `min(a, b)` (the names boxed: they are rare, and an expression is as large as its largest
+    /// kind; every node of a 50 MB file's trees is 56 bytes instead of 80)
     Call {
-        func: Ident,
+        func: Box<Ident>,
         args: Vec<Expr>,
     },
     Unary(UnOp, Box<Expr>),

@@ -499,7 +499,7 @@ impl Builder {
             }
             Rule::call_expr => {
                 let mut inner = p.into_inner();
-                let func = self.ident(inner.next().expect("a call has a name"));
+                let func = Box::new(self.ident(inner.next().expect("a call has a name")));
                 let mut args = Vec::new();
                 let mut height = 0;
                 for e in inner.filter(|e| e.as_rule() == Rule::expr) {
@@ -511,7 +511,8 @@ impl Builder {
             }
             Rule::at_expr => {
                 let mut inner = p.into_inner();
-                let dim = self.ident(inner.next().expect("an offset read names a dimension"));
+                let dim =
+                    Box::new(self.ident(inner.next().expect("an offset read names a dimension")));
                 let e = inner
                     .find(|e| e.as_rule() == Rule::expr)
                     .expect("an offset read has an offset");
