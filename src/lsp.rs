@@ -69,7 +69,7 @@ pub enum LspError {
     )]
     ExitWithoutShutdown,
     #[error("cannot write to the client")]
-    #[diagnostic(code(advise::lsp::io))]
+    #[diagnostic(code(advise::lsp::write))]
     Write {
         #[source]
         source: std::io::Error,

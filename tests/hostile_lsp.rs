@@ -161,7 +161,7 @@ fn every_broken_frame_ends_in_a_coded_diagnostic_and_exit_code_1() {
         (
             "two lengths",
             b"Content-Length: 2\r\nContent-Length: 3\r\n\r\n{}".to_vec(),
-            "bad_content_length",
+            "two_content_lengths",
             true,
         ),
         (
@@ -191,7 +191,7 @@ fn every_broken_frame_ends_in_a_coded_diagnostic_and_exit_code_1() {
         (
             "end inside the header",
             b"Content-Length: 52\r\n".to_vec(),
-            "truncated",
+            "truncated_header",
             false,
         ),
         (

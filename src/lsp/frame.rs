@@ -56,7 +56,7 @@ pub enum FrameError {
     BadContentLength { message: u64, value: String },
     #[error("message {message} has two `Content-Length` headers ({first} and {second})")]
     #[diagnostic(
-        code(advise::lsp::bad_content_length),
+        code(advise::lsp::two_content_lengths),
         help("a message has one `Content-Length`")
     )]
     TwoContentLengths {
@@ -95,7 +95,7 @@ pub enum FrameError {
     BadHeader { message: u64, line: String },
     #[error("the input ended inside the header of message {message}")]
     #[diagnostic(
-        code(advise::lsp::truncated),
+        code(advise::lsp::truncated_header),
         help("the client closed the connection in the middle of a message")
     )]
     EndInHeader { message: u64 },
@@ -108,7 +108,7 @@ pub enum FrameError {
     )]
     EndInBody { message: u64, length: u64, got: u64 },
     #[error("cannot read the client's messages")]
-    #[diagnostic(code(advise::lsp::io))]
+    #[diagnostic(code(advise::lsp::read))]
     Io {
         #[source]
         source: io::Error,
@@ -444,11 +444,11 @@ mod tests {
             (b"Content-Length: +5\r\n\r\n{}", "bad_content_length"),
             (
                 b"Content-Length: 2\r\nContent-Length: 2\r\n\r\n{}",
-                "bad_content_length",
+                "two_content_lengths",
             ),
             (b"Content-Length: 2\n\n{}", "bad_header"),
             (b"Content-Length 2\r\n\r\n{}", "bad_header"),
-            (b"Content-Length: 2\r\n", "truncated"),
+            (b"Content-Length: 2\r\n", "truncated_header"),
             (b"Content-Length: 10\r\n\r\n{}", "truncated"),
         ];
         for (input, code) in cases {
@@ -463,7 +463,7 @@ mod tests {
         let mut many = b"Content-Length: 2\r\n".to_vec();
         many.extend(b"X: y\r\n".repeat(MAX_HEADER_BYTES));
         assert!(last_error(&many).starts_with("advise::lsp::header_too_long"));
-        assert!(last_error(b"Content-Le").starts_with("advise::lsp::truncated"));
+        assert!(last_error(b"Content-Le").starts_with("advise::lsp::truncated_header"));
         assert!(last_error(b"\xff\xfe: 1\r\n\r\n").starts_with("advise::lsp::bad_header"));
     }
 
