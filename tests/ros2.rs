@@ -222,6 +222,63 @@ fn lost_odometry_is_link_lost_and_stops_the_cyclone_robot() {
     assert_last_is_zero(&peer);
 }
 
+/// Odometry that turns NaN, infinite, absurd or jumps mid-run: the base gets zero within 100 ms of
+/// the first corrupt sample and nothing but zero after it, the run ends with a code, and what was
+/// driven before is kept (issue 31: the base kept receiving a constant Twist for 60 s).
+#[test]
+fn corrupt_odometry_stops_the_cyclone_robot_within_100_ms() {
+    if !isolated_with_peer("corrupt_odometry_stops_the_cyclone_robot_within_100_ms") {
+        return;
+    }
+    for value in ["nan", "inf", "1e300", "jump"] {
+        let dir = tempfile::tempdir().unwrap();
+        let peer = Peer::start(
+            dir.path(),
+            &["--odom-bad-after", "1.0", "--odom-bad-value", value],
+        );
+        let out = finish(
+            spawn_eval(&["--backend", "ros2", "--limit", "2"]),
+            Duration::from_secs(60),
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{value}: {stderr}");
+        assert!(
+            stderr.contains("advise::backend::bad_odometry"),
+            "{value}: {stderr}"
+        );
+        assert!(stderr.contains("interrupted"), "{value}: {stderr}");
+        assert_last_is_zero(&peer);
+        let bad = peer
+            .bad_since()
+            .expect("the peer published corrupt odometry");
+        let c = peer.commands();
+        assert!(
+            c.iter().any(|c| c.0 < bad && c.1 != 0.0),
+            "{value}: the robot was never driven before: {c:?}"
+        );
+        // The peer logs a command when its 50 Hz loop takes it: up to 20 ms after its arrival.
+        let first_zero = c
+            .iter()
+            .find(|c| c.0 >= bad && c.1 == 0.0 && c.2 == 0.0)
+            .expect("zero after the corrupt odometry");
+        eprintln!(
+            "{value}: first zero {:.1} ms after the first corrupt odometry",
+            (first_zero.0 - bad) * 1000.0
+        );
+        assert!(
+            first_zero.0 - bad <= 0.1,
+            "{value}: the first zero came {:.3} s after the corrupt odometry",
+            first_zero.0 - bad
+        );
+        assert!(
+            c.iter()
+                .filter(|c| c.0 > first_zero.0)
+                .all(|c| c.1 == 0.0 && c.2 == 0.0),
+            "{value}: a non-zero command after the stop: {c:?}"
+        );
+    }
+}
+
 fn connect(spec: &str) -> Result<Ros2Backend, BackendError> {
     let BackendSpec::Ros2(spec) = spec.parse::<BackendSpec>().unwrap() else {
         unreachable!()

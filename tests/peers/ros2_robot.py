@@ -110,6 +110,10 @@ def main():
     ap.add_argument("--odom-qos", choices=["reliable", "best-effort"], default="best-effort")
     ap.add_argument("--odom-stop-after", type=float, default=None,
                     help="stop publishing odometry this long after the first non-zero command")
+    ap.add_argument("--odom-bad-after", type=float, default=None,
+                    help="publish corrupt odometry this long after the first non-zero command")
+    ap.add_argument("--odom-bad-value", default="nan",
+                    help="the corrupt odometry's x: nan, inf, a number, or `jump` (x + 50 m)")
     ap.add_argument("--frame-id", default="odom")
     ap.add_argument("--child-frame-id", default="base_link")
     ap.add_argument("--teleop", default=None,
@@ -140,6 +144,7 @@ def main():
     x = y = th = 0.0
     v = w = 0.0
     first_motion = None
+    bad_since = None
     last = t0
     print("ready", flush=True)
     done = False
@@ -177,6 +182,16 @@ def main():
         th = math.atan2(math.sin(th + w * dt), math.cos(th + w * dt))
         stopped = (args.odom_stop_after is not None and first_motion is not None
                    and now - first_motion > args.odom_stop_after)
+        bad = (args.odom_bad_after is not None and first_motion is not None
+               and now - first_motion > args.odom_bad_after)
+        x_out = x
+        if bad:
+            if bad_since is None:
+                bad_since = time.monotonic()
+                # The time the first corrupt sample is published, on the log's clock.
+                log.write(f"# bad {bad_since - t0:.4f}\n")
+            v_bad = args.odom_bad_value
+            x_out = x + 50.0 if v_bad == "jump" else float(v_bad)
         if not stopped:
             wall = time.time()
             odom_writer.write(Odometry(
@@ -184,7 +199,7 @@ def main():
                               frame_id=args.frame_id),
                 child_frame_id=args.child_frame_id,
                 pose=PoseWithCovariance(
-                    pose=Pose(Point(x, y, 0.0),
+                    pose=Pose(Point(x_out, y, 0.0),
                               Quaternion(0.0, 0.0, math.sin(th / 2), math.cos(th / 2))),
                     covariance=[0.0] * 36),
                 twist=TwistWithCovariance(twist=twist(v, w), covariance=[0.0] * 36),

@@ -32,6 +32,9 @@ const REST_MPS: f64 = 0.02;
 const REST_RADPS: f64 = 0.05;
 /// The longest `reset` waits for a moving base to come to rest.
 const REST_WAIT: Duration = Duration::from_secs(3);
+/// A jump between two odometry samples beyond what the base could drive in the time between them
+/// (at twice its speed limit) plus this margin is a corrupt value, not motion.
+const ODOM_JUMP_MARGIN_M: f64 = 0.5;
 
 /// The newest odometry, as received.
 #[derive(Clone, Debug)]
@@ -46,6 +49,28 @@ pub struct OdomSample {
 }
 
 impl OdomSample {
+    /// Why this sample cannot be a base's odometry: what [`crate::backend::odometry_fault`]
+    /// refuses, or a jump from `previous` farther than the base could have driven.
+    pub fn fault(&self, previous: Option<&OdomSample>, max_speed_mps: f64) -> Option<String> {
+        if let Some(why) = crate::backend::odometry_fault(self.pose, self.speed_mps, self.rot_radps)
+        {
+            return Some(why);
+        }
+        let previous = previous?;
+        let jump_m = (self.pose.x_m - previous.pose.x_m).hypot(self.pose.y_m - previous.pose.y_m);
+        let dt_s = self
+            .received
+            .saturating_duration_since(previous.received)
+            .as_secs_f64();
+        let reach_m = 2.0 * max_speed_mps * dt_s + ODOM_JUMP_MARGIN_M;
+        (jump_m > reach_m).then(|| {
+            format!(
+                "it jumped {jump_m:.3} m in {:.0} ms (the base reaches {reach_m:.3} m at most)",
+                dt_s * 1000.0
+            )
+        })
+    }
+
     pub(super) fn from_msg(o: &Odometry, received: Instant) -> OdomSample {
         OdomSample {
             pose: o.planar_pose(),
@@ -71,6 +96,11 @@ struct Safety {
     last_zero_at: Option<Instant>,
     /// Set by the stop handle (Ctrl-C): commands are refused until the next reset.
     stopped: Option<String>,
+    /// Set by the reader on a corrupt odometry sample (the base is zeroed at once): the run ends
+    /// and commands are refused until the next reset.
+    bad_odometry: Option<String>,
+    /// Whether the newest sample received was corrupt (a reset waits for a good one).
+    last_was_bad: bool,
     watchdog_trips: u64,
     published: u64,
 }
@@ -109,6 +139,30 @@ impl Link {
         }
         // A failed publish is retried by the repeats.
         let _ = self.publish(Twist::ZERO);
+    }
+
+    /// Take one odometry sample. A corrupt one (see [`OdomSample::fault`]) is never used: the
+    /// base is zeroed here, on the reader's thread within a poll of its arrival, rather than a
+    /// control period later, and the run is ended by the next `step` or `command`.
+    fn receive(&self, sample: OdomSample) {
+        let fault = {
+            let mut s = self.lock();
+            s.odom_count += 1;
+            let fault = sample.fault(s.latest.as_ref(), self.config.max_speed_mps);
+            s.last_was_bad = fault.is_some();
+            match &fault {
+                Some(why) => {
+                    if s.bad_odometry.is_none() {
+                        s.bad_odometry = Some(why.clone());
+                    }
+                }
+                None => s.latest = Some(sample),
+            }
+            fault.is_some()
+        };
+        if fault {
+            self.zero_now();
+        }
     }
 
     /// One watchdog round: repeat zero while a stop lasts; stop a base the session left moving.
@@ -209,6 +263,8 @@ impl Ros2Backend {
                 zero_until: None,
                 last_zero_at: None,
                 stopped: None,
+                bad_odometry: None,
+                last_was_bad: false,
                 watchdog_trips: 0,
                 published: 0,
             }),
@@ -222,23 +278,17 @@ impl Ros2Backend {
                 .name("ros2-odom".into())
                 .spawn(move || {
                     while !link.shutdown.load(Ordering::Relaxed) {
-                        let mut newest = None;
                         let mut n = 0;
                         // Bounded: a flood cannot keep this loop from checking `shutdown`.
                         while n < 1000 {
                             match subscription.take() {
                                 Ok(Some((o, _))) => {
-                                    newest = Some(o);
                                     n += 1;
+                                    link.receive(OdomSample::from_msg(&o, Instant::now()));
                                 }
                                 // An undecodable sample is skipped; silence shows as staleness.
                                 Ok(None) | Err(_) => break,
                             }
-                        }
-                        if let Some(o) = newest {
-                            let mut s = link.lock();
-                            s.latest = Some(OdomSample::from_msg(&o, Instant::now()));
-                            s.odom_count += n;
                         }
                         std::thread::sleep(POLL);
                     }
@@ -274,6 +324,12 @@ impl Ros2Backend {
                 break;
             }
             if now.elapsed() >= wait {
+                if let Some(what) = backend.link.lock().bad_odometry.clone() {
+                    return Err(BackendError::BadOdometry {
+                        topic: spec.odom(),
+                        what,
+                    });
+                }
                 let discovered = backend._node.discovered();
                 return Err(BackendError::NoOdometry {
                     topic: spec.odom(),
@@ -340,9 +396,39 @@ impl Ros2Backend {
         Duration::from_millis(self.spec.odom_timeout_ms)
     }
 
-    /// The newest odometry if it is fresh; else zero is commanded and the link is lost.
+    /// The error that ends a run the stop handle or the odometry reader halted (the base is
+    /// already zeroed), if either did.
+    fn refuse_if_halted(&self) -> Result<(), BackendError> {
+        let s = self.link.lock();
+        if let Some(reason) = s.stopped.clone() {
+            return Err(BackendError::Stopped { reason });
+        }
+        if let Some(what) = s.bad_odometry.clone() {
+            return Err(BackendError::BadOdometry {
+                topic: self.spec.odom(),
+                what,
+            });
+        }
+        Ok(())
+    }
+
+    /// The newest odometry if it is fresh and the newest sample was not corrupt; else zero is
+    /// commanded and the run cannot go on.
     fn fresh(&self) -> Result<OdomSample, BackendError> {
-        let latest = self.link.lock().latest.clone();
+        let (latest, bad) = {
+            let s = self.link.lock();
+            (
+                s.latest.clone(),
+                s.last_was_bad.then(|| s.bad_odometry.clone()),
+            )
+        };
+        if let Some(what) = bad {
+            self.link.zero_now();
+            return Err(BackendError::BadOdometry {
+                topic: self.spec.odom(),
+                what: what.unwrap_or_else(|| "the newest sample is corrupt".into()),
+            });
+        }
         match latest {
             Some(o) if o.received.elapsed() <= self.odom_timeout() => Ok(o),
             other => {
@@ -366,7 +452,11 @@ impl Backend for Ros2Backend {
     }
 
     fn reset(&mut self, start: Pose) -> Result<BaseState, BackendError> {
-        self.link.lock().stopped = None;
+        {
+            let mut s = self.link.lock();
+            s.stopped = None;
+            s.bad_odometry = None;
+        }
         // A base still moving is stopped and allowed to come to rest before odometry is re-zeroed.
         let began = Instant::now();
         loop {
@@ -402,9 +492,7 @@ impl Backend for Ros2Backend {
     }
 
     fn command(&mut self, speed_mps: f64, rot_radps: f64) -> Result<(), BackendError> {
-        if let Some(reason) = self.link.lock().stopped.clone() {
-            return Err(BackendError::Stopped { reason });
-        }
+        self.refuse_if_halted()?;
         let (v, w) = self.config.clamp(speed_mps, rot_radps);
         {
             let mut s = self.link.lock();
@@ -427,9 +515,7 @@ impl Backend for Ros2Backend {
 
     fn step(&mut self) -> Result<BaseState, BackendError> {
         crate::backend::wait_for_tick(&mut self.next_deadline, self.config.period_s);
-        if let Some(reason) = self.link.lock().stopped.clone() {
-            return Err(BackendError::Stopped { reason });
-        }
+        self.refuse_if_halted()?;
         let o = self.fresh()?;
         let pose = match self.frame {
             Some((origin, start)) => crate::geometry::rezero(origin, start, o.pose),
