@@ -133,6 +133,10 @@ pub struct Ros2SimArgs {
     /// Seeds the simulator's noise.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Seconds a command is held with no newer one before the simulated base stops itself, as a
+    /// real base's controller does (0.05 to 10).
+    #[arg(long, value_name = "SECONDS", default_value_t = crate::backend::ros2::robot::COMMAND_TIMEOUT_S)]
+    pub command_timeout: f64,
 }
 
 #[derive(Args)]

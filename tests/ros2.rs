@@ -508,3 +508,85 @@ fn teleop_drives_the_cyclone_robot_and_ends_at_zero() {
     );
     assert_last_is_zero(&peer);
 }
+
+/// `ros2-sim` behaves like a base (issue 35): a command publisher that stops mid-drive (a driver
+/// that exited) leaves it at rest after its command timeout, whether the publisher is reliable or
+/// best-effort (a reliable-only reader got nothing from a best-effort one), and its frames are
+/// under its namespace. Both the publisher and the odometry reader are Cyclone DDS.
+#[test]
+fn ros2_sim_stops_by_itself_when_commands_stop_and_takes_best_effort_commands() {
+    let name = "ros2_sim_stops_by_itself_when_commands_stop_and_takes_best_effort_commands";
+    if !isolated_with_peer(name) {
+        return;
+    }
+    for qos in ["reliable", "best-effort"] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut sim = advise();
+        sim.args(["ros2-sim", "--namespace", "/sim"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped());
+        let sim = Running(sim.spawn().expect("ros2-sim starts"));
+        let log = dir.path().join("odom.log");
+        let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/peers/ros2_cmd_publisher.py");
+        let python = std::env::var(peer::PYTHON_ENV).expect("the parent passes the venv's python");
+        let mut publisher = Command::new(python);
+        publisher
+            .arg(script)
+            .args(["--namespace", "/sim", "--qos", qos, "--log"])
+            .arg(&log)
+            .env("CYCLONEDDS_URI", peer::CYCLONE_URI)
+            .stdout(Stdio::null());
+        let publisher = Running(publisher.spawn().expect("the publisher starts"));
+        let out = finish(publisher, Duration::from_secs(60));
+        assert!(out.status.success(), "{qos}: the publisher failed");
+        // SAFETY: a signal to our own child.
+        unsafe {
+            libc::kill(sim.0.id() as libc::pid_t, libc::SIGINT);
+        }
+        let sim_out = finish(sim, Duration::from_secs(10));
+        let sim_err = String::from_utf8_lossy(&sim_out.stderr);
+        let text = std::fs::read_to_string(&log).unwrap();
+        let stopped: f64 = text
+            .lines()
+            .find_map(|l| l.strip_prefix("# stopped ")?.trim().parse().ok())
+            .expect("the publisher stopped");
+        let odom: Vec<(f64, f64, String, String)> = text
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .filter_map(|l| {
+                let f: Vec<&str> = l.split_whitespace().collect();
+                Some((
+                    f.first()?.parse().ok()?,
+                    f.get(1)?.parse().ok()?,
+                    f.get(2)?.to_string(),
+                    f.get(3)?.to_string(),
+                ))
+            })
+            .collect();
+        assert!(
+            odom.iter().any(|o| o.0 < stopped && o.1 > 0.3),
+            "{qos}: the base never drove: {sim_err}\n{text}"
+        );
+        assert!(
+            odom.iter()
+                .all(|o| o.2 == "sim/odom" && o.3 == "sim/base_link"),
+            "{qos}: frames {:?}",
+            odom.first()
+        );
+        let late: Vec<f64> = odom
+            .iter()
+            .filter(|o| o.0 > stopped + 2.0)
+            .map(|o| o.1)
+            .collect();
+        assert!(
+            !late.is_empty(),
+            "{qos}: no odometry after the stop: {text}"
+        );
+        assert!(
+            late.iter().all(|v| v.abs() < 0.02),
+            "{qos}: still moving 2 s after the commands stopped: {late:?}"
+        );
+        assert!(sim_err.contains("1 command timeouts"), "{qos}: {sim_err}");
+    }
+}

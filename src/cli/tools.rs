@@ -318,23 +318,33 @@ pub fn ros2_sim(args: Ros2SimArgs) -> miette::Result<()> {
             args.namespace
         ));
     };
+    if !(args.command_timeout.is_finite() && (0.05..=10.0).contains(&args.command_timeout)) {
+        return Err(miette::miette!(
+            code = "advise::cli::command_timeout",
+            help = "a base stops itself within about half a second (the default, 0.5)",
+            "--command-timeout {} is outside 0.05 to 10 seconds",
+            args.command_timeout
+        ));
+    }
     let stop = StopSignal::new();
     crate::repl::install_ctrl_c(&stop);
     let counts = crate::backend::ros2::robot::run_robot(
         &spec,
         params,
         args.seed,
+        args.command_timeout,
         &stop,
         |cmd, odom, domain| {
             eprintln!(
-                "ros2-sim: commands on {cmd}, odometry on {odom} at 50 Hz, domain {domain}; drive it with `--backend {}`; Ctrl-C stops it",
+                "ros2-sim: commands on {cmd}, odometry on {odom} at 50 Hz, domain {domain}; a command is held for {} s; drive it with `--backend {}`; Ctrl-C stops it",
+                args.command_timeout,
                 BackendSpec::Ros2(spec.clone())
             )
         },
     )?;
     eprintln!(
-        "ros2-sim: {} commands received, {} odometry messages published",
-        counts.commands, counts.odometry
+        "ros2-sim: {} commands received, {} odometry messages published, {} command timeouts",
+        counts.commands, counts.odometry, counts.timeouts
     );
     Ok(())
 }
