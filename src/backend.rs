@@ -127,6 +127,27 @@ pub enum BackendError {
         waited_ms: u64,
         discovered: String,
     },
+    #[error("nothing reads commands on {topic} (domain {domain_id}) after {waited_ms} ms")]
+    #[diagnostic(
+        code(advise::backend::no_command_reader),
+        help(
+            "{why}. Commands are sent only once the base's command subscription is matched, so none went unread"
+        )
+    )]
+    NoCommandReader {
+        topic: String,
+        domain_id: u16,
+        waited_ms: u64,
+        why: String,
+    },
+    #[error("the base's command reader on {topic} went away mid-run")]
+    #[diagnostic(
+        code(advise::backend::command_reader_gone),
+        help(
+            "zero was commanded and the execution so far is kept; check that the base's driver still runs"
+        )
+    )]
+    CommandReaderGone { topic: String },
     #[error("corrupt odometry on {topic}: {what}")]
     #[diagnostic(
         code(advise::backend::bad_odometry),

@@ -590,3 +590,64 @@ fn ros2_sim_stops_by_itself_when_commands_stop_and_takes_best_effort_commands() 
         assert!(sim_err.contains("1 command timeouts"), "{qos}: {sim_err}");
     }
 }
+
+/// A base that takes `TwistStamped` on cmd_vel (ros2_control's diff_drive_controller and Nav2 on
+/// Jazzy) is driven with `TwistStamped` in its own frame, found by discovery; `stamped=false`
+/// against it is refused before any command, naming the type (issue 35: it got 0 commands while
+/// the session "ran" for 60 s).
+#[test]
+fn a_twist_stamped_base_is_driven_with_twist_stamped() {
+    if !isolated_with_peer("a_twist_stamped_base_is_driven_with_twist_stamped") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::start(dir.path(), &["--cmd-type", "stamped"]);
+    let out = finish(
+        spawn_eval(&["--backend", "ros2", "--limit", "1"]),
+        Duration::from_secs(120),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let commands = peer.commands();
+    assert!(commands.iter().any(|c| c.1 > 0.1), "{commands:?}");
+    assert_last_is_zero(&peer);
+    let log = std::fs::read_to_string(&peer.log).unwrap();
+    assert!(
+        log.lines().all(|l| l.ends_with(" base_link")),
+        "every command in the base's frame: {log}"
+    );
+
+    let out = finish(
+        spawn_eval(&["--backend", "ros2?stamped=false&wait=3", "--limit", "1"]),
+        Duration::from_secs(60),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("advise::backend::no_command_reader")
+            && stderr.contains("a reader takes TwistStamped"),
+        "{stderr}"
+    );
+}
+
+/// A base whose cmd_vel reader asks for transient_local durability matches no command publisher:
+/// connecting is refused with the reason, and the base receives nothing (issue 35).
+#[test]
+fn a_transient_local_command_reader_is_refused_before_any_command() {
+    if !isolated_with_peer("a_transient_local_command_reader_is_refused_before_any_command") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::start(dir.path(), &["--cmd-durability", "transient-local"]);
+    let out = finish(
+        spawn_eval(&["--backend", "ros2?wait=3", "--limit", "1"]),
+        Duration::from_secs(60),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("advise::backend::no_command_reader") && stderr.contains("transient_local"),
+        "{stderr}"
+    );
+    assert!(peer.commands().is_empty(), "{:?}", peer.commands());
+}
