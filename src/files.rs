@@ -507,7 +507,10 @@ fn temp_owner(file_name: &str, base: &str) -> Option<u32> {
 
 /// Whether a process `pid` exists (a signal 0 reaches it, or it belongs to another user).
 fn alive(pid: u32) -> bool {
-    let Some(pid) = i32::try_from(pid).ok().and_then(rustix::process::Pid::from_raw) else {
+    let Some(pid) = i32::try_from(pid)
+        .ok()
+        .and_then(rustix::process::Pid::from_raw)
+    else {
         return false;
     };
     !matches!(

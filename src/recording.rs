@@ -77,7 +77,8 @@ impl ImportOptions {
 
 /// Refuse a sample whose pose or command is not finite or beyond the physical bounds.
 pub fn check_samples(path: &Path, run: &[Sample], at: Locate<'_>) -> Result<(), ImportError> {
-    run.iter().try_for_each(|s| check_sample(path, s, || at(s.0)))
+    run.iter()
+        .try_for_each(|s| check_sample(path, s, || at(s.0)))
 }
 
 /// [`check_samples`] of one sample, located by `at`.
@@ -398,7 +399,9 @@ pub enum ImportError {
         what: String,
         value: String,
     },
-    #[error("{path}, {at}: the {what} is {value}, beyond the {bound} any recording of a base holds")]
+    #[error(
+        "{path}, {at}: the {what} is {value}, beyond the {bound} any recording of a base holds"
+    )]
     #[diagnostic(
         code(advise::import::implausible),
         help(

@@ -77,8 +77,16 @@ pub fn demo_fault(
 ) -> Option<(usize, crate::domain::Space, usize, f64, ValueFault)> {
     use crate::domain::Space;
     (0..trace.len()).find_map(|i| {
-        let z = trace.z(i).iter().enumerate().map(|(k, v)| (Space::Observation, k, *v));
-        let a = trace.a(i).iter().enumerate().map(|(k, v)| (Space::Action, k, *v));
+        let z = trace
+            .z(i)
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (Space::Observation, k, *v));
+        let a = trace
+            .a(i)
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (Space::Action, k, *v));
         z.chain(a).find_map(|(space, k, v)| {
             demo_value_fault(domain, space, k, v).map(|f| (i, space, k, v, f))
         })

@@ -87,7 +87,9 @@ fn bag(n: usize, odom: impl Fn(usize) -> Pose, cmd: impl Fn(usize) -> (f64, f64)
         .add_schema("geometry_msgs/msg/Twist", "ros2msg", b"")
         .unwrap();
     let cmd_ch = w.add_channel(s, "/cmd_vel", "cdr", &none).unwrap();
-    let s = w.add_schema("nav_msgs/msg/Odometry", "ros2msg", b"").unwrap();
+    let s = w
+        .add_schema("nav_msgs/msg/Odometry", "ros2msg", b"")
+        .unwrap();
     let odom_ch = w.add_channel(s, "/odom", "cdr", &none).unwrap();
     let t0 = 1_700_000_000_000_000_000u64;
     for i in 0..n {
@@ -116,10 +118,7 @@ fn bag(n: usize, odom: impl Fn(usize) -> Pose, cmd: impl Fn(usize) -> (f64, f64)
 fn run(args: &[&str], files: Vec<(&str, Vec<u8>)>) -> (Invocation, common::Output) {
     let inv = Invocation {
         args: args.iter().map(|s| s.to_string()).collect(),
-        files: files
-            .into_iter()
-            .map(|(n, b)| (n.to_string(), b))
-            .collect(),
+        files: files.into_iter().map(|(n, b)| (n.to_string(), b)).collect(),
     };
     let out = inv.run();
     (inv, out)
@@ -146,7 +145,10 @@ fn shown(inv: &Invocation, out: &common::Output) -> String {
 fn decompression_bombs_are_refused_with_the_chunk_the_sizes_and_the_bound() {
     let cases: Vec<(&str, Vec<u8>)> = vec![
         // 3.2 GB declared: refused from the header, nothing decompressed.
-        ("huge.mcap", bomb("zstd", 3_200_000_000, &zstd_zeros(1 << 20))),
+        (
+            "huge.mcap",
+            bomb("zstd", 3_200_000_000, &zstd_zeros(1 << 20)),
+        ),
         // 32 MiB of zeros (under the per-chunk bound) in a few KB: the ratio.
         ("ratio.mcap", bomb("zstd", 32 << 20, &zstd_zeros(32 << 20))),
         // The header says 1,000 bytes; the data expands to 16 MiB.
@@ -353,11 +355,7 @@ fn an_output_that_is_an_input_is_refused() {
                   plot DIR/ds.json\nload demos DIR/demos.csv\nsave DIR/demos.csv\nexport lerobot DIR/demos.csv\nsave DIR/ds.json\n"
         .replace("DIR", &d.display().to_string());
     let t = common::raw_transcript(&mut s, &script);
-    assert_eq!(
-        t.matches("advise::file::output_is_input").count(),
-        6,
-        "{t}"
-    );
+    assert_eq!(t.matches("advise::file::output_is_input").count(), 6, "{t}");
     assert!(t.contains("saved "), "saving back to the opened file: {t}");
     text.push_str(&t);
     common::masked(Some(d)).bind(|| insta::assert_snapshot!(text));
@@ -517,9 +515,16 @@ fn kill_9_during_a_lerobot_export_leaves_the_directory_whole_or_absent() {
     for k in 0..20u32 {
         let out = d.join("out");
         let after = full.mul_f64(f64::from(k) / 20.0);
-        killed += usize::from(kill_after(d, &["export", "big.json", "--lerobot", "out"], after));
+        killed += usize::from(kill_after(
+            d,
+            &["export", "big.json", "--lerobot", "out"],
+            after,
+        ));
         if out.exists() {
-            assert!(whole(&out), "kill {k} after {after:?} left a partial export");
+            assert!(
+                whole(&out),
+                "kill {k} after {after:?} left a partial export"
+            );
             std::fs::remove_dir_all(&out).unwrap();
         }
     }
@@ -543,7 +548,11 @@ fn temporaries_of_dead_processes_are_removed_and_live_ones_kept() {
     // A big log, so that the import is killed while it writes.
     let mut log = String::from("time,x,y,theta,v,w\n");
     for i in 0..200_000 {
-        log.push_str(&format!("{},{},0,0,0.3,0\n", i as f64 * 0.02, i as f64 * 0.006));
+        log.push_str(&format!(
+            "{},{},0,0,0.3,0\n",
+            i as f64 * 0.02,
+            i as f64 * 0.006
+        ));
     }
     std::fs::write(d.join("log.csv"), log).unwrap();
     let args = ["import", "log.csv", "--out", "out.json"];

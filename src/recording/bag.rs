@@ -304,51 +304,49 @@ pub fn import_bag(
         // Bounded, and a FIFO or device named `x.mcap` is refused without being opened.
         let bytes = crate::files::read_bytes_limited(&file, MAX_BAG_FILE_BYTES)?;
         let mut roles: HashMap<u16, Option<Role>> = HashMap::new();
-        let mut on_message = |id: u16,
-                              channel: &Channel,
-                              t_ns: u64,
-                              data: &[u8]|
-         -> Result<(), ImportError> {
-            let role = match roles.get(&id) {
-                Some(r) => *r,
-                None => {
-                    let role = channel_role(&file, channel, &cmd_topic, &odom_topic, &mut topics)?;
-                    roles.insert(id, role);
-                    role
+        let mut on_message =
+            |id: u16, channel: &Channel, t_ns: u64, data: &[u8]| -> Result<(), ImportError> {
+                let role = match roles.get(&id) {
+                    Some(r) => *r,
+                    None => {
+                        let role =
+                            channel_role(&file, channel, &cmd_topic, &odom_topic, &mut topics)?;
+                        roles.insert(id, role);
+                        role
+                    }
+                };
+                let Some(role) = role else {
+                    return Ok(());
+                };
+                let bad = |reason: String| ImportError::BadMessage {
+                    path: file.clone(),
+                    topic: channel.topic.clone(),
+                    t_ns,
+                    reason,
+                };
+                match role {
+                    Role::Twist => {
+                        let m: Twist = decode(data).map_err(bad)?;
+                        let value = (m.linear.x, m.angular.z);
+                        check_command(&file, channel, t_ns, value)?;
+                        commands.push(Timed { t_ns, value });
+                    }
+                    Role::TwistStamped => {
+                        let m: TwistStamped = decode(data).map_err(bad)?;
+                        let value = (m.twist.linear.x, m.twist.angular.z);
+                        check_command(&file, channel, t_ns, value)?;
+                        commands.push(Timed { t_ns, value });
+                    }
+                    Role::Odometry => {
+                        let m: Odometry = decode(data).map_err(bad)?;
+                        let pose = m.planar_pose();
+                        let sample = (0.0, pose, 0.0, 0.0);
+                        super::check_sample(&file, &sample, || located(channel, t_ns))?;
+                        odometry.push(Timed { t_ns, value: pose });
+                    }
                 }
+                Ok(())
             };
-            let Some(role) = role else {
-                return Ok(());
-            };
-            let bad = |reason: String| ImportError::BadMessage {
-                path: file.clone(),
-                topic: channel.topic.clone(),
-                t_ns,
-                reason,
-            };
-            match role {
-                Role::Twist => {
-                    let m: Twist = decode(data).map_err(bad)?;
-                    let value = (m.linear.x, m.angular.z);
-                    check_command(&file, channel, t_ns, value)?;
-                    commands.push(Timed { t_ns, value });
-                }
-                Role::TwistStamped => {
-                    let m: TwistStamped = decode(data).map_err(bad)?;
-                    let value = (m.twist.linear.x, m.twist.angular.z);
-                    check_command(&file, channel, t_ns, value)?;
-                    commands.push(Timed { t_ns, value });
-                }
-                Role::Odometry => {
-                    let m: Odometry = decode(data).map_err(bad)?;
-                    let pose = m.planar_pose();
-                    let sample = (0.0, pose, 0.0, 0.0);
-                    super::check_sample(&file, &sample, || located(channel, t_ns))?;
-                    odometry.push(Timed { t_ns, value: pose });
-                }
-            }
-            Ok(())
-        };
         let read = super::mcap_read::read_messages(
             &file,
             &bytes,
@@ -410,7 +408,7 @@ pub fn import_bag(
             } else {
                 stem.clone()
             };
-            let at = |t: f64| format!("the command on {cmd_topic} at log time {t:.9} s");
+            let at = |t: f64| format!("the command on {cmd_topic} at log time {t:.6} s");
             options.checked_episode(path, name, run, &at)
         })
         .collect::<Result<_, _>>()?;

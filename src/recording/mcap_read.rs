@@ -219,8 +219,8 @@ impl Walker<'_, '_, '_> {
     /// A chunk at byte `at` of the file: its header checked against the bounds before anything is
     /// decompressed, then decompressed through a bounded reader and walked.
     fn chunk(&mut self, at: u64, body: &[u8]) -> Result<(), Stop> {
-        let Record::Chunk { header, data } = mcap::parse_record(op::CHUNK, body)
-            .map_err(|e| Stop::Damaged(e.to_string()))?
+        let Record::Chunk { header, data } =
+            mcap::parse_record(op::CHUNK, body).map_err(|e| Stop::Damaged(e.to_string()))?
         else {
             return Err(Stop::Damaged("a chunk record that is not a chunk".into()));
         };
@@ -233,8 +233,8 @@ impl Walker<'_, '_, '_> {
             return Err(Stop::Refused(ImportError::ChunkTooLarge {
                 path: path(),
                 offset: at,
-                size: fmt_bytes(size),
-                compressed: fmt_bytes(compressed),
+                size: sized(size),
+                compressed: sized(compressed),
                 cap: fmt_bytes(b.chunk_bytes),
             }));
         }
@@ -242,8 +242,8 @@ impl Walker<'_, '_, '_> {
             return Err(Stop::Refused(ImportError::ChunkRatio {
                 path: path(),
                 offset: at,
-                size: fmt_bytes(size),
-                compressed: fmt_bytes(compressed),
+                size: sized(size),
+                compressed: sized(compressed),
                 ratio: b.ratio,
             }));
         }
@@ -261,10 +261,22 @@ impl Walker<'_, '_, '_> {
             Decompressed::Longer => Stop::Refused(ImportError::ChunkSizeLies {
                 path: path(),
                 offset: at,
-                size: fmt_bytes(size),
+                size: sized(size),
             }),
         })?;
         self.walk(&records, 0, true)
+    }
+}
+
+/// A size as a person reads it: `1000 bytes`, `32 MiB`, `3.0 GiB (3200000000 bytes)`.
+fn sized(n: u64) -> String {
+    const MIB: u64 = 1024 * 1024;
+    if n < MIB || n.is_multiple_of(MIB) {
+        fmt_bytes(n)
+    } else if n < 1024 * MIB {
+        format!("{:.1} MiB ({n} bytes)", n as f64 / MIB as f64)
+    } else {
+        format!("{:.1} GiB ({n} bytes)", n as f64 / (1024 * MIB) as f64)
     }
 }
 
@@ -282,7 +294,8 @@ fn decompress<'d>(
     data: &'d [u8],
     size: u64,
 ) -> Result<Cow<'d, [u8]>, Decompressed> {
-    let fault = |e: std::io::Error| Decompressed::Damaged(format!("Error during decompression: `{e}`"));
+    let fault =
+        |e: std::io::Error| Decompressed::Damaged(format!("Error during decompression: `{e}`"));
     // `size` is at most the per-chunk bound, so it fits memory and `usize`.
     let mut out = Vec::with_capacity(usize::try_from(size).unwrap_or(0));
     match compression {
@@ -358,7 +371,13 @@ mod tests {
     }
 
     fn read(bytes: &[u8], bounds: &Bounds, budget: &mut Budget) -> Result<Read, ImportError> {
-        read_messages(Path::new("b.mcap"), bytes, bounds, budget, &mut |_, _, _, _| Ok(()))
+        read_messages(
+            Path::new("b.mcap"),
+            bytes,
+            bounds,
+            budget,
+            &mut |_, _, _, _| Ok(()),
+        )
     }
 
     fn zeros_zstd(n: usize) -> Vec<u8> {

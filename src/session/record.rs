@@ -205,12 +205,10 @@ impl Session {
         };
         // The rule every path into a dataset holds: what `load demos` would refuse is refused
         // here too, naming the time.
-        let episode = options.checked_episode(
-            std::path::Path::new(&source),
-            name,
-            samples,
-            &|t: f64| format!("{t:.2} s into the recording"),
-        )?;
+        let episode =
+            options.checked_episode(std::path::Path::new(&source), name, samples, &|t: f64| {
+                format!("{t:.2} s into the recording")
+            })?;
         let points = episode.trace.len();
         let name = episode.name.clone();
         self.commit(Effect::Demos {
