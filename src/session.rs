@@ -203,6 +203,9 @@ pub struct Session {
     preamble: Option<Vec<Entry>>,
     /// Every file and statement the session has read, for its diagnostics.
     sources: crate::diag::SourceMap,
+    /// The files the session's commands read (`open`, `load`, `operators`, `tasks`), each with
+    /// whether `open` read it: an output may not replace one ([`Session::check_output`]).
+    inputs: Vec<(std::path::PathBuf, bool)>,
 }
 
 impl std::fmt::Debug for Session {
@@ -263,6 +266,7 @@ impl Session {
             warnings: Vec::new(),
             preamble: None,
             sources: crate::diag::SourceMap::new(),
+            inputs: Vec::new(),
         }
     }
 

@@ -34,6 +34,8 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
         .out
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let inputs = args.tasks.iter().chain(&args.sim_params);
+    crate::files::refuse_overwriting_inputs(&args.out, inputs.map(|p| p.as_path()))?;
     crate::files::write_atomic(&args.out, |out| {
         if is_json {
             serde_json::to_writer(out, &Episode::to_json(&domain, &episodes)).map_err(Into::into)
@@ -161,6 +163,7 @@ pub fn calibrate(args: CalibrateArgs) -> miette::Result<()> {
             }
             .into());
         }
+        crate::files::refuse_overwriting_inputs(path, args.sim_params.as_deref())?;
     }
     let out = crate::experiment::calibrate::run(args.study, sim, true);
     if let Some(path) = &args.write {
@@ -263,6 +266,15 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
         cmd_topic: Some(args.cmd_topic),
         odom_topic: Some(args.odom_topic),
     };
+    // Before reading anything: `--out` naming a log (or a bag's file) would replace it.
+    let mut inputs: Vec<std::path::PathBuf> = args.tasks.clone();
+    for log in &args.logs {
+        inputs.push(log.clone());
+        if let Ok(entries) = std::fs::read_dir(log) {
+            inputs.extend(entries.flatten().take(10_000).map(|e| e.path()));
+        }
+    }
+    crate::files::refuse_overwriting_inputs(&args.out, inputs.iter().map(|p| p.as_path()))?;
     let mut episodes = Vec::new();
     for log in &args.logs {
         let (mut found, warnings) = crate::recording::import(log, &options)?;
@@ -285,6 +297,10 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
 
 /// `advise export`: a saved dataset as MCAP.
 pub fn export(args: super::ExportArgs) -> miette::Result<()> {
+    // Before reading anything: an output naming the dataset would replace it.
+    for out in args.mcap.iter().chain(&args.lerobot) {
+        crate::files::refuse_overwriting_inputs(out, [args.dataset.as_path()])?;
+    }
     let mut files = crate::diag::SourceMap::new();
     let dataset = crate::policy::dataset::Dataset::load(&mut files, &args.dataset)
         .map_err(|e| files.attach(e))?;

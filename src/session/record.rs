@@ -193,12 +193,22 @@ impl Session {
     ) -> Result<(String, usize), SessionError> {
         let number = self.state.learner.dataset().demos().len();
         let name = format!("teleop {number}");
-        let episode = match self.task.def() {
-            Some(def) if self.task != TaskKind::Positioning => {
-                crate::recording::episode_for(&def, name, samples, None)
-            }
-            _ => crate::recording::episode(name, samples, goal),
+        let options = match self.task.def() {
+            Some(def) if self.task != TaskKind::Positioning => crate::recording::ImportOptions {
+                task: Some(def),
+                ..Default::default()
+            },
+            _ => crate::recording::ImportOptions {
+                goal,
+                ..Default::default()
+            },
         };
+        // The rule every path into a dataset holds: what `load demos` would refuse is refused
+        // here too, naming the time.
+        let episode =
+            options.checked_episode(std::path::Path::new(&source), name, samples, &|t: f64| {
+                format!("{t:.2} s into the recording")
+            })?;
         let points = episode.trace.len();
         let name = episode.name.clone();
         self.commit(Effect::Demos {

@@ -201,6 +201,7 @@ impl Session {
     /// `plot FILE` draws the selected execution's path, `plot actions FILE` its actions against
     /// point index, `plot compare FILE N M` the paths of executions N and M overlaid.
     pub(super) fn plot(&self, kind: PlotKind, path: &str) -> Result<String, SessionError> {
+        self.check_output(path, false)?;
         let file = Path::new(path);
         let no_poses = |n: usize| SessionError::NoPoses { n };
         match kind {

@@ -351,27 +351,32 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
                     expected: expected(),
                 });
             }
+            let side = match space {
+                "z" => crate::domain::Space::Observation,
+                _ => crate::domain::Space::Action,
+            };
             for (k, (v, dim)) in vals.iter().zip(dims.iter()).enumerate() {
                 let at = || format!("{at}.{space}[{k}]");
-                if !v.is_finite() {
-                    return Err(DatasetError::NotFinite {
-                        at: at(),
-                        value: v.to_string(),
-                    });
-                }
-                // Actions are clamped to their limits wherever they enter a dataset (recorded
-                // runs, operators, demonstration files); observations are what the robot saw,
-                // and may lie beyond (a goal 20 m away).
-                if let (true, Some(l)) = (space == "a", dim.limits)
-                    && !l.contains(*v)
-                {
-                    return Err(DatasetError::OutOfLimits {
-                        at: at(),
-                        value: fmt_num(*v),
-                        dim: dim.name.clone(),
-                        lo: fmt_num(l.lo),
-                        hi: fmt_num(l.hi),
-                    });
+                // The rule every path into a dataset holds: values finite, actions within their
+                // limits; observations are what the robot saw, and may lie beyond (a goal 20 m
+                // away).
+                match crate::trace::demo_value_fault(domain, side, k, *v) {
+                    None => {}
+                    Some(crate::trace::ValueFault::NotFinite) => {
+                        return Err(DatasetError::NotFinite {
+                            at: at(),
+                            value: v.to_string(),
+                        });
+                    }
+                    Some(crate::trace::ValueFault::OutsideLimits(l)) => {
+                        return Err(DatasetError::OutOfLimits {
+                            at: at(),
+                            value: fmt_num(*v),
+                            dim: dim.name.clone(),
+                            lo: fmt_num(l.lo),
+                            hi: fmt_num(l.hi),
+                        });
+                    }
                 }
             }
         }
