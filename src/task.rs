@@ -538,9 +538,20 @@ impl TaskKind {
         path: &std::path::Path,
         seed: u64,
     ) -> Result<Learner, LearnerError> {
-        Learner::open(
-            sources,
-            path,
+        let ds = crate::policy::dataset::Dataset::load(sources, path)?;
+        self.adopt_dataset(ds, seed)
+    }
+
+    /// A learner for this task on a dataset already validated whole (opened, or a journal's copy
+    /// of an opened one), refused if the dataset is another task's: the rule `open` and a
+    /// restored `open` share.
+    pub fn adopt_dataset(
+        &self,
+        ds: crate::policy::dataset::Dataset,
+        seed: u64,
+    ) -> Result<Learner, LearnerError> {
+        Learner::adopt(
+            ds,
             &self.domain(),
             self.learner(),
             seed,
