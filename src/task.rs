@@ -550,29 +550,23 @@ impl TaskKind {
         ds: crate::policy::dataset::Dataset,
         seed: u64,
     ) -> Result<Learner, LearnerError> {
-        Learner::adopt(
-            ds,
-            &self.domain(),
-            self.learner(),
-            seed,
-            |found| {
-                let other = [TaskKind::Positioning, TaskKind::Interception]
-                    .into_iter()
-                    .find(|t| t.domain().name == found);
-                LearnerError::OtherTask {
-                    found: found.to_string(),
-                    task: self.to_string(),
-                    help: match other {
-                        Some(t) => {
-                            format!("switch to its task first with `task {t}`, then `open` it")
-                        }
-                        None => format!(
-                            "if `{found}` is a task declared in a file, load it with `tasks FILE` and switch with `task {found}`"
-                        ),
-                    },
-                }
-            },
-        )
+        Learner::adopt(ds, &self.domain(), self.learner(), seed, |found| {
+            let other = [TaskKind::Positioning, TaskKind::Interception]
+                .into_iter()
+                .find(|t| t.domain().name == found);
+            LearnerError::OtherTask {
+                found: found.to_string(),
+                task: self.to_string(),
+                help: match other {
+                    Some(t) => {
+                        format!("switch to its task first with `task {t}`, then `open` it")
+                    }
+                    None => format!(
+                        "if `{found}` is a task declared in a file, load it with `tasks FILE` and switch with `task {found}`"
+                    ),
+                },
+            }
+        })
     }
 
     /// Whether the task has a teacher to demonstrate it in the simulator (the paper's tasks

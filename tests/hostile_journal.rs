@@ -23,10 +23,7 @@ use common::{Invocation, masked, run_all};
 fn run(s: &mut Session, lines: &str) {
     for line in lines.lines() {
         if let Err(e) = s.execute(line, "<test>") {
-            panic!(
-                "{line}: {}",
-                advise::repl::render(s.sources(), &e, false)
-            );
+            panic!("{line}: {}", advise::repl::render(s.sources(), &e, false));
         }
     }
 }
@@ -92,7 +89,10 @@ fn resume_settings(dir: &Path) -> insta::Settings {
         r"session-\d+-\d+-[0-9a-f]{8}(-\d+)?\.jsonl",
         "session-<new>.jsonl",
     );
-    settings.add_filter(r"process \d+, which took it \d+ (s|min|h) ago", "process <pid>, which took it <t> ago");
+    settings.add_filter(
+        r"process \d+, which took it \d+ (s|min|h) ago",
+        "process <pid>, which took it <t> ago",
+    );
     settings
 }
 
@@ -108,7 +108,9 @@ fn an_edited_journal_line_is_held_to_the_rules_of_a_live_statement() {
     let cases: Vec<(&str, Edit)> = vec![
         (
             "an_action_of_1e300",
-            Box::new(|l| entry(l, "advice")["effect"]["points"]["points"][0]["a"][0] = json!(1e300)),
+            Box::new(|l| {
+                entry(l, "advice")["effect"]["points"]["points"][0]["a"][0] = json!(1e300)
+            }),
         ),
         (
             "a_chunk_past_the_end_of_its_execution",
@@ -182,8 +184,9 @@ fn an_edited_journal_line_is_held_to_the_rules_of_a_live_statement() {
         run(&mut s, &format!("save {}", out.display()));
         Dataset::load(&mut SourceMap::new(), &out)
             .unwrap_or_else(|e| panic!("{name}: the saved dataset does not open: {e}"));
-        // And the session goes on: a run (what panicked after another task's dataset).
-        run(&mut s, "run goal 1 -1 0");
+        // And the session goes on: a run (what panicked after another task's dataset) ends in a
+        // reply or a diagnostic (an empty policy when the first line was refused).
+        let _ = s.execute("run goal 1 -1 0", "<test>");
 
         runs.push((
             name.to_string(),
@@ -347,9 +350,11 @@ fn a_journal_in_use_is_locked_and_a_dead_owners_lock_does_not_block() {
         text.contains(&format!("process {}, which took it", live.id())),
         "the owner is named: {text}"
     );
-    let mut settings = resume_settings(home.path());
-    settings.add_filter(r"\.tmp[A-Za-z0-9]+", "<home>");
-    settings.bind(|| insta::assert_snapshot!(format!("$ advise resume\n{text}")));
+    // The owner's process id and the journal's name vary in length, and with them where the
+    // diagnostic wraps: its lines are joined before the snapshot.
+    let text = text.replace("\n  │ ", " ").replace("\n        ", " ");
+    resume_settings(home.path())
+        .bind(|| insta::assert_snapshot!(format!("$ advise resume\n{text}")));
 
     // A copy is a history of its own, and resumes while the original is held.
     let copy = home.path().join("copy.jsonl.bak");
@@ -385,8 +390,14 @@ fn argument_errors_and_an_unusable_advise_home_carry_codes() {
         files,
     };
     let cases = vec![
-        ("apply_range_negative", inv(&["apply", "--range", "-1..5"], vec![])),
-        ("eval_limit_not_a_number", inv(&["eval", "--limit", "abc"], vec![])),
+        (
+            "apply_range_negative",
+            inv(&["apply", "--range", "-1..5"], vec![]),
+        ),
+        (
+            "eval_limit_not_a_number",
+            inv(&["eval", "--limit", "abc"], vec![]),
+        ),
         ("unknown_subcommand", inv(&["resum"], vec![])),
         (
             "advise_home_is_a_file",
@@ -400,15 +411,14 @@ fn argument_errors_and_an_unusable_advise_home_carry_codes() {
         ),
     ];
     let names: Vec<&str> = cases.iter().map(|(n, _)| *n).collect();
-    let outputs = run_all(
-        cases
-            .into_iter()
-            .map(|(n, i)| (n.to_string(), i))
-            .collect(),
-    );
+    let outputs = run_all(cases.into_iter().map(|(n, i)| (n.to_string(), i)).collect());
     for name in names {
         let (inv, out) = &outputs[name];
-        let want = if name.starts_with("advise_home") { 1 } else { 2 };
+        let want = if name.starts_with("advise_home") {
+            1
+        } else {
+            2
+        };
         assert_eq!(out.code, Some(want), "{name}: {}", out.text);
         assert!(out.text.contains("advise::"), "{name}: {}", out.text);
         masked(Some(&out.dir)).bind(|| {

@@ -383,8 +383,7 @@ impl Dataset {
                 format!("advice {}, point {j}, {s}[{k}]", applied.invocation())
             })?;
         }
-        if source.len() != points.len()
-            || source.iter().any(|i| !applied.chunk.range().contains(i))
+        if source.len() != points.len() || source.iter().any(|i| !applied.chunk.range().contains(i))
         {
             return Err(DatasetError::Record {
                 at: "advice.source_index".into(),
@@ -526,7 +525,14 @@ impl Dataset {
     fn check_weights(&self) -> Result<(), DatasetError> {
         for i in 0..self.len() {
             for m in [self.m[i], self.max_weight(i)] {
-                check_weight(m, || format!("the weight of point {i} ({:?})", self.provenance[i]))?;
+                check_weight(m, || match self.provenance[i] {
+                    Provenance::Demonstration { demo, index } => {
+                        format!("demonstration {demo}, point {index}")
+                    }
+                    Provenance::Advice { advice, index, .. } => {
+                        format!("advice {advice}, point {index}")
+                    }
+                })?;
             }
         }
         Ok(())
@@ -659,7 +665,7 @@ fn check_point(
             {
                 return Err(DatasetError::OutOfLimits {
                     at: at(space, k),
-                    value: fmt_num(*v),
+                    value: crate::number::fmt_readable(*v),
                     dim: dim.name.clone(),
                     lo: fmt_num(l.lo),
                     hi: fmt_num(l.hi),

@@ -206,11 +206,11 @@ impl Session {
                 }
                 // Everything is checked before anything changes.
                 let runs = match &entry.run {
-                    Some(run) => Some(run.number.checked_add(1).ok_or(
-                        SessionError::RunNumber {
-                            number: run.number,
-                        },
-                    )?),
+                    Some(run) => Some(
+                        run.number
+                            .checked_add(1)
+                            .ok_or(SessionError::RunNumber { number: run.number })?,
+                    ),
                     None => None,
                 };
                 let id = self.state.learner.try_add_execution(&trace)?;

@@ -69,11 +69,11 @@ pub enum JournalError {
     #[diagnostic(
         code(advise::journal::locked),
         help(
-            "two sessions writing one journal would interleave their statements: wait for that session to end (`quit` in it), or resume a copy, which starts a history of its own: `cp {path} copy.jsonl && advise resume copy.jsonl`"
+            "two sessions writing one journal would interleave their statements: wait for that session to end (`quit` in it), or copy the journal and resume the copy (`advise resume COPY`), which starts a history of its own"
         )
     )]
     Locked { path: String, owner: String },
-    #[error("cannot create a session journal in `{path}`: {source}")]
+    #[error("cannot create a session journal in `{path}`")]
     #[diagnostic(
         code(advise::journal::create),
         help(
@@ -85,11 +85,11 @@ pub enum JournalError {
         #[source]
         source: io::Error,
     },
-    #[error("cannot continue the journal `{path}`: {source}")]
+    #[error("cannot continue the journal `{path}`")]
     #[diagnostic(
         code(advise::journal::open),
         help(
-            "a resumed session records into the journal it restored, so the file must be writable: resume a writable copy (`cp {path} copy.jsonl && advise resume copy.jsonl`)"
+            "a resumed session records into the journal it restored, so the file must be writable: copy it to a writable folder and resume the copy (`advise resume COPY`)"
         )
     )]
     Open {
@@ -118,7 +118,9 @@ pub enum Stopped {
         before: usize,
         message: String,
     },
-    #[error("line {line} of the journal `{path}` holds what no statement could have done: `{statement}`")]
+    #[error(
+        "line {line} of the journal `{path}` holds what no statement could have done: `{statement}`"
+    )]
     #[diagnostic(
         code(advise::journal::invalid_entry),
         severity(Warning),
@@ -225,10 +227,7 @@ impl Journal {
         let now = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_secs());
-        let _ = std::fs::write(
-            owner_path(path),
-            format!("{} {now}\n", std::process::id()),
-        );
+        let _ = std::fs::write(owner_path(path), format!("{} {now}\n", std::process::id()));
         Ok(Journal {
             path: path.to_path_buf(),
             file,
@@ -506,7 +505,10 @@ mod tests {
         std::fs::write(owner_path(&path), "1 0\n").unwrap();
         let held = Journal::continue_at(&path).unwrap();
         let owner = std::fs::read_to_string(owner_path(&path)).unwrap();
-        assert!(owner.starts_with(&format!("{} ", std::process::id())), "{owner}");
+        assert!(
+            owner.starts_with(&format!("{} ", std::process::id())),
+            "{owner}"
+        );
         drop(held);
     }
 

@@ -3,7 +3,6 @@
 //! positioning demonstration as a CSV log's do, [`crate::recording::episode`]). Journalled as
 //! demonstrations, so a resume needs neither the base nor the person.
 
-
 use super::effect::{DemoEpisode, Effect};
 use super::text::short_num;
 use super::{BackendChoice, Session, SessionError};

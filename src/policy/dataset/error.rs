@@ -117,7 +117,9 @@ pub enum DatasetError {
         )
     )]
     NextId { next_id: u32, max_id: u32 },
-    #[error("`next_id` is {next_id}: no id is left for new demonstrations, executions, advice or critiques")]
+    #[error(
+        "`next_id` is {next_id}: no id is left for new demonstrations, executions, advice or critiques"
+    )]
     #[diagnostic(
         code(advise::dataset::ids_exhausted),
         help(

@@ -448,12 +448,20 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
     let mut advice_points: HashMap<u32, u32> = HashMap::new();
     for (i, r) in file.advice.iter().enumerate() {
         let len = exec_len(format!("advice[{i}].execution"), r.execution)?;
-        check_advice(domain, &r.applied, r.execution, len, &format!("advice[{i}]"))?;
+        check_advice(
+            domain,
+            &r.applied,
+            r.execution,
+            len,
+            &format!("advice[{i}]"),
+        )?;
         advice_points.insert(r.id, 0);
     }
     for (i, c) in file.critiques.iter().enumerate() {
         let len = exec_len(format!("critiques[{i}].execution"), c.execution)?;
-        check_chunk(c.chunk, c.execution, len, || format!("critiques[{i}].chunk"))?;
+        check_chunk(c.chunk, c.execution, len, || {
+            format!("critiques[{i}].chunk")
+        })?;
         finite(format!("critiques[{i}].kappa"), c.kappa)?;
         for (k, (_, inc)) in c.increments.iter().enumerate() {
             finite(format!("critiques[{i}].increments[{k}]"), *inc)?;
