@@ -162,8 +162,11 @@ pub struct Restored {
     pub session: Session,
     /// Entries restored.
     pub entries: usize,
-    /// What the teacher must be told: a cut statement dropped, a damaged line, the backend the
-    /// session was on.
+    /// The line the restore stopped at (damaged, or refused by the rules a live statement
+    /// follows), as a diagnostic to show; `None` when every line was restored.
+    pub stopped: Option<journal::Stopped>,
+    /// What else the teacher must be told: a cut statement dropped, the backend the session was
+    /// on.
     pub notes: Vec<String>,
     /// Where the session journals from now on (the same journal, or a fresh one after damage).
     pub journal: PathBuf,

@@ -538,30 +538,35 @@ impl TaskKind {
         path: &std::path::Path,
         seed: u64,
     ) -> Result<Learner, LearnerError> {
-        Learner::open(
-            sources,
-            path,
-            &self.domain(),
-            self.learner(),
-            seed,
-            |found| {
-                let other = [TaskKind::Positioning, TaskKind::Interception]
-                    .into_iter()
-                    .find(|t| t.domain().name == found);
-                LearnerError::OtherTask {
-                    found: found.to_string(),
-                    task: self.to_string(),
-                    help: match other {
-                        Some(t) => {
-                            format!("switch to its task first with `task {t}`, then `open` it")
-                        }
-                        None => format!(
-                            "if `{found}` is a task declared in a file, load it with `tasks FILE` and switch with `task {found}`"
-                        ),
-                    },
-                }
-            },
-        )
+        let ds = crate::policy::dataset::Dataset::load(sources, path)?;
+        self.adopt_dataset(ds, seed)
+    }
+
+    /// A learner for this task on a dataset already validated whole (opened, or a journal's copy
+    /// of an opened one), refused if the dataset is another task's: the rule `open` and a
+    /// restored `open` share.
+    pub fn adopt_dataset(
+        &self,
+        ds: crate::policy::dataset::Dataset,
+        seed: u64,
+    ) -> Result<Learner, LearnerError> {
+        Learner::adopt(ds, &self.domain(), self.learner(), seed, |found| {
+            let other = [TaskKind::Positioning, TaskKind::Interception]
+                .into_iter()
+                .find(|t| t.domain().name == found);
+            LearnerError::OtherTask {
+                found: found.to_string(),
+                task: self.to_string(),
+                help: match other {
+                    Some(t) => {
+                        format!("switch to its task first with `task {t}`, then `open` it")
+                    }
+                    None => format!(
+                        "if `{found}` is a task declared in a file, load it with `tasks FILE` and switch with `task {found}`"
+                    ),
+                },
+            }
+        })
     }
 
     /// Whether the task has a teacher to demonstrate it in the simulator (the paper's tasks

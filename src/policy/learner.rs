@@ -276,6 +276,12 @@ impl Learner {
         self.ds.add_execution(trace).unwrap_or(u32::MAX)
     }
 
+    /// [`Learner::add_execution`], refusing what the dataset refuses (another domain, no id
+    /// left) instead of giving an id that refers to nothing: what a session records.
+    pub fn try_add_execution(&mut self, trace: &Trace) -> Result<ExecutionId, LearnerError> {
+        Ok(self.ds.add_execution(trace)?)
+    }
+
     /// Add synthesized advice points; the policy is updated incrementally.
     pub fn add_advice(
         &mut self,
@@ -709,6 +715,18 @@ impl Learner {
         other_domain: impl FnOnce(&str) -> LearnerError,
     ) -> Result<Learner, LearnerError> {
         let ds = Dataset::load(sources, path)?;
+        Learner::adopt(ds, domain, kind, seed, other_domain)
+    }
+
+    /// A learner on a dataset already read and validated whole (by `open`, or from a journal's
+    /// copy of it), refused unless the dataset's domain is `domain`: the one rule for both.
+    pub fn adopt(
+        ds: Dataset,
+        domain: &Domain,
+        kind: LearnerKind,
+        seed: u64,
+        other_domain: impl FnOnce(&str) -> LearnerError,
+    ) -> Result<Learner, LearnerError> {
         let found = ds.domain();
         if found.name != domain.name {
             return Err(other_domain(&found.name));

@@ -169,6 +169,12 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     JournalRead(#[from] JournalError),
+    #[error("run number {number} has no successor")]
+    #[diagnostic(
+        code(advise::session::run_number),
+        help("a session numbers its runs from 0; a journal line with this number was edited")
+    )]
+    RunNumber { number: u64 },
     #[error("nothing to undo")]
     #[diagnostic(code(advise::session::nothing_to_undo))]
     NothingToUndo,
@@ -275,8 +281,10 @@ pub enum SessionError {
     },
     #[error("cannot write the journal `{path}`: the session stops recording")]
     #[diagnostic(
-        code(advise::session::journal),
-        help("check the disk and the folder's permissions")
+        code(advise::journal::write),
+        help(
+            "check the disk and the folder's permissions; `save FILE.json` keeps the dataset, and a session started with ADVISE_HOME set to a writable folder journals there"
+        )
     )]
     Journal {
         path: String,

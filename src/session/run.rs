@@ -27,12 +27,7 @@ impl Session {
         if self.task != TaskKind::Positioning {
             return Err(SessionError::GoalForWrongTask);
         }
-        let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
-        if !(within(x, MAX_GOAL_M) && within(y, MAX_GOAL_M) && within(theta, 2.0 * PI)) {
-            return Err(SessionError::BadGoal {
-                goal: [x, y, theta].map(short_num).join(", "),
-            });
-        }
+        check_goal(x, y, theta)?;
         let goal = Pose::new(x, y, theta);
         self.run(
             Start::Goal(goal),
@@ -235,5 +230,18 @@ impl Session {
                 ))
             }
         }
+    }
+}
+
+/// A goal a run can reach: x and y within [`MAX_GOAL_M`] of the start, theta within ±2π. The one
+/// rule for `run goal`, `record demo ... goal` and a journalled execution's goal.
+pub(super) fn check_goal(x: f64, y: f64, theta: f64) -> Result<(), SessionError> {
+    let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
+    if within(x, MAX_GOAL_M) && within(y, MAX_GOAL_M) && within(theta, 2.0 * PI) {
+        Ok(())
+    } else {
+        Err(SessionError::BadGoal {
+            goal: [x, y, theta].map(short_num).join(", "),
+        })
     }
 }
