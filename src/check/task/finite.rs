@@ -76,10 +76,12 @@ impl Mix {
         of[(self.next() % of.len() as u64) as usize]
     }
 
-    /// Uniform in `[lo, hi]`.
+    /// Uniform in `[lo, hi]`, to two decimals where the range allows (what a message shows).
     fn within(&mut self, lo: f64, hi: f64) -> f64 {
         let u = (self.next() >> 11) as f64 / (1u64 << 53) as f64;
-        lo + (hi - lo) * u
+        let v = lo + (hi - lo) * u;
+        let r = (v * 100.0).round() / 100.0;
+        if r >= lo && r <= hi { r } else { v }
     }
 
     /// A bound, the middle, or a value in between.
@@ -299,7 +301,7 @@ fn states(d: &TaskDef, limit_s: f64, count: usize) -> Vec<Point> {
         });
     }
     // Pairs: a state (its own previous step), then one after it.
-    let times = [1.0 / 30.0, 1.0, 7.5, limit_s];
+    let times = [0.1, 1.0, 7.5, limit_s];
     while out.len() + 2 <= count.max(starts + 2) {
         let base = |mix: &mut Mix| {
             let mut env = vec![0.0; d.slots()];
