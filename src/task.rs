@@ -824,40 +824,42 @@ fn run_sim_task(
 
 /// Record `count` teacher demonstrations in the simulator from practice starts drawn from
 /// `seed`, in parallel. Episode `i` is named `demo-i` and runs on a simulator seeded with
-/// [`episode_seed`]`(seed, i)`, so the result does not depend on thread scheduling.
-///
-/// A demonstration that stopped on a value that is not a number ([`Ending::NonFinite`]) refuses
-/// them all ([`DemosStopped`]): its trace is cut short where the task broke, so it would teach a
-/// policy a run that never reached its goal, and the task needs fixing before any demonstration
-/// of it is worth keeping.
+/// [`episode_seed`]`(seed, i)`, so the result does not depend on thread scheduling. What is kept
+/// for a user goes through [`finite_demos`] first.
 pub fn record_demos(
     kind: TaskKind,
     count: usize,
     seed: u64,
     params: &SimParams,
-) -> Result<Vec<(Episode, Outcome)>, DemosStopped> {
-    let recorded = record_demos_in(
+) -> Vec<(Episode, Outcome)> {
+    record_demos_in(
         &kind.practice_set(seed, count),
         &InterceptionRules::default(),
         || kind.teacher(params.period_s()),
         params,
         seed,
-    );
-    let stopped: Vec<(usize, &NonFinite)> = recorded
+    )
+}
+
+/// Refuse recorded demonstrations when one stopped on a value that is not a number
+/// ([`Ending::NonFinite`]): its trace is cut short where the task broke, so it would teach a
+/// policy a run that never reached its goal, and the task needs fixing before any demonstration
+/// of it is worth keeping. `advise demo` and `load demos teacher:N` write or load nothing then.
+pub fn finite_demos(kind: &TaskKind, recorded: &[(Episode, Outcome)]) -> Result<(), DemosStopped> {
+    let mut stopped = recorded
         .iter()
         .enumerate()
-        .filter_map(|(i, (_, o))| o.non_finite.as_ref().map(|n| (i, n)))
-        .collect();
-    match stopped.first() {
-        None => Ok(recorded),
-        Some(&(index, reason)) => Err(DemosStopped {
-            task: kind.name().to_string(),
-            index,
-            stopped: stopped.len(),
-            count: recorded.len(),
-            reason: reason.clone(),
-        }),
-    }
+        .filter_map(|(i, (_, o))| o.non_finite.as_ref().map(|n| (i, n)));
+    let Some((index, reason)) = stopped.next() else {
+        return Ok(());
+    };
+    Err(DemosStopped {
+        task: kind.name().to_string(),
+        index,
+        stopped: 1 + stopped.count(),
+        count: recorded.len(),
+        reason: reason.clone(),
+    })
 }
 
 /// Teacher demonstrations refused because one stopped on a value that is not a number.

@@ -420,8 +420,7 @@ fn a_session_refuses_the_long_task_and_a_run_that_stops_keeps_its_steps_and_says
         3,
         1,
         &SimParams::default(),
-    )
-    .unwrap();
+    );
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let mut csv = Vec::new();
     Episode::write_csv(&def_of(&healthy(), "dock").domain, &episodes, &mut csv).unwrap();
