@@ -136,9 +136,11 @@ impl Report {
             .map(|(k, v)| format!("{k} {v}"))
             .collect();
         s.push_str(&format!("  endings             {}\n", endings.join(", ")));
-        let stopped = self.outcomes.iter().enumerate().find_map(|(i, o)| {
-            o.non_finite.as_ref().map(|n| (i, n))
-        });
+        let stopped = self
+            .outcomes
+            .iter()
+            .enumerate()
+            .find_map(|(i, o)| o.non_finite.as_ref().map(|n| (i, n)));
         if let Some((i, n)) = stopped {
             let code = n.code().map(|c| format!(" [{c}]")).unwrap_or_default();
             s.push_str(&format!(

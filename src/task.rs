@@ -123,7 +123,9 @@ impl std::fmt::Display for ValueKind {
 /// An observation is checked before the controller sees it, so no policy is queried with it and
 /// the base is never commanded on it; a score on the final state, so no report averages it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, thiserror::Error, miette::Diagnostic)]
-#[error("the {kind} `{name}` was {value} at step {step} (t = {t_s:.2} s), not a number: the run was stopped there")]
+#[error(
+    "the {kind} `{name}` was {value} at step {step} (t = {t_s:.2} s), not a number: the run was stopped there"
+)]
 #[diagnostic(
     code(advise::task::non_finite),
     help(

@@ -15,7 +15,8 @@ use advise::eval::Report;
 use advise::program::ir::Ir;
 use advise::program::task::{EndRule, TaskDef};
 use advise::task::{
-    Controller, Declared, Ending, MAX_EPISODE_STEPS, Outcome, TaskKind, ValueKind, declared, run_episode,
+    Controller, Declared, Ending, MAX_EPISODE_STEPS, Outcome, TaskKind, ValueKind, declared,
+    run_episode,
 };
 use advise::trace::{Episode, Pose};
 use miette::Diagnostic;
@@ -85,7 +86,12 @@ fn advise(args: &[&str], files: &[(&str, String)]) -> (String, Option<i32>) {
             .collect(),
     };
     let out = inv.run();
-    let shown = format!("{}\n{}\n(exit {:?})", inv.command_line(), out.text, out.code);
+    let shown = format!(
+        "{}\n{}\n(exit {:?})",
+        inv.command_line(),
+        out.text,
+        out.code
+    );
     (shown, out.code)
 }
 
@@ -171,7 +177,11 @@ fn check_warns_where_a_value_may_not_be_a_number_and_the_shipped_tasks_have_no_w
             .merge_in(&map, &[id])
             .unwrap_or_else(|_| panic!("{file} does not check"));
         assert!(!checked.set.tasks().is_empty(), "{file}");
-        assert!(checked.warnings.is_empty(), "{file}: {:?}", checked.warnings);
+        assert!(
+            checked.warnings.is_empty(),
+            "{file}: {:?}",
+            checked.warnings
+        );
     }
 }
 
@@ -303,7 +313,10 @@ fn a_non_finite_observation_stops_the_run_before_any_controller_sees_it() {
     let mut forward = Probe::new(0.2);
     let exec = run_episode(&mut base, &mut task, &mut forward, 1).unwrap();
     let (queried, seen_bad) = (forward.queried, forward.seen_bad);
-    assert!(!seen_bad, "the controller was queried with a non-finite observation");
+    assert!(
+        !seen_bad,
+        "the controller was queried with a non-finite observation"
+    );
     // 30 Hz: t = 16/30 > 0.5 at step 16; the 16 steps before it are kept.
     assert_eq!(exec.outcome.ending, Ending::NonFinite);
     assert_eq!(exec.trace.len(), 16);
@@ -313,7 +326,10 @@ fn a_non_finite_observation_stops_the_run_before_any_controller_sees_it() {
     assert!(!exec.outcome.success);
     assert!(exec.trace.z.iter().all(|v| v.is_finite()));
     let why = exec.outcome.non_finite.clone().unwrap();
-    assert_eq!((why.kind, why.name.as_str(), why.step), (ValueKind::Observation, "o", 16));
+    assert_eq!(
+        (why.kind, why.name.as_str(), why.step),
+        (ValueKind::Observation, "o", 16)
+    );
     assert_eq!(
         why.code().map(|c| c.to_string()).as_deref(),
         Some("advise::task::non_finite")
@@ -365,7 +381,11 @@ fn a_non_finite_score_fails_the_run_and_stays_out_of_the_means() {
     );
     assert_eq!(report.mean_position_error_m, fine.position_error_m);
     assert_eq!(report.endings.get("non_finite"), Some(&1));
-    assert!(report.render().contains("episode 1 first: the score `error` was NaN"));
+    assert!(
+        report
+            .render()
+            .contains("episode 1 first: the score `error` was NaN")
+    );
 }
 
 #[test]
@@ -393,7 +413,10 @@ fn demo_refuses_demonstrations_that_stopped_and_writes_nothing() {
         .unwrap();
     assert_eq!(status.status.code(), Some(1));
     assert!(!dir.path().join("d.csv").exists(), "demo wrote its file");
-    let (shown, code) = advise(&inv.args.iter().map(String::as_str).collect::<Vec<_>>(), &files);
+    let (shown, code) = advise(
+        &inv.args.iter().map(String::as_str).collect::<Vec<_>>(),
+        &files,
+    );
     assert_eq!(code, Some(1));
     assert!(shown.contains("advise::task::demos_not_finite"), "{shown}");
     assert!(shown.contains("advise::task::non_finite"), "{shown}");
@@ -403,7 +426,9 @@ fn demo_refuses_demonstrations_that_stopped_and_writes_nothing() {
 #[test]
 fn eval_counts_the_runs_that_stopped_and_says_why() {
     let (shown, code) = advise(
-        &["eval", "--tasks", "late.adv", "--task", "dock", "--policy", "teacher"],
+        &[
+            "eval", "--tasks", "late.adv", "--task", "dock", "--policy", "teacher",
+        ],
         &[("late.adv", breaks_at_half_a_second())],
     );
     assert_eq!(code, Some(0), "{shown}");
@@ -429,7 +454,10 @@ fn a_session_refuses_the_long_task_and_a_run_that_stops_keeps_its_steps_and_says
         &["run", "--no-journal", "--keep-going", "script.adv"],
         &[
             ("script.adv", script.to_string()),
-            ("day.adv", task_file("[1, 3]", "end when 0 > 1", "86400", "x")),
+            (
+                "day.adv",
+                task_file("[1, 3]", "end when 0 > 1", "86400", "x"),
+            ),
             ("late.adv", breaks_at_half_a_second()),
             ("demos.csv", String::from_utf8(csv).unwrap()),
         ],
@@ -582,7 +610,11 @@ fn mutated_task_files_check_or_are_refused_and_their_runs_stay_numbers() {
                     for def in set.tasks() {
                         let goal = declared::practice_goal(def, 1, 0);
                         let tests = declared::test_goals(def);
-                        if goal.iter().chain(tests.iter().flatten()).any(|v| !v.is_finite()) {
+                        if goal
+                            .iter()
+                            .chain(tests.iter().flatten())
+                            .any(|v| !v.is_finite())
+                        {
                             bad.push(format!("{}: a goal that is not a number", def.name()));
                         }
                         let mut task = Declared::new(def.clone(), &goal);
@@ -595,7 +627,13 @@ fn mutated_task_files_check_or_are_refused_and_their_runs_stay_numbers() {
                             Ok(e) => e,
                             Err(i) => *i.execution,
                         };
-                        if exec.trace.z.iter().chain(&exec.trace.a).any(|v| !v.is_finite()) {
+                        if exec
+                            .trace
+                            .z
+                            .iter()
+                            .chain(&exec.trace.a)
+                            .any(|v| !v.is_finite())
+                        {
                             bad.push(format!("{}: a recorded value is not a number", def.name()));
                         }
                         if serde_json::to_string(&exec.outcome)
@@ -622,7 +660,10 @@ fn mutated_task_files_check_or_are_refused_and_their_runs_stay_numbers() {
             }
         }
     }
-    assert!(checked > 40 && refused > 40, "{checked} checked, {refused} refused");
+    assert!(
+        checked > 40 && refused > 40,
+        "{checked} checked, {refused} refused"
+    );
     assert!(
         failures.is_empty(),
         "{} failures:\n{}",

@@ -70,10 +70,7 @@ impl Session {
                 let recorded =
                     task::record_demos(self.task.clone(), count, self.seed ^ 0xD3E0, &params);
                 task::finite_demos(&self.task, &recorded)?;
-                recorded
-                    .into_iter()
-                    .map(|(e, _)| e)
-                    .collect()
+                recorded.into_iter().map(|(e, _)| e).collect()
             }
             None => {
                 let demos = crate::policy::dataset::load_demonstrations(
