@@ -16,7 +16,7 @@
 //! The states are fixed (a seeded generator), so a check says the same thing every time; their
 //! number shrinks with the declaration's size so that the check stays cheap.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use super::super::{CheckError, CheckWarning, Checker};
 use crate::program::ir::Ir;
@@ -27,6 +27,8 @@ use crate::syntax::ast::Span;
 const BUDGET: usize = 4_000_000;
 /// Pairs of states (a step and the one before) tried for observations and scores.
 const PAIRS: usize = 32;
+/// The most warnings one task gets; the last says how many more values were left unsaid.
+const MAX_WARNINGS: usize = 10;
 
 /// Values the robot's state takes in the states tried (the time is filled in from the task).
 const XY: [f64; 6] = [0.0, 1.0, -1.0, 2.5, -3.7, 12.0];
@@ -56,8 +58,8 @@ struct Sink {
     start_failed: usize,
     tried: usize,
     failed: usize,
-    /// The first failure: the value it started in, that value, and where.
-    first: Option<(usize, f64, String)>,
+    /// The first failure: the value it started in, whether at the previous step, and the state.
+    first: Option<(usize, bool, usize)>,
 }
 
 /// SplitMix64: a fixed, dependency-free sequence for choosing the states.
@@ -121,14 +123,15 @@ impl Checker<'_> {
             .chain(&d.score)
             .map(|(s, ir)| (*s, ir))
             .collect();
-        let scores: Vec<usize> = d.score.iter().map(|(s, _)| *s).collect();
+        let scores: HashSet<usize> = d.score.iter().map(|(s, _)| *s).collect();
+        let observed: HashSet<usize> = d.observe.iter().copied().collect();
         let mut sinks: Vec<(usize, Sink)> = d
             .observe
             .iter()
-            .chain(&scores)
+            .chain(d.score.iter().map(|(s, _)| s))
             .map(|s| (*s, Sink::default()))
             .collect();
-        for p in &points {
+        for (at, p) in points.iter().enumerate() {
             let prev = p.prev.map_or(&p.env, |i| &points[i].env);
             for (slot, sink) in &mut sinks {
                 let is_score = scores.contains(slot);
@@ -146,15 +149,14 @@ impl Checker<'_> {
                 sink.start_failed += usize::from(p.start);
                 if sink.first.is_none() {
                     let (root, in_prev) = root(*slot, &p.env, prev, &irs, d.slots());
-                    let env = if in_prev { prev } else { &p.env };
-                    let at = describe(d, &irs, root, env, prev, p.start);
-                    sink.first = Some((root, env[root], at));
+                    sink.first = Some((root, in_prev, at));
                 }
             }
         }
         // One diagnostic per value a failure starts in; an error where one of its sinks is
         // certain.
-        let mut reported: Vec<usize> = Vec::new();
+        let mut reported: HashSet<usize> = HashSet::new();
+        let (mut warned, mut unsaid) = (0, 0);
         let mut order: Vec<(usize, bool, &Sink)> = sinks
             .iter()
             .filter_map(|(slot, s)| {
@@ -169,28 +171,36 @@ impl Checker<'_> {
         // Errors first, so a value both certain and possible is an error.
         order.sort_by_key(|(slot, certain, _)| (!*certain, *slot));
         for (sink, certain, s) in order {
-            let Some((root, value, at)) = &s.first else {
+            let Some((root, in_prev, point)) = &s.first else {
                 continue;
             };
-            if reported.contains(root) {
+            let p = &points[*point];
+            let prev = p.prev.map_or(&p.env, |i| &points[i].env);
+            let env = if *in_prev { prev } else { &p.env };
+            if !reported.insert(*root) {
                 continue;
             }
-            reported.push(*root);
             let Some(&span) = defined.get(root) else {
                 continue;
             };
-            let word = what(d, &scores, *root);
+            if !certain && warned == MAX_WARNINGS {
+                unsaid += 1;
+                continue;
+            }
+            let word = what(&observed, &scores, *root);
             let name = d.slot_names[*root].clone();
             let through = if *root == sink {
                 String::new()
             } else {
                 format!(
                     "{} `{}` reads it, so ",
-                    what(d, &scores, sink),
+                    what(&observed, &scores, sink),
                     d.slot_names[sink]
                 )
             };
-            let value = value.to_string();
+            let value = env[*root].to_string();
+            // Where it was tried, said only for what is reported (it walks what the value reads).
+            let at = describe(d, &irs, *root, env, prev, p.start);
             if certain {
                 let constant = irs.get(root).is_some_and(|ir| reads_nothing(ir));
                 let is_score = scores.contains(&sink);
@@ -199,10 +209,10 @@ impl Checker<'_> {
                 } else if is_score {
                     (
                         format!("is not a number at any of the {} states tried", s.tried),
-                        at.clone(),
+                        at,
                     )
                 } else {
-                    ("is not a number at the start of any run".into(), at.clone())
+                    ("is not a number at the start of any run".into(), at)
                 };
                 let effect = if is_score {
                     "every run would end with no score (a failure)"
@@ -225,6 +235,7 @@ impl Checker<'_> {
                     },
                 );
             } else {
+                warned += 1;
                 self.warnings.push((
                     f,
                     span.start,
@@ -232,7 +243,7 @@ impl Checker<'_> {
                         what: word.into(),
                         name,
                         value,
-                        at: at.clone(),
+                        at,
                         help: capital(&format!(
                             "{through}a run that gets there is stopped (`advise::task::non_finite`); guard it, e.g. `if(d == 0, 0, 1 / d)` or `sqrt(max(0, s))`, or ignore this if the robot cannot be there"
                         )),
@@ -240,6 +251,15 @@ impl Checker<'_> {
                     },
                 ));
             }
+        }
+        if unsaid > 0
+            && let Some((_, _, CheckWarning::TaskMaybeNotFinite { help, .. })) =
+                self.warnings.last_mut()
+        {
+            help.push_str(&format!(
+                ". {unsaid} more value{} of this task may not be numbers either",
+                if unsaid == 1 { "" } else { "s" }
+            ));
         }
     }
 }
@@ -391,13 +411,12 @@ fn describe(
 ) -> String {
     // Inputs reached from `root`: (slot, read at the previous step).
     let mut inputs: Vec<(usize, bool)> = Vec::new();
-    let mut seen: Vec<(usize, bool)> = Vec::new();
+    let mut seen: HashSet<(usize, bool)> = HashSet::new();
     let mut todo = vec![(root, false)];
     while let Some((s, p)) = todo.pop() {
-        if seen.contains(&(s, p)) || seen.len() > 4 * d.slots() {
+        if !seen.insert((s, p)) {
             continue;
         }
-        seen.push((s, p));
         match irs.get(&s) {
             Some(ir) => {
                 let mut reads = Vec::new();
@@ -441,8 +460,8 @@ fn reads_nothing(ir: &Ir) -> bool {
     reads.is_empty()
 }
 
-fn what(d: &TaskDef, scores: &[usize], slot: usize) -> &'static str {
-    if d.observe.contains(&slot) {
+fn what(observed: &HashSet<usize>, scores: &HashSet<usize>, slot: usize) -> &'static str {
+    if observed.contains(&slot) {
         "the observation"
     } else if scores.contains(&slot) {
         "the score"
