@@ -27,6 +27,8 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
     let params = sim_params(args.sim_params.as_deref())?;
     let domain = kind.domain();
     let recorded = crate::task::record_demos(kind.clone(), args.count as usize, args.seed, &params);
+    // A demonstration stopped on a value that is not a number refuses them all: nothing written.
+    crate::task::finite_demos(&kind, &recorded)?;
     let successes = recorded.iter().filter(|(_, o)| o.success).count();
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let points: usize = episodes.iter().map(|e| e.trace.len()).sum();

@@ -83,6 +83,11 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     PracticeStart(#[from] task::PracticeStartOutOfRange),
+    /// `load demos teacher:N` of a task whose teacher's runs stopped on a value that is not a
+    /// number.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    DemosStopped(#[from] task::DemosStopped),
     #[error("unknown task `{name}`")]
     #[diagnostic(code(advise::session::unknown_task), help("{help}"))]
     UnknownTask { name: String, help: String },
@@ -217,6 +222,25 @@ pub enum SessionError {
         #[source]
         #[diagnostic_source]
         error: BackendError,
+    },
+    /// A run that stopped on a value of the task that is not a number: like an interrupted
+    /// one, what was recorded before it is kept as an execution.
+    #[error(
+        "execution {index} ({label}) stopped after {steps} steps on a value that is not a number; what was recorded is kept"
+    )]
+    #[diagnostic(
+        code(advise::session::run_stopped),
+        help(
+            "`show` it; the task's declaration needs fixing before its runs can be trusted (`advise check FILE` warns where a value may not be a number)"
+        )
+    )]
+    RunStopped {
+        index: usize,
+        label: String,
+        steps: usize,
+        #[source]
+        #[diagnostic_source]
+        reason: task::NonFinite,
     },
     #[error("`record demo` listens to a ROS 2 base; this session drives `{backend}`")]
     #[diagnostic(

@@ -90,10 +90,10 @@ impl Session {
                     })?;
                 let params = self.sim_params();
                 // A distinct stream from the practice starts the teacher's runs use.
-                task::record_demos(self.task.clone(), count, self.seed ^ 0xD3E0, &params)
-                    .into_iter()
-                    .map(|(e, _)| e)
-                    .collect()
+                let recorded =
+                    task::record_demos(self.task.clone(), count, self.seed ^ 0xD3E0, &params);
+                task::finite_demos(&self.task, &recorded)?;
+                recorded.into_iter().map(|(e, _)| e).collect()
             }
             None => {
                 let demos = crate::policy::dataset::load_demonstrations(

@@ -85,9 +85,11 @@ impl Session {
                 (*execution, Some(error))
             }
         };
-        let label = match failure {
-            Some(_) => format!("{label} (interrupted)"),
-            None => label,
+        let stopped = exec.outcome.non_finite.clone();
+        let label = match (&failure, &stopped) {
+            (Some(_), _) => format!("{label} (interrupted)"),
+            (None, Some(_)) => format!("{label} (stopped)"),
+            (None, None) => label,
         };
         // The dataset has not changed during the run: the points nearest now are the ones that
         // recommended each action, kept for `critique`.
@@ -115,6 +117,14 @@ impl Session {
                 label,
                 steps: n,
                 error,
+            });
+        }
+        if let Some(reason) = stopped {
+            return Err(SessionError::RunStopped {
+                index,
+                label,
+                steps: n,
+                reason,
             });
         }
         Ok(Reply::Ran(Ran {
