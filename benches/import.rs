@@ -3,6 +3,7 @@
 //! it. The bag is written once, outside the timed part; each iteration is `advise import`'s work
 //! short of writing the output: read, decompress, decode the CDR, sort, pair, and build the
 //! demonstration. The figure to compare with disk speed is the file's bytes over the time.
+//! `bombs`: how long the refusal of issue 31's decompression bombs takes.
 
 use std::collections::BTreeMap;
 use std::io::Cursor;
@@ -85,5 +86,59 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// An MCAP file of one zstd chunk declaring `size` bytes and holding `data` (issue 31's bombs).
+fn bomb(size: u64, data: &[u8]) -> Vec<u8> {
+    const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+    let mut f = MAGIC.to_vec();
+    let record = |f: &mut Vec<u8>, opcode: u8, body: &[u8]| {
+        f.push(opcode);
+        f.extend((body.len() as u64).to_le_bytes());
+        f.extend(body);
+    };
+    record(
+        &mut f,
+        0x01,
+        &[4, 0, 0, 0, b'r', b'o', b's', b'2', 0, 0, 0, 0],
+    );
+    let mut chunk = Vec::new();
+    chunk.extend([0u8; 16]);
+    chunk.extend(size.to_le_bytes());
+    chunk.extend(0u32.to_le_bytes());
+    chunk.extend(4u32.to_le_bytes());
+    chunk.extend(b"zstd");
+    chunk.extend((data.len() as u64).to_le_bytes());
+    chunk.extend(data);
+    record(&mut f, 0x06, &chunk);
+    record(&mut f, 0x0F, &0u32.to_le_bytes());
+    record(&mut f, 0x02, &[0u8; 20]);
+    f.extend(MAGIC);
+    f
+}
+
+/// Decompression bombs (issue 31): a chunk declaring 3.2 GB (refused from its header), a 32 MiB
+/// chunk of zeros in a few KB (refused by the ratio), and a chunk declaring 1,000 bytes that
+/// expands to 256 MiB (refused one byte past its declared size). Before, the first kept `advise
+/// import` busy past 180 s and a 138 KB chunk cost 100 s.
+fn bombs(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let zeros = |n: usize| zstd::encode_all(&vec![0u8; n][..], 3).unwrap();
+    let cases = [
+        ("bomb_3_2_gb_header", bomb(3_200_000_000, &zeros(1 << 20))),
+        ("bomb_ratio_32_mib", bomb(32 << 20, &zeros(32 << 20))),
+        ("bomb_lying_header_256_mib", bomb(1000, &zeros(256 << 20))),
+    ];
+    let mut g = c.benchmark_group("import");
+    g.sample_size(10);
+    for (name, bytes) in cases {
+        let path = dir.path().join(format!("{name}.mcap"));
+        std::fs::write(&path, &bytes).unwrap();
+        eprintln!("{name}: {} bytes on disk", bytes.len());
+        g.bench_function(name, |b| {
+            b.iter(|| import(&path, &ImportOptions::default()).unwrap_err())
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, bombs);
 criterion_main!(benches);

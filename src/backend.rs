@@ -127,12 +127,62 @@ pub enum BackendError {
         waited_ms: u64,
         discovered: String,
     },
+    #[error("nothing reads commands on {topic} (domain {domain_id}) after {waited_ms} ms")]
+    #[diagnostic(
+        code(advise::backend::no_command_reader),
+        help(
+            "{why}. Commands are sent only once the base's command subscription is matched, so none went unread"
+        )
+    )]
+    NoCommandReader {
+        topic: String,
+        domain_id: u16,
+        waited_ms: u64,
+        why: String,
+    },
+    #[error("the base's command reader on {topic} went away mid-run")]
+    #[diagnostic(
+        code(advise::backend::command_reader_gone),
+        help(
+            "zero was commanded and the execution so far is kept; check that the base's driver still runs"
+        )
+    )]
+    CommandReaderGone { topic: String },
+    #[error("corrupt odometry on {topic}: {what}")]
+    #[diagnostic(
+        code(advise::backend::bad_odometry),
+        help(
+            "the base was commanded zero as the sample arrived and the execution so far is kept; check the base's odometry (its driver, encoders or the publisher of that topic) before driving again"
+        )
+    )]
+    BadOdometry { topic: String, what: String },
     #[error("ROS 2: {what}")]
     #[diagnostic(code(advise::backend::ros2))]
     Ros2 { what: String },
     #[error("{0}")]
     #[diagnostic(code(advise::backend::other))]
     Other(String),
+}
+
+/// Odometry farther from the origin than this is not a mobile base's (1,000 km): a corrupt value.
+pub const ODOM_FAR_M: f64 = 1.0e6;
+
+/// Why odometry (`pose`, measured speeds) cannot be a base's: a non-finite field or a position
+/// beyond [`ODOM_FAR_M`]. Every backend that reads odometry from a device refuses such a sample,
+/// zeroes the base and ends the run with [`BackendError::BadOdometry`]: a policy never acts on it.
+pub fn odometry_fault(pose: Pose, speed_mps: f64, rot_radps: f64) -> Option<String> {
+    let fields = [
+        ("x", pose.x_m),
+        ("y", pose.y_m),
+        ("heading", pose.theta_rad),
+        ("speed", speed_mps),
+        ("rotation", rot_radps),
+    ];
+    if let Some((name, v)) = fields.iter().find(|(_, v)| !v.is_finite()) {
+        return Some(format!("its {name} is {v}"));
+    }
+    let (name, v) = fields[..2].iter().find(|(_, v)| v.abs() > ODOM_FAR_M)?;
+    Some(format!("its {name} is {v} m, beyond any base's reach"))
 }
 
 /// A robot backend's fixed-rate schedule: sleep until `next_deadline`, then set the next one a

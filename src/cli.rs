@@ -133,6 +133,10 @@ pub struct Ros2SimArgs {
     /// Seeds the simulator's noise.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Seconds a command is held with no newer one before the simulated base stops itself, as a
+    /// real base's controller does (0.05 to 10).
+    #[arg(long, value_name = "SECONDS", default_value_t = crate::backend::ros2::robot::COMMAND_TIMEOUT_S)]
+    pub command_timeout: f64,
 }
 
 #[derive(Args)]
@@ -330,6 +334,78 @@ pub struct EvalArgs {
     /// Run only the first N starts of the test set (a quick check on a real base).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     pub limit: Option<u64>,
+}
+
+/// The command line, parsed; or, when clap refuses it, clap's text printed as a coded diagnostic
+/// and the exit code to end with (clap's: 2). `--help` and `--version` print as clap prints them
+/// and exit 0.
+pub fn parse_args() -> Result<Cli, std::process::ExitCode> {
+    Cli::try_parse().map_err(|e| {
+        use clap::error::ErrorKind;
+        if matches!(
+            e.kind(),
+            ErrorKind::DisplayHelp
+                | ErrorKind::DisplayVersion
+                | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+        ) {
+            e.exit()
+        }
+        print_report(&crate::diag::SourceMap::new(), &ArgumentError::from(&e));
+        std::process::ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2))
+    })
+}
+
+/// An argument clap refused, in clap's words: the first line is what is wrong, the rest (a tip,
+/// the usage, where to read more) is the help. The code says which kind of mistake it is.
+#[derive(Debug)]
+pub struct ArgumentError {
+    code: &'static str,
+    message: String,
+    help: String,
+}
+
+impl From<&clap::Error> for ArgumentError {
+    fn from(e: &clap::Error) -> ArgumentError {
+        use clap::error::ErrorKind as K;
+        let code = match e.kind() {
+            K::InvalidValue | K::ValueValidation | K::InvalidUtf8 => "advise::cli::invalid_value",
+            K::UnknownArgument => "advise::cli::unknown_argument",
+            K::InvalidSubcommand => "advise::cli::unknown_command",
+            K::MissingRequiredArgument | K::MissingSubcommand => "advise::cli::missing_argument",
+            K::ArgumentConflict => "advise::cli::argument_conflict",
+            K::NoEquals | K::TooManyValues | K::TooFewValues | K::WrongNumberOfValues => {
+                "advise::cli::value_count"
+            }
+            _ => "advise::cli::arguments",
+        };
+        // `render` is clap's text without colour.
+        let text = e.render().to_string();
+        let text = text.trim().strip_prefix("error: ").unwrap_or(text.trim());
+        let (message, help) = text.split_once('\n').unwrap_or((text, ""));
+        ArgumentError {
+            code,
+            message: message.trim().to_string(),
+            help: help.trim().to_string(),
+        }
+    }
+}
+
+impl std::fmt::Display for ArgumentError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for ArgumentError {}
+
+impl Diagnostic for ArgumentError {
+    fn code<'a>(&'a self) -> Option<Box<dyn std::fmt::Display + 'a>> {
+        Some(Box::new(self.code))
+    }
+
+    fn help<'a>(&'a self) -> Option<Box<dyn std::fmt::Display + 'a>> {
+        (!self.help.is_empty()).then(|| Box::new(&self.help) as Box<dyn std::fmt::Display>)
+    }
 }
 
 /// Errors that belong to the command line itself.

@@ -90,8 +90,10 @@ impl Report {
             } else {
                 successes as f64 / n as f64
             },
-            mean_position_error_m: mean(&|o| Some(o.position_error_m)).unwrap_or(0.0),
-            mean_heading_error_rad: mean(&|o| o.heading_error_rad),
+            // A score that was not a number is not a figure to average (it is held as 0).
+            mean_position_error_m: mean(&|o| o.scored().then_some(o.position_error_m))
+                .unwrap_or(0.0),
+            mean_heading_error_rad: mean(&|o| o.heading_error_rad.filter(|_| o.scored())),
             mean_length_m: mean(&|o| Some(o.length_m)).unwrap_or(0.0),
             mean_length_success_m: mean(&|o| o.success.then_some(o.length_m)),
             mean_efficiency_success: mean(&|o| o.efficiency.filter(|_| o.success)),
@@ -134,6 +136,17 @@ impl Report {
             .map(|(k, v)| format!("{k} {v}"))
             .collect();
         s.push_str(&format!("  endings             {}\n", endings.join(", ")));
+        let stopped = self
+            .outcomes
+            .iter()
+            .enumerate()
+            .find_map(|(i, o)| o.non_finite.as_ref().map(|n| (i, n)));
+        if let Some((i, n)) = stopped {
+            let code = n.code().map(|c| format!(" [{c}]")).unwrap_or_default();
+            s.push_str(&format!(
+                "  stopped             episode {i} first: {n}{code}\n"
+            ));
+        }
         s
     }
 }
@@ -147,6 +160,7 @@ fn ending_name(e: Ending) -> &'static str {
         Ending::RobotOut => "robot_out",
         Ending::Interrupted => "interrupted",
         Ending::Rule => "rule",
+        Ending::NonFinite => "non_finite",
     }
 }
 

@@ -10,7 +10,13 @@
 //! renamed over the destination: a failed write leaves the old file untouched and no temporary
 //! behind. A symbolic link as destination is followed, so its target is replaced and the link
 //! kept; an existing destination that is not a regular file (a folder, a FIFO, a device) is
-//! refused. This module knows no file format; it must not parse what it reads.
+//! refused, and so is one this user may not write (the rename needs only the folder's
+//! permission, so a 0444 file would otherwise be replaced). A directory is written whole into a
+//! temporary sibling and renamed into place ([`write_dir_atomic`]). Temporaries left by a process
+//! that is gone (`kill -9` during a save) are removed by the next write beside them; a live
+//! process's never. Commands that read and write refuse an output that is one of their inputs
+//! ([`refuse_overwriting_inputs`], by device and inode, so links are caught). This module knows
+//! no file format; it must not parse what it reads.
 
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Write};
@@ -79,6 +85,22 @@ pub enum FileError {
         #[source]
         source: std::io::Error,
     },
+    #[error("`{path}` is `{input}`, which this command reads")]
+    #[diagnostic(
+        code(advise::file::output_is_input),
+        help(
+            "writing there would replace what is being read (the same file, or a link to it); name another output; nothing was written"
+        )
+    )]
+    OutputIsInput { path: String, input: String },
+    #[error("`{path}` is read-only for you")]
+    #[diagnostic(
+        code(advise::file::read_only),
+        help(
+            "its permissions do not let you write it, so `advise` does not replace it either; make it writable (`chmod u+w`) or name another file; nothing was changed"
+        )
+    )]
+    ReadOnly { path: String },
     #[error("`{path}` passes through more than {MAX_LINKS} symbolic links")]
     #[diagnostic(
         code(advise::file::link_loop),
@@ -247,7 +269,7 @@ fn special_kind(meta: &std::fs::Metadata) -> Option<&'static str> {
 }
 
 /// `268435456` as `256 MiB`.
-fn fmt_bytes(n: u64) -> String {
+pub(crate) fn fmt_bytes(n: u64) -> String {
     const MIB: u64 = 1024 * 1024;
     if n >= MIB && n.is_multiple_of(MIB) {
         format!("{} MiB", n / MIB)
@@ -282,6 +304,11 @@ pub fn write_atomic(
             if let Some(kind) = special_kind(&meta) {
                 return Err(FileError::NotRegular { path: name(), kind });
             }
+            // The rename below needs only the folder's permission: a file the user may not
+            // write (0444, or another user's) would be replaced all the same.
+            if !writable(&target) {
+                return Err(FileError::ReadOnly { path: name() });
+            }
             Some(meta.permissions())
         }
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
@@ -310,6 +337,79 @@ pub fn write_atomic(
         let _ = std::fs::remove_file(&tmp_path);
         write_err(e)
     })
+}
+
+/// Whether this process may write the existing file `path`, as `open` for writing would decide
+/// (the effective user and groups, root included; a read-only filesystem says no).
+fn writable(path: &Path) -> bool {
+    use rustix::fs::{Access, AtFlags, CWD, accessat};
+    match accessat(CWD, path, Access::WRITE_OK, AtFlags::EACCESS) {
+        Ok(()) => true,
+        Err(e) => !matches!(
+            e,
+            rustix::io::Errno::ACCESS | rustix::io::Errno::ROFS | rustix::io::Errno::PERM
+        ),
+    }
+}
+
+/// Whether two paths name one file (through links, hard ones included): the same device and
+/// inode, or the same canonical path. A path that does not exist is no file.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => {
+            (x.dev(), x.ino()) == (y.dev(), y.ino())
+                || std::fs::canonicalize(a).ok() == std::fs::canonicalize(b).ok()
+        }
+        _ => false,
+    }
+}
+
+/// Refuse an `output` that is one of the command's `inputs` ([`same_file`]), before anything
+/// is written: `advise export ds.json --mcap ds.json` replaced the dataset it read.
+pub fn refuse_overwriting_inputs<'a>(
+    output: &Path,
+    inputs: impl IntoIterator<Item = &'a Path>,
+) -> Result<(), FileError> {
+    for input in inputs {
+        if same_file(output, input) {
+            return Err(FileError::OutputIsInput {
+                path: output.display().to_string(),
+                input: input.display().to_string(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Write a directory atomically: `fill` writes its files into a new temporary sibling
+/// (`.NAME.PID-N.tmp`), which is renamed into place once whole, so a killed export leaves no
+/// half-written directory (only a temporary one, removed by the next write beside it once its
+/// process is gone). `dir` may exist only as an empty directory (rename replaces it); the caller
+/// refuses one that is not empty. On any error the temporary directory is removed.
+pub fn write_dir_atomic<E: From<FileError>>(
+    dir: &Path,
+    fill: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<(), E> {
+    let write_err = |source| FileError::Write {
+        path: dir.display().to_string(),
+        source,
+    };
+    let target = resolve_links(dir)?;
+    let parent = parent_dir(&target);
+    let tmp = temp_name(&target, |p| std::fs::create_dir(p)).map_err(write_err)?;
+    let filled = fill(&tmp);
+    let result = filled.and_then(|()| {
+        std::fs::rename(&tmp, &target).map_err(|e| E::from(write_err(e)))?;
+        if let Ok(d) = File::open(parent) {
+            let _ = d.sync_all();
+        }
+        Ok(())
+    });
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&tmp);
+    }
+    result
 }
 
 /// The file a path finally names, following symbolic links (relative links are relative to the
@@ -347,27 +447,105 @@ fn parent_dir(path: &Path) -> &Path {
 /// umask), unlike `tempfile`'s 0600.
 fn create_temp(target: &Path) -> std::io::Result<(PathBuf, File)> {
     use std::os::unix::fs::OpenOptionsExt;
+    let mut file = None;
+    let tmp = temp_name(target, |p| {
+        file = Some(
+            OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .mode(0o666)
+                .open(p)?,
+        );
+        Ok(())
+    })?;
+    match file {
+        Some(f) => Ok((tmp, f)),
+        None => Err(std::io::Error::other("no temporary file was made")),
+    }
+}
+
+/// A new temporary name `.NAME.PID-N.tmp` beside `target`, made by `make` (which fails with
+/// `AlreadyExists` when the name is taken). Temporaries of this target left by processes that
+/// are gone (`kill -9` during a save) are removed first.
+fn temp_name(
+    target: &Path,
+    mut make: impl FnMut(&Path) -> std::io::Result<()>,
+) -> std::io::Result<PathBuf> {
     static COUNTER: AtomicU64 = AtomicU64::new(0);
     let base = target
         .file_name()
         .map_or_else(|| "advise".into(), |n| n.to_string_lossy().into_owned());
     let dir = parent_dir(target);
+    remove_stale_temps(dir, &base);
     let mut last = None;
     for _ in 0..16 {
         let n = COUNTER.fetch_add(1, Ordering::Relaxed);
         let tmp = dir.join(format!(".{base}.{}-{n}.tmp", std::process::id()));
-        match OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .mode(0o666)
-            .open(&tmp)
-        {
-            Ok(f) => return Ok((tmp, f)),
+        match make(&tmp) {
+            Ok(()) => return Ok(tmp),
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => last = Some(e),
             Err(e) => return Err(e),
         }
     }
     Err(last.unwrap_or_else(|| std::io::Error::other("no free temporary name")))
+}
+
+/// The most entries of a folder looked at for stale temporaries on one write.
+const MAX_STALE_SCAN: usize = 100_000;
+
+/// The process id in a temporary name of `base`, `.BASE.PID-N.tmp`.
+fn temp_owner(file_name: &str, base: &str) -> Option<u32> {
+    let rest = file_name
+        .strip_prefix('.')?
+        .strip_prefix(base)?
+        .strip_prefix('.')?
+        .strip_suffix(".tmp")?;
+    let (pid, n) = rest.split_once('-')?;
+    n.parse::<u64>().ok()?;
+    pid.parse().ok()
+}
+
+/// Whether a process `pid` exists (a signal 0 reaches it, or it belongs to another user).
+fn alive(pid: u32) -> bool {
+    let Some(pid) = i32::try_from(pid)
+        .ok()
+        .and_then(rustix::process::Pid::from_raw)
+    else {
+        return false;
+    };
+    !matches!(
+        rustix::process::test_kill_process(pid),
+        Err(rustix::io::Errno::SRCH)
+    )
+}
+
+/// Remove the temporaries of `base` in `dir` whose process is gone. Never this process's own,
+/// nor a live process's (a pid reused by another program keeps its temporaries: the safe side).
+fn remove_stale_temps(dir: &Path, base: &str) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let me = std::process::id();
+    for entry in entries.take(MAX_STALE_SCAN).flatten() {
+        let name = entry.file_name();
+        let Some(pid) = temp_owner(&name.to_string_lossy(), base) else {
+            continue;
+        };
+        if pid == me || alive(pid) {
+            continue;
+        }
+        let path = entry.path();
+        // Not following a link: a temporary is a plain file or (a directory export's) folder.
+        match entry.file_type() {
+            Ok(t) if t.is_dir() => {
+                let _ = std::fs::remove_dir_all(&path);
+            }
+            Ok(t) if t.is_file() => {
+                let _ = std::fs::remove_file(&path);
+            }
+            _ => {}
+        }
+    }
 }
 
 #[cfg(test)]

@@ -6,16 +6,18 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use clap::Parser;
-use miette::{IntoDiagnostic, WrapErr, miette};
+use miette::{IntoDiagnostic, miette};
 
-use advise::cli::{self, Cli, CliError, Command, SessionArgs, operators, tools};
+use advise::cli::{self, CliError, Command, SessionArgs, operators, tools};
 use advise::diag::SourceMap;
 use advise::session::{Session, SessionOptions, journal, script};
 use advise::task::TaskKind;
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match cli::parse_args() {
+        Ok(cli) => cli,
+        Err(code) => return code,
+    };
     let result = match cli.command {
         None => repl(SessionArgs::default()),
         Some(Command::Repl(args)) => repl(args),
@@ -115,11 +117,7 @@ fn start_journal(session: &mut Session, args: &SessionArgs) -> miette::Result<()
     if args.no_journal {
         return Ok(());
     }
-    let dir = journal::default_dir();
-    session
-        .start_journal(&dir)
-        .into_diagnostic()
-        .wrap_err_with(|| format!("cannot create a journal in {}", dir.display()))?;
+    session.start_journal(&journal::default_dir())?;
     Ok(())
 }
 
@@ -195,6 +193,9 @@ fn resume(journal_path: Option<PathBuf>) -> miette::Result<ExitCode> {
         restored.entries,
         session.status()
     );
+    if let Some(stopped) = &restored.stopped {
+        cli::print_report(session.sources(), stopped);
+    }
     for note in &restored.notes {
         println!("note: {note}");
     }

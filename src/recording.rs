@@ -13,6 +13,7 @@
 pub mod bag;
 pub mod lerobot;
 pub mod mcap_export;
+pub mod mcap_read;
 
 use std::path::{Path, PathBuf};
 
@@ -39,6 +40,125 @@ impl ImportOptions {
             None => episode(name, run, self.goal),
         }
     }
+}
+
+/// The farthest from its origin a recording's odometry may be, m: beyond it a pose is a damaged
+/// message (1,000 km; `1e300` was written by a broken driver).
+pub const MAX_POSITION_M: f64 = 1e6;
+/// The largest command a recording may hold, m/s or rad/s: beyond it a command is a damaged
+/// message (whatever the task's limits, which are checked too).
+pub const MAX_COMMAND: f64 = 1e3;
+
+/// Where a sample of a recording is, for a diagnostic, from the sample's time (s).
+pub type Locate<'a> = &'a dyn Fn(f64) -> String;
+
+impl ImportOptions {
+    /// [`ImportOptions::episode`], held to the rule every path into a dataset holds
+    /// ([`crate::trace::ValueFault`]): a sample beyond the physical bounds ([`MAX_POSITION_M`],
+    /// [`MAX_COMMAND`]) or a point `load demos` would refuse is refused here, at `at(t)` of
+    /// `path`, so an import never writes (nor a session keeps) what `load demos` refuses.
+    pub fn checked_episode(
+        &self,
+        path: &Path,
+        name: String,
+        run: &[Sample],
+        at: Locate<'_>,
+    ) -> Result<Episode, ImportError> {
+        check_samples(path, run, at)?;
+        let episode = self.episode(name, run);
+        let domain = match &self.task {
+            Some(def) => def.domain.clone(),
+            None => positioning_def().domain.clone(),
+        };
+        check_demonstration(path, &domain, &episode, run, at)?;
+        Ok(episode)
+    }
+}
+
+/// Refuse a sample whose pose or command is not finite or beyond the physical bounds.
+pub fn check_samples(path: &Path, run: &[Sample], at: Locate<'_>) -> Result<(), ImportError> {
+    run.iter()
+        .try_for_each(|s| check_sample(path, s, || at(s.0)))
+}
+
+/// [`check_samples`] of one sample, located by `at`.
+pub fn check_sample(
+    path: &Path,
+    &(_, pose, v, w): &Sample,
+    at: impl Fn() -> String,
+) -> Result<(), ImportError> {
+    {
+        let values = [
+            ("odometry x", pose.x_m, MAX_POSITION_M, "m"),
+            ("odometry y", pose.y_m, MAX_POSITION_M, "m"),
+            ("odometry heading", pose.theta_rad, f64::INFINITY, "rad"),
+            ("commanded speed", v, MAX_COMMAND, "m/s"),
+            ("commanded turn rate", w, MAX_COMMAND, "rad/s"),
+        ];
+        for (what, value, bound, unit) in values {
+            if !value.is_finite() {
+                return Err(ImportError::NotFinite {
+                    path: path.to_path_buf(),
+                    at: at(),
+                    what: what.into(),
+                    value: value.to_string(),
+                });
+            }
+            if value.abs() > bound {
+                return Err(ImportError::Implausible {
+                    path: path.to_path_buf(),
+                    at: at(),
+                    what: what.into(),
+                    value: format!("{value:e} {unit}"),
+                    bound: format!("{bound:e} {unit}"),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuse a demonstration made from `run` (point `i` from sample `i`) whose point breaks the
+/// demonstration rule ([`crate::trace::demo_value_fault`]).
+pub fn check_demonstration(
+    path: &Path,
+    domain: &Domain,
+    episode: &Episode,
+    run: &[Sample],
+    at: Locate<'_>,
+) -> Result<(), ImportError> {
+    use crate::domain::Space;
+    use crate::trace::ValueFault;
+    let Some((i, space, k, v, fault)) = crate::trace::demo_fault(domain, &episode.trace) else {
+        return Ok(());
+    };
+    let at = at(run.get(i).map_or(episode.trace.t[i], |s| s.0));
+    let dim = &domain.dims(space)[k];
+    Err(match fault {
+        ValueFault::NotFinite => ImportError::NotFinite {
+            path: path.to_path_buf(),
+            at,
+            what: format!(
+                "{} `{}` {}",
+                space.word(),
+                dim.name,
+                if space == Space::Observation {
+                    "the task computes there"
+                } else {
+                    "there"
+                }
+            ),
+            value: v.to_string(),
+        },
+        ValueFault::OutsideLimits(l) => ImportError::OutOfLimits {
+            path: path.to_path_buf(),
+            at,
+            dim: dim.name.clone(),
+            value: crate::number::fmt_num(v),
+            lo: crate::number::fmt_num(l.lo),
+            hi: crate::number::fmt_num(l.hi),
+        },
+    })
 }
 
 /// How a log is turned into episodes.
@@ -197,6 +317,66 @@ pub enum ImportError {
         reason: String,
     },
     #[error(
+        "{path}: the chunk at byte {offset} would decompress to {size} (from {compressed}), more than the {cap} a chunk may"
+    )]
+    #[diagnostic(
+        code(advise::import::chunk_too_large),
+        help(
+            "nothing was decompressed; a bag's chunks are well under 1 MiB, so this is a damaged file or a decompression bomb. If the bag is genuine, keep only the topics the import reads: `mcap filter BAG -o small.mcap -y /cmd_vel -y /odom`"
+        )
+    )]
+    ChunkTooLarge {
+        path: PathBuf,
+        offset: u64,
+        size: String,
+        compressed: String,
+        cap: String,
+    },
+    #[error(
+        "{path}: the chunk at byte {offset} would expand {compressed} into {size}, {ratio} times or more"
+    )]
+    #[diagnostic(
+        code(advise::import::chunk_ratio),
+        help(
+            "nothing was decompressed; recorded messages compress a few dozen times at most, so this is a damaged file or a decompression bomb. If the bag is genuine, keep only the topics the import reads: `mcap filter BAG -o small.mcap -y /cmd_vel -y /odom`"
+        )
+    )]
+    ChunkRatio {
+        path: PathBuf,
+        offset: u64,
+        size: String,
+        compressed: String,
+        ratio: u64,
+    },
+    #[error(
+        "{path}: its chunks decompress to more than {cap} in all (reached at the chunk at byte {offset})"
+    )]
+    #[diagnostic(
+        code(advise::import::decompressed_too_large),
+        help(
+            "`advise` reads at most {cap} of messages from one bag; keep only the topics the import reads: `mcap filter BAG -o small.mcap -y /cmd_vel -y /odom`"
+        )
+    )]
+    DecompressedTooLarge {
+        path: PathBuf,
+        offset: u64,
+        cap: String,
+    },
+    #[error(
+        "{path}: the chunk at byte {offset} decompresses to more than the {size} its header says"
+    )]
+    #[diagnostic(
+        code(advise::import::chunk_size_lies),
+        help(
+            "reading stopped one byte past the declared size; the file is damaged or crafted, and was not imported"
+        )
+    )]
+    ChunkSizeLies {
+        path: PathBuf,
+        offset: u64,
+        size: String,
+    },
+    #[error(
         "{path}: none of its {commands} commands has odometry within {} s before it",
         bag::MAX_ODOMETRY_AGE_S
     )]
@@ -206,6 +386,50 @@ pub enum ImportError {
     )]
     NothingPaired { path: PathBuf, commands: usize },
 
+    #[error("{path}, {at}: the {what} is {value}, not a finite number")]
+    #[diagnostic(
+        code(advise::import::not_finite),
+        help(
+            "a demonstration holds finite numbers only, and `load demos` refuses NaN and infinity; the recording is damaged there: cut it before that time or repair the message"
+        )
+    )]
+    NotFinite {
+        path: PathBuf,
+        at: String,
+        what: String,
+        value: String,
+    },
+    #[error(
+        "{path}, {at}: the {what} is {value}, beyond the {bound} any recording of a base holds"
+    )]
+    #[diagnostic(
+        code(advise::import::implausible),
+        help(
+            "no odometry is {MAX_POSITION_M:e} m from its origin and no base is commanded at {MAX_COMMAND:e} m/s or rad/s: the message is damaged; cut the recording before that time or repair it"
+        )
+    )]
+    Implausible {
+        path: PathBuf,
+        at: String,
+        what: String,
+        value: String,
+        bound: String,
+    },
+    #[error("{path}, {at}: the action `{dim}` is {value}, outside its limits [{lo}, {hi}]")]
+    #[diagnostic(
+        code(advise::import::action_out_of_limits),
+        help(
+            "a demonstration's actions are ones the robot can execute, and `load demos` refuses this one as it refuses it in a file: record within [{lo}, {hi}], or declare a task whose limits are this robot's (`tasks FILE`, then `task NAME`)"
+        )
+    )]
+    OutOfLimits {
+        path: PathBuf,
+        at: String,
+        dim: String,
+        value: String,
+        lo: String,
+        hi: String,
+    },
     #[error("cannot read {path}: {source}")]
     #[diagnostic(code(advise::import::read))]
     Read {
@@ -361,9 +585,9 @@ pub fn parse_csv_log(
             } else {
                 stem.to_string()
             };
-            options.episode(name, run)
+            options.checked_episode(path, name, run, &|t: f64| format!("the row at time {t}"))
         })
-        .collect();
+        .collect::<Result<_, _>>()?;
     report.episodes = episodes.len();
     Ok((episodes, report))
 }
@@ -438,6 +662,12 @@ pub fn write_demonstrations(
         path: path.to_path_buf(),
         source,
     };
+    // The backstop of the rule: an import writes nothing `load demos` refuses.
+    for e in episodes {
+        check_demonstration(path, domain, e, &[], &|t: f64| {
+            format!("demonstration `{}` at {t} s", e.name)
+        })?;
+    }
     let is_json = path.extension().is_some_and(|e| e == "json");
     let bytes = if is_json {
         serde_json::to_vec_pretty(&Episode::to_json(domain, episodes))

@@ -4,8 +4,8 @@
 //! between sessions next to the journals. Ctrl-C stops the robot first and keeps the session: at
 //! the prompt rustyline reads it as a key; while a statement runs (an execution on a real base) it
 //! arrives as SIGINT, and [`install_ctrl_c`]'s handler raises the session's
-//! [`StopSignal`](crate::backend::StopSignal), which commands the base to zero and
-//! decelerate-to-zero from the handler thread and ends the execution at its next control step. A
+//! [`StopSignal`](crate::backend::StopSignal), which commands the base to zero (and, on the
+//! RMP, decelerate-to-zero) from the handler thread and ends the execution at its next control step. A
 //! second Ctrl-C in the same statement leaves the program (after stopping the base again).
 //! Ctrl-D or `quit` ends the session.
 
@@ -59,7 +59,7 @@ pub fn install_ctrl_c(signal: &StopSignal) -> bool {
                 Some(s) => {
                     s.raise();
                     if s.has_base() {
-                        eprintln!("\n^C: stopping the base (zero, decelerate-to-zero)");
+                        eprintln!("\n^C: stopping the base (zero commanded)");
                     } else {
                         eprintln!("\n^C: stopping (Ctrl-C again to leave at once)");
                     }

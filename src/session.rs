@@ -162,8 +162,11 @@ pub struct Restored {
     pub session: Session,
     /// Entries restored.
     pub entries: usize,
-    /// What the teacher must be told: a cut statement dropped, a damaged line, the backend the
-    /// session was on.
+    /// The line the restore stopped at (damaged, or refused by the rules a live statement
+    /// follows), as a diagnostic to show; `None` when every line was restored.
+    pub stopped: Option<journal::Stopped>,
+    /// What else the teacher must be told: a cut statement dropped, the backend the session was
+    /// on.
     pub notes: Vec<String>,
     /// Where the session journals from now on (the same journal, or a fresh one after damage).
     pub journal: PathBuf,
@@ -203,6 +206,9 @@ pub struct Session {
     preamble: Option<Vec<Entry>>,
     /// Every file and statement the session has read, for its diagnostics.
     sources: crate::diag::SourceMap,
+    /// The files the session's commands read (`open`, `load`, `operators`, `tasks`), each with
+    /// whether `open` read it: an output may not replace one ([`Session::check_output`]).
+    inputs: Vec<(std::path::PathBuf, bool)>,
 }
 
 impl std::fmt::Debug for Session {
@@ -263,6 +269,7 @@ impl Session {
             warnings: Vec::new(),
             preamble: None,
             sources: crate::diag::SourceMap::new(),
+            inputs: Vec::new(),
         }
     }
 

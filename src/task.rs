@@ -86,6 +86,75 @@ pub enum Ending {
     Rule,
     /// The backend failed (lost link, fault); the execution so far is kept.
     Interrupted,
+    /// A value of the task was not a number (an observation, or a score at the end): the run was
+    /// stopped there and what was recorded before it kept ([`Outcome::non_finite`] says which).
+    NonFinite,
+}
+
+/// The most control steps one episode takes, whatever its task says: [`MAX_TIME_LIMIT_S`] at
+/// 100 Hz, the simulator's highest rate. A declared task's `end after` is checked against
+/// [`MAX_TIME_LIMIT_S`]; this bound holds for every task and base (a faster base, a Rust task), so
+/// a trace stays a few megabytes. A run that reaches it ends as [`Ending::TimeLimit`].
+///
+/// [`MAX_TIME_LIMIT_S`]: crate::program::task::MAX_TIME_LIMIT_S
+pub const MAX_EPISODE_STEPS: usize = 60_000;
+
+/// Which kind of value of a task was not a number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ValueKind {
+    /// An observation, computed before the controller acts.
+    Observation,
+    /// A score, computed on the final state.
+    Score,
+}
+
+impl std::fmt::Display for ValueKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ValueKind::Observation => "observation",
+            ValueKind::Score => "score",
+        })
+    }
+}
+
+/// A value of a task that was not a finite number, and where: why a run was stopped.
+///
+/// An observation is checked before the controller sees it, so no policy is queried with it and
+/// the base is never commanded on it; a score on the final state, so no report averages it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, thiserror::Error, miette::Diagnostic)]
+#[error(
+    "the {kind} `{name}` was {value} at step {step} (t = {t_s:.2} s), not a number: the run was stopped there"
+)]
+#[diagnostic(
+    code(advise::task::non_finite),
+    help(
+        "the steps before it are kept and the base was stopped. In a task declared in a file, look for a division by zero or the square root of a negative number in `{name}` or what it reads (`advise check FILE` warns where it can); otherwise the base's odometry was not a number"
+    )
+)]
+pub struct NonFinite {
+    pub kind: ValueKind,
+    /// The observation's or the score's name.
+    pub name: String,
+    /// The control step: the trace's point it would have been (for a score, the number of
+    /// points recorded).
+    pub step: usize,
+    pub t_s: f64,
+    /// `NaN`, `inf` or `-inf` (as text: JSON has no such number).
+    pub value: String,
+}
+
+impl NonFinite {
+    fn new(kind: ValueKind, name: &str, step: usize, t_s: f64, value: f64) -> NonFinite {
+        NonFinite {
+            kind,
+            name: name.to_string(),
+            step,
+            // A time that is not a number either says so in the value; the time is a number.
+            t_s: if t_s.is_finite() { t_s } else { 0.0 },
+            value: value.to_string(),
+        }
+    }
 }
 
 /// A task's verdict on a final state.
@@ -119,6 +188,21 @@ pub struct Outcome {
     pub duration_s: f64,
     /// Final pose: true where known, else odometry.
     pub final_pose: Pose,
+    /// Why the run stopped when a value of the task was not a number ([`Ending::NonFinite`]).
+    /// A score that was not a number is held as 0 in its field above and left out of a report's
+    /// means.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub non_finite: Option<NonFinite>,
+}
+
+impl Outcome {
+    /// Whether the scores (`position_error_m`, `heading_error_rad`, `efficiency`) are the
+    /// task's: false when one of them was not a number.
+    pub fn scored(&self) -> bool {
+        self.non_finite
+            .as_ref()
+            .is_none_or(|n| n.kind != ValueKind::Score)
+    }
 }
 
 /// A recorded execution: the trace (odometry poses), the true path where known, and the outcome.
@@ -182,8 +266,12 @@ impl<P: Policy + ?Sized> Controller for &P {
 /// Run one episode of `task` on `backend` with `controller`, recording the execution.
 ///
 /// Actions are sanitised before use and recorded as executed: a non-finite value becomes 0 and
-/// every value is clamped to the domain's action limits. A backend error stops the episode; the
-/// base is asked to stop and the execution so far comes back inside [`Interrupted`].
+/// every value is clamped to the domain's action limits. An observation that is not a number ends
+/// the episode before the controller sees it ([`Ending::NonFinite`], the reason in
+/// [`Outcome::non_finite`]; the base is stopped as at any other end), and so does a score that is
+/// not a number at the end. An episode takes at most [`MAX_EPISODE_STEPS`] steps. A backend error
+/// stops the episode; the base is asked to stop and the execution so far comes back inside
+/// [`Interrupted`].
 pub fn run_episode(
     backend: &mut dyn Backend,
     task: &mut dyn Task,
@@ -206,8 +294,25 @@ pub fn run_episode(
     controller.begin(episode_seed);
     let mut z = vec![0.0; domain.obs_dim()];
     let mut a = vec![0.0; domain.act_dim()];
+    let mut stopped = None;
     let ending = loop {
+        if rec.trace.len() >= MAX_EPISODE_STEPS {
+            break Ending::TimeLimit;
+        }
         task.observe(&state, &mut z);
+        // Never act on a value that is not a number: the controller would be queried with it and
+        // the base commanded on what it answered.
+        if let Some(i) = z.iter().position(|v| !v.is_finite()) {
+            let name = domain.observe.get(i).map_or("?", |d| d.name.as_str());
+            stopped = Some(NonFinite::new(
+                ValueKind::Observation,
+                name,
+                rec.trace.len(),
+                state.t_s,
+                z[i],
+            ));
+            break Ending::NonFinite;
+        }
         a.iter_mut().for_each(|v| *v = 0.0);
         controller.act(&z, &mut a);
         for (v, dim) in a.iter_mut().zip(&domain.act) {
@@ -233,9 +338,18 @@ pub fn run_episode(
     };
     // The episode is over; a failure to stop is still worth reporting.
     if let Err(error) = backend.stop() {
-        return Err(rec.interrupted(task, backend, state, error));
+        let mut i = rec.interrupted(task, backend, state, error);
+        i.execution.outcome.non_finite = stopped.or(i.execution.outcome.non_finite);
+        return Err(i);
     }
-    Ok(rec.finish(task, backend, &state, ending))
+    let mut exec = rec.finish(task, backend, &state, ending);
+    if stopped.is_some() {
+        // The observation came first; a score that is not a number either is held as 0 all the
+        // same (`finish` did that).
+        exec.outcome.non_finite = stopped;
+        exec.outcome.success = false;
+    }
+    Ok(exec)
 }
 
 struct Recorder {
@@ -272,18 +386,43 @@ impl Recorder {
         let final_pose = backend.true_pose().unwrap_or(state.pose);
         let path = measured_path(self.true_poses.as_deref(), &self.trace);
         let length_m = path_length(path.iter().chain(std::iter::once(&final_pose)));
-        let score = task.score(ending, final_pose);
+        let mut score = task.score(ending, final_pose);
+        let steps = self.trace.len();
+        // A score that is not a number cannot be reported or saved (JSON has no NaN): the run is
+        // a failure, the score 0, and the reason kept.
+        let mut non_finite = None;
+        let mut finite = |name: &str, v: &mut f64| {
+            if !v.is_finite() {
+                if non_finite.is_none() {
+                    non_finite = Some(NonFinite::new(ValueKind::Score, name, steps, state.t_s, *v));
+                }
+                *v = 0.0;
+            }
+        };
+        finite("error", &mut score.position_error_m);
+        if let Some(h) = &mut score.heading_error_rad {
+            finite("heading_error", h);
+        }
+        if let Some(e) = &mut score.efficiency {
+            finite("efficiency", e);
+        }
+        let ending = if non_finite.is_some() && ending != Ending::Interrupted {
+            Ending::NonFinite
+        } else {
+            ending
+        };
         Execution {
             outcome: Outcome {
-                success: score.success,
+                success: score.success && non_finite.is_none(),
                 ending,
                 position_error_m: score.position_error_m,
                 heading_error_rad: score.heading_error_rad,
                 length_m,
                 efficiency: score.efficiency,
-                steps: self.trace.len(),
+                steps,
                 duration_s: state.t_s,
                 final_pose,
+                non_finite,
             },
             trace: self.trace,
             true_poses: self.true_poses,
@@ -538,30 +677,35 @@ impl TaskKind {
         path: &std::path::Path,
         seed: u64,
     ) -> Result<Learner, LearnerError> {
-        Learner::open(
-            sources,
-            path,
-            &self.domain(),
-            self.learner(),
-            seed,
-            |found| {
-                let other = [TaskKind::Positioning, TaskKind::Interception]
-                    .into_iter()
-                    .find(|t| t.domain().name == found);
-                LearnerError::OtherTask {
-                    found: found.to_string(),
-                    task: self.to_string(),
-                    help: match other {
-                        Some(t) => {
-                            format!("switch to its task first with `task {t}`, then `open` it")
-                        }
-                        None => format!(
-                            "if `{found}` is a task declared in a file, load it with `tasks FILE` and switch with `task {found}`"
-                        ),
-                    },
-                }
-            },
-        )
+        let ds = crate::policy::dataset::Dataset::load(sources, path)?;
+        self.adopt_dataset(ds, seed)
+    }
+
+    /// A learner for this task on a dataset already validated whole (opened, or a journal's copy
+    /// of an opened one), refused if the dataset is another task's: the rule `open` and a
+    /// restored `open` share.
+    pub fn adopt_dataset(
+        &self,
+        ds: crate::policy::dataset::Dataset,
+        seed: u64,
+    ) -> Result<Learner, LearnerError> {
+        Learner::adopt(ds, &self.domain(), self.learner(), seed, |found| {
+            let other = [TaskKind::Positioning, TaskKind::Interception]
+                .into_iter()
+                .find(|t| t.domain().name == found);
+            LearnerError::OtherTask {
+                found: found.to_string(),
+                task: self.to_string(),
+                help: match other {
+                    Some(t) => {
+                        format!("switch to its task first with `task {t}`, then `open` it")
+                    }
+                    None => format!(
+                        "if `{found}` is a task declared in a file, load it with `tasks FILE` and switch with `task {found}`"
+                    ),
+                },
+            }
+        })
     }
 
     /// Whether the task has a teacher to demonstrate it in the simulator (the paper's tasks
@@ -687,7 +831,8 @@ fn run_sim_task(
 
 /// Record `count` teacher demonstrations in the simulator from practice starts drawn from
 /// `seed`, in parallel. Episode `i` is named `demo-i` and runs on a simulator seeded with
-/// [`episode_seed`]`(seed, i)`, so the result does not depend on thread scheduling.
+/// [`episode_seed`]`(seed, i)`, so the result does not depend on thread scheduling. What is kept
+/// for a user goes through [`finite_demos`] first.
 pub fn record_demos(
     kind: TaskKind,
     count: usize,
@@ -701,6 +846,50 @@ pub fn record_demos(
         params,
         seed,
     )
+}
+
+/// Refuse recorded demonstrations when one stopped on a value that is not a number
+/// ([`Ending::NonFinite`]): its trace is cut short where the task broke, so it would teach a
+/// policy a run that never reached its goal, and the task needs fixing before any demonstration
+/// of it is worth keeping. `advise demo` and `load demos teacher:N` write or load nothing then.
+pub fn finite_demos(kind: &TaskKind, recorded: &[(Episode, Outcome)]) -> Result<(), DemosStopped> {
+    let mut stopped = recorded
+        .iter()
+        .enumerate()
+        .filter_map(|(i, (_, o))| o.non_finite.as_ref().map(|n| (i, n)));
+    let Some((index, reason)) = stopped.next() else {
+        return Ok(());
+    };
+    Err(DemosStopped {
+        task: kind.name().to_string(),
+        index,
+        stopped: 1 + stopped.count(),
+        count: recorded.len(),
+        reason: reason.clone(),
+    })
+}
+
+/// Teacher demonstrations refused because one stopped on a value that is not a number.
+#[derive(Debug, thiserror::Error, miette::Diagnostic)]
+#[error(
+    "{stopped} of {count} {task} demonstrations stopped on a value that is not a number; the first is demo-{index}"
+)]
+#[diagnostic(
+    code(advise::task::demos_not_finite),
+    help(
+        "nothing was recorded: a demonstration cut short where the task broke would teach a run that never reached its goal. Fix the task's declaration (`advise check FILE` warns where a value may not be a number) and record again"
+    )
+)]
+pub struct DemosStopped {
+    pub task: String,
+    /// The first demonstration that stopped.
+    pub index: usize,
+    /// How many stopped.
+    pub stopped: usize,
+    pub count: usize,
+    #[source]
+    #[diagnostic_source]
+    pub reason: NonFinite,
 }
 
 /// Demonstrations from `starts` by the teachers `teacher` makes, interception starts played in

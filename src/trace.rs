@@ -27,6 +27,72 @@ use crate::domain::Domain;
 /// The pose type lives in [`crate::geometry`]; traces hold one per point when recorded.
 pub use crate::geometry::Pose;
 
+/// Why a value may not enter a dataset as part of a demonstration: the one rule every path into
+/// a dataset applies (issues 31 and 35): `load demos FILE` (CSV and JSON), `advise import` and
+/// `load demos BAG` (bags and CSV logs), and `record demo` / `teleop`. A value that breaks it is
+/// refused with a diagnostic naming where it is (a file's line, a bag's topic and time, a
+/// recording's time), never clamped or written: an import writes only what `load demos` reads.
+///
+/// Why refused rather than clamped: a demonstration's actions are what the robot is taught to do;
+/// an action beyond the domain's limits means the recording and the domain disagree (the task's
+/// limits are not this robot's, or the teleoperation drove it past them), which the teacher
+/// settles (declare the robot's limits, record again), and a clamped demonstration would teach
+/// states and actions that never happened together. Non-finite values poison every distance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ValueFault {
+    /// NaN or an infinity.
+    NotFinite,
+    /// An action beyond its dimension's limits.
+    OutsideLimits(crate::domain::Limits),
+}
+
+/// Whether `v`, the `k`-th value of a demonstration point's observation or action, breaks the
+/// demonstration rule ([`ValueFault`]): every value finite; every action within its dimension's
+/// limits. Observations may lie beyond their limits (a goal 20 m away is what the robot saw).
+pub fn demo_value_fault(
+    domain: &Domain,
+    space: crate::domain::Space,
+    k: usize,
+    v: f64,
+) -> Option<ValueFault> {
+    if !v.is_finite() {
+        return Some(ValueFault::NotFinite);
+    }
+    match space {
+        crate::domain::Space::Observation => None,
+        crate::domain::Space::Action => domain
+            .act
+            .get(k)
+            .and_then(|d| d.limits)
+            .filter(|l| !l.contains(v))
+            .map(ValueFault::OutsideLimits),
+    }
+}
+
+/// The first value of a demonstration that breaks the rule: (point, space, dimension, value,
+/// fault).
+pub fn demo_fault(
+    domain: &Domain,
+    trace: &Trace,
+) -> Option<(usize, crate::domain::Space, usize, f64, ValueFault)> {
+    use crate::domain::Space;
+    (0..trace.len()).find_map(|i| {
+        let z = trace
+            .z(i)
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (Space::Observation, k, *v));
+        let a = trace
+            .a(i)
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (Space::Action, k, *v));
+        z.chain(a).find_map(|(space, k, v)| {
+            demo_value_fault(domain, space, k, v).map(|f| (i, space, k, v, f))
+        })
+    })
+}
+
 /// A recorded execution or demonstration in one domain.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Trace {

@@ -464,8 +464,8 @@ fn mutated_journals_are_restored_or_refused_with_diagnostics() {
         findings.guard("journal", &input, |f| {
             match Session::restore(&path, dir.path()) {
                 Err(e) => f.check_codes("journal", &input, &e),
-                // A damaged line stops the restore where it is (a note says so): a refusal too.
-                Ok(r) if !r.notes.is_empty() => f.1 += 1,
+                // A damaged line stops the restore where it is (it says so): a refusal too.
+                Ok(r) if r.stopped.is_some() || !r.notes.is_empty() => f.1 += 1,
                 Ok(_) => {}
             }
         });

@@ -226,3 +226,50 @@ fn corrupted_feedback_never_changes_state() {
     assert!(c.bad_crc > 10, "{c:?}");
     assert_eq!(emu.snapshot().state, OpState::Tractor);
 }
+
+#[test]
+fn corrupt_odometry_stops_the_base_and_ends_the_run() {
+    for bad in [f32::NAN, f32::INFINITY, 3.0e38] {
+        let emu = emulator(FaultInjection::default(), 0);
+        let mut b = RmpBackend::connect(emu.addr(), config()).unwrap();
+        b.reset(Pose::default()).unwrap();
+        cruise(&mut b, &emu);
+        emu.corrupt_odometry(bad);
+        let corrupted_at = Instant::now();
+        // The next step sees the corrupt feedback (feedback comes at 100 Hz; a step waits a
+        // control period), never hands it to the policy, and stops the base.
+        let mut ended = None;
+        for _ in 0..10 {
+            match b.step() {
+                Ok(s) => {
+                    assert!(s.pose.x_m.is_finite() && s.pose.x_m.abs() < 10.0, "{s:?}");
+                    b.command(0.6, 0.0).unwrap();
+                }
+                Err(e) => {
+                    ended = Some(e);
+                    break;
+                }
+            }
+        }
+        match ended {
+            Some(BackendError::BadOdometry { what, .. }) => {
+                assert!(what.contains("its x is"), "{what}")
+            }
+            other => panic!("expected BadOdometry for {bad}, got {other:?}"),
+        }
+        // Zero (DTZ) was asked for at once: the platform is slowing within 100 ms of the corrupt
+        // frame, and commands are refused until the next reset.
+        let samples = watch(&emu, corrupted_at, 2.0, |s| s.slewed_mps < 0.55);
+        let (slowing_at, _) = *samples.last().unwrap();
+        assert!(
+            slowing_at < 0.1 + 0.05,
+            "{bad}: slowing only after {slowing_at} s"
+        );
+        assert!(matches!(
+            b.command(0.6, 0.0),
+            Err(BackendError::Stopped { .. })
+        ));
+        let samples = watch(&emu, corrupted_at, 3.0, at_rest);
+        assert!(at_rest(&samples.last().unwrap().1), "{bad}");
+    }
+}

@@ -412,3 +412,50 @@ fn the_emulator_command_serves_the_driver_until_ctrl_c() {
     );
     assert!(stderr.contains("`drop` is 1.5, outside 0..=1"), "{stderr}");
 }
+
+/// Odometry that turns NaN mid-run (a failing sensor): the base is stopped, the run ends with a
+/// code, and what it recorded before is kept as an execution, as for Ctrl-C (issue 31).
+#[test]
+fn corrupt_odometry_mid_run_stops_the_rmp_and_keeps_the_execution() {
+    let emu = emulator();
+    let mut s = session();
+    s.execute(&format!("backend rmp:{}", emu.addr()), "<test>")
+        .unwrap();
+    let err = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            assert!(
+                wait_for(&emu, 20.0, |e| e.snapshot().speed_mps > 0.2),
+                "the base never got going: {:?}",
+                emu.snapshot()
+            );
+            emu.corrupt_odometry(f32::NAN);
+        });
+        s.execute("run goal 3 1 0", "<test>").unwrap_err()
+    });
+    match &err {
+        SessionError::RunInterrupted {
+            index,
+            steps,
+            label,
+            ..
+        } => {
+            assert_eq!(*index, 0);
+            assert!(*steps > 0, "nothing was kept");
+            assert_eq!(label, "run goal 3 1 0 (interrupted)");
+        }
+        other => panic!("{other:?}"),
+    }
+    let text = advise::repl::render(s.sources(), &err, false);
+    assert!(text.contains("advise::backend::bad_odometry"), "{text}");
+    assert!(text.contains("its x is NaN"), "{text}");
+    assert!(
+        wait_for(&emu, 3.0, |e| e.snapshot().speed_mps.abs() < 0.01),
+        "still moving after corrupt odometry: {:?}",
+        emu.snapshot()
+    );
+    let shown = s.execute("show", "<test>").unwrap().to_string();
+    assert!(
+        shown.starts_with("execution 0: run goal 3 1 0 (interrupted)"),
+        "{shown}"
+    );
+}

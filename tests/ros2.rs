@@ -222,6 +222,63 @@ fn lost_odometry_is_link_lost_and_stops_the_cyclone_robot() {
     assert_last_is_zero(&peer);
 }
 
+/// Odometry that turns NaN, infinite, absurd or jumps mid-run: the base gets zero within 100 ms of
+/// the first corrupt sample and nothing but zero after it, the run ends with a code, and what was
+/// driven before is kept (issue 31: the base kept receiving a constant Twist for 60 s).
+#[test]
+fn corrupt_odometry_stops_the_cyclone_robot_within_100_ms() {
+    if !isolated_with_peer("corrupt_odometry_stops_the_cyclone_robot_within_100_ms") {
+        return;
+    }
+    for value in ["nan", "inf", "1e300", "jump"] {
+        let dir = tempfile::tempdir().unwrap();
+        let peer = Peer::start(
+            dir.path(),
+            &["--odom-bad-after", "1.0", "--odom-bad-value", value],
+        );
+        let out = finish(
+            spawn_eval(&["--backend", "ros2", "--limit", "2"]),
+            Duration::from_secs(60),
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{value}: {stderr}");
+        assert!(
+            stderr.contains("advise::backend::bad_odometry"),
+            "{value}: {stderr}"
+        );
+        assert!(stderr.contains("interrupted"), "{value}: {stderr}");
+        assert_last_is_zero(&peer);
+        let bad = peer
+            .bad_since()
+            .expect("the peer published corrupt odometry");
+        let c = peer.commands();
+        assert!(
+            c.iter().any(|c| c.0 < bad && c.1 != 0.0),
+            "{value}: the robot was never driven before: {c:?}"
+        );
+        // The peer logs a command when its 50 Hz loop takes it: up to 20 ms after its arrival.
+        let first_zero = c
+            .iter()
+            .find(|c| c.0 >= bad && c.1 == 0.0 && c.2 == 0.0)
+            .expect("zero after the corrupt odometry");
+        eprintln!(
+            "{value}: first zero {:.1} ms after the first corrupt odometry",
+            (first_zero.0 - bad) * 1000.0
+        );
+        assert!(
+            first_zero.0 - bad <= 0.1,
+            "{value}: the first zero came {:.3} s after the corrupt odometry",
+            first_zero.0 - bad
+        );
+        assert!(
+            c.iter()
+                .filter(|c| c.0 > first_zero.0)
+                .all(|c| c.1 == 0.0 && c.2 == 0.0),
+            "{value}: a non-zero command after the stop: {c:?}"
+        );
+    }
+}
+
 fn connect(spec: &str) -> Result<Ros2Backend, BackendError> {
     let BackendSpec::Ros2(spec) = spec.parse::<BackendSpec>().unwrap() else {
         unreachable!()
@@ -450,4 +507,147 @@ fn teleop_drives_the_cyclone_robot_and_ends_at_zero() {
         "a command past the limit reached the robot"
     );
     assert_last_is_zero(&peer);
+}
+
+/// `ros2-sim` behaves like a base (issue 35): a command publisher that stops mid-drive (a driver
+/// that exited) leaves it at rest after its command timeout, whether the publisher is reliable or
+/// best-effort (a reliable-only reader got nothing from a best-effort one), and its frames are
+/// under its namespace. Both the publisher and the odometry reader are Cyclone DDS.
+#[test]
+fn ros2_sim_stops_by_itself_when_commands_stop_and_takes_best_effort_commands() {
+    let name = "ros2_sim_stops_by_itself_when_commands_stop_and_takes_best_effort_commands";
+    if !isolated_with_peer(name) {
+        return;
+    }
+    for qos in ["reliable", "best-effort"] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut sim = advise();
+        sim.args(["ros2-sim", "--namespace", "/sim"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped());
+        let sim = Running(sim.spawn().expect("ros2-sim starts"));
+        let log = dir.path().join("odom.log");
+        let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/peers/ros2_cmd_publisher.py");
+        let python = std::env::var(peer::PYTHON_ENV).expect("the parent passes the venv's python");
+        let mut publisher = Command::new(python);
+        publisher
+            .arg(script)
+            .args(["--namespace", "/sim", "--qos", qos, "--log"])
+            .arg(&log)
+            .env("CYCLONEDDS_URI", peer::CYCLONE_URI)
+            .stdout(Stdio::null());
+        let publisher = Running(publisher.spawn().expect("the publisher starts"));
+        let out = finish(publisher, Duration::from_secs(60));
+        assert!(out.status.success(), "{qos}: the publisher failed");
+        // SAFETY: a signal to our own child.
+        unsafe {
+            libc::kill(sim.0.id() as libc::pid_t, libc::SIGINT);
+        }
+        let sim_out = finish(sim, Duration::from_secs(10));
+        let sim_err = String::from_utf8_lossy(&sim_out.stderr);
+        let text = std::fs::read_to_string(&log).unwrap();
+        let stopped: f64 = text
+            .lines()
+            .find_map(|l| l.strip_prefix("# stopped ")?.trim().parse().ok())
+            .expect("the publisher stopped");
+        let odom: Vec<(f64, f64, String, String)> = text
+            .lines()
+            .filter(|l| !l.starts_with('#'))
+            .filter_map(|l| {
+                let f: Vec<&str> = l.split_whitespace().collect();
+                Some((
+                    f.first()?.parse().ok()?,
+                    f.get(1)?.parse().ok()?,
+                    f.get(2)?.to_string(),
+                    f.get(3)?.to_string(),
+                ))
+            })
+            .collect();
+        assert!(
+            odom.iter().any(|o| o.0 < stopped && o.1 > 0.3),
+            "{qos}: the base never drove: {sim_err}\n{text}"
+        );
+        assert!(
+            odom.iter()
+                .all(|o| o.2 == "sim/odom" && o.3 == "sim/base_link"),
+            "{qos}: frames {:?}",
+            odom.first()
+        );
+        let late: Vec<f64> = odom
+            .iter()
+            .filter(|o| o.0 > stopped + 2.0)
+            .map(|o| o.1)
+            .collect();
+        assert!(
+            !late.is_empty(),
+            "{qos}: no odometry after the stop: {text}"
+        );
+        assert!(
+            late.iter().all(|v| v.abs() < 0.02),
+            "{qos}: still moving 2 s after the commands stopped: {late:?}"
+        );
+        assert!(sim_err.contains("1 command timeouts"), "{qos}: {sim_err}");
+    }
+}
+
+/// A base that takes `TwistStamped` on cmd_vel (ros2_control's diff_drive_controller and Nav2 on
+/// Jazzy) is driven with `TwistStamped` in its own frame, found by discovery; `stamped=false`
+/// against it is refused before any command, naming the type (issue 35: it got 0 commands while
+/// the session "ran" for 60 s).
+#[test]
+fn a_twist_stamped_base_is_driven_with_twist_stamped() {
+    if !isolated_with_peer("a_twist_stamped_base_is_driven_with_twist_stamped") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::start(dir.path(), &["--cmd-type", "stamped"]);
+    let out = finish(
+        spawn_eval(&["--backend", "ros2", "--limit", "1"]),
+        Duration::from_secs(120),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let commands = peer.commands();
+    assert!(commands.iter().any(|c| c.1 > 0.1), "{commands:?}");
+    assert_last_is_zero(&peer);
+    let log = std::fs::read_to_string(&peer.log).unwrap();
+    assert!(
+        log.lines().all(|l| l.ends_with(" base_link")),
+        "every command in the base's frame: {log}"
+    );
+
+    let out = finish(
+        spawn_eval(&["--backend", "ros2?stamped=false&wait=3", "--limit", "1"]),
+        Duration::from_secs(60),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("advise::backend::no_command_reader")
+            && stderr.contains("a reader takes TwistStamped"),
+        "{stderr}"
+    );
+}
+
+/// A base whose cmd_vel reader asks for transient_local durability matches no command publisher:
+/// connecting is refused with the reason, and the base receives nothing (issue 35).
+#[test]
+fn a_transient_local_command_reader_is_refused_before_any_command() {
+    if !isolated_with_peer("a_transient_local_command_reader_is_refused_before_any_command") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let peer = Peer::start(dir.path(), &["--cmd-durability", "transient-local"]);
+    let out = finish(
+        spawn_eval(&["--backend", "ros2?wait=3", "--limit", "1"]),
+        Duration::from_secs(60),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("advise::backend::no_command_reader") && stderr.contains("transient_local"),
+        "{stderr}"
+    );
+    assert!(peer.commands().is_empty(), "{:?}", peer.commands());
 }

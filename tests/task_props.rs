@@ -57,6 +57,7 @@ fn outcome(success: bool, err: f64, len: f64) -> Outcome {
         steps: 10,
         duration_s: 1.0,
         final_pose: Pose::default(),
+        non_finite: None,
     }
 }
 

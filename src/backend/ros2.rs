@@ -14,7 +14,8 @@
 
 use std::time::Duration;
 
-use ros2_client::dds::rustdds::Topic;
+use ros2_client::dds::rustdds::policy::Durability;
+use ros2_client::dds::rustdds::{RTPSEntity, Topic};
 use ros2_client::qos::{History, WhenFull};
 use ros2_client::{
     Context, ContextOptions, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
@@ -160,19 +161,74 @@ impl Ros2Node {
             .map_err(|e| dds_error(&format!("cannot subscribe to {full_name}"), e))
     }
 
-    /// What discovery has seen so far, `name (type)`, ROS 2 topics only, sorted.
-    pub fn discovered(&self) -> Vec<String> {
-        let mut seen: Vec<String> = self
-            .context
-            .discovered_topics()
+    /// The ROS 2 readers and writers other participants announced (ours are left out, so a
+    /// list of what discovery saw never shows our own topics as if a base were there).
+    pub fn others(&self) -> Vec<Endpoint> {
+        let participant = self.context.domain_participant();
+        let own = participant.guid().prefix;
+        let ros_name = |dds: &str| dds.strip_prefix("rt").map(str::to_string);
+        let mut out: Vec<Endpoint> = participant
+            .discovered_readers()
             .into_iter()
-            .filter_map(|t| {
-                let name = t.name.strip_prefix("rt")?;
-                Some(format!("{name} ({})", t.type_name))
+            .filter(|r| r.reader_proxy.remote_reader_guid.prefix != own)
+            .filter_map(|r| {
+                let t = &r.subscription_topic_data;
+                Some(Endpoint {
+                    topic: ros_name(t.topic_name())?,
+                    type_name: t.type_name().clone(),
+                    reader: true,
+                    transient: t
+                        .qos()
+                        .durability()
+                        .is_some_and(|d| d != Durability::Volatile),
+                })
             })
             .collect();
-        seen.sort();
+        out.extend(
+            participant
+                .discovered_writers()
+                .into_iter()
+                .filter(|w| w.writer_proxy.remote_writer_guid.prefix != own)
+                .filter_map(|w| {
+                    let t = &w.publication_topic_data;
+                    Some(Endpoint {
+                        topic: ros_name(&t.topic_name)?,
+                        type_name: t.type_name.clone(),
+                        reader: false,
+                        transient: t.durability.is_some_and(|d| d != Durability::Volatile),
+                    })
+                }),
+        );
+        out.sort_by(|a, b| {
+            (&a.topic, &a.type_name, a.reader).cmp(&(&b.topic, &b.type_name, b.reader))
+        });
+        out.dedup();
+        out
+    }
+
+    /// What discovery has seen of other participants so far, `name (type)`, ROS 2 topics only,
+    /// sorted.
+    pub fn discovered(&self) -> Vec<String> {
+        let mut seen: Vec<String> = self
+            .others()
+            .into_iter()
+            .map(|e| format!("{} ({})", e.topic, e.type_name))
+            .collect();
         seen.dedup();
         seen
     }
+}
+
+/// A reader or writer another DDS participant announced.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Endpoint {
+    /// The ROS 2 topic name, `/robot1/cmd_vel`.
+    pub topic: String,
+    /// The DDS type name, `geometry_msgs::msg::dds_::Twist_`.
+    pub type_name: String,
+    /// A reader (a subscription), else a writer.
+    pub reader: bool,
+    /// Its durability is more than volatile (`transient_local` and up): a reader asking for it
+    /// does not match a volatile command publisher.
+    pub transient: bool,
 }

@@ -10,8 +10,10 @@
 //! `/robot1/cmd_vel` and reads `/robot1/odom`. Options follow a `?`, separated by `&`:
 //! `cmd=TOPIC` and `odom=TOPIC` (relative to the namespace unless they begin with `/`),
 //! `domain=N` (else `ROS_DOMAIN_ID`, else 0), `wait=SECONDS` (how long connecting waits for the
-//! first odometry, 5 s) and `odom_timeout=SECONDS` (odometry older than this ends a run, 0.3 s).
-//! Example: `ros2:/robot1?cmd=/teleop/cmd_vel&odom_timeout=0.5`.
+//! first odometry, 5 s), `odom_timeout=SECONDS` (odometry older than this ends a run, 0.3 s) and
+//! `stamped` (`stamped=true|false|auto`: send `geometry_msgs/TwistStamped` rather than `Twist`;
+//! by default the type of the base's command reader, as discovery reports it).
+//! Example: `ros2:/robot1?cmd=/teleop/cmd_vel&odom_timeout=0.5&stamped`.
 
 use std::fmt;
 use std::net::{SocketAddr, ToSocketAddrs};
@@ -56,6 +58,9 @@ pub struct Ros2Spec {
     pub wait_ms: u64,
     /// Odometry older than this ends a run (`advise::backend::link_lost`), ms.
     pub odom_timeout_ms: u64,
+    /// `stamped`: send `TwistStamped` (`Some(true)`), `Twist` (`Some(false)`), or whichever the
+    /// base's command reader takes (`None`, the default).
+    pub stamped: Option<bool>,
 }
 
 impl Default for Ros2Spec {
@@ -67,6 +72,7 @@ impl Default for Ros2Spec {
             domain_id: None,
             wait_ms: 5_000,
             odom_timeout_ms: 300,
+            stamped: None,
         }
     }
 }
@@ -217,7 +223,7 @@ pub enum BackendSpecError {
 }
 
 /// The options a `ros2` spec takes after `?`.
-const ROS2_OPTIONS: [&str; 5] = ["cmd", "odom", "domain", "wait", "odom_timeout"];
+const ROS2_OPTIONS: [&str; 6] = ["cmd", "odom", "domain", "wait", "odom_timeout", "stamped"];
 
 fn parse_ros2(spec: &str, rest: &str) -> Result<Ros2Spec, BackendSpecError> {
     let mut out = Ros2Spec::default();
@@ -273,6 +279,14 @@ fn parse_ros2(spec: &str, rest: &str) -> Result<Ros2Spec, BackendSpecError> {
             "odom_timeout" => {
                 out.odom_timeout_ms =
                     seconds(value).ok_or_else(|| bad_value("seconds, up to 3600"))?
+            }
+            "stamped" => {
+                out.stamped = match value {
+                    "" | "true" => Some(true),
+                    "false" => Some(false),
+                    "auto" => None,
+                    _ => return Err(bad_value("`true`, `false` or `auto`")),
+                }
             }
             _ => {
                 let near = ROS2_OPTIONS
@@ -401,6 +415,11 @@ impl fmt::Display for BackendSpec {
                         "odom_timeout={}",
                         r.odom_timeout_ms as f64 / 1000.0
                     ));
+                }
+                match r.stamped {
+                    Some(true) => options.push("stamped".into()),
+                    Some(false) => options.push("stamped=false".into()),
+                    None => {}
                 }
                 if !options.is_empty() {
                     write!(f, "?{}", options.join("&"))?;

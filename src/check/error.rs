@@ -539,6 +539,40 @@ pub enum CheckError {
         #[label("drawn from where?")]
         span: Loc,
     },
+    #[error(
+        "the goal parameter `{name}` is drawn from [{lo}, {hi}], which reaches past the largest goal, ±{max}"
+    )]
+    #[diagnostic(
+        code(advise::check::task_goal_range_out_of_bounds),
+        help(
+            "practice and test goals are drawn uniformly from the range: keep both bounds within [-{max}, {max}] (in the parameter's unit), e.g. `{name} \"m\" in [-10, 10]`"
+        )
+    )]
+    TaskGoalRangeOutOfBounds {
+        name: String,
+        /// The bounds and the largest magnitude, as numbers are written in the language.
+        lo: String,
+        hi: String,
+        max: String,
+        #[label("this range")]
+        span: Loc,
+    },
+    #[error("{what} `{name}` {never}: it is {value} {at}")]
+    #[diagnostic(code(advise::check::task_not_finite))]
+    TaskNotFinite {
+        /// "the observation", "the value", "the score".
+        what: String,
+        name: String,
+        /// "is never a number", "is not a number at the start of any run", ...
+        never: String,
+        value: String,
+        /// Where it was tried: "at x = 0, px = 1.5".
+        at: String,
+        #[help]
+        help: String,
+        #[label("not a number")]
+        span: Loc,
+    },
     #[error("{what} cannot hold: {why}")]
     #[diagnostic(code(advise::check::task_impossible_limit))]
     TaskImpossibleLimit {
@@ -624,6 +658,20 @@ pub enum CheckWarning {
         domain: String,
         origin: String,
         #[label("shadows the standard `{name}`")]
+        span: Loc,
+    },
+    /// A task's value that is not a number at some of the points the checker tried: a run that
+    /// reaches such a point is stopped there (`advise::task::non_finite`).
+    #[error("{what} `{name}` may not be a number: it is {value} {at}")]
+    #[diagnostic(code(advise::check::task_maybe_not_finite), severity(Warning))]
+    TaskMaybeNotFinite {
+        what: String,
+        name: String,
+        value: String,
+        at: String,
+        #[help]
+        help: String,
+        #[label("not a number there")]
         span: Loc,
     },
 }

@@ -5,13 +5,15 @@
 
 use std::collections::HashMap;
 
+mod finite;
+
 use super::names::{RESERVED, Scope, Ty};
 use super::*;
 use crate::domain::Space;
 use crate::program::ir::{Func, Ir};
 use crate::program::task::{
-    Axis, BASE, Drive, EndRule, GoalParam, MAX_GOAL_PARAMS, MAX_TEST_GOALS, TaskDef, TeacherDef,
-    TeacherTarget,
+    Axis, BASE, Drive, EndRule, GoalParam, MAX_GOAL_ABS, MAX_GOAL_PARAMS, MAX_TEST_GOALS,
+    MAX_TIME_LIMIT_S, TaskDef, TeacherDef, TeacherTarget,
 };
 
 /// What kind of value a task name is; each clause may read some kinds.
@@ -56,8 +58,6 @@ pub(super) struct TaskScope<'a> {
 }
 
 const DEFAULT_TEST_GOALS: usize = 25;
-/// The longest time limit, s (a day).
-const MAX_TIME_S: f64 = 86_400.0;
 
 impl Checker<'_> {
     /// A task name in an expression: its slot, or a diagnostic.
@@ -300,6 +300,20 @@ impl Checker<'_> {
                     continue;
                 };
                 if let Some(lim) = self.limits(f, l) {
+                    if lim.lo.abs() > MAX_GOAL_ABS || lim.hi.abs() > MAX_GOAL_ABS {
+                        self.err(
+                            f,
+                            l.span,
+                            CheckError::TaskGoalRangeOutOfBounds {
+                                name: p.name.name.clone(),
+                                lo: crate::number::fmt_readable(lim.lo),
+                                hi: crate::number::fmt_readable(lim.hi),
+                                max: crate::number::fmt_readable(MAX_GOAL_ABS),
+                                span: self.at(f, l.span),
+                            },
+                        );
+                        continue;
+                    }
                     goal.push(GoalParam {
                         name: p.name.name.clone(),
                         unit: p.unit.clone().unwrap_or_default(),
@@ -668,7 +682,7 @@ impl Checker<'_> {
         if self.error_count() > before {
             return None;
         }
-        Some(TaskDef {
+        let def = TaskDef {
             domain: domain.clone(),
             doc: d.doc.join("\n"),
             goal,
@@ -687,7 +701,15 @@ impl Checker<'_> {
             success: success?,
             recorded,
             teacher,
-        })
+        };
+        // Where each value and score is defined, for what the finiteness check finds.
+        let defined: HashMap<usize, Span> = values
+            .iter()
+            .map(|(slot, _, e)| (*slot, e.span))
+            .chain(score_decls.iter().map(|(slot, b)| (*slot, b.value.span)))
+            .collect();
+        self.finiteness(f, &def, &defined);
+        (self.error_count() == before).then_some(def)
     }
 
     /// Report a second clause of a kind a task has once; whether it was one.
@@ -705,7 +727,8 @@ impl Checker<'_> {
         seen
     }
 
-    /// A constant number of seconds: positive (or, where `zero_ok`, zero) and at most a day.
+    /// A constant number of seconds: positive (or, where not `positive`, zero) and at most
+    /// [`MAX_TIME_LIMIT_S`].
     fn seconds(&mut self, f: usize, e: &Expr, what: &str, positive: bool) -> Option<f64> {
         let v = self.constant(f, e, what)?;
         let why = if v < 0.0 || (positive && v == 0.0) {
@@ -713,10 +736,11 @@ impl Checker<'_> {
                 "{} s is not a time a run can take",
                 crate::syntax::print::number(v)
             ))
-        } else if v > MAX_TIME_S {
+        } else if v > MAX_TIME_LIMIT_S {
             Some(format!(
-                "{} s is longer than a day",
-                crate::syntax::print::number(v)
+                "{} s is longer than a run may take ({} s, ten minutes: a run's trace stays a few megabytes)",
+                crate::syntax::print::number(v),
+                crate::syntax::print::number(MAX_TIME_LIMIT_S),
             ))
         } else {
             None
@@ -728,7 +752,10 @@ impl Checker<'_> {
                 CheckError::TaskImpossibleLimit {
                     what: what.into(),
                     why,
-                    help: "write a number of seconds, e.g. `end after 60` or `for 0.5`".into(),
+                    help: format!(
+                        "write a number of seconds up to {}, e.g. `end after 60` or `for 0.5`",
+                        crate::syntax::print::number(MAX_TIME_LIMIT_S)
+                    ),
                     span: self.at(f, e.span),
                 },
             );

@@ -27,6 +27,8 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
     let params = sim_params(args.sim_params.as_deref())?;
     let domain = kind.domain();
     let recorded = crate::task::record_demos(kind.clone(), args.count as usize, args.seed, &params);
+    // A demonstration stopped on a value that is not a number refuses them all: nothing written.
+    crate::task::finite_demos(&kind, &recorded)?;
     let successes = recorded.iter().filter(|(_, o)| o.success).count();
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
@@ -34,6 +36,8 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
         .out
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let inputs = args.tasks.iter().chain(&args.sim_params);
+    crate::files::refuse_overwriting_inputs(&args.out, inputs.map(|p| p.as_path()))?;
     crate::files::write_atomic(&args.out, |out| {
         if is_json {
             serde_json::to_writer(out, &Episode::to_json(&domain, &episodes)).map_err(Into::into)
@@ -161,6 +165,7 @@ pub fn calibrate(args: CalibrateArgs) -> miette::Result<()> {
             }
             .into());
         }
+        crate::files::refuse_overwriting_inputs(path, args.sim_params.as_deref())?;
     }
     let out = crate::experiment::calibrate::run(args.study, sim, true);
     if let Some(path) = &args.write {
@@ -263,6 +268,15 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
         cmd_topic: Some(args.cmd_topic),
         odom_topic: Some(args.odom_topic),
     };
+    // Before reading anything: `--out` naming a log (or a bag's file) would replace it.
+    let mut inputs: Vec<std::path::PathBuf> = args.tasks.clone();
+    for log in &args.logs {
+        inputs.push(log.clone());
+        if let Ok(entries) = std::fs::read_dir(log) {
+            inputs.extend(entries.flatten().take(10_000).map(|e| e.path()));
+        }
+    }
+    crate::files::refuse_overwriting_inputs(&args.out, inputs.iter().map(|p| p.as_path()))?;
     let mut episodes = Vec::new();
     for log in &args.logs {
         let (mut found, warnings) = crate::recording::import(log, &options)?;
@@ -285,6 +299,10 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
 
 /// `advise export`: a saved dataset as MCAP.
 pub fn export(args: super::ExportArgs) -> miette::Result<()> {
+    // Before reading anything: an output naming the dataset would replace it.
+    for out in args.mcap.iter().chain(&args.lerobot) {
+        crate::files::refuse_overwriting_inputs(out, [args.dataset.as_path()])?;
+    }
     let mut files = crate::diag::SourceMap::new();
     let dataset = crate::policy::dataset::Dataset::load(&mut files, &args.dataset)
         .map_err(|e| files.attach(e))?;
@@ -318,23 +336,33 @@ pub fn ros2_sim(args: Ros2SimArgs) -> miette::Result<()> {
             args.namespace
         ));
     };
+    if !(args.command_timeout.is_finite() && (0.05..=10.0).contains(&args.command_timeout)) {
+        return Err(miette::miette!(
+            code = "advise::cli::command_timeout",
+            help = "a base stops itself within about half a second (the default, 0.5)",
+            "--command-timeout {} is outside 0.05 to 10 seconds",
+            args.command_timeout
+        ));
+    }
     let stop = StopSignal::new();
     crate::repl::install_ctrl_c(&stop);
     let counts = crate::backend::ros2::robot::run_robot(
         &spec,
         params,
         args.seed,
+        args.command_timeout,
         &stop,
         |cmd, odom, domain| {
             eprintln!(
-                "ros2-sim: commands on {cmd}, odometry on {odom} at 50 Hz, domain {domain}; drive it with `--backend {}`; Ctrl-C stops it",
+                "ros2-sim: commands on {cmd}, odometry on {odom} at 50 Hz, domain {domain}; a command is held for {} s; drive it with `--backend {}`; Ctrl-C stops it",
+                args.command_timeout,
                 BackendSpec::Ros2(spec.clone())
             )
         },
     )?;
     eprintln!(
-        "ros2-sim: {} commands received, {} odometry messages published",
-        counts.commands, counts.odometry
+        "ros2-sim: {} commands received, {} odometry messages published, {} command timeouts",
+        counts.commands, counts.odometry, counts.timeouts
     );
     Ok(())
 }

@@ -479,6 +479,7 @@ mod tests {
                     x_m: 2.0,
                     ..Default::default()
                 },
+                non_finite: None,
             },
         };
         let rules = CriticRules::default();

@@ -36,6 +36,11 @@ pub struct Support {
 
 /// The weighted 1-NN query over `index` (built on `ds`'s points).
 pub fn query(index: &Index, ds: &Dataset, z: &[f64], scratch: &mut Scratch) -> Option<Support> {
+    // A non-finite observation has no nearest point (every distance is NaN or infinite): no
+    // support, rather than an index computed from a NaN.
+    if !z.iter().all(|v| v.is_finite()) {
+        return None;
+    }
     scratch.q.resize(z.len(), 0.0);
     index.scaled(z, &mut scratch.q);
     let (d2, g) = index.nearest(&scratch.q)?;

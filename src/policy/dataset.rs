@@ -270,9 +270,11 @@ impl Dataset {
         &self.critiques
     }
 
-    fn fresh_id(&mut self) -> u32 {
-        self.next_id += 1;
-        self.next_id
+    /// The next id, or an error when the id space is used up (a file's `next_id` edited to the
+    /// top of the range): ids never wrap, as a reused id would make `undo` remove other points.
+    fn fresh_id(&mut self) -> Result<u32, DatasetError> {
+        self.next_id = next_id_after(self.next_id)?;
+        Ok(self.next_id)
     }
 
     fn check(&self, trace: &Trace) -> Result<(), DatasetError> {
@@ -301,7 +303,12 @@ impl Dataset {
     pub fn add_demonstration(&mut self, name: &str, trace: &Trace) -> Result<DemoId, DatasetError> {
         self.check(trace)?;
         check_finite(trace, || format!("demonstration `{name}`"))?;
-        let id = self.fresh_id();
+        for i in 0..trace.len() {
+            check_point(&self.domain, trace.z(i), trace.a(i), |s, k| {
+                format!("demonstration {name}, point {i}, {s}[{k}]")
+            })?;
+        }
+        let id = self.fresh_id()?;
         for i in 0..trace.len() {
             self.push(
                 trace.z(i),
@@ -323,7 +330,7 @@ impl Dataset {
     /// Keep an execution that advice or critique may refer to (its points are not training data).
     pub fn add_execution(&mut self, trace: &Trace) -> Result<ExecutionId, DatasetError> {
         self.check(trace)?;
-        let id = self.fresh_id();
+        let id = self.fresh_id()?;
         self.executions.push(ExecutionRecord {
             id,
             points: trace.to_json().points,
@@ -368,11 +375,27 @@ impl Dataset {
         source: &[usize],
     ) -> Result<AdviceId, DatasetError> {
         self.check(points)?;
-        if !self.executions.iter().any(|e| e.id == execution) {
-            return Err(DatasetError::UnknownExecution(execution));
-        }
+        let len = self.execution_len(execution)?;
+        check_advice(&self.domain, &applied, execution, len, "advice")?;
         check_finite(points, || format!("advice `{}`", applied.operator))?;
-        let id = self.fresh_id();
+        for j in 0..points.len() {
+            check_point(&self.domain, points.z(j), points.a(j), |s, k| {
+                format!("advice {}, point {j}, {s}[{k}]", applied.invocation())
+            })?;
+        }
+        if source.len() != points.len() || source.iter().any(|i| !applied.chunk.range().contains(i))
+        {
+            return Err(DatasetError::Record {
+                at: "advice.source_index".into(),
+                what: format!(
+                    "{} source points for {} synthesized points, each within the chunk {}",
+                    source.len(),
+                    points.len(),
+                    applied.chunk
+                ),
+            });
+        }
+        let id = self.fresh_id()?;
         for j in 0..points.len() {
             self.push(
                 points.z(j),
@@ -451,9 +474,9 @@ impl Dataset {
         increments: Vec<(Provenance, f64)>,
         flagged: Option<Vec<Vec<f64>>>,
     ) -> Result<CritiqueId, DatasetError> {
-        if !self.executions.iter().any(|e| e.id == execution) {
-            return Err(DatasetError::UnknownExecution(execution));
-        }
+        let len = self.execution_len(execution)?;
+        check_chunk(chunk, execution, len, || "critique.chunk".into())?;
+        check_finite_value(kappa, || "critique.kappa".into())?;
         if let Some((p, inc)) = increments
             .iter()
             .find(|(_, inc)| !(inc.is_finite() && *inc >= 0.0))
@@ -467,7 +490,7 @@ impl Dataset {
         if directional {
             self.check_flagged(&increments, &flagged)?;
         }
-        let id = self.fresh_id();
+        let id = self.fresh_id()?;
         self.critiques.push(CritiqueRecord {
             id,
             execution,
@@ -478,7 +501,41 @@ impl Dataset {
             flagged,
         });
         self.recompute_weights();
+        // Finite increments can still sum to infinity; such a critique is taken back whole.
+        if let Err(e) = self.check_weights() {
+            self.critiques.pop();
+            self.next_id -= 1;
+            self.recompute_weights();
+            return Err(e);
+        }
         Ok(id)
+    }
+
+    /// The number of points of execution `id`.
+    fn execution_len(&self, id: ExecutionId) -> Result<usize, DatasetError> {
+        self.executions
+            .iter()
+            .find(|e| e.id == id)
+            .map(|e| e.points.len())
+            .ok_or(DatasetError::UnknownExecution(id))
+    }
+
+    /// Every weight a query can meet is finite and at least 1: `m_i`, and `m_i` plus the
+    /// point's directional increments (what the BC search divides by).
+    fn check_weights(&self) -> Result<(), DatasetError> {
+        for i in 0..self.len() {
+            for m in [self.m[i], self.max_weight(i)] {
+                check_weight(m, || match self.provenance[i] {
+                    Provenance::Demonstration { demo, index } => {
+                        format!("demonstration {demo}, point {index}")
+                    }
+                    Provenance::Advice { advice, index, .. } => {
+                        format!("advice {advice}, point {index}")
+                    }
+                })?;
+            }
+        }
+        Ok(())
     }
 
     /// A directional critique's flagged observations: one per increment, each of the domain's
@@ -583,6 +640,118 @@ impl Dataset {
         self.directional = dir;
     }
 }
+/// The id after `last`, or [`DatasetError::IdsExhausted`] at the top of the range.
+fn next_id_after(last: u32) -> Result<u32, DatasetError> {
+    last.checked_add(1)
+        .ok_or(DatasetError::IdsExhausted { next_id: last })
+}
+
+/// The rule every point of the training data obeys, wherever it enters (a demonstration, advice,
+/// a dataset file, a journal): each value finite, each action within its dimension's limits.
+/// Actions are clamped to their limits wherever a command makes them (recorded runs, operators,
+/// demonstration files); observations are what the robot saw, and may lie beyond (a goal 20 m
+/// away). The dimensions are the caller's to have checked; `at(space, k)` names a value.
+fn check_point(
+    domain: &Domain,
+    z: &[f64],
+    a: &[f64],
+    at: impl Fn(&str, usize) -> String,
+) -> Result<(), DatasetError> {
+    use crate::domain::Space;
+    use crate::trace::{ValueFault, demo_value_fault};
+    for (space, side, vals, dims) in [
+        ("z", Space::Observation, z, &domain.observe),
+        ("a", Space::Action, a, &domain.act),
+    ] {
+        for (k, (v, dim)) in vals.iter().zip(dims.iter()).enumerate() {
+            // The one rule for demonstration values (`trace::demo_value_fault`), named here as
+            // a dataset's error.
+            match demo_value_fault(domain, side, k, *v) {
+                None => {}
+                Some(ValueFault::NotFinite) => check_finite_value(*v, || at(space, k))?,
+                Some(ValueFault::OutsideLimits(l)) => {
+                    return Err(DatasetError::OutOfLimits {
+                        at: at(space, k),
+                        value: crate::number::fmt_readable(*v),
+                        dim: dim.name.clone(),
+                        lo: fmt_num(l.lo),
+                        hi: fmt_num(l.hi),
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A value that must be finite (`at` names it).
+fn check_finite_value(v: f64, at: impl Fn() -> String) -> Result<(), DatasetError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(DatasetError::NotFinite {
+            at: at(),
+            value: v.to_string(),
+        })
+    }
+}
+
+/// A BC weight: finite and at least 1.
+fn check_weight(m: f64, at: impl Fn() -> String) -> Result<(), DatasetError> {
+    if m.is_finite() && m >= 1.0 {
+        Ok(())
+    } else {
+        Err(DatasetError::Record {
+            at: at(),
+            what: format!("the weight is {m}; weights are finite and at least 1"),
+        })
+    }
+}
+
+/// A chunk of execution `execution` (`len` points) that advice or a critique was given on: in
+/// order and within the execution.
+fn check_chunk(
+    chunk: Chunk,
+    execution: ExecutionId,
+    len: usize,
+    at: impl Fn() -> String,
+) -> Result<(), DatasetError> {
+    if chunk.start > chunk.end || chunk.end > len {
+        return Err(DatasetError::Record {
+            at: at(),
+            what: format!("the chunk {chunk} is not within execution {execution} ({len} points)"),
+        });
+    }
+    Ok(())
+}
+
+/// What advice records of itself: a chunk within its execution, finite parameters, and the
+/// dataset's domain. `at` is the record's name (`advice[3]` in a file).
+fn check_advice(
+    domain: &Domain,
+    applied: &AppliedAdvice,
+    execution: ExecutionId,
+    len: usize,
+    at: &str,
+) -> Result<(), DatasetError> {
+    check_chunk(applied.chunk, execution, len, || {
+        format!("{at}.applied.chunk")
+    })?;
+    for (k, p) in applied.params.iter().enumerate() {
+        check_finite_value(p.value, || format!("{at}.applied.params[{k}].value"))?;
+    }
+    if applied.domain != domain.name {
+        return Err(DatasetError::Record {
+            at: format!("{at}.applied.domain"),
+            what: format!(
+                "the advice is for the `{}` domain, the dataset is `{}`",
+                applied.domain, domain.name
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// Refuse a trace with a value that is not finite (a point that cannot be saved as JSON, and
 /// that would poison every distance it enters).
 fn check_finite(trace: &Trace, what: impl Fn() -> String) -> Result<(), DatasetError> {

@@ -89,6 +89,14 @@ pub enum LearnerError {
         help("load demonstrations first: `load demos FILE` or `load demos teacher:9`")
     )]
     Empty,
+    #[error("the observation [{values}] is not finite: no data point is near it")]
+    #[diagnostic(
+        code(advise::learner::non_finite_query),
+        help(
+            "a NaN or infinite observation comes from a base's bad odometry or a task's observation expression; the policy commands zero there"
+        )
+    )]
+    NonFiniteQuery { values: String },
 }
 
 /// The increments a critique would make ([`Learner::plan_critique`]).
@@ -266,6 +274,12 @@ impl Learner {
         // The trace was recorded in this learner's domain; a mismatch is a programming error
         // upstream, and the id is still unique.
         self.ds.add_execution(trace).unwrap_or(u32::MAX)
+    }
+
+    /// [`Learner::add_execution`], refusing what the dataset refuses (another domain, no id
+    /// left) instead of giving an id that refers to nothing: what a session records.
+    pub fn try_add_execution(&mut self, trace: &Trace) -> Result<ExecutionId, LearnerError> {
+        Ok(self.ds.add_execution(trace)?)
     }
 
     /// Add synthesized advice points; the policy is updated incrementally.
@@ -609,6 +623,9 @@ impl Learner {
         if self.ds.is_empty() {
             return Err(LearnerError::Empty);
         }
+        if !z.iter().all(|v| v.is_finite()) {
+            return Err(LearnerError::NonFiniteQuery { values: fmt4(z) });
+        }
         let mut out = String::new();
         if let Some(s) = self.support(z) {
             let _ = writeln!(
@@ -698,6 +715,18 @@ impl Learner {
         other_domain: impl FnOnce(&str) -> LearnerError,
     ) -> Result<Learner, LearnerError> {
         let ds = Dataset::load(sources, path)?;
+        Learner::adopt(ds, domain, kind, seed, other_domain)
+    }
+
+    /// A learner on a dataset already read and validated whole (by `open`, or from a journal's
+    /// copy of it), refused unless the dataset's domain is `domain`: the one rule for both.
+    pub fn adopt(
+        ds: Dataset,
+        domain: &Domain,
+        kind: LearnerKind,
+        seed: u64,
+        other_domain: impl FnOnce(&str) -> LearnerError,
+    ) -> Result<Learner, LearnerError> {
         let found = ds.domain();
         if found.name != domain.name {
             return Err(other_domain(&found.name));
@@ -789,5 +818,44 @@ mod tests {
         assert_eq!(notes, [true, true, false, true, true]);
         let mut full = Learner::with_dataset(ds, LearnerKind::Lwr, 1);
         assert!(!full.rederive().contains("re-tuned"));
+    }
+
+    /// A NaN or infinite observation (a base's bad odometry) has no support: both learners answer
+    /// zero, `why` refuses it with a code, and recording the support of a run that holds one
+    /// gives no provenance there instead of indexing with a NaN (it panicked in the index).
+    #[test]
+    fn a_non_finite_observation_is_answered_with_zero_and_refused_by_why() {
+        let d = Domain {
+            name: "test".into(),
+            observe: vec![Dim::new("x", "", None), Dim::new("y", "", None)],
+            act: vec![Dim::new("u", "", None)],
+        };
+        let mut t = Trace::new(&d);
+        for i in 0..200 {
+            let x = f64::from(i) / 50.0;
+            t.push(f64::from(i), &[x, 1.0 - x], &[0.5 + x], None);
+        }
+        let mut ds = Dataset::new(&d);
+        ds.add_demonstration("d", &t).unwrap();
+        for kind in [LearnerKind::Bc, LearnerKind::Lwr] {
+            let mut learner = Learner::with_dataset(ds.clone(), kind, 1);
+            learner.ensure_derived();
+            for bad in [
+                [f64::NAN, 0.5],
+                [0.5, f64::INFINITY],
+                [f64::NEG_INFINITY, f64::NAN],
+            ] {
+                let mut a = [7.0];
+                learner.policy().act(&bad, &mut a);
+                assert_eq!(a, [0.0], "{kind:?} at {bad:?}");
+                let err = learner.why(&bad, &|_| String::new()).unwrap_err();
+                assert!(matches!(err, LearnerError::NonFiniteQuery { .. }), "{err}");
+            }
+            let mut run = Trace::new(&d);
+            run.push(0.0, &[0.5, 0.5], &[0.0], None);
+            run.push(1.0, &[f64::NAN, 0.5], &[0.0], None);
+            let support = learner.support_provenance(&run);
+            assert!(support[0].is_some() && support[1].is_none(), "{support:?}");
+        }
     }
 }

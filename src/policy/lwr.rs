@@ -73,6 +73,14 @@ pub fn query(
     scratch: &mut Scratch,
 ) -> LwrAnswer {
     a.iter_mut().for_each(|v| *v = 0.0);
+    // A non-finite observation is near no data point: the answer is zero with no neighbours,
+    // rather than a kernel sum of NaNs or an index computed from one.
+    if !z.iter().all(|v| v.is_finite()) {
+        return LwrAnswer {
+            total_weight: 0.0,
+            neighbours: 0,
+        };
+    }
     let r2 = params.r2();
     let mut total = 0.0;
     let mut count = 0;

@@ -43,6 +43,14 @@ pub const T: usize = 5;
 pub const MAX_GOAL_PARAMS: usize = 16;
 /// The largest fixed test set.
 pub const MAX_TEST_GOALS: usize = 10_000;
+/// The largest magnitude of a goal range's bound, in the parameter's unit: every goal is drawn
+/// from a range whose width is a finite number (a kilometre, a thousand radians; no task needs
+/// more, and `[-1e308, 1e308]` would overflow the draw).
+pub const MAX_GOAL_ABS: f64 = 1e6;
+/// The longest time limit (`end after`) and the longest hold (`for`), s: ten minutes. At the
+/// highest control rate the simulator allows (100 Hz) a run is then at most
+/// [`crate::task::MAX_EPISODE_STEPS`] steps, a trace of a few megabytes.
+pub const MAX_TIME_LIMIT_S: f64 = 600.0;
 
 /// A goal parameter: drawn uniformly from `[lo, hi)` for each practice and test goal.
 #[derive(Clone, Debug, PartialEq)]

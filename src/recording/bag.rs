@@ -1,5 +1,6 @@
 //! ROS 2 bags in: a rosbag2 directory (`metadata.yaml` and its `.mcap` files) or one `.mcap`
-//! file, read with the `mcap` crate (zstd and lz4 chunks) and decoded from CDR with the message
+//! file, read record by record ([`super::mcap_read`]: zstd and lz4 chunks, each decompressed within
+//! bounds) and decoded from CDR with the message
 //! types the ROS 2 backend speaks ([`crate::backend::ros2::msg`]).
 //!
 //! Commands come from a `geometry_msgs/msg/Twist` (or `TwistStamped`) topic, poses from a
@@ -23,6 +24,7 @@ use std::path::{Path, PathBuf};
 use byteorder::{BigEndian, LittleEndian};
 use serde::de::DeserializeOwned;
 
+use super::mcap_read::Channel;
 use super::{ImportError, ImportOptions, Sample};
 use crate::backend::ros2::msg::{Odometry, Twist, TwistStamped};
 use crate::trace::{Episode, Pose};
@@ -224,6 +226,66 @@ fn role_of(schema: &str, want: Role) -> Option<Role> {
     }
 }
 
+/// A message's place in a bag, for a diagnostic.
+fn located(channel: &Channel, t_ns: u64) -> String {
+    format!("the message on {} at log time {t_ns} ns", channel.topic)
+}
+
+/// Refuse a command that is not finite or beyond the physical bound, where it is in the bag (a
+/// command the pairing would drop is refused too: the bag is damaged there).
+fn check_command(
+    file: &Path,
+    channel: &Channel,
+    t_ns: u64,
+    (v, w): (f64, f64),
+) -> Result<(), ImportError> {
+    let sample = (0.0, Pose::new(0.0, 0.0, 0.0), v, w);
+    super::check_sample(file, &sample, || located(channel, t_ns))
+}
+
+/// The role of a channel seen for the first time (`None`: a topic the import does not read),
+/// recorded in `topics` for the diagnostic of a missing one; a read topic of the wrong type or
+/// encoding is refused.
+fn channel_role(
+    file: &Path,
+    channel: &Channel,
+    cmd_topic: &str,
+    odom_topic: &str,
+    topics: &mut Vec<(String, String)>,
+) -> Result<Option<Role>, ImportError> {
+    let schema = channel.schema.clone();
+    if !topics.iter().any(|(t, _)| *t == channel.topic) {
+        topics.push((channel.topic.clone(), schema.clone()));
+    }
+    let want = if channel.topic == cmd_topic {
+        Role::Twist
+    } else if channel.topic == odom_topic {
+        Role::Odometry
+    } else {
+        return Ok(None);
+    };
+    let Some(role) = role_of(&schema, want) else {
+        return Err(ImportError::WrongType {
+            path: file.to_path_buf(),
+            topic: channel.topic.clone(),
+            found: schema,
+            expected: match want {
+                Role::Odometry => "nav_msgs/msg/Odometry",
+                _ => "geometry_msgs/msg/Twist or TwistStamped",
+            },
+        });
+    };
+    if channel.message_encoding != "cdr" {
+        return Err(ImportError::WrongType {
+            path: file.to_path_buf(),
+            topic: channel.topic.clone(),
+            found: format!("{schema} in {} encoding", channel.message_encoding),
+            expected: "ROS 2 messages in CDR encoding",
+        });
+    }
+    Ok(Some(role))
+}
+
 /// Import a bag (a rosbag2 directory or an `.mcap` file) into positioning demonstrations named
 /// after it (`NAME.k` when split).
 pub fn import_bag(
@@ -237,118 +299,68 @@ pub fn import_bag(
     let mut odometry: Vec<Timed<Pose>> = Vec::new();
     // Every topic seen, with its type, for the diagnostic of a missing one.
     let mut topics: Vec<(String, String)> = Vec::new();
+    let mut budget = super::mcap_read::Budget::default();
     for file in bag_files(path)? {
         // Bounded, and a FIFO or device named `x.mcap` is refused without being opened.
         let bytes = crate::files::read_bytes_limited(&file, MAX_BAG_FILE_BYTES)?;
-        let stream = mcap::MessageStream::new(&bytes).map_err(|e| ImportError::NotMcap {
-            path: file.clone(),
-            reason: e.to_string(),
-        })?;
         let mut roles: HashMap<u16, Option<Role>> = HashMap::new();
-        for (read, message) in stream.enumerate() {
-            let message = match message {
-                Ok(m) => m,
-                Err(e) if read > 0 => {
-                    // A file of a directory is named; a bag that is one file, the warning's.
-                    let shown = match path.is_dir() {
-                        true => file.file_name().map_or(file.clone(), PathBuf::from),
-                        false => PathBuf::from("the file"),
-                    };
-                    report.truncated.push((shown, e.to_string()));
-                    break;
-                }
-                Err(e) => {
-                    return Err(ImportError::NotMcap {
-                        path: file.clone(),
-                        reason: e.to_string(),
-                    });
-                }
-            };
-            let channel = &message.channel;
-            let role = match roles.get(&channel.id) {
-                Some(r) => *r,
-                None => {
-                    let schema = channel
-                        .schema
-                        .as_ref()
-                        .map_or_else(|| "(no schema)".to_string(), |s| s.name.clone());
-                    if !topics.iter().any(|(t, _)| *t == channel.topic) {
-                        topics.push((channel.topic.clone(), schema.clone()));
+        let mut on_message =
+            |id: u16, channel: &Channel, t_ns: u64, data: &[u8]| -> Result<(), ImportError> {
+                let role = match roles.get(&id) {
+                    Some(r) => *r,
+                    None => {
+                        let role =
+                            channel_role(&file, channel, &cmd_topic, &odom_topic, &mut topics)?;
+                        roles.insert(id, role);
+                        role
                     }
-                    let want = if channel.topic == cmd_topic {
-                        Some(Role::Twist)
-                    } else if channel.topic == odom_topic {
-                        Some(Role::Odometry)
-                    } else {
-                        None
-                    };
-                    let role = match want {
-                        None => None,
-                        Some(want) => {
-                            let Some(role) = role_of(&schema, want) else {
-                                return Err(ImportError::WrongType {
-                                    path: file.clone(),
-                                    topic: channel.topic.clone(),
-                                    found: schema,
-                                    expected: match want {
-                                        Role::Odometry => "nav_msgs/msg/Odometry",
-                                        _ => "geometry_msgs/msg/Twist or TwistStamped",
-                                    },
-                                });
-                            };
-                            if channel.message_encoding != "cdr" {
-                                return Err(ImportError::WrongType {
-                                    path: file.clone(),
-                                    topic: channel.topic.clone(),
-                                    found: format!(
-                                        "{schema} in {} encoding",
-                                        channel.message_encoding
-                                    ),
-                                    expected: "ROS 2 messages in CDR encoding",
-                                });
-                            }
-                            Some(role)
-                        }
-                    };
-                    roles.insert(channel.id, role);
-                    role
-                }
-            };
-            let Some(role) = role else {
-                continue;
-            };
-            let bad = |reason: String| ImportError::BadMessage {
-                path: file.clone(),
-                topic: message.channel.topic.clone(),
-                t_ns: message.log_time,
-                reason,
-            };
-            let t_ns = message.log_time;
-            match role {
-                Role::Twist => {
-                    let m: Twist = decode(&message.data).map_err(bad)?;
-                    commands.push(Timed {
-                        t_ns,
-                        value: (m.linear.x, m.angular.z),
-                    });
-                }
-                Role::TwistStamped => {
-                    let m: TwistStamped = decode(&message.data).map_err(bad)?;
-                    commands.push(Timed {
-                        t_ns,
-                        value: (m.twist.linear.x, m.twist.angular.z),
-                    });
-                }
-                Role::Odometry => {
-                    let m: Odometry = decode(&message.data).map_err(bad)?;
-                    let pose = m.planar_pose();
-                    if !(pose.x_m.is_finite() && pose.y_m.is_finite() && pose.theta_rad.is_finite())
-                    {
-                        return Err(bad("the pose is not finite".into()));
+                };
+                let Some(role) = role else {
+                    return Ok(());
+                };
+                let bad = |reason: String| ImportError::BadMessage {
+                    path: file.clone(),
+                    topic: channel.topic.clone(),
+                    t_ns,
+                    reason,
+                };
+                match role {
+                    Role::Twist => {
+                        let m: Twist = decode(data).map_err(bad)?;
+                        let value = (m.linear.x, m.angular.z);
+                        check_command(&file, channel, t_ns, value)?;
+                        commands.push(Timed { t_ns, value });
                     }
-                    odometry.push(Timed { t_ns, value: pose });
+                    Role::TwistStamped => {
+                        let m: TwistStamped = decode(data).map_err(bad)?;
+                        let value = (m.twist.linear.x, m.twist.angular.z);
+                        check_command(&file, channel, t_ns, value)?;
+                        commands.push(Timed { t_ns, value });
+                    }
+                    Role::Odometry => {
+                        let m: Odometry = decode(data).map_err(bad)?;
+                        let pose = m.planar_pose();
+                        let sample = (0.0, pose, 0.0, 0.0);
+                        super::check_sample(&file, &sample, || located(channel, t_ns))?;
+                        odometry.push(Timed { t_ns, value: pose });
+                    }
                 }
-            }
+                Ok(())
+            };
+        let read = super::mcap_read::read_messages(
+            &file,
+            &bytes,
+            &super::mcap_read::Bounds::DEFAULT,
+            &mut budget,
+            &mut on_message,
+        )?;
+        if let super::mcap_read::Read::Damaged(why) = read {
+            // A file of a directory is named; a bag that is one file, the warning's.
+            let shown = match path.is_dir() {
+                true => file.file_name().map_or(file.clone(), PathBuf::from),
+                false => PathBuf::from("the file"),
+            };
+            report.truncated.push((shown, why));
         }
     }
     for (topic, found) in [(&cmd_topic, commands.len()), (&odom_topic, odometry.len())] {
@@ -396,9 +408,10 @@ pub fn import_bag(
             } else {
                 stem.clone()
             };
-            options.episode(name, run)
+            let at = |t: f64| format!("the command on {cmd_topic} at log time {t:.6} s");
+            options.checked_episode(path, name, run, &at)
         })
-        .collect();
+        .collect::<Result<_, _>>()?;
     report.episodes = episodes.len();
     Ok((episodes, report))
 }

@@ -14,8 +14,10 @@
 //!   (`frame_index / fps`: a dataset keeps no times), `frame_index`, `episode_index`, `index`,
 //!   `task_index`, `advise.source`, `advise.weight`.
 //!
-//! Tables are written with the arrow and parquet crates (snappy), each file atomically; a
-//! directory that exists and is not empty is refused rather than mixed into.
+//! Tables are written with the arrow and parquet crates (snappy) into a temporary sibling
+//! directory that is renamed into place once whole ([`crate::files::write_dir_atomic`]), so a
+//! killed export leaves nothing half-written; a directory that exists and is not empty is refused
+//! rather than mixed into.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -393,12 +395,18 @@ pub fn export_lerobot(
         (dir.join("meta/info.json"), pretty(&info)),
         (dir.join("meta/stats.json"), pretty(&stats_json)),
     ];
-    for (path, bytes) in files {
-        if let Some(parent) = path.parent() {
-            std::fs::create_dir_all(parent).map_err(|e| fail(parent)(e.to_string()))?;
+    // Written whole into a temporary sibling and renamed into place: a killed export leaves no
+    // half-written directory for the next one to refuse.
+    crate::files::write_dir_atomic(dir, |tmp| {
+        for (path, bytes) in &files {
+            let path = tmp.join(path.strip_prefix(dir).unwrap_or(path));
+            if let Some(parent) = path.parent() {
+                std::fs::create_dir_all(parent).map_err(|e| fail(parent)(e.to_string()))?;
+            }
+            crate::files::write_atomic(&path, |w| w.write_all(bytes))?;
         }
-        crate::files::write_atomic(&path, |w| w.write_all(&bytes))?;
-    }
+        Ok::<(), LeRobotError>(())
+    })?;
     let advice_episodes = eps.iter().filter(|e| e.source == "advice").count();
     Ok(LeRobotSummary {
         frames,

@@ -63,11 +63,7 @@ impl Session {
         kappa: f64,
         rule: CritiqueRule,
     ) -> Result<Reply, SessionError> {
-        if !(kappa.is_finite() && kappa > 0.0 && kappa <= MAX_KAPPA) {
-            return Err(SessionError::BadKappa {
-                kappa: short_num(kappa),
-            });
-        }
+        check_kappa(kappa)?;
         let (i, chunk) = self.selection()?;
         let st = &mut self.state;
         let rec = &st.executions[i];
@@ -188,5 +184,16 @@ impl Session {
         };
         out.push_str(&self.state.learner.why(&z, &name)?);
         Ok(out)
+    }
+}
+
+/// A critique's kappa: positive and at most [`MAX_KAPPA`] (a typed one and a journalled one).
+pub(super) fn check_kappa(kappa: f64) -> Result<(), SessionError> {
+    if kappa.is_finite() && kappa > 0.0 && kappa <= MAX_KAPPA {
+        Ok(())
+    } else {
+        Err(SessionError::BadKappa {
+            kappa: short_num(kappa),
+        })
     }
 }

@@ -31,20 +31,27 @@ impl Session {
 
     /// Start journalling into a new journal in `dir`. What the session already holds (the
     /// starting demonstrations) is written first, so the journal alone restores it.
-    pub fn start_journal(&mut self, dir: &Path) -> std::io::Result<PathBuf> {
+    pub fn start_journal(&mut self, dir: &Path) -> Result<PathBuf, journal::JournalError> {
         let mut j = Journal::create_in(dir, &self.journal_header())?;
         for entry in self.preamble.take().unwrap_or_default() {
-            j.record(&entry)?;
+            j.record(&entry)
+                .map_err(|source| journal::JournalError::Create {
+                    path: j.path().display().to_string(),
+                    source,
+                })?;
         }
         let path = j.path().to_path_buf();
         self.journal = Some(j);
         Ok(path)
     }
 
-    /// Restore a journalled session: every effect is applied as it was recorded; nothing is
-    /// re-run, no file but the journal is read, and no robot is connected or driven. The session
-    /// then journals into the same file (or, if it was damaged, a fresh one in `dir`).
+    /// Restore a journalled session: every effect is applied as it was recorded, held to the
+    /// rules a live statement is held to; nothing is re-run, no file but the journal is read, and
+    /// no robot is connected or driven. The session then journals into the same file (or, if a
+    /// line was damaged or refused, a fresh one in `dir`). A journal another session holds is
+    /// refused before anything is read.
     pub fn restore(path: &Path, dir: &Path) -> Result<Restored, SessionError> {
+        let mut held = Journal::continue_at(path)?;
         let loaded = journal::read(path)?;
         let h = &loaded.header;
         // A header edited by hand is held to the simulator's ranges like any parameters file.
@@ -52,14 +59,15 @@ impl Session {
         let mut s = Session::empty(h.task.clone(), h.seed, h.sim.clone());
         s.restoring = true;
         let mut notes = Vec::new();
-        let mut damaged = loaded.damaged.clone();
+        // The first line not restored: damaged (unreadable), or refused by a rule.
+        let mut stop: Option<(usize, Result<String, SessionError>)> = loaded
+            .damaged
+            .clone()
+            .map(|(line, message)| (line, Ok(message)));
         let mut restored = 0;
         for (line, entry) in &loaded.entries {
             if let Err(e) = s.apply(&entry.effect) {
-                damaged = Some((
-                    *line,
-                    format!("`{}` could not be restored: {e}", entry.statement),
-                ));
+                stop = Some((*line, Err(e)));
                 break;
             }
             restored += 1;
@@ -72,33 +80,46 @@ impl Session {
                 first_chars(cut, 60)
             ));
         }
-        let journal = match &damaged {
-            None => Journal::append_to(path, loaded.good_len).map_err(|source| {
-                SessionError::Journal {
-                    path: path.display().to_string(),
-                    source,
-                }
-            })?,
-            Some((line, what)) => {
-                notes.push(format!(
-                    "line {line} of the journal is damaged ({what}): restored up to line {}, nothing after it; the journal is left as it was",
-                    line - 1
-                ));
-                let mut j = Journal::create_in(dir, h).map_err(|source| SessionError::Journal {
-                    path: dir.display().to_string(),
-                    source,
-                })?;
+        let journal_error = |path: &Path, source| SessionError::Journal {
+            path: path.display().to_string(),
+            source,
+        };
+        let (journal, stopped) = match stop {
+            None => {
+                held.cut_to(loaded.good_len)
+                    .map_err(|e| journal_error(path, e))?;
+                (held, None)
+            }
+            Some((line, why)) => {
+                drop(held);
+                let mut j = Journal::create_in(dir, h)?;
                 for (_, entry) in loaded.entries.iter().take(restored) {
-                    j.record(entry).map_err(|source| SessionError::Journal {
-                        path: j.path().display().to_string(),
-                        source,
-                    })?;
+                    j.record(entry).map_err(|e| journal_error(j.path(), e))?;
                 }
                 notes.push(format!(
                     "this session continues in a new journal: {}",
                     j.path().display()
                 ));
-                j
+                let shown = path.display().to_string();
+                let stopped = match why {
+                    Ok(message) => journal::Stopped::Damaged {
+                        path: shown,
+                        line,
+                        before: line - 1,
+                        message,
+                    },
+                    Err(cause) => journal::Stopped::Invalid {
+                        path: shown,
+                        line,
+                        before: line - 1,
+                        statement: loaded
+                            .entries
+                            .get(restored)
+                            .map_or_else(String::new, |(_, e)| first_chars(&e.statement, 80)),
+                        cause,
+                    },
+                };
+                (j, Some(stopped))
             }
         };
         if let Some(spec) = s.restored_backend.as_deref().filter(|b| *b != "sim") {
@@ -111,6 +132,7 @@ impl Session {
         Ok(Restored {
             session: s,
             entries: restored,
+            stopped,
             notes,
             journal: journal_path,
         })
@@ -179,9 +201,22 @@ impl Session {
             }
             Effect::Execution(entry) => {
                 let trace = Trace::from_json(&self.domain, &entry.trace)?;
+                if let Some(g) = &entry.goal {
+                    super::run::check_goal(g.x_m, g.y_m, g.theta_rad)?;
+                }
+                // Everything is checked before anything changes.
+                let runs = match &entry.run {
+                    Some(run) => Some(
+                        run.number
+                            .checked_add(1)
+                            .ok_or(SessionError::RunNumber { number: run.number })?,
+                    ),
+                    None => None,
+                };
+                let id = self.state.learner.try_add_execution(&trace)?;
                 let (execution, support) = match &entry.run {
                     Some(run) => {
-                        self.state.runs = run.number + 1;
+                        self.state.runs = runs.unwrap_or(self.state.runs);
                         (
                             Some(Execution {
                                 trace: trace.clone(),
@@ -194,7 +229,6 @@ impl Session {
                     }
                     None => (None, None),
                 };
-                let id = self.state.learner.add_execution(&trace);
                 let st = &mut self.state;
                 st.executions.push(Recorded {
                     label: entry.label.clone(),
@@ -238,6 +272,7 @@ impl Session {
                 directional,
                 flagged,
             } => {
+                super::advice::check_kappa(*kappa)?;
                 let number = self.state.take_number();
                 let flagged = directional.then(|| flagged.clone());
                 self.add_critique(
@@ -265,7 +300,8 @@ impl Session {
                     .sources
                     .scratch(path.as_str(), dataset.as_str(), Dataset::parse)
                     .map_err(LearnerError::from)?;
-                let learner = Learner::with_dataset(ds, self.task.learner(), self.seed);
+                // The rule a live `open` applies: another task's dataset is refused.
+                let learner = self.task.adopt_dataset(ds, self.seed)?;
                 self.take_learner(learner);
             }
         }

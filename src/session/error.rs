@@ -83,6 +83,11 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     PracticeStart(#[from] task::PracticeStartOutOfRange),
+    /// `load demos teacher:N` of a task whose teacher's runs stopped on a value that is not a
+    /// number.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    DemosStopped(#[from] task::DemosStopped),
     #[error("unknown task `{name}`")]
     #[diagnostic(code(advise::session::unknown_task), help("{help}"))]
     UnknownTask { name: String, help: String },
@@ -169,6 +174,12 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     JournalRead(#[from] JournalError),
+    #[error("run number {number} has no successor")]
+    #[diagnostic(
+        code(advise::session::run_number),
+        help("a session numbers its runs from 0; a journal line with this number was edited")
+    )]
+    RunNumber { number: u64 },
     #[error("nothing to undo")]
     #[diagnostic(code(advise::session::nothing_to_undo))]
     NothingToUndo,
@@ -211,6 +222,25 @@ pub enum SessionError {
         #[source]
         #[diagnostic_source]
         error: BackendError,
+    },
+    /// A run that stopped on a value of the task that is not a number: like an interrupted
+    /// one, what was recorded before it is kept as an execution.
+    #[error(
+        "execution {index} ({label}) stopped after {steps} steps on a value that is not a number; what was recorded is kept"
+    )]
+    #[diagnostic(
+        code(advise::session::run_stopped),
+        help(
+            "`show` it; the task's declaration needs fixing before its runs can be trusted (`advise check FILE` warns where a value may not be a number)"
+        )
+    )]
+    RunStopped {
+        index: usize,
+        label: String,
+        steps: usize,
+        #[source]
+        #[diagnostic_source]
+        reason: task::NonFinite,
     },
     #[error("`record demo` listens to a ROS 2 base; this session drives `{backend}`")]
     #[diagnostic(
@@ -275,8 +305,10 @@ pub enum SessionError {
     },
     #[error("cannot write the journal `{path}`: the session stops recording")]
     #[diagnostic(
-        code(advise::session::journal),
-        help("check the disk and the folder's permissions")
+        code(advise::journal::write),
+        help(
+            "check the disk and the folder's permissions; `save FILE.json` keeps the dataset, and a session started with ADVISE_HOME set to a writable folder journals there"
+        )
     )]
     Journal {
         path: String,

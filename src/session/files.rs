@@ -12,6 +12,29 @@ use crate::task;
 use crate::trace::Trace;
 
 impl Session {
+    /// Note a file a command read, so that no output replaces it.
+    fn read_input(&mut self, path: &str, opened: bool) {
+        let p = Path::new(path).to_path_buf();
+        if !self.inputs.iter().any(|(q, o)| *q == p && *o == opened) {
+            self.inputs.push((p, opened));
+        }
+    }
+
+    /// Refuse an output that is a file the session read (the same file or a link to it): `export
+    /// mcap x.json` after `open x.json` replaced the dataset on disk. `save` may replace the file
+    /// `open` read: saving back is what it is for.
+    pub(super) fn check_output(&self, path: &str, save: bool) -> Result<(), SessionError> {
+        let inputs = self
+            .inputs
+            .iter()
+            .filter(|(_, opened)| !(save && *opened))
+            .map(|(p, _)| p.as_path());
+        Ok(crate::files::refuse_overwriting_inputs(
+            Path::new(path),
+            inputs,
+        )?)
+    }
+
     /// `teacher:N` records N demonstrations by the task's teacher in the simulator; anything else
     /// is a demonstrations file.
     /// `options` name a bag's topics; a topic given for a file that is not a bag is refused.
@@ -67,10 +90,10 @@ impl Session {
                     })?;
                 let params = self.sim_params();
                 // A distinct stream from the practice starts the teacher's runs use.
-                task::record_demos(self.task.clone(), count, self.seed ^ 0xD3E0, &params)
-                    .into_iter()
-                    .map(|(e, _)| e)
-                    .collect()
+                let recorded =
+                    task::record_demos(self.task.clone(), count, self.seed ^ 0xD3E0, &params);
+                task::finite_demos(&self.task, &recorded)?;
+                recorded.into_iter().map(|(e, _)| e).collect()
             }
             None => {
                 let demos = crate::policy::dataset::load_demonstrations(
@@ -89,6 +112,9 @@ impl Session {
                 demos.episodes
             }
         };
+        if !path.starts_with("teacher:") {
+            self.read_input(path, false);
+        }
         let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
         let count = episodes.len();
         self.commit(Effect::Demos {
@@ -116,6 +142,7 @@ impl Session {
 
     pub(super) fn load_trace(&mut self, path: &str) -> Result<String, SessionError> {
         let trace = Trace::load(&mut self.sources, &self.domain, Path::new(path))?;
+        self.read_input(path, false);
         let n = trace.len();
         self.commit(Effect::Execution(Box::new(ExecutionEntry {
             label: path.to_string(),
@@ -153,6 +180,7 @@ impl Session {
                 path: path.to_string(),
             });
         }
+        self.read_input(path, false);
         self.commit(Effect::Define {
             origin: path.to_string(),
             text,
@@ -195,6 +223,7 @@ impl Session {
             origin: path.to_string(),
             text,
         })?;
+        self.read_input(path, false);
         let warnings = warnings_text(&self.sources, &std::mem::take(&mut self.warnings));
         Ok(format!(
             "checked {path}: {} operators now ({} for {})",
@@ -209,6 +238,7 @@ impl Session {
     }
 
     pub(super) fn save(&self, path: &str) -> Result<String, SessionError> {
+        self.check_output(path, true)?;
         let format = self.state.learner.save(Path::new(path))?;
         Ok(format!(
             "saved {} points to {path} ({})",
@@ -229,6 +259,7 @@ impl Session {
             path: path.to_string(),
             dataset,
         })?;
+        self.read_input(path, true);
         Ok(format!(
             "opened {path}: {} points",
             self.state.learner.len()
@@ -236,6 +267,7 @@ impl Session {
     }
 
     pub(super) fn export_mcap(&self, path: &str) -> Result<String, SessionError> {
+        self.check_output(path, false)?;
         let s = crate::recording::mcap_export::export_mcap(
             self.state.learner.dataset(),
             Path::new(path),
@@ -244,6 +276,7 @@ impl Session {
     }
 
     pub(super) fn export_lerobot(&self, dir: &str) -> Result<String, SessionError> {
+        self.check_output(dir, false)?;
         use crate::recording::lerobot;
         let fps = self.sim_params().rate_hz.round().clamp(1.0, 1000.0) as u32;
         let s = lerobot::export_lerobot(self.state.learner.dataset(), Path::new(dir), fps)?;
@@ -251,6 +284,7 @@ impl Session {
     }
 
     pub(super) fn export_advice(&self, path: &str) -> Result<String, SessionError> {
+        self.check_output(path, false)?;
         let n = self.state.learner.export_advice(Path::new(path))?;
         Ok(format!(
             "wrote {n} advised points with their provenance to {path}"

@@ -8,9 +8,18 @@
 //! unique to the process (time, process id, a counter), so two sessions never share one and
 //! nothing is ever truncated. A line cut by a crash is reported and dropped on resume; a damaged
 //! line in the middle stops the restore there, and the session continues in a fresh journal
-//! holding what was restored, leaving the damaged one as it was.
+//! holding what was restored, leaving the damaged one as it was. A line that reads but holds an
+//! effect a live statement could not have made (an action beyond its limits, a chunk past the end
+//! of its execution, another task's dataset) is treated the same way.
+//!
+//! A journal is written by one session at a time: the session holding it holds an exclusive
+//! advisory lock on it (`flock`, through std's `File::try_lock`) for its life, and names itself
+//! in a file beside it (`NAME.jsonl.lock`: process id and when it took the lock). A second
+//! session that would write it (`advise resume` of a journal in use) is refused with the owner
+//! named. The kernel drops the lock when its process ends, however it ends, so a dead owner never
+//! blocks anyone; its stale owner file is overwritten by the next holder.
 
-use std::fs::{File, OpenOptions};
+use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
@@ -19,11 +28,19 @@ use thiserror::Error;
 
 use super::effect::{Entry, Header, JOURNAL_FORMAT};
 
-/// An append-only journal file.
+/// An append-only journal file, locked for as long as this value lives.
 #[derive(Debug)]
 pub struct Journal {
     path: PathBuf,
+    /// Open for appending, with the exclusive lock held on it.
     file: File,
+}
+
+impl Drop for Journal {
+    fn drop(&mut self) {
+        // The lock goes with the file; the owner file says nothing true any more.
+        let _ = std::fs::remove_file(owner_path(&self.path));
+    }
 }
 
 /// Why a journal could not be read.
@@ -48,6 +65,78 @@ pub enum JournalError {
         )
     )]
     Header { path: String, message: String },
+    #[error("the journal `{path}` is in use by another session: {owner}")]
+    #[diagnostic(
+        code(advise::journal::locked),
+        help(
+            "two sessions writing one journal would interleave their statements: wait for that session to end (`quit` in it), or copy the journal and resume the copy (`advise resume COPY`), which starts a history of its own"
+        )
+    )]
+    Locked { path: String, owner: String },
+    #[error("cannot create a session journal in `{path}`")]
+    #[diagnostic(
+        code(advise::journal::create),
+        help(
+            "journals are kept in $ADVISE_HOME (else ~/.advise): set ADVISE_HOME to a writable folder, or start the session with `--no-journal` (then nothing is recorded for `advise resume`)"
+        )
+    )]
+    Create {
+        path: String,
+        #[source]
+        source: io::Error,
+    },
+    #[error("cannot continue the journal `{path}`")]
+    #[diagnostic(
+        code(advise::journal::open),
+        help(
+            "a resumed session records into the journal it restored, so the file must be writable: copy it to a writable folder and resume the copy (`advise resume COPY`)"
+        )
+    )]
+    Open {
+        path: String,
+        #[source]
+        source: io::Error,
+    },
+}
+
+/// Why a restore stopped before the end of its journal: everything before the line is restored,
+/// nothing from it on, and the session continues in a new journal (the old one is left as it
+/// was). Shown at resume; the session goes on.
+#[derive(Debug, Error, Diagnostic)]
+pub enum Stopped {
+    #[error("line {line} of the journal `{path}` is damaged: {message}")]
+    #[diagnostic(
+        code(advise::journal::damaged_line),
+        severity(Warning),
+        help(
+            "restored up to line {before}, nothing after it; the journal is left as it was, and this session continues in a new one"
+        )
+    )]
+    Damaged {
+        path: String,
+        line: usize,
+        before: usize,
+        message: String,
+    },
+    #[error(
+        "line {line} of the journal `{path}` holds what no statement could have done: `{statement}`"
+    )]
+    #[diagnostic(
+        code(advise::journal::invalid_entry),
+        severity(Warning),
+        help(
+            "a journal line is held to the rules a live statement is; restored up to line {before}, nothing after it, and nothing was driven; the journal is left as it was, and this session continues in a new one"
+        )
+    )]
+    Invalid {
+        path: String,
+        line: usize,
+        before: usize,
+        statement: String,
+        #[source]
+        #[diagnostic_source]
+        cause: super::SessionError,
+    },
 }
 
 /// A journal read back: its header, the entries in order (with their 1-based line numbers), and
@@ -69,9 +158,14 @@ pub struct Loaded {
 pub const MAX_JOURNAL_BYTES: u64 = 2 << 30;
 
 impl Journal {
-    /// Start a new journal in `dir` under a name no other session has, headed by `header`.
-    pub fn create_in(dir: &Path, header: &Header) -> io::Result<Journal> {
-        std::fs::create_dir_all(dir)?;
+    /// Start a new journal in `dir` under a name no other session has, headed by `header`, and
+    /// hold its lock.
+    pub fn create_in(dir: &Path, header: &Header) -> Result<Journal, JournalError> {
+        let failed = |path: &Path, source| JournalError::Create {
+            path: path.display().to_string(),
+            source,
+        };
+        std::fs::create_dir_all(dir).map_err(|e| failed(dir, e))?;
         let mut last = None;
         // A name is unique to this process and time; create-new refuses a name that exists, so
         // the worst a collision costs is another try.
@@ -79,29 +173,75 @@ impl Journal {
             let path = dir.join(journal_name(header, attempt));
             match OpenOptions::new().append(true).create_new(true).open(&path) {
                 Ok(file) => {
-                    let mut j = Journal { path, file };
-                    j.write_line(&serde_json::to_string(header).map_err(io::Error::other)?)?;
+                    let mut j = Journal::hold(file, &path)?;
+                    let line = serde_json::to_string(header).map_err(io::Error::other);
+                    line.and_then(|l| j.write_line(&l))
+                        .map_err(|e| failed(&path, e))?;
                     return Ok(j);
                 }
                 Err(e) if e.kind() == io::ErrorKind::AlreadyExists => last = Some(e),
-                Err(e) => return Err(e),
+                Err(e) => return Err(failed(dir, e)),
             }
         }
-        Err(last.unwrap_or_else(|| io::Error::other("no free journal name")))
+        Err(failed(
+            dir,
+            last.unwrap_or_else(|| io::Error::other("no free journal name")),
+        ))
     }
 
-    /// Continue an existing journal (after `advise resume` restored it). Anything past `good_len`
-    /// (a line cut by a crash) is cut off first, so the next entry starts on a line of its own.
-    pub fn append_to(path: &Path, good_len: u64) -> io::Result<Journal> {
-        let file = OpenOptions::new().append(true).open(path)?;
-        if file.metadata()?.len() > good_len {
-            file.set_len(good_len)?;
-            file.sync_data()?;
+    /// Take an existing journal to continue it (what `advise resume` does before reading it),
+    /// refused while another session holds it.
+    pub fn continue_at(path: &Path) -> Result<Journal, JournalError> {
+        let file = match OpenOptions::new().append(true).open(path) {
+            Ok(file) => file,
+            Err(source) => {
+                // A file that is no journal at all says so first.
+                read(path)?;
+                return Err(JournalError::Open {
+                    path: path.display().to_string(),
+                    source,
+                });
+            }
+        };
+        Journal::hold(file, path)
+    }
+
+    /// Lock `file` (the journal at `path`) for this session and name this process beside it.
+    fn hold(file: File, path: &Path) -> Result<Journal, JournalError> {
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(TryLockError::WouldBlock) => {
+                return Err(JournalError::Locked {
+                    path: path.display().to_string(),
+                    owner: owner_of(path),
+                });
+            }
+            Err(TryLockError::Error(source)) => {
+                return Err(JournalError::Open {
+                    path: path.display().to_string(),
+                    source,
+                });
+            }
         }
+        // Only a courtesy for whoever is refused: the lock itself is what excludes them.
+        let now = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
+        let _ = std::fs::write(owner_path(path), format!("{} {now}\n", std::process::id()));
         Ok(Journal {
             path: path.to_path_buf(),
             file,
         })
+    }
+
+    /// Cut off anything past `good_len` (a line cut by a crash), so the next entry starts on a
+    /// line of its own.
+    pub fn cut_to(&mut self, good_len: u64) -> io::Result<()> {
+        if self.file.metadata()?.len() > good_len {
+            self.file.set_len(good_len)?;
+            self.file.sync_data()?;
+        }
+        Ok(())
     }
 
     pub fn path(&self) -> &Path {
@@ -139,6 +279,40 @@ fn journal_name(header: &Header, attempt: u32) -> String {
             format!("-{attempt}")
         }
     )
+}
+
+/// The file beside a journal that names the process holding it.
+fn owner_path(journal: &Path) -> PathBuf {
+    let mut name = journal.as_os_str().to_owned();
+    name.push(".lock");
+    PathBuf::from(name)
+}
+
+/// Who holds the journal at `path`, in words, from its owner file.
+fn owner_of(path: &Path) -> String {
+    let text = std::fs::read_to_string(owner_path(path)).unwrap_or_default();
+    let mut words = text.split_whitespace().map(str::parse::<u64>);
+    match (words.next(), words.next()) {
+        (Some(Ok(pid)), Some(Ok(since))) => {
+            let now = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_secs());
+            format!(
+                "process {pid}, which took it {} ago",
+                ago(now.saturating_sub(since))
+            )
+        }
+        _ => "a process that did not name itself".into(),
+    }
+}
+
+/// A duration in the unit a person would say it in.
+fn ago(s: u64) -> String {
+    match s {
+        0..120 => format!("{s} s"),
+        120..7200 => format!("{} min", s / 60),
+        _ => format!("{} h", s / 3600),
+    }
 }
 
 /// Read a journal back. Never panics on any file content.
@@ -287,7 +461,8 @@ mod tests {
         let loaded = read(&path).unwrap();
         assert_eq!(loaded.entries.len(), 1);
         assert_eq!(loaded.cut.as_deref(), Some(r#"{"statement":"advise spe"#));
-        let mut j = Journal::append_to(&path, loaded.good_len).unwrap();
+        let mut j = Journal::continue_at(&path).unwrap();
+        j.cut_to(loaded.good_len).unwrap();
         j.record(&entry("redo")).unwrap();
         let again = read(&path).unwrap();
         assert_eq!(again.entries.len(), 2);
@@ -305,6 +480,53 @@ mod tests {
         let loaded = read(j.path()).unwrap();
         assert_eq!(loaded.entries.len(), 1);
         assert_eq!(loaded.damaged.as_ref().map(|d| d.0), Some(3));
+    }
+
+    #[test]
+    fn a_journal_is_held_by_one_session_at_a_time_and_named_by_its_owner() {
+        let dir = tempfile::tempdir().unwrap();
+        let j = Journal::create_in(dir.path(), &header()).unwrap();
+        let path = j.path().to_path_buf();
+        // A second open file description (another session, here in this process) is refused.
+        match Journal::continue_at(&path) {
+            Err(JournalError::Locked { owner, .. }) => assert!(
+                owner.starts_with(&format!("process {}, which took it ", std::process::id())),
+                "{owner}"
+            ),
+            other => panic!("{other:?}"),
+        }
+        // Ended, it holds nothing and leaves no owner file.
+        drop(j);
+        assert!(!owner_path(&path).exists());
+        let again = Journal::continue_at(&path).unwrap();
+        // An owner file left by a killed process names nobody who holds the lock: it is
+        // overwritten, not obeyed.
+        drop(again);
+        std::fs::write(owner_path(&path), "1 0\n").unwrap();
+        let held = Journal::continue_at(&path).unwrap();
+        let owner = std::fs::read_to_string(owner_path(&path)).unwrap();
+        assert!(
+            owner.starts_with(&format!("{} ", std::process::id())),
+            "{owner}"
+        );
+        drop(held);
+    }
+
+    #[test]
+    fn a_journal_that_cannot_be_created_says_where_and_what_to_do() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("in-the-way");
+        std::fs::write(&file, "").unwrap();
+        match Journal::create_in(&file, &header()) {
+            Err(e @ JournalError::Create { .. }) => {
+                assert_eq!(
+                    miette::Diagnostic::code(&e).unwrap().to_string(),
+                    "advise::journal::create"
+                );
+                assert!(e.to_string().contains("in-the-way"), "{e}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]

@@ -3,11 +3,9 @@
 //! positioning demonstration as a CSV log's do, [`crate::recording::episode`]). Journalled as
 //! demonstrations, so a resume needs neither the base nor the person.
 
-use std::f64::consts::PI;
-
 use super::effect::{DemoEpisode, Effect};
 use super::text::short_num;
-use super::{BackendChoice, MAX_GOAL_M, Session, SessionError};
+use super::{BackendChoice, Session, SessionError};
 use std::io::IsTerminal;
 
 use crate::backend::Backend;
@@ -193,12 +191,22 @@ impl Session {
     ) -> Result<(String, usize), SessionError> {
         let number = self.state.learner.dataset().demos().len();
         let name = format!("teleop {number}");
-        let episode = match self.task.def() {
-            Some(def) if self.task != TaskKind::Positioning => {
-                crate::recording::episode_for(&def, name, samples, None)
-            }
-            _ => crate::recording::episode(name, samples, goal),
+        let options = match self.task.def() {
+            Some(def) if self.task != TaskKind::Positioning => crate::recording::ImportOptions {
+                task: Some(def),
+                ..Default::default()
+            },
+            _ => crate::recording::ImportOptions {
+                goal,
+                ..Default::default()
+            },
         };
+        // The rule every path into a dataset holds: what `load demos` would refuse is refused
+        // here too, naming the time.
+        let episode =
+            options.checked_episode(std::path::Path::new(&source), name, samples, &|t: f64| {
+                format!("{t:.2} s into the recording")
+            })?;
         let points = episode.trace.len();
         let name = episode.name.clone();
         self.commit(Effect::Demos {
@@ -226,12 +234,7 @@ fn checked_limits(
     }
     let goal = match goal {
         Some([x, y, theta]) => {
-            let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
-            if !(within(x, MAX_GOAL_M) && within(y, MAX_GOAL_M) && within(theta, 2.0 * PI)) {
-                return Err(SessionError::BadGoal {
-                    goal: [x, y, theta].map(short_num).join(", "),
-                });
-            }
+            super::run::check_goal(x, y, theta)?;
             Some(Pose::new(x, y, theta))
         }
         None => None,

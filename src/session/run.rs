@@ -27,12 +27,7 @@ impl Session {
         if self.task != TaskKind::Positioning {
             return Err(SessionError::GoalForWrongTask);
         }
-        let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
-        if !(within(x, MAX_GOAL_M) && within(y, MAX_GOAL_M) && within(theta, 2.0 * PI)) {
-            return Err(SessionError::BadGoal {
-                goal: [x, y, theta].map(short_num).join(", "),
-            });
-        }
+        check_goal(x, y, theta)?;
         let goal = Pose::new(x, y, theta);
         self.run(
             Start::Goal(goal),
@@ -90,9 +85,11 @@ impl Session {
                 (*execution, Some(error))
             }
         };
-        let label = match failure {
-            Some(_) => format!("{label} (interrupted)"),
-            None => label,
+        let stopped = exec.outcome.non_finite.clone();
+        let label = match (&failure, &stopped) {
+            (Some(_), _) => format!("{label} (interrupted)"),
+            (None, Some(_)) => format!("{label} (stopped)"),
+            (None, None) => label,
         };
         // The dataset has not changed during the run: the points nearest now are the ones that
         // recommended each action, kept for `critique`.
@@ -120,6 +117,14 @@ impl Session {
                 label,
                 steps: n,
                 error,
+            });
+        }
+        if let Some(reason) = stopped {
+            return Err(SessionError::RunStopped {
+                index,
+                label,
+                steps: n,
+                reason,
             });
         }
         Ok(Reply::Ran(Ran {
@@ -201,6 +206,7 @@ impl Session {
     /// `plot FILE` draws the selected execution's path, `plot actions FILE` its actions against
     /// point index, `plot compare FILE N M` the paths of executions N and M overlaid.
     pub(super) fn plot(&self, kind: PlotKind, path: &str) -> Result<String, SessionError> {
+        self.check_output(path, false)?;
         let file = Path::new(path);
         let no_poses = |n: usize| SessionError::NoPoses { n };
         match kind {
@@ -234,5 +240,18 @@ impl Session {
                 ))
             }
         }
+    }
+}
+
+/// A goal a run can reach: x and y within [`MAX_GOAL_M`] of the start, theta within ±2π. The one
+/// rule for `run goal`, `record demo ... goal` and a journalled execution's goal.
+pub(super) fn check_goal(x: f64, y: f64, theta: f64) -> Result<(), SessionError> {
+    let within = |v: f64, limit: f64| v.is_finite() && v.abs() <= limit;
+    if within(x, MAX_GOAL_M) && within(y, MAX_GOAL_M) && within(theta, 2.0 * PI) {
+        Ok(())
+    } else {
+        Err(SessionError::BadGoal {
+            goal: [x, y, theta].map(short_num).join(", "),
+        })
     }
 }

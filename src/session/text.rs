@@ -71,6 +71,9 @@ pub(super) fn outcome_line(e: &Execution) -> String {
     if let Some(h) = o.heading_error_rad {
         let _ = write!(s, ", heading error {h:.2} rad");
     }
+    if let Some(n) = &o.non_finite {
+        let _ = write!(s, "; stopped: {n}");
+    }
     s
 }
 

@@ -214,16 +214,27 @@ pub fn practice_goal(def: &TaskDef, seed: u64, index: u64) -> Vec<f64> {
     sample(def, &mut rng)
 }
 
+/// One goal: a value per parameter, uniform in its range. The checker bounds every range
+/// ([`def::MAX_GOAL_ABS`]); a range that is not one anyway (a definition built by hand) cannot
+/// panic the draw: it gives the range's middle, or 0, and still takes its draw.
 fn sample(def: &TaskDef, rng: &mut ChaCha8Rng) -> Vec<f64> {
     def.goal
         .iter()
         .map(|g| {
-            if g.lo < g.hi {
+            // `random_range` refuses (panics on) a range whose width is not a finite number.
+            if g.lo < g.hi && (g.hi - g.lo).is_finite() {
                 rng.random_range(g.lo..g.hi)
             } else {
                 // A range of one value still takes its draw, so later parameters keep theirs.
                 rng.next_u64();
-                g.lo
+                let mid = g.lo / 2.0 + g.hi / 2.0;
+                if g.lo == g.hi && g.lo.is_finite() {
+                    g.lo
+                } else if mid.is_finite() {
+                    mid
+                } else {
+                    0.0
+                }
             }
         })
         .collect()

@@ -234,9 +234,11 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
                     at: field_at(byte, col),
                 });
             }
+            // The demonstration rule ([`super::demo_value_fault`]); finiteness is refused above
+            // for every column, demonstrations or not.
             if let (true, Slot::A(i)) = (demo, *slot)
-                && let Some(l) = domain.act[i].limits
-                && !l.contains(v)
+                && let Some(super::ValueFault::OutsideLimits(l)) =
+                    super::demo_value_fault(domain, crate::domain::Space::Action, i, v)
             {
                 return Err(TraceError::ActionOutOfLimits {
                     line,

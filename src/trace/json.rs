@@ -275,8 +275,11 @@ fn outside_action_limits(
     domain: &Domain,
     a: &[f64],
 ) -> Option<(usize, f64, crate::domain::Limits)> {
-    a.iter()
-        .zip(&domain.act)
-        .enumerate()
-        .find_map(|(k, (v, dim))| dim.limits.filter(|l| !l.contains(*v)).map(|l| (k, *v, l)))
+    // The demonstration rule ([`super::demo_value_fault`]); finiteness is refused before.
+    a.iter().enumerate().find_map(|(k, v)| {
+        match super::demo_value_fault(domain, crate::domain::Space::Action, k, *v) {
+            Some(super::ValueFault::OutsideLimits(l)) => Some((k, *v, l)),
+            _ => None,
+        }
+    })
 }

@@ -53,6 +53,12 @@ class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
 
 
 @dataclass
+class TwistStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TwistStamped_"):
+    header: Header
+    twist: Twist
+
+
+@dataclass
 class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
     x: float64
     y: float64
@@ -110,6 +116,14 @@ def main():
     ap.add_argument("--odom-qos", choices=["reliable", "best-effort"], default="best-effort")
     ap.add_argument("--odom-stop-after", type=float, default=None,
                     help="stop publishing odometry this long after the first non-zero command")
+    ap.add_argument("--odom-bad-after", type=float, default=None,
+                    help="publish corrupt odometry this long after the first non-zero command")
+    ap.add_argument("--odom-bad-value", default="nan",
+                    help="the corrupt odometry's x: nan, inf, a number, or `jump` (x + 50 m)")
+    ap.add_argument("--cmd-type", choices=["twist", "stamped"], default="twist",
+                    help="what the base reads on cmd_vel: Twist, or TwistStamped (Jazzy's default)")
+    ap.add_argument("--cmd-durability", choices=["volatile", "transient-local"],
+                    default="volatile", help="the durability the cmd_vel reader asks for")
     ap.add_argument("--frame-id", default="odom")
     ap.add_argument("--child-frame-id", default="base_link")
     ap.add_argument("--teleop", default=None,
@@ -123,9 +137,13 @@ def main():
                    Policy.History.KeepLast(10))
     odom_qos = reliable if args.odom_qos == "reliable" else Qos(
         Policy.Reliability.BestEffort, Policy.History.KeepLast(10))
-    cmd_topic = Topic(dp, topic_name(args.namespace, "cmd_vel"), Twist)
+    cmd_type = TwistStamped if args.cmd_type == "stamped" else Twist
+    cmd_topic = Topic(dp, topic_name(args.namespace, "cmd_vel"), cmd_type)
     odom_topic = Topic(dp, topic_name(args.namespace, "odom"), Odometry)
-    reader = DataReader(dp, cmd_topic, qos=reliable)
+    cmd_qos = reliable if args.cmd_durability == "volatile" else Qos(
+        Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
+        Policy.History.KeepLast(10), Policy.Durability.TransientLocal)
+    reader = DataReader(dp, cmd_topic, qos=cmd_qos)
     odom_writer = DataWriter(dp, odom_topic, qos=odom_qos)
     teleop_writer = DataWriter(dp, cmd_topic, qos=reliable) if args.teleop else None
 
@@ -140,20 +158,25 @@ def main():
     x = y = th = 0.0
     v = w = 0.0
     first_motion = None
+    bad_since = None
     last = t0
     print("ready", flush=True)
     done = False
     while time.monotonic() - t0 < args.lifetime:
         now = time.monotonic()
         for sample in reader.take(N=100):
+            frame = ""
+            if isinstance(sample, TwistStamped):
+                frame = sample.header.frame_id
+                sample = sample.twist
             if not isinstance(sample, Twist):
                 continue
-            log.write(f"{now - t0:.4f} {sample.linear.x!r} {sample.angular.z!r}\n")
+            log.write(f"{now - t0:.4f} {sample.linear.x!r} {sample.angular.z!r} {frame}\n")
             if args.teleop is None:
                 v, w = sample.linear.x, sample.angular.z
             if (sample.linear.x != 0.0 or sample.angular.z != 0.0) and first_motion is None:
                 first_motion = now
-        if teleop_writer is not None:
+        if teleop_writer is not None and args.cmd_type == "twist":
             elapsed = now - t0 - args.teleop_delay
             cmd = None
             if elapsed >= 0:
@@ -177,6 +200,16 @@ def main():
         th = math.atan2(math.sin(th + w * dt), math.cos(th + w * dt))
         stopped = (args.odom_stop_after is not None and first_motion is not None
                    and now - first_motion > args.odom_stop_after)
+        bad = (args.odom_bad_after is not None and first_motion is not None
+               and now - first_motion > args.odom_bad_after)
+        x_out = x
+        if bad:
+            if bad_since is None:
+                bad_since = time.monotonic()
+                # The time the first corrupt sample is published, on the log's clock.
+                log.write(f"# bad {bad_since - t0:.4f}\n")
+            v_bad = args.odom_bad_value
+            x_out = x + 50.0 if v_bad == "jump" else float(v_bad)
         if not stopped:
             wall = time.time()
             odom_writer.write(Odometry(
@@ -184,7 +217,7 @@ def main():
                               frame_id=args.frame_id),
                 child_frame_id=args.child_frame_id,
                 pose=PoseWithCovariance(
-                    pose=Pose(Point(x, y, 0.0),
+                    pose=Pose(Point(x_out, y, 0.0),
                               Quaternion(0.0, 0.0, math.sin(th / 2), math.cos(th / 2))),
                     covariance=[0.0] * 36),
                 twist=TwistWithCovariance(twist=twist(v, w), covariance=[0.0] * 36),

@@ -93,6 +93,13 @@ impl Peer {
             .collect()
     }
 
+    /// When the peer began publishing corrupt odometry (`--odom-bad-after`), on the commands' clock.
+    pub fn bad_since(&self) -> Option<f64> {
+        let text = std::fs::read_to_string(&self.log).unwrap_or_default();
+        text.lines()
+            .find_map(|l| l.strip_prefix("# bad ")?.trim().parse().ok())
+    }
+
     /// Wait (bounded) until `pred` holds on the received commands.
     pub fn wait_for(&self, limit: Duration, pred: impl Fn(&[(f64, f64, f64)]) -> bool) -> bool {
         let began = Instant::now();

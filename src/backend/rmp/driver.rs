@@ -776,7 +776,21 @@ impl Backend for RmpBackend {
         })?;
         let (fb, _) = self.fresh_feedback()?;
         let (x, y, yaw) = fb.odom();
-        self.frame = Some((Pose::new(f64::from(x), f64::from(y), f64::from(yaw)), start));
+        let odom = Pose::new(f64::from(x), f64::from(y), f64::from(yaw));
+        let speeds = (
+            f64::from(fb.f(word::ODOM_VX)),
+            f64::from(fb.f(word::ODOM_YAW_RATE)),
+        );
+        if let Some(what) = crate::backend::odometry_fault(odom, speeds.0, speeds.1) {
+            // A frame origin taken from it would make every pose of the run corrupt.
+            self.link
+                .begin_stop(StopReason::Fault(format!("corrupt odometry: {what}")));
+            return Err(BackendError::BadOdometry {
+                topic: "the RMP's feedback".into(),
+                what,
+            });
+        }
+        self.frame = Some((odom, start));
         let now = Instant::now();
         self.t0 = now;
         self.next_deadline = now + Duration::from_secs_f64(self.config.period_s);
@@ -789,8 +803,8 @@ impl Backend for RmpBackend {
         Ok(BaseState {
             t_s: 0.0,
             pose: start,
-            speed_mps: f64::from(fb.f(word::ODOM_VX)),
-            rot_radps: f64::from(fb.f(word::ODOM_YAW_RATE)),
+            speed_mps: speeds.0,
+            rot_radps: speeds.1,
         })
     }
 
@@ -856,6 +870,19 @@ impl Backend for RmpBackend {
         }
         let (x, y, yaw) = fb.odom();
         let odom = Pose::new(f64::from(x), f64::from(y), f64::from(yaw));
+        let (speed_mps, rot_radps) = (
+            f64::from(fb.f(word::ODOM_VX)),
+            f64::from(fb.f(word::ODOM_YAW_RATE)),
+        );
+        if let Some(what) = crate::backend::odometry_fault(odom, speed_mps, rot_radps) {
+            // Never acted on: the base is zeroed now and the run ends, as on a fault.
+            self.link
+                .begin_stop(StopReason::Fault(format!("corrupt odometry: {what}")));
+            return Err(BackendError::BadOdometry {
+                topic: "the RMP's feedback".into(),
+                what,
+            });
+        }
         let pose = match self.frame {
             Some((origin, start)) => rezero(origin, start, odom),
             None => odom,
@@ -863,8 +890,8 @@ impl Backend for RmpBackend {
         Ok(BaseState {
             t_s: self.t0.elapsed().as_secs_f64(),
             pose,
-            speed_mps: f64::from(fb.f(word::ODOM_VX)),
-            rot_radps: f64::from(fb.f(word::ODOM_YAW_RATE)),
+            speed_mps,
+            rot_radps,
         })
     }
 

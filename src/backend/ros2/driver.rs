@@ -17,8 +17,11 @@ use std::time::{Duration, Instant};
 
 use ros2_client::{Publisher, Subscription};
 
-use super::msg::{ODOMETRY_TYPE, Odometry, TWIST_TYPE, Twist};
-use super::{Ros2Config, Ros2Node, command_qos, odometry_qos};
+use super::msg::{
+    Header, ODOMETRY_TYPE, Odometry, TWIST_STAMPED_TYPE, TWIST_TYPE, Time, Twist, TwistStamped,
+    dds_type_name,
+};
+use super::{Endpoint, Ros2Config, Ros2Node, command_qos, odometry_qos};
 use crate::backend::spec::Ros2Spec;
 use crate::backend::{Backend, BackendError, BaseState};
 use crate::trace::Pose;
@@ -32,6 +35,17 @@ const REST_MPS: f64 = 0.02;
 const REST_RADPS: f64 = 0.05;
 /// The longest `reset` waits for a moving base to come to rest.
 const REST_WAIT: Duration = Duration::from_secs(3);
+/// How often a run checks that the base's command reader is still there.
+const READER_CHECK: Duration = Duration::from_millis(500);
+/// How long a new command publisher waits before its first command. The base's reader accepts
+/// data only from writers it has discovered, and a volatile writer's samples from before that
+/// are not delivered; discovering a new endpoint of a known participant takes one SEDP exchange
+/// (milliseconds on loopback, more on a loaded machine or a network). ros2-client does not report
+/// the remote side's match without an async spinner, so the wait is a fixed, generous one.
+const PUBLISHER_SETTLE: Duration = Duration::from_millis(500);
+/// A jump between two odometry samples beyond what the base could drive in the time between them
+/// (at twice its speed limit) plus this margin is a corrupt value, not motion.
+const ODOM_JUMP_MARGIN_M: f64 = 0.5;
 
 /// The newest odometry, as received.
 #[derive(Clone, Debug)]
@@ -46,6 +60,28 @@ pub struct OdomSample {
 }
 
 impl OdomSample {
+    /// Why this sample cannot be a base's odometry: what [`crate::backend::odometry_fault`]
+    /// refuses, or a jump from `previous` farther than the base could have driven.
+    pub fn fault(&self, previous: Option<&OdomSample>, max_speed_mps: f64) -> Option<String> {
+        if let Some(why) = crate::backend::odometry_fault(self.pose, self.speed_mps, self.rot_radps)
+        {
+            return Some(why);
+        }
+        let previous = previous?;
+        let jump_m = (self.pose.x_m - previous.pose.x_m).hypot(self.pose.y_m - previous.pose.y_m);
+        let dt_s = self
+            .received
+            .saturating_duration_since(previous.received)
+            .as_secs_f64();
+        let reach_m = 2.0 * max_speed_mps * dt_s + ODOM_JUMP_MARGIN_M;
+        (jump_m > reach_m).then(|| {
+            format!(
+                "it jumped {jump_m:.3} m in {:.0} ms (the base reaches {reach_m:.3} m at most)",
+                dt_s * 1000.0
+            )
+        })
+    }
+
     pub(super) fn from_msg(o: &Odometry, received: Instant) -> OdomSample {
         OdomSample {
             pose: o.planar_pose(),
@@ -71,14 +107,46 @@ struct Safety {
     last_zero_at: Option<Instant>,
     /// Set by the stop handle (Ctrl-C): commands are refused until the next reset.
     stopped: Option<String>,
+    /// Set by the reader on a corrupt odometry sample (the base is zeroed at once): the run ends
+    /// and commands are refused until the next reset.
+    bad_odometry: Option<String>,
+    /// Whether the newest sample received was corrupt (a reset waits for a good one).
+    last_was_bad: bool,
     watchdog_trips: u64,
     published: u64,
+}
+
+/// The command publisher, of the type the base's reader takes.
+enum CommandPublisher {
+    Twist(Publisher<Twist>),
+    /// `TwistStamped` in the base's frame (odometry's child frame, e.g. `base_link`).
+    Stamped(Publisher<TwistStamped>, String),
+}
+
+impl CommandPublisher {
+    fn publish(&self, t: Twist) -> Result<(), String> {
+        match self {
+            CommandPublisher::Twist(p) => p.publish(t).map_err(|e| e.to_string()),
+            CommandPublisher::Stamped(p, frame) => {
+                let wall = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0.0, |d| d.as_secs_f64());
+                let header = Header {
+                    stamp: Time::from_secs_f64(wall),
+                    frame_id: frame.clone(),
+                };
+                p.publish(TwistStamped { header, twist: t })
+                    .map_err(|e| e.to_string())
+            }
+        }
+    }
 }
 
 /// The link to the base: the command publisher and the shared safety state.
 struct Link {
     safety: Mutex<Safety>,
-    publisher: Mutex<Publisher<Twist>>,
+    /// `None` until connecting has found the base's command reader.
+    publisher: Mutex<Option<CommandPublisher>>,
     config: Ros2Config,
     shutdown: AtomicBool,
 }
@@ -89,11 +157,15 @@ impl Link {
     }
 
     fn publish(&self, t: Twist) -> Result<(), BackendError> {
-        let p = self.publisher.lock().unwrap_or_else(|e| e.into_inner());
+        let guard = self.publisher.lock().unwrap_or_else(|e| e.into_inner());
+        let Some(p) = guard.as_ref() else {
+            // Nothing to command yet: connecting has not found the base's reader.
+            return Ok(());
+        };
         p.publish(t).map_err(|e| BackendError::Ros2 {
             what: format!("cannot publish a command: {e}"),
         })?;
-        drop(p);
+        drop(guard);
         self.lock().published += 1;
         Ok(())
     }
@@ -109,6 +181,30 @@ impl Link {
         }
         // A failed publish is retried by the repeats.
         let _ = self.publish(Twist::ZERO);
+    }
+
+    /// Take one odometry sample. A corrupt one (see [`OdomSample::fault`]) is never used: the
+    /// base is zeroed here, on the reader's thread within a poll of its arrival, rather than a
+    /// control period later, and the run is ended by the next `step` or `command`.
+    fn receive(&self, sample: OdomSample) {
+        let fault = {
+            let mut s = self.lock();
+            s.odom_count += 1;
+            let fault = sample.fault(s.latest.as_ref(), self.config.max_speed_mps);
+            s.last_was_bad = fault.is_some();
+            match &fault {
+                Some(why) => {
+                    if s.bad_odometry.is_none() {
+                        s.bad_odometry = Some(why.clone());
+                    }
+                }
+                None => s.latest = Some(sample),
+            }
+            fault.is_some()
+        };
+        if fault {
+            self.zero_now();
+        }
     }
 
     /// One watchdog round: repeat zero while a stop lasts; stop a base the session left moving.
@@ -176,6 +272,10 @@ pub struct Ros2Backend {
     next_deadline: Instant,
     frames: (String, String),
     domain_id: u16,
+    /// The command type the base's reader takes (`Twist` or `TwistStamped`).
+    command_type: (&'static str, &'static str),
+    /// When the run last found the base's command reader.
+    reader_seen: Instant,
     // Last: the node outlives the threads that use its publisher and subscription.
     _node: Ros2Node,
 }
@@ -196,7 +296,6 @@ impl Ros2Backend {
     /// domain and what discovery saw.
     pub fn connect(spec: &Ros2Spec, config: Ros2Config) -> Result<Ros2Backend, BackendError> {
         let mut node = Ros2Node::open(spec, "advise")?;
-        let publisher: Publisher<Twist> = node.publisher(&spec.cmd(), TWIST_TYPE, command_qos())?;
         let subscription: Subscription<Odometry> =
             node.subscription(&spec.odom(), ODOMETRY_TYPE, odometry_qos())?;
         let now = Instant::now();
@@ -209,10 +308,12 @@ impl Ros2Backend {
                 zero_until: None,
                 last_zero_at: None,
                 stopped: None,
+                bad_odometry: None,
+                last_was_bad: false,
                 watchdog_trips: 0,
                 published: 0,
             }),
-            publisher: Mutex::new(publisher),
+            publisher: Mutex::new(None),
             config: config.clone(),
             shutdown: AtomicBool::new(false),
         });
@@ -222,23 +323,17 @@ impl Ros2Backend {
                 .name("ros2-odom".into())
                 .spawn(move || {
                     while !link.shutdown.load(Ordering::Relaxed) {
-                        let mut newest = None;
                         let mut n = 0;
                         // Bounded: a flood cannot keep this loop from checking `shutdown`.
                         while n < 1000 {
                             match subscription.take() {
                                 Ok(Some((o, _))) => {
-                                    newest = Some(o);
                                     n += 1;
+                                    link.receive(OdomSample::from_msg(&o, Instant::now()));
                                 }
                                 // An undecodable sample is skipped; silence shows as staleness.
                                 Ok(None) | Err(_) => break,
                             }
-                        }
-                        if let Some(o) = newest {
-                            let mut s = link.lock();
-                            s.latest = Some(OdomSample::from_msg(&o, Instant::now()));
-                            s.odom_count += n;
                         }
                         std::thread::sleep(POLL);
                     }
@@ -265,6 +360,8 @@ impl Ros2Backend {
             next_deadline: now,
             frames: (String::new(), String::new()),
             domain_id: node.domain_id,
+            command_type: TWIST_TYPE,
+            reader_seen: now,
             _node: node,
         };
         let wait = Duration::from_millis(spec.wait_ms);
@@ -274,6 +371,12 @@ impl Ros2Backend {
                 break;
             }
             if now.elapsed() >= wait {
+                if let Some(what) = backend.link.lock().bad_odometry.clone() {
+                    return Err(BackendError::BadOdometry {
+                        topic: spec.odom(),
+                        what,
+                    });
+                }
                 let discovered = backend._node.discovered();
                 return Err(BackendError::NoOdometry {
                     topic: spec.odom(),
@@ -288,7 +391,144 @@ impl Ros2Backend {
             }
             std::thread::sleep(Duration::from_millis(10));
         }
+        backend.command_type = backend.find_command_reader(wait)?;
+        let publisher = if backend.command_type == TWIST_STAMPED_TYPE {
+            CommandPublisher::Stamped(
+                backend
+                    ._node
+                    .publisher(&spec.cmd(), TWIST_STAMPED_TYPE, command_qos())?,
+                backend.frames.1.clone(),
+            )
+        } else {
+            CommandPublisher::Twist(backend._node.publisher(
+                &spec.cmd(),
+                TWIST_TYPE,
+                command_qos(),
+            )?)
+        };
+        *backend
+            .link
+            .publisher
+            .lock()
+            .unwrap_or_else(|e| e.into_inner()) = Some(publisher);
+        std::thread::sleep(PUBLISHER_SETTLE);
+        backend.reader_seen = Instant::now();
         Ok(backend)
+    }
+
+    /// The other participants' readers of the command topic.
+    fn command_readers(&self) -> Vec<Endpoint> {
+        let topic = self.spec.cmd();
+        self._node
+            .others()
+            .into_iter()
+            .filter(|e| e.reader && e.topic == topic)
+            .collect()
+    }
+
+    /// Wait (at most `wait`) until a reader of the command topic that our publisher matches is
+    /// discovered, and say which type it takes: the spec's `stamped`, else the reader's. Without
+    /// one, the diagnostic says what the readers that were found want instead, or where readers
+    /// of commands are, so commands never go where no one reads them.
+    fn find_command_reader(
+        &self,
+        wait: Duration,
+    ) -> Result<(&'static str, &'static str), BackendError> {
+        let wanted: &[(&str, &str)] = match self.spec.stamped {
+            Some(true) => &[TWIST_STAMPED_TYPE],
+            Some(false) => &[TWIST_TYPE],
+            None => &[TWIST_TYPE, TWIST_STAMPED_TYPE],
+        };
+        let began = Instant::now();
+        loop {
+            let readers = self.command_readers();
+            for ty in wanted {
+                let name = dds_type_name(*ty);
+                if readers.iter().any(|r| r.type_name == name && !r.transient) {
+                    return Ok(*ty);
+                }
+            }
+            if began.elapsed() >= wait {
+                return Err(BackendError::NoCommandReader {
+                    topic: self.spec.cmd(),
+                    domain_id: self.domain_id,
+                    waited_ms: wait.as_millis() as u64,
+                    why: self.why_no_reader(&readers),
+                });
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Why none of `readers` (the command topic's) takes our commands, in words.
+    fn why_no_reader(&self, readers: &[Endpoint]) -> String {
+        let twist = dds_type_name(TWIST_TYPE);
+        let stamped = dds_type_name(TWIST_STAMPED_TYPE);
+        let mut why = Vec::new();
+        for r in readers {
+            if r.transient {
+                why.push(format!(
+                    "a reader of {} asks for transient_local durability, which a command publisher does not offer (a base joining late would get stale commands): make its cmd_vel subscription volatile",
+                    r.type_name
+                ));
+            } else if r.type_name == stamped && self.spec.stamped == Some(false) {
+                why.push(
+                    "a reader takes TwistStamped: drop `stamped=false` (or use `?stamped`)".into(),
+                );
+            } else if r.type_name == twist && self.spec.stamped == Some(true) {
+                why.push("a reader takes Twist: drop `?stamped`".into());
+            } else if r.type_name != twist && r.type_name != stamped {
+                why.push(format!(
+                    "a reader takes {}, not geometry_msgs Twist or TwistStamped",
+                    r.type_name
+                ));
+            }
+        }
+        if readers.is_empty() {
+            let elsewhere: Vec<String> = self
+                ._node
+                .others()
+                .into_iter()
+                .filter(|e| e.reader && (e.type_name == twist || e.type_name == stamped))
+                .map(|e| e.topic)
+                .collect();
+            why.push(if elsewhere.is_empty() {
+                format!(
+                    "no other participant reads it; discovery saw: {}",
+                    match self._node.discovered() {
+                        d if d.is_empty() => "nothing".to_string(),
+                        d => d.join(", "),
+                    }
+                )
+            } else {
+                format!(
+                    "no other participant reads it, but commands are read on {}: check the namespace (`ros2:NAMESPACE`) or `?cmd=TOPIC`",
+                    elsewhere.join(", ")
+                )
+            });
+        }
+        why.join("; ")
+    }
+
+    /// During a run, every [`READER_CHECK`]: the base's command reader is still there, else the
+    /// base is zeroed (should it still listen) and the run ends.
+    fn check_reader(&mut self) -> Result<(), BackendError> {
+        if self.reader_seen.elapsed() < READER_CHECK {
+            return Ok(());
+        }
+        let name = dds_type_name(self.command_type);
+        if self
+            .command_readers()
+            .iter()
+            .any(|r| r.type_name == name && !r.transient)
+        {
+            self.reader_seen = Instant::now();
+            return Ok(());
+        }
+        self.link.zero_now();
+        Err(BackendError::CommandReaderGone {
+            topic: self.spec.cmd(),
+        })
     }
 
     /// The odometry's frames: `(header.frame_id, child_frame_id)`, e.g. `(odom, base_link)`.
@@ -307,7 +547,8 @@ impl Ros2Backend {
     /// One line for the user: topics, domain and frames.
     pub fn describe(&self) -> String {
         format!(
-            "commands on {}, odometry from {} (frame {}, child {}), domain {}",
+            "{} commands on {}, odometry from {} (frame {}, child {}), domain {}",
+            self.command_type.1,
             self.spec.cmd(),
             self.spec.odom(),
             self.frames.0,
@@ -340,9 +581,39 @@ impl Ros2Backend {
         Duration::from_millis(self.spec.odom_timeout_ms)
     }
 
-    /// The newest odometry if it is fresh; else zero is commanded and the link is lost.
+    /// The error that ends a run the stop handle or the odometry reader halted (the base is
+    /// already zeroed), if either did.
+    fn refuse_if_halted(&self) -> Result<(), BackendError> {
+        let s = self.link.lock();
+        if let Some(reason) = s.stopped.clone() {
+            return Err(BackendError::Stopped { reason });
+        }
+        if let Some(what) = s.bad_odometry.clone() {
+            return Err(BackendError::BadOdometry {
+                topic: self.spec.odom(),
+                what,
+            });
+        }
+        Ok(())
+    }
+
+    /// The newest odometry if it is fresh and the newest sample was not corrupt; else zero is
+    /// commanded and the run cannot go on.
     fn fresh(&self) -> Result<OdomSample, BackendError> {
-        let latest = self.link.lock().latest.clone();
+        let (latest, bad) = {
+            let s = self.link.lock();
+            (
+                s.latest.clone(),
+                s.last_was_bad.then(|| s.bad_odometry.clone()),
+            )
+        };
+        if let Some(what) = bad {
+            self.link.zero_now();
+            return Err(BackendError::BadOdometry {
+                topic: self.spec.odom(),
+                what: what.unwrap_or_else(|| "the newest sample is corrupt".into()),
+            });
+        }
         match latest {
             Some(o) if o.received.elapsed() <= self.odom_timeout() => Ok(o),
             other => {
@@ -366,7 +637,11 @@ impl Backend for Ros2Backend {
     }
 
     fn reset(&mut self, start: Pose) -> Result<BaseState, BackendError> {
-        self.link.lock().stopped = None;
+        {
+            let mut s = self.link.lock();
+            s.stopped = None;
+            s.bad_odometry = None;
+        }
         // A base still moving is stopped and allowed to come to rest before odometry is re-zeroed.
         let began = Instant::now();
         loop {
@@ -402,9 +677,7 @@ impl Backend for Ros2Backend {
     }
 
     fn command(&mut self, speed_mps: f64, rot_radps: f64) -> Result<(), BackendError> {
-        if let Some(reason) = self.link.lock().stopped.clone() {
-            return Err(BackendError::Stopped { reason });
-        }
+        self.refuse_if_halted()?;
         let (v, w) = self.config.clamp(speed_mps, rot_radps);
         {
             let mut s = self.link.lock();
@@ -427,9 +700,8 @@ impl Backend for Ros2Backend {
 
     fn step(&mut self) -> Result<BaseState, BackendError> {
         crate::backend::wait_for_tick(&mut self.next_deadline, self.config.period_s);
-        if let Some(reason) = self.link.lock().stopped.clone() {
-            return Err(BackendError::Stopped { reason });
-        }
+        self.refuse_if_halted()?;
+        self.check_reader()?;
         let o = self.fresh()?;
         let pose = match self.frame {
             Some((origin, start)) => crate::geometry::rezero(origin, start, o.pose),

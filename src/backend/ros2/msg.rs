@@ -15,6 +15,12 @@ use crate::trace::Pose;
 
 /// The DDS type names ROS 2 registers (what `ros2 topic info -v` calls the topic type).
 pub const TWIST_TYPE: (&str, &str) = ("geometry_msgs", "Twist");
+pub const TWIST_STAMPED_TYPE: (&str, &str) = ("geometry_msgs", "TwistStamped");
+
+/// A message type's name as DDS discovery reports it: `geometry_msgs::msg::dds_::Twist_`.
+pub fn dds_type_name(ty: (&str, &str)) -> String {
+    format!("{}::msg::dds_::{}_", ty.0, ty.1)
+}
 pub const ODOMETRY_TYPE: (&str, &str) = ("nav_msgs", "Odometry");
 
 /// `geometry_msgs/Vector3`.

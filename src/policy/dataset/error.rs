@@ -117,6 +117,16 @@ pub enum DatasetError {
         )
     )]
     NextId { next_id: u32, max_id: u32 },
+    #[error(
+        "`next_id` is {next_id}: no id is left for new demonstrations, executions, advice or critiques"
+    )]
+    #[diagnostic(
+        code(advise::dataset::ids_exhausted),
+        help(
+            "ids are given one per record and never reused (a reused id would make `undo` remove the wrong points); `next_id` was edited to the top of the range: set it to the largest id the file uses"
+        )
+    )]
+    IdsExhausted { next_id: u32 },
     #[error("`{at}`: {what}")]
     #[diagnostic(code(advise::dataset::inconsistent_record))]
     Record { at: String, what: String },

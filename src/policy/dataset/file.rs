@@ -200,6 +200,8 @@ impl Dataset {
                 what: "the weights do not match the critique records".into(),
             });
         }
+        // The directional increments, which `m` does not hold, must not sum to infinity either.
+        d.check_weights()?;
         Ok(d)
     }
 
@@ -351,42 +353,10 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
                     expected: expected(),
                 });
             }
-            for (k, (v, dim)) in vals.iter().zip(dims.iter()).enumerate() {
-                let at = || format!("{at}.{space}[{k}]");
-                if !v.is_finite() {
-                    return Err(DatasetError::NotFinite {
-                        at: at(),
-                        value: v.to_string(),
-                    });
-                }
-                // Actions are clamped to their limits wherever they enter a dataset (recorded
-                // runs, operators, demonstration files); observations are what the robot saw,
-                // and may lie beyond (a goal 20 m away).
-                if let (true, Some(l)) = (space == "a", dim.limits)
-                    && !l.contains(*v)
-                {
-                    return Err(DatasetError::OutOfLimits {
-                        at: at(),
-                        value: fmt_num(*v),
-                        dim: dim.name.clone(),
-                        lo: fmt_num(l.lo),
-                        hi: fmt_num(l.hi),
-                    });
-                }
-            }
         }
-        Ok(())
+        check_point(domain, z, a, |space, k| format!("{at}.{space}[{k}]"))
     };
-    let finite = |at: String, v: f64| {
-        if v.is_finite() {
-            Ok(())
-        } else {
-            Err(DatasetError::NotFinite {
-                at,
-                value: v.to_string(),
-            })
-        }
-    };
+    let finite = |at: String, v: f64| check_finite_value(v, || at.clone());
 
     // One sequence of ids for every kind of record.
     let mut owner: HashMap<u32, String> = HashMap::new();
@@ -431,6 +401,8 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
             max_id,
         });
     }
+    // An id space that cannot grow is refused now, not at the first advice.
+    next_id_after(file.next_id)?;
 
     let executions: HashMap<u32, &ExecutionRecord> =
         file.executions.iter().map(|e| (e.id, e)).collect();
@@ -476,41 +448,20 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
     let mut advice_points: HashMap<u32, u32> = HashMap::new();
     for (i, r) in file.advice.iter().enumerate() {
         let len = exec_len(format!("advice[{i}].execution"), r.execution)?;
-        let c = r.applied.chunk;
-        if c.start > c.end || c.end > len {
-            return Err(DatasetError::Record {
-                at: format!("advice[{i}].applied.chunk"),
-                what: format!(
-                    "the chunk {c} is not within execution {} ({len} points)",
-                    r.execution
-                ),
-            });
-        }
-        for (k, p) in r.applied.params.iter().enumerate() {
-            finite(format!("advice[{i}].applied.params[{k}].value"), p.value)?;
-        }
-        if r.applied.domain != domain.name {
-            return Err(DatasetError::Record {
-                at: format!("advice[{i}].applied.domain"),
-                what: format!(
-                    "the advice is for the `{}` domain, the dataset is `{}`",
-                    r.applied.domain, domain.name
-                ),
-            });
-        }
+        check_advice(
+            domain,
+            &r.applied,
+            r.execution,
+            len,
+            &format!("advice[{i}]"),
+        )?;
         advice_points.insert(r.id, 0);
     }
     for (i, c) in file.critiques.iter().enumerate() {
         let len = exec_len(format!("critiques[{i}].execution"), c.execution)?;
-        if c.chunk.start > c.chunk.end || c.chunk.end > len {
-            return Err(DatasetError::Record {
-                at: format!("critiques[{i}].chunk"),
-                what: format!(
-                    "the chunk {} is not within execution {} ({len} points)",
-                    c.chunk, c.execution
-                ),
-            });
-        }
+        check_chunk(c.chunk, c.execution, len, || {
+            format!("critiques[{i}].chunk")
+        })?;
         finite(format!("critiques[{i}].kappa"), c.kappa)?;
         for (k, (_, inc)) in c.increments.iter().enumerate() {
             finite(format!("critiques[{i}].increments[{k}]"), *inc)?;
@@ -563,12 +514,7 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
     for (i, p) in file.points.iter().enumerate() {
         let at = format!("points[{i}]");
         values(&at, &p.z, &p.a)?;
-        if !(p.m.is_finite() && p.m >= 1.0) {
-            return Err(DatasetError::Record {
-                at: format!("{at}.m"),
-                what: format!("the weight is {}; weights are finite and at least 1", p.m),
-            });
-        }
+        check_weight(p.m, || format!("{at}.m"))?;
         let (count, what, id) = match p.provenance {
             Provenance::Demonstration { demo, .. } => {
                 (demo_points.get_mut(&demo), "demonstration", demo)

@@ -82,6 +82,8 @@ pub struct Platform {
     pub(super) log_latest: usize,
     /// The fault words when the last entry was written.
     pub(super) logged: [u32; 4],
+    /// A test hook: when set, feedback reports this as the odometry's x (a corrupt sensor).
+    pub(super) odom_x_override: Option<f32>,
 }
 
 /// What a datagram asks the socket loop to send back.
@@ -124,6 +126,7 @@ impl Platform {
             log_count: 0,
             log_latest: 0,
             logged: [0; 4],
+            odom_x_override: None,
         }
     }
 

@@ -154,7 +154,10 @@ impl Platform {
         w[word::ODOM_VX] = f(self.last.speed_mps);
         w[word::ODOM_YAW_RATE] = f(self.last.rot_radps);
         let odom = self.odom();
-        w[word::ODOM_X] = f(odom.x_m);
+        w[word::ODOM_X] = match self.odom_x_override {
+            Some(x) => x.to_bits(),
+            None => f(odom.x_m),
+        };
         w[word::ODOM_Y] = f(odom.y_m);
         w[word::ODOM_YAW] = f(odom.theta_rad);
         w[word::CONFIG_ECHO..word::CONFIG_ECHO + 12].copy_from_slice(&self.machine.to_words());

@@ -121,6 +121,12 @@ impl EmulatorHandle {
         lock(&self.shared).raise_critical_fault(bits);
     }
 
+    /// From now on report `x` as the odometry's x (NaN, say), as a failing sensor would (a test
+    /// hook: the driver must stop the base rather than act on it).
+    pub fn corrupt_odometry(&self, x: f32) {
+        lock(&self.shared).odom_x_override = Some(x);
+    }
+
     /// Stop the thread and close the socket; waits for the thread (at most one loop turn).
     pub fn shutdown(mut self) {
         self.stop_thread();
