@@ -48,6 +48,44 @@ fn wait_for(emu: &EmulatorHandle, for_s: f64, done: impl Fn(&EmulatorHandle) -> 
     done(emu)
 }
 
+/// `run goal 3 1 0` as execution `index`, disturbed by `disturb` from another thread once the base
+/// is moving: the run must end interrupted with what it recorded kept. The error, and when
+/// `disturb` was called.
+fn disturbed_run(
+    s: &mut Session,
+    emu: &EmulatorHandle,
+    index: usize,
+    disturb: impl FnOnce() + Send,
+) -> (SessionError, Instant) {
+    let (err, at) = std::thread::scope(|scope| {
+        let watcher = scope.spawn(|| {
+            assert!(
+                wait_for(emu, 20.0, |e| e.snapshot().speed_mps > 0.2),
+                "the base never got going: {:?}",
+                emu.snapshot()
+            );
+            disturb();
+            Instant::now()
+        });
+        let err = s.execute("run goal 3 1 0", "<test>").unwrap_err();
+        (err, watcher.join().unwrap())
+    });
+    match &err {
+        SessionError::RunInterrupted {
+            index: i,
+            steps,
+            label,
+            ..
+        } => {
+            assert_eq!(*i, index);
+            assert!(*steps > 0, "nothing was kept");
+            assert_eq!(label, "run goal 3 1 0 (interrupted)");
+        }
+        other => panic!("{other:?}"),
+    }
+    (err, at)
+}
+
 #[test]
 fn the_session_drives_the_rmp_and_ctrl_c_stops_it_keeping_the_execution() {
     let emu = emulator();
@@ -82,35 +120,10 @@ fn the_session_drives_the_rmp_and_ctrl_c_stops_it_keeping_the_execution() {
     // Ctrl-C while the next run drives: the signal (what the SIGINT handler raises) stops the base
     // from this other thread, and the run ends with what it recorded kept.
     let signal = s.stop_signal();
-    let raised_at = std::thread::scope(|scope| {
-        let watcher = scope.spawn(|| {
-            assert!(
-                wait_for(&emu, 20.0, |e| e.snapshot().speed_mps > 0.2),
-                "the base never got going: {:?}",
-                emu.snapshot()
-            );
-            signal.raise();
-            Instant::now()
-        });
-        let err = s.execute("run goal 3 1 0", "<test>").unwrap_err();
-        match &err {
-            SessionError::RunInterrupted {
-                index,
-                steps,
-                label,
-                ..
-            } => {
-                assert_eq!(*index, 1);
-                assert!(*steps > 0, "nothing was kept");
-                assert_eq!(label, "run goal 3 1 0 (interrupted)");
-            }
-            other => panic!("{other:?}"),
-        }
-        let text = advise::repl::render(s.sources(), &err, false);
-        assert!(text.contains("advise::session::run_interrupted"), "{text}");
-        assert!(text.contains("the base was stopped"), "{text}");
-        watcher.join().unwrap()
-    });
+    let (err, raised_at) = disturbed_run(&mut s, &emu, 1, || signal.raise());
+    let text = advise::repl::render(s.sources(), &err, false);
+    assert!(text.contains("advise::session::run_interrupted"), "{text}");
+    assert!(text.contains("the base was stopped"), "{text}");
     // The default machine configuration decelerates to zero at 1 m/s^2 from at most 1 m/s; the
     // simulated base lags that by its 0.25 s time constant. 3 s is ample.
     assert!(
@@ -421,30 +434,7 @@ fn corrupt_odometry_mid_run_stops_the_rmp_and_keeps_the_execution() {
     let mut s = session();
     s.execute(&format!("backend rmp:{}", emu.addr()), "<test>")
         .unwrap();
-    let err = std::thread::scope(|scope| {
-        scope.spawn(|| {
-            assert!(
-                wait_for(&emu, 20.0, |e| e.snapshot().speed_mps > 0.2),
-                "the base never got going: {:?}",
-                emu.snapshot()
-            );
-            emu.corrupt_odometry(f32::NAN);
-        });
-        s.execute("run goal 3 1 0", "<test>").unwrap_err()
-    });
-    match &err {
-        SessionError::RunInterrupted {
-            index,
-            steps,
-            label,
-            ..
-        } => {
-            assert_eq!(*index, 0);
-            assert!(*steps > 0, "nothing was kept");
-            assert_eq!(label, "run goal 3 1 0 (interrupted)");
-        }
-        other => panic!("{other:?}"),
-    }
+    let (err, _) = disturbed_run(&mut s, &emu, 0, || emu.corrupt_odometry(f32::NAN));
     let text = advise::repl::render(s.sources(), &err, false);
     assert!(text.contains("advise::backend::bad_odometry"), "{text}");
     assert!(text.contains("its x is NaN"), "{text}");
