@@ -257,14 +257,12 @@ fn corrupt_odometry_stops_the_base_and_ends_the_run() {
             }
             other => panic!("expected BadOdometry for {bad}, got {other:?}"),
         }
-        // Zero (DTZ) was asked for at once: the platform is slowing within 100 ms of the corrupt
-        // frame, and commands are refused until the next reset.
+        // Zero (DTZ) was asked for at once: the platform is slowing within a step or two of the
+        // corrupt frame (well before the 0.25 s watchdog would have stopped the silent session,
+        // with a margin for a loaded machine), and commands are refused until the next reset.
         let samples = watch(&emu, corrupted_at, 2.0, |s| s.slewed_mps < 0.55);
         let (slowing_at, _) = *samples.last().unwrap();
-        assert!(
-            slowing_at < 0.1 + 0.05,
-            "{bad}: slowing only after {slowing_at} s"
-        );
+        assert!(slowing_at < 0.2, "{bad}: slowing only after {slowing_at} s");
         assert!(matches!(
             b.command(0.6, 0.0),
             Err(BackendError::Stopped { .. })

@@ -42,7 +42,7 @@ const READER_CHECK: Duration = Duration::from_millis(500);
 /// are not delivered; discovering a new endpoint of a known participant takes one SEDP exchange
 /// (milliseconds on loopback, more on a loaded machine or a network). ros2-client does not report
 /// the remote side's match without an async spinner, so the wait is a fixed, generous one.
-const PUBLISHER_SETTLE: Duration = Duration::from_millis(500);
+const PUBLISHER_SETTLE: Duration = Duration::from_millis(1000);
 /// A jump between two odometry samples beyond what the base could drive in the time between them
 /// (at twice its speed limit) plus this margin is a corrupt value, not motion.
 const ODOM_JUMP_MARGIN_M: f64 = 0.5;
