@@ -37,12 +37,12 @@ const REST_RADPS: f64 = 0.05;
 const REST_WAIT: Duration = Duration::from_secs(3);
 /// How often a run checks that the base's command reader is still there.
 const READER_CHECK: Duration = Duration::from_millis(500);
-/// How long a new command publisher waits before its first command. The base's reader accepts
+/// The least a new command publisher waits before its first command. The base's reader accepts
 /// data only from writers it has discovered, and a volatile writer's samples from before that
-/// are not delivered; discovering a new endpoint of a known participant takes one SEDP exchange
-/// (milliseconds on loopback, more on a loaded machine or a network). ros2-client does not report
-/// the remote side's match without an async spinner, so the wait is a fixed, generous one.
-const PUBLISHER_SETTLE: Duration = Duration::from_millis(1000);
+/// are not delivered; ros2-client does not report the remote side's match without an async
+/// spinner. The wait is therefore as long as the other direction took (from joining the domain
+/// to the first odometry: the base discovering our subscription), and at least this.
+const PUBLISHER_SETTLE: Duration = Duration::from_millis(500);
 /// A jump between two odometry samples beyond what the base could drive in the time between them
 /// (at twice its speed limit) plus this margin is a corrupt value, not motion.
 const ODOM_JUMP_MARGIN_M: f64 = 0.5;
@@ -364,10 +364,12 @@ impl Ros2Backend {
             reader_seen: now,
             _node: node,
         };
+        let mut odometry_after = Duration::ZERO;
         let wait = Duration::from_millis(spec.wait_ms);
         loop {
             if let Some(o) = backend.link.lock().latest.clone() {
                 backend.frames = (o.frame_id, o.child_frame_id);
+                odometry_after = now.elapsed();
                 break;
             }
             if now.elapsed() >= wait {
@@ -411,7 +413,7 @@ impl Ros2Backend {
             .publisher
             .lock()
             .unwrap_or_else(|e| e.into_inner()) = Some(publisher);
-        std::thread::sleep(PUBLISHER_SETTLE);
+        std::thread::sleep(odometry_after.clamp(PUBLISHER_SETTLE, wait.max(PUBLISHER_SETTLE)));
         backend.reader_seen = Instant::now();
         Ok(backend)
     }
