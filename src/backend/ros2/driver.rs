@@ -364,13 +364,12 @@ impl Ros2Backend {
             reader_seen: now,
             _node: node,
         };
-        let mut odometry_after = Duration::ZERO;
         let wait = Duration::from_millis(spec.wait_ms);
-        loop {
+        // How long the first odometry took: the base discovering our subscription.
+        let odometry_after = loop {
             if let Some(o) = backend.link.lock().latest.clone() {
                 backend.frames = (o.frame_id, o.child_frame_id);
-                odometry_after = now.elapsed();
-                break;
+                break now.elapsed();
             }
             if now.elapsed() >= wait {
                 if let Some(what) = backend.link.lock().bad_odometry.clone() {
@@ -392,7 +391,7 @@ impl Ros2Backend {
                 });
             }
             std::thread::sleep(Duration::from_millis(10));
-        }
+        };
         backend.command_type = backend.find_command_reader(wait)?;
         let publisher = if backend.command_type == TWIST_STAMPED_TYPE {
             CommandPublisher::Stamped(
