@@ -573,6 +573,27 @@ impl RmpBackend {
         Ok((fb, at))
     }
 
+    /// The platform's odometry pose and measured `(speed, rotation)` in `fb`. Corrupt odometry
+    /// ([`crate::backend::odometry_fault`]) is never acted on: the base is stopped now (DTZ, as on
+    /// a fault) and the run ends with [`BackendError::BadOdometry`].
+    fn odometry(&self, fb: &Feedback) -> Result<(Pose, (f64, f64)), BackendError> {
+        let (x, y, yaw) = fb.odom();
+        let odom = Pose::new(f64::from(x), f64::from(y), f64::from(yaw));
+        let speeds = (
+            f64::from(fb.f(word::ODOM_VX)),
+            f64::from(fb.f(word::ODOM_YAW_RATE)),
+        );
+        if let Some(what) = crate::backend::odometry_fault(odom, speeds.0, speeds.1) {
+            self.link
+                .begin_stop(StopReason::Fault(format!("corrupt odometry: {what}")));
+            return Err(BackendError::BadOdometry {
+                topic: "the RMP's feedback".into(),
+                what,
+            });
+        }
+        Ok((odom, speeds))
+    }
+
     /// Wait (bounded) until the base is measured at rest.
     fn wait_for_rest(&self) -> Result<(), BackendError> {
         let (fb, _) = self.fresh_feedback()?;
@@ -775,21 +796,8 @@ impl Backend for RmpBackend {
             yaw_radps: 0.0,
         })?;
         let (fb, _) = self.fresh_feedback()?;
-        let (x, y, yaw) = fb.odom();
-        let odom = Pose::new(f64::from(x), f64::from(y), f64::from(yaw));
-        let speeds = (
-            f64::from(fb.f(word::ODOM_VX)),
-            f64::from(fb.f(word::ODOM_YAW_RATE)),
-        );
-        if let Some(what) = crate::backend::odometry_fault(odom, speeds.0, speeds.1) {
-            // A frame origin taken from it would make every pose of the run corrupt.
-            self.link
-                .begin_stop(StopReason::Fault(format!("corrupt odometry: {what}")));
-            return Err(BackendError::BadOdometry {
-                topic: "the RMP's feedback".into(),
-                what,
-            });
-        }
+        // A frame origin taken from corrupt odometry would make every pose of the run corrupt.
+        let (odom, speeds) = self.odometry(&fb)?;
         self.frame = Some((odom, start));
         let now = Instant::now();
         self.t0 = now;
@@ -868,21 +876,7 @@ impl Backend for RmpBackend {
             self.link.begin_stop(StopReason::Fault(what.clone()));
             return Err(BackendError::Fault { what });
         }
-        let (x, y, yaw) = fb.odom();
-        let odom = Pose::new(f64::from(x), f64::from(y), f64::from(yaw));
-        let (speed_mps, rot_radps) = (
-            f64::from(fb.f(word::ODOM_VX)),
-            f64::from(fb.f(word::ODOM_YAW_RATE)),
-        );
-        if let Some(what) = crate::backend::odometry_fault(odom, speed_mps, rot_radps) {
-            // Never acted on: the base is zeroed now and the run ends, as on a fault.
-            self.link
-                .begin_stop(StopReason::Fault(format!("corrupt odometry: {what}")));
-            return Err(BackendError::BadOdometry {
-                topic: "the RMP's feedback".into(),
-                what,
-            });
-        }
+        let (odom, (speed_mps, rot_radps)) = self.odometry(&fb)?;
         let pose = match self.frame {
             Some((origin, start)) => rezero(origin, start, odom),
             None => odom,

@@ -128,11 +128,8 @@ impl CommandPublisher {
         match self {
             CommandPublisher::Twist(p) => p.publish(t).map_err(|e| e.to_string()),
             CommandPublisher::Stamped(p, frame) => {
-                let wall = std::time::SystemTime::now()
-                    .duration_since(std::time::UNIX_EPOCH)
-                    .map_or(0.0, |d| d.as_secs_f64());
                 let header = Header {
-                    stamp: Time::from_secs_f64(wall),
+                    stamp: Time::now(),
                     frame_id: frame.clone(),
                 };
                 p.publish(TwistStamped { header, twist: t })

@@ -87,6 +87,15 @@ pub struct Time {
 }
 
 impl Time {
+    /// The wall clock now, as ROS 2 stamps messages.
+    pub fn now() -> Time {
+        Time::from_secs_f64(
+            std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0.0, |d| d.as_secs_f64()),
+        )
+    }
+
     /// Seconds since the epoch of `t` (negative times are clamped to the epoch).
     pub fn from_secs_f64(t: f64) -> Time {
         let t = if t.is_finite() { t.max(0.0) } else { 0.0 };

@@ -91,11 +91,8 @@ pub fn run_robot(
             held_since = None;
         }
         let state = base.advance(period.as_secs_f64());
-        let wall = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0.0, |d| d.as_secs_f64());
         let msg = Odometry::planar(
-            Time::from_secs_f64(wall),
+            Time::now(),
             &frame,
             &child,
             state.pose,
