@@ -542,37 +542,6 @@ fn mutate(rng: &mut ChaCha8Rng, input: &str) -> String {
     String::from_utf8_lossy(&b).into_owned()
 }
 
-/// A sim whose link is lost after a few steps, so that a mutant's run is short.
-struct Short {
-    inner: SimBackend,
-    steps_left: usize,
-}
-
-impl Backend for Short {
-    fn name(&self) -> String {
-        "short".into()
-    }
-    fn period_s(&self) -> f64 {
-        self.inner.period_s()
-    }
-    fn reset(&mut self, start: Pose) -> Result<BaseState, BackendError> {
-        self.inner.reset(start)
-    }
-    fn command(&mut self, v: f64, w: f64) -> Result<(), BackendError> {
-        self.inner.command(v, w)
-    }
-    fn step(&mut self) -> Result<BaseState, BackendError> {
-        if self.steps_left == 0 {
-            return Err(BackendError::LinkLost { waited_ms: 0 });
-        }
-        self.steps_left -= 1;
-        self.inner.step()
-    }
-    fn stop(&mut self) -> Result<(), BackendError> {
-        self.inner.stop()
-    }
-}
-
 fn codes(d: &dyn Diagnostic, bad: &mut Vec<String>) {
     match d.code().map(|c| c.to_string()) {
         Some(c) if c.starts_with("advise::") => {}
@@ -619,10 +588,8 @@ fn mutated_task_files_check_or_are_refused_and_their_runs_stay_numbers() {
                         }
                         let mut task = Declared::new(def.clone(), &goal);
                         let mut teacher = TaskKind::Declared(def.clone()).teacher(1.0 / 30.0);
-                        let mut base = Short {
-                            inner: SimBackend::new(SimParams::default(), 1),
-                            steps_left: 20,
-                        };
+                        // Its link is lost after a few steps, so that a mutant's run is short.
+                        let mut base = common::Flaky::new(20);
                         let exec = match run_episode(&mut base, &mut task, teacher.as_mut(), 1) {
                             Ok(e) => e,
                             Err(i) => *i.execution,

@@ -3,10 +3,13 @@
 
 use std::f64::consts::FRAC_PI_2;
 
+use advise::backend::Backend;
 use advise::backend::sim::{SimBackend, SimParams};
-use advise::backend::{Backend, BackendError, BaseState};
 use advise::task::{Declared, Ending, Start, Task, TaskKind, episode_seed, run_episode, run_sim};
 use advise::trace::Pose;
+use common::Flaky;
+
+mod common;
 
 fn zero(_z: &[f64], a: &mut [f64]) {
     a.fill(0.0);
@@ -139,46 +142,9 @@ fn runs_are_deterministic_for_a_seed() {
     assert!(matches!(start, Start::Goal(_)));
 }
 
-/// A sim whose link dies after a number of steps.
-struct Flaky {
-    inner: SimBackend,
-    steps_left: usize,
-    stopped: bool,
-}
-
-impl Backend for Flaky {
-    fn name(&self) -> String {
-        "flaky".into()
-    }
-    fn period_s(&self) -> f64 {
-        self.inner.period_s()
-    }
-    fn reset(&mut self, start: Pose) -> Result<BaseState, BackendError> {
-        self.inner.reset(start)
-    }
-    fn command(&mut self, v: f64, w: f64) -> Result<(), BackendError> {
-        self.inner.command(v, w)
-    }
-    fn step(&mut self) -> Result<BaseState, BackendError> {
-        if self.steps_left == 0 {
-            return Err(BackendError::LinkLost { waited_ms: 250 });
-        }
-        self.steps_left -= 1;
-        self.inner.step()
-    }
-    fn stop(&mut self) -> Result<(), BackendError> {
-        self.stopped = true;
-        self.inner.stop()
-    }
-}
-
 #[test]
 fn a_lost_link_returns_the_execution_so_far_and_stops_the_base() {
-    let mut backend = Flaky {
-        inner: SimBackend::new(SimParams::default(), 1),
-        steps_left: 40,
-        stopped: false,
-    };
+    let mut backend = Flaky::new(40);
     let kind = TaskKind::Positioning;
     let mut task = kind.test_set()[0].task();
     let mut teacher = kind.teacher(backend.period_s());

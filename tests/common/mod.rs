@@ -10,8 +10,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use advise::backend::sim::{SimBackend, SimParams};
+use advise::backend::{Backend, BackendError, BaseState};
 use advise::session::{Session, SessionOptions, script};
 use advise::task::TaskKind;
+use advise::trace::Pose;
 
 /// A positioning session with `demos` teacher demonstrations.
 pub fn positioning(demos: usize) -> Session {
@@ -207,4 +210,49 @@ pub fn parse(
 ) -> Result<advise::syntax::ast::File, advise::syntax::ParseError> {
     let (map, id) = advise::diag::SourceMap::single(name, text);
     advise::syntax::parse(map.src(id))
+}
+
+/// A sim whose link dies after a number of steps.
+pub struct Flaky {
+    pub inner: SimBackend,
+    pub steps_left: usize,
+    /// Whether `stop` was called.
+    pub stopped: bool,
+}
+
+impl Flaky {
+    /// The default simulator (seed 1) losing its link after `steps` steps.
+    pub fn new(steps: usize) -> Flaky {
+        Flaky {
+            inner: SimBackend::new(SimParams::default(), 1),
+            steps_left: steps,
+            stopped: false,
+        }
+    }
+}
+
+impl Backend for Flaky {
+    fn name(&self) -> String {
+        "flaky".into()
+    }
+    fn period_s(&self) -> f64 {
+        self.inner.period_s()
+    }
+    fn reset(&mut self, start: Pose) -> Result<BaseState, BackendError> {
+        self.inner.reset(start)
+    }
+    fn command(&mut self, v: f64, w: f64) -> Result<(), BackendError> {
+        self.inner.command(v, w)
+    }
+    fn step(&mut self) -> Result<BaseState, BackendError> {
+        if self.steps_left == 0 {
+            return Err(BackendError::LinkLost { waited_ms: 250 });
+        }
+        self.steps_left -= 1;
+        self.inner.step()
+    }
+    fn stop(&mut self) -> Result<(), BackendError> {
+        self.stopped = true;
+        self.inner.stop()
+    }
 }
