@@ -12,7 +12,8 @@ use rustyline::highlight::Highlighter;
 use rustyline::hint::Hinter;
 use rustyline::validate::Validator;
 
-use crate::syntax::command::COMMANDS;
+use crate::policy::learner::LearnerKind;
+use crate::syntax::command::{Arg, ArgKind, COMMANDS, command_spec};
 
 /// What the helper needs to know of the session.
 #[derive(Clone, Debug, Default)]
@@ -44,61 +45,23 @@ impl AdviseHelper {
         self.facts.lock().map(|f| f.clone()).unwrap_or_default()
     }
 
-    /// Candidates for the word ending at `pos`, and where that word starts.
+    /// Candidates for the word ending at `pos`, and where that word starts (file paths aside:
+    /// [`Completer::complete`] adds those where [`AdviseHelper::wants_path`]).
     pub fn candidates(&self, line: &str, pos: usize) -> (usize, Vec<String>) {
-        let before = &line[..pos];
-        let start = before.rfind([' ', '\t', '(']).map_or(0, |i| i + 1);
-        let word = &before[start..];
-        let words: Vec<&str> = before[..start].split_whitespace().collect();
-        let facts = self.facts();
-        let ops = || {
-            facts
-                .operators
-                .iter()
-                .map(|(n, _)| n.clone())
-                .collect::<Vec<_>>()
-        };
-        let pool: Vec<String> = match words.as_slice() {
-            [] => COMMANDS.iter().map(|c| c.name.to_string()).collect(),
-            ["advise"] | ["preview"] => ops(),
-            ["help"] => COMMANDS
-                .iter()
-                .map(|c| c.name.to_string())
-                .chain(ops())
-                .collect(),
-            ["load"] => vec!["demos".into(), "trace".into()],
-            ["export"] => vec!["advice".into()],
-            ["run"] => vec!["goal".into(), "start".into()],
-            ["task"] => facts.tasks.clone(),
-            ["backend"] => vec!["sim".into(), "rmp:".into()],
-            _ => Vec::new(),
-        };
-        let mut out: Vec<String> = pool.into_iter().filter(|c| c.starts_with(word)).collect();
+        let (start, word, expect) = expect_at(line, pos, &self.facts());
+        let mut out: Vec<String> = expect
+            .words
+            .into_iter()
+            .filter(|c| c.starts_with(word))
+            .collect();
         out.sort();
         out.dedup();
         (start, out)
     }
 
-    /// Whether the word being typed is a file path argument.
-    fn wants_path(line: &str, pos: usize) -> bool {
-        let words: Vec<&str> = line[..pos].split_whitespace().collect();
-        let typing_new = line[..pos].ends_with(' ');
-        let head: &[&str] = if typing_new {
-            &words
-        } else {
-            &words[..words.len().saturating_sub(1)]
-        };
-        matches!(
-            head,
-            ["load", "demos"]
-                | ["load", "trace"]
-                | ["operators"]
-                | ["tasks"]
-                | ["plot"]
-                | ["save"]
-                | ["open"]
-                | ["export", "advice"]
-        )
+    /// Whether the word being typed may be a file path (`export mcap `, `plot `).
+    pub fn wants_path(line: &str, pos: usize) -> bool {
+        expect_at(line, pos, &Facts::default()).2.path
     }
 
     /// The hint for `line`: the rest of a command's signature, or an operator's signature.
@@ -127,15 +90,29 @@ impl AdviseHelper {
                 .map(|s| s.to_string())
                 .filter(|s| !s.is_empty());
         }
-        if words.len() == 1 && line.ends_with(' ') {
-            let c = crate::syntax::command::command_spec(first)?;
-            return c
+        let spec = command_spec(first)?;
+        match (words.as_slice(), line.ends_with(' ')) {
+            ([_], true) => spec
                 .signature
-                .strip_prefix(c.name)
+                .strip_prefix(spec.name)
                 .map(|s| s.trim_start().to_string())
-                .filter(|s| !s.is_empty());
+                .filter(|s| !s.is_empty()),
+            // A sub-word being typed: its rest, then its form's arguments (`export m`: `cap FILE.mcap`).
+            ([_, partial], false) => {
+                let (form, rest) = spec
+                    .forms
+                    .iter()
+                    .find_map(|f| Some((f, f.sub?.strip_prefix(partial)?)))?;
+                Some(format!("{rest} {}", form.rest()).trim_end().to_string())
+                    .filter(|s| !s.is_empty())
+            }
+            // A sub-word typed: its form's arguments (`load demos `: `FILE [cmd TOPIC] [odom TOPIC]`).
+            ([_, word], true) => {
+                let form = spec.forms.iter().find(|f| f.sub == Some(word))?;
+                Some(form.rest()).filter(|s| !s.is_empty())
+            }
+            _ => None,
         }
-        None
     }
 }
 
@@ -148,17 +125,24 @@ impl Completer for AdviseHelper {
         pos: usize,
         ctx: &Context<'_>,
     ) -> rustyline::Result<(usize, Vec<Pair>)> {
-        if Self::wants_path(line, pos) {
-            return self.files.complete(line, pos, ctx);
-        }
         let (start, cands) = self.candidates(line, pos);
-        let pairs = cands
+        let mut pairs: Vec<Pair> = cands
             .into_iter()
             .map(|c| Pair {
                 display: c.clone(),
                 replacement: c,
             })
             .collect();
+        if Self::wants_path(line, pos) {
+            let (from, files) = self.files.complete(line, pos, ctx)?;
+            if pairs.is_empty() {
+                return Ok((from, files));
+            }
+            // `plot ac`: a sub-word and files alike, when both replace the same word.
+            if from == start {
+                pairs.extend(files);
+            }
+        }
         Ok((start, pairs))
     }
 }
@@ -182,6 +166,96 @@ impl Highlighter for AdviseHelper {
             Cow::Borrowed(hint)
         }
     }
+}
+
+/// What may be typed at the cursor: some words, a file path, or both (`plot ` takes `actions`,
+/// `compare` or a file).
+#[derive(Debug, Default, PartialEq)]
+struct Expect {
+    words: Vec<String>,
+    path: bool,
+}
+
+/// Where the word ending at `pos` starts, that word, and what the command table says it may be.
+fn expect_at<'l>(line: &'l str, pos: usize, facts: &Facts) -> (usize, &'l str, Expect) {
+    let before = &line[..pos];
+    let start = before.rfind([' ', '\t', '(']).map_or(0, |i| i + 1);
+    let head: Vec<&str> = before[..start].split_whitespace().collect();
+    (start, &before[start..], expect(&head, facts))
+}
+
+/// What may follow `head`, the whole words before the cursor's, by the command table: the
+/// command's sub-words, then its form's arguments in order with its options among them (an
+/// option takes its own arguments), each argument completed by its kind.
+fn expect(head: &[&str], facts: &Facts) -> Expect {
+    let mut out = Expect::default();
+    let Some((first, rest)) = head.split_first() else {
+        out.words = COMMANDS.iter().map(|c| c.name.to_string()).collect();
+        return out;
+    };
+    let Some(spec) = command_spec(first) else {
+        return out;
+    };
+    if rest.is_empty() {
+        out.words.extend(spec.subs().map(String::from));
+    }
+    let Some(form) = spec.form_for(rest.first().copied()) else {
+        return out;
+    };
+    let rest = if form.sub.is_some() { &rest[1..] } else { rest };
+    let (mut positional, mut used, mut i) = (0, Vec::new(), 0);
+    while i < rest.len() {
+        if let Some(option) = form.option(rest[i]) {
+            used.push(option.word);
+            // The cursor is on one of the option's own arguments.
+            if let Some(arg) = option.args.get(rest.len() - 1 - i) {
+                expect_arg(arg, facts, &mut out);
+                return out;
+            }
+            i += 1 + option.args.len();
+        } else if form.args.get(positional).map(|a| a.kind) == Some(ArgKind::Invocation) {
+            // An invocation runs to the end of the line.
+            return out;
+        } else {
+            positional += 1;
+            i += 1;
+        }
+    }
+    if let Some(arg) = form.args.get(positional) {
+        expect_arg(arg, facts, &mut out);
+    }
+    if positional >= form.required() {
+        let unused = form.options.iter().filter(|o| !used.contains(&o.word));
+        out.words.extend(unused.map(|o| o.word.to_string()));
+    }
+    out
+}
+
+/// What completes an argument of this kind.
+fn expect_arg(arg: &Arg, facts: &Facts, out: &mut Expect) {
+    let ops = facts.operators.iter().map(|(n, _)| n.clone());
+    match arg.kind {
+        ArgKind::Path => out.path = true,
+        ArgKind::Invocation => out.words.extend(ops),
+        ArgKind::Topic => {
+            out.words
+                .extend(COMMANDS.iter().map(|c| c.name.to_string()));
+            out.words.extend(ops);
+        }
+        ArgKind::Task => out.words.extend(facts.tasks.iter().cloned()),
+        ArgKind::Backend => out.words.extend(backend_words()),
+        ArgKind::Learner => out
+            .words
+            .extend(LearnerKind::ALL.iter().map(|k| k.name().to_string())),
+        ArgKind::Number | ArgKind::Count | ArgKind::Range | ArgKind::RosTopic => {}
+    }
+}
+
+/// The beginnings of the backend spellings `backend` completes, as `BackendSpec`'s parser
+/// (src/backend/spec.rs) reads them. The one place the completer knows backends: the backend
+/// registry answers these once it lands.
+fn backend_words() -> Vec<String> {
+    ["sim", "rmp:", "ros2"].map(String::from).to_vec()
 }
 
 /// Every line is handed on as typed: the REPL asks for the rest of an unfinished statement under
@@ -223,6 +297,92 @@ mod tests {
         assert!(AdviseHelper::wants_path("tasks ex", 8));
     }
 
+    /// After a command, its sub-words and arguments as the table gives them: every backend,
+    /// every export, a path after `export mcap`, options after the arguments they follow.
+    #[test]
+    fn completes_sub_words_arguments_and_options() {
+        let h = helper();
+        let words = |line: &str| h.candidates(line, line.len()).1;
+        assert_eq!(words("backend "), vec!["rmp:", "ros2", "sim"]);
+        assert_eq!(words("backend r"), vec!["rmp:", "ros2"]);
+        assert_eq!(words("export "), vec!["advice", "lerobot", "mcap"]);
+        assert_eq!(words("export m"), vec!["mcap"]);
+        for line in [
+            "export mcap ",
+            "export lerobot ",
+            "export advice a",
+            "plot compare ",
+        ] {
+            assert!(AdviseHelper::wants_path(line, line.len()), "{line}");
+            assert_eq!(words(line), Vec::<String>::new(), "{line}");
+        }
+        assert!(!AdviseHelper::wants_path("export ", 7));
+        assert!(!AdviseHelper::wants_path("plot compare c.svg ", 19));
+        assert_eq!(words("learner "), vec!["bc", "lwr"]);
+        assert_eq!(words("run "), vec!["goal", "start"]);
+        assert_eq!(words("load demos d.csv "), vec!["cmd", "odom"]);
+        assert_eq!(words("load demos d.csv cmd /c "), vec!["odom"]);
+        assert_eq!(words("load demos d.csv cmd "), Vec::<String>::new());
+        assert_eq!(words("record "), vec!["demo"]);
+        assert_eq!(words("record demo for 5 "), vec!["from", "goal"]);
+        assert_eq!(words("record demo goal 1 "), Vec::<String>::new());
+        assert_eq!(words("teleop "), vec!["for", "goal"]);
+        assert_eq!(words("critique "), vec!["--directional"]);
+        assert_eq!(words("critique 0.5 "), vec!["--directional"]);
+        assert_eq!(words("eval "), vec!["--detail"]);
+        assert_eq!(words("select 1..4 "), vec!["in"]);
+        assert_eq!(words("select "), Vec::<String>::new());
+        // `plot` takes a sub-word or a file; after the sub-word, a file.
+        assert_eq!(words("plot "), vec!["actions", "compare"]);
+        assert!(AdviseHelper::wants_path("plot ", 5));
+        assert!(AdviseHelper::wants_path("plot actions ", 13));
+        assert_eq!(words("help und"), vec!["undo"]);
+        assert_eq!(words("help sp"), vec!["speed_up"]);
+        assert_eq!(words("advise speed_up(ra"), Vec::<String>::new());
+        assert_eq!(words("nonsense "), Vec::<String>::new());
+    }
+
+    /// Whatever the table holds completes: each command's word, each sub-word after it, a path
+    /// for each form that starts with one, and each option once the form's arguments are typed.
+    #[test]
+    fn every_word_of_the_table_completes() {
+        let h = helper();
+        let words = |line: &str| h.candidates(line, line.len()).1;
+        for c in COMMANDS {
+            assert!(words("").contains(&c.name.to_string()), "{}", c.name);
+            for f in c.forms {
+                let mut line = format!("{} ", c.name);
+                if let Some(s) = f.sub {
+                    assert!(words(&line).contains(&s.to_string()), "{line}{s}");
+                    line.push_str(s);
+                    line.push(' ');
+                }
+                let first = f.args.first().map(|a| a.kind);
+                assert_eq!(
+                    AdviseHelper::wants_path(&line, line.len()),
+                    first == Some(ArgKind::Path),
+                    "{line}"
+                );
+                for a in f.args.iter().filter(|a| !a.optional) {
+                    line.push_str(match a.kind {
+                        ArgKind::Range => "1..2 ",
+                        ArgKind::Number | ArgKind::Count => "1 ",
+                        _ => "x ",
+                    });
+                }
+                if f.args.iter().all(|a| a.kind != ArgKind::Invocation) {
+                    for o in f.options {
+                        assert!(
+                            words(&line).contains(&o.word.to_string()),
+                            "{line}{}",
+                            o.word
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn completes_the_tasks_a_file_declared() {
         let h = helper();
@@ -240,5 +400,17 @@ mod tests {
             Some("(rate = 0.2)")
         );
         assert_eq!(h.hint_for("advise stop"), None);
+        // A sub-word: the rest of it, then its form's arguments and options.
+        assert_eq!(h.hint_for("export m").as_deref(), Some("cap FILE.mcap"));
+        assert_eq!(h.hint_for("export mcap").as_deref(), Some(" FILE.mcap"));
+        assert_eq!(
+            h.hint_for("load demos ").as_deref(),
+            Some("FILE [cmd TOPIC] [odom TOPIC]")
+        );
+        assert_eq!(
+            h.hint_for("record demo ").as_deref(),
+            Some("[from TOPIC] [goal X Y THETA] [for S]")
+        );
+        assert_eq!(h.hint_for("task i"), None);
     }
 }

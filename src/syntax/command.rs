@@ -7,6 +7,9 @@ use super::{Builder, Invocation, ParseError, Rule, delims, run};
 use crate::diag::{SourceId, Src};
 use pest::iterators::Pair;
 
+mod table;
+pub use table::{Arg, ArgKind, COMMANDS, CommandSpec, Form, Opt, Step, command_spec, form_of};
+
 /// One statement of a session.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Statement {
@@ -104,291 +107,65 @@ pub enum Command {
 }
 
 impl Command {
-    /// The command's word: its [`CommandSpec`]'s `name` (exhaustive, so a new variant must name
-    /// its command).
-    pub fn name(&self) -> &'static str {
+    /// The grammar rule it was parsed from: its form's key in [`COMMANDS`] (exhaustive, so a new
+    /// variant must name its rule, and the table's tests then ask for its form).
+    pub fn rule(&self) -> Rule {
         match self {
-            Command::Task(_) => "task",
-            Command::Tasks(_) => "tasks",
-            Command::Backend(_) => "backend",
-            Command::LoadDemos { .. } | Command::LoadTrace(_) => "load",
-            Command::Operators(_) => "operators",
-            Command::RunGoal { .. } | Command::RunStart(_) => "run",
-            Command::Show(_) => "show",
-            Command::Select { .. } => "select",
-            Command::Critique { .. } => "critique",
-            Command::Advise(_) => "advise",
-            Command::Preview(_) => "preview",
-            Command::Undo => "undo",
-            Command::Redo => "redo",
-            Command::History => "history",
-            Command::Rederive => "rederive",
-            Command::Eval { .. } => "eval",
-            Command::Learner(_) => "learner",
-            Command::Why(_) => "why",
-            Command::Plot { .. } => "plot",
-            Command::Save(_) => "save",
-            Command::Open(_) => "open",
-            Command::ExportAdvice(_) | Command::ExportMcap(_) | Command::ExportLeRobot(_) => {
-                "export"
-            }
-            Command::Help(_) => "help",
-            Command::Quit => "quit",
-            Command::RecordDemo { .. } => "record",
-            Command::Teleop { .. } => "teleop",
+            Command::Task(_) => Rule::c_task,
+            Command::Tasks(_) => Rule::c_tasks,
+            Command::Backend(_) => Rule::c_backend,
+            Command::LoadDemos { .. } => Rule::c_load_demos,
+            Command::LoadTrace(_) => Rule::c_load_trace,
+            Command::Operators(_) => Rule::c_operators,
+            Command::RunGoal { .. } => Rule::c_run_goal,
+            Command::RunStart(_) => Rule::c_run_start,
+            Command::Show(_) => Rule::c_show,
+            Command::Select { .. } => Rule::c_select,
+            Command::Critique { .. } => Rule::c_critique,
+            Command::Advise(_) => Rule::c_advise,
+            Command::Preview(_) => Rule::c_preview,
+            Command::Undo => Rule::c_undo,
+            Command::Redo => Rule::c_redo,
+            Command::History => Rule::c_history,
+            Command::Rederive => Rule::c_rederive,
+            Command::Eval { .. } => Rule::c_eval,
+            Command::Learner(_) => Rule::c_learner,
+            Command::Why(_) => Rule::c_why,
+            Command::Plot { kind, .. } => match kind {
+                PlotKind::Path => Rule::c_plot,
+                PlotKind::Actions => Rule::plot_actions,
+                PlotKind::Compare { .. } => Rule::plot_compare,
+            },
+            Command::Save(_) => Rule::c_save,
+            Command::Open(_) => Rule::c_open,
+            Command::ExportAdvice(_) => Rule::c_export_advice,
+            Command::ExportMcap(_) => Rule::c_export_mcap,
+            Command::ExportLeRobot(_) => Rule::c_export_lerobot,
+            Command::Help(_) => Rule::c_help,
+            Command::Quit => Rule::c_quit,
+            Command::RecordDemo { .. } => Rule::c_record_demo,
+            Command::Teleop { .. } => Rule::c_teleop,
         }
+    }
+
+    /// Its form in the table.
+    pub fn form(&self) -> &'static Form {
+        self.entry().1
+    }
+
+    /// The command's word: its [`CommandSpec`]'s `name`.
+    pub fn name(&self) -> &'static str {
+        self.spec().name
     }
 
     /// What `help` and hints know of it.
     pub fn spec(&self) -> &'static CommandSpec {
-        command_spec(self.name()).expect("every command has a spec (tested)")
+        self.entry().0
     }
-}
 
-/// A session command as `help`, completion and hints know it: its word, its signature and its
-/// one-line help. Adding a command is one entry here (and its grammar rule and `Command` variant).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct CommandSpec {
-    pub name: &'static str,
-    pub signature: &'static str,
-    pub doc: &'static str,
-    /// Where `help` lists it.
-    pub step: Step,
-    /// A statement that uses it (parsed by a test, so a spec cannot lose its grammar rule).
-    pub example: &'static str,
-}
-
-/// The teacher's workflow, in order: `help` lists the commands under these steps.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Step {
-    Demonstrate,
-    Run,
-    Select,
-    Correct,
-    TakeBack,
-    Measure,
-    Keep,
-    Session,
-}
-
-impl Step {
-    pub const ALL: [Step; 8] = [
-        Step::Demonstrate,
-        Step::Run,
-        Step::Select,
-        Step::Correct,
-        Step::TakeBack,
-        Step::Measure,
-        Step::Keep,
-        Step::Session,
-    ];
-
-    /// The step's heading in `help`.
-    pub fn label(self) -> &'static str {
-        match self {
-            Step::Demonstrate => "demonstrate",
-            Step::Run => "run",
-            Step::Select => "select",
-            Step::Correct => "correct",
-            Step::TakeBack => "take back",
-            Step::Measure => "measure",
-            Step::Keep => "keep",
-            Step::Session => "session",
-        }
+    fn entry(&self) -> (&'static CommandSpec, &'static Form) {
+        form_of(self.rule()).expect("every command's rule has a form in the table (tested)")
     }
-}
-
-/// Every command, in the order hints try them and `help` lists them within a step. A command is
-/// this entry, its rule in `grammar/session.pest` (`session_line`), its [`Command`] variant with
-/// [`Command::name`], and its arm in `Session::command`; the tests below fail when they disagree.
-pub const COMMANDS: &[CommandSpec] = &[
-    CommandSpec {
-        name: "task",
-        signature: "task positioning|interception|NAME",
-        doc: "Switch task (positioning: A-OPI with LWR; interception: BC with 1-NN; a task loaded with `tasks FILE`: LWR). Each task keeps its own dataset, executions and history.",
-        step: Step::Demonstrate,
-        example: "task interception",
-    },
-    CommandSpec {
-        name: "tasks",
-        signature: "tasks FILE.adv",
-        doc: "Check a file of task declarations (`domain NAME { goal ... success when ... }`) and add its tasks and operators; `task NAME` switches to one.",
-        step: Step::Demonstrate,
-        example: "tasks examples/tasks/standoff.adv",
-    },
-    CommandSpec {
-        name: "backend",
-        signature: "backend sim|rmp:HOST:PORT|ros2",
-        doc: "Choose the robot: the simulator, a Segway RMP at an address, or a ROS 2 base on `cmd_vel` and `odom` (`ros2:/NS` under a namespace).",
-        step: Step::Run,
-        example: "backend sim",
-    },
-    CommandSpec {
-        name: "load",
-        signature: "load demos FILE | load trace FILE",
-        doc: "Load demonstrations (a file; a ROS 2 bag or CSV log, `cmd TOPIC` and `odom TOPIC` naming a bag's topics; or `teacher:N` to record N teacher runs in the simulator) or a trace to advise.",
-        step: Step::Demonstrate,
-        example: "load demos teacher:5",
-    },
-    CommandSpec {
-        name: "operators",
-        signature: "operators FILE.adv",
-        doc: "Check an operator file and add its operators on top of the standard ones.",
-        step: Step::Demonstrate,
-        example: "operators mine.adv",
-    },
-    CommandSpec {
-        name: "run",
-        signature: "run goal X Y THETA | run start N",
-        doc: "Run the current policy to a goal (positioning) or from the N-th practice start, and record it.",
-        step: Step::Run,
-        example: "run goal 2 -1 0",
-    },
-    CommandSpec {
-        name: "show",
-        signature: "show [N]",
-        doc: "Summarise the selected execution (or execution N), with a small plot.",
-        step: Step::Run,
-        example: "show 0",
-    },
-    CommandSpec {
-        name: "select",
-        signature: "select A..B [in N]",
-        doc: "Select points A (inclusive) to B (exclusive) of the latest execution, or of execution N with `in N`; advise, critique, preview, why and plot act on it.",
-        step: Step::Select,
-        example: "select 10..40 in 0",
-    },
-    CommandSpec {
-        name: "advise",
-        signature: "advise OP[(ARGS)]",
-        doc: "Correct the selection with an advice operator: its points are synthesized and added (A-OPI).",
-        step: Step::Correct,
-        example: "advise speed_up(0.5)",
-    },
-    CommandSpec {
-        name: "preview",
-        signature: "preview OP[(ARGS)]",
-        doc: "Show what `advise` would add, without adding it.",
-        step: Step::Correct,
-        example: "preview slow_down(rate = 0.3)",
-    },
-    CommandSpec {
-        name: "critique",
-        signature: "critique [--directional] [KAPPA]",
-        doc: "Flag the selection as poor: the data points that recommended its actions are pushed away (BC); `--directional` penalises each only for observations on the flagged side of it (the paper's proposed improvement).",
-        step: Step::Correct,
-        example: "critique 2",
-    },
-    CommandSpec {
-        name: "undo",
-        signature: "undo",
-        doc: "Take back the last advice or critique, exactly.",
-        step: Step::TakeBack,
-        example: "undo",
-    },
-    CommandSpec {
-        name: "redo",
-        signature: "redo",
-        doc: "Put back what `undo` took.",
-        step: Step::TakeBack,
-        example: "redo",
-    },
-    CommandSpec {
-        name: "history",
-        signature: "history",
-        doc: "List the advice and critiques given so far.",
-        step: Step::TakeBack,
-        example: "history",
-    },
-    CommandSpec {
-        name: "eval",
-        signature: "eval [--detail]",
-        doc: "Evaluate the policy on the task's fixed test set (never advised) and say what changed since the last eval; `--detail` lists the tests that changed outcome.",
-        step: Step::Measure,
-        example: "eval --detail",
-    },
-    CommandSpec {
-        name: "rederive",
-        signature: "rederive",
-        doc: "Re-derive the policy from scratch (LWR is re-tuned by cross-validation).",
-        step: Step::Measure,
-        example: "rederive",
-    },
-    CommandSpec {
-        name: "learner",
-        signature: "learner bc|lwr",
-        doc: "Switch the running learner: `bc` (1-NN with critique weights) or `lwr` (locally weighted regression); the dataset is shared.",
-        step: Step::Measure,
-        example: "learner bc",
-    },
-    CommandSpec {
-        name: "why",
-        signature: "why T",
-        doc: "Show which data points supported the action at point T, with their provenance.",
-        step: Step::Correct,
-        example: "why 12",
-    },
-    CommandSpec {
-        name: "plot",
-        signature: "plot [actions|compare] FILE [N M]",
-        doc: "Write the selected execution's path as SVG, `plot actions FILE` its actions against point index, `plot compare FILE N M` executions N and M overlaid; selection, advice and critiques marked.",
-        step: Step::Run,
-        example: "plot actions path.svg",
-    },
-    CommandSpec {
-        name: "save",
-        signature: "save FILE.json|FILE.csv",
-        doc: "Save the dataset with provenance (.json), or its points only (.csv).",
-        step: Step::Keep,
-        example: "save session.json",
-    },
-    CommandSpec {
-        name: "open",
-        signature: "open FILE.json",
-        doc: "Open a dataset saved with `save`.",
-        step: Step::Keep,
-        example: "open session.json",
-    },
-    CommandSpec {
-        name: "export",
-        signature: "export advice|mcap|lerobot PATH",
-        doc: "`advice FILE.csv`: every advised point with its provenance; `mcap FILE.mcap`: the executions, advice and critiques for Foxglove and ROS 2 tools; `lerobot DIR`: the points as a LeRobot v3.0 dataset.",
-        step: Step::Keep,
-        example: "export advice advice.csv",
-    },
-    CommandSpec {
-        name: "help",
-        signature: "help [COMMAND|OPERATOR]",
-        doc: "Help on commands and operators.",
-        step: Step::Session,
-        example: "help advise",
-    },
-    CommandSpec {
-        name: "record",
-        signature: "record demo [from TOPIC] [for S]",
-        doc: "Record a person driving the ROS 2 base with their own teleoperation (commands on TOPIC, default `cmd_vel`) until Enter or Ctrl-C, S seconds, or 3 s without a moving command with the base at rest; added as a demonstration whose goal is where the base stopped (`goal X Y THETA` gives one).",
-        step: Step::Demonstrate,
-        example: "record demo from teleop/cmd_vel goal 2 -1 0 for 60",
-    },
-    CommandSpec {
-        name: "teleop",
-        signature: "teleop [for S]",
-        doc: "Drive the base (any backend) from this terminal's keys: up/w and down/s speed, left/a and right/d turn, space stops, +/- scale the steps, Enter or q ends; kept as a demonstration whose goal is where the base stopped (`goal X Y THETA` gives one).",
-        step: Step::Demonstrate,
-        example: "teleop goal 2 -1 0 for 60",
-    },
-    CommandSpec {
-        name: "quit",
-        signature: "quit",
-        doc: "Leave the session (the journal keeps everything).",
-        step: Step::Session,
-        example: "quit",
-    },
-];
-
-/// The command called `name`, if any.
-pub fn command_spec(name: &str) -> Option<&'static CommandSpec> {
-    COMMANDS.iter().find(|c| c.name == name)
 }
 
 /// Parse one statement, a source of the session's map (named `<repl>`, or `script.adv:12`).
@@ -573,7 +350,7 @@ fn first_word(src: &str) -> Option<(usize, &str)> {
 /// Whether `src` starts with a command word. A command is one line: a line that starts with one
 /// never continues on the next (an unclosed `(` in it is an error at once, not a wait for more).
 pub fn starts_command(src: &str) -> bool {
-    first_word(src).is_some_and(|(_, w)| w == "exit" || command_spec(w).is_some())
+    first_word(src).is_some_and(|(_, w)| command_spec(w).is_some())
 }
 
 /// A statement that failed to parse and starts with a word that is neither a command nor an
@@ -593,16 +370,18 @@ fn unknown_command(id: SourceId, src: &str) -> Option<ParseError> {
 }
 
 /// A command statement that failed to parse and holds a `--word` its command does not take (the
-/// options are the ones its signature shows): say so, with the closest option.
+/// flags of its forms in the table): say so, with the closest option.
 fn unknown_option(id: SourceId, src: &str) -> Option<ParseError> {
     let (_, word) = first_word(src)?;
     let spec = command_spec(word)?;
     let not_in_option = |c: char| !(c.is_alphanumeric() || c == '-' || c == '_');
-    let options: Vec<&str> = spec
-        .signature
-        .split(not_in_option)
-        .filter(|t| t.starts_with("--"))
+    let mut options: Vec<&str> = spec
+        .forms
+        .iter()
+        .flat_map(|f| f.options.iter().map(|o| o.word))
+        .filter(|w| w.starts_with("--"))
         .collect();
+    options.dedup();
     let mut at = 0;
     for token in src.split_whitespace() {
         at += src[at..].find(token)?;
@@ -693,36 +472,6 @@ mod tests {
     fn parse_statement(name: &str, text: &str) -> Result<Statement, ParseError> {
         let (map, id) = crate::diag::SourceMap::single(name, text);
         super::parse_statement(map.src(id))
-    }
-
-    /// The pieces of a command agree: each spec's example parses (its grammar rule exists) to a
-    /// command whose name is the spec's, each spec is listed under a step, each step has a
-    /// command, and names are unique.
-    #[test]
-    fn every_command_is_one_spec_one_rule_one_variant() {
-        for c in COMMANDS {
-            assert!(c.example.starts_with(c.name), "{c:?}");
-            assert!(c.signature.starts_with(c.name), "{c:?}");
-            assert!(!c.doc.is_empty(), "{c:?}");
-            let parsed = match parse_statement("<example>", c.example) {
-                Ok(Statement::Command(command, _)) => command,
-                other => panic!("the example of `{}` does not parse: {other:?}", c.name),
-            };
-            assert_eq!(parsed.name(), c.name, "{c:?}");
-            assert_eq!(parsed.spec().name, c.name);
-            assert_eq!(
-                COMMANDS.iter().filter(|o| o.name == c.name).count(),
-                1,
-                "`{}` twice",
-                c.name
-            );
-        }
-        for step in Step::ALL {
-            assert!(
-                COMMANDS.iter().any(|c| c.step == step),
-                "no command under {step:?}"
-            );
-        }
     }
 
     fn cmd(src: &str) -> Command {
