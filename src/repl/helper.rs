@@ -1,7 +1,8 @@
-//! The rustyline helper: completion of commands, operator names and file paths; a hint with the
-//! signature of what is being typed; multi-line input while an operator definition is unfinished.
-//! What it knows of the session (operator names and signatures) it reads from [`Facts`], which the
-//! REPL refreshes after every command.
+//! The rustyline helper: completion of commands, their sub-words, options and arguments, operator
+//! names and file paths; a hint with the signature of what is being typed; multi-line input while
+//! an operator definition is unfinished. What a command takes it reads from the command table
+//! ([`crate::syntax::command::COMMANDS`]); what it knows of the session (operator names and
+//! signatures, tasks) from [`Facts`], which the REPL refreshes after every command.
 
 use std::borrow::Cow;
 use std::sync::{Arc, Mutex};
@@ -64,7 +65,8 @@ impl AdviseHelper {
         expect_at(line, pos, &Facts::default()).2.path
     }
 
-    /// The hint for `line`: the rest of a command's signature, or an operator's signature.
+    /// The hint for `line`: the rest of a command's signature, the rest of a sub-word and its
+    /// form's arguments and options (from the command table), or an operator's signature.
     pub fn hint_for(&self, line: &str) -> Option<String> {
         if line.is_empty() || line.contains('\n') {
             return None;
