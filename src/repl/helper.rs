@@ -385,6 +385,34 @@ mod tests {
         }
     }
 
+    /// What Tab offers, through rustyline's own entry point: sub-words alone after `export`,
+    /// files after `export mcap` and `export lerobot`, both after `plot`.
+    #[test]
+    fn tab_completes_paths_where_the_table_says_a_path() {
+        let h = helper();
+        let history = rustyline::history::DefaultHistory::new();
+        let ctx = Context::new(&history);
+        let tab = |line: &str| {
+            let (start, pairs) = h.complete(line, line.len(), &ctx).unwrap();
+            let words: Vec<String> = pairs.into_iter().map(|p| p.replacement).collect();
+            (start, words)
+        };
+        assert_eq!(tab("export ").1, vec!["advice", "lerobot", "mcap"]);
+        let dir = env!("CARGO_MANIFEST_DIR");
+        for sub in ["mcap", "lerobot", "advice"] {
+            let line = format!("export {sub} {dir}/Cargo.to");
+            let (start, words) = tab(&line);
+            assert_eq!(start, line.len() - dir.len() - "/Cargo.to".len(), "{line}");
+            assert_eq!(words, vec![format!("{dir}/Cargo.toml")], "{line}");
+        }
+        let line = format!("plot {dir}/Cargo.to");
+        assert_eq!(tab(&line).1, vec![format!("{dir}/Cargo.toml")]);
+        let (start, words) = tab("plot ");
+        assert_eq!(start, 5);
+        assert!(words.iter().any(|w| w == "actions") && words.iter().any(|w| w == "compare"));
+        assert_eq!(tab("backend ").1, vec!["rmp:", "ros2", "sim"]);
+    }
+
     #[test]
     fn completes_the_tasks_a_file_declared() {
         let h = helper();
