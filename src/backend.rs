@@ -30,7 +30,8 @@ pub use interrupt::{BaseStop, Interruptible, StopSignal};
 pub use registry::{BackendKind, Registry};
 pub use spec::{BackendSpec, BackendSpecError, Connect, Spec};
 
-/// Every kind of base `backend SPEC` and `--backend` accept, in the order help lists them.
+/// Every kind of base `backend SPEC` and `--backend` accept, in the order help lists them. A new
+/// backend is its file, its `pub mod` line above and its line here (see ARCHITECTURE.md).
 pub fn kinds() -> Vec<Arc<dyn BackendKind>> {
     vec![
         Arc::new(sim::SimKind),

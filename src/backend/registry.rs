@@ -13,7 +13,7 @@ use std::fmt;
 use std::sync::Arc;
 
 use super::spec::{BackendSpec, BackendSpecError, Spec};
-use crate::diag::suggest::closest;
+use crate::diag::suggest::closest_short;
 
 /// One kind of base. Implemented once per backend, beside its driver, and registered in
 /// [`super::kinds`].
@@ -98,7 +98,7 @@ impl Registry {
         }
         // The word before any address or option is what was meant as a kind's name.
         let head = spec.split([':', '?', ' ']).next().unwrap_or(spec);
-        let near = closest(head, self.kinds.iter().map(|k| k.name()))
+        let near = closest_short(head, self.kinds.iter().map(|k| k.name()))
             .and_then(|name| self.kinds.iter().find(|k| k.name() == name));
         let help = match near {
             Some(k) => format!("did you mean `{}`?", k.syntax()),
