@@ -310,6 +310,11 @@ impl Session {
         self.backend.name()
     }
 
+    /// The kinds of base `backend SPEC` accepts here (completion reads its words).
+    pub fn backends(&self) -> &Registry {
+        &self.backends
+    }
+
     /// The signal that stops the robot and the running execution from another thread (the REPL's
     /// Ctrl-C handler holds a clone).
     pub fn stop_signal(&self) -> StopSignal {

@@ -246,6 +246,7 @@ fn a_registered_kind_is_suggested_completed_and_diagnosed() {
         "`ros2[:NAMESPACE]` (a ROS 2 base, or `advise ros2-sim`) and `recorder[:X,Y]` (a base that stays where it is put)"
     ));
     let mut s = session(registry);
+    assert_eq!(s.backends().completions("rec"), ["recorder"]);
 
     let e = s.execute("backend recordr:1,2", "<test>").unwrap_err();
     assert_eq!(code(&e), "advise::backend::unknown");

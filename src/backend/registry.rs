@@ -124,6 +124,12 @@ impl Registry {
         words
     }
 
+    /// Every kind's syntax, as a signature shows them: `sim|rmp:HOST:PORT|ros2[:NAMESPACE]`.
+    pub fn syntaxes(&self) -> String {
+        let all: Vec<&str> = self.kinds.iter().map(|k| k.syntax()).collect();
+        all.join("|")
+    }
+
     /// Every kind with what it drives: "`sim` (the simulator), `rmp:HOST:PORT` (…) and …".
     pub fn describe(&self) -> String {
         let items: Vec<String> = self
@@ -188,6 +194,10 @@ mod tests {
             "the backends are `sim` (the simulator), `rmp:HOST:PORT` (a Segway RMP, or `advise rmp-emulator`) and `ros2[:NAMESPACE]` (a ROS 2 base, or `advise ros2-sim`)"
         );
         assert_eq!(code(""), "advise::backend::unknown");
+        assert_eq!(
+            Registry::standard().syntaxes(),
+            "sim|rmp:HOST:PORT|ros2[:NAMESPACE]"
+        );
     }
 
     #[test]
