@@ -16,9 +16,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+use advise::backend::ros2::Ros2Spec;
 use advise::backend::ros2::msg::{ODOMETRY_TYPE, Odometry, TWIST_TYPE, Time, Twist};
 use advise::backend::ros2::{Ros2Node, command_qos, odometry_publisher_qos, odometry_qos};
-use advise::backend::spec::Ros2Spec;
 use advise::trace::Pose;
 use criterion::Criterion;
 use ros2_client::{Publisher, Subscription};

@@ -5,6 +5,13 @@
 //! robotics code (openrr's `MoveBase` and `Localization`). Task logic (goals, balls, observations)
 //! lives in the tasks, not here: the same task runs on the in-process simulator and on a real Segway
 //! RMP. Backends never panic on link or device trouble; they return [`BackendError`].
+//!
+//! The session holds a connected base as a [`Base`] (a `Backend` with its description and its
+//! stop from another thread), never as a named kind: which kinds exist is [`kinds`]' list, read by
+//! the [`registry`]. A new backend is one file (its `BackendKind`, its `Spec`, its `Base`) plus
+//! its module line and its line in [`kinds`], both here.
+
+use std::sync::Arc;
 
 use miette::Diagnostic;
 use thiserror::Error;
@@ -12,6 +19,7 @@ use thiserror::Error;
 use crate::trace::Pose;
 
 pub mod interrupt;
+pub mod registry;
 pub mod rmp;
 pub mod ros2;
 pub mod sim;
@@ -19,7 +27,18 @@ pub mod spec;
 pub mod teleop;
 
 pub use interrupt::{BaseStop, Interruptible, StopSignal};
-pub use spec::{BackendSpec, BackendSpecError};
+pub use registry::{BackendKind, Registry};
+pub use spec::{BackendSpec, BackendSpecError, Connect, Spec};
+
+/// Every kind of base `backend SPEC` and `--backend` accept, in the order help lists them. A new
+/// backend is its file, its `pub mod` line above and its line here (see ARCHITECTURE.md).
+pub fn kinds() -> Vec<Arc<dyn BackendKind>> {
+    vec![
+        Arc::new(sim::SimKind),
+        Arc::new(rmp::RmpKind),
+        Arc::new(ros2::Ros2Kind),
+    ]
+}
 
 /// What a base reports after a control step.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -59,6 +78,49 @@ pub trait Backend {
     /// success honestly while the policy only ever sees odometry.
     fn true_pose(&self) -> Option<Pose> {
         None
+    }
+}
+
+/// A connected base as the session holds it: a [`Backend`] that says what it is and can be
+/// stopped from another thread. Connected by its kind's [`Spec::connect`]; dropping it closes the
+/// link (a robot's driver stops the base first).
+pub trait Base: Backend + Send + std::any::Any {
+    /// What the session says on connecting, after `backend NAME: ` (`None` when the name says
+    /// it all, as `sim`'s does).
+    fn describe(&self) -> Option<String> {
+        None
+    }
+
+    /// The driver's stop, callable from any thread (Ctrl-C stops the base at once, not at the
+    /// next control step); `None` for a base with nothing to stop between steps.
+    fn remote_stop(&self) -> Option<BaseStop> {
+        None
+    }
+
+    /// Stop the base now and say what was done (Ctrl-C at the prompt).
+    fn stop_now(&mut self) -> String {
+        match self.stop() {
+            Ok(()) => format!("{} stopped", self.name()),
+            Err(e) => format!("{} was told to stop but: {e}", self.name()),
+        }
+    }
+
+    /// Whether it is the in-process simulator: its steps return at once (a drive from the keys
+    /// paces itself), and `eval` from the prompt runs on it.
+    fn is_simulator(&self) -> bool {
+        false
+    }
+
+    /// Be ready for a new drive seeded with `seed`: the simulator starts afresh from it (a run
+    /// is reproducible from the session's seed and run count); a robot keeps its link.
+    fn begin(&mut self, _seed: u64) {}
+}
+
+impl dyn Base {
+    /// The base as its own type, if it is a `T` (`record demo` listens to a ROS 2 base's topics).
+    pub fn downcast_ref<T: Base>(&self) -> Option<&T> {
+        let any: &dyn std::any::Any = self;
+        any.downcast_ref()
     }
 }
 

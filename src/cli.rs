@@ -565,7 +565,7 @@ mod tests {
             .unwrap()
             .parse()
             .unwrap();
-        let crate::backend::BackendSpec::Ros2(r) = spec else {
+        let Some(r) = spec.get::<crate::backend::ros2::Ros2Spec>() else {
             panic!("{spec:?}")
         };
         assert_eq!(

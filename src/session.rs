@@ -28,10 +28,8 @@ mod undo;
 
 use std::path::{Path, PathBuf};
 
-use crate::backend::rmp::{RmpBackend, RmpConfig};
-use crate::backend::ros2::{Ros2Backend, Ros2Config};
-use crate::backend::sim::SimParams;
-use crate::backend::{Backend, BackendSpec, StopSignal};
+use crate::backend::sim::{SimBackend, SimParams};
+use crate::backend::{BackendSpecError, Base, Connect, Registry, StopSignal};
 use crate::check::OperatorSet;
 use crate::diag::did_you_mean;
 use crate::domain::Domain;
@@ -52,24 +50,6 @@ use undo::Edit;
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met
 /// at unit scaled distance).
 pub const DEFAULT_KAPPA: f64 = 1.0;
-
-/// How the session drives its robot.
-#[derive(Debug)]
-pub enum BackendChoice {
-    /// The in-process simulator, seeded per run.
-    Sim(SimParams),
-    /// A Segway RMP (or `advise rmp-emulator`), connected and in standby between runs. `sim` is
-    /// still what teacher demonstrations and `eval` use.
-    Rmp {
-        backend: Box<RmpBackend>,
-        sim: SimParams,
-    },
-    /// A ROS 2 base (or `advise ros2-sim`), connected and receiving its odometry.
-    Ros2 {
-        backend: Box<Ros2Backend>,
-        sim: SimParams,
-    },
-}
 
 /// One recorded execution and what the session knows of it.
 #[derive(Clone, Debug)]
@@ -100,6 +80,8 @@ pub struct SessionOptions {
     pub sim: SimParams,
     /// Show progress bars on a terminal.
     pub progress: bool,
+    /// The kinds of base `backend SPEC` accepts ([`Registry::standard`], or more).
+    pub backends: Registry,
 }
 
 impl Default for SessionOptions {
@@ -110,6 +92,7 @@ impl Default for SessionOptions {
             default_demos: 0,
             sim: SimParams::default(),
             progress: false,
+            backends: Registry::standard(),
         }
     }
 }
@@ -183,7 +166,14 @@ pub struct Session {
     ops: OperatorSet,
     task: TaskKind,
     domain: Domain,
-    backend: BackendChoice,
+    /// The base `run` and `teleop` drive: the simulator (made afresh per run) unless `backend`
+    /// connected another.
+    backend: Box<dyn Base>,
+    /// The simulator's parameters: what teacher demonstrations and `eval` use on any base, and
+    /// the limits and rate a robot's driver is given.
+    sim: SimParams,
+    /// The kinds of base `backend SPEC` reads and connects.
+    backends: Registry,
     seed: u64,
     /// The current task's work.
     state: TaskState,
@@ -234,6 +224,7 @@ impl Session {
         opts.sim.validate()?;
         let mut s = Session::empty(opts.task, opts.seed, opts.sim);
         s.progress = opts.progress;
+        s.backends = opts.backends;
         // What the session starts with is kept for a journal started later.
         s.preamble = Some(Vec::new());
         if opts.default_demos > 0 {
@@ -257,7 +248,9 @@ impl Session {
             domain: task.domain(),
             state: TaskState::new(&task, seed),
             task,
-            backend: BackendChoice::Sim(sim),
+            backend: Box::new(SimBackend::new(sim.clone(), seed)),
+            sim,
+            backends: Registry::standard(),
             seed,
             parked: Vec::new(),
             journal: None,
@@ -314,11 +307,12 @@ impl Session {
     }
 
     fn backend_name(&self) -> String {
-        match &self.backend {
-            BackendChoice::Sim(_) => "sim".into(),
-            BackendChoice::Rmp { backend, .. } => backend.name(),
-            BackendChoice::Ros2 { backend, .. } => backend.name(),
-        }
+        self.backend.name()
+    }
+
+    /// The kinds of base `backend SPEC` accepts here (completion reads its words).
+    pub fn backends(&self) -> &Registry {
+        &self.backends
     }
 
     /// The signal that stops the robot and the running execution from another thread (the REPL's
@@ -330,23 +324,7 @@ impl Session {
     /// Stop the robot (Ctrl-C at the REPL prompt). The simulator needs nothing; a real base is
     /// commanded to zero and decelerate-to-zero, and this waits (bounded) until it is at rest.
     pub fn stop_robot(&mut self) -> String {
-        match &mut self.backend {
-            BackendChoice::Sim(_) => "the simulated base is at rest".into(),
-            BackendChoice::Rmp { backend, .. } => match backend.stop() {
-                Ok(()) => format!("{} stopped (decelerate-to-zero)", backend.name()),
-                Err(e) => format!(
-                    "{} was told to stop (zero and decelerate-to-zero) but did not confirm it: {e}",
-                    backend.name()
-                ),
-            },
-            BackendChoice::Ros2 { backend, .. } => match backend.stop() {
-                Ok(()) => format!(
-                    "{} stopped (zero commanded for half a second)",
-                    backend.name()
-                ),
-                Err(e) => format!("{} was told to stop but: {e}", backend.name()),
-            },
-        }
+        self.backend.stop_now()
     }
 
     /// Run one statement. `origin` names it in diagnostics (`<repl>`, `script.adv:12`).
@@ -551,74 +529,59 @@ impl Session {
         self.domain = self.state.learner.domain().clone();
     }
 
-    /// `sim`, or `rmp:HOST:PORT`: the RMP is connected now (the vendor's start-up sequence), so a
-    /// base that does not answer is reported here and the session stays on its backend. A base
-    /// left behind is stopped (its driver stops it when dropped).
+    /// `backend SPEC`: the base is connected now by its kind (a robot's start-up sequence, a
+    /// ROS 2 base's first odometry), so a base that does not answer is reported here and the
+    /// session stays on its backend. A robot left behind is stopped and closed (its driver stops
+    /// it when dropped) before another is connected: one link to a base at a time.
     fn set_backend(&mut self, spec: &str) -> Result<Reply, SessionError> {
-        let params = self.sim_params();
-        let reply = match spec.parse::<BackendSpec>()? {
-            BackendSpec::Sim => {
-                self.stop.set_base(None);
-                self.backend = BackendChoice::Sim(params);
-                "backend sim".to_string()
-            }
-            BackendSpec::Rmp(addr) => {
-                // One link to a base at a time: the old one is stopped and closed first.
-                if !matches!(self.backend, BackendChoice::Sim(_)) {
-                    self.stop.set_base(None);
-                    self.backend = BackendChoice::Sim(params.clone());
-                }
-                let backend =
-                    RmpBackend::connect(addr, RmpConfig::for_sim(&params)).map_err(|error| {
-                        SessionError::BackendUnavailable {
-                            spec: spec.trim().to_string(),
-                            current: self.backend_name(),
-                            error,
-                        }
-                    })?;
-                let platform = backend.platform().name();
-                let order = backend.status().map_or("unknown", |s| s.order.name());
-                self.stop.set_base(Some(backend.stop_handle().into()));
-                let name = backend.name();
-                self.backend = BackendChoice::Rmp {
-                    backend: Box::new(backend),
-                    sim: params,
-                };
-                format!(
-                    "backend {name}: an {platform} in standby ({order} feedback); `run` drives it in tractor mode, Ctrl-C stops it"
-                )
-            }
-            BackendSpec::Ros2(r) => {
-                if !matches!(self.backend, BackendChoice::Sim(_)) {
-                    self.stop.set_base(None);
-                    self.backend = BackendChoice::Sim(params.clone());
-                }
-                let backend =
-                    Ros2Backend::connect(&r, Ros2Config::for_sim(&params)).map_err(|error| {
-                        SessionError::BackendUnavailable {
-                            spec: spec.trim().to_string(),
-                            current: self.backend_name(),
-                            error,
-                        }
-                    })?;
-                self.stop.set_base(Some(backend.stop_handle().into()));
-                let reply = format!(
-                    "backend {}: {}; `run` drives it, Ctrl-C stops it",
-                    backend.name(),
-                    backend.describe()
-                );
-                self.backend = BackendChoice::Ros2 {
-                    backend: Box::new(backend),
-                    sim: params,
-                };
-                reply
-            }
+        let parsed = match self.backends.parse(spec) {
+            Ok(p) => p,
+            Err(e) => return Err(self.locate_spec(e, spec).into()),
         };
+        if !self.backend.is_simulator() {
+            self.stop.set_base(None);
+            self.backend = Box::new(SimBackend::new(self.sim.clone(), self.seed));
+        }
+        let with = Connect {
+            sim: &self.sim,
+            seed: self.seed,
+        };
+        let base = parsed
+            .connect(&with)
+            .map_err(|error| SessionError::BackendUnavailable {
+                spec: spec.trim().to_string(),
+                current: self.backend_name(),
+                error,
+            })?;
+        self.stop.set_base(base.remote_stop());
+        let reply = match base.describe() {
+            Some(what) => format!("backend {}: {what}", base.name()),
+            None => format!("backend {}", base.name()),
+        };
+        self.backend = base;
         // Journalled so a resume can say which base the session was on; a resume never connects.
         self.commit(Effect::Backend {
             spec: spec.trim().to_string(),
         })?;
         Ok(Reply::Message(reply))
+    }
+
+    /// An unknown backend pointed at where the statement names it (the grammar takes any word
+    /// after `backend`; the registry says what it is not).
+    fn locate_spec(&mut self, e: BackendSpecError, spec: &str) -> BackendSpecError {
+        let Some((text, origin)) = self.statement.clone() else {
+            return e;
+        };
+        let spec = spec.trim();
+        let Some(start) = text
+            .find("backend")
+            .map(|k| k + "backend".len())
+            .and_then(|k| text[k..].find(spec).map(|i| k + i))
+        else {
+            return e;
+        };
+        let id = self.sources.add(origin, text);
+        e.at(id.span(start, spec.len()))
     }
 }
 

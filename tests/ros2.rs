@@ -280,10 +280,9 @@ fn corrupt_odometry_stops_the_cyclone_robot_within_100_ms() {
 }
 
 fn connect(spec: &str) -> Result<Ros2Backend, BackendError> {
-    let BackendSpec::Ros2(spec) = spec.parse::<BackendSpec>().unwrap() else {
-        unreachable!()
-    };
-    Ros2Backend::connect(&spec, Ros2Config::for_sim(&SimParams::default()))
+    let spec = spec.parse::<BackendSpec>().unwrap();
+    let spec = spec.get::<advise::backend::ros2::Ros2Spec>().unwrap();
+    Ros2Backend::connect(spec, Ros2Config::for_sim(&SimParams::default()))
 }
 
 #[test]

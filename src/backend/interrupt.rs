@@ -11,36 +11,27 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 
-use super::rmp::driver::RmpStopHandle;
-use super::ros2::Ros2StopHandle;
 use super::{Backend, BackendError, BaseState};
 use crate::trace::Pose;
 
-/// A real base's driver-side stop, callable from any thread.
-#[derive(Clone, Debug)]
-pub enum BaseStop {
-    Rmp(RmpStopHandle),
-    Ros2(Ros2StopHandle),
-}
+/// A real base's driver-side stop, callable from any thread (the driver's own stop handle,
+/// wrapped by its [`Base::remote_stop`](super::Base::remote_stop)).
+#[derive(Clone)]
+pub struct BaseStop(Arc<dyn Fn() + Send + Sync>);
 
 impl BaseStop {
+    pub fn new(stop: impl Fn() + Send + Sync + 'static) -> BaseStop {
+        BaseStop(Arc::new(stop))
+    }
+
     pub fn stop(&self) {
-        match self {
-            BaseStop::Rmp(h) => h.stop(),
-            BaseStop::Ros2(h) => h.stop(),
-        }
+        (self.0)()
     }
 }
 
-impl From<RmpStopHandle> for BaseStop {
-    fn from(h: RmpStopHandle) -> BaseStop {
-        BaseStop::Rmp(h)
-    }
-}
-
-impl From<Ros2StopHandle> for BaseStop {
-    fn from(h: Ros2StopHandle) -> BaseStop {
-        BaseStop::Ros2(h)
+impl std::fmt::Debug for BaseStop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("BaseStop")
     }
 }
 

@@ -5,8 +5,8 @@
 //! [`Backend`](crate::backend::Backend) with the RMP's safety rules ([`driver`]), the simulator as
 //! a ROS 2 robot for rehearsals (`advise ros2-sim`, [`robot`]), and recording a person's
 //! teleoperation as a demonstration ([`teleop`]). It uses `ros2-client` (RustDDS), so no ROS
-//! installation is needed on either side. Parsing the user's spelling (`ros2:/robot1?...`) is
-//! [`spec`](crate::backend::spec)'s; task logic is the tasks'.
+//! installation is needed on either side. Reading the user's spelling (`ros2:/robot1?...`) and the
+//! registry's ROS 2 entry are [`spec`]'s; task logic is the tasks'.
 //!
 //! QoS: commands are published reliable (what a base's `cmd_vel` subscription accepts whether it
 //! asks for reliable or best-effort); odometry is read best-effort, which matches both reliable and
@@ -26,14 +26,15 @@ use serde::de::DeserializeOwned;
 
 use super::BackendError;
 use super::sim::SimParams;
-use super::spec::Ros2Spec;
 
 pub mod driver;
 pub mod msg;
 pub mod record;
 pub mod robot;
+pub mod spec;
 
 pub use driver::{Ros2Backend, Ros2StopHandle};
+pub use spec::{Ros2Kind, Ros2Spec};
 
 /// The driver's limits and timing, from the task's simulator parameters and the spec.
 #[derive(Clone, Debug, PartialEq)]

@@ -16,7 +16,9 @@
 //!    radii). The odometry pose therefore drifts from the true pose, mostly in heading, as the
 //!    paper reports for the real RMP. A base at rest reads exactly zero and does not drift.
 //!
-//! Everything is deterministic for a seed (ChaCha8). Task logic (goals, balls) is not here.
+//! Everything is deterministic for a seed (ChaCha8). Task logic (goals, balls) is not here. The
+//! registry's `sim` entry ([`SimKind`]) is here too: the session's default base, made afresh with
+//! each run's seed ([`Base::begin`]).
 
 use std::path::Path;
 
@@ -26,7 +28,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::backend::{Backend, BackendError, BaseState};
+use crate::backend::registry::BackendKind;
+use crate::backend::spec::{BackendSpecError, Connect, Spec};
+use crate::backend::{Backend, BackendError, Base, BaseState};
 use crate::diag::{Loc, SourceMap, Sourced, Src, locate};
 use crate::geometry::{Pose, integrate_arc, lag_fraction, limit_speed, wheel_speeds};
 
@@ -530,6 +534,67 @@ impl Backend for SimBackend {
 
     fn true_pose(&self) -> Option<Pose> {
         Some(self.base.true_pose())
+    }
+}
+
+/// The simulator as the session holds it: seeded afresh for each drive.
+impl Base for SimBackend {
+    fn stop_now(&mut self) -> String {
+        // `run` made it for one drive and the drive has ended: nothing moves.
+        "the simulated base is at rest".into()
+    }
+
+    fn is_simulator(&self) -> bool {
+        true
+    }
+
+    fn begin(&mut self, seed: u64) {
+        *self = SimBackend::new(self.base.params.clone(), seed);
+    }
+}
+
+/// The registry's `sim` kind: the in-process simulator.
+pub struct SimKind;
+
+impl BackendKind for SimKind {
+    fn name(&self) -> &'static str {
+        "sim"
+    }
+
+    fn syntax(&self) -> &'static str {
+        "sim"
+    }
+
+    fn about(&self) -> &'static str {
+        "the simulator"
+    }
+
+    fn claims(&self, spec: &str) -> bool {
+        spec == "sim"
+    }
+
+    fn parse(&self, _spec: &str) -> Result<Box<dyn Spec>, BackendSpecError> {
+        Ok(Box::new(SimSpec))
+    }
+}
+
+/// `sim`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SimSpec;
+
+impl std::fmt::Display for SimSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("sim")
+    }
+}
+
+impl Spec for SimSpec {
+    fn connect(&self, with: &Connect<'_>) -> Result<Box<dyn Base>, BackendError> {
+        Ok(Box::new(SimBackend::new(with.sim.clone(), with.seed)))
+    }
+
+    fn is_simulator(&self) -> bool {
+        true
     }
 }
 

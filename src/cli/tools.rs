@@ -3,8 +3,9 @@
 //! Each calls the library and prints what it returns.
 
 use crate::backend::rmp::config::FaultInjection;
-use crate::backend::rmp::{Emulator, EmulatorConfig, RmpConfig};
-use crate::backend::{BackendSpec, StopSignal};
+use crate::backend::rmp::{Emulator, EmulatorConfig};
+use crate::backend::ros2::Ros2Spec;
+use crate::backend::{BackendSpec, Connect, StopSignal};
 use crate::eval::{self, EvalOptions, EvalPolicy};
 use crate::experiment::study;
 use crate::task::TaskKind;
@@ -75,7 +76,7 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
     };
     let limit = args.limit.map(|n| n as usize);
     let report = match args.policy {
-        EvalPolicy::Teacher if backend != BackendSpec::Sim => {
+        EvalPolicy::Teacher if !backend.is_simulator() => {
             let period = opts.params.period_s();
             eval_on_base(kind.clone(), backend.clone(), &opts, limit, || {
                 kind.teacher(period)
@@ -91,7 +92,7 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
             let demos = crate::policy::dataset::load_demonstrations(&mut files, &domain, path)
                 .map_err(|e| files.attach(e))?;
             let policy = eval::derive_policy(learner, &domain, &demos.episodes)?;
-            if backend == BackendSpec::Sim {
+            if backend.is_simulator() {
                 eval::evaluate(kind.clone(), policy.as_ref(), &opts)
             } else {
                 let p: &dyn crate::policy::Policy = policy.as_ref();
@@ -99,9 +100,9 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
             }
         }
     };
-    let report = match (backend, limit) {
+    let report = match (backend.is_simulator(), limit) {
         // The simulator runs the whole test set in parallel; `--limit` keeps the first episodes.
-        (BackendSpec::Sim, Some(n)) if n < report.episodes => {
+        (true, Some(n)) if n < report.episodes => {
             let outcomes = report.outcomes.into_iter().take(n).collect();
             eval::Report::from_outcomes(kind, args.seed, outcomes)
         }
@@ -192,8 +193,10 @@ where
     C: eval::ControllerBox,
     F: Fn() -> C,
 {
-    let rmp = RmpConfig::for_sim(&opts.params);
-    let mut base = spec.open(&opts.params, opts.seed, &rmp)?;
+    let mut base = spec.connect(&Connect {
+        sim: &opts.params,
+        seed: opts.seed,
+    })?;
     let signal = StopSignal::new();
     let mut guarded = crate::backend::Interruptible::new(base.as_mut(), signal.clone());
     crate::repl::install_ctrl_c(&signal);
@@ -329,7 +332,8 @@ pub fn export(args: super::ExportArgs) -> miette::Result<()> {
 /// `advise ros2-sim`: run the simulator as a ROS 2 robot until Ctrl-C.
 pub fn ros2_sim(args: Ros2SimArgs) -> miette::Result<()> {
     let params = sim_params(args.sim_params.as_deref())?;
-    let BackendSpec::Ros2(spec) = format!("ros2:{}", args.namespace).parse::<BackendSpec>()? else {
+    let parsed = format!("ros2:{}", args.namespace).parse::<BackendSpec>()?;
+    let Some(spec) = parsed.get::<Ros2Spec>().cloned() else {
         return Err(miette::miette!(
             code = "advise::cli::ros2_namespace",
             "`{}` is not a ROS 2 namespace",
@@ -355,8 +359,7 @@ pub fn ros2_sim(args: Ros2SimArgs) -> miette::Result<()> {
         |cmd, odom, domain| {
             eprintln!(
                 "ros2-sim: commands on {cmd}, odometry on {odom} at 50 Hz, domain {domain}; a command is held for {} s; drive it with `--backend {}`; Ctrl-C stops it",
-                args.command_timeout,
-                BackendSpec::Ros2(spec.clone())
+                args.command_timeout, spec
             )
         },
     )?;

@@ -12,6 +12,25 @@ pub fn closest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) ->
         .map(|(_, c)| c)
 }
 
+/// [`closest`] for short names (a backend's `sim`, `rmp`): Jaro-Winkler's match window is empty
+/// for three letters, so a swap of neighbours (`smi`) finds nothing there; a candidate one edit
+/// away (a swap counts as one) is then what was meant.
+pub fn closest_short<'a>(
+    name: &str,
+    candidates: impl IntoIterator<Item = &'a str>,
+) -> Option<&'a str> {
+    let candidates: Vec<&'a str> = candidates.into_iter().collect();
+    closest(name, candidates.iter().copied()).or_else(|| {
+        candidates
+            .iter()
+            .copied()
+            .map(|c| (strsim::osa_distance(name, c), c))
+            .filter(|(d, _)| *d <= 1)
+            .min_by_key(|(d, _)| *d)
+            .map(|(_, c)| c)
+    })
+}
+
 /// The help text "did you mean `k`?" for the closest candidate, if any is close enough.
 pub fn did_you_mean<S: AsRef<str>>(
     name: &str,
@@ -64,5 +83,8 @@ mod tests {
             "the operators are: `speed_up`, `slow_down`, `turn_left`"
         );
         assert_eq!(hint("xyz", "operators", &[]), "there are no operators");
+        assert_eq!(closest("smi", ["sim", "rmp"]), None);
+        assert_eq!(closest_short("smi", ["sim", "rmp"]), Some("sim"));
+        assert_eq!(closest_short("xyz", ["sim", "rmp"]), None);
     }
 }

@@ -3,8 +3,7 @@
 use std::time::Instant;
 
 use super::effect::Effect;
-use super::{BackendChoice, Evaluated, Reply, Session, SessionError};
-use crate::backend::Backend;
+use super::{Evaluated, Reply, Session, SessionError};
 use crate::diag::did_you_mean;
 use crate::eval;
 use crate::eval::EvalOptions;
@@ -40,11 +39,7 @@ impl Session {
         };
         let report = eval::evaluate(self.task.clone(), self.state.learner.policy(), &opts);
         // The whole test set on a robot takes minutes and needs room: not from the prompt.
-        let robot = match &self.backend {
-            BackendChoice::Sim(_) => None,
-            BackendChoice::Rmp { backend, .. } => Some(backend.name().to_string()),
-            BackendChoice::Ros2 { backend, .. } => Some(backend.name().to_string()),
-        };
+        let robot = (!self.backend.is_simulator()).then(|| self.backend.name());
         let before = self.state.last_eval.clone().map(Box::new);
         // Kept (and journalled) so the next `eval` can say what changed, after a resume too.
         self.commit(Effect::Evaluated {

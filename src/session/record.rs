@@ -5,12 +5,11 @@
 
 use super::effect::{DemoEpisode, Effect};
 use super::text::short_num;
-use super::{BackendChoice, Session, SessionError};
+use super::{Session, SessionError};
 use std::io::IsTerminal;
 
-use crate::backend::Backend;
+use crate::backend::ros2::Ros2Backend;
 use crate::backend::ros2::record::{Ended, RecordOptions, record_teleop};
-use crate::backend::sim::SimBackend;
 use crate::backend::teleop::{DriveEnd, KEYS_HELP, Key, KeySource, Teleop, TerminalKeys, drive};
 use crate::geometry::Pose;
 use crate::task::TaskKind;
@@ -30,7 +29,7 @@ impl Session {
         seconds: Option<f64>,
     ) -> Result<String, SessionError> {
         self.check_recordable(goal.is_some())?;
-        let BackendChoice::Ros2 { backend, .. } = &self.backend else {
+        let Some(backend) = self.backend.downcast_ref::<Ros2Backend>() else {
             return Err(SessionError::RecordNeedsRos2 {
                 backend: self.backend_name(),
             });
@@ -118,17 +117,11 @@ impl Session {
         };
         self.stop.clear();
         let seed = episode_seed(self.seed, 2_000_000 + self.state.runs);
-        let mut sim;
-        let (base, real_time): (&mut dyn Backend, bool) = match &mut self.backend {
-            BackendChoice::Sim(_) => {
-                sim = SimBackend::new(params, seed);
-                (&mut sim, true)
-            }
-            BackendChoice::Rmp { backend, .. } => (backend.as_mut(), false),
-            BackendChoice::Ros2 { backend, .. } => (backend.as_mut(), false),
-        };
+        // The simulator starts afresh and is paced here; a robot paces itself.
+        self.backend.begin(seed);
+        let real_time = self.backend.is_simulator();
         let drive = drive(
-            base,
+            self.backend.as_mut(),
             &mut keys,
             &mut teleop,
             &self.stop,

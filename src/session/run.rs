@@ -6,9 +6,9 @@ use std::path::Path;
 
 use super::effect::{Effect, ExecutionEntry, RunEntry};
 use super::text::{outcome_line, short_num, worth_a_look};
-use super::{BackendChoice, MAX_GOAL_M, Ran, Recorded, Reply, Session, SessionError, plot};
-use crate::backend::sim::{SimBackend, SimParams};
-use crate::backend::{Backend, Interruptible};
+use super::{MAX_GOAL_M, Ran, Recorded, Reply, Session, SessionError, plot};
+use crate::backend::Interruptible;
+use crate::backend::sim::SimParams;
 use crate::syntax::command::PlotKind;
 use crate::task;
 use crate::task::{Start, TaskKind, episode_seed};
@@ -16,11 +16,7 @@ use crate::trace::Pose;
 
 impl Session {
     pub(super) fn sim_params(&self) -> SimParams {
-        match &self.backend {
-            BackendChoice::Sim(p)
-            | BackendChoice::Rmp { sim: p, .. }
-            | BackendChoice::Ros2 { sim: p, .. } => p.clone(),
-        }
+        self.sim.clone()
     }
 
     pub(super) fn run_goal(&mut self, x: f64, y: f64, theta: f64) -> Result<Reply, SessionError> {
@@ -59,20 +55,11 @@ impl Session {
         self.state.learner.ensure_derived();
         let number = self.state.runs;
         let seed = episode_seed(self.seed, 1_000_000 + number);
-        let params = self.sim_params();
-        // One control loop for every base: the simulator is made fresh per run (as `run_sim`
-        // does), a real base is the connected one. Ctrl-C reaches the loop through `stop`.
-        let mut sim;
-        let base: &mut dyn Backend = match &mut self.backend {
-            BackendChoice::Sim(_) => {
-                sim = SimBackend::new(params, seed);
-                &mut sim
-            }
-            BackendChoice::Rmp { backend, .. } => backend.as_mut(),
-            BackendChoice::Ros2 { backend, .. } => backend.as_mut(),
-        };
+        // One control loop for every base: the simulator starts afresh from the run's seed (as
+        // `run_sim` does), a robot is the connected one. Ctrl-C reaches the loop through `stop`.
+        self.backend.begin(seed);
         self.stop.clear();
-        let mut guarded = Interruptible::new(base, self.stop.clone());
+        let mut guarded = Interruptible::new(self.backend.as_mut(), self.stop.clone());
         let result = {
             let mut controller = self.state.learner.policy();
             let mut task = start.task();

@@ -21,7 +21,7 @@ use super::codec::{
     ModeRequest, OpState, Platform, WordOrder, gp, word,
 };
 use super::config::{DriveMode, MachineConfig, RmpConfig};
-use crate::backend::{Backend, BackendError, BaseState};
+use crate::backend::{Backend, BackendError, Base, BaseState, BaseStop};
 use crate::geometry::{Pose, rezero};
 
 /// How often the watchdog looks, and how often it repeats zero + DTZ while stopping (UDP may lose
@@ -892,6 +892,33 @@ impl Backend for RmpBackend {
     fn stop(&mut self) -> Result<(), BackendError> {
         self.link.begin_stop(StopReason::Requested);
         self.wait_for_rest()
+    }
+}
+
+/// What the session holds: the platform and feedback said on connecting, the Ctrl-C stop from
+/// any thread.
+impl Base for RmpBackend {
+    fn describe(&self) -> Option<String> {
+        let platform = self.platform().name();
+        let order = self.status().map_or("unknown", |s| s.order.name());
+        Some(format!(
+            "an {platform} in standby ({order} feedback); `run` drives it in tractor mode, Ctrl-C stops it"
+        ))
+    }
+
+    fn remote_stop(&self) -> Option<BaseStop> {
+        let handle = self.stop_handle();
+        Some(BaseStop::new(move || handle.stop()))
+    }
+
+    fn stop_now(&mut self) -> String {
+        match self.stop() {
+            Ok(()) => format!("{} stopped (decelerate-to-zero)", self.name()),
+            Err(e) => format!(
+                "{} was told to stop (zero and decelerate-to-zero) but did not confirm it: {e}",
+                self.name()
+            ),
+        }
     }
 }
 

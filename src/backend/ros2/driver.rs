@@ -21,9 +21,9 @@ use super::msg::{
     Header, ODOMETRY_TYPE, Odometry, TWIST_STAMPED_TYPE, TWIST_TYPE, Time, Twist, TwistStamped,
     dds_type_name,
 };
+use super::spec::Ros2Spec;
 use super::{Endpoint, Ros2Config, Ros2Node, command_qos, odometry_qos};
-use crate::backend::spec::Ros2Spec;
-use crate::backend::{Backend, BackendError, BaseState};
+use crate::backend::{Backend, BackendError, Base, BaseState, BaseStop};
 use crate::trace::Pose;
 
 /// How often the reader looks for odometry and the watchdog for a silent session.
@@ -543,7 +543,7 @@ impl Ros2Backend {
     }
 
     /// One line for the user: topics, domain and frames.
-    pub fn describe(&self) -> String {
+    pub fn topics(&self) -> String {
         format!(
             "{} commands on {}, odometry from {} (frame {}, child {}), domain {}",
             self.command_type.1,
@@ -627,7 +627,7 @@ impl Ros2Backend {
 
 impl Backend for Ros2Backend {
     fn name(&self) -> String {
-        crate::backend::BackendSpec::Ros2(self.spec.clone()).to_string()
+        self.spec.to_string()
     }
 
     fn period_s(&self) -> f64 {
@@ -718,6 +718,28 @@ impl Backend for Ros2Backend {
         self.link.zero_now();
         std::thread::sleep(Duration::from_secs_f64(self.config.stop_repeat_s));
         Ok(())
+    }
+}
+
+/// What the session holds: the topics said on connecting, the Ctrl-C stop from any thread.
+impl Base for Ros2Backend {
+    fn describe(&self) -> Option<String> {
+        Some(format!(
+            "{}; `run` drives it, Ctrl-C stops it",
+            self.topics()
+        ))
+    }
+
+    fn remote_stop(&self) -> Option<BaseStop> {
+        let handle = self.stop_handle();
+        Some(BaseStop::new(move || handle.stop()))
+    }
+
+    fn stop_now(&mut self) -> String {
+        match self.stop() {
+            Ok(()) => format!("{} stopped (zero commanded for half a second)", self.name()),
+            Err(e) => format!("{} was told to stop but: {e}", self.name()),
+        }
     }
 }
 

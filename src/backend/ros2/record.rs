@@ -15,8 +15,8 @@ use ros2_client::Subscription;
 
 use super::driver::OdomSample;
 use super::msg::{ODOMETRY_TYPE, Odometry, TWIST_TYPE, Twist};
+use super::spec::Ros2Spec;
 use super::{Ros2Node, command_qos, odometry_qos};
-use crate::backend::spec::Ros2Spec;
 use crate::backend::{BackendError, StopSignal};
 use crate::geometry::{Pose, relative_pose};
 

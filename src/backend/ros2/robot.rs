@@ -12,11 +12,11 @@
 use std::time::{Duration, Instant};
 
 use super::msg::{ODOMETRY_TYPE, Odometry, TWIST_TYPE, Time, Twist};
+use super::spec::Ros2Spec;
 use super::{Ros2Node, odometry_publisher_qos, odometry_qos};
 use crate::backend::BackendError;
 use crate::backend::interrupt::StopSignal;
 use crate::backend::sim::{SimBase, SimParams};
-use crate::backend::spec::Ros2Spec;
 use crate::trace::Pose;
 
 /// The odometry rate, Hz.
