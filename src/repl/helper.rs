@@ -253,11 +253,10 @@ fn expect_arg(arg: &Arg, facts: &Facts, out: &mut Expect) {
     }
 }
 
-/// The beginnings of the backend spellings `backend` completes, as `BackendSpec`'s parser
-/// (src/backend/spec.rs) reads them. The one place the completer knows backends: the backend
-/// registry answers these once it lands.
+/// The beginnings of the backend spellings `backend` completes: the backend registry's words
+/// (`crate::backend::registry`), the one place that knows the backends.
 fn backend_words() -> Vec<String> {
-    ["sim", "rmp:", "ros2"].map(String::from).to_vec()
+    crate::backend::registry::completions("")
 }
 
 /// Every line is handed on as typed: the REPL asks for the rest of an unfinished statement under
@@ -305,8 +304,8 @@ mod tests {
     fn completes_sub_words_arguments_and_options() {
         let h = helper();
         let words = |line: &str| h.candidates(line, line.len()).1;
-        assert_eq!(words("backend "), vec!["rmp:", "ros2", "sim"]);
-        assert_eq!(words("backend r"), vec!["rmp:", "ros2"]);
+        assert_eq!(words("backend "), vec!["rmp:", "ros2", "ros2:", "sim"]);
+        assert_eq!(words("backend r"), vec!["rmp:", "ros2", "ros2:"]);
         assert_eq!(words("export "), vec!["advice", "lerobot", "mcap"]);
         assert_eq!(words("export m"), vec!["mcap"]);
         for line in [
@@ -410,7 +409,7 @@ mod tests {
         let (start, words) = tab("plot ");
         assert_eq!(start, 5);
         assert!(words.iter().any(|w| w == "actions") && words.iter().any(|w| w == "compare"));
-        assert_eq!(tab("backend ").1, vec!["rmp:", "ros2", "sim"]);
+        assert_eq!(tab("backend ").1, vec!["rmp:", "ros2", "ros2:", "sim"]);
     }
 
     #[test]
