@@ -355,7 +355,7 @@ pub(super) fn expected_words(positives: &[Rule]) -> Vec<String> {
             Rule::EOI => "the end of the input",
             Rule::uint | Rule::range => "a whole number such as `40..70`",
             Rule::path | Rule::bare_path | Rule::quoted_path => "a file path",
-            Rule::backend_spec => "`sim` or `rmp:HOST:PORT`",
+            Rule::backend_spec => "a backend such as `sim`, `rmp:HOST:PORT` or `ros2`",
             Rule::inv_body => "an operator such as `speed_up(0.5)`",
             Rule::dotdot => "`..`",
             r if format!("{r:?}").starts_with("cw_") => {
