@@ -242,8 +242,6 @@ fn diag(d: &dyn Diagnostic, id: SourceId, len: usize, shift: usize, warning: boo
     }
 }
 
-/// `offset` clamped to the text and moved back to a character boundary: the public functions
-
 /// What the cursor is on, found from the syntax tree's spans.
 #[derive(Clone, Copy, Debug)]
 enum Node<'f> {
@@ -869,10 +867,6 @@ pub enum Target {
         range: Range<usize>,
     },
 }
-
-/// Go to definition: the operator, domain or dimension named at `offset`, in the document or
-/// the standard library (inside an operator, of its domain: `speed_up` in an interception
-/// operator is interception's); a parameter to its declaration.
 
 impl Analysis {
     /// Go to definition: the operator, domain or dimension named at `offset`, in the document or
