@@ -435,7 +435,12 @@ impl Server {
             Editing::Text(text) => {
                 self.analysed += 1;
                 let name = uri.strip_prefix("file://").unwrap_or(uri);
-                Held::Analysed(Box::new(analysis::Analysis::new(name, text)))
+                // A bug in the checker must cost this version's answers, not the server: the
+                // text is kept, unanalysed, for the next change to apply to.
+                let kept = text.clone();
+                let a = catch_unwind(AssertUnwindSafe(|| analysis::Analysis::new(name, text)))
+                    .unwrap_or_else(|_| analysis::Analysis::unanalysed(kept));
+                Held::Analysed(Box::new(a))
             }
         };
         Doc { version, state }

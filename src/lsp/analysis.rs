@@ -2,8 +2,8 @@
 //! diagnostics, hover, completion, definitions and symbols.
 //!
 //! An [`Analysis`] is built once per version of a text (the server builds one on each open and
-//! change): the text's [`LineIndex`], its syntax tree, its operators checked on top of the
-//! standard ones and its diagnostics. Every request after that reads it: hover and definition
+//! change): the text's [`LineIndex`], its operators checked on top of the standard ones, its
+//! diagnostics, and its syntax tree (parsed at the first request that needs it). Every request after that reads it: hover and definition
 //! find the node under the cursor from the tree's spans ([`Node`]) and resolve its name in the
 //! checked set, so no request parses or checks the document again (completion on a line being
 //! typed, when the document does not parse, parses it once more with that line blanked).
@@ -34,8 +34,9 @@ pub struct Analysis {
     lines: LineIndex,
     /// A session script rather than an operator file ([`is_script`]).
     script: bool,
-    /// The syntax tree of an operator file that parses.
-    file: Option<File>,
+    /// The syntax tree of an operator file that parses: parsed at the first request that needs
+    /// it (the checker parses on its own, so a change that no request follows costs one check).
+    file: OnceLock<Option<File>>,
     /// The standard operators with the document's own: an operator file's when it checks (the
     /// standard set alone when it does not), a script's definitions that check, in order.
     set: OperatorSet,
@@ -52,7 +53,7 @@ impl Analysis {
                 text,
                 lines,
                 script: true,
-                file: None,
+                file: OnceLock::from(None),
                 set,
                 diagnostics,
             };
@@ -76,15 +77,32 @@ impl Analysis {
                 (OperatorSet::standard(), d)
             }
         };
-        let file = parsed(&text);
         Analysis {
             text,
             lines,
             script: false,
-            file,
+            file: OnceLock::new(),
             set,
             diagnostics,
         }
+    }
+
+    /// `text` held without its analysis (when analysing it failed): no tree, no diagnostics, the
+    /// standard operators.
+    pub(super) fn unanalysed(text: String) -> Analysis {
+        Analysis {
+            lines: LineIndex::new(&text),
+            text,
+            script: false,
+            file: OnceLock::from(None),
+            set: OperatorSet::standard(),
+            diagnostics: Vec::new(),
+        }
+    }
+
+    /// The syntax tree, when the document is an operator file that parses.
+    fn file(&self) -> Option<&File> {
+        self.file.get_or_init(|| parsed(&self.text)).as_ref()
     }
 
     pub fn text(&self) -> &str {
@@ -108,7 +126,7 @@ impl Analysis {
     /// The node under `offset` (clamped to a character boundary), when the document parses.
     fn node(&self, offset: usize) -> Option<Node<'_>> {
         let offset = floor(&self.text, offset);
-        node_at(self.file.as_ref()?, offset)
+        node_at(self.file()?, offset)
     }
 }
 
@@ -488,7 +506,7 @@ impl Analysis {
     pub fn hover(&self, offset: usize) -> Option<(Range<usize>, String)> {
         let Some(node) = self.node(offset) else {
             // No tree: a name of an operator or a domain, as the text has it.
-            if self.file.is_some() {
+            if self.file().is_some() {
                 return None;
             }
             let (word, range) = word_at(&self.text, offset)?;
@@ -695,7 +713,7 @@ impl Analysis {
         let set = &self.set;
         // A line being typed need not parse: the operator around it still counts.
         let typing;
-        let file = match &self.file {
+        let file = match self.file() {
             Some(f) => Some(f),
             None => {
                 typing = parsed(&without_line(text, offset));
@@ -876,7 +894,7 @@ impl Analysis {
     pub fn definition(&self, offset: usize) -> Option<Target> {
         let here = |s: Span| Some(Target::Here(s.start..s.end));
         let (word, domain): (&str, Option<&str>) = match self.node(offset) {
-            None if self.file.is_none() => (word_at(&self.text, offset)?.0, None),
+            None if self.file().is_none() => (word_at(&self.text, offset)?.0, None),
             None | Some(Node::Func(_)) => return None,
             Some(Node::ParamName(_, p)) => return here(p.name.span),
             Some(Node::DomainName(d)) => return here(d.name.span),
@@ -905,7 +923,7 @@ impl Analysis {
 
     /// The first range `find` gives in the document, then in the standard files.
     fn locate(&self, find: impl Fn(&[Item]) -> Option<Range<usize>>) -> Option<Target> {
-        if let Some(range) = self.file.as_ref().and_then(|f| find(&f.items)) {
+        if let Some(range) = self.file().and_then(|f| find(&f.items)) {
             return Some(Target::Here(range));
         }
         standard_files().iter().find_map(|(file, parsed)| {
@@ -915,7 +933,7 @@ impl Analysis {
 
     /// The document's symbols (none when it does not parse).
     pub fn symbols(&self) -> Vec<Symbol> {
-        self.file.as_ref().map_or_else(Vec::new, file_symbols)
+        self.file().map_or_else(Vec::new, file_symbols)
     }
 }
 
