@@ -872,6 +872,7 @@ mod tests {
             serde_json::json!({"textDocument": {"uri": uri, "languageId": "advise", "version": 1, "text": WIDE}}),
         ));
         assert_eq!(server.analysed, 1);
+        let before = analysis::work_on_this_thread();
         let n = server.diagnostics(uri);
         let p: PublishDiagnosticsParams = serde_json::from_value(n.params).unwrap();
         assert!(p.diagnostics.is_empty(), "{:?}", p.diagnostics);
@@ -910,6 +911,13 @@ mod tests {
             let _ = hover_at(&server, uri, Position::new(i % 7, i));
         }
         assert_eq!(server.analysed, 1, "a hover must not analyse the document");
+        let (checks, parses) = analysis::work_on_this_thread();
+        assert_eq!(checks, before.0, "no hover checks the document again");
+        assert_eq!(
+            parses,
+            before.1 + 1,
+            "the first hover parses the tree, the others keep it"
+        );
         server.notify(Notification::new(
             DidChangeTextDocument::METHOD.into(),
             serde_json::json!({"textDocument": {"uri": uri, "version": 2}, "contentChanges": [{"text": WIDE.replace("gain * d", "gain")}]}),

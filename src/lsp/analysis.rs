@@ -43,9 +43,28 @@ pub struct Analysis {
     diagnostics: Vec<Diag>,
 }
 
+thread_local! {
+    /// How many documents this thread checked and parsed ([`work_on_this_thread`]).
+    static WORK: std::cell::Cell<(usize, usize)> = const { std::cell::Cell::new((0, 0)) };
+}
+
+/// How many times this thread checked a document ([`Analysis::new`]) and parsed one (its tree,
+/// or a line being typed blanked): what a test counts to show requests reuse an analysis.
+pub fn work_on_this_thread() -> (usize, usize) {
+    WORK.with(|w| w.get())
+}
+
+fn count(checks: usize, parses: usize) {
+    WORK.with(|w| {
+        let (c, p) = w.get();
+        w.set((c + checks, p + parses));
+    });
+}
+
 impl Analysis {
     /// Parse and check `text` (its diagnostics name it `name`).
     pub fn new(name: &str, text: String) -> Analysis {
+        count(1, 0);
         let lines = LineIndex::new(&text);
         if is_script(&text) {
             let (diagnostics, set) = script_diagnostics(&text);
@@ -452,6 +471,7 @@ fn word_at(text: &str, offset: usize) -> Option<(&str, Range<usize>)> {
 
 /// The parsed document, when it parses.
 fn parsed(text: &str) -> Option<File> {
+    count(0, 1);
     let (map, id) = SourceMap::single("document", text);
     crate::syntax::parse(map.src(id)).ok()
 }
