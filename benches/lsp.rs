@@ -2,7 +2,10 @@
 //! tenth with a doc comment, every tenth a composition; one misspelt dimension so there is a
 //! diagnostic to publish) re-checked on top of the standard library and converted to protocol
 //! diagnostics, as `advise lsp` does on each `didChange`. Target: well under 100 ms. Also the
-//! completion list inside the last operator, which re-checks the document too.
+//! completion list inside the last operator and a hover on a dimension there, each asked of the
+//! document's analysis as the server keeps it (built once per version, not per request), and the
+//! same hover with the document analysed for it (`hover_1000_operators_cold`, what every hover
+//! cost before the server kept its analyses).
 
 use std::hint::black_box;
 
@@ -42,9 +45,18 @@ fn bench(c: &mut Criterion) {
     g.bench_function("diagnostics_1000_operators", |b| {
         b.iter(|| black_box(publish("file:///bench/many.adv", black_box(&text)).len()))
     });
+    let kept = analysis::Analysis::new("many.adv", text.clone());
     let at = text.rfind("rott").unwrap();
     g.bench_function("completion_1000_operators", |b| {
-        b.iter(|| black_box(analysis::completion(black_box(&text), at).len()))
+        b.iter(|| black_box(kept.completion(black_box(at)).len()))
+    });
+    let hover_at = text.rfind("trans *= 1.01").unwrap() + 1;
+    assert!(kept.hover(hover_at).is_some());
+    g.bench_function("hover_1000_operators", |b| {
+        b.iter(|| black_box(kept.hover(black_box(hover_at)).is_some()))
+    });
+    g.bench_function("hover_1000_operators_cold", |b| {
+        b.iter(|| black_box(analysis::hover(black_box(&text), hover_at).is_some()))
     });
     g.finish();
 }

@@ -10,14 +10,17 @@
 //! [`render`] draws any diagnostic against a map, showing only a bounded window of each source
 //! ([`render::Bounded`]); [`suggest`] is the one home of "did you mean"; [`locate`] turns the
 //! positions other parsers report (serde's line and column, a CSV row, a JSON member) into byte
-//! ranges. This module sits under every phase: it defines no errors and imports nothing of the
+//! ranges; [`lines`] is the one line index (byte offsets to lines and UTF-8, UTF-16 or character
+//! columns and back) that diagnostics, the formatter and the language server share. This module sits under every phase: it defines no errors and imports nothing of the
 //! crate.
 
+pub mod lines;
 pub mod locate;
 pub mod map;
 pub mod render;
 pub mod suggest;
 
+pub use lines::{Encoding, LineCol, LineIndex};
 pub use map::{Loc, SourceId, SourceMap, Sourced, Src};
 pub use render::{SIDE_BYTES, render, render_with_width};
 pub use suggest::{closest, did_you_mean, hint};

@@ -5,24 +5,20 @@
 
 use std::ops::Range;
 
+use super::lines::{self, LineIndex};
+
 /// The character at a (1-based) line and column of `text`, as serde_json reports positions
 /// (columns in bytes). The range covers one whole character; past the text, it is empty at the
 /// end.
 pub fn line_col(text: &str, line: usize, column: usize) -> Range<usize> {
-    let mut offset = 0;
-    for (i, l) in text.split_inclusive('\n').enumerate() {
-        if i + 1 == line {
-            // Step back to a character boundary and cover one whole character.
-            let mut col = column.saturating_sub(1).min(l.len());
-            while !l.is_char_boundary(col) {
-                col -= 1;
-            }
-            let width = l[col..].chars().next().map_or(0, char::len_utf8);
-            return offset + col..offset + col + width;
-        }
-        offset += l.len();
-    }
-    text.len()..text.len()
+    let lines = LineIndex::new(text);
+    let Some(span) = line.checked_sub(1).and_then(|l| lines.line_span(l)) else {
+        return text.len()..text.len();
+    };
+    // Back to a character boundary, and cover one whole character.
+    let at = lines::floor(text, (span.start + column.saturating_sub(1)).min(span.end));
+    let width = text[at..span.end].chars().next().map_or(0, char::len_utf8);
+    at..at + width
 }
 
 /// The line of `text` that starts at byte `start`, without its line ending.

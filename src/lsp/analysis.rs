@@ -1,19 +1,180 @@
-//! What the language server knows about one document, in byte offsets: diagnostics, hover,
-//! completion, definitions and symbols. Pure functions of the text, so each is tested without a
-//! client; [`super`] converts to and from the protocol's positions.
+//! What the language server knows about one version of a document, in byte offsets:
+//! diagnostics, hover, completion, definitions and symbols.
+//!
+//! An [`Analysis`] is built once per version of a text (the server builds one on each open and
+//! change): the text's [`LineIndex`], its operators checked on top of the standard ones, its
+//! diagnostics, and its syntax tree (parsed at the first request that needs it). Every request after that reads it: hover and definition
+//! find the node under the cursor from the tree's spans ([`Node`]) and resolve its name in the
+//! checked set, so no request parses or checks the document again (completion on a line being
+//! typed, when the document does not parse, parses it once more with that line blanked).
+//! [`super`] converts to and from the protocol's positions. The free functions ([`hover`],
+//! [`completion`], ...) analyse a text and answer one question, for tests and benches.
 
 use std::ops::Range;
+use std::sync::OnceLock;
 
 use miette::Diagnostic;
 
 use crate::check::{self, Checked, OperatorSet};
-use crate::diag::{SourceId, SourceMap};
+use crate::diag::lines::floor;
+use crate::diag::{LineIndex, SourceId, SourceMap};
 use crate::domain::Space;
 use crate::program::Operator;
 use crate::program::ir::Func;
-use crate::syntax::ast::{File, Item, OperatorDecl};
+use crate::syntax::ast::{
+    Body, Call, Clause, DimDecl, DimMeaning, DomainDecl, Expr, ExprKind, File, Ident, Item,
+    OperatorDecl, ParamDecl, Span,
+};
 use crate::syntax::command::{self, COMMANDS};
 
+/// One version of a document, analysed once (see the module docs).
+#[derive(Clone, Debug)]
+pub struct Analysis {
+    text: String,
+    lines: LineIndex,
+    /// A session script rather than an operator file ([`is_script`]).
+    script: bool,
+    /// The syntax tree of an operator file that parses: parsed at the first request that needs
+    /// it (the checker parses on its own, so a change that no request follows costs one check).
+    file: OnceLock<Option<File>>,
+    /// The standard operators with the document's own: an operator file's when it checks (the
+    /// standard set alone when it does not), a script's definitions that check, in order.
+    set: OperatorSet,
+    diagnostics: Vec<Diag>,
+}
+
+thread_local! {
+    /// How many documents this thread checked and parsed ([`work_on_this_thread`]).
+    static WORK: std::cell::Cell<(usize, usize)> = const { std::cell::Cell::new((0, 0)) };
+}
+
+/// How many times this thread checked a document ([`Analysis::new`]) and parsed one (its tree,
+/// or a line being typed blanked): what a test counts to show requests reuse an analysis.
+pub fn work_on_this_thread() -> (usize, usize) {
+    WORK.with(|w| w.get())
+}
+
+fn count(checks: usize, parses: usize) {
+    WORK.with(|w| {
+        let (c, p) = w.get();
+        w.set((c + checks, p + parses));
+    });
+}
+
+impl Analysis {
+    /// Parse and check `text` (its diagnostics name it `name`).
+    pub fn new(name: &str, text: String) -> Analysis {
+        count(1, 0);
+        let lines = LineIndex::new(&text);
+        if is_script(&text) {
+            let (diagnostics, set) = script_diagnostics(&text);
+            return Analysis {
+                text,
+                lines,
+                script: true,
+                file: OnceLock::from(None),
+                set,
+                diagnostics,
+            };
+        }
+        let mut map = SourceMap::new();
+        let id = map.add(name, text.as_str());
+        let (set, diagnostics) = match OperatorSet::standard().merge_in(&map, &[id]) {
+            Ok(Checked { set, warnings }) => {
+                let d = warnings
+                    .iter()
+                    .map(|w| diag(w, id, text.len(), 0, true))
+                    .collect();
+                (set, d)
+            }
+            Err(errors) => {
+                let d = errors
+                    .errors
+                    .iter()
+                    .map(|e| diag(e, id, text.len(), 0, false))
+                    .collect();
+                (OperatorSet::standard(), d)
+            }
+        };
+        Analysis {
+            text,
+            lines,
+            script: false,
+            file: OnceLock::new(),
+            set,
+            diagnostics,
+        }
+    }
+
+    /// `text` held without its analysis (when analysing it failed): no tree, no diagnostics, the
+    /// standard operators.
+    pub(super) fn unanalysed(text: String) -> Analysis {
+        Analysis {
+            lines: LineIndex::new(&text),
+            text,
+            script: false,
+            file: OnceLock::from(None),
+            set: OperatorSet::standard(),
+            diagnostics: Vec::new(),
+        }
+    }
+
+    /// The syntax tree, when the document is an operator file that parses.
+    fn file(&self) -> Option<&File> {
+        self.file.get_or_init(|| parsed(&self.text)).as_ref()
+    }
+
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// The text back, to edit it (the analysis is of the text as it was).
+    pub fn into_text(self) -> String {
+        self.text
+    }
+
+    pub fn lines(&self) -> &LineIndex {
+        &self.lines
+    }
+
+    /// The errors and warnings `advise check FILE` reports (a script's: its bad lines).
+    pub fn diagnostics(&self) -> &[Diag] {
+        &self.diagnostics
+    }
+
+    /// The node under `offset` (clamped to a character boundary), when the document parses.
+    fn node(&self, offset: usize) -> Option<Node<'_>> {
+        let offset = floor(&self.text, offset);
+        node_at(self.file()?, offset)
+    }
+}
+
+/// The document's diagnostics: an operator file checked on top of the standard operators (the
+/// errors and warnings `advise check FILE` reports), or a session script's lines that are not
+/// statements.
+pub fn diagnostics(name: &str, text: &str) -> Vec<Diag> {
+    Analysis::new(name, text.to_string()).diagnostics
+}
+
+/// Hover at `offset` of `text`, analysed for this one question.
+pub fn hover(text: &str, offset: usize) -> Option<(Range<usize>, String)> {
+    Analysis::new("document", text.to_string()).hover(offset)
+}
+
+/// Completion at `offset` of `text`, analysed for this one question.
+pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
+    Analysis::new("document", text.to_string()).completion(offset)
+}
+
+/// Go to definition at `offset` of `text`, analysed for this one question.
+pub fn definition(text: &str, offset: usize) -> Option<Target> {
+    Analysis::new("document", text.to_string()).definition(offset)
+}
+
+/// The symbols of `text`.
+pub fn symbols(text: &str) -> Vec<Symbol> {
+    parsed(text).map_or_else(Vec::new, |f| file_symbols(&f))
+}
 /// One diagnostic: where, how bad, the code, the message with its help, and the other labels.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Diag {
@@ -41,35 +202,11 @@ pub fn is_script(text: &str) -> bool {
     text.lines().any(starts_a_command) && crate::syntax::fmt::is_script(text)
 }
 
-/// The document's diagnostics: an operator file checked on top of the standard operators (the
-/// errors and warnings `advise check FILE` reports), or a session script's lines that are not
-/// statements.
-pub fn diagnostics(name: &str, text: &str) -> Vec<Diag> {
-    if is_script(text) {
-        return script_diagnostics(text);
-    }
-    let mut map = SourceMap::new();
-    let id = map.add(name, text);
-    match OperatorSet::standard().merge_in(&map, &[id]) {
-        Ok(Checked { warnings, .. }) => warnings
-            .iter()
-            .map(|w| diag(w, id, text.len(), 0, true))
-            .collect(),
-        Err(errors) => errors
-            .errors
-            .iter()
-            .map(|e| diag(e, id, text.len(), 0, false))
-            .collect(),
-    }
-}
-
 /// A script's statements as the session splits them (an operator definition may span lines),
 /// each parsed as a statement; a definition is checked as the session checks it, merged into the
-/// standard operators and the script's definitions before it.
-fn script_diagnostics(text: &str) -> Vec<Diag> {
-    let line_starts: Vec<usize> = std::iter::once(0)
-        .chain(text.match_indices('\n').map(|(i, _)| i + 1))
-        .collect();
+/// standard operators and the script's definitions before it. With the set they make.
+fn script_diagnostics(text: &str) -> (Vec<Diag>, OperatorSet) {
+    let lines = LineIndex::new(text);
     let mut out = Vec::new();
     let mut set = OperatorSet::standard();
     let mut definitions = SourceMap::new();
@@ -78,10 +215,9 @@ fn script_diagnostics(text: &str) -> Vec<Diag> {
         if trimmed.is_empty() || (trimmed.starts_with("//") && !trimmed.contains('\n')) {
             continue;
         }
-        let start = line_starts
-            .get(st.line.saturating_sub(1))
-            .copied()
-            .unwrap_or(text.len());
+        let start = lines
+            .line_span(st.line.saturating_sub(1))
+            .map_or(text.len(), |l| l.start);
         let len = st.text.len();
         let (map, id) = SourceMap::single("statement", st.text.as_str());
         match command::parse_statement(map.src(id)) {
@@ -104,7 +240,7 @@ fn script_diagnostics(text: &str) -> Vec<Diag> {
             Ok(_) => {}
         }
     }
-    out
+    (out, set)
 }
 
 /// A miette diagnostic of source `id` (`len` bytes, at byte `shift` of the document) as a
@@ -143,17 +279,179 @@ fn diag(d: &dyn Diagnostic, id: SourceId, len: usize, shift: usize, warning: boo
     }
 }
 
-/// `offset` clamped to the text and moved back to a character boundary: the public functions
-/// take any offset without panicking.
-fn floor(text: &str, offset: usize) -> usize {
-    let mut offset = offset.min(text.len());
-    while !text.is_char_boundary(offset) {
-        offset -= 1;
-    }
-    offset
+/// What the cursor is on, found from the syntax tree's spans.
+#[derive(Clone, Copy, Debug)]
+enum Node<'f> {
+    /// An operator's own name, in its declaration.
+    OperatorName(&'f OperatorDecl),
+    /// A parameter's name, in its operator's declaration.
+    ParamName(&'f OperatorDecl, &'f ParamDecl),
+    /// The domain an operator is for (`for positioning`).
+    DomainRef(&'f OperatorDecl),
+    /// A name in an operator (assigned, read, read at an offset): a parameter or a dimension.
+    InOperator(&'f OperatorDecl, &'f str, Span),
+    /// A name read in a domain's clauses: its dimension, or a name the domain binds.
+    InDomain(&'f DomainDecl, &'f str, Span),
+    /// A step of a composition: an operator.
+    Step(&'f OperatorDecl, &'f Call),
+    /// A named argument of a step: the callee's parameter.
+    NamedArg(&'f OperatorDecl, &'f Call, &'f Ident),
+    /// A built-in function's name.
+    Func(&'f Ident),
+    /// A domain's name, in its declaration.
+    DomainName(&'f DomainDecl),
+    /// A dimension's name, in its domain's declaration.
+    DimName(&'f DomainDecl, &'f DimDecl),
 }
 
-/// The word (a name) at byte `offset`, and its range.
+/// Whether `offset` is in `span` (its end included: a cursor just after a name is on it).
+fn on(span: Span, offset: usize) -> bool {
+    span.start <= offset && offset <= span.end
+}
+
+/// The node of `file` under `offset`. (A span may run over the blanks after it, so the one
+/// before a node may hold its start too: each candidate is asked in turn.)
+fn node_at(file: &File, offset: usize) -> Option<Node<'_>> {
+    file.items
+        .iter()
+        .filter(|i| on(i.span(), offset))
+        .find_map(|item| match item {
+            Item::Operator(op) => operator_node(op, offset),
+            Item::Domain(d) => domain_node(d, offset),
+        })
+}
+
+fn operator_node<'f>(op: &'f OperatorDecl, offset: usize) -> Option<Node<'f>> {
+    if on(op.name.span, offset) {
+        return Some(Node::OperatorName(op));
+    }
+    if on(op.domain.span, offset) {
+        return Some(Node::DomainRef(op));
+    }
+    let in_op = |name: &'f str, span: Span| Node::InOperator(op, name, span);
+    for p in &op.params {
+        if on(p.name.span, offset) {
+            return Some(Node::ParamName(op, p));
+        }
+        let exprs = p
+            .default
+            .iter()
+            .chain(p.limits.iter().flat_map(|l| [&l.lo, &l.hi]));
+        if let Some(n) = exprs.filter_map(|e| expr_node(e, offset, &in_op)).next() {
+            return Some(n);
+        }
+    }
+    match &op.body {
+        Body::Block { guard, stmts } => {
+            if let Some(n) = guard.as_ref().and_then(|g| expr_node(g, offset, &in_op)) {
+                return Some(n);
+            }
+            stmts.iter().filter(|s| on(s.span, offset)).find_map(|s| {
+                if on(s.target.span, offset) {
+                    return Some(in_op(&s.target.name, s.target.span));
+                }
+                expr_node(&s.value, offset, &in_op)
+            })
+        }
+        Body::Pipeline(calls) => calls
+            .iter()
+            .filter(|c| on(c.span, offset))
+            .find_map(|call| {
+                if on(call.name.span, offset) {
+                    return Some(Node::Step(op, call));
+                }
+                call.args.iter().find_map(|a| match &a.name {
+                    Some(name) if on(name.span, offset) => Some(Node::NamedArg(op, call, name)),
+                    _ => expr_node(&a.value, offset, &in_op),
+                })
+            }),
+    }
+}
+
+fn domain_node<'f>(d: &'f DomainDecl, offset: usize) -> Option<Node<'f>> {
+    if on(d.name.span, offset) {
+        return Some(Node::DomainName(d));
+    }
+    let in_domain = |name: &'f str, span: Span| Node::InDomain(d, name, span);
+    for x in &d.dims {
+        if on(x.name.span, offset) {
+            return Some(Node::DimName(d, x));
+        }
+        if let Some(n) = dim_exprs(x).find_map(|e| expr_node(e, offset, &in_domain)) {
+            return Some(n);
+        }
+    }
+    for clause in &d.clauses {
+        let found = match clause {
+            Clause::Goal(dims) => dims
+                .iter()
+                .flat_map(dim_exprs)
+                .find_map(|e| expr_node(e, offset, &in_domain)),
+            Clause::Let(bs) | Clause::Score(bs) | Clause::Recorded(bs) => bs
+                .iter()
+                .find_map(|b| expr_node(&b.value, offset, &in_domain)),
+            Clause::Success { cond, .. } => expr_node(cond, offset, &in_domain),
+            Clause::EndWhen { cond, hold, .. } => expr_node(cond, offset, &in_domain)
+                .or_else(|| hold.as_ref().and_then(|h| expr_node(h, offset, &in_domain))),
+            Clause::EndAfter { limit, .. } => expr_node(limit, offset, &in_domain),
+            Clause::Test { .. } => None,
+            Clause::Teacher { stmts, .. } => stmts
+                .iter()
+                .find_map(|s| expr_node(&s.binding.value, offset, &in_domain)),
+        };
+        if found.is_some() {
+            return found;
+        }
+    }
+    None
+}
+
+/// The expressions of a dimension's declaration: its limits and what it means in a task.
+fn dim_exprs(x: &DimDecl) -> impl Iterator<Item = &Expr> {
+    let limits = x.limits.iter().flat_map(|l| [&l.lo, &l.hi]);
+    let meaning = x.meaning.iter().flat_map(|m| match m {
+        DimMeaning::Def(e) => vec![e],
+        DimMeaning::Drives(_) => vec![],
+        DimMeaning::Changes(_, l) => vec![&l.lo, &l.hi],
+    });
+    limits.chain(meaning)
+}
+
+/// The name in `e` under `offset`, made a node by `name` (a built-in function's is its own).
+fn expr_node<'f>(
+    e: &'f Expr,
+    offset: usize,
+    name: &impl Fn(&'f str, Span) -> Node<'f>,
+) -> Option<Node<'f>> {
+    if !on(e.span, offset) {
+        return None;
+    }
+    match &e.kind {
+        ExprKind::Num(_) => None,
+        ExprKind::Var(v) => Some(name(v, e.span)),
+        ExprKind::At { dim, offset: at } => {
+            if on(dim.span, offset) {
+                Some(name(&dim.name, dim.span))
+            } else {
+                expr_node(at, offset, name)
+            }
+        }
+        ExprKind::Call { func, args } => {
+            if on(func.span, offset) {
+                Some(Node::Func(func))
+            } else {
+                args.iter().find_map(|a| expr_node(a, offset, name))
+            }
+        }
+        ExprKind::Unary(_, x) => expr_node(x, offset, name),
+        ExprKind::Binary(_, a, b) => {
+            expr_node(a, offset, name).or_else(|| expr_node(b, offset, name))
+        }
+    }
+}
+
+/// The word (a name) at byte `offset`, and its range: only for a text without a syntax tree (a
+/// session script, or an operator file that does not parse).
 fn word_at(text: &str, offset: usize) -> Option<(&str, Range<usize>)> {
     let offset = floor(text, offset);
     let is_word = |c: char| c.is_ascii_alphanumeric() || c == '_';
@@ -171,27 +469,28 @@ fn word_at(text: &str, offset: usize) -> Option<(&str, Range<usize>)> {
     (start < end).then(|| (&text[start..end], start..end))
 }
 
-/// The document's operators checked on top of the standard ones; the standard set alone when the
-/// document has errors.
-fn operator_set(text: &str) -> OperatorSet {
-    let mut map = SourceMap::new();
-    let id = map.add("document", text);
-    OperatorSet::standard()
-        .merge_in(&map, &[id])
-        .map(|c| c.set)
-        .unwrap_or_else(|_| OperatorSet::standard())
-}
-
 /// The parsed document, when it parses.
 fn parsed(text: &str) -> Option<File> {
+    count(0, 1);
     let (map, id) = SourceMap::single("document", text);
     crate::syntax::parse(map.src(id)).ok()
+}
+
+/// The standard library's files, parsed once per process (for go to definition).
+fn standard_files() -> &'static [(&'static str, File)] {
+    static FILES: OnceLock<Vec<(&'static str, File)>> = OnceLock::new();
+    FILES.get_or_init(|| {
+        check::STANDARD_SOURCES
+            .iter()
+            .filter_map(|&(name, text)| Some((name, parsed(text)?)))
+            .collect()
+    })
 }
 
 /// The operator declaration whose text holds `offset`.
 fn enclosing(file: &File, offset: usize) -> Option<&OperatorDecl> {
     file.items.iter().find_map(|i| match i {
-        Item::Operator(o) if o.span.start <= offset && offset <= o.span.end => Some(o),
+        Item::Operator(o) if on(o.span, offset) => Some(o),
         _ => None,
     })
 }
@@ -209,37 +508,78 @@ pub fn operator_help(op: &Operator) -> String {
     s
 }
 
-/// Hover: the operator, parameter or dimension under `offset`.
-pub fn hover(text: &str, offset: usize) -> Option<(Range<usize>, String)> {
-    let offset = floor(text, offset);
-    let (word, range) = word_at(text, offset)?;
-    let set = operator_set(text);
-    let file = parsed(text);
-    let here = file.as_ref().and_then(|f| enclosing(f, offset));
-    // A named argument of a call (`slow_down(rate = f / 2)`): the callee's parameter.
-    let rest = text[range.end..].trim_start();
-    if rest.starts_with('=')
-        && !rest.starts_with("==")
-        && let Some(callee) = open_call(text, range.end)
-    {
-        let domains = here
-            .map(|d| d.domain.name.as_str())
-            .into_iter()
-            .chain(set.domains().iter().map(|d| d.name.as_str()));
-        for domain in domains {
-            if let Some(op) = set.operator(domain, callee)
-                && let Some(p) = op.params().iter().find(|p| p.name == word)
-            {
-                return Some((range, format!("parameter `{p}` of `{}`", op.name())));
-            }
-        }
+/// A built-in function's arguments (a match, so a new function cannot be added without them).
+fn func_args(f: Func) -> &'static str {
+    match f {
+        Func::Min | Func::Max => "a, b",
+        Func::Abs | Func::Sign | Func::Sqrt => "x",
+        Func::Cos | Func::Sin | Func::Wrap => "a",
+        Func::Hypot => "dx, dy",
+        Func::Atan2 => "y, x",
+        Func::Clamp => "x, lo, hi",
+        Func::If => "cond, a, b",
     }
-    if let Some(decl) = here {
-        if let Some(p) = decl.params.iter().find(|p| p.name.name == word) {
-            return Some((range, format!("parameter `{}`", p)));
+}
+
+impl Analysis {
+    /// Hover: the operator, parameter, dimension, domain or function under `offset`.
+    pub fn hover(&self, offset: usize) -> Option<(Range<usize>, String)> {
+        let Some(node) = self.node(offset) else {
+            // No tree: a name of an operator or a domain, as the text has it.
+            if self.file().is_some() {
+                return None;
+            }
+            let (word, range) = word_at(&self.text, offset)?;
+            return Some((range, self.describe(word, None, &[])?));
+        };
+        let (span, text) = match node {
+            Node::OperatorName(op) => (
+                op.name.span,
+                self.describe(&op.name.name, Some(&op.domain.name), &op.params),
+            ),
+            Node::ParamName(op, p) => (
+                p.name.span,
+                self.describe(&p.name.name, Some(&op.domain.name), &op.params),
+            ),
+            Node::DomainRef(op) => (op.domain.span, self.describe(&op.domain.name, None, &[])),
+            Node::InOperator(op, name, span) => {
+                (span, self.describe(name, Some(&op.domain.name), &op.params))
+            }
+            Node::Step(op, call) => (
+                call.name.span,
+                self.describe(&call.name.name, Some(&op.domain.name), &op.params),
+            ),
+            Node::NamedArg(op, call, name) => (
+                name.span,
+                self.callee_param(&op.domain.name, &call.name.name, &name.name)
+                    .or_else(|| self.describe(&name.name, Some(&op.domain.name), &op.params)),
+            ),
+            Node::Func(f) => (
+                f.span,
+                Func::ALL
+                    .iter()
+                    .find(|x| x.name() == f.name)
+                    .map(|&x| format!("function `{}({})`", x.name(), func_args(x))),
+            ),
+            Node::DomainName(d) => (d.name.span, self.describe(&d.name.name, None, &[])),
+            Node::DimName(d, x) => (
+                x.name.span,
+                self.describe(&x.name.name, Some(&d.name.name), &[]),
+            ),
+            Node::InDomain(d, name, span) => (span, self.describe(name, Some(&d.name.name), &[])),
+        };
+        Some((span.start..span.end, text?))
+    }
+
+    /// What `name` is, read in an operator of `domain` with `params` (or outside any): a
+    /// parameter, a dimension of the domain, an operator (of the domain first, then of any), a
+    /// domain.
+    fn describe(&self, name: &str, domain: Option<&str>, params: &[ParamDecl]) -> Option<String> {
+        if let Some(p) = params.iter().find(|p| p.name.name == name) {
+            return Some(format!("parameter `{p}`"));
         }
-        if let Some(domain) = set.domain(&decl.domain.name)
-            && let Some((space, i)) = domain.find(word)
+        if let Some(domain) = domain.and_then(|d| self.set.domain(d))
+            && let Some((space, i)) = domain.find(name)
         {
             let d = &domain.dims(space)[i];
             let mut s = format!(
@@ -261,21 +601,17 @@ pub fn hover(text: &str, offset: usize) -> Option<(Range<usize>, String)> {
                     crate::number::fmt_num(l.hi)
                 ));
             }
-            return Some((range, s));
+            return Some(s);
         }
-    }
-    // An operator: of the enclosing operator's domain first, then any domain.
-    let domains: Vec<String> = here
-        .map(|d| d.domain.name.clone())
-        .into_iter()
-        .chain(set.domains().iter().map(|d| d.name.clone()))
-        .collect();
-    for domain in &domains {
-        if let Some(op) = set.operator(domain, word) {
-            return Some((range, operator_help(op)));
+        let domains = domain
+            .into_iter()
+            .chain(self.set.domains().iter().map(|d| d.name.as_str()));
+        for domain in domains {
+            if let Some(op) = self.set.operator(domain, name) {
+                return Some(operator_help(op));
+            }
         }
-    }
-    if let Some(d) = set.domain(word) {
+        let d = self.set.domain(name)?;
         let dims = |space| {
             d.dims(space)
                 .iter()
@@ -283,17 +619,27 @@ pub fn hover(text: &str, offset: usize) -> Option<(Range<usize>, String)> {
                 .collect::<Vec<_>>()
                 .join(", ")
         };
-        return Some((
-            range,
-            format!(
-                "domain `{}`: observe {}; act {}",
-                d.name,
-                dims(Space::Observation),
-                dims(Space::Action)
-            ),
-        ));
+        Some(format!(
+            "domain `{}`: observe {}; act {}",
+            d.name,
+            dims(Space::Observation),
+            dims(Space::Action)
+        ))
     }
-    None
+
+    /// The hover of parameter `param` of operator `callee` (of `domain` first, then of any).
+    fn callee_param(&self, domain: &str, callee: &str, param: &str) -> Option<String> {
+        let domains =
+            std::iter::once(domain).chain(self.set.domains().iter().map(|d| d.name.as_str()));
+        for domain in domains {
+            if let Some(op) = self.set.operator(domain, callee)
+                && let Some(p) = op.params().iter().find(|p| p.name == param)
+            {
+                return Some(format!("parameter `{p}` of `{}`", op.name()));
+            }
+        }
+        None
+    }
 }
 
 /// What a completion offers.
@@ -361,139 +707,152 @@ pub const KEYWORDS: &[&str] = &[
 /// Completion at `offset`: in a session script, the commands; in an operator file, the
 /// keywords, functions, every operator, and inside an operator its parameters and its domain's
 /// dimensions.
-pub fn completion(text: &str, offset: usize) -> Vec<Completion> {
-    let offset = floor(text, offset);
-    if is_script(text) {
-        return script_completion(text, offset);
-    }
-    let mut out: Vec<Completion> = KEYWORDS
-        .iter()
-        .map(|k| Completion {
-            label: k.to_string(),
-            kind: CompletionKind::Keyword,
-            detail: "keyword".into(),
-        })
-        .chain(Func::ALL.iter().map(|&f| {
-            // A match, so a new function cannot be added without its signature here.
-            let args = match f {
-                Func::Min | Func::Max => "a, b",
-                Func::Abs | Func::Sign | Func::Sqrt => "x",
-                Func::Cos | Func::Sin | Func::Wrap => "a",
-                Func::Hypot => "dx, dy",
-                Func::Atan2 => "y, x",
-                Func::Clamp => "x, lo, hi",
-                Func::If => "cond, a, b",
-            };
-            Completion {
+impl Analysis {
+    /// Completion at `offset`: in a session script, the commands; in an operator file, the
+    /// keywords, functions, every operator, and inside an operator its parameters and its
+    /// domain's dimensions.
+    pub fn completion(&self, offset: usize) -> Vec<Completion> {
+        let text = self.text.as_str();
+        let offset = floor(text, offset);
+        if self.script {
+            return self.script_completion(offset);
+        }
+        let mut out: Vec<Completion> = KEYWORDS
+            .iter()
+            .map(|k| Completion {
+                label: k.to_string(),
+                kind: CompletionKind::Keyword,
+                detail: "keyword".into(),
+            })
+            .chain(Func::ALL.iter().map(|&f| Completion {
                 label: f.name().to_string(),
                 kind: CompletionKind::Function,
-                detail: format!("{}({args})", f.name()),
-            }
-        }))
-        .collect();
-    let set = operator_set(text);
-    let file = parsed(text).or_else(|| parsed(&without_line(text, offset)));
-    let here = file.as_ref().and_then(|f| enclosing(f, offset));
-    // Inside a call's parentheses (`slow_down(ra|`): the callee's parameters first.
-    if let Some(callee) = open_call(text, offset) {
-        let domains: Vec<&str> = here
-            .map(|d| d.domain.name.as_str())
-            .into_iter()
-            .chain(set.domains().iter().map(|d| d.name.as_str()))
+                detail: format!("{}({})", f.name(), func_args(f)),
+            }))
             .collect();
-        if let Some(op) = domains.iter().find_map(|d| set.operator(d, callee)) {
-            for p in op.params() {
-                out.insert(
-                    0,
-                    Completion {
-                        label: p.name.clone(),
-                        kind: CompletionKind::Parameter,
-                        detail: format!("parameter {p} of {}", op.name()),
-                    },
-                );
+        let set = &self.set;
+        // A line being typed need not parse: the operator around it still counts.
+        let typing;
+        let file = match self.file() {
+            Some(f) => Some(f),
+            None => {
+                typing = parsed(&without_line(text, offset));
+                typing.as_ref()
             }
-        }
-    }
-    if let Some(decl) = here {
-        for p in &decl.params {
-            out.push(Completion {
-                label: p.name.name.clone(),
-                kind: CompletionKind::Parameter,
-                detail: format!("parameter {p}"),
-            });
-        }
-        if let Some(domain) = set.domain(&decl.domain.name) {
-            for space in [Space::Observation, Space::Action] {
-                for d in domain.dims(space) {
-                    out.push(Completion {
-                        label: d.name.clone(),
-                        kind: CompletionKind::Dimension,
-                        detail: format!("{} {}", domain.name, d.unit).trim().to_string(),
-                    });
+        };
+        let here = file.and_then(|f| enclosing(f, offset));
+        // Inside a step's parentheses (`slow_down(ra|`): the callee's parameters first. The
+        // tree has the step when the text parses; a call being typed is found in the line.
+        let callee = here
+            .and_then(|op| step_args_at(op, offset))
+            .or_else(|| open_call(text, offset));
+        if let Some(callee) = callee {
+            let domains: Vec<&str> = here
+                .map(|d| d.domain.name.as_str())
+                .into_iter()
+                .chain(set.domains().iter().map(|d| d.name.as_str()))
+                .collect();
+            if let Some(op) = domains.iter().find_map(|d| set.operator(d, callee)) {
+                for p in op.params() {
+                    out.insert(
+                        0,
+                        Completion {
+                            label: p.name.clone(),
+                            kind: CompletionKind::Parameter,
+                            detail: format!("parameter {p} of {}", op.name()),
+                        },
+                    );
                 }
             }
         }
-    }
-    for domain in set.domains() {
-        if here.is_some_and(|d| d.domain.name != domain.name) {
-            continue;
+        if let Some(decl) = here {
+            for p in &decl.params {
+                out.push(Completion {
+                    label: p.name.name.clone(),
+                    kind: CompletionKind::Parameter,
+                    detail: format!("parameter {p}"),
+                });
+            }
+            if let Some(domain) = set.domain(&decl.domain.name) {
+                for space in [Space::Observation, Space::Action] {
+                    for d in domain.dims(space) {
+                        out.push(Completion {
+                            label: d.name.clone(),
+                            kind: CompletionKind::Dimension,
+                            detail: format!("{} {}", domain.name, d.unit).trim().to_string(),
+                        });
+                    }
+                }
+            }
         }
-        for op in set.operators(&domain.name) {
-            out.push(Completion {
+        for domain in set.domains() {
+            if here.is_some_and(|d| d.domain.name != domain.name) {
+                continue;
+            }
+            for op in set.operators(&domain.name) {
+                out.push(Completion {
+                    label: op.name().to_string(),
+                    kind: CompletionKind::Operator,
+                    detail: format!("{} ({})", op.signature(), domain.name),
+                });
+            }
+        }
+        out.dedup_by(|a, b| a.label == b.label && a.kind == b.kind);
+        out
+    }
+
+    /// Completion in a session script: after `advise`, `preview` or `help`, the operators of the
+    /// task (the last `task NAME` above, `positioning` before any), the script's own among them;
+    /// the commands otherwise (and after `help`).
+    fn script_completion(&self, offset: usize) -> Vec<Completion> {
+        let text = self.text.as_str();
+        let line_start = self
+            .lines
+            .line_span(self.lines.line(offset))
+            .map_or(0, |l| l.start);
+        let before = text[line_start..offset].trim_start();
+        let first = before.split_whitespace().next().unwrap_or("");
+        let commands = COMMANDS.iter().map(|c| Completion {
+            label: c.name.to_string(),
+            kind: CompletionKind::Command,
+            detail: c.signature.to_string(),
+        });
+        let takes_operator =
+            matches!(first, "advise" | "preview" | "help") && before.len() > first.len();
+        if !takes_operator {
+            return commands.collect();
+        }
+        let domain = text[..line_start]
+            .lines()
+            .rev()
+            .find_map(|l| l.trim().strip_prefix("task "))
+            .map_or("positioning", str::trim);
+        // The script's definitions that check, on top of the standard operators.
+        let mut out: Vec<Completion> = self
+            .set
+            .operators(domain)
+            .map(|op| Completion {
                 label: op.name().to_string(),
                 kind: CompletionKind::Operator,
-                detail: format!("{} ({})", op.signature(), domain.name),
-            });
+                detail: format!("{} ({domain})", op.signature()),
+            })
+            .collect();
+        if first == "help" {
+            out.extend(commands);
         }
+        out
     }
-    out.dedup_by(|a, b| a.label == b.label && a.kind == b.kind);
-    out
 }
 
-/// Completion in a session script: after `advise`, `preview` or `help`, the operators of the task
-/// (the last `task NAME` above, `positioning` before any), the script's own among them; the
-/// commands otherwise (and after `help`).
-fn script_completion(text: &str, offset: usize) -> Vec<Completion> {
-    let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
-    let before = text[line_start..offset].trim_start();
-    let first = before.split_whitespace().next().unwrap_or("");
-    let commands = COMMANDS.iter().map(|c| Completion {
-        label: c.name.to_string(),
-        kind: CompletionKind::Command,
-        detail: c.signature.to_string(),
-    });
-    let takes_operator =
-        matches!(first, "advise" | "preview" | "help") && before.len() > first.len();
-    if !takes_operator {
-        return commands.collect();
-    }
-    let domain = text[..line_start]
-        .lines()
-        .rev()
-        .find_map(|l| l.trim().strip_prefix("task "))
-        .map_or("positioning", str::trim);
-    // The script's definitions, checked together on top of the standard operators.
-    let definitions: String = crate::session::script::statements(text)
-        .into_iter()
-        .filter(|st| {
-            let t = st.text.trim_start();
-            t.starts_with("operator") || t.starts_with("domain") || t.starts_with("///")
-        })
-        .map(|st| st.text + "\n")
-        .collect();
-    let set = operator_set(&definitions);
-    let mut out: Vec<Completion> = set
-        .operators(domain)
-        .map(|op| Completion {
-            label: op.name().to_string(),
-            kind: CompletionKind::Operator,
-            detail: format!("{} ({domain})", op.signature()),
-        })
-        .collect();
-    if first == "help" {
-        out.extend(commands);
-    }
-    out
+/// The step of `op`'s composition whose parentheses hold `offset`: its callee's name.
+fn step_args_at(op: &OperatorDecl, offset: usize) -> Option<&str> {
+    let Body::Pipeline(calls) = &op.body else {
+        return None;
+    };
+    calls
+        .iter()
+        .find(|c| c.name.span.end < offset && offset < c.span.end)
+        .map(|c| c.name.name.as_str())
 }
 
 /// The name before the innermost `(` still open at `offset` on its line, if any.
@@ -547,33 +906,69 @@ pub enum Target {
     },
 }
 
-/// Go to definition: the operator, domain or dimension named at `offset`, in the document or
-/// the standard library (inside an operator, of its domain: `speed_up` in an interception
-/// operator is interception's); a parameter to its declaration.
-pub fn definition(text: &str, offset: usize) -> Option<Target> {
-    let offset = floor(text, offset);
-    let (word, _) = word_at(text, offset)?;
-    let file = parsed(text);
-    let here = file.as_ref().and_then(|f| enclosing(f, offset));
-    if let Some(decl) = here
-        && let Some(p) = decl.params.iter().find(|p| p.name.name == word)
-    {
-        return Some(Target::Here(p.name.span.start..p.name.span.end));
-    }
-    let domain = here.map(|d| d.domain.name.as_str());
-    if let Some(range) = file.as_ref().and_then(|f| declared(&f.items, word, domain)) {
-        return Some(Target::Here(range));
-    }
-    for (file, std_text) in check::STANDARD_SOURCES {
-        let (map, id) = SourceMap::single(file, std_text);
-        let Ok(parsed) = crate::syntax::parse(map.src(id)) else {
-            continue;
+impl Analysis {
+    /// Go to definition: the operator, domain or dimension named at `offset`, in the document or
+    /// the standard library (inside an operator, of its domain: `speed_up` in an interception
+    /// operator is interception's); a parameter to its declaration, a named argument to the
+    /// callee's parameter.
+    pub fn definition(&self, offset: usize) -> Option<Target> {
+        let here = |s: Span| Some(Target::Here(s.start..s.end));
+        let (word, domain): (&str, Option<&str>) = match self.node(offset) {
+            None if self.file().is_none() => (word_at(&self.text, offset)?.0, None),
+            None | Some(Node::Func(_)) => return None,
+            Some(Node::ParamName(_, p)) => return here(p.name.span),
+            Some(Node::DomainName(d)) => return here(d.name.span),
+            Some(Node::DimName(_, x)) => return here(x.name.span),
+            Some(Node::InOperator(op, name, _)) => {
+                if let Some(p) = op.params.iter().find(|p| p.name.name == name) {
+                    return here(p.name.span);
+                }
+                (name, Some(&op.domain.name))
+            }
+            Some(Node::OperatorName(op)) => (&op.name.name, Some(&op.domain.name)),
+            Some(Node::DomainRef(op)) => (&op.domain.name, Some(&op.domain.name)),
+            Some(Node::Step(op, call)) => (&call.name.name, Some(&op.domain.name)),
+            Some(Node::InDomain(d, name, _)) => (name, Some(&d.name.name)),
+            Some(Node::NamedArg(op, call, name)) => {
+                let domain = Some(op.domain.name.as_str());
+                return self.locate(|items| {
+                    let callee = operator_decl(items, &call.name.name, domain)?;
+                    let p = callee.params.iter().find(|p| p.name.name == name.name)?;
+                    Some(p.name.span.start..p.name.span.end)
+                });
+            }
         };
-        if let Some(range) = declared(&parsed.items, word, domain) {
-            return Some(Target::Standard { file, range });
-        }
+        self.locate(|items| declared(items, word, domain))
     }
-    None
+
+    /// The first range `find` gives in the document, then in the standard files.
+    fn locate(&self, find: impl Fn(&[Item]) -> Option<Range<usize>>) -> Option<Target> {
+        if let Some(range) = self.file().and_then(|f| find(&f.items)) {
+            return Some(Target::Here(range));
+        }
+        standard_files().iter().find_map(|(file, parsed)| {
+            find(&parsed.items).map(|range| Target::Standard { file, range })
+        })
+    }
+
+    /// The document's symbols (none when it does not parse).
+    pub fn symbols(&self) -> Vec<Symbol> {
+        self.file().map_or_else(Vec::new, file_symbols)
+    }
+}
+
+/// The declaration of operator `name` (of `domain`, when one is in scope) among `items`.
+fn operator_decl<'a>(
+    items: &'a [Item],
+    name: &str,
+    domain: Option<&str>,
+) -> Option<&'a OperatorDecl> {
+    items.iter().find_map(|item| match item {
+        Item::Operator(o) if o.name.name == name && domain.is_none_or(|d| d == o.domain.name) => {
+            Some(o)
+        }
+        _ => None,
+    })
 }
 
 /// Where `items` declare `word`: an operator (of `domain`, when one is in scope), a domain, or a
@@ -612,11 +1007,8 @@ pub enum SymbolKind {
     Parameter,
 }
 
-/// The document's symbols (none when it does not parse).
-pub fn symbols(text: &str) -> Vec<Symbol> {
-    let Some(file) = parsed(text) else {
-        return Vec::new();
-    };
+/// The symbols of a parsed document.
+fn file_symbols(file: &File) -> Vec<Symbol> {
     file.items
         .iter()
         .map(|item| match item {

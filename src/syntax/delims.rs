@@ -5,7 +5,11 @@
 //! [`MAX_NESTING`] in one linear pass first. The same pass matches brackets as rustc's lexer does,
 //! so that a lost `}` is reported at the `{` it leaves open instead of at the next item, where the
 //! parser notices. Comments (`//`, `///`) and double-quoted text (units, paths) are skipped: a
-//! bracket there is not code. This module knows nothing else of the grammar.
+//! bracket there is not code. Since the pass must know exactly where comments are, it records
+//! them ([`Scan::comments`]): the grammar drops `//` comments, and `advise fmt` puts them back
+//! from this list. This module knows nothing else of the grammar.
+
+use super::ast::Span;
 
 /// How deeply brackets (`(`, `[`, `{` in any mix) may nest. An operator body is one level, a
 /// function call inside it another; no operator a person writes comes near this.
@@ -29,6 +33,15 @@ impl Open {
     }
 }
 
+/// A comment: from its `//` to the end of its line (the `\n` not included, a `\r` before it
+/// included).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Comment {
+    pub span: Span,
+    /// A `///` doc comment (which the grammar keeps, on the item after it), not a `//` one.
+    pub doc: bool,
+}
+
 /// What one pass over a text found.
 #[derive(Debug, Default)]
 pub struct Scan {
@@ -36,6 +49,8 @@ pub struct Scan {
     pub too_deep: Option<usize>,
     /// Opening brackets that are never closed, in source order.
     pub unclosed: Vec<Open>,
+    /// Every comment, doc comments too, in source order.
+    pub comments: Vec<Comment>,
 }
 
 /// Match the brackets of `src` (see the module docs).
@@ -47,10 +62,37 @@ pub fn scan(src: &str) -> Scan {
             too_deep = Some(open.at);
         }
     };
-    let stack = walk(src, src.len(), push, &mut |o| unclosed.push(o));
+    let mut comments = Vec::new();
+    let mut stack = Vec::new();
+    walk_into(
+        src,
+        src.len(),
+        &mut stack,
+        push,
+        &mut |o| unclosed.push(o),
+        Some(&mut comments),
+    );
     unclosed.extend(stack);
     unclosed.sort_by_key(|o| o.at);
-    Scan { too_deep, unclosed }
+    Scan {
+        too_deep,
+        unclosed,
+        comments,
+    }
+}
+
+/// The comments of `src` (what [`scan`] records).
+pub fn comments(src: &str) -> Vec<Comment> {
+    let mut comments = Vec::new();
+    walk_into(
+        src,
+        src.len(),
+        &mut Vec::new(),
+        |_, _| {},
+        &mut |_| {},
+        Some(&mut comments),
+    );
+    comments
 }
 
 /// The innermost bracket still open at byte `pos`, as the matching of [`scan`] sees it.
@@ -75,7 +117,14 @@ pub struct LineBrackets {
 impl LineBrackets {
     /// Match the brackets of one more line.
     pub fn feed(&mut self, line: &str) {
-        walk_into(line, line.len(), &mut self.stack, |_, _| {}, &mut |_| {});
+        walk_into(
+            line,
+            line.len(),
+            &mut self.stack,
+            |_, _| {},
+            &mut |_| {},
+            None,
+        );
     }
 
     pub fn is_open(&self) -> bool {
@@ -92,7 +141,7 @@ fn walk(
     left: &mut dyn FnMut(Open),
 ) -> Vec<Open> {
     let mut stack = Vec::new();
-    walk_into(src, end, &mut stack, pushed, left);
+    walk_into(src, end, &mut stack, pushed, left, None);
     stack
 }
 
@@ -102,13 +151,21 @@ fn walk_into(
     stack: &mut Vec<Open>,
     mut pushed: impl FnMut(&[Open], Open),
     left: &mut dyn FnMut(Open),
+    mut comments: Option<&mut Vec<Comment>>,
 ) {
     let bytes = &src.as_bytes()[..end];
     let mut i = 0;
     while i < bytes.len() {
         match bytes[i] {
             b'/' if bytes.get(i + 1) == Some(&b'/') => {
+                let start = i;
                 i = skip_to(bytes, i, b'\n');
+                if let Some(c) = comments.as_deref_mut() {
+                    c.push(Comment {
+                        span: Span::new(start, i),
+                        doc: bytes.get(start + 2) == Some(&b'/'),
+                    });
+                }
                 continue;
             }
             b'"' => {
@@ -171,6 +228,32 @@ mod tests {
         let src = "/// e.g. { u = 0\ndomain d { act u \"m(s\" } // (\n";
         assert!(scan(src).unclosed.is_empty());
         assert!(!any_open(src));
+    }
+
+    #[test]
+    fn comments_are_recorded_where_the_grammar_has_them() {
+        let src = "/// Doc.\ndomain d { // after a brace\n  act u \"m//s\" // c\n}\n//// four\n// at the end";
+        let got: Vec<(&str, bool)> = scan(src)
+            .comments
+            .iter()
+            .map(|c| (&src[c.span.start..c.span.end], c.doc))
+            .collect();
+        assert_eq!(
+            got,
+            vec![
+                ("/// Doc.", true),
+                ("// after a brace", false),
+                ("// c", false),
+                ("//// four", true),
+                ("// at the end", false),
+            ]
+        );
+        assert_eq!(comments(src), scan(src).comments);
+        // A `\r` before the newline is the comment's; an unclosed quote ends with its line.
+        let src = "act u \"m/s // not\n// yes\r\n";
+        let c = comments(src);
+        assert_eq!(c.len(), 1);
+        assert_eq!(&src[c[0].span.start..c[0].span.end], "// yes\r");
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! `advise fmt`: a file in the canonical layout of [`super::print`], its comments kept.
 //!
-//! The grammar drops `//` comments, so they are found again in the text ([`comments`]) and put
-//! back by position: a comment between items stays between them (with the blank lines around it,
+//! The grammar drops `//` comments; the bracket scan that runs before the parser knows exactly
+//! where they are ([`super::delims::comments`]: outside units' quotes, told from `///` doc
+//! comments), and they are put back by position: a comment between items stays between them (with the blank lines around it,
 //! at most one), a comment on its own line in an operator's block stays before the statement it
 //! preceded, and a comment at the end of a statement's line stays at the end of that line. Blank
 //! lines between statements are kept (at most one). An item with a comment anywhere else (in its
@@ -11,7 +12,7 @@
 
 use super::ast::{Body, File, Item, OperatorDecl, Span};
 use super::{ParseError, parse};
-use crate::diag::Src;
+use crate::diag::{LineIndex, Src};
 
 /// The canonical text of an operator file: parsed, printed, with every `//` comment where it was.
 /// Formatting a formatted file changes nothing.
@@ -56,65 +57,22 @@ pub fn format_script(text: &str) -> String {
 }
 
 /// A `//` comment (not a `///` doc comment): its byte range, running to the end of its line.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Comment {
-    span: Span,
-}
+type Comment = super::delims::Comment;
 
-/// Every `//` comment of `text` that is not a doc comment, outside units' quotes.
+/// Every `//` comment of `text` that is not a doc comment, as the bracket scan finds them.
 fn comments(text: &str) -> Vec<Comment> {
-    let bytes = text.as_bytes();
-    let mut out = Vec::new();
-    let mut i = 0;
-    let mut in_quote = false;
-    while i < bytes.len() {
-        match bytes[i] {
-            b'\n' => in_quote = false,
-            b'"' => in_quote = !in_quote,
-            b'/' if !in_quote && bytes.get(i + 1) == Some(&b'/') => {
-                let end = text[i..].find('\n').map_or(text.len(), |n| i + n);
-                if bytes.get(i + 2) != Some(&b'/') {
-                    out.push(Comment {
-                        span: Span::new(i, end),
-                    });
-                }
-                i = end;
-                continue;
-            }
-            _ => {}
-        }
-        i += 1;
-    }
-    out
+    let mut all = super::delims::comments(text);
+    all.retain(|c| !c.doc);
+    all
 }
 
-/// Line numbers of byte offsets.
-struct Lines {
-    starts: Vec<usize>,
-}
-
-impl Lines {
-    fn new(text: &str) -> Lines {
-        let mut starts = vec![0];
-        starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));
-        Lines { starts }
-    }
-
-    fn of(&self, offset: usize) -> usize {
-        self.starts.partition_point(|&s| s <= offset) - 1
-    }
-
-    /// Whether some line strictly between the lines of `a` and `b` is blank.
-    fn blank_between(&self, text: &str, a: usize, b: usize) -> bool {
-        let (la, lb) = (self.of(a), self.of(b));
-        (la + 1..lb).any(|l| self.line(text, l).trim().is_empty())
-    }
-
-    fn line<'t>(&self, text: &'t str, l: usize) -> &'t str {
-        let start = self.starts[l];
-        let end = self.starts.get(l + 1).map_or(text.len(), |&e| e);
-        &text[start..end]
-    }
+/// Whether some line strictly between the lines of `a` and `b` is blank.
+fn blank_between(text: &str, lines: &LineIndex, a: usize, b: usize) -> bool {
+    (lines.line(a) + 1..lines.line(b)).any(|l| {
+        lines
+            .line_span(l)
+            .is_some_and(|span| text[span].trim().is_empty())
+    })
 }
 
 fn comment_text(text: &str, c: &Comment) -> String {
@@ -123,7 +81,7 @@ fn comment_text(text: &str, c: &Comment) -> String {
 
 fn layout(text: &str, file: &File) -> String {
     let all = comments(text);
-    let lines = Lines::new(text);
+    let lines = LineIndex::new(text);
     let mut out = String::new();
     // Where the text already written ends, and whether something was written.
     let mut cursor = 0;
@@ -179,7 +137,7 @@ fn layout(text: &str, file: &File) -> String {
 /// the next item where the text had them.
 fn gap(
     text: &str,
-    lines: &Lines,
+    lines: &LineIndex,
     comments: &[&Comment],
     from: usize,
     to: usize,
@@ -188,7 +146,7 @@ fn gap(
 ) {
     let mut prev: Option<usize> = None;
     for (i, c) in comments.iter().enumerate() {
-        if i == 0 && wrote_any && lines.of(c.span.start) == lines.of(from) {
+        if i == 0 && wrote_any && lines.line(c.span.start) == lines.line(from) {
             // At the end of the previous item's last line: it stays there.
             if out.ends_with('\n') {
                 out.pop();
@@ -200,7 +158,7 @@ fn gap(
         }
         let blank = match prev {
             None => wrote_any,
-            Some(p) => lines.blank_between(text, p, c.span.start),
+            Some(p) => blank_between(text, lines, p, c.span.start),
         };
         if blank {
             out.push('\n');
@@ -212,7 +170,7 @@ fn gap(
     if to < text.len() {
         let blank = match prev {
             None => wrote_any,
-            Some(p) => lines.blank_between(text, p, to),
+            Some(p) => blank_between(text, lines, p, to),
         };
         if blank {
             out.push('\n');
@@ -222,7 +180,13 @@ fn gap(
 
 /// An item's text: printed, with its comments put back, or as written when a comment is where
 /// the printer has no place for it.
-fn item_text(text: &str, lines: &Lines, item: &Item, span: Span, comments: &[&Comment]) -> String {
+fn item_text(
+    text: &str,
+    lines: &LineIndex,
+    item: &Item,
+    span: Span,
+    comments: &[&Comment],
+) -> String {
     let verbatim = || text[span.start..span.end].to_string();
     if comments.is_empty() {
         // Blank lines between statements are kept even without comments.
@@ -241,7 +205,7 @@ fn item_text(text: &str, lines: &Lines, item: &Item, span: Span, comments: &[&Co
 /// when a comment is outside the block's statements' lines.
 fn operator_text(
     text: &str,
-    lines: &Lines,
+    lines: &LineIndex,
     op: &OperatorDecl,
     comments: &[&Comment],
 ) -> Option<String> {
@@ -280,7 +244,7 @@ fn operator_text(
             return None;
         }
         let next = stmts.partition_point(|s| s.span.start < at);
-        if next > 0 && lines.of(ends[next - 1]) == lines.of(at) {
+        if next > 0 && lines.line(ends[next - 1]) == lines.line(at) {
             if trailing[next - 1].replace(c).is_some() {
                 return None;
             }
@@ -300,7 +264,7 @@ fn operator_text(
     out.push_str(" {\n");
     let mut prev_end: Option<usize> = None;
     for (start, end, line) in &events {
-        if prev_end.is_some_and(|p| lines.blank_between(text, p, *start)) {
+        if prev_end.is_some_and(|p| blank_between(text, lines, p, *start)) {
             out.push('\n');
         }
         out.push_str("  ");
@@ -383,6 +347,41 @@ mod tests {
         assert!(!is_script(
             "operator a for positioning on action {\n  trans = 0\n  rot *= 1 - k / n\n}\n"
         ));
+    }
+
+    #[test]
+    fn no_comment_is_lost_wherever_it_is() {
+        let cases = [
+            "operator a for positioning on action { // after a brace\n  trans = 0\n}\n",
+            "operator g for positioning on action = slow_down(// before an arg\n  rate = 0.5) then speed_up\n",
+            "operator g for positioning on action = slow_down(rate = 0.5, // between args\n  steps = 2) then speed_up\n",
+            "operator a for positioning on action {\n  trans = 0\n}\n// at the end, no newline",
+            "domain d { act v \"m//s\" // a unit with slashes\n}\noperator a for d on action { v = 0 }",
+            "operator a(x = 1 // in a header\n) for positioning on action { trans = x }\n",
+            "operator a for positioning on action where trans != 0 // after the guard\n{\n  trans = 0\n}\n",
+            "operator a for positioning on action {\n  trans = 1 +\n  // inside a statement\n  2\n}\n",
+            "operator a for positioning on action {\n  trans = 0 // one\n  // two\n} // after the closing brace\n",
+            "// only a comment",
+            "/// Doc.\n// between doc and item\noperator a for positioning on action { trans = 0 }\n",
+            "operator a for positioning on action {\r\n  trans = 0 // crlf\r\n}\r\n",
+        ];
+        let texts = |t: &str| -> Vec<String> {
+            comments(t)
+                .iter()
+                .map(|c| t[c.span.start..c.span.end].trim_end().to_string())
+                .collect()
+        };
+        let program = |t: &str| -> Vec<String> {
+            let (map, id) = SourceMap::single("t.adv", t);
+            let file = parse(map.src(id)).unwrap_or_else(|e| panic!("{t:?}: {e}"));
+            file.items.iter().map(|i| i.to_string()).collect()
+        };
+        for text in cases {
+            let got = fmt(text);
+            assert_eq!(texts(&got), texts(text), "{text:?} gave {got:?}");
+            assert_eq!(program(&got), program(text), "{text:?} gave {got:?}");
+            assert_eq!(fmt(&got), got, "idempotent: {text:?}");
+        }
     }
 
     #[test]
