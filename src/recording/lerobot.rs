@@ -14,23 +14,22 @@
 //!   (`frame_index / fps`: a dataset keeps no times), `frame_index`, `episode_index`, `index`,
 //!   `task_index`, `advise.source`, `advise.weight`.
 //!
-//! Tables are written with the arrow and parquet crates (snappy) into a temporary sibling
-//! directory that is renamed into place once whole ([`crate::files::write_dir_atomic`]), so a
+//! Tables are written with parquet's column writer (snappy), the schema pyarrow reads carried as
+//! the `ARROW:schema` footer entry an arrow writer leaves ([`arrow_schema`]; without it the
+//! fixed-size lists read back as plain lists), into a temporary sibling directory that is renamed into place once whole ([`crate::files::write_dir_atomic`]), so a
 //! killed export leaves nothing half-written; a directory that exists and is not empty is refused
 //! rather than mixed into.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use arrow_array::builder::{ListBuilder, StringBuilder};
-use arrow_array::{
-    ArrayRef, FixedSizeListArray, Float32Array, Int64Array, RecordBatch, StringArray,
-};
-use arrow_schema::{DataType, Field, Schema};
 use miette::Diagnostic;
-use parquet::arrow::ArrowWriter;
-use parquet::basic::Compression;
+use parquet::basic::{Compression, LogicalType, Repetition, Type as Physical};
+use parquet::data_type::{ByteArray, ByteArrayType, FloatType, Int64Type};
+use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
+use parquet::file::writer::SerializedFileWriter;
+use parquet::schema::types::Type;
 use serde_json::{Value, json};
 use thiserror::Error;
 
@@ -150,32 +149,267 @@ fn episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
     demos
 }
 
-fn float_list(values: Vec<f32>, width: usize) -> Result<ArrayRef, String> {
-    let item = Arc::new(Field::new("item", DataType::Float32, true));
-    let width = i32::try_from(width).map_err(|e| e.to_string())?;
-    FixedSizeListArray::try_new(item, width, Arc::new(Float32Array::from(values)), None)
-        .map(|a| Arc::new(a) as ArrayRef)
-        .map_err(|e| e.to_string())
+/// A column's values.
+enum Values {
+    F32(Vec<f32>),
+    I64(Vec<i64>),
+    Str(Vec<String>),
 }
 
-fn list_type(width: usize) -> DataType {
-    DataType::FixedSizeList(
-        Arc::new(Field::new("item", DataType::Float32, true)),
-        width as i32,
-    )
+/// How a column's rows hold its values.
+enum Shape {
+    /// One value a row.
+    Scalar,
+    /// `n` values a row (arrow's `fixed_size_list<item>[n]`).
+    Fixed(usize),
+    /// Each row's count of values (arrow's `list<item>`).
+    List(Vec<usize>),
 }
 
-/// A record batch as parquet bytes (snappy).
-fn parquet_bytes(batch: &RecordBatch) -> Result<Vec<u8>, String> {
+/// A table's column: every value present (the items of lists nullable in the schema only, as
+/// arrow writes them).
+struct Column {
+    name: &'static str,
+    values: Values,
+    shape: Shape,
+}
+
+impl Column {
+    fn new(name: &'static str, values: Values) -> Column {
+        Column {
+            name,
+            values,
+            shape: Shape::Scalar,
+        }
+    }
+
+    fn physical(&self) -> Physical {
+        match self.values {
+            Values::F32(_) => Physical::FLOAT,
+            Values::I64(_) => Physical::INT64,
+            Values::Str(_) => Physical::BYTE_ARRAY,
+        }
+    }
+
+    /// The column's parquet type, as an arrow writer lays it out: a required leaf, or a
+    /// required `LIST` group of a repeated `list` group of an optional `item`.
+    fn parquet_type(&self) -> parquet::errors::Result<Type> {
+        let leaf = |name: &str, repetition| {
+            let t = Type::primitive_type_builder(name, self.physical()).with_repetition(repetition);
+            match self.values {
+                Values::Str(_) => t.with_logical_type(Some(LogicalType::String)),
+                _ => t,
+            }
+            .build()
+        };
+        if let Shape::Scalar = self.shape {
+            return leaf(self.name, Repetition::REQUIRED);
+        }
+        let list = Type::group_type_builder("list")
+            .with_fields(vec![Arc::new(leaf("item", Repetition::OPTIONAL)?)])
+            .with_repetition(Repetition::REPEATED)
+            .build()?;
+        Type::group_type_builder(self.name)
+            .with_fields(vec![Arc::new(list)])
+            .with_logical_type(Some(LogicalType::List))
+            .with_repetition(Repetition::REQUIRED)
+            .build()
+    }
+
+    /// The definition and repetition levels of a list column's values (every item present:
+    /// definition 2; repetition 0 at a row's first item, 1 after), or none for a scalar.
+    fn levels(&self) -> Option<(Vec<i16>, Vec<i16>)> {
+        let lengths: Vec<usize> = match &self.shape {
+            Shape::Scalar => return None,
+            Shape::Fixed(n) => vec![*n; self.len() / (*n).max(1)],
+            Shape::List(lengths) => lengths.clone(),
+        };
+        let rep = lengths
+            .iter()
+            .flat_map(|&n| (0..n).map(|i| i16::from(i > 0)))
+            .collect::<Vec<_>>();
+        Some((vec![2; rep.len()], rep))
+    }
+
+    fn len(&self) -> usize {
+        match &self.values {
+            Values::F32(v) => v.len(),
+            Values::I64(v) => v.len(),
+            Values::Str(v) => v.len(),
+        }
+    }
+}
+
+/// A table as parquet bytes (snappy, one row group), with the `ARROW:schema` entry pyarrow reads
+/// its column types from.
+fn parquet_bytes(columns: &[Column]) -> Result<Vec<u8>, String> {
+    let err = |e: parquet::errors::ParquetError| e.to_string();
+    let fields = columns
+        .iter()
+        .map(|c| c.parquet_type().map(Arc::new))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(err)?;
+    let schema = Type::group_type_builder("arrow_schema")
+        .with_fields(fields)
+        .build()
+        .map_err(err)?;
     let props = WriterProperties::builder()
         .set_compression(Compression::SNAPPY)
+        .set_key_value_metadata(Some(vec![KeyValue::new(
+            "ARROW:schema".to_string(),
+            arrow_schema(columns),
+        )]))
         .build();
     let mut out = Vec::new();
     let mut w =
-        ArrowWriter::try_new(&mut out, batch.schema(), Some(props)).map_err(|e| e.to_string())?;
-    w.write(batch).map_err(|e| e.to_string())?;
-    w.close().map_err(|e| e.to_string())?;
+        SerializedFileWriter::new(&mut out, Arc::new(schema), Arc::new(props)).map_err(err)?;
+    let mut group = w.next_row_group().map_err(err)?;
+    for column in columns {
+        let mut writer = group
+            .next_column()
+            .map_err(err)?
+            .ok_or("a column more than the schema holds")?;
+        let levels = column.levels();
+        let def = levels.as_ref().map(|l| &l.0[..]);
+        let rep = levels.as_ref().map(|l| &l.1[..]);
+        match &column.values {
+            Values::F32(v) => writer.typed::<FloatType>().write_batch(v, def, rep),
+            Values::I64(v) => writer.typed::<Int64Type>().write_batch(v, def, rep),
+            Values::Str(v) => {
+                let v: Vec<ByteArray> = v.iter().map(|s| s.as_bytes().to_vec().into()).collect();
+                writer.typed::<ByteArrayType>().write_batch(&v, def, rep)
+            }
+        }
+        .map_err(err)?;
+        writer.close().map_err(err)?;
+    }
+    group.close().map_err(err)?;
+    w.close().map_err(err)?;
     Ok(out)
+}
+
+/// The `ARROW:schema` footer entry of a table of `columns`: an Arrow IPC schema message (a
+/// flatbuffer, built in the order arrow's IPC writer builds it, so the bytes are the ones it
+/// wrote), after the continuation marker and its length, in base64. Columns are not nullable;
+/// list items are.
+fn arrow_schema(columns: &[Column]) -> String {
+    use flatbuffers::{FlatBufferBuilder, WIPOffset};
+    // Arrow's Schema.fbs: the type union's tags and each table's field slots.
+    const INT: u8 = 2;
+    const FLOATING_POINT: u8 = 3;
+    const UTF8: u8 = 5;
+    const LIST: u8 = 12;
+    const FIXED_SIZE_LIST: u8 = 16;
+    /// A field's type: its union tag, its type table and its children.
+    type Typed = (u8, WIPOffset<()>, WIPOffset<()>);
+    /// A value's type: no children.
+    fn leaf(fbb: &mut FlatBufferBuilder<'_>, values: &Values) -> Typed {
+        let empty = |fbb: &mut FlatBufferBuilder<'_>| {
+            WIPOffset::new(fbb.create_vector::<WIPOffset<()>>(&[]).value())
+        };
+        // Arrow makes a number's (empty) children before its type table, a string's after.
+        let (tag, children, table) = match values {
+            Values::I64(_) => {
+                let children = empty(fbb);
+                let table = fbb.start_table();
+                fbb.push_slot::<bool>(6, true, false); // Int.is_signed
+                fbb.push_slot::<i32>(4, 64, 0); // Int.bitWidth
+                (INT, children, fbb.end_table(table))
+            }
+            Values::F32(_) => {
+                let children = empty(fbb);
+                let table = fbb.start_table();
+                fbb.push_slot::<i16>(4, 1, 0); // FloatingPoint.precision: SINGLE
+                (FLOATING_POINT, children, fbb.end_table(table))
+            }
+            Values::Str(_) => {
+                let table = fbb.start_table();
+                let table = fbb.end_table(table);
+                (UTF8, empty(fbb), table)
+            }
+        };
+        (tag, WIPOffset::new(table.value()), children)
+    }
+    fn field<'a>(
+        fbb: &mut FlatBufferBuilder<'a>,
+        name: &str,
+        nullable: bool,
+        typed: impl FnOnce(&mut FlatBufferBuilder<'a>) -> Typed,
+    ) -> WIPOffset<()> {
+        let name = fbb.create_string(name);
+        let (tag, table, children) = typed(fbb);
+        let start = fbb.start_table();
+        fbb.push_slot_always(4, name); // Field.name
+        fbb.push_slot::<u8>(8, tag, 0); // Field.type_type
+        fbb.push_slot::<bool>(6, nullable, false); // Field.nullable
+        fbb.push_slot_always(14, children); // Field.children
+        fbb.push_slot_always(10, table); // Field.type
+        WIPOffset::new(fbb.end_table(start).value())
+    }
+    let mut fbb = FlatBufferBuilder::new();
+    let fields: Vec<WIPOffset<()>> = columns
+        .iter()
+        .map(|c| {
+            field(&mut fbb, c.name, false, |fbb| match c.shape {
+                Shape::Scalar => leaf(fbb, &c.values),
+                Shape::Fixed(_) | Shape::List(_) => {
+                    let item = field(fbb, "item", true, |fbb| leaf(fbb, &c.values));
+                    let table = fbb.start_table();
+                    let tag = match c.shape {
+                        Shape::Fixed(n) => {
+                            fbb.push_slot::<i32>(4, n as i32, 0); // FixedSizeList.listSize
+                            FIXED_SIZE_LIST
+                        }
+                        _ => LIST,
+                    };
+                    let table = fbb.end_table(table);
+                    let children = fbb.create_vector(&[item]);
+                    (
+                        tag,
+                        WIPOffset::new(table.value()),
+                        WIPOffset::new(children.value()),
+                    )
+                }
+            })
+        })
+        .collect();
+    let fields = fbb.create_vector(&fields);
+    let schema = fbb.start_table();
+    fbb.push_slot_always(6, fields); // Schema.fields
+    let schema = fbb.end_table(schema);
+    let message = fbb.start_table();
+    fbb.push_slot::<i16>(4, 4, 0); // Message.version: V5
+    fbb.push_slot::<u8>(6, 1, 0); // Message.header_type: Schema
+    fbb.push_slot::<i64>(10, 0, 0); // Message.bodyLength
+    fbb.push_slot_always(8, schema); // Message.header
+    let message = fbb.end_table(message);
+    fbb.finish_minimal(message);
+    let ipc = fbb.finished_data();
+    let mut bytes = Vec::with_capacity(8 + ipc.len());
+    bytes.extend([0xff; 4]);
+    bytes.extend((ipc.len() as u32).to_le_bytes());
+    bytes.extend(ipc);
+    base64(&bytes)
+}
+
+/// `bytes` in standard base64, padded.
+fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let n = chunk
+            .iter()
+            .enumerate()
+            .fold(0u32, |n, (i, &b)| n | u32::from(b) << (16 - 8 * i));
+        for i in 0..4 {
+            if i <= chunk.len() {
+                out.push(char::from(ALPHABET[(n >> (18 - 6 * i) & 63) as usize]));
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
 }
 
 /// Per-dimension statistics of `rows` (each `width` values).
@@ -248,91 +482,61 @@ pub fn export_lerobot(
     let f32s = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
 
     let data_path = dir.join("data/chunk-000/file-000.parquet");
-    let data = {
-        let schema = Schema::new(vec![
-            Field::new("observation.state", list_type(zd), false),
-            Field::new("action", list_type(ad), false),
-            Field::new("timestamp", DataType::Float32, false),
-            Field::new("frame_index", DataType::Int64, false),
-            Field::new("episode_index", DataType::Int64, false),
-            Field::new("index", DataType::Int64, false),
-            Field::new("task_index", DataType::Int64, false),
-            Field::new("advise.source", DataType::Utf8, false),
-            Field::new("advise.weight", DataType::Float32, false),
-        ]);
-        let columns: Vec<ArrayRef> = vec![
-            float_list(f32s(&state), zd).map_err(fail(&data_path))?,
-            float_list(f32s(&action), ad).map_err(fail(&data_path))?,
-            Arc::new(Float32Array::from(f32s(&timestamp))),
-            Arc::new(Int64Array::from(frame_index.clone())),
-            Arc::new(Int64Array::from(episode_index.clone())),
-            Arc::new(Int64Array::from(index.clone())),
-            Arc::new(Int64Array::from(vec![0i64; frames])),
-            Arc::new(StringArray::from(source)),
-            Arc::new(Float32Array::from(f32s(&weight))),
-        ];
-        RecordBatch::try_new(Arc::new(schema), columns)
-            .map_err(|e| fail(&data_path)(e.to_string()))?
-    };
+    let data = vec![
+        Column {
+            shape: Shape::Fixed(zd),
+            ..Column::new("observation.state", Values::F32(f32s(&state)))
+        },
+        Column {
+            shape: Shape::Fixed(ad),
+            ..Column::new("action", Values::F32(f32s(&action)))
+        },
+        Column::new("timestamp", Values::F32(f32s(&timestamp))),
+        Column::new("frame_index", Values::I64(frame_index.clone())),
+        Column::new("episode_index", Values::I64(episode_index.clone())),
+        Column::new("index", Values::I64(index.clone())),
+        Column::new("task_index", Values::I64(vec![0; frames])),
+        Column::new(
+            "advise.source",
+            Values::Str(source.iter().map(|s| s.to_string()).collect()),
+        ),
+        Column::new("advise.weight", Values::F32(f32s(&weight))),
+    ];
 
     let episodes_path = dir.join("meta/episodes/chunk-000/file-000.parquet");
-    let episodes_batch = {
-        let mut tasks = ListBuilder::new(StringBuilder::new());
-        for _ in &rows {
-            tasks.values().append_value(task_text(&domain.name));
-            tasks.append(true);
-        }
-        let col = |f: fn(&(i64, i64, i64, i64)) -> i64| -> ArrayRef {
-            Arc::new(Int64Array::from(rows.iter().map(f).collect::<Vec<_>>()))
-        };
-        let zeros = || -> ArrayRef { Arc::new(Int64Array::from(vec![0i64; rows.len()])) };
-        let tasks: ArrayRef = Arc::new(tasks.finish());
-        let schema = Schema::new(vec![
-            Field::new("episode_index", DataType::Int64, false),
-            Field::new("tasks", tasks.data_type().clone(), false),
-            Field::new("length", DataType::Int64, false),
-            Field::new("data/chunk_index", DataType::Int64, false),
-            Field::new("data/file_index", DataType::Int64, false),
-            Field::new("dataset_from_index", DataType::Int64, false),
-            Field::new("dataset_to_index", DataType::Int64, false),
-            Field::new("meta/episodes/chunk_index", DataType::Int64, false),
-            Field::new("meta/episodes/file_index", DataType::Int64, false),
-            Field::new("advise.source", DataType::Utf8, false),
-            Field::new("advise.name", DataType::Utf8, false),
-        ]);
-        let columns: Vec<ArrayRef> = vec![
-            col(|r| r.0),
-            tasks,
-            col(|r| r.1),
-            zeros(),
-            zeros(),
-            col(|r| r.2),
-            col(|r| r.3),
-            zeros(),
-            zeros(),
-            Arc::new(StringArray::from(
-                eps.iter().map(|e| e.source).collect::<Vec<_>>(),
-            )),
-            Arc::new(StringArray::from(
-                eps.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(),
-            )),
-        ];
-        RecordBatch::try_new(Arc::new(schema), columns)
-            .map_err(|e| fail(&episodes_path)(e.to_string()))?
-    };
+    let col = |f: fn(&(i64, i64, i64, i64)) -> i64| Values::I64(rows.iter().map(f).collect());
+    let zeros = || Values::I64(vec![0; rows.len()]);
+    let episodes_table = vec![
+        Column::new("episode_index", col(|r| r.0)),
+        Column {
+            shape: Shape::List(vec![1; rows.len()]),
+            ..Column::new(
+                "tasks",
+                Values::Str(vec![task_text(&domain.name); rows.len()]),
+            )
+        },
+        Column::new("length", col(|r| r.1)),
+        Column::new("data/chunk_index", zeros()),
+        Column::new("data/file_index", zeros()),
+        Column::new("dataset_from_index", col(|r| r.2)),
+        Column::new("dataset_to_index", col(|r| r.3)),
+        Column::new("meta/episodes/chunk_index", zeros()),
+        Column::new("meta/episodes/file_index", zeros()),
+        Column::new(
+            "advise.source",
+            Values::Str(eps.iter().map(|e| e.source.to_string()).collect()),
+        ),
+        Column::new(
+            "advise.name",
+            Values::Str(eps.iter().map(|e| e.name.clone()).collect()),
+        ),
+    ];
 
     let tasks_path = dir.join("meta/tasks.parquet");
-    let tasks_batch = RecordBatch::try_new(
-        Arc::new(Schema::new(vec![
-            Field::new("task_index", DataType::Int64, false),
-            Field::new("task", DataType::Utf8, false),
-        ])),
-        vec![
-            Arc::new(Int64Array::from(vec![0i64])),
-            Arc::new(StringArray::from(vec![task_text(&domain.name)])),
-        ],
-    )
-    .map_err(|e| fail(&tasks_path)(e.to_string()))?;
+    let tasks_table = vec![
+        Column::new("task_index", Values::I64(vec![0])),
+        Column::new("task", Values::Str(vec![task_text(&domain.name)])),
+    ];
 
     let names = |dims: &[crate::domain::Dim]| -> Vec<String> {
         dims.iter().map(|d| d.name.clone()).collect()
@@ -386,11 +590,11 @@ pub fn export_lerobot(
         ),
         (
             episodes_path.clone(),
-            parquet_bytes(&episodes_batch).map_err(fail(&episodes_path))?,
+            parquet_bytes(&episodes_table).map_err(fail(&episodes_path))?,
         ),
         (
             tasks_path.clone(),
-            parquet_bytes(&tasks_batch).map_err(fail(&tasks_path))?,
+            parquet_bytes(&tasks_table).map_err(fail(&tasks_path))?,
         ),
         (dir.join("meta/info.json"), pretty(&info)),
         (dir.join("meta/stats.json"), pretty(&stats_json)),
@@ -420,4 +624,34 @@ fn pretty(v: &Value) -> Vec<u8> {
     let mut s = serde_json::to_vec_pretty(v).unwrap_or_default();
     s.push(b'\n');
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_is_the_standard_alphabet_padded() {
+        let cases = [("", ""), ("f", "Zg=="), ("fo", "Zm8="), ("foo", "Zm9v")];
+        for (plain, encoded) in cases {
+            assert_eq!(base64(plain.as_bytes()), encoded);
+        }
+        assert_eq!(base64(&[0xfb, 0xff, 0xbf]), "+/+/");
+    }
+
+    /// The tasks table's `ARROW:schema` is byte for byte what arrow's writer (parquet's
+    /// `ArrowWriter`, arrow 60) wrote for it before the export stopped using arrow.
+    #[test]
+    fn the_arrow_schema_entry_is_what_arrows_writer_wrote() {
+        let tasks = [
+            Column::new("task_index", Values::I64(vec![0])),
+            Column::new("task", Values::Str(vec!["t".into()])),
+        ];
+        assert_eq!(
+            arrow_schema(&tasks),
+            "/////7AAAAAQAAAAAAAKAAwACgAJAAQACgAAABAAAAAAAQQACAAIAAAABAAIAAAABAAAAAIAAABEAAAABAAAANT\
+///8YAAAADAAAAAAAAAUQAAAAAAAAAAQABAAEAAAABAAAAHRhc2sAAAAAEAAUABAAAAAPAAQAAAAIABAAAAAYAAAAIAAAA\
+AAAAAIcAAAACAAMAAQACwAIAAAAQAAAAAAAAAEAAAAACgAAAHRhc2tfaW5kZXgAAA=="
+        );
+    }
 }

@@ -1,5 +1,6 @@
 //! A dataset out as MCAP for Foxglove and ROS 2 tools: profile `ros2`, ROS 2 message schemas
-//! (`ros2msg`, each with the definitions it depends on) and CDR messages, zstd chunks.
+//! (`ros2msg`, each with the definitions it depends on) and CDR messages, in uncompressed chunks
+//! (legal MCAP that every reader takes; `mcap` is built without its C compressors, issue 32).
 //!
 //! Each execution of the dataset is laid on one timeline, one after another with a second
 //! between them: its commands as `geometry_msgs/msg/Twist` on `/cmd_vel` and, when the execution
@@ -129,7 +130,7 @@ fn mcap_bytes(dataset: &Dataset) -> Result<(Vec<u8>, McapSummary), String> {
     let options = mcap::WriteOptions::new()
         .profile("ros2")
         .library(concat!("advise ", env!("CARGO_PKG_VERSION")))
-        .compression(Some(mcap::Compression::Zstd));
+        .compression(None);
     let mut out = options.create(Cursor::new(Vec::new())).map_err(err)?;
     let none = BTreeMap::new();
     let channel = |out: &mut mcap::Writer<_>, topic: &str, ty: &str, def: &str| {

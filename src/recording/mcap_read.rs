@@ -306,15 +306,11 @@ fn decompress<'d>(
                 std::cmp::Ordering::Less => Err(short(data.len() as u64, size)),
             };
         }
-        "zstd" => zstd::stream::read::Decoder::with_buffer(data)
-            .map_err(fault)?
+        "zstd" => zstd_frames(data, size + 1, &mut out).map_err(fault)?,
+        "lz4" => lz4_flex::frame::FrameDecoder::new(data)
             .take(size + 1)
             .read_to_end(&mut out)
-            .map_err(fault)?,
-        "lz4" => lz4::Decoder::new(data)
-            .map_err(fault)?
-            .take(size + 1)
-            .read_to_end(&mut out)
+            .map(drop)
             .map_err(fault)?,
         other => {
             return Err(Decompressed::Damaged(
@@ -327,6 +323,44 @@ fn decompress<'d>(
         std::cmp::Ordering::Greater => Err(Decompressed::Longer),
         std::cmp::Ordering::Less => Err(short(out.len() as u64, size)),
     }
+}
+
+/// The zstd frames of `data`, one after another as the format allows (skippable frames
+/// skipped, each frame's checksum checked), decompressed into `out` until it holds `limit`
+/// bytes: the decoder never produces more than that, whatever the frames hold.
+fn zstd_frames(mut data: &[u8], limit: u64, out: &mut Vec<u8>) -> std::io::Result<()> {
+    use ruzstd::decoding::StreamingDecoder;
+    use ruzstd::decoding::errors::{FrameDecoderError, ReadFrameHeaderError};
+    let invalid = |why: String| std::io::Error::new(std::io::ErrorKind::InvalidData, why);
+    while !data.is_empty() && (out.len() as u64) < limit {
+        let mut frame = match StreamingDecoder::new(&mut data) {
+            Ok(frame) => frame,
+            Err(FrameDecoderError::ReadFrameHeaderError(ReadFrameHeaderError::SkipFrame {
+                length,
+                ..
+            })) => {
+                data = data
+                    .get(length as usize..)
+                    .ok_or_else(|| invalid("a skippable frame runs past the chunk".into()))?;
+                continue;
+            }
+            Err(e) => return Err(invalid(e.to_string())),
+        };
+        let room = limit - out.len() as u64;
+        (&mut frame).take(room).read_to_end(out)?;
+        // A frame read to its end (not cut at the limit) has all its content hashed.
+        let decoder = &frame.decoder;
+        if (out.len() as u64) < limit
+            && decoder.is_finished()
+            && let Some(expected) = decoder.get_checksum_from_data()
+            && decoder.get_calculated_checksum() != Some(expected)
+        {
+            return Err(invalid(
+                "a frame's checksum does not match its content".into(),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn short(got: u64, size: u64) -> Decompressed {
@@ -423,6 +457,54 @@ mod tests {
         let err = read(&f, &Bounds::DEFAULT, &mut Budget::default()).unwrap_err();
         assert!(matches!(err, ImportError::ChunkSizeLies { .. }), "{err:?}");
         let f = file_of(&[("", 3, vec![0; 9])]);
+        let err = read(&f, &Bounds::DEFAULT, &mut Budget::default()).unwrap_err();
+        assert!(matches!(err, ImportError::ChunkSizeLies { .. }), "{err:?}");
+    }
+
+    /// A chunk may hold several zstd frames, skippable ones among them (the format allows it;
+    /// libzstd reads them all): each is read, in order.
+    #[test]
+    fn a_chunk_of_several_zstd_frames_is_read_whole() {
+        let mut data = zeros_zstd(900);
+        data.extend(0x184D_2A50u32.to_le_bytes());
+        data.extend(3u32.to_le_bytes());
+        data.extend([1, 2, 3]);
+        data.extend(zeros_zstd(99));
+        let f = file_of(&[("zstd", 999, data)]);
+        let mut budget = Budget::default();
+        let read = read(&f, &Bounds::DEFAULT, &mut budget);
+        assert!(matches!(read, Ok(Read::Whole)), "{read:?}");
+    }
+
+    /// A zstd frame's content checksum is checked: a chunk whose content does not match it is
+    /// damaged, not read.
+    #[test]
+    fn a_zstd_frame_whose_checksum_does_not_match_is_damaged() {
+        let mut enc = zstd::stream::Encoder::new(Vec::new(), 1).unwrap();
+        enc.include_checksum(true).unwrap();
+        std::io::Write::write_all(&mut enc, &[0u8; 999]).unwrap();
+        let mut data = enc.finish().unwrap();
+        let f = file_of(&[("zstd", 999, data.clone())]);
+        assert!(read(&f, &Bounds::DEFAULT, &mut Budget::default()).is_ok());
+        let last = data.len() - 1;
+        data[last] ^= 1;
+        let f = file_of(&[("zstd", 999, data)]);
+        let err = read(&f, &Bounds::DEFAULT, &mut Budget::default()).unwrap_err();
+        assert!(err.to_string().contains("checksum"), "{err}");
+    }
+
+    #[test]
+    fn lz4_chunks_are_read_within_their_size() {
+        let mut enc = lz4::EncoderBuilder::new().build(Vec::new()).unwrap();
+        std::io::Write::write_all(&mut enc, &[0u8; 999]).unwrap();
+        let (data, r) = enc.finish();
+        r.unwrap();
+        let f = file_of(&[("lz4", 999, data.clone())]);
+        assert!(matches!(
+            read(&f, &Bounds::DEFAULT, &mut Budget::default()),
+            Ok(Read::Whole)
+        ));
+        let f = file_of(&[("lz4", 990, data)]);
         let err = read(&f, &Bounds::DEFAULT, &mut Budget::default()).unwrap_err();
         assert!(matches!(err, ImportError::ChunkSizeLies { .. }), "{err:?}");
     }
