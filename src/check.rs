@@ -126,14 +126,7 @@ pub fn check_in(
 ) -> Result<Checked, CheckErrors> {
     let srcs: Vec<Src<'_>> = ids.iter().map(|&id| map.src(id)).collect();
     let mut c = Checker::new(&srcs);
-    let mut files = Vec::new();
-    for (i, s) in srcs.iter().enumerate() {
-        match syntax::parse(*s) {
-            Ok(f) => files.push((i, f)),
-            Err(e) => c.errors.push((i, 0, e.into())),
-        }
-    }
-    let result = c.run(base, &files);
+    let result = c.run(base);
     let mut errors = c.errors;
     errors.sort_by_key(|(f, pos, _)| (*f, *pos));
     if errors.is_empty() {
@@ -234,103 +227,191 @@ impl<'s> Checker<'s> {
         self.errors.len() >= MAX_ERRORS
     }
 
-    fn run(&mut self, base: Option<&OperatorSet>, files: &[(usize, File)]) -> OperatorSet {
-        let mut domains: Vec<Domain> = base.map(|b| b.domains.clone()).unwrap_or_default();
-        let base_domains = domains.len();
-        let mut by_name: HashMap<String, usize> = domains
-            .iter()
-            .enumerate()
-            .map(|(i, d)| (d.name.clone(), i))
-            .collect();
-        let mut declared: HashMap<String, (usize, Span)> = HashMap::new();
-        let mut tasks = base.map(|b| b.tasks.clone()).unwrap_or_default();
-        for (f, file) in files {
-            for item in &file.items {
-                if let Item::Domain(d) = item {
-                    if self.full() {
-                        continue;
-                    }
-                    let dom = self.domain(*f, d);
-                    if let Some(&(ff, fs)) = declared.get(&dom.name) {
-                        let first = format!(
-                            "the first declaration is in {} at line {}",
-                            self.sources[ff].name,
-                            self.line(ff, fs.start)
-                        );
-                        self.err(
-                            *f,
-                            d.name.span,
-                            CheckError::DuplicateDomain {
-                                name: dom.name.clone(),
-                                first,
-                                span: self.at(*f, d.name.span),
-                            },
-                        );
-                        continue;
-                    }
-                    declared.insert(dom.name.clone(), (*f, d.name.span));
-                    if let Some(&existing) = by_name.get(&dom.name).filter(|&&i| i < base_domains) {
-                        if let Some(difference) = domain_difference(&domains[existing], &dom) {
-                            self.err(
-                                *f,
-                                d.name.span,
-                                CheckError::ConflictingDomain {
-                                    name: dom.name.clone(),
-                                    difference,
-                                    span: self.at(*f, d.name.span),
-                                },
-                            );
-                        }
-                        continue;
-                    }
-                    if let Some(t) = self.task(*f, d, &dom) {
-                        tasks.push(Arc::new(t));
-                    }
-                    by_name.insert(dom.name.clone(), domains.len());
-                    domains.push(dom);
+    /// Read file `f` item by item into `read`. A file that does not parse adds nothing and
+    /// reports only its parse error, as if it had never been read.
+    fn read_file(&mut self, f: usize, read: &mut Read) {
+        let mark = (
+            self.errors.len(),
+            self.warnings.len(),
+            self.dropped,
+            read.doms.len(),
+            read.tasks.len(),
+            read.ops.len(),
+        );
+        for item in syntax::items(self.sources[f]) {
+            match item {
+                Ok(Item::Domain(d)) => self.read_domain(f, &d, read),
+                Ok(Item::Operator(o)) => self.read_operator(f, o, read),
+                Err(e) => {
+                    let (errors, warnings, dropped, doms, tasks, ops) = mark;
+                    self.errors.truncate(errors);
+                    self.warnings.truncate(warnings);
+                    self.dropped = dropped;
+                    read.doms.truncate(doms);
+                    read.tasks.truncate(tasks);
+                    read.ops.truncate(ops);
+                    read.early.truncate(ops);
+                    read.by_name.retain(|_, i| *i < doms);
+                    read.declared.retain(|_, (file, _)| *file != f);
+                    self.errors.push((f, 0, e.into()));
+                    return;
                 }
             }
         }
+    }
 
+    /// A domain as it is read: checked, and known from here on unless it was declared before.
+    fn read_domain(&mut self, f: usize, d: &DomainDecl, read: &mut Read) {
+        if self.full() {
+            return;
+        }
+        let dom = self.domain(f, d);
+        if let Some(&(ff, fs)) = read.declared.get(&dom.name) {
+            let first = format!(
+                "the first declaration is in {} at line {}",
+                self.sources[ff].name,
+                self.line(ff, fs.start)
+            );
+            self.err(
+                f,
+                d.name.span,
+                CheckError::DuplicateDomain {
+                    name: dom.name.clone(),
+                    first,
+                    span: self.at(f, d.name.span),
+                },
+            );
+            return;
+        }
+        read.declared.insert(dom.name.clone(), (f, d.name.span));
+        if let Some(&existing) = read
+            .by_name
+            .get(&dom.name)
+            .filter(|&&i| i < read.base_domains)
+        {
+            if let Some(difference) = domain_difference(&read.doms[existing], &dom) {
+                self.err(
+                    f,
+                    d.name.span,
+                    CheckError::ConflictingDomain {
+                        name: dom.name.clone(),
+                        difference,
+                        span: self.at(f, d.name.span),
+                    },
+                );
+            }
+            return;
+        }
+        if let Some(t) = self.task(f, d, &dom) {
+            read.tasks.push(Arc::new(t));
+        }
+        read.by_name.insert(dom.name.clone(), read.doms.len());
+        read.doms.push(Dom::new(dom));
+    }
+
+    /// An operator as it is read. One whose domain is known and whose body is a block is checked
+    /// and compiled now and kept without its body; the rest wait until every file is read.
+    fn read_operator(&mut self, f: usize, mut o: OperatorDecl, read: &mut Read) {
+        let domain = read.by_name.get(&o.domain.name).copied();
+        let early = match (domain, &o.body) {
+            (Some(d), Body::Block { .. }) => {
+                let sig = self.signature(f, &o, &read.by_name, &read.doms);
+                let params = sig.params;
+                let body = if self.full() {
+                    None
+                } else {
+                    self.block(f, &o, &params, &read.doms[d])
+                };
+                // Only a set without errors is built; its operators' definitions are kept.
+                let definition = if self.errors.is_empty() {
+                    let doc = std::mem::take(&mut o.doc);
+                    let text = o.to_string();
+                    o.doc = doc;
+                    text
+                } else {
+                    String::new()
+                };
+                // What is left is what the set needs: the name, the doc, the places. (A
+                // vector of parameters as parsed held four slots of a few hundred bytes each:
+                // the largest part of a large file's memory.)
+                o.body = Body::Block {
+                    guard: None,
+                    stmts: Vec::new(),
+                };
+                o.params = Vec::new();
+                o.doc.shrink_to_fit();
+                Some(Early {
+                    domain: d,
+                    params,
+                    body,
+                    definition,
+                })
+            }
+            _ => None,
+        };
+        read.ops.push((f, Box::new(o)));
+        read.early.push(early);
+    }
+
+    /// Read every file, item by item, and check what was read: domains as they come, an
+    /// operator whose domain is already known and whose body is a block as it comes (its tree
+    /// dropped once it is compiled, so a large file is never held whole as a tree: issue 31),
+    /// the rest (compositions, operators of domains declared later) once every file is read.
+    fn run(&mut self, base: Option<&OperatorSet>) -> OperatorSet {
+        let mut read = Read::new(base);
+        for f in 0..self.sources.len() {
+            self.read_file(f, &mut read);
+        }
+        let Read {
+            doms,
+            by_name,
+            tasks,
+            ops,
+            mut early,
+            ..
+        } = read;
         let base_ops = base.map_or(0, |b| b.ops.len());
         let (sigs, bodies) = {
-            let doms: Vec<Dom<'_>> = domains.iter().map(Dom::new).collect();
             // Signatures first, so compositions may name operators defined later in any file.
             let mut sigs: Vec<Sig<'_>> = Vec::new();
             // `(domain, name)` to the first signature of that name.
             let mut first: HashMap<(usize, &str), usize> = HashMap::new();
-            for (f, file) in files {
-                for item in &file.items {
-                    if let Item::Operator(o) = item {
-                        let sig = self.signature(*f, o, &by_name, &doms);
-                        if let Some(d) = sig.domain {
-                            match first.get(&(d, o.name.name.as_str())) {
-                                Some(&j) => {
-                                    let first = &sigs[j];
-                                    let msg = format!(
-                                        "the first definition is in {} at line {}",
-                                        self.sources[first.file].name,
-                                        self.line(first.file, first.decl.name.span.start)
-                                    );
-                                    self.err(
-                                        *f,
-                                        o.name.span,
-                                        CheckError::DuplicateOperator {
-                                            name: o.name.name.clone(),
-                                            domain: domains[d].name.clone(),
-                                            first: msg,
-                                            span: self.at(*f, o.name.span),
-                                        },
-                                    );
-                                }
-                                None => {
-                                    first.insert((d, o.name.name.as_str()), sigs.len());
-                                }
-                            }
+            for (&(f, ref o), e) in ops.iter().zip(&early) {
+                let sig = match e {
+                    Some(e) => Sig {
+                        file: f,
+                        decl: o,
+                        domain: Some(e.domain),
+                        params: e.params.clone(),
+                    },
+                    None => self.signature(f, o, &by_name, &doms),
+                };
+                if let Some(d) = sig.domain {
+                    match first.get(&(d, o.name.name.as_str())) {
+                        Some(&j) => {
+                            let first = &sigs[j];
+                            let msg = format!(
+                                "the first definition is in {} at line {}",
+                                self.sources[first.file].name,
+                                self.line(first.file, first.decl.name.span.start)
+                            );
+                            self.err(
+                                f,
+                                o.name.span,
+                                CheckError::DuplicateOperator {
+                                    name: o.name.name.clone(),
+                                    domain: doms[d].name.clone(),
+                                    first: msg,
+                                    span: self.at(f, o.name.span),
+                                },
+                            );
                         }
-                        sigs.push(sig);
+                        None => {
+                            first.insert((d, o.name.name.as_str()), sigs.len());
+                        }
                     }
                 }
+                sigs.push(sig);
             }
             let known = Known {
                 sigs: &sigs,
@@ -340,8 +421,9 @@ impl<'s> Checker<'s> {
             };
             let mut bodies: Vec<Option<Body2>> = Vec::with_capacity(sigs.len());
             for (i, sig) in sigs.iter().enumerate() {
-                let body = match sig.domain {
-                    Some(d) if !self.full() => self.body(&known, i, &doms[d]),
+                let body = match (&mut early[i], sig.domain) {
+                    (Some(e), _) => e.body.take(),
+                    (None, Some(d)) if !self.full() => self.body(&known, i, &doms[d]),
                     _ => None,
                 };
                 bodies.push(body);
@@ -356,7 +438,7 @@ impl<'s> Checker<'s> {
         };
 
         let mut set = OperatorSet {
-            domains,
+            domains: doms.iter().map(|d| d.domain().clone()).collect(),
             tasks,
             ops: base.map(|b| b.ops.clone()).unwrap_or_default(),
             visible: HashMap::new(),
@@ -365,7 +447,7 @@ impl<'s> Checker<'s> {
             return set;
         }
         // Each domain once, shared by its operators.
-        let shared: Vec<Arc<Domain>> = set.domains.iter().cloned().map(Arc::new).collect();
+        let shared: Vec<Arc<Domain>> = doms.iter().map(|d| d.shared().clone()).collect();
         let mut bodies: Vec<Option<Body2>> = bodies;
         let mut built: Vec<Option<Arc<Operator>>> = vec![None; sigs.len()];
         // Callees before callers: a composition holds the operators it calls.
@@ -375,9 +457,10 @@ impl<'s> Checker<'s> {
                 continue;
             };
             let domain = &shared[d];
-            let mut def = sig.decl.clone();
-            def.doc.clear();
-            let definition = def.to_string();
+            let definition = match early[i].as_mut() {
+                Some(e) => std::mem::take(&mut e.definition),
+                None => definition_of(sig.decl),
+            };
             let (body, hash) = match body {
                 Body2::Block(program) => {
                     (OpBody::Block(program), DefinitionHash::of(&definition, []))
@@ -438,6 +521,61 @@ impl<'s> Checker<'s> {
         set.reindex();
         set
     }
+}
+
+/// What the checker has read so far: the domains (the base set's first), the tasks, and the
+/// operators in definition order.
+struct Read {
+    doms: Vec<Dom>,
+    /// How many of `doms` are the base set's.
+    base_domains: usize,
+    by_name: HashMap<String, usize>,
+    /// Each domain declared in the files, with where its first declaration is.
+    declared: HashMap<String, (usize, Span)>,
+    tasks: Vec<Arc<crate::program::task::TaskDef>>,
+    /// Each operator with its file: for one checked as it was read, its declaration without its
+    /// body.
+    ops: Vec<(usize, Box<OperatorDecl>)>,
+    /// For each of `ops`, what checking it as it was read found.
+    early: Vec<Option<Early>>,
+}
+
+/// An operator checked as it was read: its signature, its compiled body (`None` when either had
+/// errors, reported), and its definition as text.
+struct Early {
+    domain: usize,
+    params: Vec<Param>,
+    body: Option<Body2>,
+    definition: String,
+}
+
+impl Read {
+    fn new(base: Option<&OperatorSet>) -> Read {
+        let doms: Vec<Dom> = base
+            .map(|b| b.domains.iter().cloned().map(Dom::new).collect())
+            .unwrap_or_default();
+        let by_name = doms
+            .iter()
+            .enumerate()
+            .map(|(i, d)| (d.name.clone(), i))
+            .collect();
+        Read {
+            base_domains: doms.len(),
+            doms,
+            by_name,
+            declared: HashMap::new(),
+            tasks: base.map(|b| b.tasks.clone()).unwrap_or_default(),
+            ops: Vec::new(),
+            early: Vec::new(),
+        }
+    }
+}
+
+/// An operator's definition as the set keeps it: its text as printed, without its doc comment.
+fn definition_of(o: &OperatorDecl) -> String {
+    let mut def = o.clone();
+    def.doc.clear();
+    def.to_string()
 }
 
 /// A body that passed the checker: a block already compiled, a composition's stages.

@@ -38,44 +38,87 @@ pub use delims::MAX_NESTING;
 pub const MAX_DEPTH: usize = 128;
 
 /// Parse a whole file, a source of a [`SourceMap`](crate::diag::SourceMap) whose errors point
-/// into it.
+/// into it: [`items`] collected.
+pub fn parse(source: Src<'_>) -> Result<File, ParseError> {
+    Ok(File {
+        items: items(source).collect::<Result<_, _>>()?,
+    })
+}
+
+/// The items of a file, each parsed when it is asked for; after an error, nothing more.
 ///
 /// The file is parsed one item at a time (`next_item`), each from where the one before ended, so
 /// pest's token queue (about 80 bytes per token, 40 times the text) holds one item, never the
-/// whole file. A mistake is reported as a whole-file parse reports it: the text is parsed again
-/// with `file`, from the start of the item before the one that failed (whose continuation pest
-/// also tries where the next item starts), and the error's place shifted back.
-pub fn parse(source: Src<'_>) -> Result<File, ParseError> {
-    let (id, src) = (source.id, source.text);
+/// whole file, and a reader that is done with an item (the checker, once it has compiled an
+/// operator) need not hold its tree while the rest is read. A mistake is reported as a whole-file
+/// parse reports it: the text is parsed again with `file`, from the start of the item before the
+/// one that failed (whose continuation pest also tries where the next item starts), and the
+/// error's place shifted back.
+pub fn items(source: Src<'_>) -> Items<'_> {
     // pest recurses once per bracket; refuse deep nesting before it can exhaust the stack.
-    let brackets = delims::scan(src);
-    if let Some(at) = brackets.too_deep {
-        return Err(nesting_too_deep(id, at));
+    let brackets = delims::scan(source.text);
+    let failed = brackets
+        .too_deep
+        .map(|at| nesting_too_deep(source.id, at));
+    Items {
+        id: source.id,
+        src: source.text,
+        brackets,
+        pos: 0,
+        last_start: 0,
+        failed,
+        done: false,
     }
-    let mut items = Vec::new();
-    // Where the next item is looked for, and where the last one read started.
-    let (mut pos, mut last_start) = (0, 0);
-    loop {
+}
+
+/// The iterator of [`items`].
+pub struct Items<'s> {
+    id: SourceId,
+    src: &'s str,
+    brackets: delims::Scan,
+    /// Where the next item is looked for, and where the last one read started.
+    pos: usize,
+    last_start: usize,
+    /// An error found before the first item (nesting too deep), reported first.
+    failed: Option<ParseError>,
+    done: bool,
+}
+
+impl Iterator for Items<'_> {
+    type Item = Result<Item, ParseError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.done {
+            return None;
+        }
+        if let Some(e) = self.failed.take() {
+            self.done = true;
+            return Some(Err(e));
+        }
+        let (id, src, pos) = (self.id, self.src, self.pos);
         let step = match AdviceParser::parse(Rule::next_item, &src[pos..]) {
             Ok(mut pairs) => pairs.next().expect("next_item always yields one pair"),
             Err(e) => {
-                let e = match AdviceParser::parse(Rule::file, &src[last_start..]) {
-                    Err(whole) => shifted(whole, last_start),
+                self.done = true;
+                let e = match AdviceParser::parse(Rule::file, &src[self.last_start..]) {
+                    Err(whole) => shifted(whole, self.last_start),
                     // Cannot happen (the item before parsed the same way); the step's own error.
                     Ok(_) => shifted(e, pos),
                 };
-                return Err(convert(e, id, src, &brackets));
+                return Some(Err(convert(e, id, src, &self.brackets)));
             }
         };
         let Some(p) = step.into_inner().find(|p| p.as_rule() != Rule::EOI) else {
-            break;
+            self.done = true;
+            return None;
         };
         let b = Builder { id, base: pos };
         let span = b.span(&p);
-        items.push(b.item(p)?);
-        (last_start, pos) = (span.start, span.end);
+        (self.last_start, self.pos) = (span.start, span.end);
+        let item = b.item(p);
+        self.done = item.is_err();
+        Some(item)
     }
-    Ok(File { items })
 }
 
 /// A pest error of text that starts at byte `base` of the source, placed in the source.

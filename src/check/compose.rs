@@ -175,7 +175,7 @@ impl Checker<'_> {
         known: &Known<'_, '_>,
         i: usize,
         c: &crate::syntax::ast::Call,
-        domain: &Dom<'_>,
+        domain: &Dom,
     ) -> Option<Step> {
         let (sigs, base) = (known.sigs, known.base);
         let sig = &sigs[i];

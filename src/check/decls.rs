@@ -102,7 +102,7 @@ impl Checker<'_> {
         f: usize,
         o: &'f OperatorDecl,
         by_name: &HashMap<String, usize>,
-        domains: &[Dom<'_>],
+        domains: &[Dom],
     ) -> Sig<'f> {
         let domain = by_name.get(&o.domain.name).copied();
         if domain.is_none() && !self.full() {

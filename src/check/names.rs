@@ -39,12 +39,12 @@ pub(super) enum Scope<'a> {
     Const,
     /// An operator body: dimensions, parameters, `k`, `n`.
     Point {
-        domain: &'a Dom<'a>,
+        domain: &'a Dom,
         params: &'a [Param],
     },
     /// An argument in a composition: the caller's parameters and `n`.
     Arg {
-        domain: &'a Dom<'a>,
+        domain: &'a Dom,
         params: &'a [Param],
     },
     /// A clause of a task declaration: the task's named values that clause may read.
@@ -52,25 +52,34 @@ pub(super) enum Scope<'a> {
 }
 
 /// A domain with its dimensions indexed by name, so that resolving a name does not scan them.
-pub(super) struct Dom<'d> {
-    domain: &'d Domain,
-    names: HashMap<&'d str, (Space, usize)>,
+/// It owns what it indexes, so the checker can keep one for each domain as domains are read.
+pub(super) struct Dom {
+    domain: Arc<Domain>,
+    names: HashMap<String, (Space, usize)>,
 }
 
-impl<'d> Dom<'d> {
+impl Dom {
     /// The domain itself.
-    pub(super) fn domain(&self) -> &'d Domain {
-        self.domain
+    pub(super) fn domain(&self) -> &Domain {
+        &self.domain
     }
 
-    pub(super) fn new(domain: &'d Domain) -> Dom<'d> {
+    /// The domain, shared.
+    pub(super) fn shared(&self) -> &Arc<Domain> {
+        &self.domain
+    }
+
+    pub(super) fn new(domain: Domain) -> Dom {
         let mut names = HashMap::new();
         for space in [Space::Observation, Space::Action] {
             for (i, d) in domain.dims(space).iter().enumerate() {
-                names.entry(d.name.as_str()).or_insert((space, i));
+                names.entry(d.name.clone()).or_insert((space, i));
             }
         }
-        Dom { domain, names }
+        Dom {
+            domain: Arc::new(domain),
+            names,
+        }
     }
 
     /// The space and index of the dimension `name` (as [`Domain::find`], by hashing).
@@ -79,11 +88,11 @@ impl<'d> Dom<'d> {
     }
 }
 
-impl Deref for Dom<'_> {
+impl Deref for Dom {
     type Target = Domain;
 
     fn deref(&self) -> &Domain {
-        self.domain
+        &self.domain
     }
 }
 

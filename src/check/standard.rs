@@ -7,7 +7,7 @@
 use std::sync::OnceLock;
 
 use super::*;
-use crate::syntax::ast::{File, Item};
+use crate::syntax::ast::Item;
 
 /// The standard operator library, embedded so the binary works from any directory.
 pub const STANDARD_SOURCES: [(&str, &str); 2] = [
@@ -50,26 +50,19 @@ pub(super) fn standard_domains() -> &'static [Domain] {
             .collect();
         let srcs: Vec<Src<'_>> = ids.iter().map(|&id| map.src(id)).collect();
         let mut c = Checker::new(&srcs);
-        let mut files = Vec::new();
-        for (i, s) in srcs.iter().enumerate() {
-            match syntax::parse(*s) {
-                Ok(f) => files.push((
-                    i,
-                    File {
-                        items: f
-                            .items
-                            .into_iter()
-                            .filter(|it| matches!(it, Item::Domain(_)))
-                            .collect(),
-                    },
-                )),
-                Err(e) => panic!(
-                    "the standard operators do not parse:\n{}",
-                    crate::diag::render(&map, &e, false)
-                ),
+        let mut read = Read::new(None);
+        for (f, s) in srcs.iter().enumerate() {
+            for item in syntax::items(*s) {
+                match item {
+                    Ok(Item::Domain(d)) => c.read_domain(f, &d, &mut read),
+                    Ok(Item::Operator(_)) => {}
+                    Err(e) => panic!(
+                        "the standard operators do not parse:\n{}",
+                        crate::diag::render(&map, &e, false)
+                    ),
+                }
             }
         }
-        let set = c.run(None, &files);
         if !c.errors.is_empty() {
             let errors = c.errors.into_iter().map(|(_, _, e)| e).collect();
             panic!(
@@ -77,7 +70,7 @@ pub(super) fn standard_domains() -> &'static [Domain] {
                 crate::diag::render(&map, &CheckErrors { errors }, false)
             );
         }
-        set.domains
+        read.doms.iter().map(|d| d.domain().clone()).collect()
     })
 }
 
