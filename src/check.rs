@@ -178,8 +178,8 @@ struct Sig<'f> {
 struct Checker<'s> {
     /// The files, each a source of the map the diagnostics point into.
     sources: &'s [Src<'s>],
-    /// Byte offsets of each text's newlines, to turn offsets into lines without rescanning.
-    newlines: Vec<Vec<usize>>,
+    /// Each text's line index, to turn offsets into lines without rescanning.
+    lines: Vec<crate::diag::LineIndex>,
     errors: Vec<(usize, usize, FileError)>,
     /// Errors found past [`MAX_ERRORS`], not reported.
     dropped: usize,
@@ -190,9 +190,9 @@ impl<'s> Checker<'s> {
     fn new(sources: &'s [Src<'s>]) -> Checker<'s> {
         Checker {
             sources,
-            newlines: sources
+            lines: sources
                 .iter()
-                .map(|s| s.text.match_indices('\n').map(|(i, _)| i).collect())
+                .map(|s| crate::diag::LineIndex::new(s.text))
                 .collect(),
             errors: Vec::new(),
             dropped: 0,
@@ -215,7 +215,7 @@ impl<'s> Checker<'s> {
 
     /// 1-based line of a byte offset of file `file`.
     fn line(&self, file: usize, byte: usize) -> usize {
-        self.newlines[file].partition_point(|&nl| nl < byte) + 1
+        self.lines[file].line(byte) + 1
     }
 
     fn error_count(&self) -> usize {

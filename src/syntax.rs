@@ -57,9 +57,7 @@ pub fn parse(source: Src<'_>) -> Result<File, ParseError> {
 pub fn items(source: Src<'_>) -> Items<'_> {
     // pest recurses once per bracket; refuse deep nesting before it can exhaust the stack.
     let brackets = delims::scan(source.text);
-    let failed = brackets
-        .too_deep
-        .map(|at| nesting_too_deep(source.id, at));
+    let failed = brackets.too_deep.map(|at| nesting_too_deep(source.id, at));
     Items {
         id: source.id,
         src: source.text,

@@ -93,8 +93,8 @@ impl Checker<'_> {
                 );
                 continue;
             }
-            let constant = (ty == Ty::Num && value.is_constant())
-                .then(|| value.eval_uniform(&[], f64::NAN));
+            let constant =
+                (ty == Ty::Num && value.is_constant()).then(|| value.eval_uniform(&[], f64::NAN));
             if let Some(v) = constant.filter(|v| !v.is_finite()) {
                 self.err(
                     f,
@@ -158,7 +158,10 @@ impl Checker<'_> {
             guard,
             writes,
         };
-        Some(Body2::Block(super::compile::compile(&block, domain.domain())))
+        Some(Body2::Block(super::compile::compile(
+            &block,
+            domain.domain(),
+        )))
     }
 
     /// Resolve the dimension a statement assigns to.
