@@ -9,7 +9,7 @@ use super::text::first_chars;
 use super::undo::Edit;
 use super::{Recorded, Restored, Session, SessionError, TaskState, effect, journal};
 use crate::interp::Synthesized;
-use crate::policy::dataset::{Dataset, Provenance};
+use crate::policy::dataset::{Critique, Dataset};
 use crate::policy::learner::{Learner, LearnerError};
 use crate::task::Execution;
 use crate::trace::{Chunk, Episode, Trace, TraceError};
@@ -266,23 +266,11 @@ impl Session {
             }
             Effect::Critique {
                 execution,
-                chunk,
-                kappa,
-                increments,
-                directional,
-                flagged,
+                critique,
             } => {
-                super::advice::check_kappa(*kappa)?;
+                super::advice::check_kappa(critique.kappa)?;
                 let number = self.state.take_number();
-                let flagged = directional.then(|| flagged.clone());
-                self.add_critique(
-                    *execution,
-                    *chunk,
-                    *kappa,
-                    increments.clone(),
-                    flagged,
-                    number,
-                )?;
+                self.add_critique(*execution, critique.clone(), number)?;
                 self.state.redo.clear();
             }
             Effect::Undo => self.undo_edit()?,
@@ -336,30 +324,18 @@ impl Session {
     pub(super) fn add_critique(
         &mut self,
         execution: usize,
-        chunk: Chunk,
-        kappa: f64,
-        increments: Vec<(Provenance, f64)>,
-        flagged: Option<Vec<Vec<f64>>>,
+        critique: Critique,
         number: usize,
     ) -> Result<(), SessionError> {
         let rec = self.numbered(execution)?;
-        let id = self.state.learner.restore_critique(
-            rec.id,
-            chunk,
-            kappa,
-            increments.clone(),
-            flagged.clone(),
-        )?;
+        let id = self.state.learner.add_critique(rec.id, critique.clone())?;
         let st = &mut self.state;
-        st.executions[execution].flagged.push(chunk);
+        st.executions[execution].flagged.push(critique.chunk);
         st.undo.push(Edit::Critique {
             number,
             id,
             execution,
-            chunk,
-            kappa,
-            increments,
-            flagged,
+            critique,
         });
         Ok(())
     }

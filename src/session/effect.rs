@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use crate::backend::sim::SimParams;
 use crate::eval::Report;
 use crate::interp::AppliedAdvice;
-use crate::policy::dataset::Provenance;
+use crate::policy::dataset::{Critique, Provenance};
 use crate::policy::learner::LearnerKind;
 use crate::task::{Outcome, TaskKind};
 use crate::trace::{Chunk, JsonTrace, Pose};
@@ -87,18 +87,12 @@ pub enum Effect {
         points: JsonTrace,
         source_index: Vec<usize>,
     },
-    /// A critique: the weight increments it made, by provenance.
+    /// A critique of execution `execution`: the weight increments it made, by provenance, under
+    /// its rule (`directional` is absent in journals written before `critique --directional`).
     Critique {
         execution: usize,
-        chunk: Chunk,
-        kappa: f64,
-        increments: Vec<(Provenance, f64)>,
-        /// `critique --directional` (absent in journals written before it existed).
-        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-        directional: bool,
-        /// With `directional`, the flagged observation (raw) of each increment.
-        #[serde(default, skip_serializing_if = "Vec::is_empty")]
-        flagged: Vec<Vec<f64>>,
+        #[serde(flatten)]
+        critique: Critique,
     },
     Undo,
     Redo,

@@ -457,9 +457,10 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
         )?;
         advice_points.insert(r.id, 0);
     }
-    for (i, c) in file.critiques.iter().enumerate() {
-        let len = exec_len(format!("critiques[{i}].execution"), c.execution)?;
-        check_chunk(c.chunk, c.execution, len, || {
+    for (i, rec) in file.critiques.iter().enumerate() {
+        let c = &rec.critique;
+        let len = exec_len(format!("critiques[{i}].execution"), rec.execution)?;
+        check_chunk(c.chunk, rec.execution, len, || {
             format!("critiques[{i}].chunk")
         })?;
         finite(format!("critiques[{i}].kappa"), c.kappa)?;
