@@ -149,3 +149,25 @@ pub struct RunEntry {
     /// penalises.
     pub support: Vec<Option<Provenance>>,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A critique's fields stay flat beside `kind` and `execution` (the journal's shape before
+    /// the one critique record), and a field no version wrote is refused.
+    #[test]
+    fn a_critique_line_is_flat_and_strict() {
+        for line in [
+            r#"{"kind":"critique","execution":0,"chunk":{"start":1,"end":3},"kappa":0.5,"increments":[]}"#,
+            r#"{"kind":"critique","execution":2,"chunk":{"start":0,"end":1},"kappa":1.0,"increments":[],"directional":true,"flagged":[[0.1,-2.5]]}"#,
+        ] {
+            let e: Effect = serde_json::from_str(line).unwrap();
+            assert!(matches!(&e, Effect::Critique { .. }));
+            assert_eq!(serde_json::to_string(&e).unwrap(), line);
+            let extra = line.replace(r#""kappa""#, r#""colour":1,"kappa""#);
+            let err = serde_json::from_str::<Effect>(&extra).unwrap_err();
+            assert!(err.to_string().contains("unknown field `colour`"), "{err}");
+        }
+    }
+}
