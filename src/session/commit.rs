@@ -34,7 +34,7 @@ impl Session {
     pub fn start_journal(&mut self, dir: &Path) -> Result<PathBuf, journal::JournalError> {
         let mut j = Journal::create_in(dir, &self.journal_header())?;
         for entry in self.preamble.take().unwrap_or_default() {
-            j.record(&entry)
+            j.append(&entry)
                 .map_err(|source| journal::JournalError::Create {
                     path: j.path().display().to_string(),
                     source,
@@ -94,7 +94,7 @@ impl Session {
                 drop(held);
                 let mut j = Journal::create_in(dir, h)?;
                 for (_, entry) in loaded.entries.iter().take(restored) {
-                    j.record(entry).map_err(|e| journal_error(j.path(), e))?;
+                    j.append(entry).map_err(|e| journal_error(j.path(), e))?;
                 }
                 notes.push(format!(
                     "this session continues in a new journal: {}",
@@ -160,7 +160,7 @@ impl Session {
             }
             return Ok(());
         };
-        if let Err(source) = j.record(&entry) {
+        if let Err(source) = j.append(&entry) {
             let path = j.path().display().to_string();
             self.journal = None;
             return Err(SessionError::Journal { path, source });
