@@ -39,7 +39,7 @@ use crate::syntax::{self, ast::*};
 pub use bind::{bind, rebind};
 use compose::{Known, Step};
 use decls::domain_difference;
-pub use error::{CheckError, CheckErrors, CheckWarning, FileError};
+pub use error::{CheckError, CheckErrors, CheckWarning, ParseOrCheckError};
 use names::Dom;
 pub use standard::STANDARD_SOURCES;
 pub use trace_domain::TraceDomainError;
@@ -137,7 +137,7 @@ pub fn check_in(
             warnings: warnings.into_iter().map(|(_, _, w)| w).collect(),
         })
     } else {
-        let mut errors: Vec<FileError> = errors.into_iter().map(|(_, _, e)| e).collect();
+        let mut errors: Vec<ParseOrCheckError> = errors.into_iter().map(|(_, _, e)| e).collect();
         if errors.len() >= MAX_ERRORS {
             errors.push(
                 CheckError::TooManyErrors {
@@ -180,7 +180,7 @@ struct Checker<'s> {
     sources: &'s [Src<'s>],
     /// Each text's line index, to turn offsets into lines without rescanning.
     lines: Vec<crate::diag::LineIndex>,
-    errors: Vec<(usize, usize, FileError)>,
+    errors: Vec<(usize, usize, ParseOrCheckError)>,
     /// Errors found past [`MAX_ERRORS`], not reported.
     dropped: usize,
     warnings: Vec<(usize, usize, CheckWarning)>,

@@ -338,6 +338,11 @@ fn split_on(text: &str) -> Option<usize> {
     None
 }
 
+/// Run one doc-comment example: parse it, build its chunk, apply the operator and compare point
+/// by point.
+///
+/// Over 150 lines because each of those steps reports against the example's own spans, which
+/// the one function keeps at hand.
 fn run_one(
     map: &mut SourceMap,
     set: &OperatorSet,

@@ -130,9 +130,74 @@ impl Domain {
     }
 }
 
+/// The columns of the paper's two domains by name, for the code that computes or reads their
+/// points directly (the tasks' observation functions and teachers, the automated advisor and
+/// critic): one place that says which index is which dimension. `operators/*.adv` declares the
+/// domains; a test below checks that these indices are where it puts each name.
+pub mod columns {
+    /// `domain positioning` (`operators/positioning.adv`).
+    pub mod positioning {
+        /// Observation: the squared distance to the goal, m^2.
+        pub const DIST2: usize = 0;
+        /// Observation: the goal's bearing from the robot's heading, rad.
+        pub const BEARING: usize = 1;
+        /// Observation: `theta_g - theta`, the heading still to turn, rad.
+        pub const DHEADING: usize = 2;
+        /// Action: translational speed, m/s.
+        pub const TRANS: usize = 0;
+        /// Action: rotational speed, rad/s.
+        pub const ROT: usize = 1;
+    }
+
+    /// `domain interception` (`operators/interception.adv`).
+    pub mod interception {
+        /// Observation: the distance to the ball, m.
+        pub const BALL_DIST: usize = 0;
+        /// Observation: the ball's angle from the robot's heading, rad.
+        pub const BALL_ANGLE: usize = 1;
+        /// Observation: the change of `ball_dist` since the last step, m.
+        pub const BALL_DIST_DELTA: usize = 2;
+        /// Observation: the change of `ball_angle` since the last step, rad.
+        pub const BALL_ANGLE_DELTA: usize = 3;
+        /// Observation: the distance travelled since the last step, m.
+        pub const TRAVEL_DELTA: usize = 4;
+        /// Observation: the heading turned since the last step, rad.
+        pub const HEADING_DELTA: usize = 5;
+        /// Action: the change of the translational speed command, m/s.
+        pub const TRANS_DELTA: usize = 0;
+        /// Action: the change of the rotational speed command, rad/s.
+        pub const ROT_DELTA: usize = 1;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every named column is where `operators/*.adv` declares its dimension.
+    #[test]
+    fn the_named_columns_are_the_declared_ones() {
+        use columns::{interception as i, positioning as p};
+        let obs = |d: &Domain, name| d.index_of(Space::Observation, name);
+        let act = |d: &Domain, name| d.index_of(Space::Action, name);
+        let d = Domain::positioning();
+        assert_eq!(obs(&d, "dist2"), Some(p::DIST2));
+        assert_eq!(obs(&d, "bearing"), Some(p::BEARING));
+        assert_eq!(obs(&d, "dheading"), Some(p::DHEADING));
+        assert_eq!(act(&d, "trans"), Some(p::TRANS));
+        assert_eq!(act(&d, "rot"), Some(p::ROT));
+        assert_eq!(d.obs_dim(), 3);
+        let d = Domain::interception();
+        assert_eq!(obs(&d, "ball_dist"), Some(i::BALL_DIST));
+        assert_eq!(obs(&d, "ball_angle"), Some(i::BALL_ANGLE));
+        assert_eq!(obs(&d, "ball_dist_delta"), Some(i::BALL_DIST_DELTA));
+        assert_eq!(obs(&d, "ball_angle_delta"), Some(i::BALL_ANGLE_DELTA));
+        assert_eq!(obs(&d, "travel_delta"), Some(i::TRAVEL_DELTA));
+        assert_eq!(obs(&d, "heading_delta"), Some(i::HEADING_DELTA));
+        assert_eq!(act(&d, "trans_delta"), Some(i::TRANS_DELTA));
+        assert_eq!(act(&d, "rot_delta"), Some(i::ROT_DELTA));
+        assert_eq!(d.obs_dim(), 6);
+    }
 
     #[test]
     fn find_looks_in_both_spaces() {

@@ -1,5 +1,7 @@
-//! Importing recorded teleoperation into demonstrations (issue 19, import half): ROS 2 bags
-//! ([`bag`]) and plain CSV logs, through [`import`].
+//! Recordings in and out. In: recorded teleoperation turned into demonstrations, from ROS 2 bags
+//! ([`bag`], MCAP ones read by [`mcap_read`]) and plain CSV logs, through [`import`]. Out: a saved
+//! dataset written for other tools, as MCAP for Foxglove and ROS 2 ([`mcap_export`]) and as a
+//! LeRobot dataset ([`lerobot`]).
 //!
 //! A CSV log `time,x,y,theta,v,w` has one row per command, with the odometry pose at that time.
 //! Each row (each paired command of a bag) becomes one point of a task that reads its goal from a

@@ -26,6 +26,7 @@ use crate::program::OperatorSet;
 use crate::program::task::TaskDef;
 use crate::trace::{Episode, Trace};
 
+pub mod calibration;
 pub mod declared;
 pub mod interception;
 pub mod positioning;

@@ -4,7 +4,7 @@
 use advise::domain::{Dim, Domain};
 use advise::interp::{AppliedAdvice, ParamValue};
 use advise::policy::Policy;
-use advise::policy::dataset::{CritiqueRule, Dataset};
+use advise::policy::dataset::{Critique, CritiqueRule, Dataset};
 use advise::policy::learner::{Learner, LearnerKind};
 use advise::policy::lwr::LwrParams;
 use advise::trace::{Chunk, Trace};
@@ -76,7 +76,7 @@ fn weighted(d: &Domain, rows: &[(Vec<f64>, [f64; 2])], raises: &[(usize, f64)]) 
         .iter()
         .map(|(i, m)| (ds.provenance(i % rows.len()), *m))
         .collect();
-    ds.add_critique(ex, Chunk { start: 0, end: 0 }, 1.0, raises)
+    ds.add_critique(ex, Critique::paper(Chunk { start: 0, end: 0 }, 1.0, raises))
         .unwrap();
     ds
 }
@@ -96,8 +96,11 @@ fn directional(
         .map(|(i, inc, _)| (ds.provenance(i % rows.len()), *inc))
         .collect();
     let flagged = flags.iter().map(|(_, _, z)| z.clone()).collect();
-    ds.add_critique_with(ex, Chunk { start: 0, end: 0 }, 1.0, incs, Some(flagged))
-        .unwrap();
+    ds.add_critique(
+        ex,
+        Critique::directional(Chunk { start: 0, end: 0 }, 1.0, incs, flagged),
+    )
+    .unwrap();
     ds
 }
 
@@ -188,8 +191,8 @@ proptest! {
         // Another directional critique, and a paper's one after it; both undone.
         let ex = ds.add_execution(&trace(&d, &rows[..1])).unwrap();
         let (p0, z0) = (ds.provenance(0), rows[0].0.clone());
-        let a = ds.add_critique_with(ex, Chunk { start: 0, end: 0 }, 1.0, vec![(p0, 3.0)], Some(vec![z0])).unwrap();
-        ds.add_critique(ex, Chunk { start: 0, end: 0 }, 1.0, vec![(p0, 2.0)]).unwrap();
+        let a = ds.add_critique(ex, Critique::directional(Chunk { start: 0, end: 0 }, 1.0, vec![(p0, 3.0)], vec![z0])).unwrap();
+        ds.add_critique(ex, Critique::paper(Chunk { start: 0, end: 0 }, 1.0, vec![(p0, 2.0)])).unwrap();
         ds.remove_critique(ds.critiques().last().unwrap().id).unwrap();
         ds.remove_critique(a).unwrap();
         for i in 0..ds.len() {
@@ -315,7 +318,7 @@ proptest! {
         // A critique that touches the advised points, then the advice is undone.
         let n = ds.len();
         let ex2 = ds.add_execution(&trace(&d, &rows[..1])).unwrap();
-        ds.add_critique(ex2, Chunk { start: 0, end: 0 }, 1.0, vec![(ds.provenance(n - 1), 2.5), (ds.provenance(0), 1.5)]).unwrap();
+        ds.add_critique(ex2, Critique::paper(Chunk { start: 0, end: 0 }, 1.0, vec![(ds.provenance(n - 1), 2.5), (ds.provenance(0), 1.5)])).unwrap();
         ds.remove_advice(id).unwrap();
         ds.remove_critique(ds.critiques().last().unwrap().id).unwrap();
         prop_assert_eq!(ds.len(), ds0.len());
@@ -410,8 +413,8 @@ fn a_directional_critique_penalises_only_queries_from_the_critiqued_side() {
             .critique_with(id, &exec, Chunk { start: 0, end: 1 }, 2.0, rule)
             .unwrap();
         // kappa / distance = 2 / 0.1 on P, whichever the rule.
-        assert_eq!(done.increments.len(), 1);
-        assert!((done.increments[0].1 - 20.0).abs() < 1e-9);
+        assert_eq!(done.critique.increments.len(), 1);
+        assert!((done.critique.increments[0].1 - 20.0).abs() < 1e-9);
         queries.map(|q| learner.support(&q).unwrap())
     };
     let paper = answer(CritiqueRule::Paper);
@@ -431,12 +434,14 @@ fn a_directional_critique_penalises_only_queries_from_the_critiqued_side() {
     ds.add_demonstration("demo", &trace(&d, &rows)).unwrap();
     let ex = ds.add_execution(&trace(&d, &rows[..1])).unwrap();
     let p = ds.provenance(0);
-    ds.add_critique_with(
+    ds.add_critique(
         ex,
-        Chunk { start: 0, end: 0 },
-        2.0,
-        vec![(p, 20.0)],
-        Some(vec![vec![0.1, 0.0]]),
+        Critique::directional(
+            Chunk { start: 0, end: 0 },
+            2.0,
+            vec![(p, 20.0)],
+            vec![vec![0.1, 0.0]],
+        ),
     )
     .unwrap();
     assert_eq!(ds.m(0), 1.0, "the isotropic weight is untouched");

@@ -615,9 +615,10 @@ pub enum CheckError {
     },
 }
 
-/// A diagnostic from either front-end phase, so one list can hold all of a check's errors.
+/// A diagnostic from either front-end phase (parse or check), so one list can hold all of a
+/// check's errors. (Not [`crate::files::FileError`], which is a file that cannot be read.)
 #[derive(Debug, Error, Diagnostic, Clone)]
-pub enum FileError {
+pub enum ParseOrCheckError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Parse(#[from] ParseError),
@@ -632,10 +633,10 @@ pub enum FileError {
 #[diagnostic(code(advise::check::failed))]
 pub struct CheckErrors {
     #[related]
-    pub errors: Vec<FileError>,
+    pub errors: Vec<ParseOrCheckError>,
 }
 
-fn summary(errors: &[FileError]) -> String {
+fn summary(errors: &[ParseOrCheckError]) -> String {
     match errors.len() {
         1 => "1 error".into(),
         n => format!("{n} errors"),

@@ -122,6 +122,10 @@ impl Checker<'_> {
         false
     }
 
+    /// An expression resolved in `scope` to its IR and type, every mistake reported.
+    ///
+    /// Over 150 lines because it is one match arm per expression kind, each short; the dispatch
+    /// stays in one place.
     pub(super) fn resolve(&mut self, f: usize, scope: Scope<'_>, e: &Expr, what: &str) -> (Ir, Ty) {
         let bad = (Ir::Num(f64::NAN), Ty::Err);
         if self.full() {

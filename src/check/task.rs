@@ -59,6 +59,49 @@ pub(super) struct TaskScope<'a> {
 
 const DEFAULT_TEST_GOALS: usize = 25;
 
+/// What end rules read: everything but the scores.
+const RULE_READS: &[Kind] = &[Kind::Base, Kind::Goal, Kind::Action, Kind::Value];
+/// What scores and the success rule read: everything (a score only the scores before it).
+const SCORE_READS: &[Kind] = &[
+    Kind::Base,
+    Kind::Goal,
+    Kind::Action,
+    Kind::Value,
+    Kind::Score,
+];
+
+/// A task's names as they are declared: each name's slot and kind, and each slot's name.
+struct TaskNames<'a> {
+    task: &'a str,
+    kinds: HashMap<String, (usize, Kind)>,
+    slots: Vec<String>,
+}
+
+impl<'a> TaskNames<'a> {
+    /// The robot's state, in the first slots.
+    fn new(task: &'a str) -> Self {
+        let mut names = TaskNames {
+            task,
+            kinds: HashMap::new(),
+            slots: Vec::new(),
+        };
+        for (i, (n, _, _)) in BASE.iter().enumerate() {
+            names.kinds.insert((*n).into(), (i, Kind::Base));
+            names.slots.push((*n).into());
+        }
+        names
+    }
+}
+
+/// The scores of a task, and which of them are the ones evaluations report.
+#[derive(Default)]
+struct Scores {
+    score: Vec<(usize, Ir)>,
+    error: Option<usize>,
+    heading_error: Option<usize>,
+    efficiency: Option<usize>,
+}
+
 impl Checker<'_> {
     /// A task name in an expression: its slot, or a diagnostic.
     pub(super) fn task_var(
@@ -200,6 +243,10 @@ impl Checker<'_> {
 
     /// The task a domain declares, when it has task clauses; `None` for a domain of shapes only
     /// or when the task has mistakes (they are reported).
+    ///
+    /// Names are declared first, clause by clause in a fixed order (goal, actions, `let`s,
+    /// observations, scores), then each clause is checked by its own function in the order its
+    /// diagnostics are reported.
     pub(super) fn task(&mut self, f: usize, d: &DomainDecl, domain: &Domain) -> Option<TaskDef> {
         let is_task = !d.clauses.is_empty() || d.dims.iter().any(|x| x.meaning.is_some());
         if !is_task || self.full() {
@@ -207,57 +254,136 @@ impl Checker<'_> {
         }
         let before = self.error_count();
         let task = domain.name.as_str();
-        let mut names: HashMap<String, (usize, Kind)> = HashMap::new();
-        let mut slot_names: Vec<String> = Vec::new();
-        let mut spans: HashMap<String, Span> = HashMap::new();
-        for (i, (n, _, _)) in BASE.iter().enumerate() {
-            names.insert((*n).into(), (i, Kind::Base));
-            slot_names.push((*n).into());
-        }
-        // A new name, or a diagnostic when it is taken.
-        let declare = |c: &mut Self,
-                       names: &mut HashMap<String, (usize, Kind)>,
-                       slot_names: &mut Vec<String>,
-                       id: &Ident,
-                       kind: Kind|
-         -> Option<usize> {
-            let n = id.name.as_str();
-            let taken = if BASE.iter().any(|(b, _, _)| *b == n) {
-                Some(format!(
-                    "`{n}` is the robot's state ({}); choose another name",
-                    BASE.iter().find(|(b, _, _)| *b == n).map_or("", |b| b.2)
-                ))
-            } else if let Some((_, meaning)) = RESERVED.iter().find(|(r, _)| *r == n) {
-                Some(format!("`{n}` is {meaning}; choose another name"))
-            } else if n == "prev" || Func::by_name(n).is_some() {
-                Some(format!("`{n}` is a built-in function; choose another name"))
-            } else if names.contains_key(n) {
-                Some(
-                    "each goal parameter, `let`, observation, action and score has its own name"
-                        .into(),
-                )
-            } else {
-                None
-            };
-            if let Some(help) = taken {
-                c.err(
-                    f,
-                    id.span,
-                    CheckError::TaskDuplicateName {
-                        name: n.into(),
-                        help,
-                        span: c.at(f, id.span),
-                    },
-                );
-                return None;
-            }
-            let slot = slot_names.len();
-            names.insert(n.into(), (slot, kind));
-            slot_names.push(n.into());
-            Some(slot)
-        };
+        let mut names = TaskNames::new(task);
+        let goal = self.task_goal(f, d, &mut names);
+        let action_dims = self.task_actions(f, d, &mut names);
+        let mut values = self.task_lets(f, d, &mut names);
+        let observe = self.task_observations(f, d, &mut names, &mut values);
+        let score_decls = self.task_score_names(f, d, &mut names);
 
-        // The goal.
+        let computed = self.task_values(f, &names, &values);
+        let (speed, turn) = self.task_drives(f, d, task, &action_dims);
+        let ends = self.task_ends(f, d, &names);
+        let scores = self.task_scores(f, d, &names, &score_decls);
+        let success = self.task_success(f, d, &names);
+
+        let goal_names: Vec<String> = d
+            .clauses
+            .iter()
+            .filter_map(|c| match c {
+                Clause::Goal(ps) => Some(ps.iter().map(|p| p.name.name.clone())),
+                _ => None,
+            })
+            .flatten()
+            .collect();
+        let recorded = self.recorded(f, d, task, &names.kinds, &goal_names);
+        let (test_count, test_seed) = self.test_set(f, d, task);
+        let teacher = self.teacher(f, d, task, domain, &names.kinds);
+
+        if self.error_count() > before {
+            return None;
+        }
+        let def = TaskDef {
+            domain: domain.clone(),
+            doc: d.doc.join("\n"),
+            goal,
+            test_count,
+            test_seed,
+            slot_names: names.slots,
+            computed,
+            observe,
+            speed,
+            turn,
+            ends,
+            score: scores.score,
+            error: scores.error?,
+            heading_error: scores.heading_error,
+            efficiency: scores.efficiency,
+            success: success?,
+            recorded,
+            teacher,
+        };
+        // Where each value and score is defined, for what the finiteness check finds.
+        let defined: HashMap<usize, Span> = values
+            .iter()
+            .map(|(slot, _, e)| (*slot, e.span))
+            .chain(score_decls.iter().map(|(slot, b)| (*slot, b.value.span)))
+            .collect();
+        self.finiteness(f, &def, &defined);
+        (self.error_count() == before).then_some(def)
+    }
+
+    /// A new name of the task, or a diagnostic when it is taken.
+    fn task_declare(
+        &mut self,
+        f: usize,
+        names: &mut TaskNames<'_>,
+        id: &Ident,
+        kind: Kind,
+    ) -> Option<usize> {
+        let n = id.name.as_str();
+        let taken = if let Some(b) = BASE.iter().find(|(b, _, _)| *b == n) {
+            Some(format!(
+                "`{n}` is the robot's state ({}); choose another name",
+                b.2
+            ))
+        } else if let Some((_, meaning)) = RESERVED.iter().find(|(r, _)| *r == n) {
+            Some(format!("`{n}` is {meaning}; choose another name"))
+        } else if n == "prev" || Func::by_name(n).is_some() {
+            Some(format!("`{n}` is a built-in function; choose another name"))
+        } else if names.kinds.contains_key(n) {
+            Some(
+                "each goal parameter, `let`, observation, action and score has its own name".into(),
+            )
+        } else {
+            None
+        };
+        if let Some(help) = taken {
+            self.err(
+                f,
+                id.span,
+                CheckError::TaskDuplicateName {
+                    name: n.into(),
+                    help,
+                    span: self.at(f, id.span),
+                },
+            );
+            return None;
+        }
+        let slot = names.slots.len();
+        names.kinds.insert(n.into(), (slot, kind));
+        names.slots.push(n.into());
+        Some(slot)
+    }
+
+    /// An expression of a task clause: resolved with the names `allowed` there (`context` says
+    /// where it is), and expected to be of type `want`.
+    #[allow(clippy::too_many_arguments)]
+    fn task_expr(
+        &mut self,
+        f: usize,
+        names: &TaskNames<'_>,
+        allowed: &[Kind],
+        context: &str,
+        e: &Expr,
+        want: Ty,
+        help: Option<&str>,
+    ) -> Ir {
+        let ts = TaskScope {
+            task: names.task,
+            names: &names.kinds,
+            allowed,
+            context,
+            prev_ok: true,
+            hidden: None,
+        };
+        let (ir, ty) = self.resolve(f, Scope::Task(&ts), e, "");
+        self.expect(f, e, ty, want, help);
+        ir
+    }
+
+    /// `goal NAME "unit" in [lo, hi], ...`: the goal parameters, each declared.
+    fn task_goal(&mut self, f: usize, d: &DomainDecl, names: &mut TaskNames<'_>) -> Vec<GoalParam> {
         let mut goal = Vec::new();
         for c in &d.clauses {
             let Clause::Goal(params) = c else { continue };
@@ -287,7 +413,7 @@ impl Checker<'_> {
                         },
                     );
                 }
-                declare(self, &mut names, &mut slot_names, &p.name, Kind::Goal);
+                self.task_declare(f, names, &p.name, Kind::Goal);
                 let Some(l) = &p.limits else {
                     self.err(
                         f,
@@ -323,29 +449,56 @@ impl Checker<'_> {
                 }
             }
         }
-        // The actions, then the `let`s and observations.
+        goal
+    }
+
+    /// The action dimensions, each declared: `(slot, dimension)`.
+    fn task_actions<'d>(
+        &mut self,
+        f: usize,
+        d: &'d DomainDecl,
+        names: &mut TaskNames<'_>,
+    ) -> Vec<(usize, &'d DimDecl)> {
         let mut action_dims = Vec::new();
         for dim in d.dims.iter().filter(|x| x.space == Space::Action) {
-            if let Some(slot) = declare(self, &mut names, &mut slot_names, &dim.name, Kind::Action)
-            {
+            if let Some(slot) = self.task_declare(f, names, &dim.name, Kind::Action) {
                 action_dims.push((slot, dim));
             }
         }
-        // `(slot, name, expression)` of every value to compute.
-        let mut values: Vec<(usize, &Ident, &Expr)> = Vec::new();
+        action_dims
+    }
+
+    /// `let NAME = EXPR, ...`: each declared; `(slot, name, expression)` of each value to compute.
+    fn task_lets<'d>(
+        &mut self,
+        f: usize,
+        d: &'d DomainDecl,
+        names: &mut TaskNames<'_>,
+    ) -> Vec<(usize, &'d Ident, &'d Expr)> {
+        let mut values = Vec::new();
         for c in &d.clauses {
             let Clause::Let(bs) = c else { continue };
             for b in bs {
-                if let Some(slot) = declare(self, &mut names, &mut slot_names, &b.name, Kind::Value)
-                {
+                if let Some(slot) = self.task_declare(f, names, &b.name, Kind::Value) {
                     values.push((slot, &b.name, &b.value));
-                    spans.insert(b.name.name.clone(), b.name.span);
                 }
             }
         }
+        values
+    }
+
+    /// The observation dimensions, each declared and defined by `= EXPR` (added to `values`):
+    /// their slots, in order.
+    fn task_observations<'d>(
+        &mut self,
+        f: usize,
+        d: &'d DomainDecl,
+        names: &mut TaskNames<'_>,
+        values: &mut Vec<(usize, &'d Ident, &'d Expr)>,
+    ) -> Vec<usize> {
         let mut observe = Vec::new();
         for dim in d.dims.iter().filter(|x| x.space == Space::Observation) {
-            let slot = declare(self, &mut names, &mut slot_names, &dim.name, Kind::Value);
+            let slot = self.task_declare(f, names, &dim.name, Kind::Value);
             match (&dim.meaning, slot) {
                 (Some(DimMeaning::Def(e)), Some(slot)) => {
                     values.push((slot, &dim.name, e));
@@ -374,47 +527,66 @@ impl Checker<'_> {
                 _ => {}
             }
         }
-        let mut score_decls: Vec<(usize, &Binding)> = Vec::new();
+        observe
+    }
+
+    /// `score NAME = EXPR, ...`: each declared; `(slot, binding)` of each score.
+    fn task_score_names<'d>(
+        &mut self,
+        f: usize,
+        d: &'d DomainDecl,
+        names: &mut TaskNames<'_>,
+    ) -> Vec<(usize, &'d Binding)> {
+        let mut score_decls = Vec::new();
         for c in &d.clauses {
             let Clause::Score(bs) = c else { continue };
             for b in bs {
-                if let Some(slot) = declare(self, &mut names, &mut slot_names, &b.name, Kind::Score)
-                {
+                if let Some(slot) = self.task_declare(f, names, &b.name, Kind::Score) {
                     score_decls.push((slot, b));
                 }
             }
         }
+        score_decls
+    }
 
-        // The values, and the order to compute them in.
+    /// The values (`let`s and observations) resolved, in the order to compute them.
+    fn task_values(
+        &mut self,
+        f: usize,
+        names: &TaskNames<'_>,
+        values: &[(usize, &Ident, &Expr)],
+    ) -> Vec<(usize, Ir)> {
         const VALUE_READS: &[Kind] = &[Kind::Base, Kind::Goal, Kind::Value];
         let mut resolved: HashMap<usize, Ir> = HashMap::new();
-        for (slot, name, e) in &values {
+        for (slot, name, e) in values {
             let context = format!("the definition of `{}`", name.name);
-            let ts = TaskScope {
-                task,
-                names: &names,
-                allowed: VALUE_READS,
-                context: &context,
-                prev_ok: true,
-                hidden: None,
-            };
-            let (ir, ty) = self.resolve(f, Scope::Task(&ts), e, "");
-            self.expect(
+            let ir = self.task_expr(
                 f,
+                names,
+                VALUE_READS,
+                &context,
                 e,
-                ty,
                 Ty::Num,
                 Some("a value is a number; use `if(cond, a, b)` to choose between two"),
             );
             resolved.insert(*slot, ir);
         }
-        let order = self.value_order(f, &values, &resolved, &slot_names);
-        let computed: Vec<(usize, Ir)> = order
+        let order = self.value_order(f, values, &resolved, &names.slots);
+        order
             .into_iter()
             .filter_map(|slot| resolved.remove(&slot).map(|ir| (slot, ir)))
-            .collect();
+            .collect()
+    }
 
-        // Drives.
+    /// What each action drives (`drives speed`, `changes turn by ...`): the speed and turn
+    /// drives, each at most once; a task without actions is reported.
+    fn task_drives(
+        &mut self,
+        f: usize,
+        d: &DomainDecl,
+        task: &str,
+        action_dims: &[(usize, &DimDecl)],
+    ) -> (Option<Drive>, Option<Drive>) {
         let mut speed: Option<(Drive, String)> = None;
         let mut turn: Option<(Drive, String)> = None;
         for (i, (_, dim)) in action_dims.iter().enumerate() {
@@ -503,27 +675,22 @@ impl Checker<'_> {
                 },
             );
         }
+        (speed.map(|(d, _)| d), turn.map(|(d, _)| d))
+    }
 
-        // End rules.
-        const RULE_READS: &[Kind] = &[Kind::Base, Kind::Goal, Kind::Action, Kind::Value];
+    /// `end when COND [for SECONDS]` and `end after SECONDS` (exactly one).
+    fn task_ends(&mut self, f: usize, d: &DomainDecl, names: &TaskNames<'_>) -> Vec<EndRule> {
         let mut ends = Vec::new();
         let mut limit_seen = false;
         for c in &d.clauses {
             match c {
                 Clause::EndWhen { cond, hold, .. } => {
-                    let ts = TaskScope {
-                        task,
-                        names: &names,
-                        allowed: RULE_READS,
-                        context: "an end rule",
-                        prev_ok: true,
-                        hidden: None,
-                    };
-                    let (ir, ty) = self.resolve(f, Scope::Task(&ts), cond, "");
-                    self.expect(
+                    let ir = self.task_expr(
                         f,
+                        names,
+                        RULE_READS,
+                        "an end rule",
                         cond,
-                        ty,
                         Ty::Bool,
                         Some("an end rule is a condition such as `abs(v) < 0.02`"),
                     );
@@ -552,7 +719,7 @@ impl Checker<'_> {
                 f,
                 d.name.span,
                 CheckError::TaskIncomplete {
-                    task: task.into(),
+                    task: names.task.into(),
                     what: "time limit".into(),
                     help: "every run must end, on a real base too: add `end after 60` (seconds)"
                         .into(),
@@ -560,36 +727,32 @@ impl Checker<'_> {
                 },
             );
         }
+        ends
+    }
 
-        // Scores, in order: each may read the ones before it.
-        let mut score = Vec::new();
-        let mut error = None;
-        let mut heading_error = None;
-        let mut efficiency = None;
-        for (slot, b) in &score_decls {
+    /// The scores, in order: each may read the ones before it. A task without `error` is
+    /// reported.
+    fn task_scores(
+        &mut self,
+        f: usize,
+        d: &DomainDecl,
+        names: &TaskNames<'_>,
+        score_decls: &[(usize, &Binding)],
+    ) -> Scores {
+        let mut scores = Scores::default();
+        for (slot, b) in score_decls {
             let context = format!("the score `{}`", b.name.name);
-            let ts = TaskScope {
-                task,
-                names: &names,
-                allowed: &[
-                    Kind::Base,
-                    Kind::Goal,
-                    Kind::Action,
-                    Kind::Value,
-                    Kind::Score,
-                ],
-                context: &context,
-                prev_ok: true,
-                hidden: None,
-            };
-            let (ir, ty) = self.resolve(f, Scope::Task(&ts), &b.value, "");
-            self.expect(f, &b.value, ty, Ty::Num, None);
+            let ir = self.task_expr(f, names, SCORE_READS, &context, &b.value, Ty::Num, None);
             let mut reads = Vec::new();
             ir.slots(&mut reads);
             if let Some((later, _)) = reads.iter().find(|(s, _)| {
-                *s >= *slot && names.values().any(|(x, k)| x == s && *k == Kind::Score)
+                *s >= *slot
+                    && names
+                        .kinds
+                        .values()
+                        .any(|(x, k)| x == s && *k == Kind::Score)
             }) {
-                let later = &slot_names[*later];
+                let later = &names.slots[*later];
                 self.err(
                     f,
                     b.value.span,
@@ -602,27 +765,30 @@ impl Checker<'_> {
                 );
             }
             match b.name.name.as_str() {
-                "error" => error = Some(*slot),
-                "heading_error" => heading_error = Some(*slot),
-                "efficiency" => efficiency = Some(*slot),
+                "error" => scores.error = Some(*slot),
+                "heading_error" => scores.heading_error = Some(*slot),
+                "efficiency" => scores.efficiency = Some(*slot),
                 _ => {}
             }
-            score.push((*slot, ir));
+            scores.score.push((*slot, ir));
         }
-        if error.is_none() {
+        if scores.error.is_none() {
             self.err(
                 f,
                 d.name.span,
                 CheckError::TaskIncomplete {
-                    task: task.into(),
+                    task: names.task.into(),
                     what: "`error` score".into(),
                     help: "say how far a run's end is from what was asked, e.g. `score error = hypot(x - x_g, y - y_g)`; evaluations report its mean".into(),
                     span: self.at(f, d.name.span),
                 },
             );
         }
+        scores
+    }
 
-        // Success.
+    /// `success when COND` (exactly one).
+    fn task_success(&mut self, f: usize, d: &DomainDecl, names: &TaskNames<'_>) -> Option<Ir> {
         let mut success = None;
         for c in &d.clauses {
             let Clause::Success { cond, span } = c else {
@@ -631,85 +797,27 @@ impl Checker<'_> {
             if self.twice(f, success.is_some(), "success", *span) {
                 continue;
             }
-            let ts = TaskScope {
-                task,
-                names: &names,
-                allowed: &[
-                    Kind::Base,
-                    Kind::Goal,
-                    Kind::Action,
-                    Kind::Value,
-                    Kind::Score,
-                ],
-                context: "the success rule",
-                prev_ok: true,
-                hidden: None,
-            };
-            let (ir, ty) = self.resolve(f, Scope::Task(&ts), cond, "");
-            self.expect(
+            success = Some(self.task_expr(
                 f,
+                names,
+                SCORE_READS,
+                "the success rule",
                 cond,
-                ty,
                 Ty::Bool,
                 Some("success is a condition such as `error < 0.2`"),
-            );
-            success = Some(ir);
+            ));
         }
         if success.is_none() {
             self.err(
                 f,
                 d.name.span,
                 CheckError::TaskMissingSuccess {
-                    task: task.into(),
+                    task: names.task.into(),
                     span: self.at(f, d.name.span),
                 },
             );
         }
-
-        let goal_names: Vec<String> = d
-            .clauses
-            .iter()
-            .filter_map(|c| match c {
-                Clause::Goal(ps) => Some(ps.iter().map(|p| p.name.name.clone())),
-                _ => None,
-            })
-            .flatten()
-            .collect();
-        let recorded = self.recorded(f, d, task, &names, &goal_names);
-        let (test_count, test_seed) = self.test_set(f, d, task);
-        let teacher = self.teacher(f, d, task, domain, &names);
-
-        if self.error_count() > before {
-            return None;
-        }
-        let def = TaskDef {
-            domain: domain.clone(),
-            doc: d.doc.join("\n"),
-            goal,
-            test_count,
-            test_seed,
-            slot_names,
-            computed,
-            observe,
-            speed: speed.map(|(d, _)| d),
-            turn: turn.map(|(d, _)| d),
-            ends,
-            score,
-            error: error?,
-            heading_error,
-            efficiency,
-            success: success?,
-            recorded,
-            teacher,
-        };
-        // Where each value and score is defined, for what the finiteness check finds.
-        let defined: HashMap<usize, Span> = values
-            .iter()
-            .map(|(slot, _, e)| (*slot, e.span))
-            .chain(score_decls.iter().map(|(slot, b)| (*slot, b.value.span)))
-            .collect();
-        self.finiteness(f, &def, &defined);
-        (self.error_count() == before).then_some(def)
+        success
     }
 
     /// Report a second clause of a kind a task has once; whether it was one.

@@ -59,16 +59,10 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::domain::columns::positioning::{BEARING, DHEADING, DIST2, ROT, TRANS};
 use crate::syntax::Invocation;
 use crate::task::{Ending, Execution, Outcome};
 use crate::trace::{Chunk, Trace};
-
-/// Positioning's columns: observation `[dist2, bearing, dheading]`, action `[trans, rot]`.
-const DIST2: usize = 0;
-const BEARING: usize = 1;
-const DHEADING: usize = 2;
-const TRANS: usize = 0;
-const ROT: usize = 1;
 
 /// A point counts as driving / turning above these speeds (m/s, rad/s).
 const MOVING_MPS: f64 = 0.02;

@@ -42,7 +42,7 @@ use crate::interp;
 use crate::policy::Policy;
 use crate::policy::dataset::Dataset;
 use crate::policy::learner::{Learner, LearnerKind, Retune};
-use crate::task::{Controller, Outcome, Start, TaskKind, episode_seed, run_sim};
+use crate::task::{Controller, Execution, Outcome, Start, TaskKind, episode_seed, run_sim};
 use crate::trace::Episode;
 use rayon::prelude::*;
 
@@ -261,38 +261,9 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
                         tally.teleop_demos += 1;
                         executions += 1;
                     }
-                } else {
-                    let advice = advisor::advise(&exec, &params.advisor);
-                    let mut id = None;
-                    for a in &advice {
-                        let Ok(call) = check::bind(
-                            &mut crate::diag::SourceMap::new(),
-                            &ops,
-                            &exec.trace.domain,
-                            &a.operator,
-                        ) else {
-                            continue;
-                        };
-                        let Ok(syn) = interp::apply(&call, &exec.trace, a.chunk) else {
-                            continue;
-                        };
-                        if syn.points.is_empty() {
-                            continue;
-                        }
-                        let exec_id = *id.get_or_insert_with(|| learner.add_execution(&exec.trace));
-                        if learner.add_advice(exec_id, &syn).is_ok() {
-                            tally.advice_given += 1;
-                            tally.advice_points += syn.points.len();
-                            *tally.operators.entry(a.operator.to_string()).or_insert(0) += 1;
-                        }
-                    }
-                    if id.is_some() {
-                        if params.rederive_after_advice {
-                            learner.rederive();
-                        }
-                        tally.advised_executions += 1;
-                        executions += 1;
-                    }
+                } else if advise_run(&mut learner, &exec, params, &ops, &mut tally) {
+                    tally.advised_executions += 1;
+                    executions += 1;
                 }
             }
             if run % params.eval_every.max(1) == 0 || run == goals.len() {
@@ -339,6 +310,46 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
         seed_demo_points,
         paper: PAPER,
     }
+}
+
+/// The automated advisor's advice on a poor practice run, given to `learner` (the
+/// execution added once, with its first advice that synthesizes points; re-derived after it if
+/// the study says so): whether any was.
+fn advise_run(
+    learner: &mut Learner,
+    exec: &Execution,
+    params: &AopiParams,
+    ops: &OperatorSet,
+    tally: &mut Tally,
+) -> bool {
+    let advice = advisor::advise(exec, &params.advisor);
+    let mut id = None;
+    for a in &advice {
+        let Ok(call) = check::bind(
+            &mut crate::diag::SourceMap::new(),
+            ops,
+            &exec.trace.domain,
+            &a.operator,
+        ) else {
+            continue;
+        };
+        let Ok(syn) = interp::apply(&call, &exec.trace, a.chunk) else {
+            continue;
+        };
+        if syn.points.is_empty() {
+            continue;
+        }
+        let exec_id = *id.get_or_insert_with(|| learner.add_execution(&exec.trace));
+        if learner.add_advice(exec_id, &syn).is_ok() {
+            tally.advice_given += 1;
+            tally.advice_points += syn.points.len();
+            *tally.operators.entry(a.operator.to_string()).or_insert(0) += 1;
+        }
+    }
+    if id.is_some() && params.rederive_after_advice {
+        learner.rederive();
+    }
+    id.is_some()
 }
 
 /// The seed dataset: the person's `seed_demos` demonstrations.

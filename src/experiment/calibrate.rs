@@ -33,6 +33,7 @@ use crate::experiment::{Progress, evaluate_starts_in};
 use crate::policy::Policy;
 use crate::policy::dataset::Dataset;
 use crate::policy::learner::{Learner, LearnerKind};
+use crate::task::calibration::Shipped;
 use crate::task::interception::practice_starts_in;
 use crate::task::{Controller, InterceptionRules, InterceptionTeacher, Start, TaskKind};
 
@@ -72,10 +73,11 @@ pub struct Knob {
     pub after: f64,
 }
 
-/// What a calibration did: the record written beside the calibrated values.
+/// What a calibration did: fitted to what, how closely, from what loss to what (the file's
+/// `calibration`, written beside the calibrated values).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Record {
+pub struct FitReport {
     pub command: String,
     pub seeds: Vec<u64>,
     pub held_out: String,
@@ -91,7 +93,7 @@ pub struct Record {
 #[serde(deny_unknown_fields)]
 pub struct BcFile {
     pub study: String,
-    pub calibration: Record,
+    pub calibration: FitReport,
     pub world: InterceptionRules,
     pub teacher: InterceptionTeacher,
 }
@@ -101,21 +103,20 @@ pub struct BcFile {
 #[serde(deny_unknown_fields)]
 pub struct AopiFile {
     pub study: String,
-    pub calibration: Record,
+    pub calibration: FitReport,
     pub pilot: PilotStyle,
     pub patience: usize,
     pub max_practice: usize,
 }
 
 /// The shipped calibration of `study` as JSON (what the experiments report beside their
-/// figures); `None` if the shipped file has no record (not calibrated yet).
+/// figures); `None` if the shipped file has no fit report (not calibrated yet).
 pub fn shipped(study: Study) -> Option<serde_json::Value> {
-    let text = match study {
-        Study::Bc => include_str!("../../calibration/bc.json"),
-        Study::Aopi => include_str!("../../calibration/aopi.json"),
-    };
-    let v: serde_json::Value = serde_json::from_str(text).ok()?;
-    v.get("calibration").cloned()
+    match study {
+        Study::Bc => Shipped::Bc,
+        Study::Aopi => Shipped::Aopi,
+    }
+    .fit_report()
 }
 
 /// A calibration's output: the file's text (pretty JSON) and a report for people.
@@ -395,7 +396,7 @@ fn calibrate_bc(sim: &SimParams, progress: bool) -> BcFile {
     let knobs = knobs(&params, &start, &best);
     BcFile {
         study: "bc".into(),
-        calibration: Record {
+        calibration: FitReport {
             command: "advise calibrate bc --write calibration/bc.json".into(),
             seeds: BC_SEEDS.to_vec(),
             held_out: format!(
@@ -609,7 +610,7 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
     });
     AopiFile {
         study: "aopi".into(),
-        calibration: Record {
+        calibration: FitReport {
             command: "advise calibrate aopi --write calibration/aopi.json".into(),
             seeds: AOPI_SEEDS.to_vec(),
             held_out: format!(
@@ -627,9 +628,9 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
     }
 }
 
-/// A calibration record as text: each target before and after beside the paper's, each
+/// A calibration's fit report as text: each target before and after beside the paper's, each
 /// constant before and after.
-pub fn render(r: &Record, study: &str) -> String {
+pub fn render(r: &FitReport, study: &str) -> String {
     let mut s = format!(
         "calibration of the {study} study on held-out sets (seeds {:?}; {} evaluations)\n\n",
         r.seeds, r.evaluations
@@ -666,13 +667,11 @@ mod tests {
     /// The shipped files parse as what `advise calibrate` writes, and the defaults are theirs.
     #[test]
     fn the_shipped_calibrations_are_the_defaults() {
-        let bc: BcFile =
-            serde_json::from_str(include_str!("../../calibration/bc.json")).expect("bc.json");
+        let bc: BcFile = Shipped::Bc.read().expect("bc.json");
         assert_eq!(bc.world, InterceptionRules::default());
         assert_eq!(bc.teacher, InterceptionTeacher::new(bc.teacher.period_s));
         assert!(shipped(Study::Bc).is_some());
-        let aopi: AopiFile =
-            serde_json::from_str(include_str!("../../calibration/aopi.json")).expect("aopi.json");
+        let aopi: AopiFile = Shipped::Aopi.read().expect("aopi.json");
         assert_eq!(aopi.pilot, PilotStyle::default());
         let d = AopiParams::default();
         assert_eq!(

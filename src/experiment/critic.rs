@@ -43,14 +43,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::domain::columns::interception::{BALL_ANGLE, BALL_DIST, HEADING_DELTA, TRAVEL_DELTA};
 use crate::task::Execution;
 use crate::trace::{Chunk, Trace};
-
-/// The interception observation's columns the critic reads.
-const BALL_DIST: usize = 0;
-const BALL_ANGLE: usize = 1;
-const TRAVEL_DELTA: usize = 4;
-const HEADING_DELTA: usize = 5;
 
 /// A point turning less than this (rad per point, 0.15 rad/s at 30 Hz) is not part of a loop.
 const LOOP_TURN_RAD: f64 = 0.005;

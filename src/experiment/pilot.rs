@@ -30,6 +30,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+use crate::task::calibration::Shipped;
 use crate::task::episode_seed;
 use crate::task::positioning::{PositioningTeacher, TeacherStyle};
 
@@ -72,7 +73,8 @@ pub struct Calibrated {
 /// The shipped A-OPI calibration.
 pub fn calibrated() -> &'static Calibrated {
     static CALIBRATED: std::sync::LazyLock<Calibrated> = std::sync::LazyLock::new(|| {
-        serde_json::from_str(include_str!("../../calibration/aopi.json"))
+        Shipped::Aopi
+            .read()
             .expect("the shipped calibration/aopi.json holds a pilot (a test reads it)")
     });
     &CALIBRATED

@@ -153,7 +153,7 @@ fn each_seed<R: Serialize + Send, S: Serialize>(
     Ok(StudyOutput { text, json, plots })
 }
 
-/// A study's JSON with the shipped calibration's record (what the defaults were fitted to, and
+/// A study's JSON with the shipped calibration's fit report (what the defaults were fitted to, and
 /// how closely) under `calibration`.
 #[derive(Serialize)]
 struct WithCalibration<'a, T: Serialize> {

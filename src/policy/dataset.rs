@@ -73,12 +73,14 @@ pub struct AdviceRecord {
     pub applied: AppliedAdvice,
 }
 
-/// A critique: the flagged chunk, kappa, and the weight increments it made.
+/// A critique: the flagged chunk, kappa, the weight increments it made and the rule they follow.
+///
+/// The one shape of a critique: the session's journal effect and undo edit carry it, the learner
+/// makes it ([`crate::policy::learner::Learner::add_critique`]) and the dataset keeps it in a
+/// [`CritiqueRecord`]. Its JSON fields are those of the journal's `critique` line and of a dataset
+/// file's critique (both flatten it beside their own fields).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CritiqueRecord {
-    pub id: CritiqueId,
-    pub execution: ExecutionId,
+pub struct Critique {
     pub chunk: Chunk,
     pub kappa: f64,
     /// (point, increment of its m), in the order they were applied.
@@ -90,8 +92,49 @@ pub struct CritiqueRecord {
     pub directional: bool,
     /// With `directional`, the flagged observation (raw, unscaled) of each increment, in the same
     /// order: the direction is recomputed under the current range scaling after a `rederive`.
+    /// Without it, ignored (and kept empty by [`Dataset::add_critique`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub flagged: Vec<Vec<f64>>,
+}
+
+impl Critique {
+    /// A critique under the paper's rule.
+    pub fn paper(chunk: Chunk, kappa: f64, increments: Vec<(Provenance, f64)>) -> Self {
+        Critique {
+            chunk,
+            kappa,
+            increments,
+            directional: false,
+            flagged: Vec::new(),
+        }
+    }
+
+    /// A critique under the directional rule: `flagged` holds the flagged observation (raw) of
+    /// each increment, in order.
+    pub fn directional(
+        chunk: Chunk,
+        kappa: f64,
+        increments: Vec<(Provenance, f64)>,
+        flagged: Vec<Vec<f64>>,
+    ) -> Self {
+        Critique {
+            chunk,
+            kappa,
+            increments,
+            directional: true,
+            flagged,
+        }
+    }
+}
+
+/// A critique as the dataset keeps it: its id and the execution it flagged, beside the critique.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CritiqueRecord {
+    pub id: CritiqueId,
+    pub execution: ExecutionId,
+    #[serde(flatten)]
+    pub critique: Critique,
 }
 
 /// How a critique's increments weigh a data point.
@@ -450,34 +493,20 @@ impl Dataset {
         self.a.truncate(w * ad);
     }
 
-    /// Record a critique under the paper's rule and make its increments: each applies to the point
-    /// of that provenance if it is still in the dataset. The weights are recomputed from the
+    /// Record a critique of execution `execution` and make its increments: each applies to the
+    /// point of that provenance if it is still in the dataset. The weights are recomputed from the
     /// records in critique order, so a critique made, redone or restored from the journal gives bit
-    /// for bit the same weights.
+    /// for bit the same weights. A critique under the paper's rule keeps no flagged observations.
     pub fn add_critique(
         &mut self,
         execution: ExecutionId,
-        chunk: Chunk,
-        kappa: f64,
-        increments: Vec<(Provenance, f64)>,
-    ) -> Result<CritiqueId, DatasetError> {
-        self.add_critique_with(execution, chunk, kappa, increments, None)
-    }
-
-    /// Record a critique under either rule: `flagged` is `None` for the paper's rule, or under
-    /// the directional rule the flagged observation (raw) of each increment, in order.
-    pub fn add_critique_with(
-        &mut self,
-        execution: ExecutionId,
-        chunk: Chunk,
-        kappa: f64,
-        increments: Vec<(Provenance, f64)>,
-        flagged: Option<Vec<Vec<f64>>>,
+        mut critique: Critique,
     ) -> Result<CritiqueId, DatasetError> {
         let len = self.execution_len(execution)?;
-        check_chunk(chunk, execution, len, || "critique.chunk".into())?;
-        check_finite_value(kappa, || "critique.kappa".into())?;
-        if let Some((p, inc)) = increments
+        check_chunk(critique.chunk, execution, len, || "critique.chunk".into())?;
+        check_finite_value(critique.kappa, || "critique.kappa".into())?;
+        if let Some((p, inc)) = critique
+            .increments
             .iter()
             .find(|(_, inc)| !(inc.is_finite() && *inc >= 0.0))
         {
@@ -485,20 +514,16 @@ impl Dataset {
                 what: format!("the critique's increment for {p:?} is {inc}"),
             });
         }
-        let directional = flagged.is_some();
-        let flagged = flagged.unwrap_or_default();
-        if directional {
-            self.check_flagged(&increments, &flagged)?;
+        if critique.directional {
+            self.check_flagged(&critique.increments, &critique.flagged)?;
+        } else {
+            critique.flagged.clear();
         }
         let id = self.fresh_id()?;
         self.critiques.push(CritiqueRecord {
             id,
             execution,
-            chunk,
-            kappa,
-            increments,
-            directional,
-            flagged,
+            critique,
         });
         self.recompute_weights();
         // Finite increments can still sum to infinity; such a critique is taken back whole.
@@ -616,9 +641,9 @@ impl Dataset {
         // then grouped by point with a stable sort, so each point's stay in critique order.
         let mut by_point: Vec<(usize, usize, usize)> = Vec::new();
         for (c_at, c) in self.critiques.iter().enumerate() {
-            for (k, (p, inc)) in c.increments.iter().enumerate() {
+            for (k, (p, inc)) in c.critique.increments.iter().enumerate() {
                 let Some(&i) = index.get(p) else { continue };
-                if c.directional {
+                if c.critique.directional {
                     by_point.push((i, c_at, k));
                 } else {
                     self.m[i] += inc;
@@ -630,8 +655,8 @@ impl Dataset {
         for &(i, c, k) in &by_point {
             let rec = &self.critiques[c];
             counts[i + 1] += 1;
-            dir.inc.push(rec.increments[k].1);
-            dir.z.extend_from_slice(&rec.flagged[k]);
+            dir.inc.push(rec.critique.increments[k].1);
+            dir.z.extend_from_slice(&rec.critique.flagged[k]);
         }
         for i in 0..n {
             counts[i + 1] += counts[i];

@@ -18,7 +18,9 @@ use crate::domain::Domain;
 use crate::interp::Synthesized;
 use crate::policy::Policy;
 use crate::policy::bc;
-use crate::policy::dataset::{CritiqueRule, Dataset, DatasetError, Provenance, SavedFormat};
+use crate::policy::dataset::{
+    Critique, CritiqueRule, Dataset, DatasetError, Provenance, SavedFormat,
+};
 use crate::policy::index::{Index, MAX_DIM};
 use crate::policy::lwr::{self, LwrAnswer, LwrParams};
 use crate::trace::{Chunk, Episode, Trace};
@@ -99,14 +101,12 @@ pub enum LearnerError {
     NonFiniteQuery { values: String },
 }
 
-/// The increments a critique would make ([`Learner::plan_critique`]).
+/// The critique a teacher's flag would make ([`Learner::plan_critique`]), not made yet.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CritiquePlan {
-    /// (supporting point, increment of its m), in step order.
-    pub increments: Vec<(Provenance, f64)>,
-    /// Under the directional rule, the flagged observation (raw) of each increment; `None` under
-    /// the paper's.
-    pub flagged: Option<Vec<Vec<f64>>>,
+    /// The critique: its increments are (supporting point, increment of its m), in step order;
+    /// under the directional rule it keeps the flagged observation (raw) of each.
+    pub critique: Critique,
     /// Steps whose supporting point was removed since the run; `None` when the supporting points
     /// were not recorded and the nearest ones now were used.
     pub gone: Option<usize>,
@@ -117,10 +117,8 @@ pub struct CritiquePlan {
 pub struct CritiqueResult {
     pub id: CritiqueId,
     pub summary: String,
-    /// The weight increments it made, by provenance (what a redo or the journal puts back).
-    pub increments: Vec<(Provenance, f64)>,
-    /// Under the directional rule, the flagged observation of each increment.
-    pub flagged: Option<Vec<Vec<f64>>>,
+    /// The critique made (what a redo or the journal puts back).
+    pub critique: Critique,
 }
 
 thread_local! {
@@ -328,18 +326,11 @@ impl Learner {
         rule: CritiqueRule,
     ) -> Result<CritiqueResult, LearnerError> {
         let plan = self.plan_critique(trace, chunk, kappa, None, rule)?;
-        let id = self.restore_critique(
-            execution,
-            chunk,
-            kappa,
-            plan.increments.clone(),
-            plan.flagged.clone(),
-        )?;
+        let id = self.add_critique(execution, plan.critique.clone())?;
         Ok(CritiqueResult {
             id,
-            summary: self.critique_summary(chunk, &plan),
-            increments: plan.increments,
-            flagged: plan.flagged,
+            summary: self.critique_summary(&plan),
+            critique: plan.critique,
         })
     }
 
@@ -371,10 +362,19 @@ impl Learner {
                 .iter()
                 .map(|(i, inc, _)| (self.ds.provenance(*i), *inc))
                 .collect();
-            let flagged = directional.then(|| found.into_iter().map(|(_, _, z)| z).collect());
+            let flagged = if directional {
+                found.into_iter().map(|(_, _, z)| z).collect()
+            } else {
+                Vec::new()
+            };
             return Ok(CritiquePlan {
-                increments,
-                flagged,
+                critique: Critique {
+                    chunk,
+                    kappa,
+                    increments,
+                    directional,
+                    flagged,
+                },
                 gone: None,
             });
         };
@@ -405,16 +405,23 @@ impl Learner {
             }
         }
         Ok(CritiquePlan {
-            increments,
-            flagged: directional.then_some(flagged),
+            critique: Critique {
+                chunk,
+                kappa,
+                increments,
+                directional,
+                flagged,
+            },
             gone: Some(gone),
         })
     }
 
-    /// What a planned critique did, in words (after [`Learner::restore_critique`] made it).
-    pub fn critique_summary(&self, chunk: Chunk, plan: &CritiquePlan) -> String {
+    /// What a planned critique did, in words (after [`Learner::add_critique`] made it).
+    pub fn critique_summary(&self, plan: &CritiquePlan) -> String {
+        let chunk = plan.critique.chunk;
         let positions = self.ds.positions();
         let mut points: Vec<usize> = plan
+            .critique
             .increments
             .iter()
             .filter_map(|(p, _)| positions.get(p).copied())
@@ -425,7 +432,7 @@ impl Learner {
             .iter()
             .map(|&i| self.ds.max_weight(i))
             .fold(1.0, f64::max);
-        let mut summary = if plan.flagged.is_some() {
+        let mut summary = if plan.critique.directional {
             format!(
                 "critiqued {chunk} ({} points, directional rule): raised the weight of {} data points for queries from the flagged side (largest m now {max_m:.2}, from the flagged direction itself)",
                 chunk.len(),
@@ -456,19 +463,14 @@ impl Learner {
         summary
     }
 
-    /// Make a critique's increments exactly (a new critique, a redo, or a journal being restored):
-    /// `flagged` is `None` under the paper's rule, the flagged observations under the directional.
-    pub fn restore_critique(
+    /// Make a critique of execution `execution` exactly (a new critique, a redo, or a journal
+    /// being restored): its increments as recorded, under its rule.
+    pub fn add_critique(
         &mut self,
         execution: ExecutionId,
-        chunk: Chunk,
-        kappa: f64,
-        increments: Vec<(Provenance, f64)>,
-        flagged: Option<Vec<Vec<f64>>>,
+        critique: Critique,
     ) -> Result<CritiqueId, LearnerError> {
-        Ok(self
-            .ds
-            .add_critique_with(execution, chunk, kappa, increments, flagged)?)
+        Ok(self.ds.add_critique(execution, critique)?)
     }
 
     /// For each observation of `trace`, the provenance of the data point the BC 1-NN picks now:

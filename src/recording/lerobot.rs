@@ -437,6 +437,9 @@ fn stats(values: &[f64], width: usize) -> Value {
 }
 
 /// Write `dataset` to the new directory `dir` as a LeRobot dataset at `fps` frames per second.
+///
+/// Over 150 lines because it lays out the dataset's files in sequence (the frames' parquet, the
+/// episodes' table, `info.json`, the statistics), each block reading the same episode table.
 pub fn export_lerobot(
     dataset: &Dataset,
     dir: &Path,

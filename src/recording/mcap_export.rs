@@ -224,18 +224,15 @@ fn mcap_bytes(dataset: &Dataset) -> Result<(Vec<u8>, McapSummary), String> {
         summary.advice += 1;
     }
     for rec in dataset.critiques() {
-        let (number, t_ns) = at(rec.execution, rec.chunk.start)?;
+        let c = &rec.critique;
+        let (number, t_ns) = at(rec.execution, c.chunk.start)?;
         let text = format!(
             "critique with kappa {} on execution {number}, points {}..{}: {} dataset points reweighted{}",
-            rec.kappa,
-            rec.chunk.start,
-            rec.chunk.end,
-            rec.increments.len(),
-            if rec.directional {
-                " (directional)"
-            } else {
-                ""
-            }
+            c.kappa,
+            c.chunk.start,
+            c.chunk.end,
+            c.increments.len(),
+            if c.directional { " (directional)" } else { "" }
         );
         write(
             &mut out,

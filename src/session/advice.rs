@@ -72,16 +72,12 @@ impl Session {
                 .plan_critique(&rec.trace, chunk, kappa, rec.support.as_deref(), rule)?;
         self.commit(Effect::Critique {
             execution: i,
-            chunk,
-            kappa,
-            increments: plan.increments.clone(),
-            directional: plan.flagged.is_some(),
-            flagged: plan.flagged.clone().unwrap_or_default(),
+            critique: plan.critique.clone(),
         })?;
         Ok(Reply::Critiqued {
             execution: i,
             chunk,
-            summary: self.state.learner.critique_summary(chunk, &plan),
+            summary: self.state.learner.critique_summary(&plan),
         })
     }
 

@@ -9,7 +9,7 @@ use super::text::first_chars;
 use super::undo::Edit;
 use super::{Recorded, Restored, Session, SessionError, TaskState, effect, journal};
 use crate::interp::Synthesized;
-use crate::policy::dataset::{Dataset, Provenance};
+use crate::policy::dataset::{Critique, Dataset};
 use crate::policy::learner::{Learner, LearnerError};
 use crate::task::Execution;
 use crate::trace::{Chunk, Episode, Trace, TraceError};
@@ -34,7 +34,7 @@ impl Session {
     pub fn start_journal(&mut self, dir: &Path) -> Result<PathBuf, journal::JournalError> {
         let mut j = Journal::create_in(dir, &self.journal_header())?;
         for entry in self.preamble.take().unwrap_or_default() {
-            j.record(&entry)
+            j.append(&entry)
                 .map_err(|source| journal::JournalError::Create {
                     path: j.path().display().to_string(),
                     source,
@@ -94,7 +94,7 @@ impl Session {
                 drop(held);
                 let mut j = Journal::create_in(dir, h)?;
                 for (_, entry) in loaded.entries.iter().take(restored) {
-                    j.record(entry).map_err(|e| journal_error(j.path(), e))?;
+                    j.append(entry).map_err(|e| journal_error(j.path(), e))?;
                 }
                 notes.push(format!(
                     "this session continues in a new journal: {}",
@@ -160,7 +160,7 @@ impl Session {
             }
             return Ok(());
         };
-        if let Err(source) = j.record(&entry) {
+        if let Err(source) = j.append(&entry) {
             let path = j.path().display().to_string();
             self.journal = None;
             return Err(SessionError::Journal { path, source });
@@ -266,23 +266,11 @@ impl Session {
             }
             Effect::Critique {
                 execution,
-                chunk,
-                kappa,
-                increments,
-                directional,
-                flagged,
+                critique,
             } => {
-                super::advice::check_kappa(*kappa)?;
+                super::advice::check_kappa(critique.kappa)?;
                 let number = self.state.take_number();
-                let flagged = directional.then(|| flagged.clone());
-                self.add_critique(
-                    *execution,
-                    *chunk,
-                    *kappa,
-                    increments.clone(),
-                    flagged,
-                    number,
-                )?;
+                self.add_critique(*execution, critique.clone(), number)?;
                 self.state.redo.clear();
             }
             Effect::Undo => self.undo_edit()?,
@@ -336,30 +324,18 @@ impl Session {
     pub(super) fn add_critique(
         &mut self,
         execution: usize,
-        chunk: Chunk,
-        kappa: f64,
-        increments: Vec<(Provenance, f64)>,
-        flagged: Option<Vec<Vec<f64>>>,
+        critique: Critique,
         number: usize,
     ) -> Result<(), SessionError> {
         let rec = self.numbered(execution)?;
-        let id = self.state.learner.restore_critique(
-            rec.id,
-            chunk,
-            kappa,
-            increments.clone(),
-            flagged.clone(),
-        )?;
+        let id = self.state.learner.add_critique(rec.id, critique.clone())?;
         let st = &mut self.state;
-        st.executions[execution].flagged.push(chunk);
+        st.executions[execution].flagged.push(critique.chunk);
         st.undo.push(Edit::Critique {
             number,
             id,
             execution,
-            chunk,
-            kappa,
-            increments,
-            flagged,
+            critique,
         });
         Ok(())
     }

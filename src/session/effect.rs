@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use crate::backend::sim::SimParams;
 use crate::eval::Report;
 use crate::interp::AppliedAdvice;
-use crate::policy::dataset::Provenance;
+use crate::policy::dataset::{Critique, Provenance};
 use crate::policy::learner::LearnerKind;
 use crate::task::{Outcome, TaskKind};
 use crate::trace::{Chunk, JsonTrace, Pose};
@@ -87,18 +87,12 @@ pub enum Effect {
         points: JsonTrace,
         source_index: Vec<usize>,
     },
-    /// A critique: the weight increments it made, by provenance.
+    /// A critique of execution `execution`: the weight increments it made, by provenance, under
+    /// its rule (`directional` is absent in journals written before `critique --directional`).
     Critique {
         execution: usize,
-        chunk: Chunk,
-        kappa: f64,
-        increments: Vec<(Provenance, f64)>,
-        /// `critique --directional` (absent in journals written before it existed).
-        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-        directional: bool,
-        /// With `directional`, the flagged observation (raw) of each increment.
-        #[serde(default, skip_serializing_if = "Vec::is_empty")]
-        flagged: Vec<Vec<f64>>,
+        #[serde(flatten)]
+        critique: Critique,
     },
     Undo,
     Redo,
@@ -154,4 +148,26 @@ pub struct RunEntry {
     /// For each step, the data point that recommended the action (BC 1-NN): what a critique
     /// penalises.
     pub support: Vec<Option<Provenance>>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A critique's fields stay flat beside `kind` and `execution` (the journal's shape before
+    /// the one critique record), and a field no version wrote is refused.
+    #[test]
+    fn a_critique_line_is_flat_and_strict() {
+        for line in [
+            r#"{"kind":"critique","execution":0,"chunk":{"start":1,"end":3},"kappa":0.5,"increments":[]}"#,
+            r#"{"kind":"critique","execution":2,"chunk":{"start":0,"end":1},"kappa":1.0,"increments":[],"directional":true,"flagged":[[0.1,-2.5]]}"#,
+        ] {
+            let e: Effect = serde_json::from_str(line).unwrap();
+            assert!(matches!(&e, Effect::Critique { .. }));
+            assert_eq!(serde_json::to_string(&e).unwrap(), line);
+            let extra = line.replace(r#""kappa""#, r#""colour":1,"kappa""#);
+            let err = serde_json::from_str::<Effect>(&extra).unwrap_err();
+            assert!(err.to_string().contains("unknown field `colour`"), "{err}");
+        }
+    }
 }

@@ -249,7 +249,7 @@ impl Journal {
     }
 
     /// Append one entry and flush it to disk before returning.
-    pub fn record(&mut self, entry: &Entry) -> io::Result<()> {
+    pub fn append(&mut self, entry: &Entry) -> io::Result<()> {
         self.write_line(&serde_json::to_string(entry).map_err(io::Error::other)?)
     }
 
@@ -432,7 +432,7 @@ mod tests {
     fn entries_are_on_disk_at_once_and_read_back() {
         let dir = tempfile::tempdir().unwrap();
         let mut j = Journal::create_in(dir.path(), &header()).unwrap();
-        j.record(&entry("undo")).unwrap();
+        j.append(&entry("undo")).unwrap();
         let loaded = read(j.path()).unwrap();
         assert_eq!(loaded.header, header());
         assert_eq!(loaded.entries, vec![(2, entry("undo"))]);
@@ -453,7 +453,7 @@ mod tests {
     fn a_cut_line_is_reported_and_cut_off_before_appending() {
         let dir = tempfile::tempdir().unwrap();
         let mut j = Journal::create_in(dir.path(), &header()).unwrap();
-        j.record(&entry("undo")).unwrap();
+        j.append(&entry("undo")).unwrap();
         let path = j.path().to_path_buf();
         drop(j);
         let mut f = OpenOptions::new().append(true).open(&path).unwrap();
@@ -463,7 +463,7 @@ mod tests {
         assert_eq!(loaded.cut.as_deref(), Some(r#"{"statement":"advise spe"#));
         let mut j = Journal::continue_at(&path).unwrap();
         j.cut_to(loaded.good_len).unwrap();
-        j.record(&entry("redo")).unwrap();
+        j.append(&entry("redo")).unwrap();
         let again = read(&path).unwrap();
         assert_eq!(again.entries.len(), 2);
         assert_eq!(again.entries[1].1, entry("redo"));
@@ -474,9 +474,9 @@ mod tests {
     fn a_damaged_line_stops_the_read_there() {
         let dir = tempfile::tempdir().unwrap();
         let mut j = Journal::create_in(dir.path(), &header()).unwrap();
-        j.record(&entry("undo")).unwrap();
+        j.append(&entry("undo")).unwrap();
         j.write_line("not json").unwrap();
-        j.record(&entry("redo")).unwrap();
+        j.append(&entry("redo")).unwrap();
         let loaded = read(j.path()).unwrap();
         assert_eq!(loaded.entries.len(), 1);
         assert_eq!(loaded.damaged.as_ref().map(|d| d.0), Some(3));

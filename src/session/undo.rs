@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use super::effect::Effect;
 use super::{Recorded, Session, SessionError};
 use crate::interp::Synthesized;
-use crate::policy::dataset::Provenance;
+use crate::policy::dataset::Critique;
 use crate::policy::learner;
 use crate::trace::Chunk;
 
@@ -26,11 +26,8 @@ pub(super) enum Edit {
         number: usize,
         id: learner::CritiqueId,
         execution: usize,
-        chunk: Chunk,
-        kappa: f64,
-        increments: Vec<(Provenance, f64)>,
-        /// The directional rule's flagged observations (`None`: the paper's rule).
-        flagged: Option<Vec<Vec<f64>>>,
+        /// The critique as made: redo makes these increments again.
+        critique: Critique,
     },
 }
 
@@ -54,15 +51,15 @@ impl Edit {
             ),
             Edit::Critique {
                 execution,
-                chunk,
-                kappa,
-                flagged,
+                critique,
                 ..
             } => format!(
-                "#{} critique {chunk} of execution {execution} ({}) with kappa {kappa}{}",
+                "#{} critique {} of execution {execution} ({}) with kappa {}{}",
                 self.number(),
+                critique.chunk,
                 executions.get(*execution).map_or("?", |e| e.label.as_str()),
-                if flagged.is_some() {
+                critique.kappa,
+                if critique.directional {
                     " (directional)"
                 } else {
                     ""
@@ -96,12 +93,12 @@ impl Session {
             Edit::Critique {
                 id,
                 execution,
-                chunk,
+                critique,
                 ..
             } => st
                 .learner
                 .remove_critique(*id)
-                .map(|()| remove_chunk(&mut st.executions[*execution].flagged, *chunk)),
+                .map(|()| remove_chunk(&mut st.executions[*execution].flagged, critique.chunk)),
         };
         match result {
             Ok(()) => {
@@ -133,12 +130,9 @@ impl Session {
             Edit::Advice { execution, syn, .. } => self.add_advice(execution, syn, number),
             Edit::Critique {
                 execution,
-                chunk,
-                kappa,
-                increments,
-                flagged,
+                critique,
                 ..
-            } => self.add_critique(execution, chunk, kappa, increments, flagged, number),
+            } => self.add_critique(execution, critique, number),
         };
         if result.is_err() {
             self.state.redo.push(edit);

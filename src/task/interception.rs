@@ -24,8 +24,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::backend::BaseState;
 use crate::domain::Domain;
+use crate::domain::columns::interception::{
+    BALL_ANGLE, BALL_ANGLE_DELTA, BALL_DIST, BALL_DIST_DELTA, HEADING_DELTA, ROT_DELTA,
+    TRANS_DELTA, TRAVEL_DELTA,
+};
 use crate::geometry::{Pose, bearing, distance, polar, relative_pose, wrap_angle};
 use crate::policy::Policy;
+use crate::task::calibration::Shipped;
 use crate::task::{Controller, Ending, Score, Task};
 
 /// Size of the test set (the paper's 100 initial conditions).
@@ -72,7 +77,8 @@ struct Calibrated {
 
 fn calibrated() -> &'static Calibrated {
     static CALIBRATED: std::sync::LazyLock<Calibrated> = std::sync::LazyLock::new(|| {
-        serde_json::from_str(include_str!("../../calibration/bc.json"))
+        Shipped::Bc
+            .read()
             .expect("the shipped calibration/bc.json holds a world and a teacher (a test reads it)")
     });
     &CALIBRATED
@@ -232,14 +238,14 @@ impl Task for Interception {
             angle_rad: phi,
             pose: state.pose,
         });
-        z[0] = d;
-        z[1] = phi;
-        z[2] = d - p.dist_m;
-        z[3] = wrap_angle(phi - p.angle_rad);
+        z[BALL_DIST] = d;
+        z[BALL_ANGLE] = phi;
+        z[BALL_DIST_DELTA] = d - p.dist_m;
+        z[BALL_ANGLE_DELTA] = wrap_angle(phi - p.angle_rad);
         // How far the robot moved along its previous heading, and how much it turned.
         let moved = relative_pose(p.pose, state.pose);
-        z[4] = moved.x_m;
-        z[5] = moved.theta_rad;
+        z[TRAVEL_DELTA] = moved.x_m;
+        z[HEADING_DELTA] = moved.theta_rad;
     }
 
     fn command(&mut self, state: &BaseState, a: &[f64]) -> (f64, f64) {
@@ -251,8 +257,8 @@ impl Task for Interception {
         });
         let r = &self.rules;
         self.command = (
-            (self.command.0 + a[0]).clamp(-r.max_speed_mps, r.max_speed_mps),
-            (self.command.1 + a[1]).clamp(-r.max_rot_radps, r.max_rot_radps),
+            (self.command.0 + a[TRANS_DELTA]).clamp(-r.max_speed_mps, r.max_speed_mps),
+            (self.command.1 + a[ROT_DELTA]).clamp(-r.max_rot_radps, r.max_rot_radps),
         );
         self.command
     }
@@ -334,17 +340,17 @@ impl InterceptionTeacher {
 
 impl Policy for InterceptionTeacher {
     fn act(&self, z: &[f64], a: &mut [f64]) {
-        let phi = z[1];
-        let speed_mps = z[4] / self.period_s;
-        let rot_radps = z[5] / self.period_s;
+        let phi = z[BALL_ANGLE];
+        let speed_mps = z[TRAVEL_DELTA] / self.period_s;
+        let rot_radps = z[HEADING_DELTA] / self.period_s;
         let want_rot = (self.k_turn * phi).clamp(-self.max_rot_radps, self.max_rot_radps);
         let want_speed = if phi.abs() > PI / 2.0 {
             self.cruise_mps * self.behind_frac
         } else {
             self.cruise_mps
         };
-        a[0] = self.gain_speed * (want_speed - speed_mps);
-        a[1] = self.gain_rot * (want_rot - rot_radps);
+        a[TRANS_DELTA] = self.gain_speed * (want_speed - speed_mps);
+        a[ROT_DELTA] = self.gain_rot * (want_rot - rot_radps);
     }
 }
 

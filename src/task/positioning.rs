@@ -17,6 +17,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::backend::sim::normal_pair;
+use crate::domain::columns::positioning::{BEARING, DHEADING, DIST2, ROT, TRANS};
 use crate::geometry::{Pose, bearing, wrap_angle};
 use crate::task::Controller;
 
@@ -196,7 +197,7 @@ impl PositioningTeacher {
     fn intention(&mut self, z: &[f64]) -> (f64, f64) {
         let s = &self.style;
         let e = &mut self.episode;
-        let (d, bearing, dheading) = (z[0].max(0.0).sqrt(), z[1], z[2]);
+        let (d, bearing, dheading) = (z[DIST2].max(0.0).sqrt(), z[BEARING], z[DHEADING]);
         // The perceived goal, in the robot frame: the true goal plus the misjudgement, which is
         // fixed in the goal's frame (rotate by theta_g - theta_r into the robot's). This is
         // `compose_pose`, written out: nalgebra adds the rotated offset as one vector, which moves
@@ -253,7 +254,7 @@ impl Controller for PositioningTeacher {
     fn act(&mut self, z: &[f64], a: &mut [f64]) {
         if !self.episode.started {
             self.episode.started = true;
-            let d0 = z[0].max(0.0).sqrt();
+            let d0 = z[DIST2].max(0.0).sqrt();
             let sd = self.style.perception_frac * d0;
             let (n1, n2) = self.episode.perception_draw;
             self.episode.offset = (n1 * sd, n2 * sd);
@@ -269,8 +270,8 @@ impl Controller for PositioningTeacher {
             if e.stick.0.abs() < 0.005 && e.stick.1.abs() < 0.005 {
                 e.stick = (0.0, 0.0);
             }
-            a[0] = e.stick.0;
-            a[1] = e.stick.1;
+            a[TRANS] = e.stick.0;
+            a[ROT] = e.stick.1;
             return;
         }
         // Tremor: slow (AR(1), about a second of memory) noise on each axis.
@@ -279,8 +280,8 @@ impl Controller for PositioningTeacher {
         e.tremor = (keep * e.tremor.0 + kick * n1, keep * e.tremor.1 + kick * n2);
         e.stick.0 += alpha * (v - e.stick.0);
         e.stick.1 += alpha * (w - e.stick.1);
-        a[0] = e.stick.0 + e.tremor.0;
-        a[1] = e.stick.1 + e.tremor.1;
+        a[TRANS] = e.stick.0 + e.tremor.0;
+        a[ROT] = e.stick.1 + e.tremor.1;
     }
 }
 

@@ -99,6 +99,9 @@ impl Episode {
 }
 
 /// `demo`: the rows are demonstrations, whose actions must be within the domain's limits.
+///
+/// Over 150 lines because the header's column map (a local enum) and the row loop that reads
+/// through it belong together; each refusal names its row and column.
 fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, TraceError> {
     let text = src.text;
     let field_at = |byte: usize, col: usize| src.at(locate::csv_field(text, byte, col));

@@ -125,34 +125,7 @@ impl Checker<'_> {
             .collect();
         let scores: HashSet<usize> = d.score.iter().map(|(s, _)| *s).collect();
         let observed: HashSet<usize> = d.observe.iter().copied().collect();
-        let mut sinks: Vec<(usize, Sink)> = d
-            .observe
-            .iter()
-            .chain(d.score.iter().map(|(s, _)| s))
-            .map(|s| (*s, Sink::default()))
-            .collect();
-        for (at, p) in points.iter().enumerate() {
-            let prev = p.prev.map_or(&p.env, |i| &points[i].env);
-            for (slot, sink) in &mut sinks {
-                let is_score = scores.contains(slot);
-                // A score is computed at the end of a run, which is never its start.
-                if is_score && p.start {
-                    continue;
-                }
-                sink.tried += 1;
-                sink.start_tried += usize::from(p.start);
-                let v = p.env[*slot];
-                if v.is_finite() {
-                    continue;
-                }
-                sink.failed += 1;
-                sink.start_failed += usize::from(p.start);
-                if sink.first.is_none() {
-                    let (root, in_prev) = root(*slot, &p.env, prev, &irs, d.slots());
-                    sink.first = Some((root, in_prev, at));
-                }
-            }
-        }
+        let sinks = try_states(d, &points, &irs, &scores);
         // One diagnostic per value a failure starts in; an error where one of its sinks is
         // certain.
         let mut reported: HashSet<usize> = HashSet::new();
@@ -262,6 +235,45 @@ impl Checker<'_> {
             ));
         }
     }
+}
+
+/// Every observation and score tried at every state of `points` (a score not at a run's start):
+/// how often it is not a number, and where the first failure starts.
+fn try_states(
+    d: &TaskDef,
+    points: &[Point],
+    irs: &HashMap<usize, &Ir>,
+    scores: &HashSet<usize>,
+) -> Vec<(usize, Sink)> {
+    let mut sinks: Vec<(usize, Sink)> = d
+        .observe
+        .iter()
+        .chain(d.score.iter().map(|(s, _)| s))
+        .map(|s| (*s, Sink::default()))
+        .collect();
+    for (at, p) in points.iter().enumerate() {
+        let prev = p.prev.map_or(&p.env, |i| &points[i].env);
+        for (slot, sink) in &mut sinks {
+            let is_score = scores.contains(slot);
+            // A score is computed at the end of a run, which is never its start.
+            if is_score && p.start {
+                continue;
+            }
+            sink.tried += 1;
+            sink.start_tried += usize::from(p.start);
+            let v = p.env[*slot];
+            if v.is_finite() {
+                continue;
+            }
+            sink.failed += 1;
+            sink.start_failed += usize::from(p.start);
+            if sink.first.is_none() {
+                let (root, in_prev) = root(*slot, &p.env, prev, irs, d.slots());
+                sink.first = Some((root, in_prev, at));
+            }
+        }
+    }
+    sinks
 }
 
 /// The states to try: run starts first (for observations), then pairs of a state and the state

@@ -324,41 +324,67 @@ impl SavedFormat {
 /// Every check of a dataset file but the weights, in file order; the first problem is returned.
 fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
     let domain = &file.domain;
-    let expected = || {
-        let names = |dims: &[crate::domain::Dim]| {
-            dims.iter()
-                .map(|d| d.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        format!(
-            "observation [{}], action [{}]",
-            names(&domain.observe),
-            names(&domain.act)
-        )
-    };
     if domain.observe.is_empty() || domain.act.is_empty() {
         return Err(DatasetError::Dimension {
             at: "domain".into(),
             what: "the domain needs at least one observation and one action dimension".into(),
-            expected: expected(),
+            expected: expected(domain),
         });
     }
-    let values = |at: &str, z: &[f64], a: &[f64]| -> Result<(), DatasetError> {
-        for (space, vals, dims) in [("z", z, &domain.observe), ("a", a, &domain.act)] {
-            if vals.len() != dims.len() {
-                return Err(DatasetError::Dimension {
-                    at: format!("{at}.{space}"),
-                    what: format!("{} values where the domain has {}", vals.len(), dims.len()),
-                    expected: expected(),
-                });
-            }
-        }
-        check_point(domain, z, a, |space, k| format!("{at}.{space}[{k}]"))
+    validate_ids(file)?;
+    validate_executions(file)?;
+    let executions: HashMap<u32, &ExecutionRecord> =
+        file.executions.iter().map(|e| (e.id, e)).collect();
+    let exec_len = |at: String, id: u32| -> Result<usize, DatasetError> {
+        executions
+            .get(&id)
+            .map(|e| e.points.len())
+            .ok_or(DatasetError::Dangling {
+                at,
+                what: "execution",
+                id,
+            })
     };
-    let finite = |at: String, v: f64| check_finite_value(v, || at.clone());
+    let mut advice_points: HashMap<u32, u32> = HashMap::new();
+    for (i, r) in file.advice.iter().enumerate() {
+        let len = exec_len(format!("advice[{i}].execution"), r.execution)?;
+        check_advice(
+            domain,
+            &r.applied,
+            r.execution,
+            len,
+            &format!("advice[{i}]"),
+        )?;
+        advice_points.insert(r.id, 0);
+    }
+    for (i, rec) in file.critiques.iter().enumerate() {
+        let len = exec_len(format!("critiques[{i}].execution"), rec.execution)?;
+        validate_critique(domain, i, rec, len)?;
+    }
+    validate_points(file, advice_points)
+}
 
-    // One sequence of ids for every kind of record.
+/// The domain's dimensions by name, for a message about a point's shape.
+fn expected(domain: &Domain) -> String {
+    let names = |dims: &[crate::domain::Dim]| {
+        dims.iter()
+            .map(|d| d.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    format!(
+        "observation [{}], action [{}]",
+        names(&domain.observe),
+        names(&domain.act)
+    )
+}
+
+fn finite(at: String, v: f64) -> Result<(), DatasetError> {
+    check_finite_value(v, || at.clone())
+}
+
+/// One sequence of ids for every kind of record, and a `next_id` beyond them that can grow.
+fn validate_ids(file: &DatasetFile) -> Result<(), DatasetError> {
     let mut owner: HashMap<u32, String> = HashMap::new();
     let mut max_id = 0;
     let records = file
@@ -403,9 +429,12 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
     }
     // An id space that cannot grow is refused now, not at the first advice.
     next_id_after(file.next_id)?;
+    Ok(())
+}
 
-    let executions: HashMap<u32, &ExecutionRecord> =
-        file.executions.iter().map(|e| (e.id, e)).collect();
+/// The executions' points: each of the domain's shape, finite, and all with a `pose` or none.
+fn validate_executions(file: &DatasetFile) -> Result<(), DatasetError> {
+    let domain = &file.domain;
     for (i, e) in file.executions.iter().enumerate() {
         for (j, p) in e.points.iter().enumerate() {
             let at = format!("executions[{i}].points[{j}]");
@@ -416,7 +445,7 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
                     return Err(DatasetError::Dimension {
                         at: format!("{at}.{space}"),
                         what: format!("{} values where the domain has {n}", vals.len()),
-                        expected: expected(),
+                        expected: expected(domain),
                     });
                 }
             }
@@ -435,80 +464,88 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
             }
         }
     }
-    let exec_len = |at: String, id: u32| -> Result<usize, DatasetError> {
-        executions
-            .get(&id)
-            .map(|e| e.points.len())
-            .ok_or(DatasetError::Dangling {
-                at,
-                what: "execution",
-                id,
-            })
-    };
-    let mut advice_points: HashMap<u32, u32> = HashMap::new();
-    for (i, r) in file.advice.iter().enumerate() {
-        let len = exec_len(format!("advice[{i}].execution"), r.execution)?;
-        check_advice(
-            domain,
-            &r.applied,
-            r.execution,
-            len,
-            &format!("advice[{i}]"),
-        )?;
-        advice_points.insert(r.id, 0);
+    Ok(())
+}
+
+/// Critique `i` of the file, of an execution of `len` points.
+fn validate_critique(
+    domain: &Domain,
+    i: usize,
+    rec: &CritiqueRecord,
+    len: usize,
+) -> Result<(), DatasetError> {
+    let c = &rec.critique;
+    check_chunk(c.chunk, rec.execution, len, || {
+        format!("critiques[{i}].chunk")
+    })?;
+    finite(format!("critiques[{i}].kappa"), c.kappa)?;
+    for (k, (_, inc)) in c.increments.iter().enumerate() {
+        finite(format!("critiques[{i}].increments[{k}]"), *inc)?;
     }
-    for (i, c) in file.critiques.iter().enumerate() {
-        let len = exec_len(format!("critiques[{i}].execution"), c.execution)?;
-        check_chunk(c.chunk, c.execution, len, || {
-            format!("critiques[{i}].chunk")
-        })?;
-        finite(format!("critiques[{i}].kappa"), c.kappa)?;
-        for (k, (_, inc)) in c.increments.iter().enumerate() {
-            finite(format!("critiques[{i}].increments[{k}]"), *inc)?;
-        }
-        let negative = c.increments.iter().position(|(_, inc)| *inc < 0.0);
-        if let (true, Some(k)) = (c.directional, negative) {
-            // The BC search is exact only while no weight falls below 1 (the isotropic weights
-            // are checked point by point below).
+    let negative = c.increments.iter().position(|(_, inc)| *inc < 0.0);
+    if let (true, Some(k)) = (c.directional, negative) {
+        // The BC search is exact only while no weight falls below 1 (the isotropic weights
+        // are checked point by point below).
+        return Err(DatasetError::Record {
+            at: format!("critiques[{i}].increments[{k}]"),
+            what: "a directional critique's increment is never negative".into(),
+        });
+    }
+    if c.directional && c.flagged.len() != c.increments.len() {
+        return Err(DatasetError::Record {
+            at: format!("critiques[{i}].flagged"),
+            what: format!(
+                "a directional critique keeps one flagged observation per increment: {} increments, {} observations",
+                c.increments.len(),
+                c.flagged.len()
+            ),
+        });
+    }
+    if !c.directional && !c.flagged.is_empty() {
+        return Err(DatasetError::Record {
+            at: format!("critiques[{i}].flagged"),
+            what: "only a directional critique keeps flagged observations".into(),
+        });
+    }
+    for (k, z) in c.flagged.iter().enumerate() {
+        if z.len() != domain.obs_dim() {
             return Err(DatasetError::Record {
-                at: format!("critiques[{i}].increments[{k}]"),
-                what: "a directional critique's increment is never negative".into(),
-            });
-        }
-        if c.directional && c.flagged.len() != c.increments.len() {
-            return Err(DatasetError::Record {
-                at: format!("critiques[{i}].flagged"),
+                at: format!("critiques[{i}].flagged[{k}]"),
                 what: format!(
-                    "a directional critique keeps one flagged observation per increment: {} increments, {} observations",
-                    c.increments.len(),
-                    c.flagged.len()
+                    "the observation has {} values; the `{}` domain observes {}",
+                    z.len(),
+                    domain.name,
+                    domain.obs_dim()
                 ),
             });
         }
-        if !c.directional && !c.flagged.is_empty() {
-            return Err(DatasetError::Record {
-                at: format!("critiques[{i}].flagged"),
-                what: "only a directional critique keeps flagged observations".into(),
-            });
-        }
-        for (k, z) in c.flagged.iter().enumerate() {
-            if z.len() != domain.obs_dim() {
-                return Err(DatasetError::Record {
-                    at: format!("critiques[{i}].flagged[{k}]"),
-                    what: format!(
-                        "the observation has {} values; the `{}` domain observes {}",
-                        z.len(),
-                        domain.name,
-                        domain.obs_dim()
-                    ),
-                });
-            }
-            for (j, v) in z.iter().enumerate() {
-                finite(format!("critiques[{i}].flagged[{k}][{j}]"), *v)?;
-            }
+        for (j, v) in z.iter().enumerate() {
+            finite(format!("critiques[{i}].flagged[{k}][{j}]"), *v)?;
         }
     }
+    Ok(())
+}
 
+/// The points: each of the domain's shape and within its limits, with a weight, a provenance
+/// of a record the file holds (`advice_points`: the advice ids) and no other point's; and each
+/// demonstration holding the points it says.
+fn validate_points(
+    file: &DatasetFile,
+    mut advice_points: HashMap<u32, u32>,
+) -> Result<(), DatasetError> {
+    let domain = &file.domain;
+    let values = |at: &str, z: &[f64], a: &[f64]| -> Result<(), DatasetError> {
+        for (space, vals, dims) in [("z", z, &domain.observe), ("a", a, &domain.act)] {
+            if vals.len() != dims.len() {
+                return Err(DatasetError::Dimension {
+                    at: format!("{at}.{space}"),
+                    what: format!("{} values where the domain has {}", vals.len(), dims.len()),
+                    expected: expected(domain),
+                });
+            }
+        }
+        check_point(domain, z, a, |space, k| format!("{at}.{space}[{k}]"))
+    };
     let mut demo_points: HashMap<u32, u32> = file.demos.iter().map(|d| (d.id, 0)).collect();
     let mut seen: HashMap<Provenance, usize> = HashMap::new();
     for (i, p) in file.points.iter().enumerate() {

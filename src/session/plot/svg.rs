@@ -97,6 +97,9 @@ fn chunk_label(kind: &str, chunks: &[Chunk]) -> String {
 }
 
 /// The path plot: one execution with its marks, or several overlaid (`colors` one per view).
+///
+/// Over 150 lines because it draws the plot's layers in their stacking order (marks, path, index
+/// dots, goal and ball), one block each, on the one shared frame.
 pub(super) fn render_paths(
     views: &[&PlotView<'_>],
     names: &[String],
