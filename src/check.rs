@@ -461,65 +461,83 @@ impl<'s> Checker<'s> {
                 Some(e) => std::mem::take(&mut e.definition),
                 None => definition_of(sig.decl),
             };
-            let (body, hash) = match body {
-                Body2::Block(program) => {
-                    (OpBody::Block(program), DefinitionHash::of(&definition, []))
-                }
-                Body2::Pipeline(steps) => {
-                    let stages: Vec<Stage> = steps
-                        .into_iter()
-                        .filter_map(|st| {
-                            let op = match st.op.checked_sub(set.ops.len()) {
-                                None => set.ops[st.op].clone(),
-                                Some(j) => built[j].clone()?,
-                            };
-                            Some(Stage { op, args: st.args })
-                        })
-                        .collect();
-                    let hash = DefinitionHash::of(&definition, stages.iter().map(|s| s.op.hash));
-                    (OpBody::Pipeline(stages), hash)
-                }
-            };
-            if let Some(shadowed) = base.and_then(|b| b.operator(&domain.name, &sig.decl.name.name))
-                && shadowed.standard
-                // The standard file itself, checked again, shadows nothing new.
-                && shadowed.definition != definition
-            {
-                let span = sig.decl.name.span;
-                self.warnings.push((
-                    sig.file,
-                    span.start,
-                    CheckWarning::ShadowsStandard {
-                        name: sig.decl.name.name.clone(),
-                        domain: domain.name.clone(),
-                        origin: shadowed.origin.clone(),
-                        span: self.at(sig.file, span),
-                    },
-                ));
-            }
-            let source = &self.sources[sig.file];
-            built[i] = Some(Arc::new(Operator {
-                name: sig.decl.name.name.clone(),
-                domain: domain.clone(),
-                space: sig.decl.space,
-                doc: sig.decl.doc.join("\n"),
-                params: sig.params.clone(),
-                definition,
-                hash,
-                origin: format!(
-                    "{} at line {}",
-                    source.name,
-                    self.line(sig.file, sig.decl.name.span.start)
-                ),
-                standard: STANDARD_SOURCES.iter().any(|(n, _)| *n == source.name),
-                stages: stages[i],
-                body,
-            }));
+            built[i] = Some(self.operator(
+                sig, body, definition, domain, &set.ops, &built, base, stages[i],
+            ));
         }
         // In definition order, so that a later definition shadows an earlier one.
         set.ops.extend(built.into_iter().flatten());
         set.reindex();
         set
+    }
+
+    /// One checked operator as the set keeps it (`built`: those of this check built so far, its
+    /// callees among them; `base_ops`: the base set's; `expanded`: how many per-point stages it runs).
+    /// Warns where it shadows a standard one.
+    #[allow(clippy::too_many_arguments)]
+    fn operator(
+        &mut self,
+        sig: &Sig<'_>,
+        body: Body2,
+        definition: String,
+        domain: &Arc<Domain>,
+        base_ops: &[Arc<Operator>],
+        built: &[Option<Arc<Operator>>],
+        base: Option<&OperatorSet>,
+        expanded: u64,
+    ) -> Arc<Operator> {
+        let (body, hash) = match body {
+            Body2::Block(program) => (OpBody::Block(program), DefinitionHash::of(&definition, [])),
+            Body2::Pipeline(steps) => {
+                let stages: Vec<Stage> = steps
+                    .into_iter()
+                    .filter_map(|st| {
+                        let op = match st.op.checked_sub(base_ops.len()) {
+                            None => base_ops[st.op].clone(),
+                            Some(j) => built[j].clone()?,
+                        };
+                        Some(Stage { op, args: st.args })
+                    })
+                    .collect();
+                let hash = DefinitionHash::of(&definition, stages.iter().map(|s| s.op.hash));
+                (OpBody::Pipeline(stages), hash)
+            }
+        };
+        if let Some(shadowed) = base.and_then(|b| b.operator(&domain.name, &sig.decl.name.name))
+            && shadowed.standard
+            // The standard file itself, checked again, shadows nothing new.
+            && shadowed.definition != definition
+        {
+            let span = sig.decl.name.span;
+            self.warnings.push((
+                sig.file,
+                span.start,
+                CheckWarning::ShadowsStandard {
+                    name: sig.decl.name.name.clone(),
+                    domain: domain.name.clone(),
+                    origin: shadowed.origin.clone(),
+                    span: self.at(sig.file, span),
+                },
+            ));
+        }
+        let source = &self.sources[sig.file];
+        Arc::new(Operator {
+            name: sig.decl.name.name.clone(),
+            domain: domain.clone(),
+            space: sig.decl.space,
+            doc: sig.decl.doc.join("\n"),
+            params: sig.params.clone(),
+            definition,
+            hash,
+            origin: format!(
+                "{} at line {}",
+                source.name,
+                self.line(sig.file, sig.decl.name.span.start)
+            ),
+            standard: STANDARD_SOURCES.iter().any(|(n, _)| *n == source.name),
+            stages: expanded,
+            body,
+        })
     }
 }
 
