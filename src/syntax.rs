@@ -45,6 +45,15 @@ pub fn parse(source: Src<'_>) -> Result<File, ParseError> {
     })
 }
 
+/// [`parse`], with every comment of the text (doc comments too, in source order) as the scan that
+/// runs before pest found them: what `fmt` puts back, since the grammar skips comments.
+pub fn parse_with_comments(source: Src<'_>) -> Result<(File, Vec<delims::Comment>), ParseError> {
+    let mut items = items(source);
+    let parsed = items.by_ref().collect::<Result<_, _>>()?;
+    let comments = std::mem::take(&mut items.brackets.comments);
+    Ok((File { items: parsed }, comments))
+}
+
 /// The items of a file, each parsed when it is asked for; after an error, nothing more.
 ///
 /// The file is parsed one item at a time (`next_item`), each from where the one before ended, so

@@ -198,6 +198,9 @@ where
         seed: opts.seed,
     })?;
     let signal = StopSignal::new();
+    // Ctrl-C stops the base at once from the signal thread (as in a session), not only at the
+    // evaluation's next control step.
+    signal.set_base(base.remote_stop());
     let mut guarded = crate::backend::Interruptible::new(base.as_mut(), signal.clone());
     crate::repl::install_ctrl_c(&signal);
     eprintln!("evaluating {kind} on {spec} in real time; Ctrl-C stops the base");

@@ -11,14 +11,15 @@
 //! says something else.
 
 use super::ast::{Body, File, Item, OperatorDecl, Span};
-use super::{ParseError, parse};
+use super::{ParseError, parse_with_comments};
 use crate::diag::{LineIndex, Src};
 
 /// The canonical text of an operator file: parsed, printed, with every `//` comment where it was.
 /// Formatting a formatted file changes nothing.
 pub fn format(source: Src<'_>) -> Result<String, ParseError> {
-    let file = parse(source)?;
-    Ok(layout(source.text, &file))
+    let (file, mut comments) = parse_with_comments(source)?;
+    comments.retain(|c| !c.doc);
+    Ok(layout(source.text, &file, &comments))
 }
 
 /// Whether `text` is a session script (REPL commands, one per line, operators defined among them)
@@ -60,6 +61,7 @@ pub fn format_script(text: &str) -> String {
 type Comment = super::delims::Comment;
 
 /// Every `//` comment of `text` that is not a doc comment, as the bracket scan finds them.
+#[cfg(test)]
 fn comments(text: &str) -> Vec<Comment> {
     let mut all = super::delims::comments(text);
     all.retain(|c| !c.doc);
@@ -79,8 +81,8 @@ fn comment_text(text: &str, c: &Comment) -> String {
     text[c.span.start..c.span.end].trim_end().to_string()
 }
 
-fn layout(text: &str, file: &File) -> String {
-    let all = comments(text);
+/// The printed items of `file` with the `//` comments of `text` (`all`) put back.
+fn layout(text: &str, file: &File, all: &[Comment]) -> String {
     let lines = LineIndex::new(text);
     let mut out = String::new();
     // Where the text already written ends, and whether something was written.
