@@ -306,6 +306,7 @@ fn own_end(text: &str, span: Span, comments: &[&Comment]) -> usize {
 mod tests {
     use super::*;
     use crate::diag::SourceMap;
+    use crate::syntax::parse;
 
     fn fmt(text: &str) -> String {
         let (map, id) = SourceMap::single("t.adv", text);
