@@ -355,29 +355,51 @@ impl Learner {
         }
         self.ensure_derived();
         let directional = rule == CritiqueRule::Directional;
-        let Some(support) = support else {
-            let zs = chunk.range().map(|t| trace.z(t).to_vec());
-            let found = bc::critique_increments(&self.index, &self.ds, zs, kappa);
-            let increments = found
-                .iter()
-                .map(|(i, inc, _)| (self.ds.provenance(*i), *inc))
-                .collect();
-            let flagged = if directional {
-                found.into_iter().map(|(_, _, z)| z).collect()
-            } else {
-                Vec::new()
-            };
-            return Ok(CritiquePlan {
-                critique: Critique {
-                    chunk,
-                    kappa,
-                    increments,
-                    directional,
-                    flagged,
-                },
-                gone: None,
-            });
+        let (increments, flagged, gone) = match support {
+            None => {
+                let zs = chunk.range().map(|t| trace.z(t).to_vec());
+                let found = bc::critique_increments(&self.index, &self.ds, zs, kappa);
+                let increments = found
+                    .iter()
+                    .map(|(i, inc, _)| (self.ds.provenance(*i), *inc))
+                    .collect();
+                let flagged = if directional {
+                    found.into_iter().map(|(_, _, z)| z).collect()
+                } else {
+                    Vec::new()
+                };
+                (increments, flagged, None)
+            }
+            Some(support) => {
+                let (increments, flagged, gone) =
+                    self.supported_increments(trace, chunk, kappa, support, directional);
+                (increments, flagged, Some(gone))
+            }
         };
+        Ok(CritiquePlan {
+            critique: Critique {
+                chunk,
+                kappa,
+                increments,
+                directional,
+                flagged,
+            },
+            gone,
+        })
+    }
+
+    /// The paper's rule on recorded support: each step's supporting point penalised by `kappa`
+    /// over its scaled distance from the step's observation; the flagged observations (directional
+    /// rule) and how many supporting points were removed since.
+    #[allow(clippy::type_complexity)]
+    fn supported_increments(
+        &self,
+        trace: &Trace,
+        chunk: Chunk,
+        kappa: f64,
+        support: &[Option<Provenance>],
+        directional: bool,
+    ) -> (Vec<(Provenance, f64)>, Vec<Vec<f64>>, usize) {
         let positions = self.ds.positions();
         let scale = self.index.scale();
         let mut gone = 0;
@@ -404,16 +426,7 @@ impl Learner {
                 flagged.push(trace.z(t).to_vec());
             }
         }
-        Ok(CritiquePlan {
-            critique: Critique {
-                chunk,
-                kappa,
-                increments,
-                directional,
-                flagged,
-            },
-            gone: Some(gone),
-        })
+        (increments, flagged, gone)
     }
 
     /// What a planned critique did, in words (after [`Learner::add_critique`] made it).
