@@ -330,7 +330,9 @@ impl clap::ValueEnum for EvalPolicy {
 
     fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
         match self {
-            EvalPolicy::Learned(kind) => kind.to_possible_value(),
+            EvalPolicy::Learned(kind) => {
+                Some(clap::builder::PossibleValue::new(kind.name()).help(kind.summary()))
+            }
             EvalPolicy::Teacher => Some(
                 clap::builder::PossibleValue::new("teacher")
                     .help("The task's own teacher (needs no dataset)"),

@@ -1,33 +1,54 @@
-//! The import graph follows the pipeline: a module uses only the modules before it in `LAYERS`.
-//! So there is no cycle between phases (issue 16): `policy` cannot reach for `task`, `syntax`
-//! for `check`, a backend for the session. A new top-level module must be placed in the order.
+//! The import graph follows the pipeline. Between crates the compiler keeps it (issue 32):
+//! `advise-lang` knows no other crate of ours, `advise-learn` and `advise-lsp` only the language,
+//! the application all three. Inside a crate, a module uses only the modules before it in its
+//! `LAYERS`, so there is no cycle between phases (issue 16): `syntax` cannot reach for `check`, a
+//! backend for the session. A new top-level module must be placed in the order.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// The crate's top-level modules, each allowed to use only those listed before it.
-const LAYERS: &[&str] = &[
-    "diag",
-    "number",
-    "files",
-    "geometry",
-    "domain",
-    "syntax",
-    "trace",
-    "program",
-    "check",
-    "interp",
-    "doctest",
-    "policy",
-    "backend",
-    "task",
-    "eval",
-    "recording",
-    "experiment",
-    "session",
-    "repl",
-    "lsp",
-    "cli",
+/// Each crate's source folder and its top-level modules, each allowed to use only those listed
+/// before it. The application's first entries are the libraries it re-exports (`crate::check`
+/// is `advise_lang::check`), which any of its own modules may use.
+const CRATES: &[(&str, &[&str])] = &[
+    (
+        "crates/advise-lang/src",
+        &[
+            "diag", "number", "files", "geometry", "domain", "syntax", "trace", "program", "check",
+            "interp", "doctest",
+        ],
+    ),
+    (
+        "crates/advise-learn/src",
+        &["Policy", "index", "dataset", "bc", "lwr", "learner"],
+    ),
+    ("crates/advise-lsp/src", &["frame", "analysis"]),
+    (
+        "src",
+        &[
+            "diag",
+            "number",
+            "files",
+            "geometry",
+            "domain",
+            "syntax",
+            "trace",
+            "program",
+            "check",
+            "interp",
+            "doctest",
+            "policy",
+            "lsp",
+            "backend",
+            "task",
+            "eval",
+            "recording",
+            "experiment",
+            "session",
+            "repl",
+            "cli",
+        ],
+    ),
 ];
 
 /// Every `crate::NAME` in code (comments and doc links are not imports) of `file`, with its line.
@@ -63,7 +84,7 @@ fn uses(file: &Path) -> Vec<(String, usize)> {
     out
 }
 
-fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     for entry in std::fs::read_dir(dir).unwrap() {
         let path = entry.unwrap().path();
         if path.is_dir() {
@@ -76,48 +97,52 @@ fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
 
 #[test]
 fn each_module_uses_only_the_modules_before_it() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
-    files.sort();
-    let rank: BTreeMap<&str, usize> = LAYERS.iter().enumerate().map(|(i, m)| (*m, i)).collect();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut wrong = Vec::new();
-    for file in &files {
-        let rel = file.strip_prefix(&src).unwrap();
-        let first = rel
-            .components()
-            .next()
-            .unwrap()
-            .as_os_str()
-            .to_string_lossy();
-        let module = first.trim_end_matches(".rs");
-        if module == "lib" || module == "main" {
-            continue;
-        }
-        let Some(&own) = rank.get(module) else {
-            wrong.push(format!(
-                "src/{}: module `{module}` is not in LAYERS; place it in the pipeline's order",
-                rel.display()
-            ));
-            continue;
-        };
-        for (used, line) in uses(file) {
-            if used == module {
+    let mut scanned = 0;
+    for (dir, layers) in CRATES {
+        let src = root.join(dir);
+        let mut files = Vec::new();
+        rust_files(&src, &mut files);
+        files.sort();
+        scanned += files.len();
+        let rank: BTreeMap<&str, usize> = layers.iter().enumerate().map(|(i, m)| (*m, i)).collect();
+        for file in &files {
+            let rel = file.strip_prefix(&src).unwrap();
+            let first = rel
+                .components()
+                .next()
+                .unwrap()
+                .as_os_str()
+                .to_string_lossy();
+            let module = first.trim_end_matches(".rs");
+            let shown = format!("{dir}/{}", rel.display());
+            if module == "lib" || module == "main" {
                 continue;
             }
-            match rank.get(used.as_str()) {
-                Some(&r) if r < own => {}
-                Some(_) => wrong.push(format!(
-                    "src/{}:{line}: `{module}` uses `{used}`, which comes after it in the pipeline",
-                    rel.display()
-                )),
-                None => wrong.push(format!(
-                    "src/{}:{line}: `crate::{used}` is not a module in LAYERS",
-                    rel.display()
-                )),
+            let Some(&own) = rank.get(module) else {
+                wrong.push(format!(
+                    "{shown}: module `{module}` is not in LAYERS; place it in the pipeline's order"
+                ));
+                continue;
+            };
+            for (used, line) in uses(file) {
+                if used == module {
+                    continue;
+                }
+                match rank.get(used.as_str()) {
+                    Some(&r) if r < own => {}
+                    Some(_) => wrong.push(format!(
+                        "{shown}:{line}: `{module}` uses `{used}`, which comes after it in the pipeline"
+                    )),
+                    None => wrong.push(format!(
+                        "{shown}:{line}: `crate::{used}` is not a module in LAYERS"
+                    )),
+                }
             }
         }
     }
+    assert!(scanned > 100, "the scan found only {scanned} files");
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
 }
 
@@ -139,9 +164,11 @@ fn the_scanner_finds_paths_and_groups_but_not_comments() {
 /// test) that sees a code knows which one it was.
 #[test]
 fn each_diagnostic_code_is_defined_once() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut files = Vec::new();
-    rust_files(&src, &mut files);
+    for (dir, _) in CRATES {
+        rust_files(&src.join(dir), &mut files);
+    }
     files.sort();
     let mut seen: BTreeMap<String, String> = BTreeMap::new();
     let mut twice = Vec::new();
@@ -155,9 +182,9 @@ fn each_diagnostic_code_is_defined_once() {
                     .chars()
                     .take_while(|c| c.is_alphanumeric() || *c == '_' || *c == ':')
                     .collect();
-                let at = format!("{}:{}", file.strip_prefix(&src).unwrap().display(), n + 1);
+                let at = format!("{}:{}", file.strip_prefix(src).unwrap().display(), n + 1);
                 if let Some(first) = seen.get(&code) {
-                    twice.push(format!("{code}: src/{first} and src/{at}"));
+                    twice.push(format!("{code}: {first} and {at}"));
                 } else {
                     seen.insert(code, at);
                 }

@@ -256,7 +256,7 @@ proptest! {
                 }
             }
             let mut a = [0.0; 2];
-            let ans = advise::policy::lwr::query_with(&learner, &params, q, &mut a);
+            let ans = learner.query_lwr_with(&params, q, &mut a);
             prop_assert!((ans.total_weight - den).abs() < 1e-9);
             if den > 0.0 {
                 for j in 0..2 { prop_assert!((a[j] - num[j] / den).abs() < 1e-9); }
@@ -289,7 +289,7 @@ proptest! {
         for q in &queries {
             let (mut a, mut b) = ([0.0; 2], [0.0; 2]);
             let got = learner.regress(q, &mut a);
-            let want = advise::policy::lwr::query_with(&learner, &params, q, &mut b);
+            let want = learner.query_lwr_with(&params, q, &mut b);
             prop_assert_eq!(got.neighbours, want.neighbours);
             prop_assert!((got.total_weight - want.total_weight).abs() <= 1e-9 * want.total_weight.max(1.0));
             for j in 0..2 { prop_assert!((a[j] - b[j]).abs() < 1e-9, "{:?} vs {:?}", a, b); }

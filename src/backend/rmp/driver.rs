@@ -323,15 +323,20 @@ impl RmpBackend {
         Ok(backend)
     }
 
+    /// The vendor's start-up sequence, one step after the other; each step fails with its name.
     fn start_up(&mut self) -> Result<(), BackendError> {
+        self.stop_streaming()?;
+        self.read_fault_log()?;
+        self.start_streaming()?;
+        self.check_platform()?;
+        self.load_machine_config()?;
+        self.wait_for_standby()
+    }
+
+    /// Start-up: stop streaming until the platform has been quiet for 0.1 s.
+    fn stop_streaming(&mut self) -> Result<(), BackendError> {
         let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
         let link = Arc::clone(&self.link);
-        let fail = |step: &str, detail: String| BackendError::StartupFailed {
-            step: step.into(),
-            detail,
-        };
-
-        // 1. Stop streaming until the platform has been quiet for 0.1 s.
         let quiet = Duration::from_millis(100);
         let began = Instant::now();
         let mut sent_at: Option<Instant> = None;
@@ -350,7 +355,7 @@ impl RmpBackend {
                 break;
             }
             if now - began > timeout {
-                return Err(fail(
+                return Err(startup_failed(
                     "stop streaming",
                     format!(
                         "the platform kept sending for {} ms after being asked to stop",
@@ -360,8 +365,13 @@ impl RmpBackend {
             }
             std::thread::sleep(Duration::from_millis(5));
         }
+        Ok(())
+    }
 
-        // 2. The fault log, requested at 2 Hz.
+    /// Start-up: the fault log, requested at 2 Hz.
+    fn read_fault_log(&mut self) -> Result<(), BackendError> {
+        let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
+        let link = Arc::clone(&self.link);
         retry(
             &link,
             timeout,
@@ -374,7 +384,7 @@ impl RmpBackend {
         )
         .map_err(|e| match e {
             RetryError::Io(e) => e.into(),
-            RetryError::Timeout => fail(
+            RetryError::Timeout => startup_failed(
                 "fault log",
                 format!(
                     "no fault log from {} within {} ms: nothing answers at that address",
@@ -383,8 +393,13 @@ impl RmpBackend {
                 ),
             ),
         })?;
+        Ok(())
+    }
 
-        // 3. Start streaming at 10 Hz until the first plausible feedback (which fixes byte order).
+    /// Start-up: start streaming at 10 Hz until the first plausible feedback (which fixes byte order).
+    fn start_streaming(&mut self) -> Result<(), BackendError> {
+        let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
+        let link = Arc::clone(&self.link);
         // Replies to the earlier commands do not count: forget them.
         link.lock().latest = None;
         retry(
@@ -401,7 +416,7 @@ impl RmpBackend {
             RetryError::Io(e) => e.into(),
             RetryError::Timeout => {
                 let c = link.lock().counts;
-                fail(
+                startup_failed(
                     "start streaming",
                     format!(
                         "no plausible feedback within {} ms ({} bad CRC, {} implausible, {} of another length)",
@@ -413,11 +428,14 @@ impl RmpBackend {
                 )
             }
         })?;
+        Ok(())
+    }
 
-        // 4. The platform.
+    /// Start-up: the platform, as the feedback names it, checked against what the configuration expects.
+    fn check_platform(&mut self) -> Result<(), BackendError> {
         let fb = self.latest_feedback().0;
         let platform = fb.platform().ok_or_else(|| {
-            fail(
+            startup_failed(
                 "check platform",
                 format!("unknown platform id {:#x}", fb.words[word::PLATFORM_ID]),
             )
@@ -425,13 +443,13 @@ impl RmpBackend {
         if let Some(want) = self.config.expect_platform
             && want != platform
         {
-            return Err(fail(
+            return Err(startup_failed(
                 "check platform",
                 format!("expected an {}, found an {}", want.name(), platform.name()),
             ));
         }
         if self.config.drive_mode == DriveMode::Balance && platform != Platform::Rmp220 {
-            return Err(fail(
+            return Err(startup_failed(
                 "check platform",
                 format!(
                     "balance mode needs an RMP 220, found an {}",
@@ -440,8 +458,13 @@ impl RmpBackend {
             ));
         }
         self.platform = platform;
+        Ok(())
+    }
 
-        // 5. Load the machine configuration at 2 Hz until the echo matches bit for bit.
+    /// Start-up: load the machine configuration at 2 Hz until the echo matches bit for bit.
+    fn load_machine_config(&mut self) -> Result<(), BackendError> {
+        let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
+        let link = Arc::clone(&self.link);
         let words = self.config.machine.to_words();
         let echo_ok = retry(
             &link,
@@ -459,19 +482,23 @@ impl RmpBackend {
             Err(RetryError::Io(e)) => return Err(e.into()),
             Err(RetryError::Timeout) => {
                 let echo = self.latest_feedback().0.config_echo();
-                return Err(fail(
+                return Err(startup_failed(
                     "load machine configuration",
                     describe_echo_mismatch(&self.config.machine, &echo),
                 ));
             }
         }
+        Ok(())
+    }
 
-        // 6. Standby, without critical faults.
+    /// Start-up: standby, without critical faults.
+    fn wait_for_standby(&mut self) -> Result<(), BackendError> {
+        let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
         let began = Instant::now();
         loop {
             let fb = self.latest_feedback().0;
             if fb.words[0] & CRITICAL_FAULT_MASK != 0 {
-                return Err(fail(
+                return Err(startup_failed(
                     "wait for standby",
                     format!("critical fault word {:#010x}", fb.words[0]),
                 ));
@@ -479,7 +506,7 @@ impl RmpBackend {
             match fb.op_state() {
                 Some(OpState::Standby | OpState::Tractor | OpState::Balance) => break,
                 Some(OpState::Disabled) => {
-                    return Err(fail(
+                    return Err(startup_failed(
                         "wait for standby",
                         "the platform is disabled (powered down or E-stopped); power-cycle it"
                             .into(),
@@ -488,7 +515,7 @@ impl RmpBackend {
                 _ => {}
             }
             if began.elapsed() > timeout {
-                return Err(fail(
+                return Err(startup_failed(
                     "wait for standby",
                     format!("still {}", state_name(fb.op_state())),
                 ));
@@ -632,6 +659,14 @@ fn state_name(s: Option<OpState>) -> String {
 enum RetryError {
     Io(std::io::Error),
     Timeout,
+}
+
+/// A start-up step that failed, named as the vendor's sequence names it.
+fn startup_failed(step: &str, detail: String) -> BackendError {
+    BackendError::StartupFailed {
+        step: step.into(),
+        detail,
+    }
 }
 
 /// Send `cmd` every `every` until `done` holds or `timeout` passes.

@@ -1,5 +1,8 @@
 //! `advise lsp`: a language server for operator files (and session scripts) over stdio.
 //!
+//! Its own crate on `advise-lang` alone (issue 32): what the server knows is what the language
+//! knows, and the compiler keeps it so. The application re-exports it as `advise::lsp`.
+//!
 //! The messages are `lsp-server`'s (rust-analyzer's synchronous scaffold) with `lsp-types`, but
 //! the framing is ours ([`frame`]: every size bounded before it is allocated, every broken frame a
 //! coded error) and so are the handshake and shutdown ([`serve_io`]); what the server knows is
@@ -11,6 +14,7 @@
 //! diagnostics on open and change (the same codes, messages, help and labels as `advise check`),
 //! hover, completion, go to definition (the standard library is written once into a cache folder
 //! so any editor can open it), formatting (`advise fmt`) and document symbols.
+#![forbid(unsafe_code)]
 
 pub mod analysis;
 pub mod frame;
@@ -44,7 +48,7 @@ use lsp_types::{
 };
 use thiserror::Error;
 
-use crate::diag::{Encoding, LineCol, LineIndex};
+use advise_lang::diag::{Encoding, LineCol, LineIndex};
 use analysis::{CompletionKind, SymbolKind, Target};
 use frame::{Frame, FrameError, FrameReader};
 
@@ -169,7 +173,12 @@ fn read_messages<R: BufRead, W: Write>(
             Frame::Bad(e) => {
                 eprintln!(
                     "{}",
-                    crate::diag::render_with_width(&crate::diag::SourceMap::new(), &e, false, 100)
+                    advise_lang::diag::render_with_width(
+                        &advise_lang::diag::SourceMap::new(),
+                        &e,
+                        false,
+                        100
+                    )
                 );
                 let answer = e.response().to_string();
                 // A client that is gone is noticed by the writer.
@@ -576,8 +585,8 @@ impl Server {
         let p: DocumentFormattingParams = params(req)?;
         let a = self.analysis(&p.text_document.uri)?;
         let text = a.text();
-        let (map, id) = crate::diag::SourceMap::single("document", text);
-        let formatted = crate::session::script::format_file(map.src(id)).map_err(|e| {
+        let (map, id) = advise_lang::diag::SourceMap::single("document", text);
+        let formatted = advise_lang::syntax::script::format_file(map.src(id)).map_err(|e| {
             (
                 ErrorCode::RequestFailed,
                 format!(
@@ -687,7 +696,7 @@ fn publish_analysis(uri: &str, a: &analysis::Analysis, enc: Encoding) -> Vec<Dia
 /// `$XDG_CACHE_HOME/advise/std-VERSION/`, `~/.cache/advise/std-VERSION/` and the temporary
 /// folder's; its path and text.
 fn standard_file(name: &str) -> Result<(PathBuf, &'static str), String> {
-    let (_, text) = crate::check::STANDARD_SOURCES
+    let (_, text) = advise_lang::check::STANDARD_SOURCES
         .iter()
         .find(|(n, _)| *n == name)
         .ok_or_else(|| format!("no standard file `{name}`"))?;
@@ -711,7 +720,7 @@ fn standard_file(name: &str) -> Result<(PathBuf, &'static str), String> {
         let written = std::fs::create_dir_all(&dir)
             .map_err(|e| format!("{}: {e}", dir.display()))
             .and_then(|()| {
-                crate::files::write_bytes(&path, text.as_bytes()).map_err(|e| e.to_string())
+                advise_lang::files::write_bytes(&path, text.as_bytes()).map_err(|e| e.to_string())
             });
         match written {
             Ok(()) => return Ok((path, text)),

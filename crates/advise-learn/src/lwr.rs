@@ -17,8 +17,8 @@ use serde::{Deserialize, Serialize};
 
 use std::collections::HashMap;
 
-use crate::policy::dataset::{Dataset, Provenance};
-use crate::policy::index::Index;
+use crate::dataset::{Dataset, Provenance};
+use crate::index::Index;
 
 /// The regression's parameters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -486,28 +486,11 @@ impl CrossValidation<'_> {
     }
 }
 
-/// Query `learner`'s data with other parameters (for tests and tuning experiments).
-pub fn query_with(
-    learner: &crate::policy::learner::Learner,
-    params: &LwrParams,
-    z: &[f64],
-    a: &mut [f64],
-) -> LwrAnswer {
-    query(
-        learner.index(),
-        learner.dataset(),
-        params,
-        z,
-        a,
-        &mut Scratch::default(),
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::domain::{Dim, Domain};
-    use crate::trace::Trace;
+    use advise_lang::domain::{Dim, Domain};
+    use advise_lang::trace::Trace;
     use rand::Rng;
 
     fn domain() -> Domain {

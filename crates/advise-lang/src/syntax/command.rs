@@ -202,27 +202,7 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
         Rule::c_task => Command::Task(b.ident(req(next()))),
         Rule::c_tasks => Command::Tasks(path(req(next()))),
         Rule::c_backend => Command::Backend(req(next()).as_str().to_string()),
-        Rule::c_load_demos => {
-            let file = path(req(next()));
-            let (mut cmd_topic, mut odom_topic) = (None, None);
-            while let Some(part) = next() {
-                let rule = part.as_rule();
-                let topic = part
-                    .into_inner()
-                    .find(|t| t.as_rule() == Rule::topic_name)
-                    .map(|t| t.as_str().to_string());
-                if rule == Rule::load_cmd_topic {
-                    cmd_topic = topic;
-                } else {
-                    odom_topic = topic;
-                }
-            }
-            Command::LoadDemos {
-                path: file,
-                cmd_topic,
-                odom_topic,
-            }
-        }
+        Rule::c_load_demos => load_demos(path(req(next())), &mut next),
         Rule::c_load_trace => Command::LoadTrace(path(req(next()))),
         Rule::c_operators => Command::Operators(path(req(next()))),
         Rule::c_run_goal => {
@@ -251,35 +231,7 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
                 execution: next().map(|n| b.uint(n)).transpose()?,
             }
         }
-        Rule::c_record_demo | Rule::c_teleop => {
-            let (mut topic, mut goal, mut seconds) = (None, None, None);
-            while let Some(opt) = next() {
-                let rule = opt.as_rule();
-                let mut parts = opt
-                    .into_inner()
-                    .filter(|a| !format!("{:?}", a.as_rule()).starts_with("cw_"));
-                match rule {
-                    Rule::record_from => topic = parts.next().map(|t| t.as_str().to_string()),
-                    Rule::record_goal => {
-                        let mut v = [0.0; 3];
-                        for slot in &mut v {
-                            *slot = b.signed(req(parts.next()))?;
-                        }
-                        goal = Some(v);
-                    }
-                    _ => seconds = parts.next().map(|n| b.signed(n)).transpose()?,
-                }
-            }
-            if rule == Rule::c_teleop {
-                Command::Teleop { goal, seconds }
-            } else {
-                Command::RecordDemo {
-                    topic,
-                    goal,
-                    seconds,
-                }
-            }
-        }
+        Rule::c_record_demo | Rule::c_teleop => record_or_teleop(&b, rule, &mut next)?,
         Rule::c_critique => {
             let mut directional = false;
             let mut kappa = None;
@@ -302,29 +254,7 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
         },
         Rule::c_learner => Command::Learner(b.ident(req(next()))),
         Rule::c_why => Command::Why(b.uint(req(next()))?),
-        Rule::c_plot => {
-            let p = req(next());
-            match p.as_rule() {
-                Rule::plot_actions => Command::Plot {
-                    kind: PlotKind::Actions,
-                    path: path(req(p.into_inner().find(|q| q.as_rule() == Rule::path))),
-                },
-                Rule::plot_compare => {
-                    let mut inner = p.into_inner().filter(|q| q.as_rule() != Rule::kw_compare);
-                    let file = path(req(inner.next()));
-                    let before = b.uint(req(inner.next()))?;
-                    let after = b.uint(req(inner.next()))?;
-                    Command::Plot {
-                        kind: PlotKind::Compare { before, after },
-                        path: file,
-                    }
-                }
-                _ => Command::Plot {
-                    kind: PlotKind::Path,
-                    path: path(p),
-                },
-            }
-        }
+        Rule::c_plot => plot(&b, req(next()))?,
         Rule::c_save => Command::Save(path(req(next()))),
         Rule::c_open => Command::Open(path(req(next()))),
         Rule::c_export_advice => Command::ExportAdvice(path(req(next()))),
@@ -335,6 +265,87 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
         other => unreachable!("session_line yields no {other:?}"),
     };
     Ok(Statement::Command(cmd, span))
+}
+
+/// `load demos FILE [cmd TOPIC] [odom TOPIC]`, after its file.
+fn load_demos<'i>(file: String, next: &mut impl FnMut() -> Option<Pair<'i, Rule>>) -> Command {
+    let (mut cmd_topic, mut odom_topic) = (None, None);
+    while let Some(part) = next() {
+        let rule = part.as_rule();
+        let topic = part
+            .into_inner()
+            .find(|t| t.as_rule() == Rule::topic_name)
+            .map(|t| t.as_str().to_string());
+        if rule == Rule::load_cmd_topic {
+            cmd_topic = topic;
+        } else {
+            odom_topic = topic;
+        }
+    }
+    Command::LoadDemos {
+        path: file,
+        cmd_topic,
+        odom_topic,
+    }
+}
+
+/// `record demo` or `teleop` (`rule`), with their options: a topic, a goal, a time limit.
+fn record_or_teleop<'i>(
+    b: &Builder,
+    rule: Rule,
+    next: &mut impl FnMut() -> Option<Pair<'i, Rule>>,
+) -> Result<Command, ParseError> {
+    let (mut topic, mut goal, mut seconds) = (None, None, None);
+    while let Some(opt) = next() {
+        let opt_rule = opt.as_rule();
+        let mut parts = opt
+            .into_inner()
+            .filter(|a| !format!("{:?}", a.as_rule()).starts_with("cw_"));
+        match opt_rule {
+            Rule::record_from => topic = parts.next().map(|t| t.as_str().to_string()),
+            Rule::record_goal => {
+                let mut v = [0.0; 3];
+                for slot in &mut v {
+                    *slot = b.signed(req(parts.next()))?;
+                }
+                goal = Some(v);
+            }
+            _ => seconds = parts.next().map(|n| b.signed(n)).transpose()?,
+        }
+    }
+    Ok(if rule == Rule::c_teleop {
+        Command::Teleop { goal, seconds }
+    } else {
+        Command::RecordDemo {
+            topic,
+            goal,
+            seconds,
+        }
+    })
+}
+
+/// `plot FILE`, `plot actions FILE` or `plot compare FILE A B`, from the part after `plot`.
+fn plot(b: &Builder, p: Pair<'_, Rule>) -> Result<Command, ParseError> {
+    Ok(match p.as_rule() {
+        Rule::plot_actions => Command::Plot {
+            kind: PlotKind::Actions,
+            path: path(req(p.into_inner().find(|q| q.as_rule() == Rule::path))),
+        },
+        Rule::plot_compare => {
+            let mut inner = p.into_inner().filter(|q| q.as_rule() != Rule::kw_compare);
+            let file = path(req(inner.next()));
+            let before = b.uint(req(inner.next()))?;
+            let after = b.uint(req(inner.next()))?;
+            Command::Plot {
+                kind: PlotKind::Compare { before, after },
+                path: file,
+            }
+        }
+        _ => Command::Plot {
+            kind: PlotKind::Path,
+            path: path(p),
+        },
+    })
 }
 
 /// The first word of a statement, and where it starts.

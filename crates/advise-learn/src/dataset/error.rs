@@ -22,10 +22,10 @@ pub enum DatasetError {
     DomainMismatch { expected: String, found: String },
     #[error(transparent)]
     #[diagnostic(transparent)]
-    File(#[from] crate::files::FileError),
+    File(#[from] advise_lang::files::FileError),
     #[error(transparent)]
     #[diagnostic(transparent)]
-    Trace(#[from] crate::trace::TraceError),
+    Trace(#[from] advise_lang::trace::TraceError),
     #[error("`{path}`: a dataset is saved as `.json` (to open again) or `.csv` (points only)")]
     #[diagnostic(
         code(advise::dataset::unknown_format),

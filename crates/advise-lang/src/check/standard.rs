@@ -13,11 +13,11 @@ use crate::syntax::ast::Item;
 pub const STANDARD_SOURCES: [(&str, &str); 2] = [
     (
         "operators/positioning.adv",
-        include_str!("../../operators/positioning.adv"),
+        include_str!("../../../../operators/positioning.adv"),
     ),
     (
         "operators/interception.adv",
-        include_str!("../../operators/interception.adv"),
+        include_str!("../../../../operators/interception.adv"),
     ),
 ];
 

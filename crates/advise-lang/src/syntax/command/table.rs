@@ -751,7 +751,7 @@ mod tests {
 
     /// The grammar of session statements, as text.
     fn session_rules() -> BTreeMap<String, Vec<Token>> {
-        rules_of(include_str!("../../../grammar/session.pest"))
+        rules_of(include_str!("../../../../../grammar/session.pest"))
     }
 
     /// A keyword rule: `cw_load = @{ "load" ~ !ident_char }`, `kw_actions`, `detail_flag`.

@@ -342,8 +342,8 @@ mod tests {
             "/// Creep.\noperator creep for positioning on action {\n  trans = 0.1\n}\nrun goal 2 -1 0\n"
         ));
         for file in [
-            include_str!("../../operators/positioning.adv"),
-            include_str!("../../operators/interception.adv"),
+            include_str!("../../../../operators/positioning.adv"),
+            include_str!("../../../../operators/interception.adv"),
         ] {
             assert!(!is_script(file));
         }

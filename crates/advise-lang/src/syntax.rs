@@ -13,6 +13,7 @@ pub mod delims;
 mod error;
 pub mod fmt;
 pub mod print;
+pub mod script;
 
 use pest::Parser;
 use pest::iterators::{Pair, Pairs};
@@ -25,8 +26,8 @@ pub use error::ParseError;
 use error::{convert, nesting_too_deep};
 
 #[derive(pest_derive::Parser)]
-#[grammar = "../grammar/advice.pest"]
-#[grammar = "../grammar/session.pest"]
+#[grammar = "../../../grammar/advice.pest"]
+#[grammar = "../../../grammar/session.pest"]
 struct AdviceParser;
 
 pub use delims::MAX_NESTING;

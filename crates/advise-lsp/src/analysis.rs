@@ -15,17 +15,17 @@ use std::sync::OnceLock;
 
 use miette::Diagnostic;
 
-use crate::check::{self, Checked, OperatorSet};
-use crate::diag::lines::floor;
-use crate::diag::{LineIndex, SourceId, SourceMap};
-use crate::domain::Space;
-use crate::program::Operator;
-use crate::program::ir::Func;
-use crate::syntax::ast::{
+use advise_lang::check::{self, Checked, OperatorSet};
+use advise_lang::diag::lines::floor;
+use advise_lang::diag::{LineIndex, SourceId, SourceMap};
+use advise_lang::domain::Space;
+use advise_lang::program::Operator;
+use advise_lang::program::ir::Func;
+use advise_lang::syntax::ast::{
     Body, Call, Clause, DimDecl, DimMeaning, DomainDecl, Expr, ExprKind, File, Ident, Item,
     OperatorDecl, ParamDecl, Span,
 };
-use crate::syntax::command::{self, COMMANDS};
+use advise_lang::syntax::command::{self, COMMANDS};
 
 /// One version of a document, analysed once (see the module docs).
 #[derive(Clone, Debug)]
@@ -186,7 +186,7 @@ pub struct Diag {
 }
 
 /// Whether the document is a session script (REPL commands) rather than an operator file: the
-/// answer of `advise fmt`'s [`crate::syntax::fmt::is_script`], asked only when some line starts
+/// answer of `advise fmt`'s [`advise_lang::syntax::fmt::is_script`], asked only when some line starts
 /// with a command's word. Every command does, so the answer is the same; but that function
 /// parses each line as a statement, which took half the time of re-checking a 1,000-operator file
 /// whose body lines (`trans *= f`, `}`) never start with one.
@@ -199,7 +199,7 @@ pub fn is_script(text: &str) -> bool {
             .unwrap_or("");
         COMMANDS.iter().any(|c| c.name == word)
     };
-    text.lines().any(starts_a_command) && crate::syntax::fmt::is_script(text)
+    text.lines().any(starts_a_command) && advise_lang::syntax::fmt::is_script(text)
 }
 
 /// A script's statements as the session splits them (an operator definition may span lines),
@@ -210,7 +210,7 @@ fn script_diagnostics(text: &str) -> (Vec<Diag>, OperatorSet) {
     let mut out = Vec::new();
     let mut set = OperatorSet::standard();
     let mut definitions = SourceMap::new();
-    for st in crate::session::script::statements(text) {
+    for st in advise_lang::syntax::script::statements(text) {
         let trimmed = st.text.trim();
         if trimmed.is_empty() || (trimmed.starts_with("//") && !trimmed.contains('\n')) {
             continue;
@@ -473,7 +473,7 @@ fn word_at(text: &str, offset: usize) -> Option<(&str, Range<usize>)> {
 fn parsed(text: &str) -> Option<File> {
     count(0, 1);
     let (map, id) = SourceMap::single("document", text);
-    crate::syntax::parse(map.src(id)).ok()
+    advise_lang::syntax::parse(map.src(id)).ok()
 }
 
 /// The standard library's files, parsed once per process (for go to definition).
@@ -597,8 +597,8 @@ impl Analysis {
             if let Some(l) = d.limits {
                 s.push_str(&format!(
                     ", limits [{}, {}]",
-                    crate::number::fmt_num(l.lo),
-                    crate::number::fmt_num(l.hi)
+                    advise_lang::number::fmt_num(l.lo),
+                    advise_lang::number::fmt_num(l.hi)
                 ));
             }
             return Some(s);
@@ -1094,7 +1094,7 @@ mod tests {
 
     #[test]
     fn is_script_answers_as_fmt_does() {
-        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/sessions");
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/sessions");
         let mut texts: Vec<String> = std::fs::read_dir(dir)
             .unwrap()
             .filter_map(|e| std::fs::read_to_string(e.ok()?.path()).ok())
@@ -1106,7 +1106,7 @@ mod tests {
             texts.push(format!("{DOC}{}\n", c.example));
         }
         for t in &texts {
-            assert_eq!(is_script(t), crate::syntax::fmt::is_script(t), "{t}");
+            assert_eq!(is_script(t), advise_lang::syntax::fmt::is_script(t), "{t}");
         }
         // The example sessions and the standard files are clean.
         for t in &texts[..texts.len() - 1 - COMMANDS.len()] {

@@ -1,10 +1,16 @@
-//! Policies: mappings from observations to actions derived from a dataset.
+//! `advise-learn`: policies, mappings from observations to actions derived from a dataset. The
+//! application re-exports this crate as `advise::policy`.
 //!
-//! This module owns the [`Policy`] trait that tasks, the evaluation harness and backends run, the
+//! This crate owns the [`Policy`] trait that tasks, the evaluation harness and backends run, the
 //! [`dataset`] with provenance, the two learners of the paper ([`bc`]: weighted 1-NN for Binary
 //! Critiquing; [`lwr`]: locally weighted regression for A-OPI), and the [`learner::Learner`] that
 //! keeps a dataset and its derived policy in step. Only [`index`] touches kiddo. Policies do no IO
 //! and print nothing; datasets load and save themselves.
+//!
+//! The one crate of the workspace allowed `unsafe`: the AVX2 range search in [`index`]. Every
+//! unsafe operation sits in its own block with the reason it is sound (`// SAFETY:`), and the lints
+//! below make that the compiler's rule, not a convention.
+#![deny(unsafe_op_in_unsafe_fn, clippy::undocumented_unsafe_blocks)]
 
 pub mod bc;
 pub mod dataset;

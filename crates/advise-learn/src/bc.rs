@@ -17,8 +17,8 @@
 //! is undefined (`q = z_i` or `z_tj = z_i`) the penalty counts in full. Since `m_i(q) >= m_i >= 1`
 //! still, the stopping rule above stays exact.
 
-use crate::policy::dataset::Dataset;
-use crate::policy::index::{Index, MAX_DIM};
+use crate::dataset::Dataset;
+use crate::index::{Index, MAX_DIM};
 
 /// The data point that supported an action.
 #[derive(Clone, Copy, Debug, PartialEq)]

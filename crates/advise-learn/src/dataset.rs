@@ -8,18 +8,18 @@
 //! keeps the increments it made (keyed by provenance, which survives removals), and the weights
 //! are the sum `m_i = 1 + sum of increments` recomputed in critique order, so undoing a critique
 //! gives bit for bit the weights that would exist without it. No IO here but [`Dataset::save`]
-//! and [`Dataset::load`], both through [`crate::files`]; a loaded file is validated whole.
+//! and [`Dataset::load`], both through [`advise_lang::files`]; a loaded file is validated whole.
 
 use std::collections::HashMap;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::diag::{Loc, SourceMap, Sourced, Src, locate};
-use crate::domain::Domain;
-use crate::interp::AppliedAdvice;
-use crate::number::fmt_num;
-use crate::trace::{Chunk, Episode, JsonPoint, Trace};
+use advise_lang::diag::{Loc, SourceMap, Sourced, Src, locate};
+use advise_lang::domain::Domain;
+use advise_lang::interp::AppliedAdvice;
+use advise_lang::number::fmt_num;
+use advise_lang::trace::{Chunk, Episode, JsonPoint, Trace};
 
 mod error;
 mod file;
@@ -76,7 +76,7 @@ pub struct AdviceRecord {
 /// A critique: the flagged chunk, kappa, the weight increments it made and the rule they follow.
 ///
 /// The one shape of a critique: the session's journal effect and undo edit carry it, the learner
-/// makes it ([`crate::policy::learner::Learner::add_critique`]) and the dataset keeps it in a
+/// makes it ([`crate::learner::Learner::add_critique`]) and the dataset keeps it in a
 /// [`CritiqueRecord`]. Its JSON fields are those of the journal's `critique` line and of a dataset
 /// file's critique (both flatten it beside their own fields).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -147,7 +147,7 @@ pub enum CritiqueRule {
     /// The paper's proposed improvement: the increment counts in full for queries from the
     /// flagged observation's side, scaled by the cosine of the angle between the query's and the
     /// flagged observation's directions from the point, and not at all from the other half-space
-    /// ([`crate::policy::bc`] has the rule).
+    /// ([`crate::bc`] has the rule).
     Directional,
 }
 
@@ -234,7 +234,7 @@ impl Dataset {
 
     /// Whether the learners' index supports this domain's observation dimension.
     pub fn obs_dim_supported(&self) -> bool {
-        (1..=crate::policy::index::MAX_DIM).contains(&self.domain.obs_dim())
+        (1..=crate::index::MAX_DIM).contains(&self.domain.obs_dim())
     }
 
     pub fn len(&self) -> usize {
@@ -398,7 +398,8 @@ impl Dataset {
         let with_pose = rec.points.first().is_some_and(|p| p.pose.is_some());
         for p in &rec.points {
             let pose = if with_pose {
-                p.pose.map(|[x, y, th]| crate::trace::Pose::new(x, y, th))
+                p.pose
+                    .map(|[x, y, th]| advise_lang::trace::Pose::new(x, y, th))
             } else {
                 None
             };
@@ -682,8 +683,8 @@ fn check_point(
     a: &[f64],
     at: impl Fn(&str, usize) -> String,
 ) -> Result<(), DatasetError> {
-    use crate::domain::Space;
-    use crate::trace::{ValueFault, demo_value_fault};
+    use advise_lang::domain::Space;
+    use advise_lang::trace::{ValueFault, demo_value_fault};
     for (space, side, vals, dims) in [
         ("z", Space::Observation, z, &domain.observe),
         ("a", Space::Action, a, &domain.act),
@@ -697,7 +698,7 @@ fn check_point(
                 Some(ValueFault::OutsideLimits(l)) => {
                     return Err(DatasetError::OutOfLimits {
                         at: at(space, k),
-                        value: crate::number::fmt_readable(*v),
+                        value: advise_lang::number::fmt_readable(*v),
                         dim: dim.name.clone(),
                         lo: fmt_num(l.lo),
                         hi: fmt_num(l.hi),

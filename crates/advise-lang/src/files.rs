@@ -269,7 +269,7 @@ fn special_kind(meta: &std::fs::Metadata) -> Option<&'static str> {
 }
 
 /// `268435456` as `256 MiB`.
-pub(crate) fn fmt_bytes(n: u64) -> String {
+pub fn fmt_bytes(n: u64) -> String {
     const MIB: u64 = 1024 * 1024;
     if n >= MIB && n.is_multiple_of(MIB) {
         format!("{} MiB", n / MIB)

@@ -14,24 +14,20 @@ use miette::Diagnostic;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::domain::Domain;
-use crate::interp::Synthesized;
-use crate::policy::Policy;
-use crate::policy::bc;
-use crate::policy::dataset::{
-    Critique, CritiqueRule, Dataset, DatasetError, Provenance, SavedFormat,
-};
-use crate::policy::index::{Index, MAX_DIM};
-use crate::policy::lwr::{self, LwrAnswer, LwrParams};
-use crate::trace::{Chunk, Episode, Trace};
+use crate::Policy;
+use crate::bc;
+use crate::dataset::{Critique, CritiqueRule, Dataset, DatasetError, Provenance, SavedFormat};
+use crate::index::{Index, MAX_DIM};
+use crate::lwr::{self, LwrAnswer, LwrParams};
+use advise_lang::domain::Domain;
+use advise_lang::interp::Synthesized;
+use advise_lang::trace::{Chunk, Episode, Trace};
 
-pub use crate::policy::dataset::{AdviceId, CritiqueId, DemoId, ExecutionId};
+pub use crate::dataset::{AdviceId, CritiqueId, DemoId, ExecutionId};
 
 /// Which policy the learner runs: the one name of a learner for sessions (`learner bc`),
-/// journals, `advise eval --policy` and [`crate::eval::derive_policy`].
-#[derive(
-    Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
-)]
+/// journals, `advise eval --policy` and `advise::eval::derive_policy`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LearnerKind {
     /// 1-nearest-neighbour (BC)
@@ -55,6 +51,14 @@ impl LearnerKind {
     /// The learner named `name`, if any.
     pub fn from_name(name: &str) -> Option<LearnerKind> {
         Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// What the learner is, in a few words (the command line's help beside [`Self::name`]).
+    pub fn summary(self) -> &'static str {
+        match self {
+            LearnerKind::Bc => "1-nearest-neighbour (BC)",
+            LearnerKind::Lwr => "Locally weighted regression (A-OPI)",
+        }
     }
 }
 
@@ -722,7 +726,7 @@ impl Learner {
     /// `other_domain(found)` (the caller knows the tasks and words the help), one of a domain with
     /// other dimensions or limits under the same name with [`LearnerError::DomainChanged`].
     pub fn open(
-        sources: &mut crate::diag::SourceMap,
+        sources: &mut advise_lang::diag::SourceMap,
         path: &Path,
         domain: &Domain,
         kind: LearnerKind,
@@ -759,7 +763,7 @@ impl Learner {
     /// Write the advised points with their provenance as CSV; returns how many.
     pub fn export_advice(&self, path: &Path) -> Result<usize, LearnerError> {
         let mut n = 0;
-        crate::files::write_atomic(path, |w| {
+        advise_lang::files::write_atomic(path, |w| {
             n = self.ds.write_advice_csv(w)?;
             Ok(())
         })
@@ -792,10 +796,19 @@ fn fmt4(v: &[f64]) -> String {
         .join(", ")
 }
 
+impl Learner {
+    /// Query this learner's data by locally weighted regression with other parameters than its
+    /// own (for tests and tuning experiments).
+    pub fn query_lwr_with(&self, params: &LwrParams, z: &[f64], a: &mut [f64]) -> LwrAnswer {
+        let mut scratch = lwr::Scratch::default();
+        lwr::query(self.index(), self.dataset(), params, z, a, &mut scratch)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::domain::Dim;
+    use advise_lang::domain::Dim;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 

@@ -4,7 +4,7 @@
 use super::*;
 
 impl Dataset {
-    /// Save the dataset atomically ([`crate::files::write_atomic`]): `.json` is the full record
+    /// Save the dataset atomically ([`advise_lang::files::write_atomic`]): `.json` is the full record
     /// (what `open` reads back), `.csv` the points alone; any other extension is refused, as the
     /// file would not be what its name says. Returns what was written.
     pub fn save(&self, path: &Path) -> Result<SavedFormat, DatasetError> {
@@ -21,7 +21,7 @@ impl Dataset {
                 });
             }
         };
-        crate::files::write_atomic(path, |w| match format {
+        advise_lang::files::write_atomic(path, |w| match format {
             SavedFormat::Json => serde_json::to_writer(w, &self.to_file()).map_err(Into::into),
             SavedFormat::Csv => self.write_csv(w),
         })?;
@@ -126,7 +126,7 @@ impl Dataset {
     /// Load a dataset saved as JSON, read into `sources` and validated whole
     /// ([`Dataset::parse`]).
     pub fn load(sources: &mut SourceMap, path: &Path) -> Result<Dataset, DatasetError> {
-        crate::files::parse_file(sources, path, Dataset::parse)
+        advise_lang::files::parse_file(sources, path, Dataset::parse)
     }
 
     /// [`Dataset::parse`] of a text outside any session (its error brings its own source map).
@@ -272,13 +272,13 @@ pub fn load_demonstrations(
     domain: &Domain,
     path: &Path,
 ) -> Result<Demonstrations, DatasetError> {
-    crate::files::parse_file(sources, path, |src| {
+    advise_lang::files::parse_file(sources, path, |src| {
         let name = path.display().to_string();
-        let is_json = crate::trace::is_json(path);
+        let is_json = advise_lang::trace::is_json(path);
         if is_json && Dataset::is_dataset_json(src.text) {
             let ds = Dataset::parse(src)?;
             if ds.domain() != domain {
-                return Err(crate::trace::TraceError::DomainMismatch {
+                return Err(advise_lang::trace::TraceError::DomainMismatch {
                     expected: domain.name.clone(),
                     found: ds.domain().name.clone(),
                 }
@@ -366,7 +366,7 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
 
 /// The domain's dimensions by name, for a message about a point's shape.
 fn expected(domain: &Domain) -> String {
-    let names = |dims: &[crate::domain::Dim]| {
+    let names = |dims: &[advise_lang::domain::Dim]| {
         dims.iter()
             .map(|d| d.name.as_str())
             .collect::<Vec<_>>()
