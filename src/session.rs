@@ -51,9 +51,9 @@ use undo::Edit;
 /// at unit scaled distance).
 pub const DEFAULT_KAPPA: f64 = 1.0;
 
-/// One recorded execution and what the session knows of it.
+/// One execution the session holds (a run, or a trace loaded from a file) and what it knows of it.
 #[derive(Clone, Debug)]
-pub struct Recorded {
+pub struct HeldExecution {
     /// Where it came from: `run goal 2 -1 0`, `run start 3`, or a file.
     pub label: String,
     pub trace: Trace,
@@ -103,7 +103,7 @@ struct TaskState {
     learner: Learner,
     /// Runs made so far (each run's simulator seed comes from this count).
     runs: u64,
-    executions: Vec<Recorded>,
+    executions: Vec<HeldExecution>,
     current: Option<usize>,
     selection: Option<Chunk>,
     undo: Vec<Edit>,

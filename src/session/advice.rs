@@ -7,7 +7,7 @@ use std::time::Instant;
 use super::effect::Effect;
 use super::text::{fmt_vec, short_num};
 use super::undo::Edit;
-use super::{Advised, MAX_KAPPA, Recorded, Reply, Session, SessionError};
+use super::{Advised, HeldExecution, MAX_KAPPA, Reply, Session, SessionError};
 use crate::policy::dataset::CritiqueRule;
 use crate::policy::learner;
 use crate::trace::Chunk;
@@ -44,7 +44,7 @@ impl Session {
     }
 
     /// Execution `n`, or a diagnostic naming the executions there are.
-    pub(super) fn numbered(&self, n: usize) -> Result<&Recorded, SessionError> {
+    pub(super) fn numbered(&self, n: usize) -> Result<&HeldExecution, SessionError> {
         let count = self.state.executions.len();
         self.state
             .executions

@@ -7,7 +7,7 @@ use super::effect::{Effect, Entry, Header};
 use super::journal::Journal;
 use super::text::first_chars;
 use super::undo::Edit;
-use super::{Recorded, Restored, Session, SessionError, TaskState, effect, journal};
+use super::{HeldExecution, Restored, Session, SessionError, TaskState, effect, journal};
 use crate::interp::Synthesized;
 use crate::policy::dataset::{Critique, Dataset};
 use crate::policy::learner::{Learner, LearnerError};
@@ -230,7 +230,7 @@ impl Session {
                     None => (None, None),
                 };
                 let st = &mut self.state;
-                st.executions.push(Recorded {
+                st.executions.push(HeldExecution {
                     label: entry.label.clone(),
                     trace,
                     goal: entry.goal,

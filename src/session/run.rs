@@ -6,7 +6,7 @@ use std::path::Path;
 
 use super::effect::{Effect, ExecutionEntry, RunEntry};
 use super::text::{outcome_line, short_num, worth_a_look};
-use super::{MAX_GOAL_M, Ran, Recorded, Reply, Session, SessionError, plot};
+use super::{HeldExecution, MAX_GOAL_M, Ran, Reply, Session, SessionError, plot};
 use crate::backend::Interruptible;
 use crate::backend::sim::SimParams;
 use crate::syntax::command::PlotKind;
@@ -123,7 +123,7 @@ impl Session {
         }))
     }
 
-    pub(super) fn current(&self) -> Result<(usize, &Recorded), SessionError> {
+    pub(super) fn current(&self) -> Result<(usize, &HeldExecution), SessionError> {
         let i = self.state.current.ok_or(SessionError::NoExecution)?;
         Ok((i, &self.state.executions[i]))
     }
@@ -158,14 +158,14 @@ impl Session {
         Ok(out)
     }
 
-    pub(super) fn plot_poses<'a>(&self, rec: &'a Recorded) -> Option<&'a [Pose]> {
+    pub(super) fn plot_poses<'a>(&self, rec: &'a HeldExecution) -> Option<&'a [Pose]> {
         rec.execution
             .as_ref()
             .and_then(|e| e.true_poses.as_deref())
             .or(rec.trace.pose.as_deref())
     }
 
-    pub(super) fn plot_view<'a>(&'a self, i: usize, rec: &'a Recorded) -> plot::PlotView<'a> {
+    pub(super) fn plot_view<'a>(&'a self, i: usize, rec: &'a HeldExecution) -> plot::PlotView<'a> {
         let rules = crate::task::interception::InterceptionRules::default();
         let interception = self.task == TaskKind::Interception;
         plot::PlotView {

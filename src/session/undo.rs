@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use super::effect::Effect;
-use super::{Recorded, Session, SessionError};
+use super::{HeldExecution, Session, SessionError};
 use crate::interp::Synthesized;
 use crate::policy::dataset::Critique;
 use crate::policy::learner;
@@ -38,7 +38,7 @@ impl Edit {
         }
     }
 
-    pub(super) fn describe(&self, executions: &[Recorded]) -> String {
+    pub(super) fn describe(&self, executions: &[HeldExecution]) -> String {
         match self {
             Edit::Advice { execution, syn, .. } => format!(
                 "#{} advise {} on {} of execution {} ({}): {} points",

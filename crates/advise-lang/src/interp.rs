@@ -98,7 +98,7 @@ pub fn apply(call: &Call, trace: &Trace, chunk: Chunk) -> Result<Synthesized, Ap
     let mut out = Synthesized {
         points: Trace::with_dims(&trace.domain, 0, 0),
         source_index: Vec::new(),
-        advice: call.record(chunk),
+        advice: call.applied_to(chunk),
     };
     apply_into(call, trace, chunk, &mut out)?;
     Ok(out)
@@ -190,7 +190,7 @@ pub fn apply_into(
     points.a = o.a;
     out.points = points;
     out.source_index = o.idx;
-    out.advice = call.record(chunk);
+    out.advice = call.applied_to(chunk);
     Ok(())
 }
 

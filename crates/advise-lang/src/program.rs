@@ -379,8 +379,8 @@ impl Call {
         &self.params
     }
 
-    /// The record of applying this call to `chunk` (what provenance keeps).
-    pub fn record(&self, chunk: Chunk) -> AppliedAdvice {
+    /// What applying this call to `chunk` leaves in a point's provenance.
+    pub fn applied_to(&self, chunk: Chunk) -> AppliedAdvice {
         let op = &self.op;
         AppliedAdvice {
             operator: op.name.clone(),

@@ -377,7 +377,7 @@ mod tests {
         let inv = parse_invocation("boost(0.25)").unwrap();
         let record = bind(&mut SourceMap::new(), &first, "positioning", &inv)
             .unwrap()
-            .record(Chunk { start: 1, end: 4 });
+            .applied_to(Chunk { start: 1, end: 4 });
         let again = rebind(&mut SourceMap::new(), &first, &record).unwrap();
         assert_eq!(again.params(), &[0.25]);
         assert_eq!(again.operator().hash(), record.hash.unwrap());
