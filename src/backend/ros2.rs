@@ -18,7 +18,7 @@ use ros2_client::dds::rustdds::policy::Durability;
 use ros2_client::dds::rustdds::{RTPSEntity, Topic};
 use ros2_client::qos::{History, WhenFull};
 use ros2_client::{
-    Context, ContextOptions, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
     QosProfile, Subscription,
 };
 use serde::Serialize;
@@ -34,7 +34,7 @@ pub mod robot;
 pub mod spec;
 
 pub use driver::{Ros2Backend, Ros2StopHandle};
-pub use spec::{Ros2Kind, Ros2Spec};
+pub use spec::{DiscoveryRange, Ros2Kind, Ros2Spec};
 
 /// The driver's limits and timing, from the task's simulator parameters and the spec.
 #[derive(Clone, Debug, PartialEq)]
@@ -80,6 +80,8 @@ pub struct Ros2Node {
     pub context: Context,
     pub node: Node,
     pub domain_id: u16,
+    /// How far discovery looks (for diagnostics).
+    pub discovery: DiscoveryRange,
 }
 
 /// QoS for commands: reliable, volatile, the last 10 (the ROS 2 default publisher profile).
@@ -109,7 +111,23 @@ impl Ros2Node {
         let domain_id = spec.domain().map_err(|e| BackendError::Ros2 {
             what: e.to_string(),
         })?;
-        let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
+        let discovery = spec.discovery_range()?;
+        // RustDDS's default is SUBNET; LOCALHOST keeps its multicast and advertised locators to
+        // loopback and its unicast SPDP to this host; OFF uses no interface at all.
+        let builder = ros2_client::dds::rustdds::DomainParticipantBuilder::new(domain_id);
+        let builder = match discovery {
+            DiscoveryRange::Subnet => builder,
+            DiscoveryRange::Localhost => builder
+                .with_only_networks([std::net::IpAddr::V4(std::net::Ipv4Addr::LOCALHOST)])
+                .same_host_loopback(true),
+            DiscoveryRange::Off => builder
+                .with_only_networks(Vec::<std::net::IpAddr>::new())
+                .same_host_loopback(false),
+        };
+        let participant = builder
+            .build()
+            .map_err(|e| dds_error("cannot join the DDS domain", e))?;
+        let context = Context::from_domain_participant(participant)
             .map_err(|e| dds_error("cannot join the DDS domain", e))?;
         let name =
             NodeName::new(&spec.namespace, node_name).map_err(|e| dds_error("bad node name", e))?;
@@ -121,6 +139,7 @@ impl Ros2Node {
             context,
             node,
             domain_id,
+            discovery,
         })
     }
 

@@ -93,11 +93,12 @@ pub enum Command {
     ExportLeRobot(String),
     Help(Option<Ident>),
     Quit,
-    /// `record demo [from TOPIC] [goal X Y THETA] [for SECONDS]`.
+    /// `record demo [from TOPIC] [goal X Y THETA] [for SECONDS] [--keep-idle]`.
     RecordDemo {
         topic: Option<String>,
         goal: Option<[f64; 3]>,
         seconds: Option<f64>,
+        keep_idle: bool,
     },
     /// `teleop [goal X Y THETA] [for SECONDS]`.
     Teleop {
@@ -253,8 +254,13 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
         }
         Rule::c_record_demo | Rule::c_teleop => {
             let (mut topic, mut goal, mut seconds) = (None, None, None);
+            let mut keep_idle = false;
             while let Some(opt) = next() {
                 let rule = opt.as_rule();
+                if rule == Rule::keep_idle_flag {
+                    keep_idle = true;
+                    continue;
+                }
                 let mut parts = opt
                     .into_inner()
                     .filter(|a| !format!("{:?}", a.as_rule()).starts_with("cw_"));
@@ -277,6 +283,7 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
                     topic,
                     goal,
                     seconds,
+                    keep_idle,
                 }
             }
         }
