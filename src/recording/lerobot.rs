@@ -317,10 +317,10 @@ fn parquet_bytes_with(columns: &[Column], mut metadata: Vec<KeyValue>) -> Result
     let props = WriterProperties::builder()
         .set_compression(Compression::SNAPPY)
         .set_key_value_metadata(Some({
-            metadata.insert(
-                0,
-                KeyValue::new("ARROW:schema".to_string(), arrow_schema(columns)),
-            );
+            // pyarrow reads the schema's metadata from `ARROW:schema` when it is there: the
+            // entries go in both places, as arrow's writer puts them.
+            let schema = arrow_schema_with(columns, &metadata);
+            metadata.insert(0, KeyValue::new("ARROW:schema".to_string(), schema));
             metadata
         }))
         .build();
@@ -356,7 +356,13 @@ fn parquet_bytes_with(columns: &[Column], mut metadata: Vec<KeyValue>) -> Result
 /// flatbuffer, built in the order arrow's IPC writer builds it, so the bytes are the ones it
 /// wrote), after the continuation marker and its length, in base64. Columns are not nullable;
 /// list items are.
+#[cfg(test)]
 fn arrow_schema(columns: &[Column]) -> String {
+    arrow_schema_with(columns, &[])
+}
+
+/// [`arrow_schema`] with the schema's custom metadata (e.g. `pandas`).
+fn arrow_schema_with(columns: &[Column], metadata: &[KeyValue]) -> String {
     use flatbuffers::{FlatBufferBuilder, WIPOffset};
     // Arrow's Schema.fbs: the type union's tags and each table's field slots.
     const INT: u8 = 2;
@@ -438,7 +444,22 @@ fn arrow_schema(columns: &[Column]) -> String {
         })
         .collect();
     let fields = fbb.create_vector(&fields);
+    let custom: Vec<WIPOffset<()>> = metadata
+        .iter()
+        .map(|kv| {
+            let key = fbb.create_string(&kv.key);
+            let value = fbb.create_string(kv.value.as_deref().unwrap_or(""));
+            let table = fbb.start_table();
+            fbb.push_slot_always(4, key); // KeyValue.key
+            fbb.push_slot_always(6, value); // KeyValue.value
+            WIPOffset::new(fbb.end_table(table).value())
+        })
+        .collect();
+    let custom = (!custom.is_empty()).then(|| fbb.create_vector(&custom));
     let schema = fbb.start_table();
+    if let Some(custom) = custom {
+        fbb.push_slot_always(8, custom); // Schema.custom_metadata
+    }
     fbb.push_slot_always(6, fields); // Schema.fields
     let schema = fbb.end_table(schema);
     let message = fbb.start_table();

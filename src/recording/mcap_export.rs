@@ -252,7 +252,7 @@ fn command(a: &[f64]) -> Twist {
 }
 
 fn stamp(t_ns: u64) -> Time {
-    Time::from_secs_f64(t_ns as f64 * 1e-9)
+    Time::from_nanos(t_ns)
 }
 
 /// Each demonstration's commands at `period` on the timeline from `next`; the time after them.
@@ -358,9 +358,9 @@ fn mcap_bytes(dataset: &Dataset, options: &McapOptions) -> Result<(Vec<u8>, Mcap
     };
     let span = |from: u64, to: u64| {
         format!(
-            "log times {:.3} s to {:.3} s",
-            from as f64 * 1e-9,
-            to as f64 * 1e-9
+            "{:.3} s to {:.3} s into the recording",
+            (from - start) as f64 * 1e-9,
+            (to - start) as f64 * 1e-9
         )
     };
     for rec in dataset.advice() {

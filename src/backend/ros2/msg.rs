@@ -96,6 +96,14 @@ impl Time {
         )
     }
 
+    /// `t_ns` nanoseconds since the epoch, exactly (seconds past `i32::MAX` are clamped).
+    pub fn from_nanos(t_ns: u64) -> Time {
+        Time {
+            sec: i32::try_from(t_ns / 1_000_000_000).unwrap_or(i32::MAX),
+            nanosec: (t_ns % 1_000_000_000) as u32,
+        }
+    }
+
     /// Seconds since the epoch of `t` (negative times are clamped to the epoch).
     pub fn from_secs_f64(t: f64) -> Time {
         let t = if t.is_finite() { t.max(0.0) } else { 0.0 };
