@@ -313,7 +313,10 @@ impl Imported {
     pub fn notes(&self, keep: &str) -> Vec<String> {
         let mut notes = Vec::new();
         if let Some((topic, types)) = &self.commands {
-            notes.push(format!("commands read as {} on {topic}", types.join(" and ")));
+            notes.push(format!(
+                "commands read as {} on {topic}",
+                types.join(" and ")
+            ));
         }
         notes.extend(describe_trim(self.idle_trimmed, keep));
         notes

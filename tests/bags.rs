@@ -240,7 +240,8 @@ fn idle_ends_of_a_twist_stamped_bag_are_trimmed_and_counted() {
         assert_eq!(got[0].trace.len(), 121);
         // Trimmed: the 20 zero commands before 1 s and the 40 after 4 s go; the zero command at
         // 4 s, where the base stands at its final pose, ends the demonstration at rest.
-        let imported = advise::recording::import_recording(&bag, &ImportOptions::default()).unwrap();
+        let imported =
+            advise::recording::import_recording(&bag, &ImportOptions::default()).unwrap();
         assert_eq!(imported.idle_trimmed, (20, 40), "{writer}");
         let trace = &imported.episodes[0].trace;
         assert_eq!(trace.len(), 61, "{writer}");
@@ -260,11 +261,20 @@ mcap-zstd-idle.mcap: trimmed 60 standing-still points (20 before the first movin
 wrote 1 demonstration (61 points) to d.json; `load demos d.json` adds them to a session"
     );
     let (ok, text) = advise(
-        &["import", "mcap-zstd-idle.mcap", "--keep-idle", "--out", "k.json"],
+        &[
+            "import",
+            "mcap-zstd-idle.mcap",
+            "--keep-idle",
+            "--out",
+            "k.json",
+        ],
         d,
     );
     assert!(ok, "{text}");
-    assert!(text.contains("wrote 1 demonstration (121 points)"), "{text}");
+    assert!(
+        text.contains("wrote 1 demonstration (121 points)"),
+        "{text}"
+    );
     assert!(!text.contains("trimmed"), "{text}");
     // A session's `load demos BAG` trims as the import does.
     std::fs::write(d.join("s.adv"), "load demos mcap-zstd-idle.mcap\n").unwrap();
@@ -423,7 +433,10 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
     assert!(marks[3].starts_with("execution 0: "), "{marks:?}");
     let tf_static = &read["topics"]["/tf_static"][0];
     assert_eq!(tf_static[0].as_u64(), Some(t0));
-    assert_eq!((tf_static[4].as_str(), tf_static[5].as_str()), (Some("map"), Some("odom")));
+    assert_eq!(
+        (tf_static[4].as_str(), tf_static[5].as_str()),
+        (Some("map"), Some("odom"))
+    );
 
     let cmd = read["topics"]["/cmd_vel"].as_array().unwrap();
     let odom = read["topics"]["/odom"].as_array().unwrap();
@@ -433,8 +446,16 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
     let mut j = 0;
     for i in 0..ds.len() {
         if let advise::policy::dataset::Provenance::Demonstration { .. } = ds.provenance(i) {
-            assert_eq!(cmd[j][1].as_f64(), Some(ds.a(i)[0]), "demonstration command {j}");
-            assert_eq!(cmd[j][2].as_f64(), Some(ds.a(i)[1]), "demonstration command {j}");
+            assert_eq!(
+                cmd[j][1].as_f64(),
+                Some(ds.a(i)[0]),
+                "demonstration command {j}"
+            );
+            assert_eq!(
+                cmd[j][2].as_f64(),
+                Some(ds.a(i)[1]),
+                "demonstration command {j}"
+            );
             j += 1;
         }
     }
@@ -461,8 +482,14 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
             );
             // The same pose on /tf, stamped at its log time (to the stamp's rounding).
             assert_eq!(f[0].as_u64(), Some(t));
-            assert_eq!((f[1].as_f64(), f[2].as_f64()), (Some(pose.x_m), Some(pose.y_m)));
-            assert_eq!((f[4].as_str(), f[5].as_str()), (Some("odom"), Some("base_link")));
+            assert_eq!(
+                (f[1].as_f64(), f[2].as_f64()),
+                (Some(pose.x_m), Some(pose.y_m))
+            );
+            assert_eq!(
+                (f[4].as_str(), f[5].as_str()),
+                (Some("odom"), Some("base_link"))
+            );
             assert_eq!(f[6].as_u64(), Some(t), "{f}");
             k += 1;
         }
@@ -515,8 +542,14 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
         rosbags["/cmd_vel"],
         serde_json::json!(["geometry_msgs/msg/Twist", demo_points + k])
     );
-    assert_eq!(rosbags["/odom"], serde_json::json!(["nav_msgs/msg/Odometry", k]));
-    assert_eq!(rosbags["/tf"], serde_json::json!(["tf2_msgs/msg/TFMessage", k]));
+    assert_eq!(
+        rosbags["/odom"],
+        serde_json::json!(["nav_msgs/msg/Odometry", k])
+    );
+    assert_eq!(
+        rosbags["/tf"],
+        serde_json::json!(["tf2_msgs/msg/TFMessage", k])
+    );
     assert_eq!(
         rosbags["/tf_static"],
         serde_json::json!(["tf2_msgs/msg/TFMessage", 1])
@@ -664,7 +697,9 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
     let loader = read["loader_task"].as_array().unwrap();
     assert_eq!(loader.len(), ds.len());
     assert!(
-        loader.iter().all(|t| t == "drive the base to the goal pose"),
+        loader
+            .iter()
+            .all(|t| t == "drive the base to the goal pose"),
         "{:?}",
         &loader[..3]
     );
@@ -697,7 +732,11 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
         .arg(d.join("lx"))
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let read: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rows = read["data"]["rows"].as_array().unwrap();
     let episodes = read["episodes"]["rows"].as_array().unwrap();

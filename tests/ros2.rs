@@ -750,7 +750,10 @@ fn discovery_without_multicast_connects_every_time() {
         return;
     }
     netns::run_isolated_with(name, &[], LIMIT, false);
-    assert!(!netns::has_multicast_route(), "the namespace has a multicast route");
+    assert!(
+        !netns::has_multicast_route(),
+        "the namespace has a multicast route"
+    );
     let mut took = Vec::new();
     for i in 0..6 {
         let dir = tempfile::tempdir().unwrap();
@@ -790,8 +793,9 @@ fn discovery_without_multicast_connects_every_time() {
     let code = miette::Diagnostic::code(&spec).map(|c| c.to_string());
     assert_eq!(code.as_deref(), Some("advise::backend::ros2_static_peers"));
     assert!(
-        spec.to_string()
-            .contains("names `10.0.0.7`, another host, which `advise` cannot reach without multicast"),
+        spec.to_string().contains(
+            "names `10.0.0.7`, another host, which `advise` cannot reach without multicast"
+        ),
         "{spec}"
     );
 }

@@ -18,8 +18,8 @@ use ros2_client::dds::rustdds::policy::Durability;
 use ros2_client::dds::rustdds::{GUID, RTPSEntity, Topic};
 use ros2_client::qos::{History, WhenFull};
 use ros2_client::{
-    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
-    QosProfile, Subscription,
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile,
+    Subscription,
 };
 use serde::Serialize;
 use serde::de::DeserializeOwned;

@@ -283,9 +283,7 @@ impl Column {
 /// The `pandas` metadata of the tasks table: `task` is the DataFrame's index (its rows named by
 /// the task's text, as LeRobot's `DataFrame(..., index=tasks)` writes it), `task_index` a column.
 fn pandas_tasks_metadata() -> KeyValue {
-    let column = |name: &str, pandas: &str, numpy: &str| {
-        json!({"name": name, "field_name": name, "pandas_type": pandas, "numpy_type": numpy, "metadata": null})
-    };
+    let column = |name: &str, pandas: &str, numpy: &str| json!({"name": name, "field_name": name, "pandas_type": pandas, "numpy_type": numpy, "metadata": null});
     let meta = json!({
         "index_columns": ["task"],
         "column_indexes": [{"name": null, "field_name": null, "pandas_type": "unicode", "numpy_type": "object", "metadata": {"encoding": "UTF-8"}}],

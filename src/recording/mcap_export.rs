@@ -198,7 +198,9 @@ impl Out {
         let mut mcap = options.create(Cursor::new(Vec::new())).map_err(err)?;
         let none = BTreeMap::new();
         let mut channel = |topic: &str, ty: &str, def: &str| {
-            let schema = mcap.add_schema(ty, "ros2msg", def.as_bytes()).map_err(err)?;
+            let schema = mcap
+                .add_schema(ty, "ros2msg", def.as_bytes())
+                .map_err(err)?;
             mcap.add_channel(schema, topic, "cdr", &none).map_err(err)
         };
         let cmd = channel("/cmd_vel", "geometry_msgs/msg/Twist", TWIST_DEF)?;
@@ -297,7 +299,12 @@ fn mcap_bytes(dataset: &Dataset, options: &McapOptions) -> Result<(Vec<u8>, Mcap
     let start = options.start_unix_ns;
     let identity = crate::geometry::Pose::new(0.0, 0.0, 0.0);
     let fixed = TfMessage {
-        transforms: vec![TransformStamped::planar(stamp(start), "map", "odom", identity)],
+        transforms: vec![TransformStamped::planar(
+            stamp(start),
+            "map",
+            "odom",
+            identity,
+        )],
     };
     out.write(out.tf_static, start, &fixed)?;
     let period_ns = secs_to_ns(options.period_s).max(1);

@@ -94,9 +94,7 @@ impl Commands {
         match self {
             Commands::Unknown => None,
             Commands::Twist(s) => newest(s, count).map(|t| (t.linear.x, t.angular.z)),
-            Commands::Stamped(s) => {
-                newest(s, count).map(|t| (t.twist.linear.x, t.twist.angular.z))
-            }
+            Commands::Stamped(s) => newest(s, count).map(|t| (t.twist.linear.x, t.twist.angular.z)),
         }
     }
 }

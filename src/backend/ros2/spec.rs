@@ -221,11 +221,8 @@ impl Ros2Spec {
             return Ok(d);
         }
         match std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE") {
-            Ok(v) if !v.trim().is_empty() => {
-                DiscoveryRange::parse(v.trim()).ok_or_else(|| Ros2SpecError::Ros2Discovery {
-                    value: v.clone(),
-                })
-            }
+            Ok(v) if !v.trim().is_empty() => DiscoveryRange::parse(v.trim())
+                .ok_or_else(|| Ros2SpecError::Ros2Discovery { value: v.clone() }),
             _ => Ok(DiscoveryRange::Subnet),
         }
     }
@@ -525,7 +522,10 @@ mod tests {
             "ros2:/?discovery=localhost&peers=127.0.0.1;localhost"
         );
         assert_eq!(ros2(&r.to_string()), r);
-        assert_eq!(ros2("ros2?discovery=OFF").discovery, Some(DiscoveryRange::Off));
+        assert_eq!(
+            ros2("ros2?discovery=OFF").discovery,
+            Some(DiscoveryRange::Off)
+        );
         match error("ros2?odom_timout=1") {
             Ros2SpecError::Ros2Option { help, .. } => {
                 assert_eq!(help, "did you mean `odom_timeout`?")

@@ -604,7 +604,7 @@ pub const COMMANDS: &[CommandSpec] = &[
             ],
             example: "record demo from teleop/cmd_vel goal 2 -1 0 for 60",
         }],
-        signature: "record demo [from TOPIC] [for S] [--keep-idle]",
+        signature: "record demo [from TOPIC] [for S]",
         doc: "Record a person driving the ROS 2 base with their own teleoperation (Twist or TwistStamped commands on TOPIC, default `cmd_vel`) until Enter or Ctrl-C, S seconds, or 3 s without a moving command with the base at rest; added as a demonstration whose goal is where the base stopped (`goal X Y THETA` gives one), without the standing still after it came to rest (`--keep-idle` keeps it).",
         step: Step::Demonstrate,
         example: "record demo from teleop/cmd_vel goal 2 -1 0 for 60",
