@@ -731,8 +731,10 @@ fn a_transient_local_command_reader_is_refused_before_any_command() {
 /// of 15 connections succeeded, and the failure looked as if the base had been found). Against a
 /// Cyclone base set up as ROS 2's LOCALHOST range sets it (unicast to 127.0.0.1 on a well-known
 /// port), `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` and `?discovery=localhost` connect every time
-/// (each connection bounded by `wait=10`, 6 of them); OFF finds nothing and says so, naming only
-/// other participants' topics; a static peer on another host is refused with what RustDDS lacks.
+/// (each connection bounded by `wait=10`, 6 of them; RustDDS's same-host unicast SPDP carries it,
+/// and the SUBNET default connected 6 of 6 too when tried by hand with the variable set to SUBNET);
+/// OFF finds nothing and says so, naming only other participants' topics; a static peer on another
+/// host is refused with what RustDDS lacks.
 #[test]
 fn discovery_without_multicast_connects_every_time() {
     let name = "discovery_without_multicast_connects_every_time";
