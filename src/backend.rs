@@ -176,11 +176,16 @@ pub enum BackendError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     RmpConfig(#[from] rmp::config::RmpConfigError),
+    /// A ROS 2 setting read at connect time (`ROS_DOMAIN_ID`, `ROS_AUTOMATIC_DISCOVERY_RANGE`,
+    /// `ROS_STATIC_PEERS`).
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Ros2Spec(#[from] ros2::spec::Ros2SpecError),
     #[error("no odometry on {topic} (domain {domain_id}) within {waited_ms} ms")]
     #[diagnostic(
         code(advise::backend::no_odometry),
         help(
-            "discovery saw: {discovered}. Check that the base's driver runs and publishes nav_msgs/Odometry on that topic, that ROS_DOMAIN_ID matches (or `ros2?domain=N`), and the topic names (`ros2:NAMESPACE`, `ros2?odom=TOPIC`)"
+            "discovery saw from other participants: {discovered}; {discovery}. Check that the base's driver runs and publishes nav_msgs/Odometry on that topic, that ROS_DOMAIN_ID matches (or `ros2?domain=N`), the topic names (`ros2:NAMESPACE`, `ros2?odom=TOPIC`), and how far discovery looks (ROS_AUTOMATIC_DISCOVERY_RANGE or `ros2?discovery=localhost|subnet`)"
         )
     )]
     NoOdometry {
@@ -188,6 +193,8 @@ pub enum BackendError {
         domain_id: u16,
         waited_ms: u64,
         discovered: String,
+        /// How far discovery looked, in words.
+        discovery: String,
     },
     #[error("nothing reads commands on {topic} (domain {domain_id}) after {waited_ms} ms")]
     #[diagnostic(

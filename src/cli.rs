@@ -267,6 +267,10 @@ pub struct ImportArgs {
     /// Split a recording where consecutive commands are more than this many seconds apart.
     #[arg(long, value_name = "SECONDS")]
     pub split_gap: Option<f64>,
+    /// Keep the standing-still points before the first moving command and after the base came
+    /// to rest (trimmed by default; the reply counts them).
+    #[arg(long)]
+    pub keep_idle: bool,
     /// Output file: `.json` writes JSON episodes, anything else CSV with an `episode` column.
     #[arg(long)]
     pub out: PathBuf,
@@ -290,6 +294,10 @@ pub struct ExportArgs {
     /// simulator's control rate.
     #[arg(long, value_name = "HZ", requires = "lerobot")]
     pub fps: Option<u32>,
+    /// Export each execution as a LeRobot episode too (`advise.source` = `execution`,
+    /// `advise.weight` 0), besides the demonstrations and advice.
+    #[arg(long, requires = "lerobot")]
+    pub with_executions: bool,
 }
 
 #[derive(Args)]

@@ -180,6 +180,81 @@ pub struct ImportOptions {
     /// [`bag::DEFAULT_ODOM_TOPIC`].
     pub cmd_topic: Option<String>,
     pub odom_topic: Option<String>,
+    /// Keep the standing-still points before the first moving command and after the base came
+    /// to rest ([`trim_idle`]); `false` (the default) trims them.
+    pub keep_idle: bool,
+}
+
+/// A base that moved less than this from its final pose is standing still there, m and rad.
+pub const STILL_M: f64 = 1e-3;
+pub const STILL_RAD: f64 = 2e-3;
+
+/// What [`trim_idle`] keeps of a run: `run[start..end]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Trim {
+    pub start: usize,
+    pub end: usize,
+}
+
+impl Trim {
+    /// The points trimmed: before the first moving command, and after the base came to rest.
+    pub fn dropped(&self, len: usize) -> (usize, usize) {
+        (self.start, len - self.end)
+    }
+}
+
+/// The part of `run` that demonstrates something: from the first moving command (the zero
+/// commands before it are a teleop node publishing while nobody drives) to the last moving
+/// command, then on while the base still moves, and the first sample where it stands still at
+/// its final pose (so the demonstration ends at rest with the zero command, where the goal is
+/// read). A run without a moving command is kept whole.
+pub fn trim_idle(run: &[Sample]) -> Trim {
+    let moving = |s: &Sample| s.2 != 0.0 || s.3 != 0.0;
+    let (Some(first), Some(last)) = (run.iter().position(moving), run.iter().rposition(moving))
+    else {
+        return Trim {
+            start: 0,
+            end: run.len(),
+        };
+    };
+    let end_pose = run[run.len() - 1].1;
+    let still = |s: &Sample| {
+        s.1.distance_to(end_pose) < STILL_M
+            && crate::geometry::wrap_angle(s.1.theta_rad - end_pose.theta_rad).abs() < STILL_RAD
+    };
+    // The first sample of the final standing still after the last moving command.
+    let mut rest = run.len();
+    while rest > last + 1 && still(&run[rest - 1]) {
+        rest -= 1;
+    }
+    Trim {
+        start: first,
+        end: (rest + 1).min(run.len()),
+    }
+}
+
+/// `run` with its idle ends trimmed unless `keep`, adding the points dropped to `trimmed`.
+pub fn trimmed<'a>(run: &'a [Sample], keep: bool, trimmed: &mut (usize, usize)) -> &'a [Sample] {
+    if keep {
+        return run;
+    }
+    let t = trim_idle(run);
+    let (before, after) = t.dropped(run.len());
+    trimmed.0 += before;
+    trimmed.1 += after;
+    &run[t.start..t.end]
+}
+
+/// The sentence that reports trimmed idle points, `None` when none was trimmed; `keep` names
+/// the option that keeps them.
+pub fn describe_trim((before, after): (usize, usize), keep: &str) -> Option<String> {
+    (before + after > 0).then(|| {
+        format!(
+            "trimmed {} standing-still point{} ({before} before the first moving command, {after} after the base came to rest; {keep} keeps them)",
+            before + after,
+            if before + after == 1 { "" } else { "s" }
+        )
+    })
 }
 
 /// One sample of a recording: time (s), the base's pose, the commanded speed and turn rate.
@@ -216,15 +291,59 @@ pub fn import(
     path: &Path,
     options: &ImportOptions,
 ) -> Result<(Vec<Episode>, Vec<String>), ImportError> {
+    import_recording(path, options).map(|i| (i.episodes, i.warnings))
+}
+
+/// What [`import_recording`] made of a recording.
+#[derive(Clone, Debug)]
+pub struct Imported {
+    pub episodes: Vec<Episode>,
+    /// What the user should know about the messy parts.
+    pub warnings: Vec<String>,
+    /// A bag's command topic and the types its commands were read as (`geometry_msgs/msg/Twist`,
+    /// `.../TwistStamped`); `None` for a CSV log.
+    pub commands: Option<(String, Vec<String>)>,
+    /// Standing-still points trimmed: before the first moving command, after the base came to
+    /// rest ([`trim_idle`]).
+    pub idle_trimmed: (usize, usize),
+}
+
+impl Imported {
+    /// What was read and trimmed, in words (`keep` names the option that keeps idle points).
+    pub fn notes(&self, keep: &str) -> Vec<String> {
+        let mut notes = Vec::new();
+        if let Some((topic, types)) = &self.commands {
+            notes.push(format!(
+                "commands read as {} on {topic}",
+                types.join(" and ")
+            ));
+        }
+        notes.extend(describe_trim(self.idle_trimmed, keep));
+        notes
+    }
+}
+
+/// [`import`], with what was read and trimmed.
+pub fn import_recording(path: &Path, options: &ImportOptions) -> Result<Imported, ImportError> {
     if let Some(gap) = options.split_gap_s
         && !(gap.is_finite() && gap > 0.0)
     {
         return Err(ImportError::SplitGap(gap));
     }
     if bag::is_bag(path) {
-        bag::import_bag(path, options).map(|(e, r)| (e, r.warnings()))
+        bag::import_bag(path, options).map(|(episodes, r)| Imported {
+            warnings: r.warnings(),
+            commands: Some((r.cmd_topic.clone(), r.command_types.clone())),
+            idle_trimmed: r.idle_trimmed,
+            episodes,
+        })
     } else {
-        import_csv_log(path, options).map(|(e, r)| (e, r.warnings()))
+        import_csv_log(path, options).map(|(episodes, r)| Imported {
+            warnings: r.warnings(),
+            commands: None,
+            idle_trimmed: r.idle_trimmed,
+            episodes,
+        })
     }
 }
 
@@ -237,6 +356,8 @@ pub struct ImportReport {
     pub duplicate_times: usize,
     /// Episodes made.
     pub episodes: usize,
+    /// Standing-still points trimmed, before and after ([`trim_idle`]).
+    pub idle_trimmed: (usize, usize),
 }
 
 impl ImportReport {
@@ -587,6 +708,7 @@ pub fn parse_csv_log(
             } else {
                 stem.to_string()
             };
+            let run = trimmed(run, options.keep_idle, &mut report.idle_trimmed);
             options.checked_episode(path, name, run, &|t: f64| format!("the row at time {t}"))
         })
         .collect::<Result<_, _>>()?;

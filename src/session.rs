@@ -199,6 +199,8 @@ pub struct Session {
     /// The files the session's commands read (`open`, `load`, `operators`, `tasks`), each with
     /// whether `open` read it: an output may not replace one ([`Session::check_output`]).
     inputs: Vec<(std::path::PathBuf, bool)>,
+    /// When the session began, on the wall clock (an MCAP export's timeline starts there).
+    started: std::time::SystemTime,
 }
 
 impl std::fmt::Debug for Session {
@@ -263,6 +265,7 @@ impl Session {
             preamble: None,
             sources: crate::diag::SourceMap::new(),
             inputs: Vec::new(),
+            started: std::time::SystemTime::now(),
         }
     }
 
@@ -435,8 +438,9 @@ impl Session {
                 topic,
                 goal,
                 seconds,
+                keep_idle,
             } => self
-                .record_demo(topic.as_deref(), goal, seconds)
+                .record_demo(topic.as_deref(), goal, seconds, keep_idle)
                 .map(Reply::Message),
             Command::Teleop { goal, seconds } => self.teleop(goal, seconds).map(Reply::Message),
         }

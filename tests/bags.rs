@@ -16,18 +16,19 @@ use std::time::Duration;
 use advise::recording::{ImportOptions, import};
 use advise::trace::Episode;
 
-const PACKAGES: [&str; 4] = [
+const PACKAGES: [&str; 5] = [
     "rosbags==0.11.9",
     "mcap==1.6.0",
     "mcap-ros2-support==0.6.0",
     "pyarrow==26.0.1",
+    "pandas==2.3.3",
 ];
 
 fn peer() -> Option<PathBuf> {
     match python::venv(
         "bags",
         &PACKAGES,
-        "import rosbags.rosbag2, mcap_ros2.writer, mcap_ros2.decoder, numpy, pyarrow.parquet",
+        "import rosbags.rosbag2, mcap_ros2.writer, mcap_ros2.decoder, numpy, pyarrow.parquet, pandas",
     ) {
         Ok(p) => Some(p),
         Err(why) => {
@@ -217,6 +218,78 @@ fn a_robots_namespace_and_a_pause_in_the_driving() {
     assert!(text.contains("advise::import::topic_missing"), "{text}");
 }
 
+/// A TwistStamped teleop's bag (rosbags and mcap-ros2-support) that stands still for a second
+/// before the driving and two after it: the standing still is trimmed by default and counted,
+/// `--keep-idle` keeps it, and the reply names the type the commands were read as (issue 35).
+#[test]
+fn idle_ends_of_a_twist_stamped_bag_are_trimmed_and_counted() {
+    let Some(py) = peer() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for writer in ["rosbags", "mcap-zstd"] {
+        let bag = write(&py, d, writer, "idle");
+        let keep = ImportOptions {
+            keep_idle: true,
+            ..Default::default()
+        };
+        // Kept, the import is the independent pairing: 121 commands from 0 to 6 s.
+        let log = PathBuf::from(format!("{}.expected.csv", bag.display()));
+        let (want, _) = import(&log, &keep).unwrap();
+        let (got, _) = import(&bag, &keep).unwrap();
+        assert_same(&got, &want, &format!("{writer} idle kept"));
+        assert_eq!(got[0].trace.len(), 121);
+        // Trimmed: the 20 zero commands before 1 s and the 40 after 4 s go; the zero command at
+        // 4 s, where the base stands at its final pose, ends the demonstration at rest.
+        let imported =
+            advise::recording::import_recording(&bag, &ImportOptions::default()).unwrap();
+        assert_eq!(imported.idle_trimmed, (20, 40), "{writer}");
+        let trace = &imported.episodes[0].trace;
+        assert_eq!(trace.len(), 61, "{writer}");
+        assert_eq!(trace.a(0), [0.5, 0.1]);
+        assert_eq!(trace.a(59), [0.5, 0.1]);
+        assert_eq!(trace.a(60), [0.0, 0.0]);
+        assert!((trace.t[60] - 3.0).abs() < 1e-9, "{}", trace.t[60]);
+        // The goal is where the base came to rest: the last point is at it.
+        assert!(trace.z(60)[0].abs() < 1e-9, "{:?}", trace.z(60));
+    }
+    let (ok, text) = advise(&["import", "mcap-zstd-idle.mcap", "--out", "d.json"], d);
+    assert!(ok, "{text}");
+    assert_eq!(
+        text.trim(),
+        "mcap-zstd-idle.mcap: commands read as geometry_msgs/msg/TwistStamped on /cmd_vel
+mcap-zstd-idle.mcap: trimmed 60 standing-still points (20 before the first moving command, 40 after the base came to rest; --keep-idle keeps them)
+wrote 1 demonstration (61 points) to d.json; `load demos d.json` adds them to a session"
+    );
+    let (ok, text) = advise(
+        &[
+            "import",
+            "mcap-zstd-idle.mcap",
+            "--keep-idle",
+            "--out",
+            "k.json",
+        ],
+        d,
+    );
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("wrote 1 demonstration (121 points)"),
+        "{text}"
+    );
+    assert!(!text.contains("trimmed"), "{text}");
+    // A session's `load demos BAG` trims as the import does.
+    std::fs::write(d.join("s.adv"), "load demos mcap-zstd-idle.mcap\n").unwrap();
+    let (ok, text) = advise(&["run", "--demos", "0", "--no-journal", "s.adv"], d);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("loaded 1 demonstrations (61 points) from mcap-zstd-idle.mcap"),
+        "{text}"
+    );
+    assert!(
+        text.contains("trimmed 60 standing-still points (20 before the first moving command, 40 after the base came to rest; `advise import --keep-idle` keeps them)"),
+        "{text}"
+    );
+}
+
 #[test]
 fn bags_that_cannot_be_imported_say_which_topic_file_and_time() {
     let Some(py) = peer() else { return };
@@ -271,8 +344,11 @@ fn bags_that_cannot_be_imported_say_which_topic_file_and_time() {
 }
 
 /// A session's dataset exported as MCAP: read back by mcap-ros2-support's decoder and by
-/// rosbags, every command and pose the dataset's executions hold, the advice and critique as
-/// strings, the session in a metadata record.
+/// rosbags, every command the dataset's demonstrations hold and every command and pose of its
+/// executions (also as `/tf` odom -> base_link, with `/tf_static` map -> odom), on a timeline in
+/// the session's wall-clock time; `/advise/episode` marks each episode, advice and critique carry
+/// their chunk's times, the session is in a metadata record, and the summary is what a person
+/// opening the file would expect (issue 35: executions only, no /tf, times at the 1970 epoch).
 #[test]
 fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
     let Some(py) = peer() else { return };
@@ -283,44 +359,115 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
         "run start 0\nselect 5..20\nadvise speed_up(0.2)\nselect 20..30\ncritique\nrun start 1\nsave s.json\nexport mcap session.mcap\n",
     )
     .unwrap();
+    let before = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as u64;
     let (ok, text) = advise(&["run", "--demos", "3", "--no-journal", "s.adv"], d);
     assert!(ok, "{text}");
-    assert!(text.contains("wrote session.mcap: 2 executions"), "{text}");
+    assert!(
+        text.contains("wrote session.mcap: 3 demonstrations (commands only) and 2 executions"),
+        "{text}"
+    );
     let (ok, text) = advise(&["export", "s.json", "--mcap", "cli.mcap"], d);
     assert!(ok, "{text}");
-    // The session's export and the command line's are the same file.
-    assert_eq!(
-        std::fs::read(d.join("session.mcap")).unwrap(),
-        std::fs::read(d.join("cli.mcap")).unwrap()
-    );
-    let out = Command::new(&py)
-        .arg(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/python/read_mcap.py"
-        ))
-        .arg(d.join("cli.mcap"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let read: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let read_mcap = |file: &str| -> serde_json::Value {
+        let out = Command::new(&py)
+            .arg(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/tests/python/read_mcap.py"
+            ))
+            .arg(d.join(file))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let read = read_mcap("cli.mcap");
     assert_eq!(read["profile"], "ros2");
+    // The session's export and the command line's hold the same messages; only their timelines'
+    // starts differ (the session's start, the saved file's time).
+    let session = read_mcap("session.mcap");
+    let shifted = |r: &serde_json::Value| -> serde_json::Value {
+        let start = r["summary"]["start"].as_u64().unwrap();
+        let mut topics = r["topics"].clone();
+        for rows in topics.as_object_mut().unwrap().values_mut() {
+            for row in rows.as_array_mut().unwrap() {
+                let t = row[0].as_u64().unwrap();
+                row[0] = (t - start).into();
+                if let Some(s) = row.get(6).and_then(|s| s.as_u64()) {
+                    row[6] = (s - start).into();
+                }
+            }
+        }
+        topics
+    };
+    assert_eq!(shifted(&session), shifted(&read));
 
     let mut files = advise::diag::SourceMap::new();
     let ds = advise::policy::dataset::Dataset::load(&mut files, &d.join("s.json")).unwrap();
+    // The timeline is the session's: it starts at its wall clock, not at the epoch.
+    let summary = &read["summary"];
+    let t0 = summary["start"].as_u64().unwrap();
+    let after = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_nanos() as u64;
+    assert!((before - 1_000_000_000..=after).contains(&t0), "{t0}");
+    assert_eq!(
+        session["summary"]["start"].as_u64().unwrap() / 1_000_000_000,
+        before / 1_000_000_000,
+        "the session's timeline starts when it began"
+    );
+    let episodes = read["topics"]["/advise/episode"].as_array().unwrap();
+    let marks: Vec<&str> = episodes.iter().map(|e| e[1].as_str().unwrap()).collect();
+    assert_eq!(marks.len(), 5, "{marks:?}");
+    assert!(
+        marks[0].starts_with("demonstration `demo-0`: "),
+        "{marks:?}"
+    );
+    assert!(marks[3].starts_with("execution 0: "), "{marks:?}");
+    let tf_static = &read["topics"]["/tf_static"][0];
+    assert_eq!(tf_static[0].as_u64(), Some(t0));
+    assert_eq!(
+        (tf_static[4].as_str(), tf_static[5].as_str()),
+        (Some("map"), Some("odom"))
+    );
+
     let cmd = read["topics"]["/cmd_vel"].as_array().unwrap();
     let odom = read["topics"]["/odom"].as_array().unwrap();
+    let tf = read["topics"]["/tf"].as_array().unwrap();
+    // The demonstrations' commands first: every demonstration point's action, in order.
+    let demo_points: usize = ds.demos().iter().map(|d| d.points as usize).sum();
+    let mut j = 0;
+    for i in 0..ds.len() {
+        if let advise::policy::dataset::Provenance::Demonstration { .. } = ds.provenance(i) {
+            assert_eq!(
+                cmd[j][1].as_f64(),
+                Some(ds.a(i)[0]),
+                "demonstration command {j}"
+            );
+            assert_eq!(
+                cmd[j][2].as_f64(),
+                Some(ds.a(i)[1]),
+                "demonstration command {j}"
+            );
+            j += 1;
+        }
+    }
+    assert_eq!(j, demo_points);
     let mut k = 0;
-    let mut start = 0u64;
-    for rec in ds.executions() {
+    for (n, rec) in ds.executions().iter().enumerate() {
+        let start = episodes[3 + n][0].as_u64().unwrap();
         let tr = ds.execution(rec.id).unwrap();
         let poses = tr.pose.as_ref().expect("simulated executions have poses");
         for (i, pose) in poses.iter().enumerate() {
             let t = start + ((tr.t[i] - tr.t[0]) * 1e9).round() as u64;
-            let (c, o) = (&cmd[k], &odom[k]);
+            let (c, o, f) = (&cmd[demo_points + k], &odom[k], &tf[k]);
             assert_eq!(c[0].as_u64(), Some(t), "command {k}");
             assert_eq!(c[1].as_f64(), Some(tr.a(i)[0]), "command {k}");
             assert_eq!(c[2].as_f64(), Some(tr.a(i)[1]), "command {k}");
@@ -333,45 +480,100 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
                 (o[4].as_str(), o[5].as_str()),
                 (Some("odom"), Some("base_link"))
             );
+            // The same pose on /tf, stamped at its log time (to the stamp's rounding).
+            assert_eq!(f[0].as_u64(), Some(t));
+            assert_eq!(
+                (f[1].as_f64(), f[2].as_f64()),
+                (Some(pose.x_m), Some(pose.y_m))
+            );
+            assert_eq!(
+                (f[4].as_str(), f[5].as_str()),
+                (Some("odom"), Some("base_link"))
+            );
+            assert_eq!(f[6].as_u64(), Some(t), "{f}");
             k += 1;
         }
-        start += ((tr.t[tr.len() - 1] - tr.t[0]) * 1e9).round() as u64 + 1_000_000_000;
     }
-    assert_eq!((cmd.len(), odom.len()), (k, k));
-    let advice = &read["topics"]["/advise/advice"][0];
-    assert_eq!(
-        advice[1],
-        "speed_up(rate = 0.2) on execution 0, points 5..20: 15 points synthesized (action space)"
+    assert_eq!((cmd.len(), odom.len(), tf.len()), (demo_points + k, k, k));
+    let advice = read["topics"]["/advise/advice"][0][1].as_str().unwrap();
+    assert!(
+        advice.starts_with("speed_up(rate = 0.2) on execution 0, points 5..20 ("),
+        "{advice}"
     );
-    assert_eq!(advice[0].as_u64(), cmd[5][0].as_u64());
+    assert!(
+        advice.ends_with("): 15 points synthesized (action space)"),
+        "{advice}"
+    );
+    // At its chunk's first point, naming the chunk's times from the start of the recording.
+    let (from, to) = (
+        cmd[demo_points + 5][0].as_u64().unwrap(),
+        cmd[demo_points + 19][0].as_u64().unwrap(),
+    );
+    assert_eq!(read["topics"]["/advise/advice"][0][0].as_u64(), Some(from));
+    let span = format!(
+        "({:.3} s to {:.3} s into the recording)",
+        (from - t0) as f64 * 1e-9,
+        (to - t0) as f64 * 1e-9
+    );
+    assert!(advice.contains(&span), "{advice}: {span}");
     let critique = read["topics"]["/advise/critique"][0][1].as_str().unwrap();
     assert!(
-        critique.starts_with("critique with kappa 1 on execution 0, points 20..30:"),
+        critique.starts_with("critique with kappa 1 on execution 0, points 20..30 ("),
         "{critique}"
     );
     assert_eq!(read["metadata"]["advise"]["executions"], "2");
     assert_eq!(read["metadata"]["advise"]["domain"], "positioning");
+    // The summary as `mcap info` shows it: every channel with its type and count.
+    assert_eq!(
+        summary["channels"],
+        serde_json::json!([
+            ["/advise/advice", "std_msgs/msg/String", 1],
+            ["/advise/critique", "std_msgs/msg/String", 1],
+            ["/advise/episode", "std_msgs/msg/String", 5],
+            ["/cmd_vel", "geometry_msgs/msg/Twist", demo_points + k],
+            ["/odom", "nav_msgs/msg/Odometry", k],
+            ["/tf", "tf2_msgs/msg/TFMessage", k],
+            ["/tf_static", "tf2_msgs/msg/TFMessage", 1],
+        ])
+    );
+    assert!(summary["end"].as_u64().unwrap() > t0);
     let rosbags = &read["rosbags"];
     assert_eq!(
         rosbags["/cmd_vel"],
-        serde_json::json!(["geometry_msgs/msg/Twist", k])
+        serde_json::json!(["geometry_msgs/msg/Twist", demo_points + k])
     );
     assert_eq!(
         rosbags["/odom"],
         serde_json::json!(["nav_msgs/msg/Odometry", k])
     );
     assert_eq!(
+        rosbags["/tf"],
+        serde_json::json!(["tf2_msgs/msg/TFMessage", k])
+    );
+    assert_eq!(
+        rosbags["/tf_static"],
+        serde_json::json!(["tf2_msgs/msg/TFMessage", 1])
+    );
+    assert_eq!(
         rosbags["/advise/advice"],
         serde_json::json!(["std_msgs/msg/String", 1])
     );
-    assert_eq!(
-        rosbags["/advise/critique"],
-        serde_json::json!(["std_msgs/msg/String", 1])
-    );
 
-    // And advise reads its own export back as a bag: each execution's commands with its poses.
-    let (demos, _) = import(&d.join("cli.mcap"), &ImportOptions::default()).unwrap();
+    // And advise reads its own export back as a bag: each execution's commands with its poses
+    // (the demonstrations' commands come before any odometry, and are dropped, counted).
+    let keep = ImportOptions {
+        keep_idle: true,
+        ..Default::default()
+    };
+    let (demos, warnings) = import(&d.join("cli.mcap"), &keep).unwrap();
     assert_eq!(demos[0].trace.len(), k);
+    assert_eq!(
+        warnings,
+        [format!(
+            "dropped {demo_points} of {} commands sent before the first odometry",
+            demo_points + k
+        )]
+    );
 }
 
 /// A session's dataset exported as LeRobot v3.0: pyarrow reads every table; each frame is a
@@ -490,7 +692,73 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
         read["tasks"]["rows"][0]["task"],
         "drive the base to the goal pose"
     );
+    // LeRobot's loader reads each frame's task text through tasks.parquet's index (issue 35: it
+    // read `0`).
+    let loader = read["loader_task"].as_array().unwrap();
+    assert_eq!(loader.len(), ds.len());
+    assert!(
+        loader
+            .iter()
+            .all(|t| t == "drive the base to the goal pose"),
+        "{:?}",
+        &loader[..3]
+    );
     assert!(d.join("session_lr/meta/info.json").exists());
+
+    // `--with-executions`: the session's execution is a fifth episode, marked `execution`, its
+    // frames the execution's points with weight 0.
+    let (ok, text) = advise(
+        &[
+            "export",
+            "s.json",
+            "--lerobot",
+            "lx",
+            "--fps",
+            "10",
+            "--with-executions",
+        ],
+        d,
+    );
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("in 5 episodes (3 demonstrations, 1 advice, 1 executions)"),
+        "{text}"
+    );
+    let out = Command::new(&py)
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/python/read_lerobot.py"
+        ))
+        .arg(d.join("lx"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let read: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = read["data"]["rows"].as_array().unwrap();
+    let episodes = read["episodes"]["rows"].as_array().unwrap();
+    assert_eq!(episodes.len(), 5);
+    assert_eq!(episodes[4]["advise.source"], "execution");
+    assert_eq!(episodes[4]["advise.name"], "execution 0");
+    let exec = ds.execution(ds.executions()[0].id).unwrap();
+    let from = episodes[4]["dataset_from_index"].as_u64().unwrap() as usize;
+    assert_eq!(rows.len(), from + exec.len());
+    for (f, row) in rows[from..].iter().enumerate() {
+        assert_eq!(row["advise.source"], "execution");
+        assert_eq!(row["advise.weight"].as_f64(), Some(0.0));
+        assert_eq!(
+            f32s(&row["observation.state"]),
+            exec.z(f).iter().map(|&x| x as f32).collect::<Vec<_>>()
+        );
+        assert_eq!(
+            f32s(&row["action"]),
+            exec.a(f).iter().map(|&x| x as f32).collect::<Vec<_>>()
+        );
+    }
+    assert_eq!(read["loader_task"].as_array().unwrap().len(), rows.len());
 }
 
 /// A bag of a person's driving is a demonstration of a task declared in a file: the standoff's

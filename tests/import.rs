@@ -230,3 +230,44 @@ fn a_declared_task_reads_its_goal_and_observations_from_a_log() {
     let last = trace.z(rows.len() - 1);
     assert!((last[0] - 1.0).abs() < 1e-12 && last[1].abs() < 1e-12);
 }
+
+/// A log's standing still before the first moving command and after the base came to rest is
+/// trimmed (the first point at rest kept, where the goal is read) and counted; `keep_idle` keeps
+/// it; a decelerating base is not standing still, nor is a log without a moving command trimmed.
+#[test]
+fn idle_ends_are_trimmed_and_counted() {
+    let log = "time,x,y,theta,v,w
+0.0,0,0,0,0,0
+0.1,0,0,0,0,0
+0.2,0,0,0,0.2,0
+0.3,0.02,0,0,0.2,0
+0.4,0.04,0,0,0,0
+0.5,0.045,0,0,0,0
+0.6,0.045,0,0,0,0
+0.7,0.045,0,0,0,0
+0.8,0.0452,0,0,0,0
+";
+    let path = Path::new("log.csv");
+    let (episodes, report) = parse_csv_log(path, "log", log, &ImportOptions::default()).unwrap();
+    // 0.8 s moved 0.2 mm: within the standing-still tolerance of its final pose.
+    assert_eq!(report.idle_trimmed, (2, 3));
+    let t = &episodes[0].trace;
+    let want = [0.0, 0.1, 0.2, 0.3];
+    assert!(
+        t.t.len() == 4 && t.t.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-12),
+        "{:?}",
+        t.t
+    );
+    assert_eq!(t.a(3), &[0.0, 0.0]);
+    assert!(t.z(3)[0].abs() < 1e-3, "the goal is where it came to rest");
+    let keep = ImportOptions {
+        keep_idle: true,
+        ..ImportOptions::default()
+    };
+    let (episodes, report) = parse_csv_log(path, "log", log, &keep).unwrap();
+    assert_eq!(report.idle_trimmed, (0, 0));
+    assert_eq!(episodes[0].trace.len(), 9);
+    let still = "time,x,y,theta,v,w\n0,0,0,0,0,0\n0.1,0,0,0,0,0\n";
+    let (episodes, report) = parse_csv_log(path, "log", still, &ImportOptions::default()).unwrap();
+    assert_eq!((report.idle_trimmed, episodes[0].trace.len()), ((0, 0), 2));
+}

@@ -15,11 +15,11 @@
 use std::time::Duration;
 
 use ros2_client::dds::rustdds::policy::Durability;
-use ros2_client::dds::rustdds::{RTPSEntity, Topic};
+use ros2_client::dds::rustdds::{GUID, RTPSEntity, Topic};
 use ros2_client::qos::{History, WhenFull};
 use ros2_client::{
-    Context, ContextOptions, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
-    QosProfile, Subscription,
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile,
+    Subscription,
 };
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -34,7 +34,7 @@ pub mod robot;
 pub mod spec;
 
 pub use driver::{Ros2Backend, Ros2StopHandle};
-pub use spec::{Ros2Kind, Ros2Spec};
+pub use spec::{DiscoveryRange, Ros2Kind, Ros2Spec};
 
 /// The driver's limits and timing, from the task's simulator parameters and the spec.
 #[derive(Clone, Debug, PartialEq)]
@@ -80,6 +80,30 @@ pub struct Ros2Node {
     pub context: Context,
     pub node: Node,
     pub domain_id: u16,
+    /// How far discovery looks (for diagnostics).
+    pub discovery: DiscoveryRange,
+    /// Whether this participant is one of `advise`'s own (listed in [`OWN`]).
+    own: bool,
+}
+
+/// The participants of this process that are `advise` itself (the driver's, the recorder's):
+/// left out of every "discovery saw" list and never taken for a base or a teleoperation (a
+/// session's backend publishes on the `cmd_vel` that `record demo` listens to).
+static OWN: std::sync::Mutex<Vec<GUID>> = std::sync::Mutex::new(Vec::new());
+
+fn own_participants() -> Vec<GUID> {
+    OWN.lock().unwrap_or_else(|e| e.into_inner()).clone()
+}
+
+impl Drop for Ros2Node {
+    fn drop(&mut self) {
+        if self.own {
+            let me = self.context.domain_participant().guid();
+            OWN.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .retain(|g| *g != me);
+        }
+    }
 }
 
 /// QoS for commands: reliable, volatile, the last 10 (the ROS 2 default publisher profile).
@@ -104,12 +128,39 @@ fn dds_error(what: &str, e: impl std::fmt::Display) -> BackendError {
 }
 
 impl Ros2Node {
-    /// Join the spec's domain as node `node_name` in the spec's namespace.
+    /// Join the spec's domain as node `node_name` in the spec's namespace, as one of `advise`'s
+    /// own participants ([`OWN`]).
     pub fn open(spec: &Ros2Spec, node_name: &str) -> Result<Ros2Node, BackendError> {
+        Ros2Node::open_with(spec, node_name, true)
+    }
+
+    /// [`Ros2Node::open`]; `own: false` for a participant that plays another party (the
+    /// simulator as a robot), which the others must discover as such.
+    pub fn open_with(
+        spec: &Ros2Spec,
+        node_name: &str,
+        own: bool,
+    ) -> Result<Ros2Node, BackendError> {
         let domain_id = spec.domain().map_err(|e| BackendError::Ros2 {
             what: e.to_string(),
         })?;
-        let context = Context::with_options(ContextOptions::new().domain_id(domain_id))
+        let discovery = spec.discovery_range()?;
+        // RustDDS's default is SUBNET; LOCALHOST keeps its multicast and advertised locators to
+        // loopback and its unicast SPDP to this host; OFF uses no interface at all.
+        let builder = ros2_client::dds::rustdds::DomainParticipantBuilder::new(domain_id);
+        let builder = match discovery {
+            DiscoveryRange::Subnet => builder,
+            DiscoveryRange::Localhost => builder
+                .with_only_networks([std::net::IpAddr::V4(std::net::Ipv4Addr::LOCALHOST)])
+                .same_host_loopback(true),
+            DiscoveryRange::Off => builder
+                .with_only_networks(Vec::<std::net::IpAddr>::new())
+                .same_host_loopback(false),
+        };
+        let participant = builder
+            .build()
+            .map_err(|e| dds_error("cannot join the DDS domain", e))?;
+        let context = Context::from_domain_participant(participant)
             .map_err(|e| dds_error("cannot join the DDS domain", e))?;
         let name =
             NodeName::new(&spec.namespace, node_name).map_err(|e| dds_error("bad node name", e))?;
@@ -117,10 +168,17 @@ impl Ros2Node {
         let node = context
             .new_node(name, NodeOptions::new().enable_rosout(false))
             .map_err(|e| dds_error("cannot create the node", e))?;
+        if own {
+            OWN.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .push(context.domain_participant().guid());
+        }
         Ok(Ros2Node {
             context,
             node,
             domain_id,
+            discovery,
+            own,
         })
     }
 
@@ -162,16 +220,19 @@ impl Ros2Node {
             .map_err(|e| dds_error(&format!("cannot subscribe to {full_name}"), e))
     }
 
-    /// The ROS 2 readers and writers other participants announced (ours are left out, so a
-    /// list of what discovery saw never shows our own topics as if a base were there).
+    /// The ROS 2 readers and writers other participants announced (ours, and those of every
+    /// other `advise` participant of this process, are left out, so a list of what discovery saw
+    /// never shows our own topics as if a base were there).
     pub fn others(&self) -> Vec<Endpoint> {
         let participant = self.context.domain_participant();
-        let own = participant.guid().prefix;
+        let mut mine = own_participants();
+        mine.push(participant.guid());
+        let ours = |g: &GUID| mine.iter().any(|m| m.prefix == g.prefix);
         let ros_name = |dds: &str| dds.strip_prefix("rt").map(str::to_string);
         let mut out: Vec<Endpoint> = participant
             .discovered_readers()
             .into_iter()
-            .filter(|r| r.reader_proxy.remote_reader_guid.prefix != own)
+            .filter(|r| !ours(&r.reader_proxy.remote_reader_guid))
             .filter_map(|r| {
                 let t = &r.subscription_topic_data;
                 Some(Endpoint {
@@ -189,7 +250,7 @@ impl Ros2Node {
             participant
                 .discovered_writers()
                 .into_iter()
-                .filter(|w| w.writer_proxy.remote_writer_guid.prefix != own)
+                .filter(|w| !ours(&w.writer_proxy.remote_writer_guid))
                 .filter_map(|w| {
                     let t = &w.publication_topic_data;
                     Some(Endpoint {

@@ -273,6 +273,7 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
         split_gap_s: args.split_gap,
         cmd_topic: Some(args.cmd_topic),
         odom_topic: Some(args.odom_topic),
+        keep_idle: args.keep_idle,
     };
     // Before reading anything: `--out` naming a log (or a bag's file) would replace it.
     let mut inputs: Vec<std::path::PathBuf> = args.tasks.clone();
@@ -285,11 +286,14 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
     crate::files::refuse_overwriting_inputs(&args.out, inputs.iter().map(|p| p.as_path()))?;
     let mut episodes = Vec::new();
     for log in &args.logs {
-        let (mut found, warnings) = crate::recording::import(log, &options)?;
-        for w in warnings {
+        let mut imported = crate::recording::import_recording(log, &options)?;
+        for w in &imported.warnings {
             eprintln!("warning: {}: {w}", log.display());
         }
-        episodes.append(&mut found);
+        for note in imported.notes("--keep-idle") {
+            eprintln!("{}: {note}", log.display());
+        }
+        episodes.append(&mut imported.episodes);
     }
     write_demonstrations(&args.out, &def.domain, &episodes)?;
     let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
@@ -313,7 +317,13 @@ pub fn export(args: super::ExportArgs) -> miette::Result<()> {
     let dataset = crate::policy::dataset::Dataset::load(&mut files, &args.dataset)
         .map_err(|e| files.attach(e))?;
     if let Some(out) = &args.mcap {
-        let summary = crate::recording::mcap_export::export_mcap(&dataset, out)?;
+        use crate::recording::mcap_export::{McapOptions, export_mcap};
+        // The timeline starts at the file's modification time, when the session saved it (the
+        // session's wall clock, as near as a saved dataset tells).
+        let saved = std::fs::metadata(&args.dataset)
+            .and_then(|m| m.modified())
+            .unwrap_or_else(|_| std::time::SystemTime::now());
+        let summary = export_mcap(&dataset, out, &McapOptions::starting_at(saved))?;
         let shown = out.display().to_string();
         eprintln!(
             "{}",
@@ -322,8 +332,11 @@ pub fn export(args: super::ExportArgs) -> miette::Result<()> {
     }
     if let Some(dir) = &args.lerobot {
         use crate::recording::lerobot;
-        let fps = args.fps.unwrap_or_else(lerobot::default_fps);
-        let summary = lerobot::export_lerobot(&dataset, dir, fps)?;
+        let options = lerobot::LeRobotOptions {
+            fps: args.fps.unwrap_or_else(lerobot::default_fps),
+            with_executions: args.with_executions,
+        };
+        let summary = lerobot::export_lerobot_with(&dataset, dir, &options)?;
         eprintln!(
             "{}",
             lerobot::describe(&summary, &dir.display().to_string())

@@ -56,6 +56,11 @@ pub struct BagReport {
     pub truncated: Vec<(PathBuf, String)>,
     /// Episodes made.
     pub episodes: usize,
+    /// The command topic and the types its commands were read as (`geometry_msgs/msg/Twist`).
+    pub cmd_topic: String,
+    pub command_types: Vec<String>,
+    /// Standing-still points trimmed, before and after ([`super::trim_idle`]).
+    pub idle_trimmed: (usize, usize),
 }
 
 impl BagReport {
@@ -294,7 +299,10 @@ pub fn import_bag(
 ) -> Result<(Vec<Episode>, BagReport), ImportError> {
     let cmd_topic = absolute(options.cmd_topic.as_deref().unwrap_or(DEFAULT_CMD_TOPIC));
     let odom_topic = absolute(options.odom_topic.as_deref().unwrap_or(DEFAULT_ODOM_TOPIC));
-    let mut report = BagReport::default();
+    let mut report = BagReport {
+        cmd_topic: cmd_topic.clone(),
+        ..BagReport::default()
+    };
     let mut commands: Vec<Timed<(f64, f64)>> = Vec::new();
     let mut odometry: Vec<Timed<Pose>> = Vec::new();
     // Every topic seen, with its type, for the diagnostic of a missing one.
@@ -318,6 +326,9 @@ pub fn import_bag(
                 let Some(role) = role else {
                     return Ok(());
                 };
+                if role != Role::Odometry && !report.command_types.contains(&channel.schema) {
+                    report.command_types.push(channel.schema.clone());
+                }
                 let bad = |reason: String| ImportError::BadMessage {
                     path: file.clone(),
                     topic: channel.topic.clone(),
@@ -409,6 +420,7 @@ pub fn import_bag(
                 stem.clone()
             };
             let at = |t: f64| format!("the command on {cmd_topic} at log time {t:.6} s");
+            let run = super::trimmed(run, options.keep_idle, &mut report.idle_trimmed);
             options.checked_episode(path, name, run, &at)
         })
         .collect::<Result<_, _>>()?;

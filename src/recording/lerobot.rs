@@ -3,10 +3,14 @@
 //!
 //! Every dataset point is one frame. Each demonstration is an episode, and so is each piece of
 //! advice (its synthesized points in order); a frame says which in `advise.source`
-//! (`demonstration` or `advice`) and carries its BC weight in `advise.weight`. The layout:
+//! (`demonstration` or `advice`) and carries its BC weight in `advise.weight`. With
+//! [`LeRobotOptions::with_executions`], each execution is an episode too (`execution`, weight 0:
+//! not a training point). The layout:
 //! - `meta/info.json`: `codebase_version: "v3.0"`, the counts, `fps`, the paths and the features;
 //! - `meta/stats.json`: per feature `min`, `max`, `mean`, `std`, `count`;
-//! - `meta/tasks.parquet`: `task_index` and `task` (one task, the domain's);
+//! - `meta/tasks.parquet`: `task_index` and `task` (one task, the domain's), with the `pandas`
+//!   metadata that makes `task` the table's index, as LeRobot writes it: its loader reads a
+//!   frame's task text as `tasks.iloc[task_index].name`;
 //! - `meta/episodes/chunk-000/file-000.parquet`: one row per episode (index, tasks, length, where
 //!   its frames are);
 //! - `data/chunk-000/file-000.parquet`: the frames: `observation.state` and `action` (fixed-size
@@ -61,7 +65,17 @@ pub struct LeRobotSummary {
     pub frames: usize,
     pub demonstration_episodes: usize,
     pub advice_episodes: usize,
+    pub execution_episodes: usize,
     pub fps: u32,
+}
+
+/// How to export.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LeRobotOptions {
+    /// Frames per second (a dataset keeps no times).
+    pub fps: u32,
+    /// Each execution an episode too (`advise.source` = `execution`, `advise.weight` 0).
+    pub with_executions: bool,
 }
 
 /// The frames per second of an export when none is given: the simulator's control rate, at
@@ -75,11 +89,15 @@ pub fn default_fps() -> u32 {
 
 /// What a user is told of an export to `dir`.
 pub fn describe(s: &LeRobotSummary, dir: &str) -> String {
+    let executions = match s.execution_episodes {
+        0 => String::new(),
+        n => format!(", {n} executions"),
+    };
     format!(
-        "wrote {dir}: a LeRobot {CODEBASE_VERSION} dataset of {} frames at {} fps in {} episodes ({} demonstrations, {} advice), each frame's source and BC weight in `advise.source` and `advise.weight`",
+        "wrote {dir}: a LeRobot {CODEBASE_VERSION} dataset of {} frames at {} fps in {} episodes ({} demonstrations, {} advice{executions}), each frame's source and BC weight in `advise.source` and `advise.weight`",
         s.frames,
         s.fps,
-        s.demonstration_episodes + s.advice_episodes,
+        s.demonstration_episodes + s.advice_episodes + s.execution_episodes,
         s.demonstration_episodes,
         s.advice_episodes
     )
@@ -94,11 +112,31 @@ fn task_text(domain: &str) -> String {
     }
 }
 
-/// One episode: its source and the dataset points of its frames, in order.
+/// One episode: its source and the dataset points of its frames, in order (an execution's
+/// frames are its trace's points, in `trace`).
 struct EpisodePoints {
     source: &'static str,
     name: String,
     points: Vec<usize>,
+    trace: Option<crate::trace::Trace>,
+}
+
+/// The dataset's executions as episodes, numbered in the order the session ran them.
+fn execution_episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
+    dataset
+        .executions()
+        .iter()
+        .enumerate()
+        .filter_map(|(n, rec)| {
+            let trace = dataset.execution(rec.id).ok()?;
+            (!trace.is_empty()).then(|| EpisodePoints {
+                source: "execution",
+                name: format!("execution {n}"),
+                points: Vec::new(),
+                trace: Some(trace),
+            })
+        })
+        .collect()
 }
 
 fn episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
@@ -109,6 +147,7 @@ fn episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
             source: "demonstration",
             name: d.name.clone(),
             points: Vec::new(),
+            trace: None,
         })
         .collect();
     let mut advice: Vec<EpisodePoints> = dataset
@@ -118,6 +157,7 @@ fn episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
             source: "advice",
             name: a.applied.invocation(),
             points: Vec::new(),
+            trace: None,
         })
         .collect();
     // (episode, index within it) of each point, to order the frames.
@@ -240,9 +280,28 @@ impl Column {
     }
 }
 
+/// The `pandas` metadata of the tasks table: `task` is the DataFrame's index (its rows named by
+/// the task's text, as LeRobot's `DataFrame(..., index=tasks)` writes it), `task_index` a column.
+fn pandas_tasks_metadata() -> KeyValue {
+    let column = |name: &str, pandas: &str, numpy: &str| json!({"name": name, "field_name": name, "pandas_type": pandas, "numpy_type": numpy, "metadata": null});
+    let meta = json!({
+        "index_columns": ["task"],
+        "column_indexes": [{"name": null, "field_name": null, "pandas_type": "unicode", "numpy_type": "object", "metadata": {"encoding": "UTF-8"}}],
+        "columns": [column("task_index", "int64", "int64"), column("task", "unicode", "object")],
+        "creator": {"library": "advise", "version": env!("CARGO_PKG_VERSION")},
+        "pandas_version": "2.2.3",
+    });
+    KeyValue::new("pandas".to_string(), meta.to_string())
+}
+
 /// A table as parquet bytes (snappy, one row group), with the `ARROW:schema` entry pyarrow reads
 /// its column types from.
 fn parquet_bytes(columns: &[Column]) -> Result<Vec<u8>, String> {
+    parquet_bytes_with(columns, Vec::new())
+}
+
+/// [`parquet_bytes`] with more key-value metadata.
+fn parquet_bytes_with(columns: &[Column], mut metadata: Vec<KeyValue>) -> Result<Vec<u8>, String> {
     let err = |e: parquet::errors::ParquetError| e.to_string();
     let fields = columns
         .iter()
@@ -255,10 +314,13 @@ fn parquet_bytes(columns: &[Column]) -> Result<Vec<u8>, String> {
         .map_err(err)?;
     let props = WriterProperties::builder()
         .set_compression(Compression::SNAPPY)
-        .set_key_value_metadata(Some(vec![KeyValue::new(
-            "ARROW:schema".to_string(),
-            arrow_schema(columns),
-        )]))
+        .set_key_value_metadata(Some({
+            // pyarrow reads the schema's metadata from `ARROW:schema` when it is there: the
+            // entries go in both places, as arrow's writer puts them.
+            let schema = arrow_schema_with(columns, &metadata);
+            metadata.insert(0, KeyValue::new("ARROW:schema".to_string(), schema));
+            metadata
+        }))
         .build();
     let mut out = Vec::new();
     let mut w =
@@ -292,7 +354,13 @@ fn parquet_bytes(columns: &[Column]) -> Result<Vec<u8>, String> {
 /// flatbuffer, built in the order arrow's IPC writer builds it, so the bytes are the ones it
 /// wrote), after the continuation marker and its length, in base64. Columns are not nullable;
 /// list items are.
+#[cfg(test)]
 fn arrow_schema(columns: &[Column]) -> String {
+    arrow_schema_with(columns, &[])
+}
+
+/// [`arrow_schema`] with the schema's custom metadata (e.g. `pandas`).
+fn arrow_schema_with(columns: &[Column], metadata: &[KeyValue]) -> String {
     use flatbuffers::{FlatBufferBuilder, WIPOffset};
     // Arrow's Schema.fbs: the type union's tags and each table's field slots.
     const INT: u8 = 2;
@@ -374,7 +442,22 @@ fn arrow_schema(columns: &[Column]) -> String {
         })
         .collect();
     let fields = fbb.create_vector(&fields);
+    let custom: Vec<WIPOffset<()>> = metadata
+        .iter()
+        .map(|kv| {
+            let key = fbb.create_string(&kv.key);
+            let value = fbb.create_string(kv.value.as_deref().unwrap_or(""));
+            let table = fbb.start_table();
+            fbb.push_slot_always(4, key); // KeyValue.key
+            fbb.push_slot_always(6, value); // KeyValue.value
+            WIPOffset::new(fbb.end_table(table).value())
+        })
+        .collect();
+    let custom = (!custom.is_empty()).then(|| fbb.create_vector(&custom));
     let schema = fbb.start_table();
+    if let Some(custom) = custom {
+        fbb.push_slot_always(8, custom); // Schema.custom_metadata
+    }
     fbb.push_slot_always(6, fields); // Schema.fields
     let schema = fbb.end_table(schema);
     let message = fbb.start_table();
@@ -437,15 +520,28 @@ fn stats(values: &[f64], width: usize) -> Value {
 }
 
 /// Write `dataset` to the new directory `dir` as a LeRobot dataset at `fps` frames per second.
-///
-/// Over 150 lines because it lays out the dataset's files in sequence (the frames' parquet, the
-/// episodes' table, `info.json`, the statistics), each block reading the same episode table.
 pub fn export_lerobot(
     dataset: &Dataset,
     dir: &Path,
     fps: u32,
 ) -> Result<LeRobotSummary, LeRobotError> {
-    let fps = fps.max(1);
+    let options = LeRobotOptions {
+        fps,
+        with_executions: false,
+    };
+    export_lerobot_with(dataset, dir, &options)
+}
+
+/// [`export_lerobot`] with its options.
+///
+/// Over 150 lines because it lays out the dataset's files in sequence (the frames' parquet, the
+/// episodes' table, `info.json`, the statistics), each block reading the same episode table.
+pub fn export_lerobot_with(
+    dataset: &Dataset,
+    dir: &Path,
+    options: &LeRobotOptions,
+) -> Result<LeRobotSummary, LeRobotError> {
+    let fps = options.fps.max(1);
     if std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_some()) {
         return Err(LeRobotError::Exists {
             path: dir.to_path_buf(),
@@ -460,8 +556,14 @@ pub fn export_lerobot(
     };
     let domain = dataset.domain();
     let (zd, ad) = (domain.observe.len(), domain.act.len());
-    let eps = episodes(dataset);
-    let frames: usize = eps.iter().map(|e| e.points.len()).sum();
+    let mut eps = episodes(dataset);
+    if options.with_executions {
+        eps.extend(execution_episodes(dataset));
+    }
+    let frames: usize = eps
+        .iter()
+        .map(|e| e.trace.as_ref().map_or(e.points.len(), |t| t.len()))
+        .sum();
     let mut state = Vec::with_capacity(frames * zd);
     let mut action = Vec::with_capacity(frames * ad);
     let (mut timestamp, mut frame_index, mut episode_index, mut index) =
@@ -470,17 +572,28 @@ pub fn export_lerobot(
     let mut rows = Vec::new();
     for (e, ep) in eps.iter().enumerate() {
         let from = index.len() as i64;
-        for (f, &i) in ep.points.iter().enumerate() {
-            state.extend_from_slice(dataset.z(i));
-            action.extend_from_slice(dataset.a(i));
+        let length = ep.trace.as_ref().map_or(ep.points.len(), |t| t.len());
+        for f in 0..length {
+            match &ep.trace {
+                Some(t) => {
+                    state.extend_from_slice(t.z(f));
+                    action.extend_from_slice(t.a(f));
+                    weight.push(0.0);
+                }
+                None => {
+                    let i = ep.points[f];
+                    state.extend_from_slice(dataset.z(i));
+                    action.extend_from_slice(dataset.a(i));
+                    weight.push(dataset.m(i));
+                }
+            }
             timestamp.push(f as f64 / f64::from(fps.max(1)));
             frame_index.push(f as i64);
             episode_index.push(e as i64);
             index.push(index.len() as i64);
             source.push(ep.source);
-            weight.push(dataset.m(i));
         }
-        rows.push((e as i64, ep.points.len() as i64, from, index.len() as i64));
+        rows.push((e as i64, length as i64, from, index.len() as i64));
     }
     let f32s = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
 
@@ -571,7 +684,7 @@ pub fn export_lerobot(
         },
         "advise": {
             "domain": domain.name,
-            "sources": "each demonstration and each piece of advice is an episode; `advise.source` says which, `advise.weight` is the point's BC weight",
+            "sources": "each demonstration and each piece of advice is an episode (and each execution with `--with-executions`); `advise.source` says which, `advise.weight` is the point's BC weight (0 for an execution's, which is not a training point)",
         },
     });
     let as_f64 = |v: &[i64]| v.iter().map(|&x| x as f64).collect::<Vec<_>>();
@@ -597,7 +710,8 @@ pub fn export_lerobot(
         ),
         (
             tasks_path.clone(),
-            parquet_bytes(&tasks_table).map_err(fail(&tasks_path))?,
+            parquet_bytes_with(&tasks_table, vec![pandas_tasks_metadata()])
+                .map_err(fail(&tasks_path))?,
         ),
         (dir.join("meta/info.json"), pretty(&info)),
         (dir.join("meta/stats.json"), pretty(&stats_json)),
@@ -614,11 +728,12 @@ pub fn export_lerobot(
         }
         Ok::<(), LeRobotError>(())
     })?;
-    let advice_episodes = eps.iter().filter(|e| e.source == "advice").count();
+    let count = |source: &str| eps.iter().filter(|e| e.source == source).count();
     Ok(LeRobotSummary {
         frames,
-        demonstration_episodes: eps.len() - advice_episodes,
-        advice_episodes,
+        demonstration_episodes: count("demonstration"),
+        advice_episodes: count("advice"),
+        execution_episodes: count("execution"),
         fps,
     })
 }

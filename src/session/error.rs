@@ -264,14 +264,21 @@ pub enum SessionError {
         help("give the longest recording in seconds, more than 0 and at most 3600: `for 120`")
     )]
     RecordTime { seconds: String },
-    #[error("nothing to record: {heard} command(s) heard on `{topic}`")]
+    #[error("nothing to record: {heard} command(s) heard on `{topic}` from {ty}; {seen}")]
     #[diagnostic(
         code(advise::session::record_empty),
         help(
-            "drive the base with your teleoperation while recording (its commands must reach `{topic}`; `from TOPIC` names another), and end it after some driving"
+            "drive the base with your teleoperation while recording (geometry_msgs Twist or TwistStamped commands that reach `{topic}`; `from TOPIC` names another), and end it after some driving"
         )
     )]
-    RecordEmpty { topic: String, heard: u64 },
+    RecordEmpty {
+        topic: String,
+        heard: u64,
+        /// The command type subscribed to, in words.
+        ty: String,
+        /// What discovery saw on the topic from other participants.
+        seen: String,
+    },
     #[error("`teleop` reads keys from a terminal; this session has none")]
     #[diagnostic(
         code(advise::session::teleop_needs_terminal),

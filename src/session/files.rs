@@ -70,11 +70,19 @@ impl Session {
                     task: Some(def),
                     ..options.clone()
                 };
-                let (episodes, warnings) = crate::recording::import(recording, &options)?;
-                for w in warnings {
+                let imported = crate::recording::import_recording(recording, &options)?;
+                for w in &imported.warnings {
                     from_dataset.push_str(&format!("\nwarning: {w}"));
                 }
-                episodes
+                // Idle points are trimmed as `advise import` trims them (its `--keep-idle`
+                // keeps them): the same demonstrations either way.
+                if let Some(note) = crate::recording::describe_trim(
+                    imported.idle_trimmed,
+                    "`advise import --keep-idle`",
+                ) {
+                    from_dataset.push_str(&format!("\n{note}"));
+                }
+                imported.episodes
             }
             Some(n) => {
                 let count: usize = n
@@ -268,9 +276,15 @@ impl Session {
 
     pub(super) fn export_mcap(&self, path: &str) -> Result<String, SessionError> {
         self.check_output(path, false)?;
+        // The timeline in the session's wall-clock time, demonstrations at the task's rate.
+        let options = crate::recording::mcap_export::McapOptions {
+            period_s: self.sim_params().period_s(),
+            ..crate::recording::mcap_export::McapOptions::starting_at(self.started)
+        };
         let s = crate::recording::mcap_export::export_mcap(
             self.state.learner.dataset(),
             Path::new(path),
+            &options,
         )?;
         Ok(crate::recording::mcap_export::describe(&s, path))
     }

@@ -27,6 +27,7 @@ impl Session {
         topic: Option<&str>,
         goal: Option<[f64; 3]>,
         seconds: Option<f64>,
+        keep_idle: bool,
     ) -> Result<String, SessionError> {
         self.check_recordable(goal.is_some())?;
         let Some(backend) = self.backend.downcast_ref::<Ros2Backend>() else {
@@ -68,14 +69,24 @@ impl Session {
             return Err(SessionError::RecordEmpty {
                 topic: rec.teleop_topic,
                 heard: rec.commands_heard,
+                ty: rec.command_type.map_or_else(
+                    || "no Twist or TwistStamped publisher".into(),
+                    |t| format!("a {t} publisher"),
+                ),
+                seen: rec.seen,
             });
         }
+        let mut idle = (0, 0);
+        let samples = crate::recording::trimmed(&rec.samples, keep_idle, &mut idle);
         let (name, points) = self.add_driven_demo(
-            &rec.samples,
+            samples,
             goal,
             format!("record demo from {}", rec.teleop_topic),
         )?;
-        let secs = rec.samples.last().map_or(0.0, |s| s.0);
+        let secs = samples.last().map_or(0.0, |s| s.0) - samples.first().map_or(0.0, |s| s.0);
+        let trimmed = crate::recording::describe_trim(idle, "`--keep-idle`")
+            .map(|t| format!("; {t}"))
+            .unwrap_or_default();
         let ended = match rec.ended {
             Ended::Stopped => "ended by you",
             Ended::Idle => "the commands stopped and the base came to rest",
@@ -83,8 +94,9 @@ impl Session {
             Ended::LinkLost => "odometry went stale; what came before is kept",
         };
         Ok(format!(
-            "recorded demonstration `{name}` from {} and {}: {points} points over {secs:.1} s ({ended}); the {} policy now has {} points",
+            "recorded demonstration `{name}` from {} ({}) and {}: {points} points over {secs:.1} s ({ended}{trimmed}); the {} policy now has {} points",
             rec.teleop_topic,
+            rec.command_type.unwrap_or("?"),
             rec.odom_topic,
             self.state.learner.kind_name(),
             self.state.learner.len(),

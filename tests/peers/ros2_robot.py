@@ -7,7 +7,8 @@ It speaks ROS 2's wire names without ROS: `rt/<ns>/cmd_vel` carrying
 As a robot it integrates the newest command (a unicycle, no lag) into odometry published at 50 Hz
 and appends every command it receives to `--log` (`t_s v w`, one line each, flushed). With
 `--teleop` it also plays a person at a keyboard: after `--teleop-delay` seconds it publishes a
-scripted sequence of commands on cmd_vel (and drives by them), then zero, then prints `done`.
+scripted sequence of commands on cmd_vel (and drives by them), then zero, then prints `done`
+(as TwistStamped in frame `base_link` with `--cmd-type stamped`).
 Everything is bounded by `--lifetime` seconds.
 """
 
@@ -176,7 +177,7 @@ def main():
                 v, w = sample.linear.x, sample.angular.z
             if (sample.linear.x != 0.0 or sample.angular.z != 0.0) and first_motion is None:
                 first_motion = now
-        if teleop_writer is not None and args.cmd_type == "twist":
+        if teleop_writer is not None:
             elapsed = now - t0 - args.teleop_delay
             cmd = None
             if elapsed >= 0:
@@ -190,7 +191,15 @@ def main():
                     if elapsed > 1.0 and not done:
                         print("done", flush=True)
                         done = True
-                teleop_writer.write(twist(*cmd))
+                if args.cmd_type == "stamped":
+                    # Jazzy's teleop_twist_keyboard with stamped:=true.
+                    wall = time.time()
+                    teleop_writer.write(TwistStamped(
+                        header=Header(stamp=Time(int(wall), int((wall % 1) * 1e9)),
+                                      frame_id="base_link"),
+                        twist=twist(*cmd)))
+                else:
+                    teleop_writer.write(twist(*cmd))
                 v, w = cmd
         dt = now - last
         last = now

@@ -6,7 +6,9 @@ WRITER is `rosbags` (a rosbag2 directory with MCAP storage, by the `rosbags` pac
 `mcap-zstd` or `mcap-lz4` (one MCAP file, by `mcap-ros2-support`, chunks compressed so).
 SCENARIO is `clean` (odometry at 50 Hz, commands at 20 Hz, 4 s), `messy` (the same, with
 commands before the first odometry, a second without odometry, a duplicated command time and
-messages written out of time order) or `stamped` (commands as TwistStamped).
+messages written out of time order), `stamped` (commands as TwistStamped) or `idle` (TwistStamped
+commands for 6 s: zero for the first second with the base standing still, driving until 4 s,
+then zero with the base standing still where it stopped).
 
 Besides the bag, OUT + ".expected.csv" is the log `time,x,y,theta,v,w` this script expects the
 import to make: each kept command with the latest odometry at or before it, computed here on its
@@ -25,7 +27,12 @@ MAX_AGE_NS = 500_000_000
 
 def pose_at(t):
     """The base's pose at t seconds: an arc."""
+    if IDLE:
+        t = min(max(t, 1.0), 4.0) - 1.0
     return 0.5 * t * math.cos(0.1 * t), 0.5 * t * math.sin(0.1 * t), 0.1 * t
+
+
+IDLE = False
 
 
 def twist(v, w):
@@ -60,6 +67,9 @@ def scenario(name):
     """The messages in the order they are written: (topic, t_ns, kind, payload)."""
     odom_times = [20_000_000 * k for k in range(0, 201)]
     cmd_times = [50_000_000 * k for k in range(0, 81)]
+    if name == 'idle':
+        odom_times = [20_000_000 * k for k in range(0, 301)]
+        cmd_times = [50_000_000 * k for k in range(0, 121)]
     if name == 'messy':
         # Odometry starts late (commands before it are dropped) and stops for a second.
         odom_times = [t for t in odom_times if t >= 120_000_000 and not 2_000_000_000 <= t < 3_000_000_000]
@@ -73,7 +83,11 @@ def scenario(name):
     msgs = [(ns + '/odom', t, 'odom', None) for t in odom_times]
     for i, t in enumerate(cmd_times):
         v = 0.25 if name == 'messy' and i == 31 else 0.5
-        msgs.append((ns + '/cmd_vel', t, 'stamped' if name == 'stamped' else 'twist', (v, 0.1)))
+        w = 0.1
+        if name == 'idle' and not 1_000_000_000 <= t < 4_000_000_000:
+            v = w = 0.0
+        kind = 'stamped' if name in ('stamped', 'idle') else 'twist'
+        msgs.append((ns + '/cmd_vel', t, kind, (v, w)))
     msgs.sort(key=lambda m: m[1])
     if name == 'messy':
         # Five commands written a second late, as a reordering recorder would.
@@ -149,7 +163,9 @@ def to_dict(msg):
 
 
 def main():
+    global IDLE
     writer, name, out = sys.argv[1:4]
+    IDLE = name == 'idle'
     msgs = scenario(name)
     if writer == 'rosbags':
         write_rosbags(out, msgs)

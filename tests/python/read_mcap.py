@@ -4,8 +4,10 @@
 
 Prints JSON: the profile, and per topic the messages as mcap-ros2-support decodes them
 (`/cmd_vel`: [log time ns, linear.x, angular.z]; `/odom`: [log time ns, x, y, yaw, frame,
-child frame]; strings: [log time ns, data]), the metadata records, and what rosbags reads (each
-topic's type and message count, every message deserialized).
+child frame]; `/tf` and `/tf_static`: [log time ns, x, y, yaw, frame, child frame, stamp ns] of
+each transform; strings: [log time ns, data]), the metadata records, the summary's statistics and
+channels as `mcap info` shows them, and what rosbags reads (each topic's type and message count,
+every message deserialized).
 """
 
 import json
@@ -28,6 +30,14 @@ def main():
             rows = out['topics'].setdefault(channel.topic, [])
             if channel.topic == '/cmd_vel':
                 rows.append([message.log_time, m.linear.x, m.angular.z])
+            elif channel.topic in ('/tf', '/tf_static'):
+                for t in m.transforms:
+                    q = t.transform.rotation
+                    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+                    p = t.transform.translation
+                    s = t.header.stamp
+                    rows.append([message.log_time, p.x, p.y, yaw, t.header.frame_id,
+                                 t.child_frame_id, s.sec * 1_000_000_000 + s.nanosec])
             elif channel.topic == '/odom':
                 q = m.pose.pose.orientation
                 yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
@@ -36,6 +46,17 @@ def main():
             else:
                 rows.append([message.log_time, m.data])
         out['metadata'] = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
+        summary = reader.get_summary()
+        st = summary.statistics
+        out['summary'] = {
+            'start': st.message_start_time,
+            'end': st.message_end_time,
+            'messages': st.message_count,
+            'channels': sorted(
+                [c.topic, summary.schemas[c.schema_id].name, st.channel_message_counts.get(c.id, 0)]
+                for c in summary.channels.values()
+            ),
+        }
     ts = get_typestore(Stores.ROS2_HUMBLE)
     with Reader(path) as bag:
         for conn, _, raw in bag.messages():

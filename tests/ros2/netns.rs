@@ -80,9 +80,9 @@ fn ipv4(a: [u8; 4]) -> libc::sockaddr {
     unsafe { std::mem::transmute::<libc::sockaddr_in, libc::sockaddr>(sin) }
 }
 
-/// In the forked child before exec: a new network namespace, `lo` up with multicast, and the
-/// multicast route on `lo`. Only async-signal-safe calls.
-fn isolate() -> io::Result<()> {
+/// In the forked child before exec: a new network namespace, `lo` up with multicast, and (when
+/// `multicast`) the multicast route on `lo`. Only async-signal-safe calls.
+fn isolate(multicast: bool) -> io::Result<()> {
     // SAFETY: plain system calls on values owned here.
     unsafe {
         let mut flags = libc::CLONE_NEWNET;
@@ -108,6 +108,10 @@ fn isolate() -> io::Result<()> {
             libc::close(fd);
             return Err(e);
         }
+        if !multicast {
+            libc::close(fd);
+            return Ok(());
+        }
         let mut route: RtEntry = std::mem::zeroed();
         route.rt_dst = ipv4([224, 0, 0, 0]);
         route.rt_genmask = ipv4([240, 0, 0, 0]);
@@ -125,13 +129,27 @@ fn isolate() -> io::Result<()> {
 }
 
 /// Spawn `cmd` in a fresh private network namespace (see the module docs).
-pub fn spawn_isolated(mut cmd: Command) -> io::Result<Child> {
+pub fn spawn_isolated(cmd: Command) -> io::Result<Child> {
+    spawn_isolated_with(cmd, true)
+}
+
+/// [`spawn_isolated`], with the multicast route on loopback or without it (`multicast`).
+pub fn spawn_isolated_with(mut cmd: Command, multicast: bool) -> io::Result<Child> {
     cmd.env(ENV, "1");
     // SAFETY: `isolate` makes only async-signal-safe system calls.
     unsafe {
-        cmd.pre_exec(isolate);
+        cmd.pre_exec(move || isolate(multicast));
     }
     cmd.spawn()
+}
+
+/// Whether the namespace has a route for multicast (224.0.0.0/4), by `/proc/net/route`.
+pub fn has_multicast_route() -> bool {
+    std::fs::read_to_string("/proc/net/route").is_ok_and(|t| {
+        t.lines()
+            .skip(1)
+            .any(|l| l.split_whitespace().nth(1) == Some("000000E0"))
+    })
 }
 
 pub use super::python::wait_bounded;
@@ -140,6 +158,16 @@ pub use super::python::wait_bounded;
 /// runs the test `name` again in a private namespace with `env`, checks it passed, and returns
 /// `false`; it prints why and returns `false` when no namespace can be made.
 pub fn run_isolated(name: &str, env: &[(&str, String)], limit: Duration) -> bool {
+    run_isolated_with(name, env, limit, true)
+}
+
+/// [`run_isolated`], with the multicast route on loopback or without it (`multicast`).
+pub fn run_isolated_with(
+    name: &str,
+    env: &[(&str, String)],
+    limit: Duration,
+    multicast: bool,
+) -> bool {
     if inside() {
         let seen = interfaces();
         assert_eq!(seen, ["lo"], "the namespaced test sees other interfaces");
@@ -151,7 +179,7 @@ pub fn run_isolated(name: &str, env: &[(&str, String)], limit: Duration) -> bool
     for (k, v) in env {
         cmd.env(k, v);
     }
-    let mut child = match spawn_isolated(cmd) {
+    let mut child = match spawn_isolated_with(cmd, multicast) {
         Ok(c) => c,
         Err(e) => {
             eprintln!(

@@ -19,6 +19,10 @@ pub const PYTHON_ENV: &str = "ADVISE_TEST_PYTHON";
 /// Cyclone DDS on a loopback-only namespace: use `lo`, and multicast on it (off by default there).
 pub const CYCLONE_URI: &str = r#"<CycloneDDS><Domain><General><Interfaces><NetworkInterface name="lo" multicast="true"/></Interfaces><AllowMulticast>true</AllowMulticast></General></Domain></CycloneDDS>"#;
 
+/// Cyclone DDS as ROS 2's LOCALHOST discovery range sets it up (rmw_cyclonedds): no multicast,
+/// unicast discovery to 127.0.0.1, a well-known port (`ParticipantIndex` auto).
+pub const CYCLONE_UNICAST_URI: &str = r#"<CycloneDDS><Domain><General><Interfaces><NetworkInterface name="lo" multicast="false"/></Interfaces><AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex><Peers><Peer address="127.0.0.1"/></Peers></Discovery></Domain></CycloneDDS>"#;
+
 /// The venv's Python with `cyclonedds` (made once per test process), or why not.
 pub fn python() -> Result<PathBuf, String> {
     static PY: OnceLock<Result<PathBuf, String>> = OnceLock::new();
@@ -42,6 +46,11 @@ pub struct Peer {
 impl Peer {
     /// Start the peer with `args` (after `--log`) and wait (bounded) until it is publishing.
     pub fn start(dir: &Path, args: &[&str]) -> Peer {
+        Peer::start_with(dir, args, CYCLONE_URI)
+    }
+
+    /// [`Peer::start`] with Cyclone DDS configured by `uri` (`CYCLONEDDS_URI`).
+    pub fn start_with(dir: &Path, args: &[&str], uri: &str) -> Peer {
         let python = std::env::var(PYTHON_ENV).expect("the parent passes the venv's python");
         let log = dir.join("commands.log");
         let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/peers/ros2_robot.py");
@@ -50,7 +59,7 @@ impl Peer {
             .arg("--log")
             .arg(&log)
             .args(args)
-            .env("CYCLONEDDS_URI", CYCLONE_URI)
+            .env("CYCLONEDDS_URI", uri)
             .stdout(Stdio::piped())
             .spawn()
             .expect("the peer starts");

@@ -385,6 +385,7 @@ impl Ros2Backend {
                     } else {
                         discovered.join(", ")
                     },
+                    discovery: backend._node.discovery.describe().into(),
                 });
             }
             std::thread::sleep(Duration::from_millis(10));

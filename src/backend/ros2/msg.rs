@@ -96,6 +96,14 @@ impl Time {
         )
     }
 
+    /// `t_ns` nanoseconds since the epoch, exactly (seconds past `i32::MAX` are clamped).
+    pub fn from_nanos(t_ns: u64) -> Time {
+        Time {
+            sec: i32::try_from(t_ns / 1_000_000_000).unwrap_or(i32::MAX),
+            nanosec: (t_ns % 1_000_000_000) as u32,
+        }
+    }
+
     /// Seconds since the epoch of `t` (negative times are clamped to the epoch).
     pub fn from_secs_f64(t: f64) -> Time {
         let t = if t.is_finite() { t.max(0.0) } else { 0.0 };
@@ -138,6 +146,54 @@ impl Default for Quaternion {
             y: 0.0,
             z: 0.0,
             w: 1.0,
+        }
+    }
+}
+
+/// `geometry_msgs/Transform`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Transform {
+    pub translation: Vector3,
+    pub rotation: Quaternion,
+}
+
+/// `geometry_msgs/TransformStamped`: `child_frame_id`'s pose in `header.frame_id`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TransformStamped {
+    pub header: Header,
+    pub child_frame_id: String,
+    pub transform: Transform,
+}
+
+/// `tf2_msgs/TFMessage`, what `/tf` and `/tf_static` carry.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TfMessage {
+    pub transforms: Vec<TransformStamped>,
+}
+
+impl TransformStamped {
+    /// The planar pose of `child` in `parent` at `stamp`.
+    pub fn planar(stamp: Time, parent: &str, child: &str, pose: Pose) -> TransformStamped {
+        let half = 0.5 * pose.theta_rad;
+        TransformStamped {
+            header: Header {
+                stamp,
+                frame_id: parent.to_string(),
+            },
+            child_frame_id: child.to_string(),
+            transform: Transform {
+                translation: Vector3 {
+                    x: pose.x_m,
+                    y: pose.y_m,
+                    z: 0.0,
+                },
+                rotation: Quaternion {
+                    x: 0.0,
+                    y: 0.0,
+                    z: half.sin(),
+                    w: half.cos(),
+                },
+            },
         }
     }
 }

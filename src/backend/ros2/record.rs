@@ -1,6 +1,12 @@
-//! Recording a person's teleoperation of a ROS 2 base: the `Twist` commands their usual tool
-//! publishes (`teleop_twist_keyboard`, a joystick node) sampled at the task's rate together with
-//! the base's odometry. `advise` publishes nothing while it listens: a person drives.
+//! Recording a person's teleoperation of a ROS 2 base: the `Twist` or `TwistStamped` commands
+//! their usual tool publishes (`teleop_twist_keyboard`, with `stamped:=true` on Jazzy, a joystick
+//! node) sampled at the task's rate together with the base's odometry. `advise` publishes nothing
+//! while it listens: a person drives.
+//!
+//! The command type is the one discovery sees another participant publish on the topic: DDS
+//! matches a reader only with writers of its own type, so a `Twist` reader never hears a
+//! `TwistStamped` teleop. Until a writer of either type is seen, nothing is subscribed; a recording
+//! that heard nothing says what discovery saw on the topic ([`Recording::seen`]).
 //!
 //! Sampling starts at the first command that moves the base (the wait before it is not part of
 //! the demonstration) and ends when the person ends it (Enter, or Ctrl-C: [`StopSignal`]), when no moving
@@ -14,9 +20,11 @@ use std::time::{Duration, Instant};
 use ros2_client::Subscription;
 
 use super::driver::OdomSample;
-use super::msg::{ODOMETRY_TYPE, Odometry, TWIST_TYPE, Twist};
+use super::msg::{
+    ODOMETRY_TYPE, Odometry, TWIST_STAMPED_TYPE, TWIST_TYPE, Twist, TwistStamped, dds_type_name,
+};
 use super::spec::Ros2Spec;
-use super::{Ros2Node, command_qos, odometry_qos};
+use super::{Ros2Node, odometry_qos};
 use crate::backend::{BackendError, StopSignal};
 use crate::geometry::{Pose, relative_pose};
 
@@ -64,6 +72,89 @@ pub struct Recording {
     /// The full names listened to.
     pub teleop_topic: String,
     pub odom_topic: String,
+    /// The command type heard (`geometry_msgs/Twist` or `geometry_msgs/TwistStamped`): the type
+    /// of the first writer of it discovery saw; `None` when none was seen.
+    pub command_type: Option<&'static str>,
+    /// What discovery saw on the command topic from other participants at the end, in words
+    /// (for a recording that heard nothing).
+    pub seen: String,
+}
+
+/// The command subscription, of the type the teleoperation publishes.
+enum Commands {
+    /// No writer of Twist or TwistStamped seen on the topic yet.
+    Unknown,
+    Twist(Subscription<Twist>),
+    Stamped(Subscription<TwistStamped>),
+}
+
+impl Commands {
+    /// The newest command heard since the last call, `(v, w)`, counting every one.
+    fn newest(&self, count: &mut u64) -> Option<(f64, f64)> {
+        match self {
+            Commands::Unknown => None,
+            Commands::Twist(s) => newest(s, count).map(|t| (t.linear.x, t.angular.z)),
+            Commands::Stamped(s) => newest(s, count).map(|t| (t.twist.linear.x, t.twist.angular.z)),
+        }
+    }
+}
+
+/// A message type as people write it: `geometry_msgs/Twist`.
+fn ros_type(ty: (&'static str, &'static str)) -> &'static str {
+    match ty {
+        TWIST_STAMPED_TYPE => "geometry_msgs/TwistStamped",
+        _ => "geometry_msgs/Twist",
+    }
+}
+
+/// Subscribe to `topic` with the type another participant publishes there, once one is seen
+/// (best-effort, so reliable and best-effort teleop publishers both match).
+fn subscribe_to_writer(node: &mut Ros2Node, topic: &str) -> Result<Commands, BackendError> {
+    let writers: Vec<String> = node
+        .others()
+        .into_iter()
+        .filter(|e| !e.reader && e.topic == topic)
+        .map(|e| e.type_name)
+        .collect();
+    for ty in [TWIST_TYPE, TWIST_STAMPED_TYPE] {
+        if writers.contains(&dds_type_name(ty)) {
+            return Ok(if ty == TWIST_TYPE {
+                Commands::Twist(node.subscription(topic, ty, odometry_qos())?)
+            } else {
+                Commands::Stamped(node.subscription(topic, ty, odometry_qos())?)
+            });
+        }
+    }
+    Ok(Commands::Unknown)
+}
+
+/// What discovery saw of other participants on `topic`, in words: each writer's and reader's
+/// type, or that none was seen there and what was seen elsewhere.
+pub fn seen_on_topic(node: &Ros2Node, topic: &str) -> String {
+    let others = node.others();
+    let here: Vec<String> = others
+        .iter()
+        .filter(|e| e.topic == topic)
+        .map(|e| {
+            format!(
+                "a {} of {}",
+                if e.reader { "reader" } else { "writer" },
+                e.type_name
+            )
+        })
+        .collect();
+    if !here.is_empty() {
+        return format!("discovery saw on {topic} {}", here.join(", "));
+    }
+    let elsewhere = node.discovered();
+    format!(
+        "discovery saw no other participant on {topic} (elsewhere: {})",
+        if elsewhere.is_empty() {
+            "nothing".to_string()
+        } else {
+            elsewhere.join(", ")
+        }
+    )
 }
 
 /// Drain `sub`, keeping the newest message and counting them (bounded per call).
@@ -104,8 +195,9 @@ pub fn record_teleop(
     let mut node = Ros2Node::open(spec, "advise_record")?;
     let teleop_topic = spec.resolve(&opts.teleop_topic);
     let odom_topic = spec.odom();
-    let commands: Subscription<Twist> =
-        node.subscription(&teleop_topic, TWIST_TYPE, command_qos())?;
+    let mut commands = Commands::Unknown;
+    let mut command_type = None;
+    let mut looked = None::<Instant>;
     let odometry: Subscription<Odometry> =
         node.subscription(&odom_topic, ODOMETRY_TYPE, odometry_qos())?;
     let period = Duration::from_secs_f64(opts.period_s);
@@ -120,6 +212,8 @@ pub fn record_teleop(
         ended: Ended::TimeLimit,
         teleop_topic,
         odom_topic,
+        command_type: None,
+        seen: String::new(),
     };
     let mut odom: Option<OdomSample> = None;
     let mut held: Option<(f64, f64)> = None;
@@ -131,8 +225,18 @@ pub fn record_teleop(
         if let Some(o) = newest(&odometry, &mut rec.odometry_heard) {
             odom = Some(OdomSample::from_msg(&o, now));
         }
-        if let Some(t) = newest(&commands, &mut rec.commands_heard) {
-            let (v, w) = (t.linear.x, t.angular.z);
+        if matches!(commands, Commands::Unknown)
+            && looked.is_none_or(|l| now.duration_since(l) >= Duration::from_millis(50))
+        {
+            looked = Some(now);
+            commands = subscribe_to_writer(&mut node, &rec.teleop_topic)?;
+            command_type = match &commands {
+                Commands::Unknown => None,
+                Commands::Twist(_) => Some(ros_type(TWIST_TYPE)),
+                Commands::Stamped(_) => Some(ros_type(TWIST_STAMPED_TYPE)),
+            };
+        }
+        if let Some((v, w)) = commands.newest(&mut rec.commands_heard) {
             let (v, w) = if v.is_finite() && w.is_finite() {
                 (v, w)
             } else {
@@ -169,6 +273,7 @@ pub fn record_teleop(
                             d.join(", ")
                         }
                     },
+                    discovery: node.discovery.describe().into(),
                 });
             }
             (Some(o), _) if now.duration_since(o.received) > odom_timeout && origin.is_some() => {
@@ -195,5 +300,7 @@ pub fn record_teleop(
         }
         std::thread::sleep(Duration::from_millis(2));
     }
+    rec.command_type = command_type;
+    rec.seen = seen_on_topic(&node, &rec.teleop_topic);
     Ok(rec)
 }

@@ -58,7 +58,8 @@ pub fn run_robot(
     stop: &StopSignal,
     on_ready: impl FnOnce(&str, &str, u16),
 ) -> Result<RobotCounts, BackendError> {
-    let mut node = Ros2Node::open(spec, "advise_sim")?;
+    // The simulator plays a base: the backend must discover it as another participant.
+    let mut node = Ros2Node::open_with(spec, "advise_sim", false)?;
     // Best-effort: a reliable reader would not match a best-effort publisher (and get nothing).
     let commands = node.subscription::<Twist>(&spec.cmd(), TWIST_TYPE, odometry_qos())?;
     let odom = node.publisher::<Odometry>(&spec.odom(), ODOMETRY_TYPE, odometry_publisher_qos())?;

@@ -6,7 +6,10 @@
 //! `wait=SECONDS` (how long connecting waits for the first odometry, 5 s), `odom_timeout=SECONDS`
 //! (odometry older than this ends a run, 0.3 s) and `stamped` (`stamped=true|false|auto`: send
 //! `geometry_msgs/TwistStamped` rather than `Twist`; by default the type of the base's command
-//! reader, as discovery reports it). Example: `ros2:/robot1?cmd=/teleop/cmd_vel&odom_timeout=0.5&stamped`.
+//! reader, as discovery reports it), `discovery=localhost|subnet|off` (else
+//! `ROS_AUTOMATIC_DISCOVERY_RANGE`, else `subnet`: [`DiscoveryRange`]) and `peers=HOST;HOST` (else
+//! `ROS_STATIC_PEERS`; only this host's addresses are reachable, see
+//! [`Ros2SpecError::Ros2StaticPeers`]). Example: `ros2:/robot1?cmd=/teleop/cmd_vel&odom_timeout=0.5&stamped`.
 //!
 //! This module owns [`Ros2Kind`] (the registry's ROS 2 entry), [`Ros2Spec`] and its diagnostics.
 //! It sends nothing: connecting is the driver's ([`super::driver::Ros2Backend::connect`]).
@@ -81,6 +84,64 @@ pub struct Ros2Spec {
     /// `stamped`: send `TwistStamped` (`Some(true)`), `Twist` (`Some(false)`), or whichever the
     /// base's command reader takes (`None`, the default).
     pub stamped: Option<bool>,
+    /// `discovery=...`; `None` means `ROS_AUTOMATIC_DISCOVERY_RANGE`, else SUBNET.
+    pub discovery: Option<DiscoveryRange>,
+    /// `peers=HOST;HOST`; `None` means `ROS_STATIC_PEERS`.
+    pub peers: Option<Vec<String>>,
+}
+
+/// How far discovery looks, as ROS 2's `ROS_AUTOMATIC_DISCOVERY_RANGE` says, in what RustDDS 0.15
+/// offers: SUBNET is its default (multicast on every interface, and SPDP by unicast to this
+/// host's well-known ports of participants 0-11); LOCALHOST keeps to 127.0.0.1 (the unicast
+/// part only, with multicast and advertised locators on loopback); OFF finds no one (no
+/// interface, no unicast).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DiscoveryRange {
+    Subnet,
+    Localhost,
+    Off,
+}
+
+impl DiscoveryRange {
+    fn parse(s: &str) -> Option<DiscoveryRange> {
+        match s.to_ascii_uppercase().as_str() {
+            "SUBNET" | "SYSTEM_DEFAULT" => Some(DiscoveryRange::Subnet),
+            "LOCALHOST" => Some(DiscoveryRange::Localhost),
+            "OFF" => Some(DiscoveryRange::Off),
+            _ => None,
+        }
+    }
+
+    pub fn word(self) -> &'static str {
+        match self {
+            DiscoveryRange::Subnet => "subnet",
+            DiscoveryRange::Localhost => "localhost",
+            DiscoveryRange::Off => "off",
+        }
+    }
+
+    /// What this range reaches, in words, for a diagnostic.
+    pub fn describe(self) -> &'static str {
+        match self {
+            DiscoveryRange::Subnet => {
+                "discovery is SUBNET: multicast on every interface (a network without a multicast route reaches no one that way), and unicast to this host's participants 0-11 on 127.0.0.1"
+            }
+            DiscoveryRange::Localhost => {
+                "discovery is LOCALHOST: unicast to this host's participants 0-11 on 127.0.0.1 only (the base must listen on its well-known port: Cyclone DDS with `ParticipantIndex` auto, as ROS 2's LOCALHOST sets it)"
+            }
+            DiscoveryRange::Off => {
+                "discovery is OFF (`discovery=off` or ROS_AUTOMATIC_DISCOVERY_RANGE=OFF): no other participant can be found"
+            }
+        }
+    }
+}
+
+/// Whether `host` names this host's loopback (`localhost`, `127.x.y.z`, `::1`).
+fn is_loopback(host: &str) -> bool {
+    host.eq_ignore_ascii_case("localhost")
+        || host
+            .parse::<std::net::IpAddr>()
+            .is_ok_and(|a| a.is_loopback())
 }
 
 impl Default for Ros2Spec {
@@ -93,6 +154,8 @@ impl Default for Ros2Spec {
             wait_ms: 5_000,
             odom_timeout_ms: 300,
             stamped: None,
+            discovery: None,
+            peers: None,
         }
     }
 }
@@ -134,6 +197,44 @@ impl Ros2Spec {
             _ => Ok(0),
         }
     }
+
+    /// How far discovery looks: `discovery=`, else `ROS_AUTOMATIC_DISCOVERY_RANGE`, else SUBNET;
+    /// static peers (`peers=`, else `ROS_STATIC_PEERS`) must be on this host (RustDDS 0.15 has no
+    /// list of initial peers: [`Ros2SpecError::Ros2StaticPeers`]).
+    pub fn discovery_range(&self) -> Result<DiscoveryRange, Ros2SpecError> {
+        let peers = match &self.peers {
+            Some(p) => p.clone(),
+            None => split_peers(&std::env::var("ROS_STATIC_PEERS").unwrap_or_default()),
+        };
+        let from = if self.peers.is_some() {
+            "`peers=`"
+        } else {
+            "ROS_STATIC_PEERS"
+        };
+        if let Some(peer) = peers.iter().find(|p| !is_loopback(p)) {
+            return Err(Ros2SpecError::Ros2StaticPeers {
+                peer: peer.clone(),
+                from: from.into(),
+            });
+        }
+        if let Some(d) = self.discovery {
+            return Ok(d);
+        }
+        match std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE") {
+            Ok(v) if !v.trim().is_empty() => DiscoveryRange::parse(v.trim())
+                .ok_or_else(|| Ros2SpecError::Ros2Discovery { value: v.clone() }),
+            _ => Ok(DiscoveryRange::Subnet),
+        }
+    }
+}
+
+/// `ROS_STATIC_PEERS`' list: addresses separated by `;` (or `,`), blanks dropped.
+fn split_peers(s: &str) -> Vec<String> {
+    s.split([';', ','])
+        .map(str::trim)
+        .filter(|p| !p.is_empty())
+        .map(str::to_string)
+        .collect()
 }
 
 /// A DDS domain id usable with the default port mapping (0 to 232, as ROS 2 documents).
@@ -207,10 +308,33 @@ pub enum Ros2SpecError {
         help("a ROS 2 domain id is a number from 0 to 232; unset ROS_DOMAIN_ID for domain 0")
     )]
     Ros2Domain { value: String, from: String },
+    #[error("ROS_AUTOMATIC_DISCOVERY_RANGE is `{value}`, not a discovery range")]
+    #[diagnostic(
+        code(advise::backend::ros2_discovery),
+        help("ROS 2's ranges are SUBNET (the default), LOCALHOST, OFF and SYSTEM_DEFAULT")
+    )]
+    Ros2Discovery { value: String },
+    #[error("{from} names `{peer}`, another host, which `advise` cannot reach without multicast")]
+    #[diagnostic(
+        code(advise::backend::ros2_static_peers),
+        help(
+            "RustDDS 0.15, the DDS `advise` speaks ROS 2 through, has no list of initial peers: it finds participants by multicast on the network's interfaces and, on this host, by unicast to 127.0.0.1's well-known ports of participants 0-11. A static peer on this host (`localhost`, 127.0.0.1) is reached that way; for another host give the network a multicast route (ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET) or run `advise` on the robot's computer"
+        )
+    )]
+    Ros2StaticPeers { peer: String, from: String },
 }
 
 /// The options a `ros2` spec takes after `?`.
-const ROS2_OPTIONS: [&str; 6] = ["cmd", "odom", "domain", "wait", "odom_timeout", "stamped"];
+const ROS2_OPTIONS: [&str; 8] = [
+    "cmd",
+    "odom",
+    "domain",
+    "wait",
+    "odom_timeout",
+    "stamped",
+    "discovery",
+    "peers",
+];
 
 fn parse_ros2(spec: &str, rest: &str) -> Result<Ros2Spec, Ros2SpecError> {
     let mut out = Ros2Spec::default();
@@ -275,6 +399,22 @@ fn parse_ros2(spec: &str, rest: &str) -> Result<Ros2Spec, Ros2SpecError> {
                     _ => return Err(bad_value("`true`, `false` or `auto`")),
                 }
             }
+            "discovery" => {
+                out.discovery = Some(
+                    DiscoveryRange::parse(value)
+                        .ok_or_else(|| bad_value("`localhost`, `subnet` or `off`"))?,
+                )
+            }
+            "peers" => {
+                let peers = split_peers(value);
+                if let Some(peer) = peers.iter().find(|p| !is_loopback(p)) {
+                    return Err(Ros2SpecError::Ros2StaticPeers {
+                        peer: peer.clone(),
+                        from: format!("`{spec}`"),
+                    });
+                }
+                out.peers = Some(peers);
+            }
             _ => {
                 let help = hint(key, "options", &ROS2_OPTIONS);
                 return Err(Ros2SpecError::Ros2Option {
@@ -318,6 +458,12 @@ impl fmt::Display for Ros2Spec {
             Some(true) => options.push("stamped".into()),
             Some(false) => options.push("stamped=false".into()),
             None => {}
+        }
+        if let Some(d) = r.discovery {
+            options.push(format!("discovery={}", d.word()));
+        }
+        if let Some(p) = &r.peers {
+            options.push(format!("peers={}", p.join(";")));
         }
         if !options.is_empty() {
             write!(f, "?{}", options.join("&"))?;
@@ -369,6 +515,17 @@ mod tests {
             "ros2:/robot1?cmd=/teleop/cmd_vel&odom=wheel_odom&domain=7&wait=0.5&odom_timeout=1"
         );
         assert_eq!(ros2(&r.to_string()), r);
+        let r = ros2("ros2?discovery=localhost&peers=127.0.0.1;localhost");
+        assert_eq!(r.discovery_range(), Ok(DiscoveryRange::Localhost));
+        assert_eq!(
+            r.to_string(),
+            "ros2:/?discovery=localhost&peers=127.0.0.1;localhost"
+        );
+        assert_eq!(ros2(&r.to_string()), r);
+        assert_eq!(
+            ros2("ros2?discovery=OFF").discovery,
+            Some(DiscoveryRange::Off)
+        );
         match error("ros2?odom_timout=1") {
             Ros2SpecError::Ros2Option { help, .. } => {
                 assert_eq!(help, "did you mean `odom_timeout`?")
@@ -388,6 +545,9 @@ mod tests {
             ("ros2?domain=300", "Ros2Value"),
             ("ros2?wait=-1", "Ros2Value"),
             ("ros2?odom_timeout=soon", "Ros2Value"),
+            ("ros2?discovery=lan", "Ros2Value"),
+            ("ros2?peers=192.168.1.5", "Ros2StaticPeers"),
+            ("ros2?peers=localhost;robot.local", "Ros2StaticPeers"),
         ] {
             let e = error(spec);
             assert!(format!("{e:?}").starts_with(code), "{spec}: {e:?}");

@@ -93,11 +93,12 @@ pub enum Command {
     ExportLeRobot(String),
     Help(Option<Ident>),
     Quit,
-    /// `record demo [from TOPIC] [goal X Y THETA] [for SECONDS]`.
+    /// `record demo [from TOPIC] [goal X Y THETA] [for SECONDS] [--keep-idle]`.
     RecordDemo {
         topic: Option<String>,
         goal: Option<[f64; 3]>,
         seconds: Option<f64>,
+        keep_idle: bool,
     },
     /// `teleop [goal X Y THETA] [for SECONDS]`.
     Teleop {
@@ -296,8 +297,13 @@ fn record_or_teleop<'i>(
     next: &mut impl FnMut() -> Option<Pair<'i, Rule>>,
 ) -> Result<Command, ParseError> {
     let (mut topic, mut goal, mut seconds) = (None, None, None);
+    let mut keep_idle = false;
     while let Some(opt) = next() {
         let opt_rule = opt.as_rule();
+        if opt_rule == Rule::keep_idle_flag {
+            keep_idle = true;
+            continue;
+        }
         let mut parts = opt
             .into_inner()
             .filter(|a| !format!("{:?}", a.as_rule()).starts_with("cw_"));
@@ -320,6 +326,7 @@ fn record_or_teleop<'i>(
             topic,
             goal,
             seconds,
+            keep_idle,
         }
     })
 }
