@@ -698,6 +698,46 @@ mod tests {
     }
 
     #[test]
+    fn the_aim_is_behind_the_goal_along_its_heading() {
+        // The goal 2 m straight ahead, facing the same way: aim straight at it, 1 m short.
+        let (d, b) = aim(&[4.0, 0.0, 0.0]);
+        assert!((d - 1.0).abs() < 1e-12 && b.abs() < 1e-12);
+        // The same goal facing left (+pi/2): the aim lies to the right of it, so the robot
+        // swings out right and bends in onto the heading.
+        let (_, b) = aim(&[4.0, 0.0, std::f64::consts::FRAC_PI_2]);
+        assert!(b < -0.3, "{b}");
+        // Far away the set-back is at most 1 m.
+        let (d, _) = aim(&[100.0, 0.0, 0.0]);
+        assert!((d - 9.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn every_rate_is_one_a_person_would_say() {
+        for exec in [
+            drive(3.0, 1.5, 0.5),
+            drive(1.5, 2.5, 0.5),
+            drive(4.0, 0.5, 0.5),
+            arc(Pose::new(2.0, 2.0, 0.0), 0.5, 0.08, 240),
+            arc(Pose::new(3.0, 0.5, 0.0), 0.5, 0.6, 150),
+            arc(Pose::new(3.0, -1.0, -1.5), 0.5, 0.2, 150),
+        ] {
+            for a in advise(&exec, &AdvisorRules::default()) {
+                let text = a.operator.to_string();
+                if text.starts_with("start_turning_earlier") || !text.contains('(') {
+                    continue;
+                }
+                let arg: f64 = text
+                    .split(['(', ')'])
+                    .nth(1)
+                    .and_then(|v| v.rsplit('=').next())
+                    .and_then(|v| v.trim().parse().ok())
+                    .unwrap_or_else(|| panic!("{text}"));
+                assert!(RATES.contains(&arg), "{text}");
+            }
+        }
+    }
+
+    #[test]
     fn advice_speaks_only_through_standard_operators() {
         let ops = OperatorSet::standard();
         for exec in [

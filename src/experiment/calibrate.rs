@@ -392,6 +392,9 @@ fn bc_params() -> Vec<Param<BcPair>> {
     ]
 }
 
+/// What a BC candidate that breaks the physical constraints adds to the loss.
+const BROKEN: f64 = 1.0e6;
+
 /// The floor on an ideal interceptor's success (docs/protocol.md, point 1).
 pub const IDEAL_FLOOR: f64 = 0.95;
 
@@ -455,15 +458,15 @@ fn calibrate_bc(sim: &SimParams, from_bootstrap: bool, progress: bool) -> BcFile
             InterceptionTeacher::new(sim.period_s()),
         )
     };
-    let loss = |f: &[f64; 4]| -> f64 {
-        if f.iter().any(|v| v.is_infinite()) {
-            return f64::INFINITY;
-        }
-        BC_TARGETS
+    // The figures, then whether the physical constraints hold (1) or not (0): a candidate that
+    // breaks them costs BROKEN more, so it is never chosen over one that holds.
+    let loss = |f: &[f64; 5]| -> f64 {
+        let fit: f64 = BC_TARGETS
             .iter()
             .zip(f)
             .map(|((_, paper, unit), got)| miss(*got, *paper, *unit))
-            .sum()
+            .sum();
+        fit + if f[4] > 0.5 { 0.0 } else { BROKEN }
     };
     let mut evaluations = 0;
     let Descent {
@@ -473,20 +476,17 @@ fn calibrate_bc(sim: &SimParams, from_bootstrap: bool, progress: bool) -> BcFile
     } = descend(
         &start,
         &params,
-        // A world that breaks the physical constraints is never chosen.
         &|p: &BcPair| {
-            if interceptable(&p.0, &p.1, sim).holds() {
-                bc_figures(&p.0, &p.1, sim)
-            } else {
-                [f64::INFINITY; 4]
-            }
+            let [a, b, c, d] = bc_figures(&p.0, &p.1, sim);
+            let holds = interceptable(&p.0, &p.1, sim).holds();
+            [a, b, c, d, f64::from(u8::from(holds))]
         },
         &loss,
         &bar,
         &mut evaluations,
     );
     bar.finish();
-    let targets = fitted(&BC_TARGETS, &before, &after);
+    let targets = fitted(&BC_TARGETS, &before[..4], &after[..4]);
     let knobs = knobs(&params, &start, &best);
     BcFile {
         study: "bc".into(),
@@ -764,12 +764,42 @@ pub fn render(r: &FitReport, study: &str) -> String {
 mod tests {
     use super::*;
 
+    /// `advise calibrate bc --from-bootstrap` reproduces the shipped file byte for byte.
+    #[test]
+    fn the_bc_calibration_from_bootstrap_reproduces_the_shipped_file() {
+        let out = run(Study::Bc, SimParams::default(), true, false);
+        assert!(
+            out.json == Shipped::Bc.text(),
+            "calibration/bc.json is not what `advise calibrate bc --from-bootstrap` writes:\n{}",
+            out.json
+        );
+    }
+
+    /// The shipped BC world is interceptable, and its record says so with the figures the code
+    /// computes.
+    #[test]
+    fn the_shipped_ball_is_interceptable_and_the_record_says_so() {
+        let bc: BcFile = Shipped::Bc.read().expect("bc.json");
+        let got = interceptable(&bc.world, &bc.teacher, &SimParams::default());
+        assert!(got.holds(), "{got:?}");
+        assert!(got.ideal_interceptor_success >= IDEAL_FLOOR);
+        assert!(got.ball_teacher_speed_ratio <= 1.0);
+        assert_eq!(bc.calibration.constraints, Some(got));
+        // The ball of the first calibration (up to 1.3 m/s against a 0.8 m/s cruise) breaks it.
+        let fast = InterceptionRules {
+            ball_speed_mps: (0.0, 1.3),
+            ..bc.world.clone()
+        };
+        assert!(!interceptable(&fast, &bc.teacher, &SimParams::default()).holds());
+    }
+
     /// The shipped files parse as what `advise calibrate` writes, and the defaults are theirs.
     #[test]
     fn the_shipped_calibrations_are_the_defaults() {
         let bc: BcFile = Shipped::Bc.read().expect("bc.json");
         assert_eq!(bc.world, InterceptionRules::default());
         assert_eq!(bc.teacher, InterceptionTeacher::new(bc.teacher.period_s));
+        assert!(bc.calibration.command.contains("--from-bootstrap"));
         assert!(shipped(Study::Bc).is_some());
         let aopi: AopiFile = Shipped::Aopi.read().expect("aopi.json");
         assert_eq!(aopi.pilot, PilotStyle::default());

@@ -559,3 +559,23 @@ impl AopiSummary {
         s
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_interval_brackets_the_mean_and_is_reproducible() {
+        let v = [0.1, -0.05, 0.2, 0.0, 0.15, 0.05, 0.1, -0.1];
+        let i = Interval::of(&v).unwrap();
+        assert!((i.mean - 0.05625).abs() < 1e-12);
+        assert!(i.lo95 < i.mean && i.mean < i.hi95, "{i:?}");
+        assert!(i.lo95 > -0.1 && i.hi95 < 0.2);
+        assert_eq!(Interval::of(&v), Some(i));
+        assert_eq!(i.seeds, 8);
+        assert_eq!(Interval::of(&[]), None);
+        // One value: no spread.
+        let one = Interval::of(&[0.3]).unwrap();
+        assert_eq!((one.lo95, one.hi95), (0.3, 0.3));
+    }
+}

@@ -594,6 +594,34 @@ mod tests {
     }
 
     #[test]
+    fn the_teacher_is_a_person_not_a_function_of_the_observation() {
+        let teacher = InterceptionTeacher::bootstrap(1.0 / 30.0);
+        let z = [2.0, 0.6, 0.0, 0.0, 0.0, 0.0];
+        // The same observations in two episodes: different actions (another person's hand);
+        // the same episode twice: the same actions.
+        let run = |seed: u64| {
+            let mut d = teacher.driver();
+            d.begin(seed);
+            (0..40)
+                .map(|_| {
+                    let mut a = [0.0; 2];
+                    d.act(&z, &mut a);
+                    a
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(run(3), run(3));
+        assert_ne!(run(3), run(4));
+        // Styles stay within the ranges.
+        for seed in 0..50 {
+            let (gain, onset, hand) = teacher.style(seed);
+            assert!((teacher.gain[0]..=teacher.gain[1]).contains(&gain));
+            assert!((teacher.turn_onset_rad[0]..=teacher.turn_onset_rad[1]).contains(&onset));
+            assert!(teacher.hand.contains(&hand));
+        }
+    }
+
+    #[test]
     fn a_ball_rolling_away_faster_than_the_base_is_lost() {
         let fast = BallStart {
             x_m: 2.0,
