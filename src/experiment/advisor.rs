@@ -572,7 +572,8 @@ mod tests {
         let advice = advise(&exec, &AdvisorRules::default());
         assert_eq!(advice.len(), 1);
         let a = &advice[0];
-        assert_eq!(a.operator.to_string(), "translational_acceleration");
+        // 1.5 m short of a goal 3 m away: half the way, "much more".
+        assert_eq!(a.operator.to_string(), "translational_acceleration(0.5)");
         assert_eq!(a.reason, Reason::StoppedShort);
         assert_eq!(a.chunk.len(), 25);
         // The chunk ends at the last driving point.
@@ -586,7 +587,8 @@ mod tests {
         let advice = advise(&exec, &AdvisorRules::default());
         assert_eq!(advice.len(), 1);
         let a = &advice[0];
-        assert_eq!(a.operator.to_string(), "translational_deceleration");
+        // 1 m past a goal 1.5 m away: "much more".
+        assert_eq!(a.operator.to_string(), "translational_deceleration(0.5)");
         assert_eq!(a.reason, Reason::Overshoot);
         let closest_x = 1.5;
         let end_pose = exec.trace.pose.as_ref().unwrap()[a.chunk.end - 1];

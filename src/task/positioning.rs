@@ -17,10 +17,10 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::backend::sim::normal_pair;
-use crate::task::human::{Hand, HandStyle};
 use crate::domain::columns::positioning::{BEARING, DHEADING, DIST2, ROT, TRANS};
 use crate::geometry::{Pose, bearing, wrap_angle};
 use crate::task::Controller;
+use crate::task::human::{Hand, HandStyle};
 
 /// Goal bounds, from the paper.
 pub const GOAL_X_M: (f64, f64) = (-0.33, 4.5);
