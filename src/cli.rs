@@ -178,6 +178,10 @@ pub struct CalibrateArgs {
     /// Print the calibration file's JSON instead of the report.
     #[arg(long)]
     pub json: bool,
+    /// Start from the first guesses in the code instead of the shipped constants: this is how
+    /// the shipped file was made, and it reproduces it byte for byte.
+    #[arg(long)]
+    pub from_bootstrap: bool,
     /// Simulator parameters (JSON; omitted fields keep their defaults).
     #[arg(long, value_name = "FILE")]
     pub sim_params: Option<PathBuf>,

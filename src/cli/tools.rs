@@ -168,7 +168,7 @@ pub fn calibrate(args: CalibrateArgs) -> miette::Result<()> {
         }
         crate::files::refuse_overwriting_inputs(path, args.sim_params.as_deref())?;
     }
-    let out = crate::experiment::calibrate::run(args.study, sim, true);
+    let out = crate::experiment::calibrate::run(args.study, sim, args.from_bootstrap, true);
     if let Some(path) = &args.write {
         if let Err(e) = crate::files::write_bytes(path, out.json.as_bytes()) {
             print_stdout(&out.json)?;

@@ -13,43 +13,42 @@
 //!    come to rest. A good execution gets no advice.
 //! 2. When it ended far from the goal, first how it ended, on the chunk next to the end:
 //!    - **overshoot** (the robot came within the tolerance, then stopped farther away):
-//!      `translational_deceleration` on the last [`AdvisorRules::chunk_len`] driving points
-//!      up to the closest approach: "slow down as you get there".
+//!      `translational_deceleration(gain)` on the last [`AdvisorRules::chunk_len`] driving
+//!      points up to the closest approach: "slow down as you get there";
 //!    - **stopped short** (at rest with the goal still ahead, within pi/4 of the heading):
-//!      `translational_acceleration` on the last driving chunk: "keep going here".
+//!      `translational_acceleration(gain)` on the last driving chunk: "keep going here".
 //!
-//!    Then how it got there: the **arcs of the approach**. A person watching from the side sees
-//!    whether the robot is curving onto the goal, past it, or away from it. At each driving
-//!    point of the approach (up to the closest approach or the end chunk, and farther than
-//!    0.6 m from the goal, where the robot should be lining up on the goal heading instead) the
-//!    arc that reaches the goal, tangent to the robot's heading, has curvature
-//!    `2 sin(bearing) / distance`; the driven arc has `rot / trans`. A point is **too wide**
-//!    when it turns toward the goal at less than 0.6 of the wanted curvature, **too tight** when
-//!    it turns at more than 1.7 of it (or turns while the goal is straight ahead), **away** when
-//!    it turns the other way, **straight** when it drives straight with the goal clearly off to
-//!    the side (wanted curvature above 0.24 1/m); driving straight with the goal straight ahead
-//!    is right. Runs of at least [`AdvisorRules::min_chunk`] consecutive points with the same
-//!    fault are the chunks a person would select; the longest [`AdvisorRules::approach_chunks`]
-//!    of them are advised, each cut to its first [`AdvisorRules::chunk_len`] points (the
-//!    earlier the correction, the more of the path it changes): too wide gets
-//!    `turn_tighter(rate)`, too tight `turn_looser(rate)`, away `no_turning`. Scaling cannot
-//!    make a turn out of a straight run, so a straight run that the robot ended by turning toward
-//!    the goal (within 10 points) gets `start_turning_earlier(steps)` on the first chunk of that
-//!    turn, `steps` the straight run's length rounded up to 5 points: "when you saw this, you
-//!    should already have been turning like that"; a straight run with no such turn after it
-//!    gets nothing. The rate is the
-//!    chunk's median correction rounded to a coarse value a person would pick (tighter by 0.5,
-//!    1, 2 or 4; looser by 0.25, 0.5 or 0.75), never the exact number.
+//!    Then how it got there: the **arcs of the approach**, judged against the goal *pose*. A
+//!    person expects the robot to bend onto the goal heading as it comes (the paper's "smoothly
+//!    coupled rotational and translational speeds"), so the reference is the arc to an aim point
+//!    behind the goal along its heading, set back by half the remaining distance (at most 1 m),
+//!    tangent to the robot's heading: curvature `2 sin(bearing) / distance` to that point. The
+//!    driven curvature is the path's (heading change over distance, over 5 points). Beyond 0.6 m
+//!    of the goal, a driving point is **too wide** when it turns toward the aim at less than 0.6
+//!    of the wanted curvature, **too tight** above 1.7 of it, **away** when it turns the other
+//!    way, **straight** when it drives straight with the aim clearly off to the side. Runs of at
+//!    least [`AdvisorRules::min_chunk`] points with the same fault are the chunks a person would
+//!    select; the longest [`AdvisorRules::approach_chunks`] of them are advised, each cut to its
+//!    first [`AdvisorRules::chunk_len`] points: too wide gets `turn_tighter(rate)`, too tight
+//!    `turn_looser(rate)`, away `no_turning`; a straight run the robot ended by turning toward
+//!    the aim (within 10 points) gets `start_turning_earlier(steps)` on the first chunk of that
+//!    turn, `steps` the straight run's length rounded up to 5 points.
 //!
 //!    If neither found anything (missed to the side with no clear arc): over the last driving
-//!    chunk before the closest approach, `turn_tighter(2)` if the robot was turning toward the
-//!    goal, else `translational_deceleration(0.5)`.
+//!    chunk before the closest approach, `turn_tighter(rate)` if the robot was turning toward the
+//!    goal, else `translational_deceleration(rate)`.
 //! 3. Then heading, when the heading is off: over the last chunk in which the robot was turning,
-//!    if it turned toward the goal heading but stopped turning too soon (the remaining heading
-//!    error has the sign of the turn), `rotational_acceleration`; if it turned past it (opposite
-//!    sign), `rotational_deceleration`.
+//!    if it turned toward the goal heading but stopped turning too soon, `rotational_acceleration
+//!    (gain)`; if it turned past it, `rotational_deceleration(gain)`.
 //! 4. Close enough but never at rest (the time limit passed near the goal): `stop` on the last
 //!    chunk: "you were there; stop".
+//!
+//! **Rates.** Every rate and gain is one of [`RATES`], 0.1, 0.25 or 0.5: "a little", "more",
+//! "much more", chosen from the size of what the path shows (the paper's advisor did not need
+//! "value-based execution details (e.g. speed) to select operators"): an overshoot, a shortfall
+//! or a miss as a share of the distance the run covered (more from 0.2, much more from 0.4); an
+//! arc by the share of the wanted turn missing or overdone (more from 0.6, much more from 0.8);
+//! a heading by its error as a share of half a turn (more from 0.25, much more from 0.5).
 //!
 //! So a poor execution gets up to eight pieces of advice, each on one chunk of at most
 //! [`AdvisorRules::chunk_len`] points, and no point of an execution is advised twice by rule 2
@@ -62,7 +61,7 @@ use serde::{Deserialize, Serialize};
 use crate::domain::columns::positioning::{BEARING, DHEADING, DIST2, ROT, TRANS};
 use crate::syntax::Invocation;
 use crate::task::{Ending, Execution, Outcome};
-use crate::trace::{Chunk, Trace};
+use crate::trace::{Chunk, Pose, Trace};
 
 /// A point counts as driving / turning above these speeds (m/s, rad/s).
 const MOVING_MPS: f64 = 0.02;
@@ -176,17 +175,28 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         let goal_ahead = last[BEARING].abs() < std::f64::consts::FRAC_PI_4;
         // How it ended: overshoot or stopped short, on the chunk next to the end.
         let mut end_chunk = None;
+        // The distance the run covered toward the goal, which a miss is judged against.
+        let covered = (trace.z(0)[DIST2].sqrt()).max(1e-6);
         if passed {
             if let Some(c) = last_chunk_where(trace, closest + 1, rules.chunk_len, driving) {
-                out.push(advice("translational_deceleration", c, Reason::Overshoot));
+                // How far past the goal it rolled, against the distance covered.
+                let past = last[DIST2].sqrt() - closest_m;
+                let gain = rate_for(past / covered, 0.2, 0.4);
+                out.push(advice(
+                    &format!("translational_deceleration({gain})"),
+                    c,
+                    Reason::Overshoot,
+                ));
                 end_chunk = Some(c);
             }
         } else if goal_ahead
             && o.ending == Ending::Rested
             && let Some(c) = last_chunk_where(trace, n, rules.chunk_len, driving)
         {
+            // How far short it stopped, against the distance covered.
+            let gain = rate_for(last[DIST2].sqrt() / covered, 0.2, 0.4);
             out.push(advice(
-                "translational_acceleration",
+                &format!("translational_acceleration({gain})"),
                 c,
                 Reason::StoppedShort,
             ));
@@ -195,7 +205,7 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         // How it got there: the arcs of the approach, up to the closest approach (or the end
         // chunk, so that no point is advised twice).
         let approach_end = end_chunk.map_or(closest + 1, |c| c.start.min(closest + 1));
-        let arcs = approach_advice(trace, approach_end, rules);
+        let arcs = approach_advice(trace, exec.path(), approach_end, rules);
         let had_arcs = !arcs.is_empty();
         for (text, c, reason) in arcs {
             out.push(advice(&text, c, reason));
@@ -210,11 +220,17 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
                 .range()
                 .map(|t| trace.a(t)[ROT] * trace.z(t)[BEARING].signum())
                 .sum();
+            // How far to the side it missed, against the distance covered.
+            let rate = rate_for(o.position_error_m / covered, 0.2, 0.4);
             if toward > 0.0 {
-                out.push(advice("turn_tighter(2)", c, Reason::MissedTurningTooLittle));
+                out.push(advice(
+                    &format!("turn_tighter({rate})"),
+                    c,
+                    Reason::MissedTurningTooLittle,
+                ));
             } else {
                 out.push(advice(
-                    "translational_deceleration(0.5)",
+                    &format!("translational_deceleration({rate})"),
                     c,
                     Reason::MissedTurningAway,
                 ));
@@ -228,14 +244,24 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         // (`dheading` = theta_g - theta_r, odometry's view, which is what the robot turned on).
         let turn: f64 = c.range().map(|t| trace.a(t)[ROT]).sum();
         let to_go = last[DHEADING];
+        // How far off the heading it ended, as a share of half a turn.
+        let gain = rate_for(
+            o.heading_error_rad.unwrap_or(0.0) / std::f64::consts::PI,
+            0.25,
+            0.5,
+        );
         if turn * to_go > 0.0 {
             out.push(advice(
-                "rotational_acceleration",
+                &format!("rotational_acceleration({gain})"),
                 c,
                 Reason::TurnedTooLittle,
             ));
         } else {
-            out.push(advice("rotational_deceleration", c, Reason::TurnedTooMuch));
+            out.push(advice(
+                &format!("rotational_deceleration({gain})"),
+                c,
+                Reason::TurnedTooMuch,
+            ));
         }
     }
     if out.is_empty() && o.ending != Ending::Rested {
@@ -246,13 +272,15 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
 }
 
 /// Advice is not given on arcs nearer the goal than this, m: there the robot should be turning
-/// onto the goal heading, not toward the goal position.
+/// onto the goal heading in place or nearly.
 const ARC_NEAR_M: f64 = 0.6;
 /// An arc is right when its curvature is within these factors of the arc that reaches the goal.
 const ARC_OK: (f64, f64) = (0.6, 1.7);
 /// With the goal this nearly straight ahead (curvature of the arc to it, 1/m), driving straight
 /// is right.
 const ARC_STRAIGHT: f64 = 0.12;
+/// The path's curvature at a point is measured over this many points of it.
+const CURVE_WINDOW: usize = 5;
 
 /// How a point of the approach curves, against the arc that would reach the goal.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -268,25 +296,59 @@ enum Arc {
     Straight,
 }
 
+/// Where a person expects the robot to head from an observation: the goal pose approached along
+/// its heading (the paper's "smoothly coupled rotational and translational speeds ... in
+/// contrast to turning on spot to θg after attaining (xg, yg)"). The aim point lies behind the
+/// goal along the goal heading, set back by half the remaining distance (at most 1 m); returns
+/// its distance and bearing in the robot's frame.
+fn aim(z: &[f64]) -> (f64, f64) {
+    let d = z[DIST2].max(0.0).sqrt();
+    let (gx, gy) = (d * z[BEARING].cos(), d * z[BEARING].sin());
+    let back = (0.5 * d).min(1.0);
+    let (ax, ay) = (gx - back * z[DHEADING].cos(), gy - back * z[DHEADING].sin());
+    (ax.hypot(ay), ay.atan2(ax))
+}
+
+/// The curvature the path shows at point `t` (1/m): the heading change over the next
+/// [`CURVE_WINDOW`] points over the distance driven, from the poses a person watching sees (the
+/// true path when the backend knew it, else odometry); without poses, the commanded arc.
+fn driven_curvature(trace: &Trace, path: &[Pose], t: usize) -> f64 {
+    let (a_t, v) = (trace.a(t), trace.a(t)[TRANS]);
+    if path.len() < trace.len() || t + 1 >= path.len() {
+        return a_t[ROT] / v;
+    }
+    let e = (t + CURVE_WINDOW).min(path.len() - 1);
+    let dist: f64 = (t..e)
+        .map(|i| (path[i + 1].x_m - path[i].x_m).hypot(path[i + 1].y_m - path[i].y_m))
+        .sum();
+    if dist < 1e-6 {
+        return a_t[ROT] / v;
+    }
+    crate::geometry::wrap_angle(path[e].theta_rad - path[t].theta_rad) / dist
+}
+
 /// The arc at point `t`, or `None` where the robot was not driving forward or was already near.
-/// The arc that reaches the goal from the robot's pose, tangent to its heading, has curvature
-/// `2 sin(bearing) / distance`; the driven arc has curvature `rot / trans`. This is what a
-/// person sees from the side: whether the robot is curving onto the goal, past it, or away.
-fn arc_at(trace: &Trace, t: usize) -> Option<Arc> {
+/// The arc that reaches the aim point ([`aim`]) from the robot's pose, tangent to its heading,
+/// has curvature `2 sin(bearing) / distance`; the driven arc is the path's
+/// ([`driven_curvature`]). This is what a person sees from the side: whether the robot is
+/// curving onto the goal pose, past it, or away.
+fn arc_at(trace: &Trace, path: &[Pose], t: usize) -> Option<Arc> {
     let (z, a) = (trace.z(t), trace.a(t));
     let d = z[DIST2].max(0.0).sqrt();
     if a[TRANS] <= MOVING_MPS || d < ARC_NEAR_M {
         return None;
     }
-    let wanted = 2.0 * z[BEARING].sin() / d;
-    let driven = a[ROT] / a[TRANS];
+    let (ad, ab) = aim(z);
+    let wanted = 2.0 * ab.sin() / ad.max(1e-6);
+    let driven = driven_curvature(trace, path, t);
+    let turning = driven.abs() * a[TRANS] > TURNING_RADPS;
     if wanted.abs() < ARC_STRAIGHT && driven.abs() < ARC_STRAIGHT {
         return Some(Arc::Right);
     }
-    if wanted * driven < 0.0 && a[ROT].abs() > TURNING_RADPS && wanted.abs() >= ARC_STRAIGHT {
+    if wanted * driven < 0.0 && turning && wanted.abs() >= ARC_STRAIGHT {
         return Some(Arc::Away);
     }
-    if a[ROT].abs() <= TURNING_RADPS {
+    if !turning {
         // Scaling cannot make a turn out of driving straight; the turn that came later can be
         // moved earlier (see `approach_advice`).
         return (wanted.abs() >= 2.0 * ARC_STRAIGHT).then_some(Arc::Straight);
@@ -301,6 +363,21 @@ fn arc_at(trace: &Trace, t: usize) -> Option<Arc> {
     })
 }
 
+/// The rates a person says: "a little", "more", "much more".
+pub const RATES: [f64; 3] = [0.1, 0.25, 0.5];
+
+/// The rate for a fault of `size` (a fraction: of the distance the run covered, of the turn
+/// that was wanted, ...), given where "more" and "much more" begin.
+fn rate_for(size: f64, more: f64, much_more: f64) -> f64 {
+    if size >= much_more {
+        RATES[2]
+    } else if size >= more {
+        RATES[1]
+    } else {
+        RATES[0]
+    }
+}
+
 /// The approach's arcs to correct (rule 2): runs of consecutive points before `end` that curve
 /// the same wrong way, the longest first, at most [`AdvisorRules::approach_chunks`] of them,
 /// each cut to its first [`AdvisorRules::chunk_len`] points (the earlier a correction comes, the
@@ -308,6 +385,7 @@ fn arc_at(trace: &Trace, t: usize) -> Option<Arc> {
 /// to the coarse values a person would choose.
 fn approach_advice(
     trace: &Trace,
+    path: &[Pose],
     end: usize,
     rules: &AdvisorRules,
 ) -> Vec<(String, Chunk, Reason)> {
@@ -319,7 +397,7 @@ fn approach_advice(
         _ => 0,
     };
     let arcs: Vec<Option<Arc>> = (0..end.min(trace.len()))
-        .map(|t| arc_at(trace, t))
+        .map(|t| arc_at(trace, path, t))
         .collect();
     let mut runs: Vec<(usize, usize)> = Vec::new();
     let mut t = 0;
@@ -377,37 +455,23 @@ fn approach_advice(
                     start,
                     end: e.min(start + rules.chunk_len.max(1)),
                 };
-                let mut ratios: Vec<f64> = chunk
+                // How far the arc is from the wanted one, as a person sees it: the share of the
+                // wanted turn that was missing (too wide) or overdone (too tight), over the chunk.
+                let shares: Vec<f64> = chunk
                     .range()
                     .filter_map(|t| match arcs[t] {
-                        Some(Arc::Wide(r) | Arc::Tight(r)) => Some(r),
+                        Some(Arc::Wide(r)) => Some(1.0 - 1.0 / r),
+                        Some(Arc::Tight(r)) => Some(1.0 - r),
                         _ => None,
                     })
                     .collect();
-                ratios.sort_by(f64::total_cmp);
-                let median = ratios.get(ratios.len() / 2).copied().unwrap_or(1.0);
+                let share = shares.iter().sum::<f64>() / shares.len().max(1) as f64;
+                let rate = rate_for(share, 0.6, 0.8);
                 match arcs[start] {
                     Some(Arc::Wide(_)) => {
-                        let rate = [0.5, 1.0, 2.0, 4.0]
-                            .into_iter()
-                            .min_by(|a, b| {
-                                ((1.0 + a) / median)
-                                    .ln()
-                                    .abs()
-                                    .total_cmp(&((1.0 + b) / median).ln().abs())
-                            })
-                            .unwrap_or(1.0);
                         (format!("turn_tighter({rate})"), chunk, Reason::ArcTooWide)
                     }
                     Some(Arc::Tight(_)) => {
-                        let rate = [0.25, 0.5, 0.75]
-                            .into_iter()
-                            .min_by(|a, b| {
-                                ((1.0 - a) - median)
-                                    .abs()
-                                    .total_cmp(&((1.0 - b) - median).abs())
-                            })
-                            .unwrap_or(0.5);
                         (format!("turn_looser({rate})"), chunk, Reason::ArcTooTight)
                     }
                     _ => ("no_turning".to_string(), chunk, Reason::TurningAway),
@@ -508,7 +572,8 @@ mod tests {
         let advice = advise(&exec, &AdvisorRules::default());
         assert_eq!(advice.len(), 1);
         let a = &advice[0];
-        assert_eq!(a.operator.to_string(), "translational_acceleration");
+        // 1.5 m short of a goal 3 m away: half the way, "much more".
+        assert_eq!(a.operator.to_string(), "translational_acceleration(0.5)");
         assert_eq!(a.reason, Reason::StoppedShort);
         assert_eq!(a.chunk.len(), 25);
         // The chunk ends at the last driving point.
@@ -522,7 +587,8 @@ mod tests {
         let advice = advise(&exec, &AdvisorRules::default());
         assert_eq!(advice.len(), 1);
         let a = &advice[0];
-        assert_eq!(a.operator.to_string(), "translational_deceleration");
+        // 1 m past a goal 1.5 m away: "much more".
+        assert_eq!(a.operator.to_string(), "translational_deceleration(0.5)");
         assert_eq!(a.reason, Reason::Overshoot);
         let closest_x = 1.5;
         let end_pose = exec.trace.pose.as_ref().unwrap()[a.chunk.end - 1];
@@ -631,6 +697,46 @@ mod tests {
                 .any(|a| a.reason == Reason::TurningAway && a.operator.to_string() == "no_turning"),
             "{advice:?}"
         );
+    }
+
+    #[test]
+    fn the_aim_is_behind_the_goal_along_its_heading() {
+        // The goal 2 m straight ahead, facing the same way: aim straight at it, 1 m short.
+        let (d, b) = aim(&[4.0, 0.0, 0.0]);
+        assert!((d - 1.0).abs() < 1e-12 && b.abs() < 1e-12);
+        // The same goal facing left (+pi/2): the aim lies to the right of it, so the robot
+        // swings out right and bends in onto the heading.
+        let (_, b) = aim(&[4.0, 0.0, std::f64::consts::FRAC_PI_2]);
+        assert!(b < -0.3, "{b}");
+        // Far away the set-back is at most 1 m.
+        let (d, _) = aim(&[100.0, 0.0, 0.0]);
+        assert!((d - 9.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn every_rate_is_one_a_person_would_say() {
+        for exec in [
+            drive(3.0, 1.5, 0.5),
+            drive(1.5, 2.5, 0.5),
+            drive(4.0, 0.5, 0.5),
+            arc(Pose::new(2.0, 2.0, 0.0), 0.5, 0.08, 240),
+            arc(Pose::new(3.0, 0.5, 0.0), 0.5, 0.6, 150),
+            arc(Pose::new(3.0, -1.0, -1.5), 0.5, 0.2, 150),
+        ] {
+            for a in advise(&exec, &AdvisorRules::default()) {
+                let text = a.operator.to_string();
+                if text.starts_with("start_turning_earlier") || !text.contains('(') {
+                    continue;
+                }
+                let arg: f64 = text
+                    .split(['(', ')'])
+                    .nth(1)
+                    .and_then(|v| v.rsplit('=').next())
+                    .and_then(|v| v.trim().parse().ok())
+                    .unwrap_or_else(|| panic!("{text}"));
+                assert!(RATES.contains(&arg), "{text}");
+            }
+        }
     }
 
     #[test]

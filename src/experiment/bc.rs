@@ -7,7 +7,8 @@
 //! Then each critique round runs the current policy from the next practice start (drawn without
 //! replacement, never a test start), the critic judges the execution as a person watching would
 //! (misses and detours only), and every flagged chunk becomes a `critique` with `kappa` exactly as
-//! a teacher would type it in a session. Every `eval_every` rounds the policy runs the test set,
+//! a teacher would type it in a session: on the recorded support (which data point drove each
+//! step, recorded right after the run, as a session records it). Every `eval_every` rounds the policy runs the test set,
 //! which is never critiqued.
 //!
 //! Table 1's efficiency column compares path lengths only on test starts where the initial
@@ -278,7 +279,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         &params.world,
         kind.clone(),
         test,
-        || -> Box<dyn Controller + Send> { Box::new(params.teacher_for(sim)) },
+        || -> Box<dyn Controller + Send> { Box::new(params.teacher_for(sim).driver()) },
         sim,
         eseed,
     );
@@ -402,13 +403,17 @@ fn critique_rounds(
         let flags = critic::critique_execution(&exec, &params.critic);
         if !flags.is_empty() {
             summary.rounds_flagged += 1;
+            // Which data point drove each step, recorded before any critique changes the
+            // weights, as a session records it: a later chunk penalises what acted, not what
+            // would act after the first chunk's penalties.
+            let support = learner.support_provenance(&exec.trace);
             let id = learner.add_execution(&exec.trace);
             for f in &flags {
                 // The learner has data and the chunk lies within the trace: this cannot fail.
-                if learner
-                    .critique_with(id, &exec.trace, f.chunk, params.kappa, rule)
-                    .is_ok()
-                {
+                let made = learner
+                    .plan_critique(&exec.trace, f.chunk, params.kappa, Some(&support), rule)
+                    .and_then(|plan| learner.add_critique(id, plan.critique));
+                if made.is_ok() {
                     summary.chunks_flagged += 1;
                     summary.points_flagged += f.chunk.len();
                     *summary.flaws.entry(f.flaw.name().to_string()).or_insert(0) += 1;
@@ -455,7 +460,7 @@ pub(crate) fn record_teacher(
     record_demos_in(
         starts,
         &params.world,
-        || -> Box<dyn Controller + Send> { Box::new(params.teacher_for(&params.sim)) },
+        || -> Box<dyn Controller + Send> { Box::new(params.teacher_for(&params.sim).driver()) },
         &params.sim,
         seed,
     )

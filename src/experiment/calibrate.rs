@@ -35,6 +35,7 @@ use crate::policy::dataset::Dataset;
 use crate::policy::learner::{Learner, LearnerKind};
 use crate::task::calibration::Shipped;
 use crate::task::interception::practice_starts_in;
+use crate::task::interception::{BallStart, BaseLimits, ideal_success};
 use crate::task::{Controller, InterceptionRules, InterceptionTeacher, Start, TaskKind};
 
 /// The seeds whose practice streams the BC calibration demonstrates and evaluates on.
@@ -86,6 +87,25 @@ pub struct FitReport {
     pub loss_before: f64,
     pub loss_after: f64,
     pub evaluations: usize,
+    /// The physical constraints every candidate had to meet (BC: an interceptable ball), and
+    /// how the chosen constants meet them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub constraints: Option<Interceptable>,
+}
+
+/// The BC world's physical constraints (docs/protocol.md, point 1), as the chosen constants meet
+/// them: a calibration never picks a world that breaks them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Interceptable {
+    /// The fraction of the calibration's practice starts an ideal interceptor catches under the
+    /// simulator's limits (`task::interception::ideal_catch_s`), and the floor it must reach.
+    pub ideal_interceptor_success: f64,
+    pub ideal_interceptor_floor: f64,
+    /// The ball's top start speed over the teacher's cruising speed (at most 1).
+    pub ball_teacher_speed_ratio: f64,
+    /// The starts the ideal interceptor was measured on.
+    pub starts: String,
 }
 
 /// `calibration/bc.json`.
@@ -125,11 +145,13 @@ pub struct Output {
     pub text: String,
 }
 
-/// Run the calibration of `study`. `progress` draws a bar on a terminal.
-pub fn run(study: Study, sim: SimParams, progress: bool) -> Output {
+/// Run the calibration of `study`, from the shipped constants or, with `from_bootstrap`, from
+/// the first guesses in the code (which reproduces the shipped file byte for byte). `progress`
+/// draws a bar on a terminal.
+pub fn run(study: Study, sim: SimParams, from_bootstrap: bool, progress: bool) -> Output {
     match study {
         Study::Bc => {
-            let file = calibrate_bc(&sim, progress);
+            let file = calibrate_bc(&sim, from_bootstrap, progress);
             let text = render(&file.calibration, "bc");
             Output {
                 json: pretty(&file),
@@ -137,7 +159,7 @@ pub fn run(study: Study, sim: SimParams, progress: bool) -> Output {
             }
         }
         Study::Aopi => {
-            let file = calibrate_aopi(&sim, progress);
+            let file = calibrate_aopi(&sim, from_bootstrap, progress);
             let text = render(&file.calibration, "aopi");
             Output {
                 json: pretty(&file),
@@ -291,7 +313,7 @@ fn bc_figures(
             world,
             kind.clone(),
             &held_out,
-            || -> Box<dyn Controller + Send> { Box::new(params.teacher_for(sim)) },
+            || -> Box<dyn Controller + Send> { Box::new(params.teacher_for(sim).driver()) },
             sim,
             eseed,
         );
@@ -331,14 +353,15 @@ type BcPair = (InterceptionRules, InterceptionTeacher);
 fn bc_params() -> Vec<Param<BcPair>> {
     vec![
         Param {
+            // Never above the teacher's cruise (0.8 m/s): see `interceptable`.
             name: "world.ball_speed_mps (upper)",
-            grid: vec![0.4, 0.6, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.6],
+            grid: vec![0.4, 0.5, 0.6, 0.7, 0.8],
             get: |p| p.0.ball_speed_mps.1,
             set: |p, v| p.0.ball_speed_mps.1 = v,
         },
         Param {
             name: "world.ball_dist_m (upper)",
-            grid: vec![1.5, 2.0, 2.25, 2.5, 2.75, 3.0, 3.5],
+            grid: vec![1.5, 2.0, 2.5, 3.0, 3.5],
             get: |p| p.0.ball_dist_m.1,
             set: |p, v| p.0.ball_dist_m.1 = v,
         },
@@ -350,33 +373,100 @@ fn bc_params() -> Vec<Param<BcPair>> {
         },
         Param {
             name: "world.capture_m",
-            grid: vec![0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5],
+            grid: vec![0.2, 0.25, 0.3, 0.35, 0.4],
             get: |p| p.0.capture_m,
             set: |p, v| p.0.capture_m = v,
         },
         Param {
-            name: "teacher.cruise_mps",
-            grid: vec![0.5, 0.6, 0.7, 0.8, 0.9, 1.0],
-            get: |p| p.1.cruise_mps,
-            set: |p, v| p.1.cruise_mps = v,
+            name: "teacher.hand.reaction_s (upper)",
+            grid: vec![0.3, 0.45, 0.6, 0.8],
+            get: |p| p.1.hand.reaction_s[1],
+            set: |p, v| p.1.hand.reaction_s[1] = v,
+        },
+        Param {
+            name: "teacher.hand.hesitate_per_s (upper)",
+            grid: vec![0.0, 0.2, 0.4, 0.8],
+            get: |p| p.1.hand.hesitate_per_s[1],
+            set: |p, v| p.1.hand.hesitate_per_s[1] = v,
         },
     ]
 }
 
-fn calibrate_bc(sim: &SimParams, progress: bool) -> BcFile {
+/// What a BC candidate that breaks the physical constraints adds to the loss.
+const BROKEN: f64 = 1.0e6;
+
+/// The floor on an ideal interceptor's success (docs/protocol.md, point 1).
+pub const IDEAL_FLOOR: f64 = 0.95;
+
+/// The starts the ideal interceptor is measured on: each calibration seed's demonstration and
+/// held-out starts.
+fn constraint_starts(world: &InterceptionRules) -> Vec<BallStart> {
+    BC_SEEDS
+        .iter()
+        .flat_map(|&seed| {
+            let mut v = practice_starts_in(seed, BcParams::default().demos, world);
+            v.extend(practice_starts_in(seed ^ HELD_OUT_SALT, BC_HELD_OUT, world));
+            v
+        })
+        .collect()
+}
+
+/// How a world and teacher meet the physical constraints (point 1 of docs/protocol.md).
+pub fn interceptable(
+    world: &InterceptionRules,
+    teacher: &InterceptionTeacher,
+    sim: &SimParams,
+) -> Interceptable {
+    let base = BaseLimits {
+        max_speed_mps: sim.max_speed_mps,
+        max_accel_mps2: sim.max_accel_mps2,
+        max_rot_radps: sim.max_rot_radps,
+        max_rot_accel_radps2: sim.max_rot_accel_radps2,
+    };
+    let starts = constraint_starts(world);
+    Interceptable {
+        ideal_interceptor_success: ideal_success(&starts, world, &base),
+        ideal_interceptor_floor: IDEAL_FLOOR,
+        ball_teacher_speed_ratio: world.ball_speed_mps.1 / teacher.cruise_mps,
+        starts: format!(
+            "the {} demonstration and held-out practice starts of the calibration seeds",
+            starts.len()
+        ),
+    }
+}
+
+impl Interceptable {
+    /// Whether the constraints hold.
+    pub fn holds(&self) -> bool {
+        self.ideal_interceptor_success >= self.ideal_interceptor_floor
+            && self.ball_teacher_speed_ratio <= 1.0
+    }
+}
+
+fn calibrate_bc(sim: &SimParams, from_bootstrap: bool, progress: bool) -> BcFile {
     let params = bc_params();
     let grid_size: usize = params.iter().map(|p| p.grid.len()).sum();
     let bar = Progress::new(progress, (PASSES * grid_size) as u64, "calibrate bc");
-    let start: BcPair = (
-        InterceptionRules::default(),
-        InterceptionTeacher::new(sim.period_s()),
-    );
-    let loss = |f: &[f64; 4]| -> f64 {
-        BC_TARGETS
+    let start: BcPair = if from_bootstrap {
+        (
+            InterceptionRules::bootstrap(),
+            InterceptionTeacher::bootstrap(sim.period_s()),
+        )
+    } else {
+        (
+            InterceptionRules::default(),
+            InterceptionTeacher::new(sim.period_s()),
+        )
+    };
+    // The figures, then whether the physical constraints hold (1) or not (0): a candidate that
+    // breaks them costs BROKEN more, so it is never chosen over one that holds.
+    let loss = |f: &[f64; 5]| -> f64 {
+        let fit: f64 = BC_TARGETS
             .iter()
             .zip(f)
             .map(|((_, paper, unit), got)| miss(*got, *paper, *unit))
-            .sum()
+            .sum();
+        fit + if f[4] > 0.5 { 0.0 } else { BROKEN }
     };
     let mut evaluations = 0;
     let Descent {
@@ -386,18 +476,22 @@ fn calibrate_bc(sim: &SimParams, progress: bool) -> BcFile {
     } = descend(
         &start,
         &params,
-        &|p: &BcPair| bc_figures(&p.0, &p.1, sim),
+        &|p: &BcPair| {
+            let [a, b, c, d] = bc_figures(&p.0, &p.1, sim);
+            let holds = interceptable(&p.0, &p.1, sim).holds();
+            [a, b, c, d, f64::from(u8::from(holds))]
+        },
         &loss,
         &bar,
         &mut evaluations,
     );
     bar.finish();
-    let targets = fitted(&BC_TARGETS, &before, &after);
+    let targets = fitted(&BC_TARGETS, &before[..4], &after[..4]);
     let knobs = knobs(&params, &start, &best);
     BcFile {
         study: "bc".into(),
         calibration: FitReport {
-            command: "advise calibrate bc --write calibration/bc.json".into(),
+            command: "advise calibrate bc --from-bootstrap --write calibration/bc.json".into(),
             seeds: BC_SEEDS.to_vec(),
             held_out: format!(
                 "per seed: the teacher's 100 demonstrations from its practice stream, evaluated with the initial BC learner on {BC_HELD_OUT} practice starts of the seed xor {HELD_OUT_SALT:#x}; never the test set"
@@ -407,6 +501,7 @@ fn calibrate_bc(sim: &SimParams, progress: bool) -> BcFile {
             targets,
             knobs,
             evaluations,
+            constraints: Some(interceptable(&best.0, &best.1, sim)),
         },
         world: best.0,
         teacher: InterceptionTeacher {
@@ -510,7 +605,7 @@ fn paper_arm_length() -> f64 {
     (p.advised_executions + p.hybrid_executions + p.teleop_executions) as f64 / 3.0
 }
 
-fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
+fn calibrate_aopi(sim: &SimParams, from_bootstrap: bool, progress: bool) -> AopiFile {
     let params = pilot_params();
     let grid_size: usize = params.iter().map(|p| p.grid.len()).sum();
     let bar = Progress::new(
@@ -518,7 +613,11 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
         (PASSES * grid_size + PATIENCE_GRID.len()) as u64,
         "calibrate aopi",
     );
-    let start = PilotStyle::default();
+    let start = if from_bootstrap {
+        PilotStyle::bootstrap()
+    } else {
+        PilotStyle::default()
+    };
     let targets_base = [
         (
             "seed demonstration points (9 demos)",
@@ -611,7 +710,7 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
     AopiFile {
         study: "aopi".into(),
         calibration: FitReport {
-            command: "advise calibrate aopi --write calibration/aopi.json".into(),
+            command: "advise calibrate aopi --from-bootstrap --write calibration/aopi.json".into(),
             seeds: AOPI_SEEDS.to_vec(),
             held_out: format!(
                 "per seed: the driver's 9 demonstrations from its practice stream, the baseline evaluated on {AOPI_HELD_OUT} practice goals of the seed xor {HELD_OUT_SALT:#x}; arm lengths from whole arms on those held-out goals for seeds {AOPI_ARM_SEEDS:?}; never the test set"
@@ -621,6 +720,7 @@ fn calibrate_aopi(sim: &SimParams, progress: bool) -> AopiFile {
             targets,
             knobs,
             evaluations,
+            constraints: None,
         },
         pilot,
         patience,
@@ -664,12 +764,42 @@ pub fn render(r: &FitReport, study: &str) -> String {
 mod tests {
     use super::*;
 
+    /// `advise calibrate bc --from-bootstrap` reproduces the shipped file byte for byte.
+    #[test]
+    fn the_bc_calibration_from_bootstrap_reproduces_the_shipped_file() {
+        let out = run(Study::Bc, SimParams::default(), true, false);
+        assert!(
+            out.json == Shipped::Bc.text(),
+            "calibration/bc.json is not what `advise calibrate bc --from-bootstrap` writes:\n{}",
+            out.json
+        );
+    }
+
+    /// The shipped BC world is interceptable, and its record says so with the figures the code
+    /// computes.
+    #[test]
+    fn the_shipped_ball_is_interceptable_and_the_record_says_so() {
+        let bc: BcFile = Shipped::Bc.read().expect("bc.json");
+        let got = interceptable(&bc.world, &bc.teacher, &SimParams::default());
+        assert!(got.holds(), "{got:?}");
+        assert!(got.ideal_interceptor_success >= IDEAL_FLOOR);
+        assert!(got.ball_teacher_speed_ratio <= 1.0);
+        assert_eq!(bc.calibration.constraints, Some(got));
+        // The ball of the first calibration (up to 1.3 m/s against a 0.8 m/s cruise) breaks it.
+        let fast = InterceptionRules {
+            ball_speed_mps: (0.0, 1.3),
+            ..bc.world.clone()
+        };
+        assert!(!interceptable(&fast, &bc.teacher, &SimParams::default()).holds());
+    }
+
     /// The shipped files parse as what `advise calibrate` writes, and the defaults are theirs.
     #[test]
     fn the_shipped_calibrations_are_the_defaults() {
         let bc: BcFile = Shipped::Bc.read().expect("bc.json");
         assert_eq!(bc.world, InterceptionRules::default());
         assert_eq!(bc.teacher, InterceptionTeacher::new(bc.teacher.period_s));
+        assert!(bc.calibration.command.contains("--from-bootstrap"));
         assert!(shipped(Study::Bc).is_some());
         let aopi: AopiFile = Shipped::Aopi.read().expect("aopi.json");
         assert_eq!(aopi.pilot, PilotStyle::default());

@@ -10,32 +10,31 @@
 //!    very convoluted path". A catch whose path was at most [`CriticRules::detour_ratio`] times
 //!    the straight line from the start to where the ball was caught, plus
 //!    [`CriticRules::detour_slack_m`], is left alone ([`critique_execution`]).
-//! 1. The execution is cut into consecutive chunks of [`CriticRules::chunk_len`] points (25, in
-//!    the paper's typical 20-30); a short remainder joins the chunk before it (so chunks hold
-//!    `chunk_len` to `2 * chunk_len - 1` points), and an execution shorter than one chunk is one
-//!    chunk. The opening is never judged: the robot starts at rest, facing wherever it was put,
-//!    and has to get going and turn to the ball. Judging starts once the ball is within
+//! 1. The opening is never judged: the robot starts at rest, facing wherever it was put, and has
+//!    to get going and turn to the ball. Judging starts once the ball is within
 //!    [`CriticRules::face_rad`] of straight ahead, but not before [`CriticRules::settle_points`]
 //!    and not after [`CriticRules::max_settle_points`] (a robot that has not faced the ball by
 //!    then is doing something wrong).
-//! 2. For each chunk it measures the robot's travel (the sum of `|travel_delta|`), its turning
-//!    (the sum of `|heading_delta|`) and its progress (the ball distance at the chunk's start
-//!    minus at its end).
-//! 3. A chunk is flagged as:
-//!    - **moving away** when the ball ends the chunk farther away than it started, by more than
-//!      [`CriticRules::away_m`], while the robot was driving (travel above
-//!      [`CriticRules::min_travel_m`]) and its own driving took it away from the ball;
-//!    - **wasted turning** when the robot turned more than [`CriticRules::turn_rad`] but closed
-//!      less than [`CriticRules::min_efficiency`] of the distance it drove: it was circling, not
-//!      approaching;
-//!    - **loop** when most of the chunk comes after the robot had already turned through
-//!      [`CriticRules::loop_rad`] (half a circle) one way and kept turning that way, however it
-//!      fared on distance: turning toward the ball is fine, going around is a loop. Straight
-//!      driving for more than [`CriticRules::loop_break_points`] points, or a turn the other
-//!      way, ends a turn.
-//!
-//!    At most [`CriticRules::max_flags`] chunks are flagged per execution, the first ones: the
-//!    paper's teacher marked where an execution "began to go wrong", not every bad second of it.
+//! 2. Each judged point is labelled by what the robot was doing there:
+//!    - **moving away**: the robot was driving (travel above [`CriticRules::min_travel_m`] a
+//!      point), its own driving took it away from the ball, and the distance to the ball grew:
+//!      the distance stopped closing;
+//!    - **loop**: the robot kept turning one way past [`CriticRules::loop_rad`] (half a circle).
+//!      The loop is the whole one-way turn, from where it began: turning toward the ball is fine,
+//!      going around is a detour from its first point. Straight driving for more than
+//!      [`CriticRules::loop_break_points`] points, or a turn the other way, ends a turn;
+//!    - **wasted turning**: the robot turned (more than [`LOOP_TURN_RAD`] a point) while the
+//!      distance to the ball did not close.
+//! 3. The chunks are the stretches of labelled points, as the paper's teacher chose them
+//!    ("from a single point to all points in the trajectory"): a chunk begins where the run began
+//!    to go wrong and ends where the flaw ends. Stretches separated by at most
+//!    [`CriticRules::merge_gap`] points are one chunk (a person does not split a flaw at a
+//!    twitch). A stretch is flagged when it is a flaw a person sees: a loop of any length, or a
+//!    stretch of at least [`CriticRules::min_points`] points that lost more than
+//!    [`CriticRules::away_m`] of distance (moving away) or turned more than
+//!    [`CriticRules::turn_rad`] while closing less than [`CriticRules::min_efficiency`] of the
+//!    distance it drove (wasted turning). Any number of chunks, of any length, are flagged; each
+//!    is named by its worst flaw (loop, then moving away, then wasted turning).
 //! 4. A straight approach closes the distance about as fast as it drives and turns little, so it
 //!    is never flagged.
 //!
@@ -53,8 +52,6 @@ const LOOP_TURN_RAD: f64 = 0.005;
 /// The numbers of the critic's rule (see the module docs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CriticRules {
-    /// Chunk length, points (the paper's chunks were 20-30 points).
-    pub chunk_len: usize,
     /// Points at the start of an execution that are never judged (the robot starts at rest).
     pub settle_points: usize,
     /// The opening turn to the ball is not judged: judging starts once the ball is within this
@@ -67,11 +64,11 @@ pub struct CriticRules {
     pub detour_ratio: f64,
     /// ... plus this, m.
     pub detour_slack_m: f64,
-    /// Moving away: the ball distance grew over the chunk by more than this, m.
+    /// Moving away: the ball distance grew over the stretch by more than this, m.
     pub away_m: f64,
-    /// A chunk in which the robot drove less than this is not judged on distance, m.
+    /// A point at which the robot drove less than this is not judged on distance, m.
     pub min_travel_m: f64,
-    /// Wasted turning: the robot turned more than this within the chunk, rad ...
+    /// Wasted turning: the robot turned more than this within the stretch, rad ...
     pub turn_rad: f64,
     /// ... and closed less than this fraction of the distance it drove.
     pub min_efficiency: f64,
@@ -79,27 +76,29 @@ pub struct CriticRules {
     pub loop_rad: f64,
     /// ... unless it drove straight for more than this many points in between.
     pub loop_break_points: usize,
-    /// At most this many chunks are flagged per execution, the first ones: where the execution
-    /// began to go wrong (0: no limit).
-    pub max_flags: usize,
+    /// Stretches of flawed points at most this many points apart are one chunk.
+    pub merge_gap: usize,
+    /// A stretch of moving away or wasted turning shorter than this is not a flaw a person sees,
+    /// points.
+    pub min_points: usize,
 }
 
 impl Default for CriticRules {
     fn default() -> Self {
         CriticRules {
-            chunk_len: 25,
             settle_points: 10,
             face_rad: 0.5,
             max_settle_points: 60,
             detour_ratio: 1.6,
             detour_slack_m: 0.5,
             away_m: 0.03,
-            min_travel_m: 0.05,
+            min_travel_m: 0.002,
             turn_rad: 0.35,
             min_efficiency: 0.5,
             loop_rad: std::f64::consts::PI,
             loop_break_points: 15,
-            max_flags: 2,
+            merge_gap: 5,
+            min_points: 5,
         }
     }
 }
@@ -140,25 +139,6 @@ pub struct ChunkMeasures {
     pub toward_m: f64,
 }
 
-/// Cut `len` points into the critic's chunks (see the module docs, step 1).
-pub fn chunks(len: usize, chunk_len: usize) -> Vec<Chunk> {
-    let chunk_len = chunk_len.max(1);
-    if len == 0 {
-        return Vec::new();
-    }
-    let mut out = Vec::new();
-    let mut start = 0;
-    while start < len {
-        let mut end = (start + chunk_len).min(len);
-        if len - end < chunk_len {
-            end = len;
-        }
-        out.push(Chunk { start, end });
-        start = end;
-    }
-    out
-}
-
 /// Measure one chunk of an interception trace.
 pub fn measure(trace: &Trace, chunk: Chunk) -> ChunkMeasures {
     let mut m = ChunkMeasures {
@@ -183,6 +163,15 @@ pub fn measure(trace: &Trace, chunk: Chunk) -> ChunkMeasures {
     m
 }
 
+/// What a judged point of a run shows (rule 2 of the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Label {
+    Fine,
+    Away,
+    Turning,
+    Loop,
+}
+
 /// Judge an interception execution: the chunks a human would flag, in order, each once.
 pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
     let n = trace.len();
@@ -191,23 +180,44 @@ pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
     }
     let in_loop = loop_points(trace, rules);
     let settle = opening(trace, rules);
-    let mut flags = Vec::new();
-    for chunk in chunks(n, rules.chunk_len) {
-        // Only the part after the opening is judged.
-        let judged = Chunk {
-            start: chunk.start.max(settle),
-            end: chunk.end,
-        };
-        if judged.len() < rules.chunk_len.div_ceil(2) {
-            continue;
+    // How much the distance to the ball grew after the action at `t` (the next observation's).
+    let closing = |t: usize| {
+        if t + 1 < n {
+            trace.z(t + 1)[BALL_DIST] - trace.z(t)[BALL_DIST]
+        } else {
+            0.0
         }
-        let m = measure(trace, judged);
-        let driving = m.travel_m > rules.min_travel_m;
-        let flaw = if judged.range().filter(|&t| in_loop[t]).count() * 2 > judged.len() {
+    };
+    let labels: Vec<Label> = (0..n)
+        .map(|t| {
+            let z = trace.z(t);
+            let driving = z[TRAVEL_DELTA].abs() > rules.min_travel_m;
+            let away_from_ball = z[TRAVEL_DELTA] * z[BALL_ANGLE].cos() < 0.0;
+            if t < settle {
+                Label::Fine
+            } else if in_loop[t] {
+                Label::Loop
+            } else if driving && away_from_ball && closing(t) > 0.0 {
+                Label::Away
+            } else if z[HEADING_DELTA].abs() > LOOP_TURN_RAD && closing(t) >= 0.0 {
+                Label::Turning
+            } else {
+                Label::Fine
+            }
+        })
+        .collect();
+    let mut flags = Vec::new();
+    for chunk in stretches(&labels, rules.merge_gap) {
+        let count = |l: Label| chunk.range().filter(|&t| labels[t] == l).count();
+        let m = measure(trace, chunk);
+        let long = chunk.len() >= rules.min_points.max(1);
+        let flaw = if count(Label::Loop) > 0 {
             Some(Flaw::Loop)
-        } else if driving && -m.progress_m > rules.away_m && m.toward_m < 0.0 {
+        } else if long && count(Label::Away) > 0 && -m.progress_m > rules.away_m {
             Some(Flaw::MovingAway)
-        } else if m.turning_rad > rules.turn_rad && m.progress_m < rules.min_efficiency * m.travel_m
+        } else if long
+            && m.turning_rad > rules.turn_rad
+            && m.progress_m < rules.min_efficiency * m.travel_m
         {
             Some(Flaw::WastedTurning)
         } else {
@@ -215,12 +225,30 @@ pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
         };
         if let Some(flaw) = flaw {
             flags.push(Flag { chunk, flaw });
-            if flags.len() == rules.max_flags {
-                break;
-            }
         }
     }
     flags
+}
+
+/// The stretches of points that are not [`Label::Fine`], those at most `gap` points apart joined.
+fn stretches(labels: &[Label], gap: usize) -> Vec<Chunk> {
+    let mut out: Vec<Chunk> = Vec::new();
+    let mut t = 0;
+    while t < labels.len() {
+        if labels[t] == Label::Fine {
+            t += 1;
+            continue;
+        }
+        let start = t;
+        while t < labels.len() && labels[t] != Label::Fine {
+            t += 1;
+        }
+        match out.last_mut() {
+            Some(last) if start - last.end <= gap => last.end = t,
+            _ => out.push(Chunk { start, end: t }),
+        }
+    }
+    out
 }
 
 /// Judge an execution as a person would (rule 0 of the module docs, then [`critique`]): a catch
@@ -258,13 +286,14 @@ fn opening(trace: &Trace, rules: &CriticRules) -> usize {
 
 /// Which points lie inside a loop: while the robot keeps turning one way (a stretch of
 /// straight driving longer than `loop_break_points`, or a turn the other way, ends the turn),
-/// every point after the first `loop_rad` of the turn.
+/// once the turn has passed `loop_rad`, every point of it from where it began.
 fn loop_points(trace: &Trace, rules: &CriticRules) -> Vec<bool> {
     let n = trace.len();
     let mut marked = vec![false; n];
     let mut turned = 0.0f64;
     let mut straight = 0;
-    for (t, m) in marked.iter_mut().enumerate() {
+    let mut began = 0;
+    for t in 0..n {
         let dh = trace.z(t)[HEADING_DELTA];
         if dh.abs() <= LOOP_TURN_RAD {
             straight += 1;
@@ -274,11 +303,14 @@ fn loop_points(trace: &Trace, rules: &CriticRules) -> Vec<bool> {
             continue;
         }
         straight = 0;
-        if turned != 0.0 && dh.signum() != turned.signum() {
+        if turned == 0.0 || dh.signum() != turned.signum() {
             turned = 0.0;
+            began = t;
         }
         turned += dh;
-        *m = turned.abs() > rules.loop_rad;
+        if turned.abs() > rules.loop_rad {
+            marked[began..=t].iter_mut().for_each(|m| *m = true);
+        }
     }
     marked
 }
@@ -308,20 +340,16 @@ mod tests {
     }
 
     #[test]
-    fn chunks_cover_the_trace_in_20_to_30_point_pieces() {
-        for len in [0, 1, 24, 25, 49, 50, 51, 137, 400] {
-            let cs = chunks(len, 25);
-            assert_eq!(cs.iter().map(|c| c.len()).sum::<usize>(), len);
-            for w in cs.windows(2) {
-                assert_eq!(w[0].end, w[1].start);
-            }
-            if len >= 25 {
-                assert!(
-                    cs.iter().all(|c| (25..50).contains(&c.len())),
-                    "{len}: {cs:?}"
-                );
-            }
-        }
+    fn stretches_are_the_flawed_points_with_short_gaps_joined() {
+        use Label::*;
+        let l = [
+            Fine, Away, Away, Fine, Fine, Loop, Fine, Fine, Fine, Turning, Fine,
+        ];
+        let c = |start, end| Chunk { start, end };
+        assert_eq!(stretches(&l, 0), [c(1, 3), c(5, 6), c(9, 10)]);
+        assert_eq!(stretches(&l, 2), [c(1, 6), c(9, 10)]);
+        assert_eq!(stretches(&l, 3), [c(1, 10)]);
+        assert!(stretches(&[Fine; 4], 5).is_empty());
     }
 
     #[test]
@@ -360,26 +388,18 @@ mod tests {
     fn a_looping_trace_is_flagged() {
         let (t, loop_pts) = looping_trace();
         let flags = critique(&t, &CriticRules::default());
-        assert!(!flags.is_empty());
-        let all = critique(
-            &t,
-            &CriticRules {
-                max_flags: 0,
-                ..CriticRules::default()
-            },
+        // One chunk: the whole loop, from where the turn began to where it ended; none in the
+        // straight approaches before and after.
+        assert_eq!(
+            flags,
+            [Flag {
+                chunk: Chunk {
+                    start: 40,
+                    end: 40 + loop_pts
+                },
+                flaw: Flaw::Loop
+            }]
         );
-        assert!(all.iter().any(|f| f.flaw == Flaw::Loop));
-        // Every flag lies in or next to the loop (points 40 .. 40 + loop_pts), none in the
-        // final straight approach.
-        let loop_end = 40 + loop_pts;
-        for f in flags.iter().chain(&all) {
-            assert!(
-                f.chunk.end > 40 && f.chunk.start < loop_end,
-                "{:?} outside the loop 40..{loop_end}",
-                f.chunk
-            );
-            assert!((20..=50).contains(&f.chunk.len()));
-        }
     }
 
     #[test]
@@ -397,20 +417,35 @@ mod tests {
     }
 
     #[test]
-    fn at_most_max_flags_chunks_are_flagged_the_first_ones() {
-        let pts: Vec<_> = (0..200).map(|_| (2.0, 0.004, 0.025)).collect();
-        let rules = CriticRules::default();
-        let flags = critique(&trace(&pts), &rules);
-        assert_eq!(flags.len(), rules.max_flags);
-        assert_eq!(flags[0].chunk.start, 0);
-        let all = critique(
-            &trace(&pts),
-            &CriticRules {
-                max_flags: 0,
-                ..rules
-            },
-        );
-        assert_eq!(all.len(), chunks(200, 25).len());
+    fn any_number_of_chunks_of_any_length_are_flagged() {
+        // The ball behind: driving away for 12 points, a straight approach of 40, away for 30.
+        let step = 0.6 / 30.0;
+        let mut t = Trace::new(&Domain::interception());
+        let mut d = 2.0;
+        let mut push = |t: &mut Trace, away: bool| {
+            d += if away { step } else { -step };
+            let angle = if away { 3.0 } else { 0.0 };
+            t.push(0.0, &[d, angle, 0.0, 0.0, step, 0.0], &[0.0, 0.0], None);
+        };
+        for _ in 0..10 {
+            push(&mut t, false);
+        }
+        for _ in 0..12 {
+            push(&mut t, true);
+        }
+        for _ in 0..40 {
+            push(&mut t, false);
+        }
+        for _ in 0..30 {
+            push(&mut t, true);
+        }
+        let flags = critique(&t, &CriticRules::default());
+        let chunks: Vec<(usize, usize)> =
+            flags.iter().map(|f| (f.chunk.start, f.chunk.end)).collect();
+        // Each stretch from where the distance stopped closing to where it closed again (the
+        // last point of each has no next distance to judge by, or closes).
+        assert_eq!(chunks, [(10, 21), (62, 91)], "{flags:?}");
+        assert!(flags.iter().all(|f| f.flaw == Flaw::MovingAway));
     }
 
     #[test]
@@ -509,8 +544,16 @@ mod tests {
         }
         let rules = CriticRules::default();
         assert_eq!(opening(&trace, &rules), 27);
-        assert!(critique(&trace, &rules).is_empty());
-        // Judged from the first point instead, the turn in place is wasted turning.
+        // Nothing of the opening is flagged, nor the straight approach; the turn that goes on
+        // past half a circle after the robot faced the ball (points 27-39) is a loop from there.
+        let flags = critique(&trace, &rules);
+        assert!(
+            flags
+                .iter()
+                .all(|f| f.chunk.start >= 27 && f.chunk.end <= 40),
+            "{flags:?}"
+        );
+        // Judged from the first point instead, the turn in place (4 rad) is a loop.
         let eager = CriticRules {
             face_rad: 10.0,
             settle_points: 0,
@@ -519,7 +562,7 @@ mod tests {
         assert!(
             critique(&trace, &eager)
                 .iter()
-                .any(|f| f.flaw == Flaw::WastedTurning)
+                .any(|f| f.flaw == Flaw::Loop)
         );
     }
 }

@@ -19,19 +19,22 @@
 //!   initial distance);
 //! - `heading_misjudge_rad`: how badly the goal heading is misjudged;
 //! - `blend_m`: from how far the driver starts bending onto the goal heading;
-//! - `k_alpha`: how hard the driver steers toward the goal.
+//! - `k_alpha`: how hard the driver steers toward the goal;
+//! - `hand`: the person's hand ([`crate::task::human`], the same model as the BC teacher's):
+//!   reaction lag, tremor, and how often and how long they hesitate.
 //!
-//! Within an episode the driver is a fixed [`PositioningTeacher`] (with its reaction lag and hand
-//! tremor): the variation is between runs. The A-OPI study uses this one model for every
+//! Within an episode the driver is a fixed [`PositioningTeacher`] driving through that hand: the
+//! variation of style is between runs. The A-OPI study uses this one model for every
 //! teleoperated demonstration alike: the 9 seed demonstrations, the hybrid arm's and the
 //! teleoperation arm's, with the same draw for the same goal in both arms.
 
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use crate::task::calibration::Shipped;
 use crate::task::episode_seed;
+use crate::task::human::{HandRanges, draw};
 use crate::task::positioning::{PositioningTeacher, TeacherStyle};
 
 /// Salt of the style stream, apart from the simulator's noise.
@@ -50,6 +53,8 @@ pub struct PilotStyle {
     /// hand-written teacher does), and the speed per metre of remaining distance, 1/s.
     pub cruise_mps: [f64; 2],
     pub k_rho: f64,
+    /// The hand's ranges (drawn after the others, so the earlier draws keep their values).
+    pub hand: HandRanges,
 }
 
 impl Default for PilotStyle {
@@ -81,6 +86,27 @@ pub fn calibrated() -> &'static Calibrated {
 }
 
 impl PilotStyle {
+    /// The values `advise calibrate aopi --from-bootstrap` starts from: the first guesses before
+    /// any calibration, and a person's hand from human-factors figures.
+    pub fn bootstrap() -> PilotStyle {
+        PilotStyle {
+            arrive_m: [0.2, 0.6],
+            heading_tol_rad: [0.08, 0.35],
+            perception_frac: [0.05, 0.25],
+            heading_misjudge_rad: [0.1, 0.4],
+            blend_m: [0.6, 1.8],
+            k_alpha: [0.9, 2.0],
+            cruise_mps: [0.7, 1.0],
+            k_rho: 1.0,
+            hand: HandRanges {
+                reaction_s: [0.15, 0.45],
+                tremor: [0.0, 0.05],
+                hesitate_per_s: [0.0, 0.2],
+                hesitate_s: [0.2, 0.6],
+            },
+        }
+    }
+
     /// No variation: every episode is the hand-written teacher.
     pub fn consistent() -> PilotStyle {
         let t = TeacherStyle::default();
@@ -93,29 +119,34 @@ impl PilotStyle {
             k_alpha: [t.k_alpha; 2],
             cruise_mps: [t.cruise_mps.0, t.cruise_mps.1],
             k_rho: t.k_rho,
+            hand: HandRanges::fixed(t.hand()),
         }
     }
 
     /// The style of the person driving episode `index` of the stream seeded with `seed`.
     pub fn style(&self, seed: u64, index: u64) -> TeacherStyle {
         let mut rng = ChaCha8Rng::seed_from_u64(episode_seed(seed ^ STYLE_SALT, index));
-        let mut draw = |r: [f64; 2]| {
-            let (lo, hi) = (r[0].min(r[1]), r[0].max(r[1]));
-            if hi > lo {
-                rng.random_range(lo..=hi)
-            } else {
-                lo
-            }
-        };
+        let rng = &mut rng;
+        let arrive_m = draw(rng, self.arrive_m);
+        let heading_tol_rad = draw(rng, self.heading_tol_rad);
+        let perception_frac = draw(rng, self.perception_frac);
+        let heading_misjudge_rad = draw(rng, self.heading_misjudge_rad);
+        let blend_m = draw(rng, self.blend_m);
+        let k_alpha = draw(rng, self.k_alpha);
+        let hand = self.hand.draw(rng);
         TeacherStyle {
-            arrive_m: draw(self.arrive_m),
-            heading_tol_rad: draw(self.heading_tol_rad),
-            perception_frac: draw(self.perception_frac),
-            heading_misjudge_rad: draw(self.heading_misjudge_rad),
-            blend_m: draw(self.blend_m),
-            k_alpha: draw(self.k_alpha),
+            arrive_m,
+            heading_tol_rad,
+            perception_frac,
+            heading_misjudge_rad,
+            blend_m,
+            k_alpha,
             cruise_mps: (self.cruise_mps[0], self.cruise_mps[1]),
             k_rho: self.k_rho,
+            reaction_s: hand.reaction_s,
+            tremor: hand.tremor,
+            hesitate_per_s: hand.hesitate_per_s,
+            hesitate_s: hand.hesitate_s,
             ..TeacherStyle::default()
         }
     }
@@ -148,6 +179,7 @@ mod tests {
             );
             assert!((s.blend_m[0]..=s.blend_m[1]).contains(&t.blend_m));
             assert!((s.k_alpha[0]..=s.k_alpha[1]).contains(&t.k_alpha));
+            assert!(s.hand.contains(&t.hand()));
         }
     }
 

@@ -8,7 +8,10 @@
 //! - A-OPI: the advised and hybrid policies beat the baseline on success, match or beat
 //!   teleoperation on success, and end with a smaller dataset than teleoperation.
 //!
-//! A seed "holds" when every claim of its study holds. Nothing here runs a study.
+//! A seed "holds" when every claim of its study holds. Beside each claim's seed count stands the
+//! paired difference it reads (per seed, e.g. final minus initial success), its mean and a
+//! bootstrap 95% interval over the seeds ([`Interval`]). A-OPI's figures are the halted
+//! policies'. Nothing here runs a study.
 
 use std::fmt::Write as _;
 
@@ -38,6 +41,48 @@ impl Spread {
 pub struct Claim {
     pub claim: String,
     pub seeds_held: Vec<u64>,
+    /// The paired difference the claim reads (positive: in the claim's direction), its mean over
+    /// the seeds and a bootstrap 95% interval of that mean.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub difference: Option<Interval>,
+}
+
+/// The mean of a per-seed difference and its bootstrap 95% interval (percentiles of the means of
+/// [`BOOTSTRAP_RESAMPLES`] resamples of the seeds, with replacement, from a fixed seed).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Interval {
+    pub mean: f64,
+    pub lo95: f64,
+    pub hi95: f64,
+    /// Seeds the difference exists for.
+    pub seeds: usize,
+}
+
+/// Resamples of the seeds behind each [`Interval`].
+pub const BOOTSTRAP_RESAMPLES: usize = 10_000;
+
+impl Interval {
+    /// The interval of `values`' mean; `None` without values.
+    pub fn of(values: &[f64]) -> Option<Interval> {
+        use rand::{Rng, SeedableRng};
+        let n = values.len();
+        if n == 0 {
+            return None;
+        }
+        let mean = values.iter().sum::<f64>() / n as f64;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0xB007_5742);
+        let mut means: Vec<f64> = (0..BOOTSTRAP_RESAMPLES)
+            .map(|_| (0..n).map(|_| values[rng.random_range(0..n)]).sum::<f64>() / n as f64)
+            .collect();
+        means.sort_by(f64::total_cmp);
+        let at = |q: f64| means[((q * BOOTSTRAP_RESAMPLES as f64) as usize).min(means.len() - 1)];
+        Some(Interval {
+            mean,
+            lo95: at(0.025),
+            hi95: at(0.975),
+            seeds: n,
+        })
+    }
 }
 
 /// The shape claims over all seeds.
@@ -50,7 +95,14 @@ pub struct Shape {
 }
 
 impl Shape {
-    fn from_checks(seeds: &[u64], names: &[&str], checks: &[Vec<bool>]) -> Shape {
+    /// The claims from each seed's checks and, per claim, each seed's paired difference (none
+    /// where the seed has no such figure).
+    fn from_checks(
+        seeds: &[u64],
+        names: &[&str],
+        checks: &[Vec<bool>],
+        diffs: &[Vec<Option<f64>>],
+    ) -> Shape {
         let claims = names
             .iter()
             .enumerate()
@@ -62,6 +114,12 @@ impl Shape {
                     .filter(|(_, ok)| ok[c])
                     .map(|(s, _)| *s)
                     .collect(),
+                difference: Interval::of(
+                    &diffs
+                        .iter()
+                        .filter_map(|d| d.get(c).copied().flatten())
+                        .collect::<Vec<_>>(),
+                ),
             })
             .collect();
         Shape {
@@ -79,9 +137,15 @@ impl Shape {
     fn render(&self, s: &mut String, label: &str) {
         let _ = writeln!(s, "  shape of the paper's result{label}, per seed:");
         for c in &self.claims {
+            let interval = c.difference.map_or(String::new(), |d| {
+                format!(
+                    "   difference {:+.3} [{:+.3}, {:+.3}]",
+                    d.mean, d.lo95, d.hi95
+                )
+            });
             let _ = writeln!(
                 s,
-                "    {:<52} {} of {} seeds",
+                "    {:<52} {} of {} seeds{interval}",
                 c.claim,
                 c.seeds_held.len(),
                 self.seeds
@@ -155,6 +219,30 @@ pub fn bc_rule_checks(r: &BcResult, d: &BcRuleResult) -> Vec<bool> {
     ]
 }
 
+/// The paired differences the BC claims read, in the order of [`BC_CLAIMS`] (positive: in the
+/// claim's direction): final minus initial success, initial minus final length, final minus
+/// teacher success.
+pub fn bc_diffs(r: &BcResult) -> Vec<Option<f64>> {
+    let (i, f, t) = (&r.learner_initial, &r.learner_final, &r.teacher);
+    vec![
+        Some(f.success_rate - i.success_rate),
+        i.mean_length_m.zip(f.mean_length_m).map(|(i, f)| i - f),
+        Some(f.success_rate - t.success_rate),
+    ]
+}
+
+/// [`bc_diffs`] with another rule's final policy (lengths over its own paired runs).
+pub fn bc_rule_diffs(r: &BcResult, d: &BcRuleResult) -> Vec<Option<f64>> {
+    let (i, f, t) = (&r.learner_initial, &d.learner_final, &r.teacher);
+    vec![
+        Some(f.success_rate - i.success_rate),
+        d.learner_initial_length_m
+            .zip(f.mean_length_m)
+            .map(|(i, f)| i - f),
+        Some(f.success_rate - t.success_rate),
+    ]
+}
+
 pub const BC_CLAIMS: [&str; 3] = [
     "final beats initial on success",
     "final beats initial on length",
@@ -184,13 +272,15 @@ pub fn bc(runs: Vec<BcResult>) -> BcSummary {
         let dir_seeds: Vec<u64> = with_dir.iter().map(|(r, _)| r.seed).collect();
         let dir_checks: Vec<Vec<bool>> =
             with_dir.iter().map(|(r, d)| bc_rule_checks(r, d)).collect();
+        let dir_diffs: Vec<Vec<Option<f64>>> =
+            with_dir.iter().map(|(r, d)| bc_rule_diffs(r, d)).collect();
         BcRuleSummary {
             rule: CritiqueRule::Directional,
             learner_final_success: spread(&|d| Some(d.learner_final.success_rate)),
             learner_final_length_m: spread(&|d| d.learner_final.mean_length_m),
             learner_initial_length_m: spread(&|d| d.learner_initial_length_m),
             teacher_length_m: spread(&|d| d.teacher_length_m),
-            shape: Shape::from_checks(&dir_seeds, &BC_CLAIMS, &dir_checks),
+            shape: Shape::from_checks(&dir_seeds, &BC_CLAIMS, &dir_checks, &dir_diffs),
         }
     });
     BcSummary {
@@ -203,7 +293,12 @@ pub fn bc(runs: Vec<BcResult>) -> BcSummary {
         learner_final_length_m: spread(&|r| r.learner_final.mean_length_m),
         teacher_success: spread(&|r| Some(r.teacher.success_rate)),
         teacher_length_m: spread(&|r| r.teacher.mean_length_m),
-        shape: Shape::from_checks(&seeds, &BC_CLAIMS, &checks),
+        shape: Shape::from_checks(
+            &seeds,
+            &BC_CLAIMS,
+            &checks,
+            &runs.iter().map(bc_diffs).collect::<Vec<_>>(),
+        ),
         seeds,
         runs,
     }
@@ -337,6 +432,21 @@ pub const AOPI_CLAIMS: [&str; 6] = [
     "hybrid dataset smaller than teleoperation's",
 ];
 
+/// The paired differences the A-OPI claims read, in the order of [`AOPI_CLAIMS`] (positive: in
+/// the claim's direction): success differences, then teleoperation's dataset minus the arm's.
+pub fn aopi_diffs(r: &AopiResult) -> Vec<Option<f64>> {
+    let a = &r.arms;
+    let size = |f: &ArmFigures| f.dataset_size as f64;
+    vec![
+        Some(a.advised.success_rate - a.baseline.success_rate),
+        Some(a.hybrid.success_rate - a.baseline.success_rate),
+        Some(a.advised.success_rate - a.teleop.success_rate),
+        Some(a.hybrid.success_rate - a.teleop.success_rate),
+        Some(size(&a.teleop) - size(&a.advised)),
+        Some(size(&a.teleop) - size(&a.hybrid)),
+    ]
+}
+
 /// The A-OPI shape claims of one seed, in the order of [`AOPI_CLAIMS`].
 pub fn aopi_checks(r: &AopiResult) -> Vec<bool> {
     let a = &r.arms;
@@ -374,7 +484,12 @@ pub fn aopi(runs: Vec<AopiResult>) -> AopiSummary {
     AopiSummary {
         experiment: "aopi".into(),
         arms,
-        shape: Shape::from_checks(&seeds, &AOPI_CLAIMS, &checks),
+        shape: Shape::from_checks(
+            &seeds,
+            &AOPI_CLAIMS,
+            &checks,
+            &runs.iter().map(aopi_diffs).collect::<Vec<_>>(),
+        ),
         seeds,
         runs,
     }
@@ -442,5 +557,25 @@ impl AopiSummary {
         );
         self.shape.render(&mut s, "");
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_interval_brackets_the_mean_and_is_reproducible() {
+        let v = [0.1, -0.05, 0.2, 0.0, 0.15, 0.05, 0.1, -0.1];
+        let i = Interval::of(&v).unwrap();
+        assert!((i.mean - 0.05625).abs() < 1e-12);
+        assert!(i.lo95 < i.mean && i.mean < i.hi95, "{i:?}");
+        assert!(i.lo95 > -0.1 && i.hi95 < 0.2);
+        assert_eq!(Interval::of(&v), Some(i));
+        assert_eq!(i.seeds, 8);
+        assert_eq!(Interval::of(&[]), None);
+        // One value: no spread.
+        let one = Interval::of(&[0.3]).unwrap();
+        assert_eq!((one.lo95, one.hi95), (0.3, 0.3));
     }
 }

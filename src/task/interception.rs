@@ -3,8 +3,10 @@
 //!
 //! All the numbers the paper leaves open are in [`InterceptionRules`], documented there in one
 //! place. In short: the robot starts at the origin heading 0 (along +x) at rest; the ball starts
-//! 1 to 3 m away in any direction, rolling at up to 0.6 m/s in any direction and slowing under
-//! rolling friction; both must stay in the 8 m x 8 m arena centred on the start. The episode ends
+//! a calibrated 1 to 3 m away in any direction, rolling in any direction at up to the teacher's
+//! cruising speed (never faster: a base cannot close on a ball that outruns it; see
+//! [`ideal_catch_s`]) and slowing under rolling friction; both must stay in the square arena
+//! centred on the start. The episode ends
 //! when the ball comes within the capture distance of the robot's centre (success, if both are in
 //! bounds), when either leaves the arena, or at the time limit. Efficiency is the robot's path
 //! length.
@@ -29,8 +31,8 @@ use crate::domain::columns::interception::{
     TRANS_DELTA, TRAVEL_DELTA,
 };
 use crate::geometry::{Pose, bearing, distance, polar, relative_pose, wrap_angle};
-use crate::policy::Policy;
 use crate::task::calibration::Shipped;
+use crate::task::human::{Hand, HandRanges, HandStyle, draw, style_rng};
 use crate::task::{Controller, Ending, Score, Task};
 
 /// Size of the test set (the paper's 100 initial conditions).
@@ -57,6 +59,23 @@ pub struct InterceptionRules {
     /// The integrated speed command is clamped to `+-max_speed_mps` and `+-max_rot_radps`.
     pub max_speed_mps: f64,
     pub max_rot_radps: f64,
+}
+
+impl InterceptionRules {
+    /// The values `advise calibrate bc --from-bootstrap` starts from: the first guesses, before
+    /// any calibration (an 8 m arena, a 0.3 m capture, the ball 1-3 m away at up to 0.8 m/s).
+    pub fn bootstrap() -> InterceptionRules {
+        InterceptionRules {
+            arena_half_m: 4.0,
+            capture_m: 0.3,
+            time_limit_s: 20.0,
+            ball_dist_m: (1.0, 3.0),
+            ball_speed_mps: (0.0, 0.8),
+            ball_decel_mps2: 0.05,
+            max_speed_mps: 1.0,
+            max_rot_radps: 1.0,
+        }
+    }
 }
 
 impl Default for InterceptionRules {
@@ -305,28 +324,38 @@ impl Task for Interception {
     }
 }
 
-/// The hand-written interception teacher: pure pursuit of where the ball is now.
+/// The hand-written interception teacher: pure pursuit of where the ball is now, driven through
+/// a person's hand ([`crate::task::human`]).
 ///
 /// It is deliberately suboptimal, as the paper's was, so that critique has something to fix:
 /// it aims at the ball's current position instead of leading it; it keeps rolling forward while
-/// it turns, so a ball behind or beside it is reached by a loop; and it regulates speed by
-/// integrating changes against *measured* speeds that lag the command, so it overshoots and weaves.
-/// It is a pure function of the observation (it reads its own speeds from the travel and heading
-/// changes), hence a stateless [`Policy`].
+/// it turns, so a ball behind or beside it is reached by a loop. And it is a person, not a
+/// function of the observation: each episode draws how hard it steers (`gain`, a factor on
+/// `k_turn`), how far off straight ahead the ball must be before it slows to turn
+/// (`turn_onset_rad`), and its hand (reaction lag, tremor, occasional hesitation) from the
+/// ranges below, seeded by the episode. This struct holds the ranges (what calibration fits and
+/// the file records); [`InterceptionTeacher::driver`] is the person driving.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct InterceptionTeacher {
-    /// The control period the observations' differences span, s.
+    /// The control period, s.
     pub period_s: f64,
-    /// Cruising speed, m/s, and the fraction of it kept while the ball is behind.
+    /// Cruising speed, m/s, and the fraction of it kept while the ball is off to the side.
     pub cruise_mps: f64,
     pub behind_frac: f64,
     /// Turn rate per radian of ball angle, 1/s, and its cap, rad/s.
     pub k_turn: f64,
     pub max_rot_radps: f64,
-    /// Integral gains: fraction of the speed error added to the command each step.
-    pub gain_speed: f64,
-    pub gain_rot: f64,
+    /// Per episode: a factor on `k_turn`.
+    pub gain: [f64; 2],
+    /// Per episode: beyond this ball angle the person slows to `behind_frac` to turn, rad.
+    pub turn_onset_rad: [f64; 2],
+    /// Per episode: the hand.
+    pub hand: HandRanges,
 }
+
+/// Salt of the interception teacher's style draws.
+const STYLE_SALT: u64 = 0xBA11_0000_0000_0008;
 
 impl InterceptionTeacher {
     /// The calibrated teacher (`calibration/bc.json`) at control period `period_s`.
@@ -336,27 +365,288 @@ impl InterceptionTeacher {
             ..calibrated().teacher.clone()
         }
     }
-}
 
-impl Policy for InterceptionTeacher {
-    fn act(&self, z: &[f64], a: &mut [f64]) {
-        let phi = z[BALL_ANGLE];
-        let speed_mps = z[TRAVEL_DELTA] / self.period_s;
-        let rot_radps = z[HEADING_DELTA] / self.period_s;
-        let want_rot = (self.k_turn * phi).clamp(-self.max_rot_radps, self.max_rot_radps);
-        let want_speed = if phi.abs() > PI / 2.0 {
-            self.cruise_mps * self.behind_frac
-        } else {
-            self.cruise_mps
+    /// The values `advise calibrate bc --from-bootstrap` starts from: pure pursuit at 0.8 m/s,
+    /// and a person's hand from human-factors figures (a reaction lag of 0.15-0.45 s, a light
+    /// tremor, a pause of 0.2-0.6 s now and then).
+    pub fn bootstrap(period_s: f64) -> InterceptionTeacher {
+        InterceptionTeacher {
+            period_s,
+            cruise_mps: 0.8,
+            behind_frac: 0.6,
+            k_turn: 1.5,
+            max_rot_radps: 0.9,
+            gain: [0.7, 1.3],
+            turn_onset_rad: [1.0, 2.1],
+            hand: HandRanges {
+                reaction_s: [0.15, 0.45],
+                tremor: [0.0, 0.05],
+                hesitate_per_s: [0.0, 0.2],
+                hesitate_s: [0.2, 0.6],
+            },
+        }
+    }
+
+    /// The person driving: a [`Controller`] that draws its style when an episode begins.
+    pub fn driver(&self) -> InterceptionDriver {
+        let mut d = InterceptionDriver {
+            teacher: self.clone(),
+            gain: 1.0,
+            turn_onset_rad: PI / 2.0,
+            hand: Hand::new(self.hand.draw(&mut style_rng(0, STYLE_SALT)), self.period_s),
+            rng: style_rng(0, STYLE_SALT),
+            command: (0.0, 0.0),
+            limits: action_limits(),
         };
-        a[TRANS_DELTA] = self.gain_speed * (want_speed - speed_mps);
-        a[ROT_DELTA] = self.gain_rot * (want_rot - rot_radps);
+        d.begin(0);
+        d
+    }
+
+    /// The style of episode `episode_seed`: the steering gain factor, the turn onset and the
+    /// hand.
+    pub fn style(&self, episode_seed: u64) -> (f64, f64, HandStyle) {
+        let mut rng = style_rng(episode_seed, STYLE_SALT);
+        let hand = self.hand.draw(&mut rng);
+        let gain = draw(&mut rng, self.gain);
+        let onset = draw(&mut rng, self.turn_onset_rad);
+        (gain, onset, hand)
     }
 }
 
-/// The teacher needs no per-episode state; as a [`Controller`] it simply acts.
-impl Controller for InterceptionTeacher {
+/// The interception teacher during an episode (see [`InterceptionTeacher`]).
+#[derive(Clone, Debug)]
+pub struct InterceptionDriver {
+    teacher: InterceptionTeacher,
+    gain: f64,
+    turn_onset_rad: f64,
+    hand: Hand,
+    /// The person's own randomness within the episode (the hand's tremor and pauses).
+    rng: ChaCha8Rng,
+    /// The speed command the person has sent so far (the integral of its actions).
+    command: (f64, f64),
+    limits: [(f64, f64); 2],
+}
+
+/// The domain's limits on the two action changes (a change beyond them would be clamped).
+fn action_limits() -> [(f64, f64); 2] {
+    let d = Domain::interception();
+    let lim = |i: usize| {
+        d.act
+            .get(i)
+            .and_then(|a| a.limits)
+            .map_or((f64::NEG_INFINITY, f64::INFINITY), |l| (l.lo, l.hi))
+    };
+    [lim(TRANS_DELTA), lim(ROT_DELTA)]
+}
+
+impl Controller for InterceptionDriver {
+    fn begin(&mut self, episode_seed: u64) {
+        let (gain, onset, hand) = self.teacher.style(episode_seed);
+        self.gain = gain;
+        self.turn_onset_rad = onset;
+        self.hand = Hand::new(hand, self.teacher.period_s);
+        // Salted apart from the simulator's noise and from the style draw.
+        self.rng = ChaCha8Rng::seed_from_u64(episode_seed ^ 0xBA11_4A4D_0000_0009);
+        self.command = (0.0, 0.0);
+    }
+
     fn act(&mut self, z: &[f64], a: &mut [f64]) {
-        Policy::act(self, z, a)
+        let t = &self.teacher;
+        let phi = z[BALL_ANGLE];
+        let want_rot = (t.k_turn * self.gain * phi).clamp(-t.max_rot_radps, t.max_rot_radps);
+        let want_speed = if phi.abs() > self.turn_onset_rad {
+            t.cruise_mps * t.behind_frac
+        } else {
+            t.cruise_mps
+        };
+        let (v, w) = self.hand.track((want_speed, want_rot), &mut self.rng);
+        // The action is the change of the person's own command, within what the stick allows.
+        let dv = (v - self.command.0).clamp(self.limits[0].0, self.limits[0].1);
+        let dw = (w - self.command.1).clamp(self.limits[1].0, self.limits[1].1);
+        self.command = (self.command.0 + dv, self.command.1 + dw);
+        a[TRANS_DELTA] = dv;
+        a[ROT_DELTA] = dw;
+    }
+}
+
+/// The base's limits an ideal interceptor drives under (the simulator's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaseLimits {
+    pub max_speed_mps: f64,
+    pub max_accel_mps2: f64,
+    pub max_rot_radps: f64,
+    pub max_rot_accel_radps2: f64,
+}
+
+/// Time to cover `x` from rest to rest-or-moving under a speed limit `v` and an acceleration
+/// limit `a` (accelerate, then cruise), s.
+fn time_to_cover(x: f64, v: f64, a: f64) -> f64 {
+    let x = x.max(0.0);
+    let ramp = v * v / (2.0 * a);
+    if x <= ramp {
+        (2.0 * x / a).sqrt()
+    } else {
+        v / a + (x - ramp) / v
+    }
+}
+
+/// Time to turn through `theta` in place from rest and stop there (bang-bang under the turn-rate
+/// and turn-acceleration limits), s.
+fn time_to_turn(theta: f64, w: f64, a: f64) -> f64 {
+    let theta = theta.abs();
+    if theta <= w * w / a {
+        2.0 * (theta / a).sqrt()
+    } else {
+        theta / w + w / a
+    }
+}
+
+/// Where the ball is `t` seconds after `start` (rolling straight, slowing under friction).
+fn ball_at(start: &BallStart, decel: f64, t: f64) -> (f64, f64) {
+    let s0 = start.vx_mps.hypot(start.vy_mps);
+    if s0 == 0.0 {
+        return (start.x_m, start.y_m);
+    }
+    let stop = if decel > 0.0 {
+        s0 / decel
+    } else {
+        f64::INFINITY
+    };
+    let tt = t.min(stop);
+    let travelled = s0 * tt - 0.5 * decel * tt * tt;
+    (
+        start.x_m + start.vx_mps / s0 * travelled,
+        start.y_m + start.vy_mps / s0 * travelled,
+    )
+}
+
+/// The earliest time an ideal interceptor meets the ball from `start` in `world`, or `None`.
+///
+/// It knows the ball's future and drives a plan that is always feasible under the base's limits:
+/// turn in place toward where the ball will be at time `t`, then drive straight there, each leg
+/// from rest under the speed and acceleration limits; it meets the ball when it can be within
+/// the capture distance of the ball's position at `t` by `t`, with the ball still in the arena
+/// (its path is straight, so in at `t` means in all along) and `t` within the time limit. The
+/// times are searched on a 10 ms grid. A real optimal interceptor (turning while driving) is at
+/// least as quick, so the success this gives is a lower bound on the ideal's.
+pub fn ideal_catch_s(
+    start: &BallStart,
+    world: &InterceptionRules,
+    base: &BaseLimits,
+) -> Option<f64> {
+    let speed = base.max_speed_mps.min(world.max_speed_mps);
+    let rot = base.max_rot_radps.min(world.max_rot_radps);
+    let steps = (world.time_limit_s / 0.01).floor() as usize;
+    (0..=steps).map(|i| i as f64 * 0.01).find_map(|t| {
+        let (x, y) = ball_at(start, world.ball_decel_mps2, t);
+        if x.abs() > world.arena_half_m || y.abs() > world.arena_half_m {
+            return Some(None);
+        }
+        let d = x.hypot(y);
+        if d < world.capture_m {
+            return Some(Some(t));
+        }
+        let turn = time_to_turn(y.atan2(x), rot, base.max_rot_accel_radps2);
+        let drive = time_to_cover(d - world.capture_m, speed, base.max_accel_mps2);
+        (turn + drive <= t).then_some(Some(t))
+    })?
+}
+
+/// The fraction of `starts` an ideal interceptor catches ([`ideal_catch_s`]).
+pub fn ideal_success(starts: &[BallStart], world: &InterceptionRules, base: &BaseLimits) -> f64 {
+    if starts.is_empty() {
+        return 0.0;
+    }
+    let caught = starts
+        .iter()
+        .filter(|s| ideal_catch_s(s, world, base).is_some())
+        .count();
+    caught as f64 / starts.len() as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn base() -> BaseLimits {
+        BaseLimits {
+            max_speed_mps: 1.0,
+            max_accel_mps2: 1.0,
+            max_rot_radps: 1.0,
+            max_rot_accel_radps2: 2.0,
+        }
+    }
+
+    fn world() -> InterceptionRules {
+        InterceptionRules {
+            arena_half_m: 4.0,
+            capture_m: 0.3,
+            time_limit_s: 20.0,
+            ball_dist_m: (1.0, 3.0),
+            ball_speed_mps: (0.0, 0.8),
+            ball_decel_mps2: 0.05,
+            max_speed_mps: 1.0,
+            max_rot_radps: 1.0,
+        }
+    }
+
+    #[test]
+    fn a_still_ball_ahead_is_met_when_the_drive_takes_it_there() {
+        let start = BallStart {
+            x_m: 2.3,
+            ..BallStart::default()
+        };
+        // 2 m to cover: 0.5 m of ramp in 1 s, then 1.5 m at 1 m/s.
+        let t = ideal_catch_s(&start, &world(), &base()).unwrap();
+        assert!((t - 2.5).abs() < 0.011, "{t}");
+    }
+
+    #[test]
+    fn the_teacher_is_a_person_not_a_function_of_the_observation() {
+        let teacher = InterceptionTeacher::bootstrap(1.0 / 30.0);
+        let z = [2.0, 0.6, 0.0, 0.0, 0.0, 0.0];
+        // The same observations in two episodes: different actions (another person's hand);
+        // the same episode twice: the same actions.
+        let run = |seed: u64| {
+            let mut d = teacher.driver();
+            d.begin(seed);
+            (0..40)
+                .map(|_| {
+                    let mut a = [0.0; 2];
+                    d.act(&z, &mut a);
+                    a
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(run(3), run(3));
+        assert_ne!(run(3), run(4));
+        // Styles stay within the ranges.
+        for seed in 0..50 {
+            let (gain, onset, hand) = teacher.style(seed);
+            assert!((teacher.gain[0]..=teacher.gain[1]).contains(&gain));
+            assert!((teacher.turn_onset_rad[0]..=teacher.turn_onset_rad[1]).contains(&onset));
+            assert!(teacher.hand.contains(&hand));
+        }
+    }
+
+    #[test]
+    fn a_ball_rolling_away_faster_than_the_base_is_lost() {
+        let fast = BallStart {
+            x_m: 2.0,
+            y_m: 0.0,
+            vx_mps: 1.5,
+            vy_mps: 0.0,
+        };
+        let w = InterceptionRules {
+            ball_decel_mps2: 0.0,
+            ..world()
+        };
+        assert_eq!(ideal_catch_s(&fast, &w, &base()), None);
+        // At 0.3 m/s it is caught before it leaves the arena (at about 2.4 s).
+        let slow = BallStart {
+            vx_mps: 0.3,
+            ..fast
+        };
+        assert!(ideal_catch_s(&slow, &w, &base()).is_some());
     }
 }

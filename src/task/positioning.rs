@@ -20,11 +20,16 @@ use crate::backend::sim::normal_pair;
 use crate::domain::columns::positioning::{BEARING, DHEADING, DIST2, ROT, TRANS};
 use crate::geometry::{Pose, bearing, wrap_angle};
 use crate::task::Controller;
+use crate::task::human::{Hand, HandStyle};
 
 /// Goal bounds, from the paper.
 pub const GOAL_X_M: (f64, f64) = (-0.33, 4.5);
 pub const GOAL_Y_M: (f64, f64) = (-4.0, 0.17);
 pub const GOAL_THETA_RAD: (f64, f64) = (-3.1, 1.1);
+
+/// A positioning demonstration keeps every this many control steps: 15 Hz at the simulator's
+/// 30 Hz (docs/protocol.md, point 7).
+pub const RECORD_EVERY: usize = 2;
 
 /// Size of the test set (the paper's 25 goals).
 pub const TEST_GOALS: usize = 25;
@@ -122,6 +127,12 @@ pub struct TeacherStyle {
     pub reaction_s: f64,
     /// Hand tremor: standard deviation of the slow noise on each stick axis (m/s and rad/s).
     pub tremor: f64,
+    /// Hesitation: pauses a second, on average, in which the stick stays put, and how long one
+    /// lasts, s ([`crate::task::human`]).
+    #[serde(default)]
+    pub hesitate_per_s: f64,
+    #[serde(default)]
+    pub hesitate_s: f64,
     /// Misjudged goal position: standard deviation per axis, as a fraction of the initial
     /// distance to the goal.
     pub perception_frac: f64,
@@ -142,6 +153,8 @@ impl Default for TeacherStyle {
             heading_tol_rad: 0.12,
             reaction_s: 0.25,
             tremor: 0.03,
+            hesitate_per_s: 0.0,
+            hesitate_s: 0.0,
             perception_frac: 0.15,
             heading_misjudge_rad: 0.25,
         }
@@ -166,8 +179,7 @@ struct EpisodeState {
     /// Goal position error in the goal's frame, m.
     offset: (f64, f64),
     heading_offset_rad: f64,
-    stick: (f64, f64),
-    tremor: (f64, f64),
+    hand: Option<Hand>,
     turning_in_place: bool,
     done: bool,
 }
@@ -243,7 +255,9 @@ impl Controller for PositioningTeacher {
             .random_range(self.style.cruise_mps.0..=self.style.cruise_mps.1);
         let perception_draw = (self.normal(), self.normal());
         let heading_offset_rad = self.normal() * self.style.heading_misjudge_rad;
+        let hand = Hand::new(self.style.hand(), self.period_s);
         self.episode = EpisodeState {
+            hand: Some(hand),
             cruise_mps: cruise,
             perception_draw,
             heading_offset_rad,
@@ -260,28 +274,31 @@ impl Controller for PositioningTeacher {
             self.episode.offset = (n1 * sd, n2 * sd);
         }
         let (v, w) = self.intention(z);
-        let alpha = 1.0 - (-self.period_s / self.style.reaction_s.max(1e-6)).exp();
-        let (n1, n2) = (self.normal(), self.normal());
-        let e = &mut self.episode;
-        if e.done {
-            // Hand off the stick: the lag decays to a clean zero.
-            e.stick.0 *= 1.0 - alpha;
-            e.stick.1 *= 1.0 - alpha;
-            if e.stick.0.abs() < 0.005 && e.stick.1.abs() < 0.005 {
-                e.stick = (0.0, 0.0);
-            }
-            a[TRANS] = e.stick.0;
-            a[ROT] = e.stick.1;
-            return;
+        let done = self.episode.done;
+        let hand = self
+            .episode
+            .hand
+            .get_or_insert_with(|| Hand::new(self.style.hand(), self.period_s));
+        // The person's hand: lag, tremor, pauses; let go once satisfied.
+        let (v, w) = if done {
+            hand.release(&mut self.rng)
+        } else {
+            hand.track((v, w), &mut self.rng)
+        };
+        a[TRANS] = v;
+        a[ROT] = w;
+    }
+}
+
+impl TeacherStyle {
+    /// The driver's hand ([`crate::task::human`]).
+    pub fn hand(&self) -> HandStyle {
+        HandStyle {
+            reaction_s: self.reaction_s,
+            tremor: self.tremor,
+            hesitate_per_s: self.hesitate_per_s,
+            hesitate_s: self.hesitate_s,
         }
-        // Tremor: slow (AR(1), about a second of memory) noise on each axis.
-        let keep: f64 = 0.95;
-        let kick = (1.0 - keep * keep).sqrt() * self.style.tremor;
-        e.tremor = (keep * e.tremor.0 + kick * n1, keep * e.tremor.1 + kick * n2);
-        e.stick.0 += alpha * (v - e.stick.0);
-        e.stick.1 += alpha * (w - e.stick.1);
-        a[TRANS] = e.stick.0 + e.tremor.0;
-        a[ROT] = e.stick.1 + e.tremor.1;
     }
 }
 
