@@ -168,9 +168,11 @@ fn actions_are_changes_of_speed_integrated_and_clamped() {
         commands: Vec::new(),
     };
     let mut task = Interception::with_rules(
+        // A still ball far behind, inside the calibrated arena (half-width 3 m): the run lasts
+        // its whole second.
         BallStart {
-            x_m: -3.9,
-            y_m: -3.9,
+            x_m: -2.9,
+            y_m: -2.9,
             vx_mps: 0.0,
             vy_mps: 0.0,
         },

@@ -325,7 +325,10 @@ mod tests {
         assert_eq!(words("load demos d.csv cmd /c "), vec!["odom"]);
         assert_eq!(words("load demos d.csv cmd "), Vec::<String>::new());
         assert_eq!(words("record "), vec!["demo"]);
-        assert_eq!(words("record demo for 5 "), vec!["from", "goal"]);
+        assert_eq!(
+            words("record demo for 5 "),
+            vec!["--keep-idle", "from", "goal"]
+        );
         assert_eq!(words("record demo goal 1 "), Vec::<String>::new());
         assert_eq!(words("teleop "), vec!["for", "goal"]);
         assert_eq!(words("critique "), vec!["--directional"]);
@@ -438,7 +441,7 @@ mod tests {
         );
         assert_eq!(
             h.hint_for("record demo ").as_deref(),
-            Some("[from TOPIC] [goal X Y THETA] [for S]")
+            Some("[from TOPIC] [goal X Y THETA] [for S] [--keep-idle]")
         );
         assert_eq!(h.hint_for("task i"), None);
     }
