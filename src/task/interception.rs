@@ -577,17 +577,9 @@ mod tests {
         }
     }
 
+    /// The uncalibrated world (the bootstrap values): the tests below were written against it.
     fn world() -> InterceptionRules {
-        InterceptionRules {
-            arena_half_m: 4.0,
-            capture_m: 0.3,
-            time_limit_s: 20.0,
-            ball_dist_m: (1.0, 3.0),
-            ball_speed_mps: (0.0, 0.8),
-            ball_decel_mps2: 0.05,
-            max_speed_mps: 1.0,
-            max_rot_radps: 1.0,
-        }
+        InterceptionRules::bootstrap()
     }
 
     #[test]
