@@ -598,6 +598,10 @@ fn pilot_params() -> Vec<Param<PilotStyle>> {
 /// Patience values the arm-length stage tries (practice goals per arm at most: 120, twice the
 /// paper's arms, so patience alone decides where an arm stops).
 const PATIENCE_GRID: [usize; 5] = [6, 9, 12, 15, 18];
+
+/// The arms' patience before any calibration (issue 22's first guess): where
+/// `calibrate aopi --from-bootstrap` starts, as the pilot starts from `PilotStyle::bootstrap()`.
+const BOOTSTRAP_PATIENCE: usize = 6;
 const ARM_MAX_PRACTICE: usize = 120;
 /// The paper's arms: data from 69, 68 and 60 executions.
 fn paper_arm_length() -> f64 {
@@ -654,6 +658,11 @@ fn calibrate_aopi(sim: &SimParams, from_bootstrap: bool, progress: bool) -> Aopi
 
     // Stage two: how long the arms run, with the calibrated driver.
     let defaults = AopiParams::default();
+    let start_patience = if from_bootstrap {
+        BOOTSTRAP_PATIENCE
+    } else {
+        defaults.patience
+    };
     let arm_params = |patience: usize, max_practice: usize| AopiParams {
         teacher: pilot.clone(),
         patience,
@@ -663,11 +672,12 @@ fn calibrate_aopi(sim: &SimParams, from_bootstrap: bool, progress: bool) -> Aopi
     };
     let length_before = aopi_arm_length(&AopiParams {
         teacher: start.clone(),
+        patience: start_patience,
         sim: sim.clone(),
         ..AopiParams::default()
     });
     let arm_miss = |len: f64| miss(len, paper_arm_length(), ARM_LENGTH_UNIT);
-    let mut best = (f64::INFINITY, defaults.patience, length_before);
+    let mut best = (f64::INFINITY, start_patience, length_before);
     for &patience in &PATIENCE_GRID {
         let len = aopi_arm_length(&arm_params(patience, ARM_MAX_PRACTICE));
         evaluations += 1;
@@ -698,7 +708,7 @@ fn calibrate_aopi(sim: &SimParams, from_bootstrap: bool, progress: bool) -> Aopi
     knobs.push(Knob {
         name: "patience (evaluations without improvement)".into(),
         grid: PATIENCE_GRID.iter().map(|&p| p as f64).collect(),
-        before: defaults.patience as f64,
+        before: start_patience as f64,
         after: patience as f64,
     });
     knobs.push(Knob {
