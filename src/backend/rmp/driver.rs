@@ -323,6 +323,11 @@ impl RmpBackend {
         Ok(backend)
     }
 
+    /// How long one start-up or reset step may wait for the platform.
+    fn step_timeout(&self) -> Duration {
+        Duration::from_secs_f64(self.config.step_timeout_s)
+    }
+
     /// The vendor's start-up sequence, one step after the other; each step fails with its name.
     fn start_up(&mut self) -> Result<(), BackendError> {
         self.stop_streaming()?;
@@ -335,7 +340,7 @@ impl RmpBackend {
 
     /// Start-up: stop streaming until the platform has been quiet for 0.1 s.
     fn stop_streaming(&mut self) -> Result<(), BackendError> {
-        let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
+        let timeout = self.step_timeout();
         let link = Arc::clone(&self.link);
         let quiet = Duration::from_millis(100);
         let began = Instant::now();
@@ -370,7 +375,7 @@ impl RmpBackend {
 
     /// Start-up: the fault log, requested at 2 Hz.
     fn read_fault_log(&mut self) -> Result<(), BackendError> {
-        let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
+        let timeout = self.step_timeout();
         let link = Arc::clone(&self.link);
         retry(
             &link,
@@ -398,7 +403,7 @@ impl RmpBackend {
 
     /// Start-up: start streaming at 10 Hz until the first plausible feedback (which fixes byte order).
     fn start_streaming(&mut self) -> Result<(), BackendError> {
-        let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
+        let timeout = self.step_timeout();
         let link = Arc::clone(&self.link);
         // Replies to the earlier commands do not count: forget them.
         link.lock().latest = None;
@@ -463,7 +468,7 @@ impl RmpBackend {
 
     /// Start-up: load the machine configuration at 2 Hz until the echo matches bit for bit.
     fn load_machine_config(&mut self) -> Result<(), BackendError> {
-        let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
+        let timeout = self.step_timeout();
         let link = Arc::clone(&self.link);
         let words = self.config.machine.to_words();
         let echo_ok = retry(
@@ -493,7 +498,7 @@ impl RmpBackend {
 
     /// Start-up: standby, without critical faults.
     fn wait_for_standby(&mut self) -> Result<(), BackendError> {
-        let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
+        let timeout = self.step_timeout();
         let began = Instant::now();
         loop {
             let fb = self.latest_feedback().0;
@@ -775,7 +780,7 @@ impl Backend for RmpBackend {
     }
 
     fn reset(&mut self, start: Pose) -> Result<BaseState, BackendError> {
-        let timeout = Duration::from_secs_f64(self.config.step_timeout_s);
+        let timeout = self.step_timeout();
         let (fb, _) = self.fresh_feedback()?;
         if fb.op_state().is_some_and(OpState::drives)
             && f64::from(fb.f(word::ODOM_VX)).abs() >= REST_MPS
