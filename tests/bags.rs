@@ -579,6 +579,24 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
 /// A session's dataset exported as LeRobot v3.0: pyarrow reads every table; each frame is a
 /// dataset point (state, action, BC weight and source), each demonstration and each advice an
 /// episode whose index range holds its frames.
+/// A LeRobot export as `tests/python/read_lerobot.py` reads it, the way LeRobot's loader does.
+fn read_lerobot(py: &Path, dir: &Path) -> serde_json::Value {
+    let out = Command::new(py)
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/python/read_lerobot.py"
+        ))
+        .arg(dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 #[test]
 fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
     let Some(py) = peer() else { return };
@@ -615,20 +633,7 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
     let stats: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("lr/meta/stats.json")).unwrap()).unwrap();
 
-    let out = Command::new(&py)
-        .arg(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/python/read_lerobot.py"
-        ))
-        .arg(d.join("lr"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let read: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let read = read_lerobot(&py, &d.join("lr"));
     let data = &read["data"];
     assert_eq!(
         data["schema"]["observation.state"],
@@ -724,20 +729,7 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
         text.contains("in 5 episodes (3 demonstrations, 1 advice, 1 executions)"),
         "{text}"
     );
-    let out = Command::new(&py)
-        .arg(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/python/read_lerobot.py"
-        ))
-        .arg(d.join("lx"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let read: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let read = read_lerobot(&py, &d.join("lx"));
     let rows = read["data"]["rows"].as_array().unwrap();
     let episodes = read["episodes"]["rows"].as_array().unwrap();
     assert_eq!(episodes.len(), 5);
