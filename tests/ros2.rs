@@ -421,30 +421,30 @@ fn record_demo_keeps_a_scripted_teleoperation_as_a_demonstration() {
         return;
     }
     for (ty, flag) in [("Twist", "twist"), ("TwistStamped", "stamped")] {
-        let dir = tempfile::tempdir().unwrap();
-        let mut peer = Peer::start(
-            dir.path(),
-            &[
-                "--teleop",
-                "0.4,0,2;0.3,0.5,2",
-                "--teleop-delay",
-                "3",
-                "--lifetime",
-                "60",
-                "--cmd-type",
-                flag,
-            ],
-        );
-        let mut s =
-            advise::session::Session::new(advise::session::SessionOptions::default()).unwrap();
-        s.execute("backend ros2", "<test>").unwrap();
-        let reply = s
-            .execute("record demo for 30", "<test>")
-            .unwrap()
-            .to_string();
-        peer.expect_line("done", Duration::from_secs(30));
+        let (s, reply) = record_scripted_teleop(&["--cmd-type", flag], "record demo for 30");
         assert_recorded(&s, &reply, ty);
     }
+}
+
+/// `statement` run on a session on `backend ros2` while the peer plays a scripted teleoperation
+/// (0.4 m/s for 2 s, then a turn for 2 s, after 3 s; `extra` peer arguments), until it is done.
+fn record_scripted_teleop(extra: &[&str], statement: &str) -> (advise::session::Session, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut args = vec![
+        "--teleop",
+        "0.4,0,2;0.3,0.5,2",
+        "--teleop-delay",
+        "3",
+        "--lifetime",
+        "60",
+    ];
+    args.extend_from_slice(extra);
+    let mut peer = Peer::start(dir.path(), &args);
+    let mut s = advise::session::Session::new(advise::session::SessionOptions::default()).unwrap();
+    s.execute("backend ros2", "<test>").unwrap();
+    let reply = s.execute(statement, "<test>").unwrap().to_string();
+    peer.expect_line("done", Duration::from_secs(30));
+    (s, reply)
 }
 
 /// `--keep-idle` keeps the standing still after the base came to rest.
@@ -453,25 +453,7 @@ fn record_demo_keep_idle_keeps_the_standing_still() {
     if !isolated_with_peer("record_demo_keep_idle_keeps_the_standing_still") {
         return;
     }
-    let dir = tempfile::tempdir().unwrap();
-    let mut peer = Peer::start(
-        dir.path(),
-        &[
-            "--teleop",
-            "0.4,0,2;0.3,0.5,2",
-            "--teleop-delay",
-            "3",
-            "--lifetime",
-            "60",
-        ],
-    );
-    let mut s = advise::session::Session::new(advise::session::SessionOptions::default()).unwrap();
-    s.execute("backend ros2", "<test>").unwrap();
-    let reply = s
-        .execute("record demo for 30 --keep-idle", "<test>")
-        .unwrap()
-        .to_string();
-    peer.expect_line("done", Duration::from_secs(30));
+    let (s, reply) = record_scripted_teleop(&[], "record demo for 30 --keep-idle");
     assert!(!reply.contains("trimmed"), "{reply}");
     let n = s.learner().dataset().len();
     // 4 s of driving and 3 s at rest at the task's 30 Hz, give or take the link's timing.
