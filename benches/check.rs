@@ -11,6 +11,10 @@ use advise::check::{OperatorSet, Source};
 use advise::session::script;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
+/// The binary's allocator (see `src/main.rs`), so the figures are the command's.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 const OPERATORS: usize = 40_000;
 
 fn many_operators() -> String {

@@ -27,6 +27,7 @@ mod task;
 mod trace_domain;
 
 use std::collections::HashMap;
+use std::ops::ControlFlow;
 use std::sync::Arc;
 
 // "Did you mean" has one home, `diag::suggest`; the checker's passes use it under these names.
@@ -238,7 +239,7 @@ impl<'s> Checker<'s> {
             read.tasks.len(),
             read.ops.len(),
         );
-        for item in syntax::items(self.sources[f]) {
+        syntax::each_item(self.sources[f], |item| {
             match item {
                 Ok(Item::Domain(d)) => self.read_domain(f, &d, read),
                 Ok(Item::Operator(o)) => self.read_operator(f, o, read),
@@ -254,10 +255,11 @@ impl<'s> Checker<'s> {
                     read.by_name.retain(|_, i| *i < doms);
                     read.declared.retain(|_, (file, _)| *file != f);
                     self.errors.push((f, 0, e.into()));
-                    return;
+                    return ControlFlow::Break(());
                 }
             }
-        }
+            ControlFlow::Continue(())
+        });
     }
 
     /// A domain as it is read: checked, and known from here on unless it was declared before.

@@ -14,6 +14,7 @@ mod error;
 pub mod fmt;
 pub mod print;
 pub mod script;
+mod split;
 
 use pest::Parser;
 use pest::iterators::{Pair, Pairs};
@@ -24,6 +25,7 @@ use ast::*;
 use build::Builder;
 pub use error::ParseError;
 use error::{convert, nesting_too_deep};
+pub use split::each_item;
 
 #[derive(pest_derive::Parser)]
 #[grammar = "../../../grammar/advice.pest"]
@@ -68,15 +70,9 @@ pub fn items(source: Src<'_>) -> Items<'_> {
     // pest recurses once per bracket; refuse deep nesting before it can exhaust the stack.
     let brackets = delims::scan(source.text);
     let failed = brackets.too_deep.map(|at| nesting_too_deep(source.id, at));
-    Items {
-        id: source.id,
-        src: source.text,
-        brackets,
-        pos: 0,
-        last_start: 0,
-        failed,
-        done: false,
-    }
+    let mut items = Items::within(source, brackets, 0..source.text.len(), 0);
+    items.failed = failed;
+    items
 }
 
 /// The iterator of [`items`].
@@ -87,9 +83,33 @@ pub struct Items<'s> {
     /// Where the next item is looked for, and where the last one read started.
     pos: usize,
     last_start: usize,
+    /// Where the text read ends: the source's end, or the end of a batch ([`split`]).
+    end: usize,
     /// An error found before the first item (nesting too deep), reported first.
     failed: Option<ParseError>,
     done: bool,
+}
+
+impl<'s> Items<'s> {
+    /// The items of `source.text[range]`, read as if the items before `range.start` had been
+    /// (the last of them starting at `last_start`); `brackets` is the scan of the whole text.
+    fn within(
+        source: Src<'s>,
+        brackets: delims::Scan,
+        range: std::ops::Range<usize>,
+        last_start: usize,
+    ) -> Items<'s> {
+        Items {
+            id: source.id,
+            src: source.text,
+            brackets,
+            pos: range.start,
+            last_start,
+            end: range.end,
+            failed: None,
+            done: false,
+        }
+    }
 }
 
 impl Iterator for Items<'_> {
@@ -104,11 +124,11 @@ impl Iterator for Items<'_> {
             return Some(Err(e));
         }
         let (id, src, pos) = (self.id, self.src, self.pos);
-        let step = match AdviceParser::parse(Rule::next_item, &src[pos..]) {
+        let step = match AdviceParser::parse(Rule::next_item, &src[pos..self.end]) {
             Ok(mut pairs) => pairs.next().expect("next_item always yields one pair"),
             Err(e) => {
                 self.done = true;
-                let e = match AdviceParser::parse(Rule::file, &src[self.last_start..]) {
+                let e = match AdviceParser::parse(Rule::file, &src[self.last_start..self.end]) {
                     Err(whole) => shifted(whole, self.last_start),
                     // Cannot happen (the item before parsed the same way); the step's own error.
                     Ok(_) => shifted(e, pos),
