@@ -418,10 +418,11 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
         .unwrap()
         .as_nanos() as u64;
     assert!((before - 1_000_000_000..=after).contains(&t0), "{t0}");
-    assert_eq!(
-        session["summary"]["start"].as_u64().unwrap() / 1_000_000_000,
-        before / 1_000_000_000,
-        "the session's timeline starts when it began"
+    // The session began between `before` and now (a loaded machine may cross a second there).
+    let began = session["summary"]["start"].as_u64().unwrap();
+    assert!(
+        (before - 1_000_000_000..=after).contains(&began),
+        "the session's timeline starts when it began: {began} not in {before}..={after}"
     );
     let episodes = read["topics"]["/advise/episode"].as_array().unwrap();
     let marks: Vec<&str> = episodes.iter().map(|e| e[1].as_str().unwrap()).collect();
