@@ -371,22 +371,7 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
     );
     let (ok, text) = advise(&["export", "s.json", "--mcap", "cli.mcap"], d);
     assert!(ok, "{text}");
-    let read_mcap = |file: &str| -> serde_json::Value {
-        let out = Command::new(&py)
-            .arg(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/tests/python/read_mcap.py"
-            ))
-            .arg(d.join(file))
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        serde_json::from_slice(&out.stdout).unwrap()
-    };
+    let read_mcap = |file: &str| python_peer(&py, "read_mcap.py", &d.join(file));
     let read = read_mcap("cli.mcap");
     assert_eq!(read["profile"], "ros2");
     // The session's export and the command line's hold the same messages; only their timelines'
@@ -577,17 +562,15 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
     );
 }
 
-/// A session's dataset exported as LeRobot v3.0: pyarrow reads every table; each frame is a
-/// dataset point (state, action, BC weight and source), each demonstration and each advice an
-/// episode whose index range holds its frames.
-/// A LeRobot export as `tests/python/read_lerobot.py` reads it, the way LeRobot's loader does.
-fn read_lerobot(py: &Path, dir: &Path) -> serde_json::Value {
+/// What the Python peer `tests/python/SCRIPT` prints as JSON for `arg`; it must succeed.
+fn python_peer(py: &Path, script: &str, arg: &Path) -> serde_json::Value {
     let out = Command::new(py)
-        .arg(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/python/read_lerobot.py"
-        ))
-        .arg(dir)
+        .arg(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/python")
+                .join(script),
+        )
+        .arg(arg)
         .output()
         .unwrap();
     assert!(
@@ -598,6 +581,14 @@ fn read_lerobot(py: &Path, dir: &Path) -> serde_json::Value {
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
+/// A LeRobot export as `tests/python/read_lerobot.py` reads it, the way LeRobot's loader does.
+fn read_lerobot(py: &Path, dir: &Path) -> serde_json::Value {
+    python_peer(py, "read_lerobot.py", dir)
+}
+
+/// A session's dataset exported as LeRobot v3.0: pyarrow reads every table; each frame is a
+/// dataset point (state, action, BC weight and source), each demonstration and each advice an
+/// episode whose index range holds its frames.
 #[test]
 fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
     let Some(py) = peer() else { return };
