@@ -752,6 +752,45 @@ mod tests {
         assert_eq!(late[0].chunk.len(), 25);
     }
 
+    /// The ablation's advisor (`--revert advisor`): default gains, the goal point, median rates.
+    #[test]
+    fn the_pre_protocol_advisor_speaks_as_before_the_protocol() {
+        let old = AdvisorRules {
+            pre_protocol: true,
+            ..AdvisorRules::default()
+        };
+        let first =
+            |exec: &Execution, rules: &AdvisorRules| advise(exec, rules)[0].operator.to_string();
+        assert_eq!(
+            first(&drive(3.0, 1.5, 0.5), &old),
+            "translational_acceleration"
+        );
+        assert_eq!(
+            first(&drive(1.5, 2.5, 0.5), &old),
+            "translational_deceleration"
+        );
+        // Arcs: rates from the old coarse sets, and a different judgement of the same path.
+        let exec = arc(Pose::new(2.0, 2.0, 0.0), 0.5, 0.08, 240);
+        let texts = |rules: &AdvisorRules| -> Vec<String> {
+            advise(&exec, rules)
+                .iter()
+                .map(|a| a.operator.to_string())
+                .collect()
+        };
+        let before = texts(&old);
+        assert!(
+            before.iter().any(|t| [
+                "turn_tighter(0.5)",
+                "turn_tighter(1)",
+                "turn_tighter(2)",
+                "turn_tighter(4)"
+            ]
+            .contains(&t.as_str())),
+            "{before:?}"
+        );
+        assert_ne!(before, texts(&AdvisorRules::default()));
+    }
+
     #[test]
     fn an_arc_turning_away_from_the_goal_gets_no_turning() {
         // The goal is off to the left; the robot curves right.

@@ -481,6 +481,28 @@ mod tests {
         );
     }
 
+    /// The ablation's critic (`--revert chunks`): fixed 25-point chunks, the first two poor ones.
+    #[test]
+    fn the_pre_protocol_critic_flags_at_most_two_fixed_chunks() {
+        for len in [0, 1, 24, 25, 49, 50, 51, 137] {
+            let cs = fixed_chunks(len);
+            assert_eq!(cs.iter().map(|c| c.len()).sum::<usize>(), len);
+            if len >= 25 {
+                assert!(cs.iter().all(|c| (25..50).contains(&c.len())), "{cs:?}");
+            }
+        }
+        let (t, _) = looping_trace();
+        let rules = CriticRules::default();
+        let fixed = critique_fixed(&t, &rules);
+        assert!(
+            !fixed.is_empty() && fixed.len() <= FIXED_MAX_FLAGS,
+            "{fixed:?}"
+        );
+        assert!(fixed.iter().all(|f| f.chunk.start % FIXED_CHUNK_LEN == 0));
+        // The protocol's critic flags the loop from where the turn began, in one chunk.
+        assert_ne!(fixed, critique(&t, &rules));
+    }
+
     #[test]
     fn driving_away_from_the_ball_is_flagged() {
         // The ball behind the robot, which drives on forward.

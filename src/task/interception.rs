@@ -686,6 +686,26 @@ mod tests {
         }
     }
 
+    /// The ablation's teacher (`--revert teacher`) is a function of the observation: the same
+    /// observation gets the same action in any episode, unlike the person it was replaced by.
+    #[test]
+    fn the_pre_protocol_teacher_is_a_function_of_the_observation() {
+        let z = [2.0, 0.6, 0.0, 0.0, 0.01, 0.002];
+        let act = |seed: u64| {
+            let mut t = StatelessInterceptionTeacher::pre_protocol(1.0 / 30.0);
+            t.begin(seed);
+            let mut a = [0.0; 2];
+            t.act(&z, &mut a);
+            t.act(&z, &mut a);
+            a
+        };
+        assert_eq!(act(3), act(4));
+        let a = act(3);
+        // 0.35 of the speed error (0.8 - 0.3 m/s), 0.5 of the turn-rate error (0.9 - 0.06).
+        assert!((a[TRANS_DELTA] - 0.35 * (0.8 - 0.3)).abs() < 1e-12, "{a:?}");
+        assert!((a[ROT_DELTA] - 0.5 * (0.9 - 0.06)).abs() < 1e-12, "{a:?}");
+    }
+
     #[test]
     fn a_ball_rolling_away_faster_than_the_base_is_lost() {
         let fast = BallStart {
