@@ -554,3 +554,71 @@ fn the_session_transcript_is_what_the_repl_prints() {
         );
     }
 }
+
+/// docs/ablation.md's tables are the committed ablation runs' (`docs/measured/ablation-*.json`,
+/// written by `advise experiment bc|aopi --seeds 0..20 --revert CHOICE --json`).
+#[test]
+fn the_ablation_tables_are_the_measured_json() {
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/ablation.md"))
+            .unwrap();
+    // Each study's table, from its heading on (the teacher's row is in both).
+    let row_of = |study: &str, label: &str| -> String {
+        let from = doc.find(&format!("## {study}")).unwrap();
+        doc[from..]
+            .lines()
+            .find(|l| l.starts_with(&format!("| {label} |")))
+            .unwrap_or_else(|| panic!("docs/ablation.md has no row `{label}`"))
+            .to_string()
+    };
+    let cells = |c: &Value| {
+        let d = &c["difference"];
+        let held = c["seeds_held"].as_array().unwrap().len();
+        let unit = if c["claim"].as_str().unwrap().contains("length") {
+            " m"
+        } else {
+            ""
+        };
+        format!(
+            "{held} of 20, {:+.3}{unit} [{:+.3}, {:+.3}]",
+            f(d, "mean"),
+            f(d, "lo95"),
+            f(d, "hi95")
+        )
+    };
+    for (n, choice) in [(1, "ball"), (2, "teacher"), (3, "chunks"), (4, "support")] {
+        let d = measured(&format!("ablation-bc-{choice}.json"));
+        assert_eq!(d["revert"], choice);
+        let row = row_of("Binary", &format!("{n}. `--revert {choice}`"));
+        let want = format!(
+            "| {n}. `--revert {choice}` | {} | {} | {} | ",
+            pct_sd(&d["learner_initial_success"]),
+            pct_sd(&d["learner_final_success"]),
+            pct_sd(&d["teacher_success"])
+        );
+        assert!(row.starts_with(&want), "{row}\n{want}");
+        for c in d["shape"]["claims"].as_array().unwrap() {
+            assert!(row.contains(&cells(c)), "{row}\n{}", cells(c));
+        }
+    }
+    for (n, choice) in [(2, "teacher"), (5, "advisor"), (6, "stopping"), (7, "rate")] {
+        let d = measured(&format!("ablation-aopi-{choice}.json"));
+        assert_eq!(d["revert"], choice);
+        let row = row_of("A-OPI", &format!("{n}. `--revert {choice}`"));
+        let arms: Vec<String> = ["baseline", "advised", "hybrid", "teleop"]
+            .iter()
+            .map(|a| pct_sd(&d["arms"][a]["success_rate"]))
+            .collect();
+        let want = format!("| {n}. `--revert {choice}` | {} | ", arms.join(" | "));
+        assert!(row.starts_with(&want), "{row}\n{want}");
+        for c in d["shape"]["claims"].as_array().unwrap() {
+            if !c["claim"].as_str().unwrap().contains("dataset") {
+                assert!(row.contains(&cells(c)), "{row}\n{}", cells(c));
+            }
+        }
+        assert!(row.ends_with(&format!(
+            "| {} |",
+            all_held(&d["shape"]).split(" (").next().unwrap()
+        )));
+    }
+}
