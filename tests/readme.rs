@@ -138,26 +138,33 @@ fn measured(name: &str) -> Value {
 fn the_bc_tables_are_the_measured_json() {
     let d = measured("bc-seeds-0-20.json");
     let dir = &d["directional"];
-    quoted(&format!(
-        "| learner, initial policy | {} | {} | 56%, 2.73 |",
-        pct_sd(&d["learner_initial_success"]),
-        m_sd(&d["learner_initial_length_m"])
-    ));
-    quoted(&format!(
-        "| learner, final policy (paper's rule) | {} | {} | 70%, 1.96 |",
-        pct_sd(&d["learner_final_success"]),
-        m_sd(&d["learner_final_length_m"])
-    ));
-    quoted(&format!(
-        "| learner, final policy (directional rule) | {} | {} | - |",
-        pct_sd(&dir["learner_final_success"]),
-        m_sd(&dir["learner_final_length_m"])
-    ));
-    quoted(&format!(
-        "| teacher | {} | {} | 62%, 2.87 |",
-        pct_sd(&d["teacher_success"]),
-        m_sd(&d["teacher_length_m"])
-    ));
+    for (label, figures, policy, paper) in [
+        (
+            "learner, initial policy",
+            &d,
+            "learner_initial",
+            "56%, 2.73",
+        ),
+        (
+            "learner, final policy (paper's rule)",
+            &d,
+            "learner_final",
+            "70%, 1.96",
+        ),
+        (
+            "learner, final policy (directional rule)",
+            dir,
+            "learner_final",
+            "-",
+        ),
+        ("teacher", &d, "teacher", "62%, 2.87"),
+    ] {
+        quoted(&format!(
+            "| {label} | {} | {} | {paper} |",
+            pct_sd(&figures[format!("{policy}_success").as_str()]),
+            m_sd(&figures[format!("{policy}_length_m").as_str()])
+        ));
+    }
     let paper = d["shape"]["claims"].as_array().unwrap();
     let directional = dir["shape"]["claims"].as_array().unwrap();
     for (p, q) in paper.iter().zip(directional) {
