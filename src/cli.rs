@@ -165,6 +165,12 @@ pub struct ExperimentArgs {
     /// demonstrations and practice starts [default: both].
     #[arg(long, value_name = "RULE")]
     pub critique: Option<crate::experiment::bc::Rules>,
+    /// The ablation (docs/ablation.md): revert one choice of the studies' protocol (README,
+    /// "The protocol") alone to what it replaced, everything else as the protocol has it:
+    /// `ball` (1, bc), `teacher` (2, bc and aopi), `chunks` (3, bc), `support` (4, bc),
+    /// `advisor` (5, aopi), `stopping` (6, aopi), `rate` (7, aopi).
+    #[arg(long, value_name = "CHOICE")]
+    pub revert: Option<crate::experiment::ablation::Revert>,
 }
 
 #[derive(Args)]
@@ -489,6 +495,17 @@ pub enum CliError {
         help("use it with `advise experiment bc`, or leave it out")
     )]
     CritiqueWithoutBc { study: String },
+    #[error("protocol choice {point} (`{choice}`) is not part of the `{study}` study")]
+    #[diagnostic(
+        code(advise::cli::revert_not_in_study),
+        help("`{choice}` is reverted in `advise experiment {other} --revert {choice}`")
+    )]
+    RevertNotInStudy {
+        point: usize,
+        choice: &'static str,
+        study: &'static str,
+        other: &'static str,
+    },
 }
 
 /// `--backend` with `--cmd-topic` and `--odom-topic` folded into a ROS 2 spec's options

@@ -22,6 +22,7 @@ use crate::backend::sim::SimParams;
 use crate::eval::{ControllerBox, Report};
 use crate::task::{InterceptionRules, Outcome, Start, TaskKind, episode_seed, run_sim_in};
 
+pub mod ablation;
 pub mod advisor;
 pub mod aopi;
 pub mod bc;

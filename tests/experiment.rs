@@ -376,6 +376,18 @@ fn bad_seed_ranges_are_diagnostics() {
             &["experiment", "bc", "--critique", "sideways"][..],
             "possible values: paper, directional, both",
         ),
+        (
+            &["experiment", "aopi", "--revert", "chunks"][..],
+            "advise::cli::revert_not_in_study",
+        ),
+        (
+            &["experiment", "bc", "--revert", "advisor"][..],
+            "`advise experiment aopi --revert advisor`",
+        ),
+        (
+            &["experiment", "bc", "--revert", "speed"][..],
+            "invalid value 'speed' for '--revert <CHOICE>'",
+        ),
     ] {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_advise"))
             .args(args)

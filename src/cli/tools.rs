@@ -134,11 +134,27 @@ pub fn experiment(args: ExperimentArgs) -> miette::Result<()> {
         }
         (study::Study::Aopi, None) => Default::default(),
     };
+    if let Some(choice) = args.revert
+        && !choice.affects(args.study)
+    {
+        let (name, other) = match args.study {
+            study::Study::Bc => ("bc", "aopi"),
+            study::Study::Aopi => ("aopi", "bc"),
+        };
+        return Err(CliError::RevertNotInStudy {
+            point: choice.point(),
+            choice: choice.name(),
+            study: name,
+            other,
+        }
+        .into());
+    }
     let out = study::run(
         args.study,
         &seeds,
         sim,
         critique,
+        args.revert,
         args.plot.as_deref(),
         true,
     )?;

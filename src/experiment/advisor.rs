@@ -82,6 +82,14 @@ pub struct AdvisorRules {
     /// Shortest stretch of the approach worth advising, points (a person does not pick out a
     /// fraction of a second).
     pub min_chunk: usize,
+    /// The advisor the protocol replaced (issue 33, choice 5), for the ablation only (`advise
+    /// experiment aopi --revert advisor`): arcs judged against the goal *point* with the
+    /// commanded curvature `rot / trans`, arc rates rounded from the median commanded ratio
+    /// (tighter by 0.5, 1, 2 or 4; looser by 0.25, 0.5 or 0.75), speed and heading advice at the
+    /// operators' default gains, and a miss to the side answered with `turn_tighter(2)` or
+    /// `translational_deceleration(0.5)`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub pre_protocol: bool,
 }
 
 impl Default for AdvisorRules {
@@ -92,6 +100,7 @@ impl Default for AdvisorRules {
             chunk_len: 25,
             approach_chunks: 6,
             min_chunk: 8,
+            pre_protocol: false,
         }
     }
 }
@@ -164,6 +173,14 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         chunk,
         reason,
     };
+    // An operator with a person's gain; before the protocol, at its default gain.
+    let said = |op: &str, gain: f64| {
+        if rules.pre_protocol {
+            op.to_string()
+        } else {
+            format!("{op}({gain})")
+        }
+    };
     let far = o.position_error_m > rules.position_tol_m;
     let last = trace.z(n - 1);
     if far {
@@ -183,7 +200,7 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
                 let past = last[DIST2].sqrt() - closest_m;
                 let gain = rate_for(past / covered, 0.2, 0.4);
                 out.push(advice(
-                    &format!("translational_deceleration({gain})"),
+                    &said("translational_deceleration", gain),
                     c,
                     Reason::Overshoot,
                 ));
@@ -196,7 +213,7 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
             // How far short it stopped, against the distance covered.
             let gain = rate_for(last[DIST2].sqrt() / covered, 0.2, 0.4);
             out.push(advice(
-                &format!("translational_acceleration({gain})"),
+                &said("translational_acceleration", gain),
                 c,
                 Reason::StoppedShort,
             ));
@@ -222,15 +239,20 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
                 .sum();
             // How far to the side it missed, against the distance covered.
             let rate = rate_for(o.position_error_m / covered, 0.2, 0.4);
+            let (tighter, slower) = if rules.pre_protocol {
+                (2.0, 0.5)
+            } else {
+                (rate, rate)
+            };
             if toward > 0.0 {
                 out.push(advice(
-                    &format!("turn_tighter({rate})"),
+                    &format!("turn_tighter({tighter})"),
                     c,
                     Reason::MissedTurningTooLittle,
                 ));
             } else {
                 out.push(advice(
-                    &format!("translational_deceleration({rate})"),
+                    &format!("translational_deceleration({slower})"),
                     c,
                     Reason::MissedTurningAway,
                 ));
@@ -252,13 +274,13 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
         );
         if turn * to_go > 0.0 {
             out.push(advice(
-                &format!("rotational_acceleration({gain})"),
+                &said("rotational_acceleration", gain),
                 c,
                 Reason::TurnedTooLittle,
             ));
         } else {
             out.push(advice(
-                &format!("rotational_deceleration({gain})"),
+                &said("rotational_deceleration", gain),
                 c,
                 Reason::TurnedTooMuch,
             ));
@@ -332,16 +354,27 @@ fn driven_curvature(trace: &Trace, path: &[Pose], t: usize) -> f64 {
 /// has curvature `2 sin(bearing) / distance`; the driven arc is the path's
 /// ([`driven_curvature`]). This is what a person sees from the side: whether the robot is
 /// curving onto the goal pose, past it, or away.
-fn arc_at(trace: &Trace, path: &[Pose], t: usize) -> Option<Arc> {
+///
+/// With `pre_protocol` (the ablation's advisor), the arc is the one to the goal *point* and the
+/// driven curvature the commanded one, `rot / trans`, as before the protocol.
+fn arc_at(trace: &Trace, path: &[Pose], t: usize, pre_protocol: bool) -> Option<Arc> {
     let (z, a) = (trace.z(t), trace.a(t));
     let d = z[DIST2].max(0.0).sqrt();
     if a[TRANS] <= MOVING_MPS || d < ARC_NEAR_M {
         return None;
     }
-    let (ad, ab) = aim(z);
+    let (ad, ab) = if pre_protocol {
+        (d, z[BEARING])
+    } else {
+        aim(z)
+    };
     let wanted = 2.0 * ab.sin() / ad.max(1e-6);
-    let driven = driven_curvature(trace, path, t);
-    let turning = driven.abs() * a[TRANS] > TURNING_RADPS;
+    let (driven, turning) = if pre_protocol {
+        (a[ROT] / a[TRANS], a[ROT].abs() > TURNING_RADPS)
+    } else {
+        let driven = driven_curvature(trace, path, t);
+        (driven, driven.abs() * a[TRANS] > TURNING_RADPS)
+    };
     if wanted.abs() < ARC_STRAIGHT && driven.abs() < ARC_STRAIGHT {
         return Some(Arc::Right);
     }
@@ -397,7 +430,7 @@ fn approach_advice(
         _ => 0,
     };
     let arcs: Vec<Option<Arc>> = (0..end.min(trace.len()))
-        .map(|t| arc_at(trace, path, t))
+        .map(|t| arc_at(trace, path, t, rules.pre_protocol))
         .collect();
     let mut runs: Vec<(usize, usize)> = Vec::new();
     let mut t = 0;
@@ -466,7 +499,11 @@ fn approach_advice(
                     })
                     .collect();
                 let share = shares.iter().sum::<f64>() / shares.len().max(1) as f64;
-                let rate = rate_for(share, 0.6, 0.8);
+                let rate = if rules.pre_protocol {
+                    median_rate(&arcs[chunk.range()], arcs[start])
+                } else {
+                    rate_for(share, 0.6, 0.8)
+                };
                 match arcs[start] {
                     Some(Arc::Wide(_)) => {
                         (format!("turn_tighter({rate})"), chunk, Reason::ArcTooWide)
@@ -479,6 +516,35 @@ fn approach_advice(
             })
         })
         .collect()
+}
+
+/// The arc rate before the protocol (the ablation's advisor): the median of the chunk's
+/// wanted-over-driven curvature ratios, rounded to the nearest of the coarse factors (tighter by
+/// 0.5, 1, 2 or 4, judged on a log scale; looser by 0.25, 0.5 or 0.75).
+fn median_rate(arcs: &[Option<Arc>], first: Option<Arc>) -> f64 {
+    let mut ratios: Vec<f64> = arcs
+        .iter()
+        .filter_map(|a| match a {
+            Some(Arc::Wide(r) | Arc::Tight(r)) => Some(*r),
+            _ => None,
+        })
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    let median = ratios.get(ratios.len() / 2).copied().unwrap_or(1.0);
+    let nearest = |set: &[f64], off: &dyn Fn(f64) -> f64, fallback: f64| {
+        set.iter()
+            .copied()
+            .min_by(|a, b| off(*a).total_cmp(&off(*b)))
+            .unwrap_or(fallback)
+    };
+    match first {
+        Some(Arc::Wide(_)) => nearest(
+            &[0.5, 1.0, 2.0, 4.0],
+            &|a| ((1.0 + a) / median).ln().abs(),
+            1.0,
+        ),
+        _ => nearest(&[0.25, 0.5, 0.75], &|a| ((1.0 - a) - median).abs(), 0.5),
+    }
 }
 
 fn driving(trace: &Trace, t: usize) -> bool {
@@ -684,6 +750,45 @@ mod tests {
         // The chunk is the turn that followed the straight stretch.
         assert_eq!(late[0].chunk.start, 60);
         assert_eq!(late[0].chunk.len(), 25);
+    }
+
+    /// The ablation's advisor (`--revert advisor`): default gains, the goal point, median rates.
+    #[test]
+    fn the_pre_protocol_advisor_speaks_as_before_the_protocol() {
+        let old = AdvisorRules {
+            pre_protocol: true,
+            ..AdvisorRules::default()
+        };
+        let first =
+            |exec: &Execution, rules: &AdvisorRules| advise(exec, rules)[0].operator.to_string();
+        assert_eq!(
+            first(&drive(3.0, 1.5, 0.5), &old),
+            "translational_acceleration"
+        );
+        assert_eq!(
+            first(&drive(1.5, 2.5, 0.5), &old),
+            "translational_deceleration"
+        );
+        // Arcs: rates from the old coarse sets, and a different judgement of the same path.
+        let exec = arc(Pose::new(2.0, 2.0, 0.0), 0.5, 0.08, 240);
+        let texts = |rules: &AdvisorRules| -> Vec<String> {
+            advise(&exec, rules)
+                .iter()
+                .map(|a| a.operator.to_string())
+                .collect()
+        };
+        let before = texts(&old);
+        assert!(
+            before.iter().any(|t| [
+                "turn_tighter(0.5)",
+                "turn_tighter(1)",
+                "turn_tighter(2)",
+                "turn_tighter(4)"
+            ]
+            .contains(&t.as_str())),
+            "{before:?}"
+        );
+        assert_ne!(before, texts(&AdvisorRules::default()));
     }
 
     #[test]

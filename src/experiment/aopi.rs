@@ -37,6 +37,7 @@ use serde::{Deserialize, Serialize};
 use crate::backend::sim::SimParams;
 use crate::check::{self, OperatorSet};
 use crate::eval::Report;
+use crate::experiment::ablation::{Revert, reverts};
 use crate::experiment::advisor::{self, AdvisorRules};
 use crate::experiment::pilot::PilotStyle;
 use crate::experiment::{Progress, eval_seed, evaluate_starts, pct, practice_seed};
@@ -100,6 +101,28 @@ pub struct AopiParams {
     pub teacher: PilotStyle,
     pub advisor: AdvisorRules,
     pub sim: SimParams,
+    /// The protocol's choice reverted for the ablation (`--revert`), if any
+    /// ([`crate::experiment::ablation`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub revert: Option<Revert>,
+}
+
+impl AopiParams {
+    /// A positioning demonstration keeps every this many control steps: 15 Hz (protocol,
+    /// choice 7), or every step with the choice reverted for the ablation.
+    pub fn record_every(&self) -> usize {
+        if reverts(self.revert, Revert::Rate) {
+            1
+        } else {
+            TaskKind::Positioning.record_every()
+        }
+    }
+
+    /// Whether an arm stops on, and reports, its test-set evaluations: only with choice 6
+    /// reverted for the ablation (the protocol stops on validation goals).
+    pub fn stops_on_test(&self) -> bool {
+        reverts(self.revert, Revert::Stopping)
+    }
 }
 
 impl Default for AopiParams {
@@ -116,6 +139,7 @@ impl Default for AopiParams {
             teacher: PilotStyle::default(),
             advisor: AdvisorRules::default(),
             sim: SimParams::default(),
+            revert: None,
         }
     }
 }
@@ -279,7 +303,11 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
         // The halted policy: the one of the last improvement on the validation goals, with its
         // test-set report; and, beside it, the best test-set evaluation.
         let mut halted = (base_report.clone(), base_point.clone(), 0, tally.clone());
-        let mut best_val = base_val.clone();
+        let mut best_val = if params.stops_on_test() {
+            base_report.clone()
+        } else {
+            base_val.clone()
+        };
         let mut best_test = (base_report.clone(), base_point.clone());
         let mut curve = vec![base_point.clone()];
         let mut since_best = 0;
@@ -314,7 +342,7 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
                     );
                     let episode = Episode {
                         name: format!("teleop-{i}"),
-                        trace: recorded_at(&demo.trace, kind.record_every()),
+                        trace: recorded_at(&demo.trace, params.record_every()),
                     };
                     if learner.add_demonstrations(&[episode]).is_ok() {
                         tally.teleop_demos += 1;
@@ -334,8 +362,15 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
                 if better(&report, &best_test.0) {
                     best_test = (report.clone(), point.clone());
                 }
-                if better(&val, &best_val) {
-                    best_val = val;
+                // The stopping rule reads the validation goals; with choice 6 reverted for the
+                // ablation, the test set, as before the protocol.
+                let stop_on = if params.stops_on_test() {
+                    &report
+                } else {
+                    &val
+                };
+                if better(stop_on, &best_val) {
+                    best_val = stop_on.clone();
                     halted = (report, point, run, tally.clone());
                     since_best = 0;
                 } else {
@@ -463,7 +498,7 @@ fn record_pilot_demos(params: &AopiParams, seed: u64) -> Vec<(Episode, Outcome)>
             (
                 Episode {
                     name: format!("demo-{i}"),
-                    trace: recorded_at(&exec.trace, TaskKind::Positioning.record_every()),
+                    trace: recorded_at(&exec.trace, params.record_every()),
                 },
                 exec.outcome,
             )

@@ -32,12 +32,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::backend::sim::SimParams;
 use crate::eval::Report;
+use crate::experiment::ablation::{Revert, reverts};
 use crate::experiment::critic::{self, CriticRules};
 use crate::experiment::{Progress, eval_seed, evaluate_starts_in, opt_m, pct, practice_seed};
 use crate::policy::Policy;
 use crate::policy::dataset::{CritiqueRule, Dataset};
 use crate::policy::learner::{Learner, LearnerKind};
-use crate::task::interception::practice_starts_in;
+use crate::task::interception::{StatelessInterceptionTeacher, practice_starts_in};
 use crate::task::{
     Controller, InterceptionRules, InterceptionTeacher, Outcome, Start, TaskKind, record_demos_in,
     run_sim_in,
@@ -112,6 +113,10 @@ pub struct BcParams {
     /// Which critique rules run (default both).
     #[serde(default)]
     pub critique: Rules,
+    /// The protocol's choice reverted for the ablation (`--revert`), if any
+    /// ([`crate::experiment::ablation`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub revert: Option<Revert>,
 }
 
 impl Default for BcParams {
@@ -127,6 +132,7 @@ impl Default for BcParams {
             teacher: InterceptionTeacher::new(SimParams::default().period_s()),
             sim: SimParams::default(),
             critique: Rules::default(),
+            revert: None,
         }
     }
 }
@@ -279,7 +285,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         &params.world,
         kind.clone(),
         test,
-        || -> Box<dyn Controller + Send> { Box::new(params.teacher_for(sim).driver()) },
+        || params.teacher_driver(sim),
         sim,
         eseed,
     );
@@ -400,18 +406,24 @@ fn critique_rounds(
             )
         };
         practice_successes += usize::from(exec.outcome.success);
-        let flags = critic::critique_execution(&exec, &params.critic);
+        let flags = if reverts(params.revert, Revert::Chunks) {
+            critic::critique_execution_fixed(&exec, &params.critic)
+        } else {
+            critic::critique_execution(&exec, &params.critic)
+        };
         if !flags.is_empty() {
             summary.rounds_flagged += 1;
             // Which data point drove each step, recorded before any critique changes the
             // weights, as a session records it: a later chunk penalises what acted, not what
             // would act after the first chunk's penalties.
-            let support = learner.support_provenance(&exec.trace);
+            // (Reverted for the ablation: no support, the points nearest now.)
+            let support = (!reverts(params.revert, Revert::Support))
+                .then(|| learner.support_provenance(&exec.trace));
             let id = learner.add_execution(&exec.trace);
             for f in &flags {
                 // The learner has data and the chunk lies within the trace: this cannot fail.
                 let made = learner
-                    .plan_critique(&exec.trace, f.chunk, params.kappa, Some(&support), rule)
+                    .plan_critique(&exec.trace, f.chunk, params.kappa, support.as_deref(), rule)
                     .and_then(|plan| learner.add_critique(id, plan.critique));
                 if made.is_ok() {
                     summary.chunks_flagged += 1;
@@ -448,6 +460,17 @@ impl BcParams {
             ..self.teacher.clone()
         }
     }
+
+    /// The person driving the study's demonstrations and the teacher's test runs: the
+    /// calibrated teacher's driver, or, with choice 2 reverted for the ablation, the stateless
+    /// teacher the protocol replaced.
+    pub fn teacher_driver(&self, sim: &SimParams) -> Box<dyn Controller + Send> {
+        if reverts(self.revert, Revert::Teacher) {
+            Box::new(StatelessInterceptionTeacher::pre_protocol(sim.period_s()))
+        } else {
+            Box::new(self.teacher_for(sim).driver())
+        }
+    }
 }
 
 /// The teacher's demonstrations from `starts` in the study's world, in parallel: demonstration
@@ -460,7 +483,7 @@ pub(crate) fn record_teacher(
     record_demos_in(
         starts,
         &params.world,
-        || -> Box<dyn Controller + Send> { Box::new(params.teacher_for(&params.sim).driver()) },
+        || params.teacher_driver(&params.sim),
         &params.sim,
         seed,
     )

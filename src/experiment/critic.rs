@@ -178,7 +178,7 @@ pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
     if n == 0 || trace.obs_dim() <= HEADING_DELTA {
         return Vec::new();
     }
-    let in_loop = loop_points(trace, rules);
+    let in_loop = loop_points(trace, rules, true);
     let settle = opening(trace, rules);
     // How much the distance to the ball grew after the action at `t` (the next observation's).
     let closing = |t: usize| {
@@ -261,6 +261,83 @@ pub fn critique_execution(exec: &Execution, rules: &CriticRules) -> Vec<Flag> {
     critique(&exec.trace, rules)
 }
 
+/// The critic the protocol replaced (issue 33, choice 3), for the ablation
+/// (`advise experiment bc --revert chunks`): rule 0 as in [`critique_execution`], then
+/// [`critique_fixed`].
+pub fn critique_execution_fixed(exec: &Execution, rules: &CriticRules) -> Vec<Flag> {
+    if exec.outcome.success && !is_detour(exec, rules) {
+        return Vec::new();
+    }
+    critique_fixed(&exec.trace, rules)
+}
+
+/// Chunk length of the critic the protocol replaced, points.
+pub const FIXED_CHUNK_LEN: usize = 25;
+/// At most this many chunks were flagged per execution, the first ones.
+pub const FIXED_MAX_FLAGS: usize = 2;
+/// A chunk in which the robot drove less than this was not judged on distance, m.
+const FIXED_MIN_TRAVEL_M: f64 = 0.05;
+
+/// Consecutive chunks of [`FIXED_CHUNK_LEN`] points covering `len` points: a short remainder
+/// joins the chunk before it, and a run shorter than one chunk is one chunk.
+pub fn fixed_chunks(len: usize) -> Vec<Chunk> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    while start < len {
+        let mut end = (start + FIXED_CHUNK_LEN).min(len);
+        if len - end < FIXED_CHUNK_LEN {
+            end = len;
+        }
+        out.push(Chunk { start, end });
+        start = end;
+    }
+    out
+}
+
+/// The critic's judgement before the protocol: the run cut into [`fixed_chunks`], the part of
+/// each after the opening judged whole (at least half a chunk of it), a chunk flagged as a loop
+/// when most of it comes after the robot had turned half a circle one way, as moving away or
+/// wasted turning on the chunk's own measures, and at most the first [`FIXED_MAX_FLAGS`] poor
+/// chunks flagged. The thresholds are [`CriticRules`]' (they did not change), but for the travel
+/// below which a chunk is not judged on distance ([`FIXED_MIN_TRAVEL_M`] over the chunk).
+pub fn critique_fixed(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
+    let n = trace.len();
+    if n == 0 || trace.obs_dim() <= HEADING_DELTA {
+        return Vec::new();
+    }
+    let in_loop = loop_points(trace, rules, false);
+    let settle = opening(trace, rules);
+    let mut flags = Vec::new();
+    for chunk in fixed_chunks(n) {
+        let judged = Chunk {
+            start: chunk.start.max(settle),
+            end: chunk.end,
+        };
+        if judged.len() < FIXED_CHUNK_LEN.div_ceil(2) {
+            continue;
+        }
+        let m = measure(trace, judged);
+        let driving = m.travel_m > FIXED_MIN_TRAVEL_M;
+        let flaw = if judged.range().filter(|&t| in_loop[t]).count() * 2 > judged.len() {
+            Some(Flaw::Loop)
+        } else if driving && -m.progress_m > rules.away_m && m.toward_m < 0.0 {
+            Some(Flaw::MovingAway)
+        } else if m.turning_rad > rules.turn_rad && m.progress_m < rules.min_efficiency * m.travel_m
+        {
+            Some(Flaw::WastedTurning)
+        } else {
+            None
+        };
+        if let Some(flaw) = flaw {
+            flags.push(Flag { chunk, flaw });
+            if flags.len() == FIXED_MAX_FLAGS {
+                break;
+            }
+        }
+    }
+    flags
+}
+
 /// Whether a successful execution took "a very convoluted path": longer than `detour_ratio`
 /// times the straight line from its start (the first pose of the path its length was measured
 /// over; interception runs start at the origin) to where it ended, plus `detour_slack_m`.
@@ -286,8 +363,9 @@ fn opening(trace: &Trace, rules: &CriticRules) -> usize {
 
 /// Which points lie inside a loop: while the robot keeps turning one way (a stretch of
 /// straight driving longer than `loop_break_points`, or a turn the other way, ends the turn),
-/// once the turn has passed `loop_rad`, every point of it from where it began.
-fn loop_points(trace: &Trace, rules: &CriticRules) -> Vec<bool> {
+/// once the turn has passed `loop_rad`, every point of it from where it began (`from_start`),
+/// or only the points after the first `loop_rad` of it (the critic before the protocol).
+fn loop_points(trace: &Trace, rules: &CriticRules, from_start: bool) -> Vec<bool> {
     let n = trace.len();
     let mut marked = vec![false; n];
     let mut turned = 0.0f64;
@@ -309,7 +387,8 @@ fn loop_points(trace: &Trace, rules: &CriticRules) -> Vec<bool> {
         }
         turned += dh;
         if turned.abs() > rules.loop_rad {
-            marked[began..=t].iter_mut().for_each(|m| *m = true);
+            let from = if from_start { began } else { t };
+            marked[from..=t].iter_mut().for_each(|m| *m = true);
         }
     }
     marked
@@ -400,6 +479,28 @@ mod tests {
                 flaw: Flaw::Loop
             }]
         );
+    }
+
+    /// The ablation's critic (`--revert chunks`): fixed 25-point chunks, the first two poor ones.
+    #[test]
+    fn the_pre_protocol_critic_flags_at_most_two_fixed_chunks() {
+        for len in [0, 1, 24, 25, 49, 50, 51, 137] {
+            let cs = fixed_chunks(len);
+            assert_eq!(cs.iter().map(|c| c.len()).sum::<usize>(), len);
+            if len >= 25 {
+                assert!(cs.iter().all(|c| (25..50).contains(&c.len())), "{cs:?}");
+            }
+        }
+        let (t, _) = looping_trace();
+        let rules = CriticRules::default();
+        let fixed = critique_fixed(&t, &rules);
+        assert!(
+            !fixed.is_empty() && fixed.len() <= FIXED_MAX_FLAGS,
+            "{fixed:?}"
+        );
+        assert!(fixed.iter().all(|f| f.chunk.start % FIXED_CHUNK_LEN == 0));
+        // The protocol's critic flags the loop from where the turn began, in one chunk.
+        assert_ne!(fixed, critique(&t, &rules));
     }
 
     #[test]

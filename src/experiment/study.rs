@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use rayon::prelude::*;
 
+use super::ablation::Revert;
 use super::{ExperimentError, Progress, aopi, bc, ensure_dir, plot, summary};
 use crate::backend::sim::SimParams;
 
@@ -39,25 +40,30 @@ pub struct StudyOutput {
 }
 
 /// Run `study` for `seeds` on the simulator with `sim` (the BC study under the critique rules
-/// `critique`), plotting each run into `plot_dir` (created if needed, before anything runs) when
-/// given.
+/// `critique`; with the protocol's choice `revert` reverted, for the ablation), plotting each run
+/// into `plot_dir` (created if needed, before anything runs) when given.
 pub fn run(
     study: Study,
     seeds: &Seeds,
     sim: SimParams,
     critique: bc::Rules,
+    revert: Option<Revert>,
     plot_dir: Option<&Path>,
     progress: bool,
 ) -> Result<StudyOutput, ExperimentError> {
     if let Some(dir) = plot_dir {
         ensure_dir(dir)?;
     }
-    match study {
+    let out = match study {
         Study::Bc => {
             let params = bc::BcParams {
                 sim,
                 critique,
                 ..bc::BcParams::default()
+            };
+            let params = match revert {
+                Some(choice) => choice.bc(params),
+                None => params,
             };
             each_seed(
                 seeds,
@@ -76,6 +82,10 @@ pub fn run(
                 sim,
                 ..aopi::AopiParams::default()
             };
+            let params = match revert {
+                Some(choice) => choice.aopi(params),
+                None => params,
+            };
             each_seed(
                 seeds,
                 plot_dir,
@@ -88,6 +98,30 @@ pub fn run(
                 summary::AopiSummary::render,
             )
         }
+    }?;
+    Ok(match revert {
+        // The text says what was reverted, so an ablation's output is never read as the
+        // protocol's; the JSON says it at the top and in every run's parameters.
+        Some(choice) => StudyOutput {
+            text: format!(
+                "ablation: protocol choice {} (`{}`) reverted alone; not the protocol's figures\n{}",
+                choice.point(),
+                choice.name(),
+                out.text
+            ),
+            json: with_revert(&out.json, choice),
+            ..out
+        },
+        None => out,
+    })
+}
+
+/// A study's JSON (a pretty-printed object) with `"revert": CHOICE` as its first field, for the
+/// ablation's files; the rest is unchanged, in its order.
+fn with_revert(json: &str, choice: Revert) -> String {
+    match json.strip_prefix("{\n") {
+        Some(rest) => format!("{{\n  \"revert\": \"{}\",\n{rest}", choice.name()),
+        None => json.to_string(),
     }
 }
 

@@ -76,6 +76,20 @@ impl InterceptionRules {
             max_rot_radps: 1.0,
         }
     }
+
+    /// The world the calibration chose before the protocol (issue 33, choice 1), when nothing
+    /// kept the ball interceptable: the ball 1-2 m away at up to 1.3 m/s (faster than the
+    /// teacher's 0.8 m/s cruise), a 9 m arena, a 0.4 m capture (`calibration/bc.json` at
+    /// `8c9cd11^`). Only the ablation plays it (`advise experiment bc --revert ball`).
+    pub fn pre_protocol() -> InterceptionRules {
+        InterceptionRules {
+            arena_half_m: 4.5,
+            capture_m: 0.4,
+            ball_dist_m: (1.0, 2.0),
+            ball_speed_mps: (0.0, 1.3),
+            ..InterceptionRules::bootstrap()
+        }
+    }
 }
 
 impl Default for InterceptionRules {
@@ -439,6 +453,57 @@ fn action_limits() -> [(f64, f64); 2] {
     [lim(TRANS_DELTA), lim(ROT_DELTA)]
 }
 
+/// The interception teacher the protocol replaced (issue 33, choice 2): pure pursuit of where the
+/// ball is now, as a **function of the observation**. It regulates speed by integrating changes
+/// against the *measured* speeds (read from the travel and heading changes), which lag the
+/// command, so it overshoots and weaves; but the same observation always gets the same action.
+/// Only the ablation drives it (`advise experiment bc --revert teacher`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StatelessInterceptionTeacher {
+    /// The control period the observations' differences span, s.
+    pub period_s: f64,
+    /// Cruising speed, m/s, and the fraction of it kept while the ball is behind.
+    pub cruise_mps: f64,
+    pub behind_frac: f64,
+    /// Turn rate per radian of ball angle, 1/s, and its cap, rad/s.
+    pub k_turn: f64,
+    pub max_rot_radps: f64,
+    /// Integral gains: fraction of the speed error added to the command each step.
+    pub gain_speed: f64,
+    pub gain_rot: f64,
+}
+
+impl StatelessInterceptionTeacher {
+    /// The values it had before the protocol (`calibration/bc.json` at `8c9cd11^`).
+    pub fn pre_protocol(period_s: f64) -> StatelessInterceptionTeacher {
+        StatelessInterceptionTeacher {
+            period_s,
+            cruise_mps: 0.8,
+            behind_frac: 0.6,
+            k_turn: 1.5,
+            max_rot_radps: 0.9,
+            gain_speed: 0.35,
+            gain_rot: 0.5,
+        }
+    }
+}
+
+impl Controller for StatelessInterceptionTeacher {
+    fn act(&mut self, z: &[f64], a: &mut [f64]) {
+        let phi = z[BALL_ANGLE];
+        let speed_mps = z[TRAVEL_DELTA] / self.period_s;
+        let rot_radps = z[HEADING_DELTA] / self.period_s;
+        let want_rot = (self.k_turn * phi).clamp(-self.max_rot_radps, self.max_rot_radps);
+        let want_speed = if phi.abs() > PI / 2.0 {
+            self.cruise_mps * self.behind_frac
+        } else {
+            self.cruise_mps
+        };
+        a[TRANS_DELTA] = self.gain_speed * (want_speed - speed_mps);
+        a[ROT_DELTA] = self.gain_rot * (want_rot - rot_radps);
+    }
+}
+
 impl Controller for InterceptionDriver {
     fn begin(&mut self, episode_seed: u64) {
         let (gain, onset, hand) = self.teacher.style(episode_seed);
@@ -619,6 +684,26 @@ mod tests {
             assert!((teacher.turn_onset_rad[0]..=teacher.turn_onset_rad[1]).contains(&onset));
             assert!(teacher.hand.contains(&hand));
         }
+    }
+
+    /// The ablation's teacher (`--revert teacher`) is a function of the observation: the same
+    /// observation gets the same action in any episode, unlike the person it was replaced by.
+    #[test]
+    fn the_pre_protocol_teacher_is_a_function_of_the_observation() {
+        let z = [2.0, 0.6, 0.0, 0.0, 0.01, 0.002];
+        let act = |seed: u64| {
+            let mut t = StatelessInterceptionTeacher::pre_protocol(1.0 / 30.0);
+            t.begin(seed);
+            let mut a = [0.0; 2];
+            t.act(&z, &mut a);
+            t.act(&z, &mut a);
+            a
+        };
+        assert_eq!(act(3), act(4));
+        let a = act(3);
+        // 0.35 of the speed error (0.8 - 0.3 m/s), 0.5 of the turn-rate error (0.9 - 0.06).
+        assert!((a[TRANS_DELTA] - 0.35 * (0.8 - 0.3)).abs() < 1e-12, "{a:?}");
+        assert!((a[ROT_DELTA] - 0.5 * (0.9 - 0.06)).abs() < 1e-12, "{a:?}");
     }
 
     #[test]
