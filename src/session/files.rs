@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use super::effect::{DemoEpisode, Effect, ExecutionEntry};
+use super::effect::{DemoEpisode, DemoSpan, Effect, ExecutionEntry};
 use super::text::warnings_text;
 use super::{Session, SessionError};
 use crate::policy::learner::LearnerError;
@@ -125,16 +125,20 @@ impl Session {
         }
         let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
         let count = episodes.len();
-        self.commit(Effect::Demos {
-            source: path.to_string(),
-            episodes: episodes
-                .into_iter()
-                .map(|e| DemoEpisode {
-                    name: e.name,
-                    trace: e.trace.to_json(),
-                })
-                .collect(),
-        })?;
+        if self.journal.is_some() && !path.starts_with("teacher:") {
+            self.commit_demos_file(path, episodes)?;
+        } else {
+            self.commit(Effect::Demos {
+                source: path.to_string(),
+                episodes: episodes
+                    .into_iter()
+                    .map(|e| DemoEpisode {
+                        name: e.name,
+                        trace: e.trace.to_json(),
+                    })
+                    .collect(),
+            })?;
+        }
         // Warnings (a recording's) go after the sentence, each on its line.
         let (said, warned) = match from_dataset.find('\n') {
             Some(i) => from_dataset.split_at(i),
@@ -146,6 +150,48 @@ impl Session {
             self.state.learner.len(),
             started.elapsed().as_millis()
         ))
+    }
+
+    /// A file's demonstrations in a journalled session: added (what applying their effect
+    /// does), their points written once into a sidecar beside the journal, and a journal line
+    /// that names it ([`Effect::DemosFile`]) instead of copying every point.
+    fn commit_demos_file(
+        &mut self,
+        path: &str,
+        episodes: Vec<crate::trace::Episode>,
+    ) -> Result<(), SessionError> {
+        let before = self.state.learner.len();
+        let spans: Vec<DemoSpan> = episodes
+            .iter()
+            .map(|e| DemoSpan {
+                name: e.name.clone(),
+                points: e.trace.len() as u64,
+            })
+            .collect();
+        self.state.learner.add_demonstrations_owned(episodes)?;
+        let Some(j) = &self.journal else {
+            return Ok(());
+        };
+        let journal_path = j.path().to_path_buf();
+        let dir = journal_path.parent().unwrap_or(Path::new("."));
+        let (od, ad) = (self.domain.obs_dim(), self.domain.act_dim());
+        let pts = self.state.learner.dataset().points();
+        let rows = (&pts.z[before * od..], &pts.a[before * ad..]);
+        let added = self.state.learner.len() - before;
+        match super::sidecar::write(dir, rows, (od, ad), added) {
+            Ok(sidecar) => self.journal_effect(Effect::DemosFile {
+                source: path.to_string(),
+                sidecar,
+                episodes: spans,
+            }),
+            Err(source) => {
+                self.journal = None;
+                Err(SessionError::Journal {
+                    path: journal_path.display().to_string(),
+                    source,
+                })
+            }
+        }
     }
 
     pub(super) fn load_trace(&mut self, path: &str) -> Result<String, SessionError> {
@@ -305,3 +351,4 @@ impl Session {
         ))
     }
 }
+
