@@ -104,12 +104,15 @@ impl Session {
                 recorded.into_iter().map(|(e, _)| e).collect()
             }
             None => {
-                let demos = crate::policy::dataset::load_demonstrations(
+                let mut bar = Progress::default();
+                let demos = crate::policy::dataset::load_demonstrations_with(
                     &mut self.sources,
                     &self.domain,
                     Path::new(path),
-                )
-                .map_err(LearnerError::from)?;
+                    &mut |done, total| bar.show(done, total),
+                );
+                bar.done();
+                let demos = demos.map_err(LearnerError::from)?;
                 if let Some((d, a)) = demos.from_dataset {
                     from_dataset = format!(
                         ": a saved dataset's {d} demonstration{} and {a} piece{} of advice, each as one demonstration (critique weights are not carried)",
@@ -352,3 +355,34 @@ impl Session {
     }
 }
 
+/// A progress bar for a large demonstrations file read in a stream, drawn on standard error when
+/// it is a terminal (never into a reply or a pipe), from the first report on.
+#[derive(Default)]
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+}
+
+impl Progress {
+    fn show(&mut self, done: u64, total: u64) {
+        use std::io::IsTerminal;
+        let bar = self.bar.get_or_insert_with(|| {
+            if !std::io::stderr().is_terminal() {
+                return indicatif::ProgressBar::hidden();
+            }
+            let bar = indicatif::ProgressBar::new(total);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "reading demonstrations {bar:40} {bytes}/{total_bytes} ({eta} left)",
+            ) {
+                bar.set_style(style);
+            }
+            bar
+        });
+        bar.set_position(done);
+    }
+
+    fn done(self) {
+        if let Some(bar) = self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}

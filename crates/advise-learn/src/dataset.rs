@@ -25,7 +25,10 @@ mod error;
 mod file;
 
 pub use error::DatasetError;
-pub use file::{Demonstrations, SavedFormat, load_demonstrations};
+pub use file::{
+    Demonstrations, MAX_STREAM_POINTS, STREAM_CSV_BYTES, SavedFormat, load_demonstrations,
+    load_demonstrations_with,
+};
 
 /// Ids are small integers, unique within a dataset and never reused.
 pub type DemoId = u32;

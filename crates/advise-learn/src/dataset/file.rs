@@ -269,6 +269,40 @@ pub fn load_demonstrations(
     domain: &Domain,
     path: &Path,
 ) -> Result<Demonstrations, DatasetError> {
+    load_demonstrations_with(sources, domain, path, &mut |_, _| {})
+}
+
+/// A CSV demonstrations file larger than this is read in a stream ([`Episode::stream_csv`]),
+/// never held whole: up to [`MAX_STREAM_POINTS`] points, whatever its length in bytes. Smaller
+/// ones (and JSON, which is held whole) are read as before, under the whole-text cap.
+pub const STREAM_CSV_BYTES: u64 = 64 << 20;
+
+/// The most points a streamed demonstrations file may hold: 50 million, some 10 GB once a
+/// learner holds them with both indexes, more than a 24 GB machine wants to give one session.
+pub const MAX_STREAM_POINTS: usize = 50_000_000;
+
+/// [`load_demonstrations`], reporting `progress(bytes read, bytes in all)` while it streams a
+/// large CSV file (nothing for a file read whole).
+pub fn load_demonstrations_with(
+    sources: &mut SourceMap,
+    domain: &Domain,
+    path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<Demonstrations, DatasetError> {
+    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+    if !advise_lang::trace::is_json(path) && size > STREAM_CSV_BYTES {
+        let mut report = |bytes| progress(bytes, size);
+        let mut stream = advise_lang::trace::csv::Stream {
+            max_points: MAX_STREAM_POINTS,
+            progress: &mut report,
+        };
+        let episodes = Episode::stream_csv(domain, sources, path, &mut stream)?;
+        progress(size, size);
+        return Ok(Demonstrations {
+            episodes,
+            from_dataset: None,
+        });
+    }
     advise_lang::files::parse_file(sources, path, |src| {
         let name = path.display().to_string();
         let is_json = advise_lang::trace::is_json(path);
