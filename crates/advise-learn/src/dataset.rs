@@ -444,6 +444,13 @@ impl Dataset {
             self.sources.push(s);
         }
         self.len += 1;
+        // A new point weighs 1 and has no directional increment; only kept arrays grow.
+        if !self.m.is_empty() {
+            self.m.push(1.0);
+        }
+        if let Some(&last) = self.directional.start.last() {
+            self.directional.start.push(last);
+        }
     }
 
     pub fn demos(&self) -> &[DemoRecord] {
@@ -930,4 +937,43 @@ fn check_finite(trace: &Trace, what: impl Fn() -> String) -> Result<(), DatasetE
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn trace(d: &Domain, x: f64) -> Trace {
+        let mut t = Trace::new(d);
+        t.push(0.0, &[x, 0.0, 0.0], &[0.1, 0.0], None);
+        t.push(0.1, &[x - 0.1, 0.0, 0.0], &[0.1, 0.0], None);
+        t
+    }
+
+    /// Weights and directional offsets are kept per point only once a critique reaches one;
+    /// points added after that weigh 1 and have no increment, and every point's provenance is
+    /// found where it is.
+    #[test]
+    fn points_added_after_a_critique_weigh_one() {
+        let d = Domain::positioning();
+        let mut ds = Dataset::new(&d);
+        ds.add_demonstration("a", &trace(&d, 1.0)).unwrap();
+        assert_eq!(ds.weights(), [1.0, 1.0]);
+        let e = ds.add_execution(&trace(&d, 0.5)).unwrap();
+        let p = ds.provenance(0);
+        let chunk = Chunk { start: 0, end: 1 };
+        ds.add_critique(e, Critique::paper(chunk, 1.0, vec![(p, 2.0)]))
+            .unwrap();
+        let flagged = vec![vec![1.0, 0.1, 0.0]];
+        ds.add_critique(e, Critique::directional(chunk, 1.0, vec![(p, 1.0)], flagged))
+            .unwrap();
+        ds.add_demonstration("b", &trace(&d, 2.0)).unwrap();
+        assert_eq!(ds.weights(), [3.0, 1.0, 1.0, 1.0]);
+        assert_eq!(ds.directional(0).0, [1.0]);
+        assert!(ds.directional(3).0.is_empty());
+        assert_eq!(ds.max_weight(3), 1.0);
+        for i in 0..ds.len() {
+            assert_eq!(ds.position(ds.provenance(i)), Some(i));
+        }
+    }
 }
