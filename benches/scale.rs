@@ -132,12 +132,17 @@ fn measure(points: usize) -> (Learner, Vec<Vec<f64>>) {
     let n: usize = episodes.iter().map(|e| e.trace.len()).sum();
     let queries: Vec<Vec<f64>> = demonstrations(&d, 10 * EPISODE, 2)
         .iter()
-        .flat_map(|e| (0..e.trace.len()).map(|i| e.trace.z(i).to_vec()).collect::<Vec<_>>())
+        .flat_map(|e| {
+            (0..e.trace.len())
+                .map(|i| e.trace.z(i).to_vec())
+                .collect::<Vec<_>>()
+        })
         .collect();
     let (before, _) = rss_mb();
     let started = Instant::now();
     let mut l = Learner::new(&d, LearnerKind::Lwr, 0);
-    l.add_demonstrations(&episodes).expect("synthetic demonstrations are valid");
+    l.add_demonstrations(&episodes)
+        .expect("synthetic demonstrations are valid");
     let mut a = [0.0; 2];
     l.act(&queries[0], &mut a);
     let _ = l.support(&queries[0]);

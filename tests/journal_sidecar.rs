@@ -170,7 +170,10 @@ fn a_missing_or_altered_sidecar_stops_the_restore_at_its_line() {
         );
         settings.add_filter(r"demos-[0-9a-f]{16}\.parquet", "demos-<crc>.parquet");
         settings.add_filter(r"\b[0-9a-f]{16}\b", "<crc64>");
-        settings.add_filter(r"is \d+ bytes long; the journal wrote \d+", "is <n> bytes long; the journal wrote <m>");
+        settings.add_filter(
+            r"is \d+ bytes long; the journal wrote \d+",
+            "is <n> bytes long; the journal wrote <m>",
+        );
         settings.bind(|| {
             insta::assert_snapshot!(
                 format!("resume_sidecar_{case}"),

@@ -137,9 +137,7 @@ pub enum Stopped {
         #[diagnostic_source]
         cause: super::SessionError,
     },
-    #[error(
-        "line {line} of the journal `{path}` refers to demonstrations that cannot be restored"
-    )]
+    #[error("line {line} of the journal `{path}` refers to demonstrations that cannot be restored")]
     #[diagnostic(
         code(advise::journal::sidecar),
         severity(Warning),
@@ -160,12 +158,7 @@ pub enum Stopped {
 impl Stopped {
     /// Why the restore stopped at `line` (of the journal at `path`) when applying it failed:
     /// the demonstrations file it refers to is missing or altered, or the effect breaks a rule.
-    pub fn at(
-        path: String,
-        line: usize,
-        statement: String,
-        cause: super::SessionError,
-    ) -> Stopped {
+    pub fn at(path: String, line: usize, statement: String, cause: super::SessionError) -> Stopped {
         match cause {
             super::SessionError::Sidecar(cause) => Stopped::Sidecar {
                 path,

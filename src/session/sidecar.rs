@@ -221,7 +221,8 @@ pub fn path_of(dir: &Path, r: &SidecarRef) -> Result<PathBuf, SidecarError> {
     let f = &r.file;
     let plain = f.starts_with("demos-")
         && f.ends_with(".parquet")
-        && f.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '.')
+        && f.chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '.')
         && !f.contains("..");
     if !plain {
         return Err(SidecarError::Name { file: f.clone() });
@@ -317,9 +318,8 @@ fn read_columns(
             return Err(format!("its row groups hold more than {points} points"));
         }
         for c in 0..obs_dim + act_dim {
-            let mut col = get_typed_column_reader::<DoubleType>(
-                group.get_column_reader(c).map_err(pq)?,
-            );
+            let mut col =
+                get_typed_column_reader::<DoubleType>(group.get_column_reader(c).map_err(pq)?);
             column.clear();
             let (records, _, _) = col.read_records(len, None, None, &mut column).map_err(pq)?;
             if records != len || column.len() != len {
@@ -337,7 +337,9 @@ fn read_columns(
         first += len;
     }
     if first != n {
-        return Err(format!("it holds {first} points; the journal says {points}"));
+        return Err(format!(
+            "it holds {first} points; the journal says {points}"
+        ));
     }
     Ok((z, a))
 }

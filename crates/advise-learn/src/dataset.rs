@@ -390,7 +390,9 @@ impl Dataset {
             (k < len).then_some(run.start as usize + k as usize)
         };
         let at = if in_id_order {
-            let r = self.runs.partition_point(|r| (r.id, r.first_index) <= (id, index));
+            let r = self
+                .runs
+                .partition_point(|r| (r.id, r.first_index) <= (id, index));
             r.checked_sub(1).and_then(found)
         } else {
             (0..self.runs.len()).find_map(found)
@@ -810,7 +812,11 @@ impl Dataset {
         if m.iter().any(|m| *m != 1.0) {
             self.m = m;
         }
-        dir.start = if by_point.is_empty() { Vec::new() } else { counts };
+        dir.start = if by_point.is_empty() {
+            Vec::new()
+        } else {
+            counts
+        };
         self.directional = dir;
     }
 }
@@ -965,8 +971,11 @@ mod tests {
         ds.add_critique(e, Critique::paper(chunk, 1.0, vec![(p, 2.0)]))
             .unwrap();
         let flagged = vec![vec![1.0, 0.1, 0.0]];
-        ds.add_critique(e, Critique::directional(chunk, 1.0, vec![(p, 1.0)], flagged))
-            .unwrap();
+        ds.add_critique(
+            e,
+            Critique::directional(chunk, 1.0, vec![(p, 1.0)], flagged),
+        )
+        .unwrap();
         ds.add_demonstration("b", &trace(&d, 2.0)).unwrap();
         assert_eq!(ds.weights(), [3.0, 1.0, 1.0, 1.0]);
         assert_eq!(ds.directional(0).0, [1.0]);

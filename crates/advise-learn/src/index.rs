@@ -182,7 +182,11 @@ impl<const D: usize> Bulk<D> {
             sums.resize(n * (act_dim + 1), 0.0);
             at.resize(n, 0);
             for (i, &(g, _)) in order.iter().enumerate() {
-                idx.group_sum(g as usize, pts, &mut sums[i * (act_dim + 1)..][..act_dim + 1]);
+                idx.group_sum(
+                    g as usize,
+                    pts,
+                    &mut sums[i * (act_dim + 1)..][..act_dim + 1],
+                );
                 at[g as usize] = i as u32;
             }
         }
@@ -683,7 +687,9 @@ impl Tree {
 
     /// `f(squared distance, action sum, count)` for every group within `r2` of `q`.
     fn sums_within(&self, plan: &Plan, q: &[f64], r2: f64, f: &mut impl FnMut(f64, &[f64], f64)) {
-        let Some(act_dim) = plan.idx.act_dim else { return };
+        let Some(act_dim) = plan.idx.act_dim else {
+            return;
+        };
         each_tree!(self, t => {
             let q = q.try_into().expect("dimension checked at construction");
             let bulk = plan.bulk(t);
@@ -906,7 +912,11 @@ impl Index {
             let g = self.slots[at];
             let row = &mut row[..self.dim];
             self.group_scaled(g as usize, pts, row);
-            if row.iter().zip(q.iter()).all(|(a, b)| key_bits(*a) == key_bits(*b)) {
+            if row
+                .iter()
+                .zip(q.iter())
+                .all(|(a, b)| key_bits(*a) == key_bits(*b))
+            {
                 self.join(g as usize, point);
                 return g;
             }
@@ -1013,7 +1023,13 @@ impl Index {
     /// `f(squared distance, action sum, point count)` for every group within squared distance `r2`
     /// of scaled query `q`, in no set order (nothing when the index keeps no action sums).
     #[inline]
-    pub fn sums_within(&self, q: &[f64], r2: f64, pts: Points, mut f: impl FnMut(f64, &[f64], f64)) {
+    pub fn sums_within(
+        &self,
+        q: &[f64],
+        r2: f64,
+        pts: Points,
+        mut f: impl FnMut(f64, &[f64], f64),
+    ) {
         if !self.is_empty() {
             self.tree.sums_within(&self.plan(pts), q, r2, &mut f)
         }

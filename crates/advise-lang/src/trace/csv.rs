@@ -472,7 +472,10 @@ mod stream_tests {
         let (r, sources, _) = stream(&bad, 100);
         let e = r.unwrap_err();
         let shown = render(&sources, &e, false);
-        assert!(shown.contains("line 6, column `bearing`: `oops` is not a number"), "{shown}");
+        assert!(
+            shown.contains("line 6, column `bearing`: `oops` is not a number"),
+            "{shown}"
+        );
         assert!(shown.contains("b,0.1,0.9,oops,0,0.1,-0.2"), "{shown}");
         assert!(shown.contains(", line 6"), "{shown}");
         let (r, _, _) = stream(CSV, 4);
