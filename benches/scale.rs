@@ -200,7 +200,8 @@ fn bench(c: &mut Criterion) {
     }
     let mut last = None;
     for &n in &sizes {
-        last = None;
+        // The last size's learner is dropped before the next is built (peak memory is per size).
+        drop(last.take());
         last = Some((n, measure(n)));
     }
     let Some((n, (l, queries))) = last else {

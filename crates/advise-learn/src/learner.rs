@@ -272,15 +272,8 @@ impl Learner {
         &mut self,
         episodes: &[Episode],
     ) -> Result<Vec<DemoId>, LearnerError> {
-        self.check_dim()?;
-        self.ds
-            .reserve(episodes.iter().map(|e| e.trace.len()).sum::<usize>());
-        let ids = episodes
-            .iter()
-            .map(|e| self.ds.add_demonstration(&e.name, &e.trace))
-            .collect::<Result<Vec<_>, _>>()?;
-        self.rederive();
-        Ok(ids)
+        let points = episodes.iter().map(|e| e.trace.len()).sum();
+        self.add_each(points, episodes)
     }
 
     /// [`Learner::add_demonstrations`], taking the episodes: each one is dropped as soon as its
@@ -290,12 +283,24 @@ impl Learner {
         &mut self,
         episodes: Vec<Episode>,
     ) -> Result<Vec<DemoId>, LearnerError> {
+        let points = episodes.iter().map(|e| e.trace.len()).sum();
+        self.add_each(points, episodes)
+    }
+
+    /// Add `episodes` (`points` in all, reserved at once) in order, then re-derive.
+    fn add_each<E: std::borrow::Borrow<Episode>>(
+        &mut self,
+        points: usize,
+        episodes: impl IntoIterator<Item = E>,
+    ) -> Result<Vec<DemoId>, LearnerError> {
         self.check_dim()?;
-        self.ds
-            .reserve(episodes.iter().map(|e| e.trace.len()).sum::<usize>());
+        self.ds.reserve(points);
         let ids = episodes
             .into_iter()
-            .map(|e| self.ds.add_demonstration(&e.name, &e.trace))
+            .map(|e| {
+                let e = e.borrow();
+                self.ds.add_demonstration(&e.name, &e.trace)
+            })
             .collect::<Result<Vec<_>, _>>()?;
         self.rederive();
         Ok(ids)

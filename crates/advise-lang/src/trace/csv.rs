@@ -316,7 +316,7 @@ fn parse_records<R: std::io::Read>(
                 max: stream.max_points,
             });
         }
-        if points % Stream::EVERY == 0 {
+        if points.is_multiple_of(Stream::EVERY) {
             (stream.progress)(byte as u64);
         }
         if rec.len() != slots.len() {
