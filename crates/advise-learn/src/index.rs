@@ -780,6 +780,10 @@ pub struct Index {
     /// a group number per slot, [`FREE`] when free, at most [`LOAD_PERCENT`] full. A probe
     /// compares observations computed from the points, so a slot costs 4 bytes.
     slots: Vec<u32>,
+    /// Eight bits of each slot's hash, beside it: a probe reads the points of a group only when
+    /// these match (a new observation's probe passes several full slots, and reading each one's
+    /// point would be a cache miss).
+    tags: Vec<u8>,
     /// With action sums ([`Index::with_action_sums`]), the action dimension. A kernel weight is
     /// the same for every point of a group, so LWR reads one sum per group found, kept by the
     /// bulk tree beside its points in leaf order (made from the points when it is built).
@@ -827,6 +831,7 @@ impl Index {
             first: Vec::new(),
             many: Vec::new(),
             slots: Vec::new(),
+            tags: Vec::new(),
             act_dim: None,
         })
     }
@@ -906,24 +911,29 @@ impl Index {
             self.grow(pts);
         }
         let mask = self.slots.len() - 1;
-        let mut at = key_hash(q) as usize & mask;
+        let hash = key_hash(q);
+        let tag = (hash >> 56) as u8;
+        let mut at = hash as usize & mask;
         let mut row = [0.0; MAX_DIM];
         while self.slots[at] != FREE {
             let g = self.slots[at];
-            let row = &mut row[..self.dim];
-            self.group_scaled(g as usize, pts, row);
-            if row
-                .iter()
-                .zip(q.iter())
-                .all(|(a, b)| key_bits(*a) == key_bits(*b))
-            {
-                self.join(g as usize, point);
-                return g;
+            if self.tags[at] == tag {
+                let row = &mut row[..self.dim];
+                self.group_scaled(g as usize, pts, row);
+                if row
+                    .iter()
+                    .zip(q.iter())
+                    .all(|(a, b)| key_bits(*a) == key_bits(*b))
+                {
+                    self.join(g as usize, point);
+                    return g;
+                }
             }
             at = (at + 1) & mask;
         }
         let g = self.first.len() as u32;
         self.slots[at] = g;
+        self.tags[at] = tag;
         self.first.push(point);
         let recent = g as usize - self.planned;
         if recent >= RECENT_MIN.max(self.planned / RECENT_FRACTION) {
@@ -950,15 +960,18 @@ impl Index {
     fn grow(&mut self, pts: Points) {
         let size = (self.slots.len() * 2).max(16);
         self.slots = vec![FREE; size];
+        self.tags = vec![0; size];
         let mut q = [0.0; MAX_DIM];
         for g in 0..self.first.len() {
             let q = &mut q[..self.dim];
             self.group_scaled(g, pts, q);
-            let mut at = key_hash(q) as usize & (size - 1);
+            let hash = key_hash(q);
+            let mut at = hash as usize & (size - 1);
             while self.slots[at] != FREE {
                 at = (at + 1) & (size - 1);
             }
             self.slots[at] = g as u32;
+            self.tags[at] = (hash >> 56) as u8;
         }
     }
 
@@ -1048,7 +1061,11 @@ impl Index {
     /// what the scale benchmark reports.
     pub fn held_bytes(&self) -> usize {
         let many: usize = self.many.iter().map(|v| v.capacity() * 4 + 24).sum();
-        self.first.capacity() * 4 + self.slots.capacity() * 4 + many + self.tree.held_bytes()
+        self.first.capacity() * 4
+            + self.slots.capacity() * 4
+            + self.tags.capacity()
+            + many
+            + self.tree.held_bytes()
     }
 }
 
