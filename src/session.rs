@@ -23,6 +23,7 @@ mod record;
 mod reply;
 mod run;
 pub mod script;
+pub mod sidecar;
 mod text;
 mod undo;
 

@@ -65,8 +65,15 @@ impl Session {
             .clone()
             .map(|(line, message)| (line, Ok(message)));
         let mut restored = 0;
+        let journal_dir = path.parent().unwrap_or(Path::new("."));
         for (line, entry) in &loaded.entries {
-            if let Err(e) = s.apply(&entry.effect) {
+            let applied = match &entry.effect {
+                Effect::DemosFile {
+                    sidecar, episodes, ..
+                } => s.apply_demos_file(journal_dir, sidecar, episodes),
+                effect => s.apply(effect),
+            };
+            if let Err(e) = applied {
                 stop = Some((*line, Err(e)));
                 break;
             }
@@ -93,7 +100,13 @@ impl Session {
             Some((line, why)) => {
                 drop(held);
                 let mut j = Journal::create_in(dir, h)?;
+                let new_dir = j.path().parent().unwrap_or(Path::new(".")).to_path_buf();
                 for (_, entry) in loaded.entries.iter().take(restored) {
+                    // The new journal refers to the same sidecars: beside it too.
+                    if let Effect::DemosFile { sidecar, .. } = &entry.effect {
+                        super::sidecar::carry(journal_dir, &new_dir, sidecar)
+                            .map_err(|e| journal_error(j.path(), e))?;
+                    }
                     j.append(entry).map_err(|e| journal_error(j.path(), e))?;
                 }
                 notes.push(format!(
@@ -108,16 +121,15 @@ impl Session {
                         before: line - 1,
                         message,
                     },
-                    Err(cause) => journal::Stopped::Invalid {
-                        path: shown,
+                    Err(cause) => journal::Stopped::at(
+                        shown,
                         line,
-                        before: line - 1,
-                        statement: loaded
+                        loaded
                             .entries
                             .get(restored)
                             .map_or_else(String::new, |(_, e)| first_chars(&e.statement, 80)),
                         cause,
-                    },
+                    ),
                 };
                 (j, Some(stopped))
             }
@@ -198,6 +210,14 @@ impl Session {
                     })
                     .collect::<Result<Vec<_>, TraceError>>()?;
                 self.state.learner.add_demonstrations(&episodes)?;
+            }
+            Effect::DemosFile { .. } => {
+                // Only a restore meets one (it reads the sidecar: `apply_demos_file`); a live
+                // `load demos` applies its episodes before journalling the line.
+                return Err(SessionError::Journal {
+                    path: String::new(),
+                    source: std::io::Error::other("a sidecar line is applied by a restore"),
+                });
             }
             Effect::Execution(entry) => {
                 let trace = Trace::from_json(&self.domain, &entry.trace)?;
@@ -293,6 +313,53 @@ impl Session {
                 self.take_learner(learner);
             }
         }
+        Ok(())
+    }
+
+    /// Restore a [`Effect::DemosFile`] line: read its sidecar beside the journal (in
+    /// `journal_dir`), checked whole before anything changes, and add its demonstrations as a
+    /// live `load demos` does, under the same rules.
+    pub(super) fn apply_demos_file(
+        &mut self,
+        journal_dir: &Path,
+        sidecar: &super::sidecar::SidecarRef,
+        spans: &[effect::DemoSpan],
+    ) -> Result<(), SessionError> {
+        let (od, ad) = (self.domain.obs_dim(), self.domain.act_dim());
+        let total = spans.iter().try_fold(0u64, |t, s| t.checked_add(s.points));
+        if total != Some(sidecar.points) {
+            return Err(super::sidecar::SidecarError::Altered {
+                path: sidecar.file.clone(),
+                what: format!(
+                    "the line's demonstrations hold {} points; it names a file of {}",
+                    total.map_or_else(|| "too many".to_string(), |t| t.to_string()),
+                    sidecar.points
+                ),
+            }
+            .into());
+        }
+        let (z, a) = super::sidecar::read(journal_dir, sidecar, od, ad)?;
+        let mut episodes = Vec::with_capacity(spans.len());
+        let mut first = 0;
+        for span in spans {
+            let n = span.points as usize;
+            let mut trace = Trace::new(&self.domain);
+            for i in first..first + n {
+                trace.push(
+                    (i - first) as f64,
+                    &z[i * od..(i + 1) * od],
+                    &a[i * ad..(i + 1) * ad],
+                    None,
+                );
+            }
+            first += n;
+            episodes.push(Episode {
+                name: span.name.clone(),
+                trace,
+            });
+        }
+        drop((z, a));
+        self.state.learner.add_demonstrations_owned(episodes)?;
         Ok(())
     }
 

@@ -73,6 +73,14 @@ pub enum Effect {
         source: String,
         episodes: Vec<DemoEpisode>,
     },
+    /// Demonstrations added from a file in a journalled session: their points are in a sidecar
+    /// beside the journal ([`super::sidecar`]), written before this line; the line names it and
+    /// each demonstration's name and length, in order.
+    DemosFile {
+        source: String,
+        sidecar: super::sidecar::SidecarRef,
+        episodes: Vec<DemoSpan>,
+    },
     /// An execution recorded: run on a base, interrupted, or loaded from a file.
     Execution(Box<ExecutionEntry>),
     /// The selection.
@@ -119,6 +127,15 @@ pub enum Effect {
 pub struct DemoEpisode {
     pub name: String,
     pub trace: JsonTrace,
+}
+
+/// A demonstration whose points are in a sidecar: its name and how many of the sidecar's rows
+/// (following the previous demonstration's) are its points.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DemoSpan {
+    pub name: String,
+    pub points: u64,
 }
 
 /// An execution as journalled.

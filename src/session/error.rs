@@ -322,4 +322,7 @@ pub enum SessionError {
         #[source]
         source: std::io::Error,
     },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Sidecar(#[from] super::sidecar::SidecarError),
 }

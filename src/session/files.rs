@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use super::effect::{DemoEpisode, Effect, ExecutionEntry};
+use super::effect::{DemoEpisode, DemoSpan, Effect, ExecutionEntry};
 use super::text::warnings_text;
 use super::{Session, SessionError};
 use crate::policy::learner::LearnerError;
@@ -104,12 +104,15 @@ impl Session {
                 recorded.into_iter().map(|(e, _)| e).collect()
             }
             None => {
-                let demos = crate::policy::dataset::load_demonstrations(
+                let mut bar = Progress::default();
+                let demos = crate::policy::dataset::load_demonstrations_with(
                     &mut self.sources,
                     &self.domain,
                     Path::new(path),
-                )
-                .map_err(LearnerError::from)?;
+                    &mut |done, total| bar.show(done, total),
+                );
+                bar.done();
+                let demos = demos.map_err(LearnerError::from)?;
                 if let Some((d, a)) = demos.from_dataset {
                     from_dataset = format!(
                         ": a saved dataset's {d} demonstration{} and {a} piece{} of advice, each as one demonstration (critique weights are not carried)",
@@ -125,16 +128,20 @@ impl Session {
         }
         let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
         let count = episodes.len();
-        self.commit(Effect::Demos {
-            source: path.to_string(),
-            episodes: episodes
-                .into_iter()
-                .map(|e| DemoEpisode {
-                    name: e.name,
-                    trace: e.trace.to_json(),
-                })
-                .collect(),
-        })?;
+        if self.journal.is_some() && !path.starts_with("teacher:") {
+            self.commit_demos_file(path, episodes)?;
+        } else {
+            self.commit(Effect::Demos {
+                source: path.to_string(),
+                episodes: episodes
+                    .into_iter()
+                    .map(|e| DemoEpisode {
+                        name: e.name,
+                        trace: e.trace.to_json(),
+                    })
+                    .collect(),
+            })?;
+        }
         // Warnings (a recording's) go after the sentence, each on its line.
         let (said, warned) = match from_dataset.find('\n') {
             Some(i) => from_dataset.split_at(i),
@@ -146,6 +153,48 @@ impl Session {
             self.state.learner.len(),
             started.elapsed().as_millis()
         ))
+    }
+
+    /// A file's demonstrations in a journalled session: added (what applying their effect
+    /// does), their points written once into a sidecar beside the journal, and a journal line
+    /// that names it ([`Effect::DemosFile`]) instead of copying every point.
+    fn commit_demos_file(
+        &mut self,
+        path: &str,
+        episodes: Vec<crate::trace::Episode>,
+    ) -> Result<(), SessionError> {
+        let before = self.state.learner.len();
+        let spans: Vec<DemoSpan> = episodes
+            .iter()
+            .map(|e| DemoSpan {
+                name: e.name.clone(),
+                points: e.trace.len() as u64,
+            })
+            .collect();
+        self.state.learner.add_demonstrations_owned(episodes)?;
+        let Some(j) = &self.journal else {
+            return Ok(());
+        };
+        let journal_path = j.path().to_path_buf();
+        let dir = journal_path.parent().unwrap_or(Path::new("."));
+        let (od, ad) = (self.domain.obs_dim(), self.domain.act_dim());
+        let pts = self.state.learner.dataset().points();
+        let rows = (&pts.z[before * od..], &pts.a[before * ad..]);
+        let added = self.state.learner.len() - before;
+        match super::sidecar::write(dir, rows, (od, ad), added) {
+            Ok(sidecar) => self.journal_effect(Effect::DemosFile {
+                source: path.to_string(),
+                sidecar,
+                episodes: spans,
+            }),
+            Err(source) => {
+                self.journal = None;
+                Err(SessionError::Journal {
+                    path: journal_path.display().to_string(),
+                    source,
+                })
+            }
+        }
     }
 
     pub(super) fn load_trace(&mut self, path: &str) -> Result<String, SessionError> {
@@ -303,5 +352,37 @@ impl Session {
         Ok(format!(
             "wrote {n} advised points with their provenance to {path}"
         ))
+    }
+}
+
+/// A progress bar for a large demonstrations file read in a stream, drawn on standard error when
+/// it is a terminal (never into a reply or a pipe), from the first report on.
+#[derive(Default)]
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+}
+
+impl Progress {
+    fn show(&mut self, done: u64, total: u64) {
+        use std::io::IsTerminal;
+        let bar = self.bar.get_or_insert_with(|| {
+            if !std::io::stderr().is_terminal() {
+                return indicatif::ProgressBar::hidden();
+            }
+            let bar = indicatif::ProgressBar::new(total);
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "reading demonstrations {bar:40} {bytes}/{total_bytes} ({eta} left)",
+            ) {
+                bar.set_style(style);
+            }
+            bar
+        });
+        bar.set_position(done);
+    }
+
+    fn done(self) {
+        if let Some(bar) = self.bar {
+            bar.finish_and_clear();
+        }
     }
 }

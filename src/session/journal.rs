@@ -137,6 +137,44 @@ pub enum Stopped {
         #[diagnostic_source]
         cause: super::SessionError,
     },
+    #[error("line {line} of the journal `{path}` refers to demonstrations that cannot be restored")]
+    #[diagnostic(
+        code(advise::journal::sidecar),
+        severity(Warning),
+        help(
+            "restored up to line {before}, nothing after it, and nothing was driven; the journal is left as it was, and this session continues in a new one"
+        )
+    )]
+    Sidecar {
+        path: String,
+        line: usize,
+        before: usize,
+        #[source]
+        #[diagnostic_source]
+        cause: super::sidecar::SidecarError,
+    },
+}
+
+impl Stopped {
+    /// Why the restore stopped at `line` (of the journal at `path`) when applying it failed:
+    /// the demonstrations file it refers to is missing or altered, or the effect breaks a rule.
+    pub fn at(path: String, line: usize, statement: String, cause: super::SessionError) -> Stopped {
+        match cause {
+            super::SessionError::Sidecar(cause) => Stopped::Sidecar {
+                path,
+                line,
+                before: line - 1,
+                cause,
+            },
+            cause => Stopped::Invalid {
+                path,
+                line,
+                before: line - 1,
+                statement,
+                cause,
+            },
+        }
+    }
 }
 
 /// A journal read back: its header, the entries in order (with their 1-based line numbers), and

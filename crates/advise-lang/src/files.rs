@@ -187,8 +187,9 @@ fn read_text_or_lossy(path: &Path, limit: u64) -> Result<Result<String, BadUtf8>
     })
 }
 
-/// Read a whole file of at most `limit` bytes, refusing anything that is not a regular file.
-pub fn read_bytes_limited(path: &Path, limit: u64) -> Result<Vec<u8>, FileError> {
+/// Open a regular file of at most `limit` bytes (`u64::MAX`: any) for reading, refusing anything
+/// else before it is opened (a FIFO would block); the file and its length then.
+pub fn open_regular(path: &Path, limit: u64) -> Result<(File, u64), FileError> {
     let name = || path.display().to_string();
     let read_err = |source| FileError::Read {
         path: name(),
@@ -213,8 +214,24 @@ pub fn read_bytes_limited(path: &Path, limit: u64) -> Result<Vec<u8>, FileError>
     if let Some(kind) = special_kind(&meta) {
         return Err(FileError::NotRegular { path: name(), kind });
     }
+    Ok((file, meta.len()))
+}
+
+/// Read a whole file of at most `limit` bytes, refusing anything that is not a regular file.
+pub fn read_bytes_limited(path: &Path, limit: u64) -> Result<Vec<u8>, FileError> {
+    let name = || path.display().to_string();
+    let read_err = |source| FileError::Read {
+        path: name(),
+        source,
+    };
+    let too_large = || FileError::TooLarge {
+        path: name(),
+        limit: fmt_bytes(limit),
+    };
+    let (file, len) = open_regular(path, limit)?;
+    let meta_len = len;
     // Files under /proc say they are empty and may be endless: the `take` bounds every file.
-    let mut out = Vec::with_capacity(meta.len().min(limit) as usize);
+    let mut out = Vec::with_capacity(meta_len.min(limit) as usize);
     file.take(limit.saturating_add(1))
         .read_to_end(&mut out)
         .map_err(read_err)?;

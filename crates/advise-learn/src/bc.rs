@@ -43,14 +43,14 @@ pub fn query(index: &Index, ds: &Dataset, z: &[f64], scratch: &mut Scratch) -> O
     }
     scratch.q.resize(z.len(), 0.0);
     index.scaled(z, &mut scratch.q);
-    let (d2, g) = index.nearest(&scratch.q)?;
+    let (d2, g) = index.nearest(&scratch.q, ds.points())?;
     let mut best = best_in_group(index, ds, &scratch.q, g, d2.sqrt(), None);
     if best.weighted <= best.distance {
         return Some(best);
     }
     let mut k = 4;
     loop {
-        index.nearest_n(&scratch.q, k, &mut scratch.found);
+        index.nearest_n(&scratch.q, k, &mut scratch.found, ds.points());
         for &(d2, g) in &scratch.found {
             best = best_in_group(index, ds, &scratch.q, g, d2.sqrt(), Some(best));
         }

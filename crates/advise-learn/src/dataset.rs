@@ -25,7 +25,10 @@ mod error;
 mod file;
 
 pub use error::DatasetError;
-pub use file::{Demonstrations, SavedFormat, load_demonstrations};
+pub use file::{
+    Demonstrations, MAX_STREAM_POINTS, STREAM_CSV_BYTES, SavedFormat, load_demonstrations,
+    load_demonstrations_with,
+};
 
 /// Ids are small integers, unique within a dataset and never reused.
 pub type DemoId = u32;
@@ -174,7 +177,8 @@ impl CritiqueRule {
 /// row of `z`). Most points have none, which costs the query one comparison.
 #[derive(Clone, Debug, PartialEq)]
 struct DirectionalPenalties {
-    /// `len + 1` offsets into `inc`.
+    /// `len + 1` offsets into `inc`; empty while no point has a directional increment (what
+    /// costs nothing per point).
     start: Vec<u32>,
     inc: Vec<f64>,
     /// Flagged observations, `inc.len() * obs_dim`, row after row.
@@ -184,11 +188,25 @@ struct DirectionalPenalties {
 impl DirectionalPenalties {
     fn new() -> DirectionalPenalties {
         DirectionalPenalties {
-            start: vec![0],
+            start: Vec::new(),
             inc: Vec::new(),
             z: Vec::new(),
         }
     }
+}
+
+/// Consecutive points from one source: from point `start` up to the next run's start (or the
+/// end), points `first_index`, `first_index + 1`, ... of demonstration or advice `id`. An
+/// advice's points keep their source points in [`Dataset::sources`] from `source_at` on. A
+/// session's dataset holds one run per demonstration and per piece of advice, whatever their
+/// size; a dataset file's points may come in any order, and then take more runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Run {
+    start: u32,
+    id: u32,
+    first_index: u32,
+    advice: bool,
+    source_at: u32,
 }
 
 /// Points with provenance and weights.
@@ -199,8 +217,15 @@ pub struct Dataset {
     z: Vec<f64>,
     /// Actions, `len * act_dim`.
     a: Vec<f64>,
-    provenance: Vec<Provenance>,
-    /// BC weight `m_i >= 1` of each point: 1 plus the paper's (isotropic) increments.
+    /// How many points.
+    len: usize,
+    /// The points' provenance, as runs in point order.
+    runs: Vec<Run>,
+    /// The source point of each advice point, run after run.
+    sources: Vec<u32>,
+    /// BC weight `m_i >= 1` of each point: 1 plus the paper's (isotropic) increments; empty
+    /// while every weight is 1 (no critique under the paper's rule reaches a point), which costs
+    /// nothing per point.
     m: Vec<f64>,
     /// The directional critiques' increments by point (derived from the records, like `m`).
     directional: DirectionalPenalties,
@@ -217,7 +242,9 @@ impl Dataset {
             domain: domain.clone(),
             z: Vec::new(),
             a: Vec::new(),
-            provenance: Vec::new(),
+            len: 0,
+            runs: Vec::new(),
+            sources: Vec::new(),
             m: Vec::new(),
             directional: DirectionalPenalties::new(),
             demos: Vec::new(),
@@ -238,11 +265,37 @@ impl Dataset {
     }
 
     pub fn len(&self) -> usize {
-        self.provenance.len()
+        self.len
     }
 
     pub fn is_empty(&self) -> bool {
-        self.provenance.is_empty()
+        self.len == 0
+    }
+
+    /// Room for `points` more points without growing the arrays again (exactly: a large load
+    /// reserves once, so the arrays hold no doubling slack).
+    pub fn reserve(&mut self, points: usize) {
+        self.z.reserve_exact(points * self.domain.obs_dim());
+        self.a.reserve_exact(points * self.domain.act_dim());
+    }
+
+    /// The bytes the dataset's points and their bookkeeping hold (records of advice, critiques
+    /// and executions aside): what the scale benchmark reports.
+    pub fn held_bytes(&self) -> usize {
+        (self.z.capacity() + self.a.capacity() + self.m.capacity()) * 8
+            + self.runs.capacity() * std::mem::size_of::<Run>()
+            + self.sources.capacity() * 4
+            + (self.directional.start.capacity() + self.directional.inc.capacity() * 2) * 8
+            + self.directional.z.capacity() * 8
+    }
+
+    /// Every point's observation and action, as the index refers to them.
+    #[inline]
+    pub fn points(&self) -> crate::index::Points<'_> {
+        crate::index::Points {
+            z: &self.z,
+            a: &self.a,
+        }
     }
 
     #[inline]
@@ -259,13 +312,14 @@ impl Dataset {
 
     #[inline]
     pub fn m(&self, i: usize) -> f64 {
-        self.m[i]
+        if self.m.is_empty() { 1.0 } else { self.m[i] }
     }
 
-    /// The isotropic weights `m_i` (the paper's rule); directional increments are apart
+    /// The isotropic weights `m_i` (the paper's rule) of every point, in a vector of their own
+    /// (the dataset keeps none while all are 1); directional increments are apart
     /// ([`Dataset::directional`]).
-    pub fn weights(&self) -> &[f64] {
-        &self.m
+    pub fn weights(&self) -> Vec<f64> {
+        (0..self.len).map(|i| self.m(i)).collect()
     }
 
     /// Point `i`'s directional increments and, row after row, the flagged observation (raw) each
@@ -274,6 +328,9 @@ impl Dataset {
     pub fn directional(&self, i: usize) -> (&[f64], &[f64]) {
         let d = self.domain.obs_dim();
         let p = &self.directional;
+        if p.start.is_empty() {
+            return (&[], &[]);
+        }
         let (a, b) = (p.start[i] as usize, p.start[i + 1] as usize);
         (&p.inc[a..b], &p.z[a * d..b * d])
     }
@@ -289,11 +346,113 @@ impl Dataset {
         self.directional(i)
             .0
             .iter()
-            .fold(self.m[i], |m, inc| m + inc)
+            .fold(self.m(i), |m, inc| m + inc)
     }
 
     pub fn provenance(&self, i: usize) -> Provenance {
-        self.provenance[i]
+        let r = self.runs.partition_point(|r| r.start as usize <= i) - 1;
+        let run = &self.runs[r];
+        let k = (i - run.start as usize) as u32;
+        if run.advice {
+            Provenance::Advice {
+                advice: run.id,
+                index: run.first_index + k,
+                source: self.sources[(run.source_at + k) as usize],
+            }
+        } else {
+            Provenance::Demonstration {
+                demo: run.id,
+                index: run.first_index + k,
+            }
+        }
+    }
+
+    /// Where the point of provenance `p` is, if it is still in the dataset (provenance survives
+    /// removals; positions do not). The runs of a session's dataset are in the order of their
+    /// ids, so this is a binary search; a file's points in another order are searched run by run.
+    pub fn position(&self, p: Provenance) -> Option<usize> {
+        self.position_in(p, self.runs_in_id_order())
+    }
+
+    /// [`Dataset::position`], told whether the runs are in id order.
+    fn position_in(&self, p: Provenance, in_id_order: bool) -> Option<usize> {
+        let (id, index, advice) = match p {
+            Provenance::Demonstration { demo, index } => (demo, index, false),
+            Provenance::Advice { advice, index, .. } => (advice, index, true),
+        };
+        let found = |r: usize| -> Option<usize> {
+            let run = &self.runs[r];
+            let len = self.run_len(r) as u32;
+            if run.id != id || run.advice != advice || index < run.first_index {
+                return None;
+            }
+            let k = index - run.first_index;
+            (k < len).then_some(run.start as usize + k as usize)
+        };
+        let at = if in_id_order {
+            let r = self
+                .runs
+                .partition_point(|r| (r.id, r.first_index) <= (id, index));
+            r.checked_sub(1).and_then(found)
+        } else {
+            (0..self.runs.len()).find_map(found)
+        };
+        at.filter(|&i| self.provenance(i) == p)
+    }
+
+    /// Whether each run's (id, first index) is after the one before: a binary search finds a
+    /// provenance.
+    fn runs_in_id_order(&self) -> bool {
+        self.runs
+            .windows(2)
+            .all(|w| (w[0].id, w[0].first_index) < (w[1].id, w[1].first_index))
+    }
+
+    /// The number of points of run `r`.
+    fn run_len(&self, r: usize) -> usize {
+        let end = self.runs.get(r + 1).map_or(self.len, |n| n.start as usize);
+        end - self.runs[r].start as usize
+    }
+
+    /// Append point `(z, a)` of provenance `p`, continuing the last run where it can.
+    fn push_point(&mut self, z: &[f64], a: &[f64], p: Provenance) {
+        self.z.extend_from_slice(z);
+        self.a.extend_from_slice(a);
+        let (id, index, advice, source) = match p {
+            Provenance::Demonstration { demo, index } => (demo, index, false, None),
+            Provenance::Advice {
+                advice,
+                index,
+                source,
+            } => (advice, index, true, Some(source)),
+        };
+        let last = self.runs.len().checked_sub(1);
+        let continues = last.is_some_and(|r| {
+            let run = &self.runs[r];
+            run.id == id
+                && run.advice == advice
+                && u64::from(run.first_index) + self.run_len(r) as u64 == u64::from(index)
+        });
+        if !continues {
+            self.runs.push(Run {
+                start: self.len as u32,
+                id,
+                first_index: index,
+                advice,
+                source_at: self.sources.len() as u32,
+            });
+        }
+        if let Some(s) = source {
+            self.sources.push(s);
+        }
+        self.len += 1;
+        // A new point weighs 1 and has no directional increment; only kept arrays grow.
+        if !self.m.is_empty() {
+            self.m.push(1.0);
+        }
+        if let Some(&last) = self.directional.start.last() {
+            self.directional.start.push(last);
+        }
     }
 
     pub fn demos(&self) -> &[DemoRecord] {
@@ -333,15 +492,6 @@ impl Dataset {
         Ok(())
     }
 
-    fn push(&mut self, z: &[f64], a: &[f64], p: Provenance) {
-        self.z.extend_from_slice(z);
-        self.a.extend_from_slice(a);
-        self.provenance.push(p);
-        self.m.push(1.0);
-        let last = *self.directional.start.last().unwrap_or(&0);
-        self.directional.start.push(last);
-    }
-
     /// Add a demonstration; its points are appended in order.
     pub fn add_demonstration(&mut self, name: &str, trace: &Trace) -> Result<DemoId, DatasetError> {
         self.check(trace)?;
@@ -353,7 +503,7 @@ impl Dataset {
         }
         let id = self.fresh_id()?;
         for i in 0..trace.len() {
-            self.push(
+            self.push_point(
                 trace.z(i),
                 trace.a(i),
                 Provenance::Demonstration {
@@ -441,7 +591,7 @@ impl Dataset {
         }
         let id = self.fresh_id()?;
         for j in 0..points.len() {
-            self.push(
+            self.push_point(
                 points.z(j),
                 points.a(j),
                 Provenance::Advice {
@@ -469,29 +619,34 @@ impl Dataset {
             .position(|r| r.id == id)
             .ok_or(DatasetError::UnknownAdvice(id))?;
         let record = self.advice.remove(pos);
-        self.retain_points(|p| !matches!(p, Provenance::Advice { advice, .. } if *advice == id));
+        self.remove_points_of(id, true);
         self.recompute_weights();
         Ok(record)
     }
 
-    fn retain_points(&mut self, keep: impl Fn(&Provenance) -> bool) {
+    /// Remove every point of demonstration or advice `id` (its runs) and their rows.
+    fn remove_points_of(&mut self, id: u32, advice: bool) {
         let (od, ad) = (self.domain.obs_dim(), self.domain.act_dim());
-        let mut w = 0;
-        for r in 0..self.provenance.len() {
-            if keep(&self.provenance[r]) {
-                if w != r {
-                    self.provenance[w] = self.provenance[r];
-                    self.m[w] = self.m[r];
-                    self.z.copy_within(r * od..(r + 1) * od, w * od);
-                    self.a.copy_within(r * ad..(r + 1) * ad, w * ad);
-                }
-                w += 1;
+        let mut r = 0;
+        while r < self.runs.len() {
+            let run = self.runs[r];
+            if run.id != id || run.advice != advice {
+                r += 1;
+                continue;
+            }
+            let (start, n) = (run.start as usize, self.run_len(r));
+            self.z.drain(start * od..(start + n) * od);
+            self.a.drain(start * ad..(start + n) * ad);
+            let sources = if advice { n } else { 0 };
+            let at = run.source_at as usize;
+            self.sources.drain(at..at + sources);
+            self.len -= n;
+            self.runs.remove(r);
+            for later in &mut self.runs[r..] {
+                later.start -= n as u32;
+                later.source_at -= sources as u32;
             }
         }
-        self.provenance.truncate(w);
-        self.m.truncate(w);
-        self.z.truncate(w * od);
-        self.a.truncate(w * ad);
     }
 
     /// Record a critique of execution `execution` and make its increments: each applies to the
@@ -549,9 +704,12 @@ impl Dataset {
     /// Every weight a query can meet is finite and at least 1: `m_i`, and `m_i` plus the
     /// point's directional increments (what the BC search divides by).
     fn check_weights(&self) -> Result<(), DatasetError> {
+        if self.m.is_empty() && !self.has_directional() {
+            return Ok(());
+        }
         for i in 0..self.len() {
-            for m in [self.m[i], self.max_weight(i)] {
-                check_weight(m, || match self.provenance[i] {
+            for m in [self.m(i), self.max_weight(i)] {
+                check_weight(m, || match self.provenance(i) {
                     Provenance::Demonstration { demo, index } => {
                         format!("demonstration {demo}, point {index}")
                     }
@@ -600,15 +758,6 @@ impl Dataset {
         Ok(())
     }
 
-    /// Where each point is, by provenance (provenance survives removals; positions do not).
-    pub fn positions(&self) -> HashMap<Provenance, usize> {
-        self.provenance
-            .iter()
-            .enumerate()
-            .map(|(i, p)| (*p, i))
-            .collect()
-    }
-
     /// Remove critique `id`; the weights become those the remaining critiques give.
     pub fn remove_critique(&mut self, id: CritiqueId) -> Result<CritiqueRecord, DatasetError> {
         let pos = self
@@ -624,30 +773,27 @@ impl Dataset {
     /// `m_i = 1 + increments` of the paper's rule, summed in critique order, and the directional
     /// increments of each point in critique order, so the result depends only on the records.
     fn recompute_weights(&mut self) {
-        self.m.iter_mut().for_each(|m| *m = 1.0);
-        let n = self.provenance.len();
+        self.m.clear();
+        let n = self.len;
         let mut dir = DirectionalPenalties::new();
         if self.critiques.is_empty() {
-            dir.start.resize(n + 1, 0);
             self.directional = dir;
             return;
         }
-        let index: HashMap<Provenance, usize> = self
-            .provenance
-            .iter()
-            .enumerate()
-            .map(|(i, p)| (*p, i))
-            .collect();
+        let mut m = vec![1.0; n];
+        let in_id_order = self.runs_in_id_order();
         // Directional increments: (point, critique, increment), gathered in critique order and
         // then grouped by point with a stable sort, so each point's stay in critique order.
         let mut by_point: Vec<(usize, usize, usize)> = Vec::new();
         for (c_at, c) in self.critiques.iter().enumerate() {
             for (k, (p, inc)) in c.critique.increments.iter().enumerate() {
-                let Some(&i) = index.get(p) else { continue };
+                let Some(i) = self.position_in(*p, in_id_order) else {
+                    continue;
+                };
                 if c.critique.directional {
                     by_point.push((i, c_at, k));
                 } else {
-                    self.m[i] += inc;
+                    m[i] += inc;
                 }
             }
         }
@@ -662,7 +808,15 @@ impl Dataset {
         for i in 0..n {
             counts[i + 1] += counts[i];
         }
-        dir.start = counts;
+        // All ones and no directional increment: nothing kept per point.
+        if m.iter().any(|m| *m != 1.0) {
+            self.m = m;
+        }
+        dir.start = if by_point.is_empty() {
+            Vec::new()
+        } else {
+            counts
+        };
         self.directional = dir;
     }
 }
@@ -789,4 +943,46 @@ fn check_finite(trace: &Trace, what: impl Fn() -> String) -> Result<(), DatasetE
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn trace(d: &Domain, x: f64) -> Trace {
+        let mut t = Trace::new(d);
+        t.push(0.0, &[x, 0.0, 0.0], &[0.1, 0.0], None);
+        t.push(0.1, &[x - 0.1, 0.0, 0.0], &[0.1, 0.0], None);
+        t
+    }
+
+    /// Weights and directional offsets are kept per point only once a critique reaches one;
+    /// points added after that weigh 1 and have no increment, and every point's provenance is
+    /// found where it is.
+    #[test]
+    fn points_added_after_a_critique_weigh_one() {
+        let d = Domain::positioning();
+        let mut ds = Dataset::new(&d);
+        ds.add_demonstration("a", &trace(&d, 1.0)).unwrap();
+        assert_eq!(ds.weights(), [1.0, 1.0]);
+        let e = ds.add_execution(&trace(&d, 0.5)).unwrap();
+        let p = ds.provenance(0);
+        let chunk = Chunk { start: 0, end: 1 };
+        ds.add_critique(e, Critique::paper(chunk, 1.0, vec![(p, 2.0)]))
+            .unwrap();
+        let flagged = vec![vec![1.0, 0.1, 0.0]];
+        ds.add_critique(
+            e,
+            Critique::directional(chunk, 1.0, vec![(p, 1.0)], flagged),
+        )
+        .unwrap();
+        ds.add_demonstration("b", &trace(&d, 2.0)).unwrap();
+        assert_eq!(ds.weights(), [3.0, 1.0, 1.0, 1.0]);
+        assert_eq!(ds.directional(0).0, [1.0]);
+        assert!(ds.directional(3).0.is_empty());
+        assert_eq!(ds.max_weight(3), 1.0);
+        for i in 0..ds.len() {
+            assert_eq!(ds.position(ds.provenance(i)), Some(i));
+        }
+    }
 }

@@ -16,8 +16,6 @@
 //! only prune. The tree's dimension is a const generic, so the index dispatches over the
 //! dimensions it supports (1 to [`MAX_DIM`]).
 
-use std::collections::HashMap;
-use std::hash::{Hash, Hasher};
 use std::sync::OnceLock;
 
 use kiddo::{KdTree, SquaredEuclidean};
@@ -165,14 +163,13 @@ struct Bulk<const D: usize> {
 }
 
 impl<const D: usize> Bulk<D> {
-    /// The tree over groups `0..n` of `group_z` (rows of `D` values), with a copy of their action
-    /// sums when the index keeps them.
-    fn build(group_z: &[f64], n: usize, action_sums: Option<&ActionSums>) -> Bulk<D> {
+    /// The tree over groups `0..n` of `idx`, their scaled observations computed from `pts` (the
+    /// points the index refers to), with their action sums when the index keeps them.
+    fn build(idx: &Index, pts: Points, n: usize) -> Bulk<D> {
         let mut order: Vec<(u32, [f64; D])> = (0..n)
             .map(|g| {
-                let row: [f64; D] = group_z[g * D..(g + 1) * D]
-                    .try_into()
-                    .expect("rows of D values");
+                let mut row = [0.0; D];
+                idx.group_scaled(g, pts, &mut row);
                 (g as u32, row)
             })
             .collect();
@@ -181,13 +178,15 @@ impl<const D: usize> Bulk<D> {
             Self::build_node(&mut nodes, &mut order, 0);
         }
         let (mut sums, mut at) = (Vec::new(), Vec::new());
-        if let Some(s) = action_sums {
-            sums.reserve(n * (s.act_dim + 1));
+        if let Some(act_dim) = idx.act_dim {
+            sums.resize(n * (act_dim + 1), 0.0);
             at.resize(n, 0);
             for (i, &(g, _)) in order.iter().enumerate() {
-                let (row, count) = s.row(g as usize);
-                sums.extend_from_slice(row);
-                sums.push(f64::from(count));
+                idx.group_sum(
+                    g as usize,
+                    pts,
+                    &mut sums[i * (act_dim + 1)..][..act_dim + 1],
+                );
                 at[g as usize] = i as u32;
             }
         }
@@ -227,6 +226,19 @@ impl<const D: usize> Bulk<D> {
             sums,
             at,
         }
+    }
+
+    /// The bytes the tree holds.
+    fn held_bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.nodes.capacity() * size_of::<Node<D>>()
+            + self.wide.capacity() * size_of::<Wide<D>>()
+            + self.points.capacity() * size_of::<[f64; D]>()
+            + self.leaves.capacity() * 8
+            + self.coarse.capacity() * 4
+            + self.ids.capacity() * 4
+            + self.sums.capacity() * 8
+            + self.at.capacity() * 4
     }
 
     fn build_node(nodes: &mut Vec<Node<D>>, part: &mut [(u32, [f64; D])], start: usize) {
@@ -565,6 +577,12 @@ impl<const D: usize> Trees<D> {
             recent: KdTree::new(),
         }
     }
+
+    /// The bytes both trees hold, about (kiddo's counted as its points and items).
+    fn held_bytes(&self) -> usize {
+        let recent = self.recent.size() as usize * (D * 8 + 8);
+        recent + self.bulk.get().map_or(0, Bulk::held_bytes)
+    }
 }
 
 enum Tree {
@@ -669,35 +687,50 @@ impl Tree {
 
     /// `f(squared distance, action sum, count)` for every group within `r2` of `q`.
     fn sums_within(&self, plan: &Plan, q: &[f64], r2: f64, f: &mut impl FnMut(f64, &[f64], f64)) {
-        let Some(s) = plan.sums else { return };
+        let Some(act_dim) = plan.idx.act_dim else {
+            return;
+        };
         each_tree!(self, t => {
             let q = q.try_into().expect("dimension checked at construction");
             let bulk = plan.bulk(t);
-            let w = s.act_dim + 1;
+            let w = act_dim + 1;
             bulk.within(q, r2, &mut |d, i| {
                 let row = &bulk.sums[i * w..(i + 1) * w];
-                f(d, &row[..s.act_dim], row[s.act_dim]);
+                f(d, &row[..act_dim], row[act_dim]);
             });
             if plan.recent > 0 {
+                // A recent group's sum is made from its points here, as the bulk's copy is
+                // when it is built: the same additions in the same order, so the same bits.
+                let mut stack = [0.0; 16];
+                let mut heap = Vec::new();
+                let row: &mut [f64] = if w <= stack.len() {
+                    &mut stack[..w]
+                } else {
+                    heap.resize(w, 0.0);
+                    &mut heap
+                };
                 for n in t.recent.within_unsorted::<SquaredEuclidean>(q, r2) {
-                    let (row, count) = s.row(n.item as usize);
-                    f(n.distance, row, f64::from(count));
+                    plan.idx.group_sum(n.item as usize, plan.pts, row);
+                    f(n.distance, &row[..act_dim], row[act_dim]);
                 }
             }
         })
     }
 
-    /// After group `g`'s action sum changed: the bulk tree's copy, if it holds `g` and is built.
-    fn sum_changed(&mut self, planned: usize, g: usize, s: &ActionSums) {
+    /// Group `g`'s action sum row (`act_dim + 1` values) in the bulk tree, if the tree holds `g`
+    /// (`g < planned`) and is built.
+    fn bulk_sum_row(&mut self, planned: usize, g: usize, act_dim: usize) -> Option<&mut [f64]> {
         each_tree!(self, t => {
-            if let Some(bulk) = t.bulk.get_mut().filter(|_| g < planned) {
-                let w = s.act_dim + 1;
-                let i = bulk.at[g] as usize;
-                let (row, count) = s.row(g);
-                bulk.sums[i * w..i * w + s.act_dim].copy_from_slice(row);
-                bulk.sums[i * w + s.act_dim] = f64::from(count);
-            }
+            let bulk = t.bulk.get_mut().filter(|_| g < planned)?;
+            let w = act_dim + 1;
+            let i = bulk.at[g] as usize;
+            Some(&mut bulk.sums[i * w..(i + 1) * w])
         })
+    }
+
+    /// The bytes both trees hold (kiddo's counted by its points).
+    fn held_bytes(&self) -> usize {
+        each_tree!(self, t => t.held_bytes())
     }
 }
 
@@ -705,83 +738,84 @@ impl Tree {
 /// Decided by the sequence of additions alone (never by when queries came), so the trees, and
 /// the order a radius query reports its groups in, are a function of the data's history.
 struct Plan<'a> {
-    planned: usize,
+    idx: &'a Index,
+    pts: Points<'a>,
     recent: usize,
-    group_z: &'a [f64],
-    sums: Option<&'a ActionSums>,
 }
 
 impl Plan<'_> {
     fn bulk<'t, const D: usize>(&self, t: &'t Trees<D>) -> &'t Bulk<D> {
         t.bulk
-            .get_or_init(|| Bulk::build(self.group_z, self.planned, self.sums))
+            .get_or_init(|| Bulk::build(self.idx, self.pts, self.idx.planned))
     }
 }
 
-/// A kd-tree over scaled observations, grouping identical ones.
+/// The points an index refers to, borrowed for each call: the dataset's own arrays, so the index
+/// keeps no copy of the observations in point or group order (its bulk tree keeps its scaled
+/// observations in leaf order, which its queries read). Point `p`'s observation is
+/// `z[p * obs_dim..][..obs_dim]` and its action `a[p * act_dim..][..act_dim]` (the actions are
+/// read only by an index with action sums). Every call on one index must pass the same points,
+/// or more of them (points added since): an index holds point numbers, not values.
+#[derive(Clone, Copy, Debug)]
+pub struct Points<'a> {
+    pub z: &'a [f64],
+    pub a: &'a [f64],
+}
+
+/// A kd-tree over scaled observations, grouping identical ones. It holds, per group, its first
+/// point's number (4 bytes; the few groups of several points keep theirs apart) and a slot of the
+/// table that finds a group by its observation; the observations themselves are the dataset's
+/// ([`Points`]).
 pub struct Index {
     dim: usize,
     scale: Vec<f64>,
     tree: Tree,
     /// Groups `0..planned` are the bulk tree's; the rest are in kiddo's.
     planned: usize,
-    /// Dataset point indices of each group.
-    groups: Vec<Members>,
-    /// Scaled observation of each group (row after row).
-    group_z: Vec<f64>,
-    /// Hash of a scaled observation's bits -> the newest group with that hash; `same_hash[g]` is
-    /// the group before `g` with the same hash (`u32::MAX`: none). A fixed-size key and a chain,
-    /// instead of a map keyed by each observation's bits, keep a group's bookkeeping to a few
-    /// dozen bytes: an index holds one group per distinct observation, millions of them for
-    /// 10,000 demonstrations.
-    by_key: HashMap<u64, u32>,
-    same_hash: Vec<u32>,
-    /// Per group, the sum of its points' actions (`act_dim` values) and their count, when the
-    /// index was built with [`Index::with_action_sums`]. A kernel weight is the same for every
-    /// point of a group, so LWR reads one contiguous row per neighbour instead of chasing each
-    /// point's action through the dataset.
-    sums: Option<ActionSums>,
+    /// Each group's point, or with [`MANY`] set, the position in `many` of its points.
+    first: Vec<u32>,
+    /// The points of the groups of more than one, in the order they were added.
+    many: Vec<Vec<u32>>,
+    /// Open addressing (linear probing) of groups by the hash of their scaled observation's bits:
+    /// a group number per slot, [`FREE`] when free, at most [`LOAD_PERCENT`] full. A probe
+    /// compares observations computed from the points, so a slot costs 4 bytes.
+    slots: Vec<u32>,
+    /// Eight bits of each slot's hash, beside it: a probe reads the points of a group only when
+    /// these match (a new observation's probe passes several full slots, and reading each one's
+    /// point would be a cache miss).
+    tags: Vec<u8>,
+    /// With action sums ([`Index::with_action_sums`]), the action dimension. A kernel weight is
+    /// the same for every point of a group, so LWR reads one sum per group found, kept by the
+    /// bulk tree beside its points in leaf order (made from the points when it is built).
+    act_dim: Option<usize>,
 }
 
-/// The points of a group: almost always one (no heap allocation), several for repeated
-/// observations.
-enum Members {
-    One(u32),
-    Many(Vec<u32>),
-}
+/// In [`Index::first`]: the value is a position in [`Index::many`]. Point numbers stay below it
+/// (a dataset of 2^31 points would not fit in memory).
+const MANY: u32 = 1 << 31;
 
-impl Members {
-    fn as_slice(&self) -> &[u32] {
-        match self {
-            Members::One(p) => std::slice::from_ref(p),
-            Members::Many(v) => v,
-        }
-    }
+/// A free slot of [`Index::slots`].
+const FREE: u32 = u32::MAX;
 
-    fn push(&mut self, point: u32) {
-        match self {
-            Members::One(p) => *self = Members::Many(vec![*p, point]),
-            Members::Many(v) => v.push(point),
-        }
-    }
-}
+/// How full the group table may be, in percent, before it doubles.
+const LOAD_PERCENT: usize = 70;
 
 /// The bits that identify a scaled value (-0.0 and 0.0 are the same place).
 fn key_bits(v: f64) -> u64 {
     (v + 0.0).to_bits()
 }
 
-struct ActionSums {
-    act_dim: usize,
-    a: Vec<f64>,
-    n: Vec<u32>,
-}
-
-impl ActionSums {
-    #[inline]
-    fn row(&self, g: usize) -> (&[f64], u32) {
-        (&self.a[g * self.act_dim..(g + 1) * self.act_dim], self.n[g])
+/// The hash of a scaled observation's bits (splitmix64's finaliser over each value in turn):
+/// where a group's probe starts.
+fn key_hash(q: &[f64]) -> u64 {
+    let mut h: u64 = 0x9E37_79B9_7F4A_7C15;
+    for v in q {
+        h ^= key_bits(*v);
+        h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        h ^= h >> 31;
     }
+    h
 }
 
 impl Index {
@@ -794,11 +828,11 @@ impl Index {
             tree: Tree::new(dim)?,
             planned: 0,
             scale,
-            groups: Vec::new(),
-            group_z: Vec::new(),
-            by_key: HashMap::new(),
-            same_hash: Vec::new(),
-            sums: None,
+            first: Vec::new(),
+            many: Vec::new(),
+            slots: Vec::new(),
+            tags: Vec::new(),
+            act_dim: None,
         })
     }
 
@@ -806,40 +840,42 @@ impl Index {
     /// [`Index::add_with_action`].
     pub fn with_action_sums(scale: Vec<f64>, act_dim: usize) -> Option<Index> {
         let mut idx = Index::new(scale)?;
-        idx.sums = Some(ActionSums {
-            act_dim,
-            a: Vec::new(),
-            n: Vec::new(),
-        });
+        idx.act_dim = Some(act_dim);
         Some(idx)
     }
 
-    /// Add dataset point `point` with raw observation `z` and action `a` (kept in the group's
-    /// action sum when the index keeps sums).
-    pub fn add_with_action(&mut self, point: u32, z: &[f64], a: &[f64]) {
-        let g = self.add(point, z) as usize;
-        if let Some(s) = &mut self.sums {
-            if s.n.len() <= g {
-                s.n.push(0);
-                s.a.resize(s.a.len() + s.act_dim, 0.0);
+    /// Add point `point` of `pts` (its action joins its group's sum when the index keeps sums).
+    pub fn add_with_action(&mut self, point: u32, pts: Points) {
+        let g = self.add(point, pts) as usize;
+        let Some(act_dim) = self.act_dim else { return };
+        // A group the built bulk tree holds: its copy of the sum follows.
+        if g < self.planned && self.tree.bulk_sum_row(self.planned, g, act_dim).is_some() {
+            let mut row = vec![0.0; act_dim + 1];
+            self.group_sum(g, pts, &mut row);
+            if let Some(dst) = self.tree.bulk_sum_row(self.planned, g, act_dim) {
+                dst.copy_from_slice(&row);
             }
-            s.n[g] += 1;
-            for (t, v) in s.a[g * s.act_dim..(g + 1) * s.act_dim].iter_mut().zip(a) {
-                *t += v;
-            }
-            self.tree.sum_changed(self.planned, g, s);
         }
     }
 
-    /// Group `g`'s action sum and point count, when the index keeps sums.
-    #[inline]
-    pub fn action_sum(&self, g: u64) -> Option<(&[f64], u32)> {
-        Some(self.sums.as_ref()?.row(g as usize))
+    /// Group `g`'s action sum and point count into `out` (`act_dim + 1` values): its points'
+    /// actions added in the order the points joined it, from zero.
+    fn group_sum(&self, g: usize, pts: Points, out: &mut [f64]) {
+        let act_dim = out.len() - 1;
+        out.iter_mut().for_each(|v| *v = 0.0);
+        let members = self.group(g as u64);
+        for &p in members {
+            let a = &pts.a[p as usize * act_dim..][..act_dim];
+            for (t, v) in out.iter_mut().zip(a) {
+                *t += v;
+            }
+        }
+        out[act_dim] = f64::from(members.len() as u32);
     }
 
     /// Whether the index keeps action sums.
     pub fn has_action_sums(&self) -> bool {
-        self.sums.is_some()
+        self.act_dim.is_some()
     }
 
     pub fn scale(&self) -> &[f64] {
@@ -847,7 +883,7 @@ impl Index {
     }
 
     pub fn is_empty(&self) -> bool {
-        self.groups.is_empty()
+        self.first.is_empty()
     }
 
     /// Scale a raw observation into `out`.
@@ -858,37 +894,50 @@ impl Index {
         }
     }
 
-    /// Add dataset point `point` with raw observation `z`; returns its group.
-    pub fn add(&mut self, point: u32, z: &[f64]) -> u32 {
+    /// Group `g`'s scaled observation (its first point's, scaled) into `out`.
+    #[inline]
+    fn group_scaled(&self, g: usize, pts: Points, out: &mut [f64]) {
+        let p = self.group(g as u64)[0] as usize;
+        self.scaled(&pts.z[p * self.dim..][..self.dim], out);
+    }
+
+    /// Add point `point` of `pts`; returns its group.
+    pub fn add(&mut self, point: u32, pts: Points) -> u32 {
+        debug_assert!(point < MANY, "point numbers stay below 2^31");
         let mut q = [0.0; MAX_DIM];
         let q = &mut q[..self.dim];
-        self.scaled(z, q);
-        let mut hasher = std::collections::hash_map::DefaultHasher::new();
-        for v in q.iter() {
-            key_bits(*v).hash(&mut hasher);
+        self.scaled(&pts.z[point as usize * self.dim..][..self.dim], q);
+        if (self.first.len() + 1) * 100 > self.slots.len() * LOAD_PERCENT {
+            self.grow(pts);
         }
-        let hash = hasher.finish();
-        let mut next = self.by_key.get(&hash).copied().unwrap_or(u32::MAX);
-        while next != u32::MAX {
-            let g = next as usize;
-            let same = self.group_z[g * self.dim..(g + 1) * self.dim]
-                .iter()
-                .zip(q.iter())
-                .all(|(a, b)| key_bits(*a) == key_bits(*b));
-            if same {
-                self.groups[g].push(point);
-                return next;
+        let mask = self.slots.len() - 1;
+        let hash = key_hash(q);
+        let tag = (hash >> 56) as u8;
+        let mut at = hash as usize & mask;
+        let mut row = [0.0; MAX_DIM];
+        while self.slots[at] != FREE {
+            let g = self.slots[at];
+            if self.tags[at] == tag {
+                let row = &mut row[..self.dim];
+                self.group_scaled(g as usize, pts, row);
+                if row
+                    .iter()
+                    .zip(q.iter())
+                    .all(|(a, b)| key_bits(*a) == key_bits(*b))
+                {
+                    self.join(g as usize, point);
+                    return g;
+                }
             }
-            next = self.same_hash[g];
+            at = (at + 1) & mask;
         }
-        let g = self.groups.len() as u32;
-        self.groups.push(Members::One(point));
-        self.group_z.extend_from_slice(q);
-        self.same_hash
-            .push(self.by_key.insert(hash, g).unwrap_or(u32::MAX));
+        let g = self.first.len() as u32;
+        self.slots[at] = g;
+        self.tags[at] = tag;
+        self.first.push(point);
         let recent = g as usize - self.planned;
         if recent >= RECENT_MIN.max(self.planned / RECENT_FRACTION) {
-            self.planned = self.groups.len();
+            self.planned = self.first.len();
             self.tree.replan();
         } else {
             self.tree.add_recent(q, g as u64);
@@ -896,37 +945,71 @@ impl Index {
         g
     }
 
+    /// Point `point` joins group `g` (after its other points).
+    fn join(&mut self, g: usize, point: u32) {
+        let f = self.first[g];
+        if f & MANY == 0 {
+            self.first[g] = MANY | self.many.len() as u32;
+            self.many.push(vec![f, point]);
+        } else {
+            self.many[(f & !MANY) as usize].push(point);
+        }
+    }
+
+    /// Double the group table (16 slots at first) and place every group anew.
+    fn grow(&mut self, pts: Points) {
+        let size = (self.slots.len() * 2).max(16);
+        self.slots = vec![FREE; size];
+        self.tags = vec![0; size];
+        let mut q = [0.0; MAX_DIM];
+        for g in 0..self.first.len() {
+            let q = &mut q[..self.dim];
+            self.group_scaled(g, pts, q);
+            let hash = key_hash(q);
+            let mut at = hash as usize & (size - 1);
+            while self.slots[at] != FREE {
+                at = (at + 1) & (size - 1);
+            }
+            self.slots[at] = g as u32;
+            self.tags[at] = (hash >> 56) as u8;
+        }
+    }
+
     /// The points of group `g`.
     #[inline]
     pub fn group(&self, g: u64) -> &[u32] {
-        self.groups[g as usize].as_slice()
+        let f = &self.first[g as usize];
+        if f & MANY == 0 {
+            std::slice::from_ref(f)
+        } else {
+            &self.many[(f & !MANY) as usize]
+        }
     }
 
     /// Nearest group to scaled query `q`: (squared distance, group). `None` when empty.
     #[inline]
-    pub fn nearest(&self, q: &[f64]) -> Option<(f64, u64)> {
+    pub fn nearest(&self, q: &[f64], pts: Points) -> Option<(f64, u64)> {
         if self.is_empty() {
             return None;
         }
-        Some(self.tree.nearest_one(&self.plan(), q))
+        Some(self.tree.nearest_one(&self.plan(pts), q))
     }
 
     /// The `n` nearest groups to scaled query `q`, nearest first: (squared distance, group).
     #[inline]
-    pub fn nearest_n(&self, q: &[f64], n: usize, out: &mut Vec<(f64, u64)>) {
+    pub fn nearest_n(&self, q: &[f64], n: usize, out: &mut Vec<(f64, u64)>, pts: Points) {
         if self.is_empty() {
             out.clear();
             return;
         }
-        self.tree.nearest_n(&self.plan(), q, n, out)
+        self.tree.nearest_n(&self.plan(pts), q, n, out)
     }
 
-    fn plan(&self) -> Plan<'_> {
+    fn plan<'a>(&'a self, pts: Points<'a>) -> Plan<'a> {
         Plan {
-            planned: self.planned,
-            recent: self.groups.len() - self.planned,
-            group_z: &self.group_z,
-            sums: self.sums.as_ref(),
+            idx: self,
+            pts,
+            recent: self.first.len() - self.planned,
         }
     }
 
@@ -937,33 +1020,52 @@ impl Index {
 
     /// How many groups (distinct observations) the index holds.
     pub fn groups(&self) -> usize {
-        self.groups.len()
+        self.first.len()
     }
 
     /// Every group within squared distance `r2` of scaled query `q`, unsorted.
     #[inline]
-    pub fn within(&self, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
+    pub fn within(&self, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>, pts: Points) {
         if self.is_empty() {
             out.clear();
             return;
         }
-        self.tree.within(&self.plan(), q, r2, out)
+        self.tree.within(&self.plan(pts), q, r2, out)
     }
 
     /// `f(squared distance, action sum, point count)` for every group within squared distance `r2`
     /// of scaled query `q`, in no set order (nothing when the index keeps no action sums).
     #[inline]
-    pub fn sums_within(&self, q: &[f64], r2: f64, mut f: impl FnMut(f64, &[f64], f64)) {
+    pub fn sums_within(
+        &self,
+        q: &[f64],
+        r2: f64,
+        pts: Points,
+        mut f: impl FnMut(f64, &[f64], f64),
+    ) {
         if !self.is_empty() {
-            self.tree.sums_within(&self.plan(), q, r2, &mut f)
+            self.tree.sums_within(&self.plan(pts), q, r2, &mut f)
         }
     }
 
-    /// Scaled observation of group `g`.
+    /// Scaled observation of group `g` (computed from its first point), in the first `dim`
+    /// values.
     #[inline]
-    pub fn group_z(&self, g: u64) -> &[f64] {
-        let g = g as usize;
-        &self.group_z[g * self.dim..(g + 1) * self.dim]
+    pub fn group_z(&self, g: u64, pts: Points) -> [f64; MAX_DIM] {
+        let mut out = [0.0; MAX_DIM];
+        self.group_scaled(g as usize, pts, &mut out[..self.dim]);
+        out
+    }
+
+    /// The bytes this index holds (its tables and built trees, not the points it refers to):
+    /// what the scale benchmark reports.
+    pub fn held_bytes(&self) -> usize {
+        let many: usize = self.many.iter().map(|v| v.capacity() * 4 + 24).sum();
+        self.first.capacity() * 4
+            + self.slots.capacity() * 4
+            + self.tags.capacity()
+            + many
+            + self.tree.held_bytes()
     }
 }
 
@@ -982,19 +1084,17 @@ mod tests {
             [1.0, 0.5],
             [0.25, 1.0],
         ];
-        let groups: Vec<u32> = zs
-            .iter()
-            .enumerate()
-            .map(|(i, z)| idx.add(i as u32, z))
-            .collect();
+        let flat: Vec<f64> = zs.concat();
+        let pts = Points { z: &flat, a: &[] };
+        let groups: Vec<u32> = (0..zs.len()).map(|i| idx.add(i as u32, pts)).collect();
         assert_eq!(groups, [0, 0, 1, 0, 2, 1]);
         assert_eq!(idx.groups(), 3);
         assert_eq!(idx.group(0), [0, 1, 3]);
         assert_eq!(idx.group(1), [2, 5]);
         assert_eq!(idx.group(2), [4]);
-        assert_eq!(idx.group_z(2), [2.0, 0.5]);
+        assert_eq!(idx.group_z(2, pts)[..2], [2.0, 0.5]);
         let mut found = Vec::new();
-        idx.within(&[1.0, 0.0], 1e-12, &mut found);
+        idx.within(&[1.0, 0.0], 1e-12, &mut found, pts);
         assert_eq!(found, [(0.0, 0)]);
     }
 }
@@ -1005,11 +1105,15 @@ mod tree_tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    fn scan(idx: &Index, q: &[f64]) -> Vec<(f64, u64)> {
+    fn pts(z: &[f64]) -> Points<'_> {
+        Points { z, a: &[] }
+    }
+
+    fn scan(idx: &Index, q: &[f64], zs: &[f64]) -> Vec<(f64, u64)> {
         let mut all: Vec<(f64, u64)> = (0..idx.groups() as u64)
             .map(|g| {
                 let d = idx
-                    .group_z(g)
+                    .group_z(g, pts(zs))
                     .iter()
                     .zip(q)
                     .map(|(a, b)| (a - b) * (a - b))
@@ -1022,9 +1126,15 @@ mod tree_tests {
     }
 
     /// `idx.within(q, r2)` reports exactly the groups of `want` (a [`scan`] of `q`) within `r2`.
-    fn assert_within_is_the_scan(idx: &Index, q: &[f64], r2: f64, want: &[(f64, u64)], what: &str) {
+    fn assert_within_is_the_scan(
+        (idx, zs): (&Index, &[f64]),
+        q: &[f64],
+        r2: f64,
+        want: &[(f64, u64)],
+        what: &str,
+    ) {
         let mut found = Vec::new();
-        idx.within(q, r2, &mut found);
+        idx.within(q, r2, &mut found, pts(zs));
         found.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let inside: Vec<(f64, u64)> = want.iter().copied().filter(|w| w.0 <= r2).collect();
         assert_eq!(found, inside, "{what}");
@@ -1038,26 +1148,28 @@ mod tree_tests {
     fn queries_equal_a_linear_scan_across_replans() {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let mut idx = Index::new(vec![1.0, 0.5, 2.0]).unwrap();
+        let mut zs = Vec::new();
         let mut found = Vec::new();
         for i in 0..6000u32 {
             let z: Vec<f64> = (0..3)
                 .map(|_| f64::from(rng.random_range(0..40u8)) / 8.0)
                 .collect();
-            idx.add(i, &z);
+            zs.extend_from_slice(&z);
+            idx.add(i, pts(&zs));
             if i % 397 != 0 && i != 1024 && i != 1025 {
                 continue;
             }
             for _ in 0..20 {
                 let q: Vec<f64> = (0..3).map(|_| rng.random_range(-0.5..5.5)).collect();
-                let want = scan(&idx, &q);
-                assert_eq!(idx.nearest(&q), Some(want[0]), "after {i} points");
+                let want = scan(&idx, &q, &zs);
+                assert_eq!(idx.nearest(&q, pts(&zs)), Some(want[0]), "after {i} points");
                 for n in [1, 4, 17] {
-                    idx.nearest_n(&q, n, &mut found);
+                    idx.nearest_n(&q, n, &mut found, pts(&zs));
                     assert_eq!(found, want[..n.min(want.len())], "n {n} after {i} points");
                 }
                 let r2 = rng.random_range(0.0..0.6);
                 assert_within_is_the_scan(
-                    &idx,
+                    (&idx, &zs),
                     &q,
                     r2,
                     &want,
@@ -1077,6 +1189,7 @@ mod tree_tests {
         let mut found = Vec::new();
         for offset in [0.0f64, 1e3, 1e8, 1e16, 1e18, -1e30] {
             let mut idx = Index::new(vec![1.0; 6]).unwrap();
+            let mut zs = Vec::new();
             let spread = if offset == 0.0 {
                 1.0
             } else {
@@ -1086,28 +1199,30 @@ mod tree_tests {
                 let z: Vec<f64> = (0..6)
                     .map(|_| offset + spread * f64::from(rng.random_range(0..50u8)) / 50.0)
                     .collect();
-                idx.add(i, &z);
+                zs.extend_from_slice(&z);
+                idx.add(i, pts(&zs));
             }
             for _ in 0..40 {
                 let q: Vec<f64> = (0..6)
                     .map(|_| offset + spread * rng.random_range(-0.1..1.1))
                     .collect();
-                let want = scan(&idx, &q);
+                let want = scan(&idx, &q, &zs);
                 // Radii exactly at the 1st, 10th, 100th and 1000th nearest.
                 for n in [0, 9, 99, 999] {
                     let r2 = want[n.min(want.len() - 1)].0;
                     let what = format!("offset {offset}, radius at the {n}th");
-                    assert_within_is_the_scan(&idx, &q, r2, &want, &what);
+                    assert_within_is_the_scan((&idx, &zs), &q, r2, &want, &what);
                 }
             }
         }
         let mut idx = Index::new(vec![1.0, 1.0]).unwrap();
+        let zs: Vec<f64> = (0..200u32).flat_map(|i| [f64::from(i % 3), 0.5]).collect();
         for i in 0..200u32 {
-            idx.add(i, &[f64::from(i % 3), 0.5]);
+            idx.add(i, pts(&zs));
         }
-        idx.within(&[f64::NAN, 0.5], 10.0, &mut found);
+        idx.within(&[f64::NAN, 0.5], 10.0, &mut found, pts(&zs));
         assert_eq!(found, []);
-        idx.within(&[1.0, 0.5], 0.0, &mut found);
+        idx.within(&[1.0, 0.5], 0.0, &mut found, pts(&zs));
         assert_eq!(found, [(0.0, 1)]);
     }
 }
@@ -1125,13 +1240,17 @@ mod sums_tests {
     fn sums_within_equal_a_scan_of_the_groups() {
         let mut rng = ChaCha8Rng::seed_from_u64(8);
         let mut idx = Index::with_action_sums(vec![1.0, 2.0], 2).unwrap();
+        let (mut zs, mut acts) = (Vec::new(), Vec::new());
         for i in 0..5000u32 {
             let z = [
                 f64::from(rng.random_range(0..60u8)) / 10.0,
                 f64::from(rng.random_range(0..30u8)) / 10.0,
             ];
             let a = [rng.random_range(-1.0..1.0), f64::from(i)];
-            idx.add_with_action(i, &z, &a);
+            zs.extend_from_slice(&z);
+            acts.extend_from_slice(&a);
+            let pts = Points { z: &zs, a: &acts };
+            idx.add_with_action(i, pts);
             if i % 211 != 0 {
                 continue;
             }
@@ -1139,16 +1258,22 @@ mod sums_tests {
                 let q = [rng.random_range(-0.5..6.5), rng.random_range(-0.5..6.5)];
                 let r2 = rng.random_range(0.0..0.8);
                 let mut got: Vec<(u64, f64, Vec<f64>, f64)> = Vec::new();
-                idx.sums_within(&q, r2, |d, sum, n| {
+                idx.sums_within(&q, r2, pts, |d, sum, n| {
                     got.push((sum[1].to_bits(), d, sum.to_vec(), n))
                 });
                 got.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
                 let mut want: Vec<(u64, f64, Vec<f64>, f64)> = (0..idx.groups() as u64)
                     .filter_map(|g| {
-                        let z = idx.group_z(g);
+                        let z = idx.group_z(g, pts);
                         let d = (z[0] - q[0]) * (z[0] - q[0]) + (z[1] - q[1]) * (z[1] - q[1]);
-                        let (sum, n) = idx.action_sum(g).unwrap();
-                        (d <= r2).then(|| (sum[1].to_bits(), d, sum.to_vec(), f64::from(n)))
+                        // The sum made point by point in the order they joined.
+                        let (mut sum, mut n) = (vec![0.0; 2], 0.0);
+                        for &p in idx.group(g) {
+                            sum[0] += acts[p as usize * 2];
+                            sum[1] += acts[p as usize * 2 + 1];
+                            n += 1.0;
+                        }
+                        (d <= r2).then(|| (sum[1].to_bits(), d, sum, n))
                     })
                     .collect();
                 want.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));

@@ -243,6 +243,15 @@ impl Learner {
         &self.index
     }
 
+    /// The bytes the learner holds for its points: the dataset's arrays and bookkeeping and both
+    /// indexes (records of executions, advice and critiques aside). What the scale benchmark
+    /// reports per point.
+    pub fn held_bytes(&self) -> usize {
+        self.ds.held_bytes()
+            + self.index.held_bytes()
+            + self.lwr_index.as_ref().map_or(0, Index::held_bytes)
+    }
+
     pub fn lwr_params(&self) -> &LwrParams {
         &self.lwr
     }
@@ -263,10 +272,35 @@ impl Learner {
         &mut self,
         episodes: &[Episode],
     ) -> Result<Vec<DemoId>, LearnerError> {
+        let points = episodes.iter().map(|e| e.trace.len()).sum();
+        self.add_each(points, episodes)
+    }
+
+    /// [`Learner::add_demonstrations`], taking the episodes: each one is dropped as soon as its
+    /// points are in the dataset, so a large load holds its points once, not twice, while the
+    /// re-derivation builds the indexes.
+    pub fn add_demonstrations_owned(
+        &mut self,
+        episodes: Vec<Episode>,
+    ) -> Result<Vec<DemoId>, LearnerError> {
+        let points = episodes.iter().map(|e| e.trace.len()).sum();
+        self.add_each(points, episodes)
+    }
+
+    /// Add `episodes` (`points` in all, reserved at once) in order, then re-derive.
+    fn add_each<E: std::borrow::Borrow<Episode>>(
+        &mut self,
+        points: usize,
+        episodes: impl IntoIterator<Item = E>,
+    ) -> Result<Vec<DemoId>, LearnerError> {
         self.check_dim()?;
+        self.ds.reserve(points);
         let ids = episodes
-            .iter()
-            .map(|e| self.ds.add_demonstration(&e.name, &e.trace))
+            .into_iter()
+            .map(|e| {
+                let e = e.borrow();
+                self.ds.add_demonstration(&e.name, &e.trace)
+            })
             .collect::<Result<Vec<_>, _>>()?;
         self.rederive();
         Ok(ids)
@@ -404,7 +438,6 @@ impl Learner {
         support: &[Option<Provenance>],
         directional: bool,
     ) -> (Vec<(Provenance, f64)>, Vec<Vec<f64>>, usize) {
-        let positions = self.ds.positions();
         let scale = self.index.scale();
         let mut gone = 0;
         let mut increments = Vec::with_capacity(chunk.len());
@@ -413,7 +446,7 @@ impl Learner {
             let Some(p) = support.get(t).copied().flatten() else {
                 continue;
             };
-            let Some(&i) = positions.get(&p) else {
+            let Some(i) = self.ds.position(p) else {
                 gone += 1;
                 continue;
             };
@@ -436,12 +469,11 @@ impl Learner {
     /// What a planned critique did, in words (after [`Learner::add_critique`] made it).
     pub fn critique_summary(&self, plan: &CritiquePlan) -> String {
         let chunk = plan.critique.chunk;
-        let positions = self.ds.positions();
         let mut points: Vec<usize> = plan
             .critique
             .increments
             .iter()
-            .filter_map(|(p, _)| positions.get(p).copied())
+            .filter_map(|(p, _)| self.ds.position(*p))
             .collect();
         points.sort_unstable();
         points.dedup();
@@ -569,9 +601,9 @@ impl Learner {
     pub fn ensure_derived(&mut self) {
         if self.ds.obs_dim_supported() {
             for i in self.indexed..self.ds.len() {
-                self.index.add(i as u32, self.ds.z(i));
+                self.index.add(i as u32, self.ds.points());
                 if let Some(l) = &mut self.lwr_index {
-                    l.add_with_action(i as u32, self.ds.z(i), self.ds.a(i));
+                    l.add_with_action(i as u32, self.ds.points());
                 }
             }
         }
@@ -608,7 +640,7 @@ impl Learner {
         let act_dim = self.ds.domain().act_dim();
         self.lwr_index = Index::with_action_sums(scale, act_dim).map(|mut idx| {
             for i in 0..self.indexed.min(self.ds.len()) {
-                idx.add_with_action(i as u32, self.ds.z(i), self.ds.a(i));
+                idx.add_with_action(i as u32, self.ds.points());
             }
             idx
         });

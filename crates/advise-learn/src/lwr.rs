@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
 use crate::dataset::{Dataset, Provenance};
-use crate::index::Index;
+use crate::index::{Index, Points};
 
 /// The regression's parameters.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -93,7 +93,7 @@ pub fn query(
         let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
         // Counted as the sums store it (a whole f64, exact), converted once.
         let mut points = 0.0;
-        index.sums_within(&scratch.q, r2, |d2, sum, n| {
+        index.sums_within(&scratch.q, r2, ds.points(), |d2, sum, n| {
             let w = (-d2 * inv).exp();
             for (out, v) in a.iter_mut().zip(sum) {
                 *out += w * v;
@@ -103,9 +103,9 @@ pub fn query(
         });
         count = points as usize;
     } else {
-        let inv = gather(index, params, z, scratch);
+        let inv = gather(index, ds.points(), params, z, scratch);
         for &(_, g) in &scratch.found {
-            let Some(w) = group_weight(index, g, &scratch.q, params, r2, inv) else {
+            let Some(w) = group_weight(index, ds.points(), g, &scratch.q, params, r2, inv) else {
                 continue;
             };
             for &i in index.group(g) {
@@ -119,7 +119,7 @@ pub fn query(
     }
     if total > 0.0 {
         a.iter_mut().for_each(|v| *v /= total);
-    } else if let Some(i) = nearest_in_kernel_space(index, params, scratch) {
+    } else if let Some(i) = nearest_in_kernel_space(index, ds.points(), params, scratch) {
         a.copy_from_slice(ds.a(i as usize));
     }
     LwrAnswer {
@@ -187,7 +187,7 @@ pub fn tune_from(
     let mut fold = vec![u8::MAX; n];
     for (r, &i) in order.iter().enumerate() {
         fold[i] = (r % k) as u8;
-        index.add(i as u32, ds.z(i));
+        index.add(i as u32, ds.points());
     }
     let per_fold = TUNE_QUERIES / k + 1;
     let queries: Vec<(usize, u8)> = (0..k)
@@ -354,7 +354,7 @@ struct CrossValidation<'a> {
 /// Scale `z` into `s.q` and collect into `s.found` every group within the kernel's support (a
 /// box inflated by the smallest tuned scale, since the index measures range-scaled distance);
 /// returns `1 / (2 h^2)`, the kernel's exponent factor.
-fn gather(index: &Index, params: &LwrParams, z: &[f64], s: &mut Scratch) -> f64 {
+fn gather(index: &Index, pts: Points, params: &LwrParams, z: &[f64], s: &mut Scratch) -> f64 {
     s.q.resize(z.len(), 0.0);
     index.scaled(z, &mut s.q);
     let wmin = params
@@ -363,7 +363,7 @@ fn gather(index: &Index, params: &LwrParams, z: &[f64], s: &mut Scratch) -> f64 
         .copied()
         .fold(f64::INFINITY, f64::min)
         .max(1e-12);
-    index.within(&s.q, params.r2() / (wmin * wmin), &mut s.found);
+    index.within(&s.q, params.r2() / (wmin * wmin), &mut s.found, pts);
     1.0 / (2.0 * params.bandwidth * params.bandwidth)
 }
 
@@ -376,6 +376,7 @@ fn gather(index: &Index, params: &LwrParams, z: &[f64], s: &mut Scratch) -> f64 
 /// the kernel's.
 fn nearest_in_kernel_space(
     index: &Index,
+    pts: Points,
     params: &LwrParams,
     scratch: &mut Scratch,
 ) -> Option<u32> {
@@ -383,11 +384,11 @@ fn nearest_in_kernel_space(
     let wmin = params.scales.iter().copied().fold(f64::INFINITY, f64::min);
     let mut m = 4.min(groups);
     loop {
-        index.nearest_n(&scratch.q, m, &mut scratch.found);
+        index.nearest_n(&scratch.q, m, &mut scratch.found, pts);
         let mut best: Option<(f64, u32)> = None;
         for &(_, g) in &scratch.found {
             let d2: f64 = index
-                .group_z(g)
+                .group_z(g, pts)
                 .iter()
                 .zip(&scratch.q)
                 .zip(&params.scales)
@@ -411,6 +412,7 @@ fn nearest_in_kernel_space(
 /// `None` outside the kernel's support (`r2`).
 fn group_weight(
     index: &Index,
+    pts: Points,
     g: u64,
     q: &[f64],
     params: &LwrParams,
@@ -418,7 +420,7 @@ fn group_weight(
     inv: f64,
 ) -> Option<f64> {
     let d2: f64 = index
-        .group_z(g)
+        .group_z(g, pts)
         .iter()
         .zip(q)
         .zip(&params.scales)
@@ -437,11 +439,11 @@ impl CrossValidation<'_> {
     fn query(&self, params: &LwrParams, z: &[f64], held_out: u8, a: &mut [f64], s: &mut Scratch) {
         let (index, ds) = (self.index, self.ds);
         a.iter_mut().for_each(|v| *v = 0.0);
-        let inv = gather(index, params, z, s);
+        let inv = gather(index, ds.points(), params, z, s);
         let r2 = params.r2();
         let mut total = 0.0;
         for &(_, g) in &s.found {
-            let Some(w) = group_weight(index, g, &s.q, params, r2, inv) else {
+            let Some(w) = group_weight(index, ds.points(), g, &s.q, params, r2, inv) else {
                 continue;
             };
             for &i in index.group(g) {
@@ -467,7 +469,7 @@ impl CrossValidation<'_> {
         // figure measured with the tuned parameters.
         let mut m = 4;
         loop {
-            index.nearest_n(&s.q, m, &mut s.found);
+            index.nearest_n(&s.q, m, &mut s.found, ds.points());
             let other = s.found.iter().find_map(|&(_, g)| {
                 index
                     .group(g)
@@ -547,7 +549,7 @@ mod tests {
         let fold: Vec<u8> = (0..ds.len()).map(|i| ((i * 7 + i / 3) % 5) as u8).collect();
         let mut all = Index::new(scale.clone()).unwrap();
         for i in 0..ds.len() {
-            all.add(i as u32, ds.z(i));
+            all.add(i as u32, ds.points());
         }
         let cv = CrossValidation {
             ds: &ds,
@@ -558,7 +560,7 @@ mod tests {
         for f in 0..k {
             let mut others = Index::new(scale.clone()).unwrap();
             for i in (0..ds.len()).filter(|&i| fold[i] != f) {
-                others.add(i as u32, ds.z(i));
+                others.add(i as u32, ds.points());
             }
             for params in [
                 LwrParams::default_for(2),
@@ -584,7 +586,7 @@ mod tests {
                         // range space (see `CrossValidation::query`), not the kernel's.
                         let mut q = vec![0.0; 2];
                         others.scaled(&z, &mut q);
-                        let (_, g) = others.nearest(&q).unwrap();
+                        let (_, g) = others.nearest(&q, ds.points()).unwrap();
                         b[0] = ds.a(others.group(g)[0] as usize)[0];
                     }
                     let tol = if ans.total_weight > 0.0 { 1e-9 } else { 0.0 };

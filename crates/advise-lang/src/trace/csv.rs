@@ -3,7 +3,7 @@
 //! Every malformed row or header becomes a [`TraceError`] at its line and field.
 
 use super::{Episode, Pose, Trace, TraceError};
-use crate::diag::{Src, did_you_mean, locate};
+use crate::diag::{Loc, SourceMap, Src, did_you_mean, locate};
 use crate::domain::Domain;
 use crate::number::fmt_num;
 
@@ -63,6 +63,28 @@ impl Episode {
         Ok(episodes)
     }
 
+    /// Read a CSV demonstrations file in a stream, for a file too large to hold whole: the same
+    /// rows, rules and episodes as [`Episode::parse_csv`], at most `stream.max_points` rows, the
+    /// bytes read reported as it goes. The text is never held: a refusal points at its line, read
+    /// back from the file into `sources` as a source of its own (`FILE, line N`).
+    pub fn stream_csv(
+        domain: &Domain,
+        sources: &mut SourceMap,
+        path: &std::path::Path,
+        stream: &mut Stream<'_>,
+    ) -> Result<Vec<Episode>, TraceError> {
+        let (file, _) = crate::files::open_regular(path, u64::MAX)?;
+        let mut place = Streamed { sources, path };
+        let input = std::io::BufReader::with_capacity(1 << 20, file);
+        let episodes = parse_records(domain, input, true, &mut place, stream)?;
+        if episodes.is_empty() {
+            return Err(TraceError::NoDemonstrations {
+                name: path.display().to_string(),
+            });
+        }
+        Ok(episodes)
+    }
+
     /// Write episodes as one CSV with an `episode` column first.
     pub fn write_csv<W: std::io::Write>(
         domain: &Domain,
@@ -103,13 +125,92 @@ impl Episode {
 /// Over 150 lines because the header's column map (a local enum) and the row loop that reads
 /// through it belong together; each refusal names its row and column.
 fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, TraceError> {
-    let text = src.text;
-    let field_at = |byte: usize, col: usize| src.at(locate::csv_field(text, byte, col));
+    let mut place = src;
+    let mut stream = Stream {
+        max_points: usize::MAX,
+        progress: &mut |_| {},
+    };
+    parse_records(domain, src.text.as_bytes(), demo, &mut place, &mut stream)
+}
+
+/// Where a CSV's errors point: into its whole text (a [`Src`]), or, for a file read in a stream
+/// ([`Episode::stream_csv`]), into the one line read back from the file.
+pub(super) trait Place {
+    /// The line starting at byte `byte` (its 1-based number `line`): field `col` of it, or the
+    /// whole line.
+    fn at(&mut self, byte: usize, line: u64, col: Option<usize>) -> Loc;
+}
+
+impl Place for Src<'_> {
+    fn at(&mut self, byte: usize, _line: u64, col: Option<usize>) -> Loc {
+        match col {
+            Some(c) => Src::at(self, locate::csv_field(self.text, byte, c)),
+            None => Src::at(self, locate::line_at(self.text, byte)),
+        }
+    }
+}
+
+/// The errors of a file read in a stream: the line read back from the file.
+struct Streamed<'a> {
+    sources: &'a mut SourceMap,
+    path: &'a std::path::Path,
+}
+
+/// The longest part of a line a streamed file's diagnostic shows.
+const SHOWN_LINE: u64 = 4096;
+
+impl Place for Streamed<'_> {
+    fn at(&mut self, byte: usize, line: u64, col: Option<usize>) -> Loc {
+        use std::io::{Read, Seek, SeekFrom};
+        let mut bytes = Vec::new();
+        if let Ok(mut f) = std::fs::File::open(self.path)
+            && f.seek(SeekFrom::Start(byte as u64)).is_ok()
+        {
+            let _ = f.take(SHOWN_LINE).read_to_end(&mut bytes);
+        }
+        let end = bytes
+            .iter()
+            .position(|b| *b == b'\n' || *b == b'\r')
+            .unwrap_or(bytes.len());
+        let text = String::from_utf8_lossy(&bytes[..end]).into_owned();
+        let name = format!("{}, line {line}", self.path.display());
+        let id = self.sources.add(name, text);
+        let src = self.sources.src(id);
+        match col {
+            Some(c) => src.at(locate::csv_field(src.text, 0, c)),
+            None => src.at(locate::line_at(src.text, 0)),
+        }
+    }
+}
+
+/// What a streamed read is held to and reports: at most `max_points` rows, and every
+/// [`Stream::EVERY`] rows the bytes read so far.
+pub struct Stream<'a> {
+    pub max_points: usize,
+    pub progress: &'a mut dyn FnMut(u64),
+}
+
+impl Stream<'_> {
+    /// Rows between two progress reports.
+    pub const EVERY: usize = 1 << 16;
+}
+
+/// The rows of a CSV read from `input`, errors placed by `place`.
+///
+/// Over 150 lines because the header's column map (a local enum) and the row loop that reads
+/// through it belong together; each refusal names its row and column.
+fn parse_records<R: std::io::Read>(
+    domain: &Domain,
+    input: R,
+    demo: bool,
+    place: &mut dyn Place,
+    stream: &mut Stream<'_>,
+) -> Result<Vec<Episode>, TraceError> {
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(false)
         .trim(csv::Trim::All)
         .flexible(true)
-        .from_reader(text.as_bytes());
+        .from_reader(input);
     let mut records = rdr.records();
     let header = match records.next() {
         None => return Err(TraceError::Empty),
@@ -118,7 +219,7 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
         })?,
     };
     let header_byte = header.position().map_or(0, |p| p.byte() as usize);
-    let header_span = src.at(locate::line_at(text, header_byte));
+    let header_line = header.position().map_or(1, |p| p.line());
 
     // Map each column to its slot: t, z[i], a[j], pose[k].
     #[derive(Clone, Copy)]
@@ -135,7 +236,7 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
         if seen.contains(&h) {
             return Err(TraceError::DuplicateColumn {
                 column: h.to_string(),
-                at: field_at(header_byte, col),
+                at: place.at(header_byte, header_line, Some(col)),
             });
         }
         seen.push(h);
@@ -156,7 +257,7 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
             return Err(TraceError::UnknownColumn {
                 column: h.to_string(),
                 help,
-                at: field_at(header_byte, col),
+                at: place.at(header_byte, header_line, Some(col)),
                 domain: domain.name.clone(),
             });
         };
@@ -172,7 +273,7 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
                 domain: domain.name.clone(),
                 expected: known_columns(domain)[..1 + domain.obs_dim() + domain.act_dim()]
                     .join(","),
-                at: header_span,
+                at: place.at(header_byte, header_line, None),
             });
         }
     }
@@ -189,7 +290,7 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
             column: missing.into(),
             domain: domain.name.clone(),
             expected: "x,y,theta (all three, or none)".into(),
-            at: header_span,
+            at: place.at(header_byte, header_line, None),
         });
     }
 
@@ -198,6 +299,7 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
     let mut starts: std::collections::HashMap<String, u64> = Default::default();
     let (mut z, mut a) = (vec![0.0; domain.obs_dim()], vec![0.0; domain.act_dim()]);
     let mut pose = [0.0; 3];
+    let mut points = 0usize;
     for rec in records {
         let rec = rec.map_err(|e| TraceError::Csv {
             message: e.to_string(),
@@ -207,12 +309,22 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
         if rec.len() == 1 && rec.get(0) == Some("") {
             continue; // blank line
         }
+        points += 1;
+        if points > stream.max_points {
+            return Err(TraceError::TooManyPoints {
+                line,
+                max: stream.max_points,
+            });
+        }
+        if points.is_multiple_of(Stream::EVERY) {
+            (stream.progress)(byte as u64);
+        }
         if rec.len() != slots.len() {
             return Err(TraceError::RowLength {
                 line,
                 found: rec.len(),
                 expected: slots.len(),
-                at: src.at(locate::line_at(text, byte)),
+                at: place.at(byte, line, None),
             });
         }
         let mut t = 0.0;
@@ -227,14 +339,14 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
                 line,
                 column: column(),
                 value: field.to_string(),
-                at: field_at(byte, col),
+                at: place.at(byte, line, Some(col)),
             })?;
             if !v.is_finite() {
                 return Err(TraceError::NotFinite {
                     line,
                     column: column(),
                     value: field.to_string(),
-                    at: field_at(byte, col),
+                    at: place.at(byte, line, Some(col)),
                 });
             }
             // The demonstration rule ([`super::demo_value_fault`]); finiteness is refused above
@@ -249,7 +361,7 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
                     value: field.to_string(),
                     lo: fmt_num(l.lo),
                     hi: fmt_num(l.hi),
-                    at: field_at(byte, col),
+                    at: place.at(byte, line, Some(col)),
                 });
             }
             match *slot {
@@ -270,7 +382,7 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
                     line,
                     first_line,
                     episode: label.to_string(),
-                    at: field_at(byte, col),
+                    at: place.at(byte, line, Some(col)),
                 });
             }
             starts.insert(label.to_string(), line);
@@ -286,7 +398,7 @@ fn parse(domain: &Domain, src: Src<'_>, demo: bool) -> Result<Vec<Episode>, Trac
             && t <= prev
         {
             let tcol = slots.iter().position(|s| matches!(s, Slot::T)).unwrap_or(0);
-            let at = field_at(byte, tcol);
+            let at = place.at(byte, line, Some(tcol));
             return Err(if t == prev {
                 TraceError::TimeRepeated { line, t, at }
             } else {
@@ -305,4 +417,76 @@ fn known_columns(domain: &Domain) -> Vec<String> {
         .chain(domain.act.iter().map(|d| d.name.clone()))
         .chain(["x", "y", "theta", "episode"].map(String::from))
         .collect()
+}
+
+#[cfg(test)]
+mod stream_tests {
+    use super::*;
+    use crate::diag::render::render;
+
+    const CSV: &str = "episode,t,dist2,bearing,dheading,trans,rot\n\
+        a,0,4,0.5,0.1,0.2,0.1\n\
+        a,0.1,3.9,0.5,0.1,0.2,0.1\n\
+        \n\
+        b,0,1,-0.5,0,0.1,-0.2\n\
+        b,0.1,0.9,-0.4,0,0.1,-0.2\n\
+        b,0.2,0.8,-0.3,0,0.1,-0.2\n";
+
+    fn write(text: &str) -> tempfile::NamedTempFile {
+        let mut f = tempfile::NamedTempFile::new().unwrap();
+        std::io::Write::write_all(&mut f, text.as_bytes()).unwrap();
+        f
+    }
+
+    fn stream(
+        text: &str,
+        max_points: usize,
+    ) -> (Result<Vec<Episode>, TraceError>, SourceMap, Vec<u64>) {
+        let f = write(text);
+        let mut sources = SourceMap::new();
+        let mut reports = Vec::new();
+        let mut report = |b| reports.push(b);
+        let mut s = Stream {
+            max_points,
+            progress: &mut report,
+        };
+        let r = Episode::stream_csv(&Domain::positioning(), &mut sources, f.path(), &mut s);
+        (r, sources, reports)
+    }
+
+    /// A streamed file gives the episodes the whole-text parser gives, to the bit.
+    #[test]
+    fn a_streamed_file_reads_as_the_whole_text_does() {
+        let mut sources = SourceMap::new();
+        let id = sources.add("x.csv", CSV);
+        let whole = Episode::parse_csv(&Domain::positioning(), sources.src(id)).unwrap();
+        let (streamed, _, _) = stream(CSV, 100);
+        assert_eq!(streamed.unwrap(), whole);
+    }
+
+    /// A refusal in a streamed file names its line and shows that line, read back from the file;
+    /// more rows than the bound are refused at the first one over it.
+    #[test]
+    fn a_streamed_refusal_shows_its_line_and_the_points_are_bounded() {
+        let bad = CSV.replace("0.9,-0.4", "0.9,oops");
+        let (r, sources, _) = stream(&bad, 100);
+        let e = r.unwrap_err();
+        let shown = render(&sources, &e, false);
+        assert!(
+            shown.contains("line 6, column `bearing`: `oops` is not a number"),
+            "{shown}"
+        );
+        assert!(shown.contains("b,0.1,0.9,oops,0,0.1,-0.2"), "{shown}");
+        assert!(shown.contains(", line 6"), "{shown}");
+        let (r, _, _) = stream(CSV, 4);
+        let e = r.unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "line 7: the demonstrations hold more than 4 points"
+        );
+        assert_eq!(
+            miette::Diagnostic::code(&e).unwrap().to_string(),
+            "advise::trace::too_many_points"
+        );
+    }
 }

@@ -170,6 +170,14 @@ pub enum TraceError {
         )
     )]
     ManyEpisodes { count: usize },
+    #[error("line {line}: the demonstrations hold more than {max} points")]
+    #[diagnostic(
+        code(advise::trace::too_many_points),
+        help(
+            "a demonstrations file read in a stream is bounded by its points, as memory holds them (about 200 bytes each once derived): split the file, or load a sample of its episodes"
+        )
+    )]
+    TooManyPoints { line: u64, max: usize },
     #[error("the CSV is malformed: {message}")]
     #[diagnostic(code(advise::trace::csv))]
     Csv { message: String },

@@ -56,7 +56,7 @@ impl Dataset {
         header.push("m".into());
         out.write_record(&header)?;
         for i in 0..self.len() {
-            let p = self.provenance[i];
+            let p = self.provenance(i);
             if !keep(&p) {
                 continue;
             }
@@ -91,7 +91,7 @@ impl Dataset {
             let mut row = vec![source, detail];
             row.extend(self.z(i).iter().map(|v| fmt_num(*v)));
             row.extend(self.a(i).iter().map(|v| fmt_num(*v)));
-            row.push(fmt_num(self.m[i]));
+            row.push(fmt_num(self.m(i)));
             out.write_record(&row)?;
         }
         out.flush()
@@ -105,8 +105,8 @@ impl Dataset {
                 .map(|i| FilePoint {
                     z: self.z(i).to_vec(),
                     a: self.a(i).to_vec(),
-                    m: self.m[i],
-                    provenance: self.provenance[i],
+                    m: self.m(i),
+                    provenance: self.provenance(i),
                 })
                 .collect(),
             demos: self.demos.clone(),
@@ -181,11 +181,9 @@ impl Dataset {
         }
         validate(&file)?;
         let mut d = Dataset::new(&file.domain);
+        d.reserve(file.points.len());
         for p in &file.points {
-            d.z.extend_from_slice(&p.z);
-            d.a.extend_from_slice(&p.a);
-            d.provenance.push(p.provenance);
-            d.m.push(p.m);
+            d.push_point(&p.z, &p.a, p.provenance);
         }
         d.demos = file.demos;
         d.executions = file.executions;
@@ -193,9 +191,8 @@ impl Dataset {
         d.critiques = file.critiques;
         d.next_id = file.next_id;
         // The stored weights must be what the critique records say.
-        let stored = d.m.clone();
         d.recompute_weights();
-        if stored != d.m {
+        if file.points.iter().enumerate().any(|(i, p)| p.m != d.m(i)) {
             return Err(DatasetError::Inconsistent {
                 what: "the weights do not match the critique records".into(),
             });
@@ -214,12 +211,12 @@ impl Dataset {
         let mut order: Vec<(Provenance, Vec<usize>)> = Vec::new();
         let mut slot: HashMap<(bool, u32), usize> = HashMap::new();
         for i in 0..self.len() {
-            let key = match self.provenance[i] {
+            let key = match self.provenance(i) {
                 Provenance::Demonstration { demo, .. } => (true, demo),
                 Provenance::Advice { advice, .. } => (false, advice),
             };
             let k = *slot.entry(key).or_insert_with(|| {
-                order.push((self.provenance[i], Vec::new()));
+                order.push((self.provenance(i), Vec::new()));
                 order.len() - 1
             });
             order[k].1.push(i);
@@ -272,6 +269,40 @@ pub fn load_demonstrations(
     domain: &Domain,
     path: &Path,
 ) -> Result<Demonstrations, DatasetError> {
+    load_demonstrations_with(sources, domain, path, &mut |_, _| {})
+}
+
+/// A CSV demonstrations file larger than this is read in a stream ([`Episode::stream_csv`]),
+/// never held whole: up to [`MAX_STREAM_POINTS`] points, whatever its length in bytes. Smaller
+/// ones (and JSON, which is held whole) are read as before, under the whole-text cap.
+pub const STREAM_CSV_BYTES: u64 = 64 << 20;
+
+/// The most points a streamed demonstrations file may hold: 50 million, some 10 GB once a
+/// learner holds them with both indexes, more than a 24 GB machine wants to give one session.
+pub const MAX_STREAM_POINTS: usize = 50_000_000;
+
+/// [`load_demonstrations`], reporting `progress(bytes read, bytes in all)` while it streams a
+/// large CSV file (nothing for a file read whole).
+pub fn load_demonstrations_with(
+    sources: &mut SourceMap,
+    domain: &Domain,
+    path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<Demonstrations, DatasetError> {
+    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+    if !advise_lang::trace::is_json(path) && size > STREAM_CSV_BYTES {
+        let mut report = |bytes| progress(bytes, size);
+        let mut stream = advise_lang::trace::csv::Stream {
+            max_points: MAX_STREAM_POINTS,
+            progress: &mut report,
+        };
+        let episodes = Episode::stream_csv(domain, sources, path, &mut stream)?;
+        progress(size, size);
+        return Ok(Demonstrations {
+            episodes,
+            from_dataset: None,
+        });
+    }
     advise_lang::files::parse_file(sources, path, |src| {
         let name = path.display().to_string();
         let is_json = advise_lang::trace::is_json(path);
