@@ -44,7 +44,7 @@ use effect::{Effect, Entry};
 use journal::Journal;
 
 pub use error::SessionError;
-pub use reply::{Advised, Defined, Evaluated, Ran, Reply};
+pub use reply::{Advised, Defined, Evaluated, Ran, Reply, Since};
 use undo::Edit;
 
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met
@@ -112,6 +112,9 @@ struct TaskState {
     next_edit: usize,
     /// The last evaluation, to report what changed since.
     last_eval: Option<Report>,
+    /// The evaluation before it: what `eval --detail` compares the last one with while the policy
+    /// is unchanged since.
+    prev_eval: Option<Report>,
 }
 
 impl TaskState {
@@ -130,6 +133,7 @@ impl TaskState {
             redo: Vec::new(),
             next_edit: 1,
             last_eval: None,
+            prev_eval: None,
         }
     }
 
@@ -396,19 +400,12 @@ impl Session {
             }
             Command::LoadTrace(path) => self.load_trace(&path).map(Reply::Message),
             Command::Operators(path) => self.load_operators(&path).map(Reply::Message),
-            Command::RunGoal {
-                x_m,
-                y_m,
-                theta_rad,
-            } => self.run_goal(x_m, y_m, theta_rad),
+            Command::RunGoal(values) => self.run_goal(&values),
             Command::RunStart(n) => self.run_start(n),
             Command::Show(n) => self.show(n).map(Reply::Message),
             Command::Select {
-                start,
-                end,
-                execution,
-                ..
-            } => self.select(start, end, execution),
+                range, execution, ..
+            } => self.select(range, execution),
             Command::Critique { kappa, directional } => {
                 let rule = if directional {
                     CritiqueRule::Directional

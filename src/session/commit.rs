@@ -282,7 +282,9 @@ impl Session {
                 self.state.learner.set_kind(*learner);
                 self.state.learner.rederive();
             }
-            Effect::Evaluated { report } => self.state.last_eval = Some((**report).clone()),
+            Effect::Evaluated { report } => {
+                self.state.prev_eval = self.state.last_eval.replace((**report).clone());
+            }
             Effect::Open { path, dataset } => {
                 let ds = self
                     .sources
