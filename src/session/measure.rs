@@ -40,9 +40,10 @@ impl Session {
         let report = eval::evaluate(self.task.clone(), self.state.learner.policy(), &opts);
         // The whole test set on a robot takes minutes and needs room: not from the prompt.
         let robot = (!self.backend.is_simulator()).then(|| self.backend.name());
-        // The simulator and the learners are deterministic: the same report means the same
-        // policy. Such an evaluation becomes no new point of comparison, so `eval --detail` after
-        // `eval` lists the changes that `eval` counted (against the evaluation before it).
+        // The simulator and the learners are deterministic: a report equal to the last one means
+        // no test's result changed (the policy did not, or not where the tests go). Such an
+        // evaluation is no new point of comparison, so `eval --detail` after `eval` lists the
+        // changes that `eval` counted (the last evaluation against the one before it).
         if self.state.last_eval.as_ref() == Some(&report) {
             let (before, since) = match (&self.state.prev_eval, detail) {
                 (Some(prev), true) => (prev.clone(), Since::LastAgainstPrevious),

@@ -91,10 +91,11 @@ pub struct Advised {
 pub enum Since {
     /// The last evaluation (the policy changed since).
     LastEval,
-    /// The last evaluation, whose report this one repeats: the policy has not changed.
+    /// The last evaluation, whose report this one repeats (same results: the policy did not
+    /// change, or changed where no test goes).
     Unchanged,
-    /// The policy has not changed since the last evaluation (`eval --detail`): the last one
-    /// against the one before it, the changes the last `eval` counted.
+    /// Same results as the last evaluation (`eval --detail`): the last one against the one before
+    /// it, the changes the last `eval` counted.
     LastAgainstPrevious,
 }
 
@@ -177,9 +178,9 @@ impl fmt::Display for Reply {
                 f.write_str(&e.report.render())?;
                 let since = match e.since {
                     Since::LastAgainstPrevious => {
-                        "the policy is unchanged since the last eval; that eval against the one before it"
+                        "the same results as the last eval; that eval against the one before it"
                     }
-                    Since::Unchanged => "the policy is unchanged since the last eval",
+                    Since::Unchanged => "the same results as the last eval",
                     Since::LastEval => "since the last eval",
                 };
                 match &e.before {
