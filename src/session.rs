@@ -515,6 +515,16 @@ impl Session {
         names
     }
 
+    /// The names of the tasks the operator set declares (positioning's and the files'): what a
+    /// file that declares more is compared with.
+    fn declared_task_names(&self) -> Vec<String> {
+        self.ops
+            .tasks()
+            .iter()
+            .map(|t| t.name().to_string())
+            .collect()
+    }
+
     /// Park the current task's work and take up `task`'s (new if it has none yet).
     fn switch_task(&mut self, task: TaskKind) {
         if task == self.task {

@@ -175,12 +175,7 @@ impl Session {
             Effect::Define { origin, text } => {
                 let id = self.sources.add(origin.as_str(), text.as_str());
                 let checked = self.ops.merge_in(&self.sources, &[id])?;
-                let before: Vec<String> = self
-                    .ops
-                    .tasks()
-                    .iter()
-                    .map(|t| t.name().to_string())
-                    .collect();
+                let before = self.declared_task_names();
                 self.ops = checked.set;
                 self.warnings = checked.warnings;
                 self.add_role_operators(&before);

@@ -170,12 +170,7 @@ impl Session {
     pub(super) fn load_tasks(&mut self, path: &str) -> Result<String, SessionError> {
         let id = crate::files::read_source(&mut self.sources, Path::new(path))?;
         let text = self.sources.text(id).to_string();
-        let before: Vec<String> = self
-            .ops
-            .tasks()
-            .iter()
-            .map(|t| t.name().to_string())
-            .collect();
+        let before = self.declared_task_names();
         let checked = self.ops.merge_in(&self.sources, &[id])?;
         let new: Vec<std::sync::Arc<crate::program::task::TaskDef>> = checked
             .set
