@@ -37,7 +37,12 @@ pub enum Command {
     /// Check advice-operator files (on top of the standard operators); every error of every file
     /// is reported, and the exit code is non-zero if there was any.
     Check {
-        /// Operator files (`*.adv`); with none, the standard operators are checked.
+        /// Files of task declarations the operator files build on (`domain NAME { goal ... }`),
+        /// checked first, as `repl`, `eval` and `demo` take them.
+        #[arg(long = "tasks", value_name = "FILE")]
+        tasks: Vec<PathBuf>,
+        /// Operator files (`*.adv`); with none (and no `--tasks`), the standard operators are
+        /// checked.
         files: Vec<PathBuf>,
     },
     /// Rewrite operator files in the canonical layout, keeping their comments; `--check` changes

@@ -33,8 +33,10 @@ fn main() -> ExitCode {
             session,
         }) => run_script(&script, keep_going, &session),
         Some(Command::Resume { journal }) => resume(journal),
-        Some(Command::Check { files }) if files.is_empty() => operators::check_standard(),
-        Some(Command::Check { files }) => operators::check_files(&files),
+        Some(Command::Check { tasks, files }) if files.is_empty() && tasks.is_empty() => {
+            operators::check_standard()
+        }
+        Some(Command::Check { tasks, files }) => operators::check_files(&tasks, &files),
         Some(Command::Fmt { check, files }) => operators::fmt(&files, check),
         Some(Command::Test { files }) => operators::test(&files),
         Some(Command::Lsp) => advise::lsp::run_stdio().map(|()| ExitCode::SUCCESS),
@@ -79,10 +81,17 @@ fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
         ..SessionOptions::default()
     };
     let mut session = Session::new(opts)?;
+    // The session starts on `--task`: a file's hint to switch to it would be a step already taken.
+    let switch = format!("; switch with `task {}`", args.task);
     for file in &args.tasks {
         let quoted = format!("\"{}\"", file.display());
-        let reply = session.execute(&format!("tasks {quoted}"), "--tasks")?;
-        eprintln!("{reply}");
+        let reply = session
+            .execute(&format!("tasks {quoted}"), "--tasks")?
+            .to_string();
+        match reply.strip_suffix(&switch).filter(|_| builtin.is_none()) {
+            Some(checked) => eprintln!("{checked}; the session starts on task {}", args.task),
+            None => eprintln!("{reply}"),
+        }
     }
     if builtin.is_none() {
         session.execute(&format!("task {}", args.task), "--task")?;

@@ -45,7 +45,7 @@ use effect::{Effect, Entry};
 use journal::Journal;
 
 pub use error::SessionError;
-pub use reply::{Advised, Defined, Evaluated, Ran, Reply};
+pub use reply::{Advised, Defined, Evaluated, Ran, Reply, Since};
 use undo::Edit;
 
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met
@@ -113,6 +113,9 @@ struct TaskState {
     next_edit: usize,
     /// The last evaluation, to report what changed since.
     last_eval: Option<Report>,
+    /// The evaluation before it: what `eval --detail` compares the last one with while the policy
+    /// is unchanged since.
+    prev_eval: Option<Report>,
 }
 
 impl TaskState {
@@ -131,6 +134,7 @@ impl TaskState {
             redo: Vec::new(),
             next_edit: 1,
             last_eval: None,
+            prev_eval: None,
         }
     }
 
@@ -397,19 +401,12 @@ impl Session {
             }
             Command::LoadTrace(path) => self.load_trace(&path).map(Reply::Message),
             Command::Operators(path) => self.load_operators(&path).map(Reply::Message),
-            Command::RunGoal {
-                x_m,
-                y_m,
-                theta_rad,
-            } => self.run_goal(x_m, y_m, theta_rad),
+            Command::RunGoal(values) => self.run_goal(&values),
             Command::RunStart(n) => self.run_start(n),
             Command::Show(n) => self.show(n).map(Reply::Message),
             Command::Select {
-                start,
-                end,
-                execution,
-                ..
-            } => self.select(start, end, execution),
+                range, execution, ..
+            } => self.select(range, execution),
             Command::Critique { kappa, directional } => {
                 let rule = if directional {
                     CritiqueRule::Directional
@@ -517,6 +514,16 @@ impl Session {
             }
         }
         names
+    }
+
+    /// The names of the tasks the operator set declares (positioning's and the files'): what a
+    /// file that declares more is compared with.
+    fn declared_task_names(&self) -> Vec<String> {
+        self.ops
+            .tasks()
+            .iter()
+            .map(|t| t.name().to_string())
+            .collect()
     }
 
     /// Park the current task's work and take up `task`'s (new if it has none yet).

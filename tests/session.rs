@@ -119,10 +119,13 @@ fn replies_say_what_happened_as_data() {
     };
     assert_eq!((r.index, r.label.as_str()), (0, "run goal 2 -1 0.5"));
     assert!(r.points > 0 && !r.outcome.is_empty());
-    assert!(
-        ran.to_string()
-            .starts_with("execution 0: run goal 2 -1 0.5: ")
+    assert_eq!(
+        r.goal.as_deref(),
+        Some("x_g = 2 m, y_g = -1 m, theta_g = 0.5 rad")
     );
+    assert!(ran.to_string().starts_with(
+        "execution 0: run goal 2 -1 0.5 (goal x_g = 2 m, y_g = -1 m, theta_g = 0.5 rad): "
+    ));
 
     let selected = s.execute("select 10..30", "<test>").unwrap();
     assert!(

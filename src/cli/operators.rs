@@ -50,7 +50,11 @@ fn read_sources(map: &mut SourceMap, files: &[PathBuf]) -> miette::Result<Vec<So
         .collect()
 }
 
-pub fn check_files(files: &[PathBuf]) -> miette::Result<ExitCode> {
+/// `advise check [--tasks FILE]... FILE...`: the task files first, then the operator files, all
+/// on top of the standard operators.
+pub fn check_files(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitCode> {
+    let all: Vec<PathBuf> = tasks.iter().chain(files).cloned().collect();
+    let files = all.as_slice();
     let mut map = SourceMap::new();
     let ids = read_sources(&mut map, files)?;
     match OperatorSet::standard().merge_in(&map, &ids) {
@@ -78,7 +82,80 @@ pub fn check_files(files: &[PathBuf]) -> miette::Result<ExitCode> {
             std::mem::forget(set);
             Ok(ExitCode::SUCCESS)
         }
-        Err(errors) => Ok(report_check_errors(&map, errors, files.len())),
+        Err(mut errors) => {
+            name_domain_files(&mut errors, tasks, files);
+            Ok(report_check_errors(&map, errors, files.len()))
+        }
+    }
+}
+
+/// The most `.adv` files looked through for a missing domain's declaration, and the most bytes
+/// read of each: the search is a courtesy and stays quick in any folder.
+const DOMAIN_SEARCH_FILES: usize = 200;
+const DOMAIN_SEARCH_BYTES: u64 = 1 << 20;
+
+/// An unknown domain declared by a file beside the checked ones (or in the working directory):
+/// its help names that file and the command line that brings it in.
+fn name_domain_files(errors: &mut check::CheckErrors, tasks: &[PathBuf], files: &[PathBuf]) {
+    use std::io::Read as _;
+    let mut dirs: Vec<PathBuf> = files
+        .iter()
+        .map(|f| f.parent().map_or_else(PathBuf::new, Path::to_path_buf))
+        .collect();
+    dirs.push(PathBuf::new());
+    dirs.sort();
+    dirs.dedup();
+    let candidates: Vec<PathBuf> = dirs
+        .iter()
+        .filter_map(|d| {
+            std::fs::read_dir(if d.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                d
+            })
+            .ok()
+        })
+        .flat_map(|entries| entries.flatten().map(|e| e.path()))
+        .map(|p| p.strip_prefix("./").map(Path::to_path_buf).unwrap_or(p))
+        .filter(|p| p.extension().is_some_and(|e| e == "adv") && !files.contains(p))
+        .take(DOMAIN_SEARCH_FILES)
+        .collect();
+    let declares = |path: &Path, name: &str| {
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(DOMAIN_SEARCH_BYTES).read_to_string(&mut text))
+            .is_ok()
+            && text.lines().any(|l| {
+                l.trim_start()
+                    .strip_prefix("domain ")
+                    .is_some_and(|r| r.trim_start().split([' ', '{']).next() == Some(name))
+            })
+    };
+    for e in &mut errors.errors {
+        let check::ParseOrCheckError::Check(check::CheckError::UnknownDomain {
+            name, help, ..
+        }) = e
+        else {
+            continue;
+        };
+        if let Some(found) = candidates.iter().find(|p| declares(p, name)) {
+            let mut line: Vec<String> = vec!["advise check".into()];
+            for t in tasks.iter().chain([found]) {
+                line.push(format!("--tasks {}", t.display()));
+            }
+            line.extend(
+                files
+                    .iter()
+                    .filter(|f| !tasks.contains(f))
+                    .map(|f| f.display().to_string()),
+            );
+            *help = format!(
+                "`{name}` is declared in {}: pass the task file, `{}` (in a session, `tasks {}` first)",
+                found.display(),
+                line.join(" "),
+                found.display()
+            );
+        }
     }
 }
 

@@ -55,6 +55,14 @@ impl AdviseHelper {
             .into_iter()
             .filter(|c| c.starts_with(word))
             .collect();
+        // A range's end: `125..` completes to `125..end`.
+        if expect.range
+            && let Some((from, to)) = word.split_once("..")
+            && !from.is_empty()
+            && "end".starts_with(to)
+        {
+            out.push(format!("{from}..end"));
+        }
         out.sort();
         out.dedup();
         (start, out)
@@ -176,6 +184,8 @@ impl Highlighter for AdviseHelper {
 struct Expect {
     words: Vec<String>,
     path: bool,
+    /// A range of points (`A..B`, `A..end`, `-N..end`).
+    range: bool,
 }
 
 /// Where the word ending at `pos` starts, that word, and what the command table says it may be.
@@ -249,7 +259,8 @@ fn expect_arg(arg: &Arg, facts: &Facts, out: &mut Expect) {
         ArgKind::Learner => out
             .words
             .extend(LearnerKind::ALL.iter().map(|k| k.name().to_string())),
-        ArgKind::Number | ArgKind::Count | ArgKind::Range | ArgKind::RosTopic => {}
+        ArgKind::Range => out.range = true,
+        ArgKind::Number | ArgKind::Count | ArgKind::RosTopic => {}
     }
 }
 
@@ -321,6 +332,10 @@ mod tests {
         assert!(!AdviseHelper::wants_path("plot compare c.svg ", 19));
         assert_eq!(words("learner "), vec!["bc", "lwr"]);
         assert_eq!(words("run "), vec!["goal", "start"]);
+        // A range's open end.
+        assert_eq!(words("select 125.."), vec!["125..end"]);
+        assert_eq!(words("select -30..e"), vec!["-30..end"]);
+        assert_eq!(words("select 125..1"), Vec::<String>::new());
         assert_eq!(words("load demos d.csv "), vec!["cmd", "odom"]);
         assert_eq!(words("load demos d.csv cmd /c "), vec!["odom"]);
         assert_eq!(words("load demos d.csv cmd "), Vec::<String>::new());

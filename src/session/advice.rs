@@ -5,12 +5,12 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use super::effect::Effect;
-use super::text::{fmt_vec, short_num};
+use super::text::{fmt_named, short_num};
 use super::undo::Edit;
 use super::{Advised, HeldExecution, MAX_KAPPA, Reply, Session, SessionError};
 use crate::policy::dataset::CritiqueRule;
 use crate::policy::learner;
-use crate::trace::Chunk;
+use crate::trace::{Chunk, PointRange};
 use crate::{check, interp};
 
 impl Session {
@@ -18,8 +18,7 @@ impl Session {
     /// selected execution is what `advise`, `critique`, `preview`, `why` and `plot` act on.
     pub(super) fn select(
         &mut self,
-        start: usize,
-        end: usize,
+        range: PointRange,
         execution: Option<usize>,
     ) -> Result<Reply, SessionError> {
         let i = match execution {
@@ -32,7 +31,7 @@ impl Session {
                 .ok_or(SessionError::NoExecution)?,
         };
         let rec = self.numbered(i)?;
-        let chunk = Chunk::new(start, end, rec.trace.len())?;
+        let chunk = range.resolve(rec.trace.len())?;
         self.commit(Effect::Select {
             execution: i,
             chunk,
@@ -120,11 +119,15 @@ impl Session {
         let syn = interp::apply(&call, &rec.trace, chunk)?;
         let space = syn.advice.space;
         let dims = self.domain.dims(space);
+        let skipped = chunk.len() - syn.points.len();
+        let guard = match guard_of(call.operator().definition()) {
+            Some(guard) if skipped > 0 => format!(" by its guard `{guard}`"),
+            _ => String::new(),
+        };
         let mut out = format!(
-            "{} on {chunk} of execution {i} would add {} points ({} skipped); {} before -> after:\n",
+            "{} on {chunk} of execution {i} would add {} points ({skipped} skipped{guard}); {} before -> after:\n",
             syn.advice.invocation(),
             syn.points.len(),
-            chunk.len() - syn.points.len(),
             space
         );
         let _ = write!(out, "{:>6}", "point");
@@ -163,8 +166,8 @@ impl Session {
         self.state.learner.ensure_derived();
         let mut out = format!(
             "point {t} of execution {i}: z = {}, executed a = {}\n",
-            fmt_vec(&z),
-            fmt_vec(&a)
+            fmt_named(&self.domain.observe, &z),
+            fmt_named(&self.domain.act, &a)
         );
         let name = |id: learner::AdviceId| {
             self.state
@@ -181,6 +184,19 @@ impl Session {
         out.push_str(&self.state.learner.why(&z, &name)?);
         Ok(out)
     }
+}
+
+/// An operator's guard as written (`where trans > 0`), read from its definition's head (before
+/// its block); `None` for an operator without one, or a composition.
+fn guard_of(definition: &str) -> Option<String> {
+    let head = definition.split('{').next()?;
+    let at = head.find(" where ")?;
+    Some(
+        head[at + 1..]
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" "),
+    )
 }
 
 /// A critique's kappa: positive and at most [`MAX_KAPPA`] (a typed one and a journalled one).

@@ -187,8 +187,10 @@ impl Session {
             Effect::Define { origin, text } => {
                 let id = self.sources.add(origin.as_str(), text.as_str());
                 let checked = self.ops.merge_in(&self.sources, &[id])?;
+                let before = self.declared_task_names();
                 self.ops = checked.set;
                 self.warnings = checked.warnings;
+                self.add_role_operators(&before);
             }
             Effect::Task { task } => {
                 let task = self.resolve_task(task)?;
@@ -302,7 +304,9 @@ impl Session {
                 self.state.learner.set_kind(*learner);
                 self.state.learner.rederive();
             }
-            Effect::Evaluated { report } => self.state.last_eval = Some((**report).clone()),
+            Effect::Evaluated { report } => {
+                self.state.prev_eval = self.state.last_eval.replace((**report).clone());
+            }
             Effect::Open { path, dataset } => {
                 let ds = self
                     .sources
@@ -364,6 +368,36 @@ impl Session {
     }
 
     /// Work on an opened dataset from now on (its executions and history start empty).
+    /// The standard operators written against roles, for each task declared since `before`
+    /// whose actions drive speed and turn ([`crate::check::role_operators`]); the task's own
+    /// operators shadow them. A rewritten operator that does not check for the task (a name
+    /// clash with one of its dimensions) is left out, not reported: the task file is not wrong.
+    fn add_role_operators(&mut self, before: &[String]) {
+        let new: Vec<_> = self
+            .ops
+            .tasks()
+            .iter()
+            .filter(|t| !before.iter().any(|b| b == t.name()))
+            .cloned()
+            .collect();
+        for task in new {
+            let own: Vec<String> = self
+                .ops
+                .operators(task.name())
+                .map(|o| o.name().to_string())
+                .collect();
+            let own: Vec<&str> = own.iter().map(String::as_str).collect();
+            let Some(text) = crate::check::role_operators(&task, &own) else {
+                continue;
+            };
+            let mut map = crate::diag::SourceMap::new();
+            let id = map.add(format!("standard operators for {}", task.name()), text);
+            if let Ok(checked) = self.ops.merge_in(&map, &[id]) {
+                self.ops = checked.set;
+            }
+        }
+    }
+
     pub(super) fn take_learner(&mut self, learner: Learner) {
         self.domain = learner.domain().clone();
         self.state = TaskState::with_learner(learner);

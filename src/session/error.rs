@@ -141,14 +141,59 @@ pub enum SessionError {
         help("points are numbered 0..{len}")
     )]
     PointOutOfRange { t: usize, len: usize },
-    #[error("`run goal` is for the positioning task")]
+    #[error("the {task} task has no goal to name: its runs start from a ball's position and speed")]
     #[diagnostic(
         code(advise::session::goal_for_wrong_task),
-        help(
-            "other tasks run from their practice starts, drawn from the goal ranges: `run start N`"
-        )
+        help("run it from its practice starts: `run start N`")
     )]
-    GoalForWrongTask,
+    GoalForWrongTask { task: TaskKind },
+    #[error("the goal of {task} has {expected} values, and {given} were given")]
+    #[diagnostic(
+        code(advise::session::goal_count),
+        help("its goal is {params}, in that order or by name: {example}")
+    )]
+    GoalCount {
+        task: String,
+        given: usize,
+        expected: usize,
+        params: String,
+        example: String,
+    },
+    #[error("the goal of {task} has no value `{name}`")]
+    #[diagnostic(code(advise::session::unknown_goal_value), help("{help}"))]
+    UnknownGoalParam {
+        name: String,
+        task: String,
+        help: String,
+    },
+    #[error("the goal value `{name}` is given twice")]
+    #[diagnostic(
+        code(advise::session::goal_value_twice),
+        help("give each once, in order or by name: {params}")
+    )]
+    GoalParamTwice { name: String, params: String },
+    #[error("the goal of {task} needs {missing} too")]
+    #[diagnostic(
+        code(advise::session::goal_count),
+        help("its goal is {params}, in that order or by name: {example}")
+    )]
+    GoalMissing {
+        task: String,
+        missing: String,
+        params: String,
+        example: String,
+    },
+    #[error("{name} = {value} is outside the goal range of {task}")]
+    #[diagnostic(
+        code(advise::session::goal_out_of_range),
+        help("its goal is {params}: the ranges its rules were written for")
+    )]
+    GoalOutOfRange {
+        task: String,
+        name: String,
+        value: String,
+        params: String,
+    },
     #[error("the goal ({goal}) is not a pose a run can reach")]
     #[diagnostic(
         code(advise::session::bad_goal),

@@ -1,6 +1,7 @@
 //! The session's files: loading demonstrations, a trace or operators; saving, opening and
 //! exporting the dataset.
 
+use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
@@ -218,12 +219,7 @@ impl Session {
     pub(super) fn load_tasks(&mut self, path: &str) -> Result<String, SessionError> {
         let id = crate::files::read_source(&mut self.sources, Path::new(path))?;
         let text = self.sources.text(id).to_string();
-        let before: Vec<String> = self
-            .ops
-            .tasks()
-            .iter()
-            .map(|t| t.name().to_string())
-            .collect();
+        let before = self.declared_task_names();
         let checked = self.ops.merge_in(&self.sources, &[id])?;
         let new: Vec<std::sync::Arc<crate::program::task::TaskDef>> = checked
             .set
@@ -310,6 +306,7 @@ impl Session {
             .task
             .open_learner(&mut self.sources, Path::new(path), self.seed)?;
         let dataset = learner.dataset().to_json_string();
+        let dropped = self.dropped_by_open();
         self.take_learner(learner);
         // Applied above without deriving the policy twice; `apply` does the same on restore.
         self.journal_effect(Effect::Open {
@@ -317,10 +314,58 @@ impl Session {
             dataset,
         })?;
         self.read_input(path, true);
-        Ok(format!(
-            "opened {path}: {} points",
-            self.state.learner.len()
-        ))
+        let mut reply = format!("opened {path}: {} points", self.state.learner.len());
+        if !dropped.is_empty() {
+            let _ = write!(
+                reply,
+                "\ndropped {}: a dataset holds points, not runs (the journal keeps them: `advise resume`)",
+                dropped.join(", ")
+            );
+        }
+        Ok(reply)
+    }
+
+    /// What `open` drops of the current task's work, counted for its reply: the points are
+    /// replaced, and the file has no executions, history or evaluation to put in their place.
+    fn dropped_by_open(&self) -> Vec<String> {
+        let st = &self.state;
+        let count = |n: usize, one: &str, many: &str| match n {
+            1 => format!("1 {one}"),
+            n => format!("{n} {many}"),
+        };
+        let mut out = Vec::new();
+        if !st.executions.is_empty() {
+            out.push(count(st.executions.len(), "execution", "executions"));
+        }
+        if st.selection.is_some() {
+            out.push("the selection".to_string());
+        }
+        if !st.undo.is_empty() {
+            let first = st.undo.iter().map(|e| e.number()).min().unwrap_or(0);
+            let last = st.undo.iter().map(|e| e.number()).max().unwrap_or(0);
+            let numbers = if first == last {
+                format!("#{first}")
+            } else {
+                format!("#{first}-#{last}")
+            };
+            out.push(format!(
+                "{} ({numbers}; their points stay in the dataset if it was saved after them, but `history` and `undo` start afresh)",
+                count(st.undo.len(), "edit of the history", "edits of the history")
+            ));
+        }
+        if !st.redo.is_empty() {
+            out.push(count(
+                st.redo.len(),
+                "undone edit `redo` could put back",
+                "undone edits `redo` could put back",
+            ));
+        }
+        if st.last_eval.is_some() {
+            out.push(
+                "the last evaluation (the next `eval` has nothing to compare with)".to_string(),
+            );
+        }
+        out
     }
 
     pub(super) fn export_mcap(&self, path: &str) -> Result<String, SessionError> {

@@ -3,7 +3,7 @@
 use std::time::Instant;
 
 use super::effect::Effect;
-use super::{Evaluated, Reply, Session, SessionError};
+use super::{Evaluated, Reply, Session, SessionError, Since};
 use crate::diag::did_you_mean;
 use crate::eval;
 use crate::eval::EvalOptions;
@@ -40,6 +40,23 @@ impl Session {
         let report = eval::evaluate(self.task.clone(), self.state.learner.policy(), &opts);
         // The whole test set on a robot takes minutes and needs room: not from the prompt.
         let robot = (!self.backend.is_simulator()).then(|| self.backend.name());
+        // The simulator and the learners are deterministic: a report equal to the last one means
+        // no test's result changed (the policy did not, or not where the tests go). Such an
+        // evaluation is no new point of comparison, so `eval --detail` after `eval` lists the
+        // changes that `eval` counted (the last evaluation against the one before it).
+        if self.state.last_eval.as_ref() == Some(&report) {
+            let (before, since) = match (&self.state.prev_eval, detail) {
+                (Some(prev), true) => (prev.clone(), Since::LastAgainstPrevious),
+                _ => (report.clone(), Since::Unchanged),
+            };
+            return Ok(Reply::Evaluated(Evaluated {
+                report: Box::new(report),
+                before: Some(Box::new(before)),
+                detail,
+                robot,
+                since,
+            }));
+        }
         let before = self.state.last_eval.clone().map(Box::new);
         // Kept (and journalled) so the next `eval` can say what changed, after a resume too.
         self.commit(Effect::Evaluated {
@@ -50,6 +67,7 @@ impl Session {
             before,
             detail,
             robot,
+            since: Since::LastEval,
         }))
     }
 

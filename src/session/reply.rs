@@ -62,6 +62,8 @@ pub struct Ran {
     pub index: usize,
     pub label: String,
     pub points: usize,
+    /// The goal it drove to, named: `px = 2.31 m, py = -0.5 m` (none for interception).
+    pub goal: Option<String>,
     /// The outcome in words: success or failure, time, distance, errors.
     pub outcome: String,
     /// The stretch worth a look (where the robot slowed or turned most), and what it did there.
@@ -84,6 +86,19 @@ pub struct Advised {
     pub ready_ms: f64,
 }
 
+/// What an evaluation is compared with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Since {
+    /// The last evaluation (the policy changed since).
+    LastEval,
+    /// The last evaluation, whose report this one repeats (same results: the policy did not
+    /// change, or changed where no test goes).
+    Unchanged,
+    /// Same results as the last evaluation (`eval --detail`): the last one against the one before
+    /// it, the changes the last `eval` counted.
+    LastAgainstPrevious,
+}
+
 /// An evaluation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Evaluated {
@@ -92,6 +107,8 @@ pub struct Evaluated {
     pub before: Option<Box<Report>>,
     /// `eval --detail`: list the tests that changed outcome.
     pub detail: bool,
+    /// Which evaluation `before` is.
+    pub since: Since,
     /// The connected robot's name when the session is on one (the evaluation ran in the
     /// simulator all the same).
     pub robot: Option<String>,
@@ -123,11 +140,11 @@ impl fmt::Display for Reply {
                 Ok(())
             }
             Reply::Ran(r) => {
-                write!(
-                    f,
-                    "execution {}: {}: {} points; {}",
-                    r.index, r.label, r.points, r.outcome
-                )?;
+                write!(f, "execution {}: {}", r.index, r.label)?;
+                if let Some(goal) = &r.goal {
+                    write!(f, " (goal {goal})")?;
+                }
+                write!(f, ": {} points; {}", r.points, r.outcome)?;
                 if let Some((chunk, what)) = r.worth_a_look {
                     write!(
                         f,
@@ -159,8 +176,17 @@ impl fmt::Display for Reply {
             Reply::Critiqued { summary, .. } => f.write_str(summary),
             Reply::Evaluated(e) => {
                 f.write_str(&e.report.render())?;
+                let since = match e.since {
+                    Since::LastAgainstPrevious => {
+                        "the same results as the last eval; that eval against the one before it"
+                    }
+                    Since::Unchanged => "the same results as the last eval",
+                    Since::LastEval => "since the last eval",
+                };
                 match &e.before {
-                    Some(before) => f.write_str(&eval_change(before, &e.report, e.detail))?,
+                    Some(before) => {
+                        f.write_str(&eval_change(since, before, &e.report, e.detail))?
+                    }
                     None => f.write_str("  (the first evaluation of this task in the session: the next `eval` says what changed)\n")?,
                 }
                 if let Some(name) = &e.robot {

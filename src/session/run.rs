@@ -9,6 +9,9 @@ use super::text::{outcome_line, short_num, worth_a_look};
 use super::{HeldExecution, MAX_GOAL_M, Ran, Reply, Session, SessionError, plot};
 use crate::backend::Interruptible;
 use crate::backend::sim::SimParams;
+use crate::diag::did_you_mean;
+use crate::program::task::GoalParam;
+use crate::syntax::InvArg;
 use crate::syntax::command::PlotKind;
 use crate::task;
 use crate::task::{Start, TaskKind, episode_seed};
@@ -19,17 +22,37 @@ impl Session {
         self.sim.clone()
     }
 
-    pub(super) fn run_goal(&mut self, x: f64, y: f64, theta: f64) -> Result<Reply, SessionError> {
-        if self.task != TaskKind::Positioning {
-            return Err(SessionError::GoalForWrongTask);
-        }
-        check_goal(x, y, theta)?;
-        let goal = Pose::new(x, y, theta);
-        self.run(
-            Start::Goal(goal),
-            format!("run goal {x} {y} {theta}"),
-            Some(goal),
-        )
+    /// `run goal V...`: the task's goal, its values in the declared order or by name. A
+    /// positioning goal is any pose a run can reach ([`check_goal`]); a declared task's goal stays
+    /// within its declared ranges.
+    pub(super) fn run_goal(&mut self, args: &[InvArg]) -> Result<Reply, SessionError> {
+        let Some(def) = self.task.def() else {
+            return Err(SessionError::GoalForWrongTask {
+                task: self.task.clone(),
+            });
+        };
+        let positioning = self.task == TaskKind::Positioning;
+        let values = bind_goal(self.task.name(), &def.goal, args, !positioning)?;
+        let start = if positioning {
+            check_goal(values[0], values[1], values[2])?;
+            Start::Goal(Pose::new(values[0], values[1], values[2]))
+        } else {
+            check_goal_ranges(self.task.name(), &def.goal, &values)?;
+            Start::Declared(def.clone(), values.clone())
+        };
+        let goal = match &start {
+            Start::Goal(g) => Some(*g),
+            _ => None,
+        };
+        let label = format!(
+            "run goal {}",
+            values
+                .iter()
+                .map(|v| short_num(*v))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+        self.run(start, label, goal)
     }
 
     pub(super) fn run_start(&mut self, n: usize) -> Result<Reply, SessionError> {
@@ -82,6 +105,11 @@ impl Session {
         // recommended each action, kept for `critique`.
         let support = self.state.learner.support_provenance(&exec.trace);
         let summary = outcome_line(&exec);
+        let goal_named = self
+            .task
+            .def()
+            .zip(start.goal_values())
+            .map(|(def, values)| name_goal(&def.goal, &values));
         let n = exec.trace.len();
         let hint = worth_a_look(exec.path(), &exec.trace.t, 30);
         // What the base did is kept even when the run failed: on a robot it cannot be had again.
@@ -118,6 +146,7 @@ impl Session {
             index,
             label,
             points: n,
+            goal: goal_named,
             outcome: summary,
             worth_a_look: hint,
         }))
@@ -241,4 +270,130 @@ pub(super) fn check_goal(x: f64, y: f64, theta: f64) -> Result<(), SessionError>
             goal: [x, y, theta].map(short_num).join(", "),
         })
     }
+}
+
+/// A goal's values with their names and units, as a run's reply names them: `px = 2.31 m, py = -0.5 m`.
+pub(super) fn name_goal(params: &[GoalParam], values: &[f64]) -> String {
+    params
+        .iter()
+        .zip(values)
+        .map(|(p, v)| {
+            let v = (v * 1e4).round() / 1e4;
+            match p.unit.as_str() {
+                "" => format!("{} = {}", p.name, short_num(v)),
+                u => format!("{} = {} {u}", p.name, short_num(v)),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// A task's goal parameters with their ranges, as a diagnostic lists them:
+/// `px in [1.5, 4] m, py in [-2, 2] m`; without the ranges (`x_g m, ...`) where any reachable
+/// value is taken (positioning's ranges are its practice and test goals' only).
+fn goal_ranges(params: &[GoalParam], ranges: bool) -> String {
+    params
+        .iter()
+        .map(|p| {
+            let range = if ranges {
+                format!("{} in [{}, {}]", p.name, short_num(p.lo), short_num(p.hi))
+            } else {
+                p.name.clone()
+            };
+            match p.unit.as_str() {
+                "" => range,
+                u => format!("{range} {u}"),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The goal `run goal` names, in the declared order: positional values fill the parameters from
+/// the first, named ones (`px=2`) their own; every parameter once, none unknown.
+fn bind_goal(
+    task: &str,
+    params: &[GoalParam],
+    args: &[InvArg],
+    with_ranges: bool,
+) -> Result<Vec<f64>, SessionError> {
+    let ranges = || goal_ranges(params, with_ranges);
+    let example = || {
+        let mid = |p: &GoalParam| ((p.lo + p.hi) * 5.0).round() / 10.0;
+        let named: Vec<String> = params
+            .iter()
+            .map(|p| format!("{}={}", p.name, short_num(mid(p))))
+            .collect();
+        format!("`run goal {}`", named.join(" "))
+    };
+    let positional = args.iter().filter(|a| a.name.is_none()).count();
+    if positional > params.len() || args.len() > params.len() {
+        return Err(SessionError::GoalCount {
+            task: task.to_string(),
+            given: args.len(),
+            expected: params.len(),
+            params: ranges(),
+            example: example(),
+        });
+    }
+    let mut values: Vec<Option<f64>> = vec![None; params.len()];
+    let mut next = 0;
+    for a in args {
+        let i = match &a.name {
+            None => {
+                next += 1;
+                next - 1
+            }
+            Some(n) => params
+                .iter()
+                .position(|p| p.name == n.name)
+                .ok_or_else(|| {
+                    let names = params.iter().map(|p| p.name.as_str());
+                    SessionError::UnknownGoalParam {
+                        name: n.name.clone(),
+                        task: task.to_string(),
+                        help: did_you_mean(&n.name, names)
+                            .map(|h| format!("{h} ({})", ranges()))
+                            .unwrap_or_else(|| format!("the goal of {task} is {}", ranges())),
+                    }
+                })?,
+        };
+        if values[i].replace(a.value).is_some() {
+            return Err(SessionError::GoalParamTwice {
+                name: params[i].name.clone(),
+                params: ranges(),
+            });
+        }
+    }
+    let missing: Vec<&str> = params
+        .iter()
+        .zip(&values)
+        .filter(|(_, v)| v.is_none())
+        .map(|(p, _)| p.name.as_str())
+        .collect();
+    if !missing.is_empty() {
+        return Err(SessionError::GoalMissing {
+            task: task.to_string(),
+            missing: missing.join(", "),
+            params: ranges(),
+            example: example(),
+        });
+    }
+    Ok(values.into_iter().flatten().collect())
+}
+
+/// A declared task's goal within its declared ranges (what its practice and test goals are drawn
+/// from, and what its rules were written for).
+fn check_goal_ranges(task: &str, params: &[GoalParam], values: &[f64]) -> Result<(), SessionError> {
+    for (p, v) in params.iter().zip(values) {
+        if !(v.is_finite() && (p.lo..=p.hi).contains(v)) {
+            return Err(SessionError::GoalOutOfRange {
+                task: task.to_string(),
+                name: p.name.clone(),
+                value: short_num(*v),
+                params: goal_ranges(params, true),
+            });
+        }
+    }
+    Ok(())
 }

@@ -10,9 +10,9 @@ use crate::trace::{Chunk, Pose};
 
 /// What changed between two evaluations of the same test set; with `detail`, the goals whose
 /// outcome changed.
-pub(super) fn eval_change(before: &Report, now: &Report, detail: bool) -> String {
+pub(super) fn eval_change(since: &str, before: &Report, now: &Report, detail: bool) -> String {
     let mut out = format!(
-        "  since the last eval: success {:.1}% -> {:.1}% ({:+.1} points), mean position error {:.3} -> {:.3} m ({:+.3}), mean length {:.3} -> {:.3} m ({:+.3})\n",
+        "  {since}: success {:.1}% -> {:.1}% ({:+.1} points), mean position error {:.3} -> {:.3} m ({:+.3}), mean length {:.3} -> {:.3} m ({:+.3})\n",
         100.0 * before.success_rate,
         100.0 * now.success_rate,
         100.0 * (now.success_rate - before.success_rate),
@@ -77,8 +77,13 @@ pub(super) fn outcome_line(e: &Execution) -> String {
     s
 }
 
-pub(super) fn fmt_vec(v: &[f64]) -> String {
-    let parts: Vec<String> = v.iter().map(|x| format!("{x:.4}")).collect();
+/// Values with their dimensions' names: `[range=0.6579, bearing=1.5555]`.
+pub(super) fn fmt_named(dims: &[crate::domain::Dim], v: &[f64]) -> String {
+    let parts: Vec<String> = dims
+        .iter()
+        .zip(v)
+        .map(|(d, x)| format!("{}={x:.4}", d.name))
+        .collect();
     format!("[{}]", parts.join(", "))
 }
 

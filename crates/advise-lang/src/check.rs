@@ -42,7 +42,7 @@ use compose::{Known, Step};
 use decls::domain_difference;
 pub use error::{CheckError, CheckErrors, CheckWarning, ParseOrCheckError};
 use names::Dom;
-pub use standard::STANDARD_SOURCES;
+pub use standard::{STANDARD_SOURCES, role_operators};
 pub use trace_domain::TraceDomainError;
 
 /// A named source text: a file, a REPL line, an embedded standard file.

@@ -248,25 +248,7 @@ impl Builder {
         let mut args = Vec::new();
         if let Some(list) = inner.next().filter(|p| p.as_rule() == Rule::inv_args) {
             for a in list.into_inner().filter(|p| p.as_rule() == Rule::inv_arg) {
-                let span = own(self.span(&a));
-                let mut name = None;
-                let mut value = 0.0;
-                for part in a.into_inner() {
-                    match part.as_rule() {
-                        Rule::name => {
-                            let mut n = self.ident(part);
-                            n.span = own(n.span);
-                            name = Some(n);
-                        }
-                        Rule::signed_number => {
-                            let text: String =
-                                part.as_str().chars().filter(|c| *c != '+').collect();
-                            value = self.number_text(&text, self.span(&part))?;
-                        }
-                        _ => {}
-                    }
-                }
-                args.push(InvArg { name, value, span });
+                args.push(self.inv_arg(a, own)?);
             }
         }
         Ok(Invocation {
@@ -274,6 +256,35 @@ impl Builder {
             name: op,
             args,
         })
+    }
+}
+
+impl Builder {
+    /// One literal argument, positional or named (`rate = 0.5`), its spans passed through `own`
+    /// (an invocation's are relative to its own text; `run goal`'s stay the statement's).
+    pub(crate) fn inv_arg(
+        &self,
+        a: Pair<'_, Rule>,
+        own: impl Fn(Span) -> Span,
+    ) -> Result<InvArg, ParseError> {
+        let span = own(self.span(&a));
+        let mut name = None;
+        let mut value = 0.0;
+        for part in a.into_inner() {
+            match part.as_rule() {
+                Rule::name => {
+                    let mut n = self.ident(part);
+                    n.span = own(n.span);
+                    name = Some(n);
+                }
+                Rule::signed_number => {
+                    let text: String = part.as_str().chars().filter(|c| *c != '+').collect();
+                    value = self.number_text(&text, self.span(&part))?;
+                }
+                _ => {}
+            }
+        }
+        Ok(InvArg { name, value, span })
     }
 }
 

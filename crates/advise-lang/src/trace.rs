@@ -16,7 +16,7 @@ pub mod json;
 
 use std::path::Path;
 
-pub use chunk::{Chunk, ChunkError};
+pub use chunk::{Chunk, ChunkError, PointRange, RangeStart};
 pub use episode::Episode;
 pub use error::TraceError;
 pub use json::{JsonEpisode, JsonEpisodes, JsonPoint, JsonTrace};

@@ -686,7 +686,7 @@ impl Learner {
                 s.distance,
                 s.m,
                 s.weighted,
-                fmt4(self.ds.a(s.point)),
+                fmt_named(&self.ds.domain().act, self.ds.a(s.point)),
                 self.describe(s.point, advice_name)
             );
             let (incs, _) = self.ds.directional(s.point);
@@ -709,7 +709,7 @@ impl Learner {
                 "LWR: {} neighbours, total kernel weight {:.4}, a = [{}]",
                 ans.neighbours,
                 ans.total_weight,
-                fmt4(&a)
+                fmt_named(&self.ds.domain().act, &a)
             );
         } else {
             let _ = writeln!(
@@ -821,6 +821,15 @@ impl Policy for Learner {
 }
 
 /// Numbers as the session prints them: 4 decimals.
+/// Values with their dimensions' names, as `why` shows them: `trans=0.2000, rot=0.1000`.
+fn fmt_named(dims: &[advise_lang::domain::Dim], v: &[f64]) -> String {
+    dims.iter()
+        .zip(v)
+        .map(|(d, x)| format!("{}={x:.4}", d.name))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 fn fmt4(v: &[f64]) -> String {
     v.iter()
         .map(|x| format!("{x:.4}"))

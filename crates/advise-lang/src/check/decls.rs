@@ -105,12 +105,21 @@ impl Checker<'_> {
         domains: &[Dom],
     ) -> Sig<'f> {
         let domain = by_name.get(&o.domain.name).copied();
-        if domain.is_none() && !self.full() {
+        // Said once per file: every operator of a file names its domain, and one missing domain
+        // is one mistake (the file that declares it was not passed).
+        let said = || {
+            self.errors.iter().any(|(file, _, e)| {
+                *file == f
+                    && matches!(e, ParseOrCheckError::Check(CheckError::UnknownDomain { name, .. })
+                        if *name == o.domain.name)
+            })
+        };
+        if domain.is_none() && !self.full() && !said() {
             let names: Vec<&str> = domains.iter().map(|d| d.name.as_str()).collect();
             let help = match suggest(&o.domain.name, names.iter().copied()) {
                 Some(s) => format!("did you mean `{s}`?"),
                 None => format!(
-                    "declare it with `domain {} {{ observe ... act ... }}`{}",
+                    "every operator `for {0}` of this file needs it: check with the file that declares it (`advise check --tasks {0}.adv FILE`; in a session, `tasks {0}.adv` first), or declare it with `domain {0} {{ observe ... act ... }}`{1}",
                     o.domain.name,
                     if names.is_empty() {
                         String::new()

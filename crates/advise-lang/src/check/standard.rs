@@ -138,3 +138,97 @@ mod tests {
         assert_eq!(OperatorSet::standard().domains(), standard_domains());
     }
 }
+
+/// The standard operators written against roles: positioning's action-side operators, whose
+/// `trans` drives the base's speed and `rot` its turn, rewritten for `task`, whose own actions
+/// drive those roles (`act NAME ... drives speed`, `drives turn`). `None` when its actions do not
+/// both command a speed directly (an action added to the command each step, as interception's
+/// changes, is another role). Operators named in `own` (the task's) are left out: they shadow the
+/// standard ones. Observation-side operators are left out too: they name positioning's
+/// observations. The text is checked like any file, on top of the set that declares `task`.
+pub fn role_operators(task: &crate::program::task::TaskDef, own: &[&str]) -> Option<String> {
+    let direct = |d: &Option<crate::program::task::Drive>| {
+        d.as_ref()
+            .filter(|d| d.integrate.is_none())
+            .map(|d| task.domain.act[d.action].name.clone())
+    };
+    let (speed, turn) = (direct(&task.speed)?, direct(&task.turn)?);
+    let rename = |word: &str| match word {
+        "trans" => speed.clone(),
+        "rot" => turn.clone(),
+        "positioning" => task.name().to_string(),
+        w => w.to_string(),
+    };
+    let mut out = String::new();
+    for item in STANDARD_SOURCES[0].1.split("\n\n") {
+        let Some(head) = item.lines().find(|l| l.starts_with("operator ")) else {
+            continue;
+        };
+        let name: String = head["operator ".len()..]
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        if !head.contains(" on action") || own.contains(&name.as_str()) {
+            continue;
+        }
+        out.push_str(&rename_words(item.trim(), &rename));
+        out.push_str("\n\n");
+    }
+    (!out.is_empty()).then_some(out)
+}
+
+/// `text` with every whole word (letters, digits, `_`) passed through `f`.
+fn rename_words(text: &str, f: &dyn Fn(&str) -> String) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut word = String::new();
+    for c in text.chars() {
+        if c.is_alphanumeric() || c == '_' {
+            word.push(c);
+            continue;
+        }
+        if !word.is_empty() {
+            out.push_str(&f(&word));
+            word.clear();
+        }
+        out.push(c);
+    }
+    if !word.is_empty() {
+        out.push_str(&f(&word));
+    }
+    out
+}
+
+#[cfg(test)]
+mod role_tests {
+    use super::*;
+
+    #[test]
+    fn a_task_whose_actions_drive_speed_and_turn_gets_the_standard_operators_by_role() {
+        let text = "domain dock {\n  observe range \"m\" in [0, 10] = hypot(gx - x, gy - y)\n  act fwd \"m/s\" in [-0.5, 0.5] drives speed, yaw \"rad/s\" in [-1, 1] drives turn\n  goal gx \"m\" in [1, 3], gy \"m\" in [-1, 1]\n  score error = range\n  success when error < 0.3\n  end after 20\n}\n\noperator stop for dock on action { fwd = 0 }\n";
+        let set = check(&[Source::new("dock.adv", text)]).unwrap();
+        let task = set.task("dock").unwrap();
+        let roles = role_operators(task, &["stop"]).unwrap();
+        assert!(roles.contains("operator slow_down(rate = 0.2 in [0, 1]) for dock on action where fwd != 0 or yaw != 0 {"), "{roles}");
+        assert!(
+            !roles.contains("operator stop"),
+            "the task's own shadows it"
+        );
+        assert!(
+            !roles.contains("start_turning_earlier"),
+            "observation-side: positioning's observations"
+        );
+        let both = check(&[Source::new("dock.adv", text), Source::new("roles", &roles)]).unwrap();
+        let names: Vec<&str> = both.operators("dock").map(|o| o.name()).collect();
+        assert!(
+            names.contains(&"slow_down") && names.contains(&"brake_straight"),
+            "{names:?}"
+        );
+        // Interception's actions change the command each step: another role, no operators.
+        let interception = OperatorSet::standard();
+        assert!(
+            interception
+                .task("interception")
+                .is_none_or(|t| role_operators(t, &[]).is_none())
+        );
+    }
+}

@@ -3,8 +3,9 @@
 //! [`crate::session`]'s business; this module only gives them shape and spans.
 
 use super::ast::{Ident, Item, Span};
-use super::{Builder, Invocation, ParseError, Rule, delims, run};
+use super::{Builder, InvArg, Invocation, ParseError, Rule, delims, run};
 use crate::diag::{SourceId, Src};
+use crate::trace::{PointRange, RangeStart};
 use pest::iterators::Pair;
 
 mod table;
@@ -47,18 +48,16 @@ pub enum Command {
     },
     LoadTrace(String),
     Operators(String),
-    RunGoal {
-        x_m: f64,
-        y_m: f64,
-        theta_rad: f64,
-    },
+    /// `run goal V...`: the goal's values, each in the task's order or named (`px=2`); which
+    /// names and how many the task takes is the session's business.
+    RunGoal(Vec<InvArg>),
     RunStart(usize),
     /// `show` (the selected execution) or `show N`.
     Show(Option<usize>),
-    /// `select A..B` (of the latest execution) or `select A..B in N`.
+    /// `select A..B` (of the latest execution) or `select A..B in N`; `A..end`, `A..` and
+    /// `-N..end` are resolved against the execution.
     Select {
-        start: usize,
-        end: usize,
+        range: PointRange,
         span: Span,
         execution: Option<usize>,
     },
@@ -207,27 +206,19 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
         Rule::c_load_trace => Command::LoadTrace(path(req(next()))),
         Rule::c_operators => Command::Operators(path(req(next()))),
         Rule::c_run_goal => {
-            let mut v = [0.0; 3];
-            for slot in &mut v {
-                *slot = b.signed(req(next()))?;
+            let mut values = Vec::new();
+            while let Some(a) = next() {
+                values.push(b.inv_arg(a, |s| s)?);
             }
-            Command::RunGoal {
-                x_m: v[0],
-                y_m: v[1],
-                theta_rad: v[2],
-            }
+            Command::RunGoal(values)
         }
         Rule::c_run_start => Command::RunStart(b.uint(req(next()))?),
         Rule::c_show => Command::Show(next().map(|n| b.uint(n)).transpose()?),
         Rule::c_select => {
             let range = req(next());
             let rspan = b.span(&range);
-            let mut parts = range.into_inner().filter(|q| q.as_rule() == Rule::uint);
-            let start = b.uint(req(parts.next()))?;
-            let end = b.uint(req(parts.next()))?;
             Command::Select {
-                start,
-                end,
+                range: b.point_range(range)?,
                 span: rspan,
                 execution: next().map(|n| b.uint(n)).transpose()?,
             }
@@ -382,7 +373,9 @@ fn unknown_command(id: SourceId, src: &str) -> Option<ParseError> {
     Some(ParseError::UnknownCommand {
         word: word.to_string(),
         span: id.span(at, word.len()),
-        help: crate::diag::did_you_mean(word, &words)
+        // Command words are short (`run`, `why`): a slip of one letter or a swap finds its word.
+        help: crate::diag::suggest::closest_short(word, words)
+            .map(|w| format!("did you mean `{w}`?"))
             .unwrap_or_else(|| "`help` lists the commands".into()),
     })
 }
@@ -474,6 +467,37 @@ impl Builder {
         self.number_text(&text, self.span(&p))
     }
 
+    /// A `range`: `40..70`, `125..end`, `125..`, `-30..end`.
+    fn point_range(&self, p: Pair<'_, Rule>) -> Result<PointRange, ParseError> {
+        let (mut start, mut end) = (RangeStart::At(0), None);
+        for part in p.into_inner() {
+            match part.as_rule() {
+                Rule::range_from => {
+                    let from_end = part
+                        .clone()
+                        .into_inner()
+                        .any(|q| q.as_rule() == Rule::from_end);
+                    let n =
+                        self.uint(req(part.into_inner().find(|q| q.as_rule() == Rule::uint)))?;
+                    start = if from_end {
+                        RangeStart::FromEnd(n)
+                    } else {
+                        RangeStart::At(n)
+                    };
+                }
+                Rule::range_to => {
+                    end = part
+                        .into_inner()
+                        .find(|q| q.as_rule() == Rule::uint)
+                        .map(|n| self.uint(n))
+                        .transpose()?;
+                }
+                _ => {}
+            }
+        }
+        Ok(PointRange { start, end })
+    }
+
     fn uint(&self, p: Pair<'_, Rule>) -> Result<usize, ParseError> {
         let span = self.span(&p);
         p.as_str()
@@ -528,22 +552,43 @@ mod tests {
 
     #[test]
     fn commands_parse() {
+        let goal = |line: &str| match cmd(line) {
+            Command::RunGoal(values) => values
+                .iter()
+                .map(|a| (a.name.as_ref().map(|n| n.name.clone()), a.value))
+                .collect::<Vec<_>>(),
+            c => panic!("{c:?}"),
+        };
         assert_eq!(
-            cmd("run goal 2 -1 0.5"),
-            Command::RunGoal {
-                x_m: 2.0,
-                y_m: -1.0,
-                theta_rad: 0.5
-            }
+            goal("run goal 2 -1 0.5"),
+            [(None, 2.0), (None, -1.0), (None, 0.5)]
         );
-        assert!(matches!(
-            cmd("select 40..70"),
-            Command::Select {
-                start: 40,
-                end: 70,
-                ..
-            }
-        ));
+        assert_eq!(
+            goal("run goal gx=2 gy = 1 1.5"),
+            [
+                (Some("gx".into()), 2.0),
+                (Some("gy".into()), 1.0),
+                (None, 1.5)
+            ]
+        );
+        assert!(parse_statement("<t>", "run goal").is_err());
+        let range = |line: &str| match cmd(line) {
+            Command::Select { range, .. } => range.to_string(),
+            c => panic!("{c:?}"),
+        };
+        assert_eq!(range("select 40..70"), "40..70");
+        assert_eq!(range("select 125..end"), "125..end");
+        assert_eq!(range("select 125.. in 2"), "125..end");
+        assert_eq!(range("select -30..end"), "-30..end");
+        assert_eq!(range("select -30..5"), "-30..5");
+        for bad in [
+            "select 1..-2",
+            "select 1..ends",
+            "select --1..end",
+            "select ..5",
+        ] {
+            assert!(parse_statement("<t>", bad).is_err(), "{bad}");
+        }
         assert_eq!(
             cmd("critique"),
             Command::Critique {

@@ -47,6 +47,87 @@ impl Chunk {
     }
 }
 
+/// A range of points as a teacher writes it, before the execution it selects from is known:
+/// `40..70`, `125..end` (or `125..`) to the last point, `-30..end` the last 30 points. A range
+/// copied from a transcript keeps meaning the same stretch when the run is a point shorter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PointRange {
+    pub start: RangeStart,
+    /// The point after the last, or `None` for the execution's end.
+    pub end: Option<usize>,
+}
+
+/// Where a [`PointRange`] starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RangeStart {
+    /// Point `A`.
+    At(usize),
+    /// `N` points before the end: `-N`.
+    FromEnd(usize),
+}
+
+impl PointRange {
+    /// `A..B`.
+    pub fn new(start: usize, end: usize) -> PointRange {
+        PointRange {
+            start: RangeStart::At(start),
+            end: Some(end),
+        }
+    }
+
+    /// The chunk it selects of an execution of `len` points; a diagnostic when it does not fit.
+    pub fn resolve(self, len: usize) -> Result<Chunk, ChunkError> {
+        let start = match self.start {
+            RangeStart::At(a) => a,
+            RangeStart::FromEnd(n) => len
+                .checked_sub(n)
+                .ok_or(ChunkError::FewerPoints { last: n, len })?,
+        };
+        match self.end {
+            Some(end) => Chunk::new(start, end, len),
+            None if start > len => Err(ChunkError::StartPastEnd { start, len }),
+            None => Chunk::new(start, len, len),
+        }
+    }
+}
+
+impl std::fmt::Display for PointRange {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.start {
+            RangeStart::At(a) => write!(f, "{a}..")?,
+            RangeStart::FromEnd(n) => write!(f, "-{n}..")?,
+        }
+        match self.end {
+            Some(b) => write!(f, "{b}"),
+            None => f.write_str("end"),
+        }
+    }
+}
+
+/// `A..B`, `A..end`, `A..` or `-N..end`, as the session's grammar reads a range (and `advise apply
+/// --range` takes it); `None` when the text is not one.
+impl std::str::FromStr for PointRange {
+    type Err = ();
+
+    fn from_str(s: &str) -> Result<PointRange, ()> {
+        let (a, b) = s.trim().split_once("..").ok_or(())?;
+        let whole = |t: &str| {
+            (!t.is_empty() && t.bytes().all(|c| c.is_ascii_digit()))
+                .then(|| t.parse::<usize>().ok())
+                .flatten()
+        };
+        let start = match a.strip_prefix('-') {
+            Some(n) => RangeStart::FromEnd(whole(n).ok_or(())?),
+            None => RangeStart::At(whole(a).ok_or(())?),
+        };
+        let end = match b {
+            "" | "end" => None,
+            b => Some(whole(b).ok_or(())?),
+        };
+        Ok(PointRange { start, end })
+    }
+}
+
 impl std::fmt::Display for Chunk {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}..{}", self.start, self.end)
@@ -72,11 +153,54 @@ pub enum ChunkError {
         end: usize,
         len: usize,
     },
+    #[error("there are no last {last} points: the execution has {len}")]
+    #[diagnostic(
+        code(advise::chunk::out_of_range),
+        help(
+            "`-N..end` selects the last N points, N at most {len}; the whole execution is 0..end"
+        )
+    )]
+    FewerPoints { last: usize, len: usize },
+    #[error("point {start} is past the end of the execution, which has {len} points")]
+    #[diagnostic(
+        code(advise::chunk::out_of_range),
+        help("`A..end` selects from point A to the end, A at most {len}")
+    )]
+    StartPastEnd { start: usize, len: usize },
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ranges_with_open_ends_resolve_against_the_execution() {
+        let r = |s: &str| s.parse::<PointRange>().unwrap();
+        assert_eq!(r("125..end").resolve(207), Chunk::new(125, 207, 207));
+        assert_eq!(r("125..").resolve(207), Chunk::new(125, 207, 207));
+        assert_eq!(r("-30..end").resolve(207), Chunk::new(177, 207, 207));
+        assert_eq!(r("-30..200").resolve(207), Chunk::new(177, 200, 207));
+        assert_eq!(
+            r("-300..end").resolve(207),
+            Err(ChunkError::FewerPoints {
+                last: 300,
+                len: 207
+            })
+        );
+        assert_eq!(
+            r("300..").resolve(207),
+            Err(ChunkError::StartPastEnd {
+                start: 300,
+                len: 207
+            })
+        );
+        for bad in ["", "..", "a..b", "1..-2", "--1..end", "1..ends", "+1..2"] {
+            assert!(bad.parse::<PointRange>().is_err(), "{bad}");
+        }
+        for text in ["40..70", "125..end", "-30..end"] {
+            assert_eq!(r(text).to_string(), text);
+        }
+    }
 
     #[test]
     fn chunks_are_validated() {

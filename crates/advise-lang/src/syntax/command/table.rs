@@ -232,6 +232,8 @@ use ArgKind::{Count, Number, Path, RosTopic};
 
 const TOPIC: &[Arg] = &[arg(RosTopic, "TOPIC")];
 const POSE: &[Arg] = &[arg(Number, "X"), arg(Number, "Y"), arg(Number, "THETA")];
+/// A goal's values, in the task's order or named: `2 -1 0.5`, `px=2 py=1`.
+const GOAL: &[Arg] = &[arg(Number, "V...")];
 const SECONDS: &[Arg] = &[arg(Number, "S")];
 
 /// Every command, in the order hints try them and `help` lists them within a step. A command is
@@ -327,7 +329,7 @@ pub const COMMANDS: &[CommandSpec] = &[
         name: "run",
         aliases: &[],
         forms: &[
-            sub(Rule::c_run_goal, "goal", POSE, "run goal 2 -1 0.5"),
+            sub(Rule::c_run_goal, "goal", GOAL, "run goal 2 -1 0.5"),
             sub(
                 Rule::c_run_start,
                 "start",
@@ -335,8 +337,8 @@ pub const COMMANDS: &[CommandSpec] = &[
                 "run start 3",
             ),
         ],
-        signature: "run goal X Y THETA | run start N",
-        doc: "Run the current policy to a goal (positioning) or from the N-th practice start, and record it.",
+        signature: "run goal V... | run start N",
+        doc: "Run the current policy to a goal, its values in the task's order or by name (`run goal 2 -1 0.5`, `run goal px=2 py=1`), or from the N-th practice start, and record it; the reply names the goal.",
         step: Step::Run,
         example: "run goal 2 -1 0",
     },
@@ -363,7 +365,7 @@ pub const COMMANDS: &[CommandSpec] = &[
             example: "select 10..40 in 0",
         }],
         signature: "select A..B [in N]",
-        doc: "Select points A (inclusive) to B (exclusive) of the latest execution, or of execution N with `in N`; advise, critique, preview, why and plot act on it.",
+        doc: "Select points A (inclusive) to B (exclusive) of the latest execution, or of execution N with `in N`; `A..end` (or `A..`) runs to the last point and `-N..end` is the last N points. Advise, critique, preview, why and plot act on it.",
         step: Step::Select,
         example: "select 10..40 in 0",
     },
@@ -519,7 +521,7 @@ pub const COMMANDS: &[CommandSpec] = &[
             "save session.json",
         )],
         signature: "save FILE.json|FILE.csv",
-        doc: "Save the dataset with provenance (.json), or its points only (.csv).",
+        doc: "Save the dataset with provenance (.json), or its points only (.csv); executions and the history of edits are not saved (the journal keeps them: `advise resume`).",
         step: Step::Keep,
         example: "save session.json",
     },
@@ -532,7 +534,7 @@ pub const COMMANDS: &[CommandSpec] = &[
             "open session.json",
         )],
         signature: "open FILE.json",
-        doc: "Open a dataset saved with `save`.",
+        doc: "Open a dataset saved with `save`: its points, advised and critiqued ones with their provenance, replace this task's. A dataset holds no runs: this task's executions, selection, history (what `undo` walks), and last evaluation are dropped, and the reply counts what was.",
         step: Step::Keep,
         example: "open session.json",
     },
