@@ -59,6 +59,8 @@ pub struct HeldExecution {
     pub label: String,
     pub trace: Trace,
     pub goal: Option<Pose>,
+    /// A declared task's goal, a value per goal parameter (a positioning goal is `goal`).
+    pub goal_values: Option<Vec<f64>>,
     pub execution: Option<Execution>,
     /// For each step of a run, the data point that recommended its action (what `critique`
     /// penalises); `None` for a trace loaded from a file.

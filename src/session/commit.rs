@@ -226,6 +226,9 @@ impl Session {
                 if let Some(g) = &entry.goal {
                     super::run::check_goal(g.x_m, g.y_m, g.theta_rad)?;
                 }
+                if let Some(values) = &entry.goal_values {
+                    super::run::check_goal_values(&self.task, values)?;
+                }
                 // Everything is checked before anything changes.
                 let runs = match &entry.run {
                     Some(run) => Some(
@@ -256,6 +259,7 @@ impl Session {
                     label: entry.label.clone(),
                     trace,
                     goal: entry.goal,
+                    goal_values: entry.goal_values.clone(),
                     execution,
                     support,
                     id,

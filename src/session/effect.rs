@@ -146,6 +146,10 @@ pub struct ExecutionEntry {
     pub trace: JsonTrace,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub goal: Option<Pose>,
+    /// A declared task's goal, a value per goal parameter in the declared order (what its
+    /// pictures are drawn from); a positioning goal is `goal`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal_values: Option<Vec<f64>>,
     /// What the run measured (absent for a trace loaded from a file).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub run: Option<RunEntry>,

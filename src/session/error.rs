@@ -370,4 +370,14 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     Sidecar(#[from] super::sidecar::SidecarError),
+    #[error("the goal ({goal}) is not a goal of {task}")]
+    #[diagnostic(
+        code(advise::session::bad_goal_values),
+        help("a goal of {task} is one finite value for each of its goal parameters: {params}")
+    )]
+    BadGoalValues {
+        goal: String,
+        task: TaskKind,
+        params: String,
+    },
 }

@@ -206,6 +206,7 @@ impl Session {
             label: path.to_string(),
             trace: trace.to_json(),
             goal: None,
+            goal_values: None,
             run: None,
         })))?;
         Ok(format!(

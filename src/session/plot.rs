@@ -12,10 +12,12 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
+mod labels;
 mod svg;
 mod terminal;
 
 use crate::domain::Domain;
+use crate::program::task::{Drawn, ShapeKind};
 use crate::trace::{Chunk, Pose, Trace};
 use svg::{render_actions, render_paths};
 pub use terminal::{ascii, strip};
@@ -32,6 +34,8 @@ const SELECTED: RGBColor = RGBColor(190, 60, 190);
 const ADVISED: RGBColor = RGBColor(40, 170, 60);
 const CRITIQUED: RGBColor = RGBColor(215, 40, 40);
 const ARENA: RGBColor = RGBColor(120, 120, 120);
+/// What a task draws besides its goal (the goal is black).
+const DRAWN: RGBColor = RGBColor(110, 110, 110);
 
 /// The interception arena: a square `[-half_m, half_m]^2` and the capture distance.
 #[derive(Clone, Copy, Debug)]
@@ -47,7 +51,9 @@ pub struct PlotView<'a> {
     pub trace: &'a Trace,
     /// The robot's poses (true where known); empty when none were recorded.
     pub path: &'a [Pose],
-    pub goal: Option<Pose>,
+    /// What the task draws for the run's goal (its `draw` clauses): the goal and anything else
+    /// worth seeing.
+    pub drawn: Vec<Drawn>,
     pub ball: Option<&'a [[f64; 2]]>,
     pub arena: Option<Arena>,
     /// One line: success or failure, why, how long.
@@ -131,9 +137,11 @@ fn bounds(views: &[&PlotView<'_>]) -> (f64, f64, f64, f64) {
             xs.push(p.x_m);
             ys.push(p.y_m);
         }
-        if let Some(g) = v.goal {
-            xs.push(g.x_m);
-            ys.push(g.y_m);
+        for d in v.drawn.iter().filter(|d| d.is_finite()) {
+            let (x, y) = d.at();
+            let r = d.radius();
+            xs.extend([x - r, x + r]);
+            ys.extend([y - r, y + r]);
         }
         for b in v.ball.unwrap_or(&[]) {
             xs.push(b[0]);
@@ -270,7 +278,11 @@ mod tests {
             domain: d,
             trace: t,
             path,
-            goal: Some(Pose::new(3.5, 1.0, 0.5)),
+            drawn: vec![Drawn {
+                name: "goal".into(),
+                shape: ShapeKind::Pose,
+                values: vec![3.5, 1.0, 0.5],
+            }],
             ball: None,
             arena: None,
             outcome: Some("success (Rested) after 3.0 s".into()),

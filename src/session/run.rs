@@ -12,6 +12,7 @@ use crate::backend::sim::SimParams;
 use crate::diag::did_you_mean;
 use crate::program::task::GoalParam;
 use crate::syntax::InvArg;
+use crate::program::task::Drawn;
 use crate::syntax::command::PlotKind;
 use crate::task;
 use crate::task::{Start, TaskKind, episode_seed};
@@ -76,6 +77,11 @@ impl Session {
             });
         }
         self.state.learner.ensure_derived();
+        // A declared task's goal is kept for its pictures; positioning's is `goal`.
+        let goal_values = match &start {
+            Start::Declared(_, values) => Some(values.clone()),
+            Start::Goal(_) | Start::Ball(_) => None,
+        };
         let number = self.state.runs;
         let seed = episode_seed(self.seed, 1_000_000 + number);
         // One control loop for every base: the simulator starts afresh from the run's seed (as
@@ -117,6 +123,7 @@ impl Session {
             label: label.clone(),
             trace: exec.trace.to_json(),
             goal,
+            goal_values,
             run: Some(RunEntry {
                 number,
                 outcome: exec.outcome,
@@ -202,7 +209,7 @@ impl Session {
             domain: &self.domain,
             trace: &rec.trace,
             path: self.plot_poses(rec).unwrap_or(&[]),
-            goal: rec.goal,
+            drawn: self.drawn(rec),
             ball: rec.execution.as_ref().and_then(|e| e.ball.as_deref()),
             arena: interception.then_some(plot::Arena {
                 half_m: rules.arena_half_m,
@@ -216,6 +223,19 @@ impl Session {
                 .filter(|_| self.state.current == Some(i)),
             flagged: rec.flagged.clone(),
             advised: rec.advised.clone(),
+        }
+    }
+
+    /// What the task draws for the execution's goal (its `draw` clauses); nothing for an
+    /// execution without a goal or a task that draws none.
+    fn drawn(&self, rec: &HeldExecution) -> Vec<Drawn> {
+        let values = rec
+            .goal_values
+            .clone()
+            .or_else(|| rec.goal.map(|g| vec![g.x_m, g.y_m, g.theta_rad]));
+        match (self.task.def(), values) {
+            (Some(def), Some(values)) => task::declared::drawings(&def, &values),
+            _ => Vec::new(),
         }
     }
 
@@ -257,6 +277,31 @@ impl Session {
             }
         }
     }
+}
+
+/// A journalled goal of a declared task: a finite value, within the bound every goal range has,
+/// for each of the task's goal parameters.
+pub(super) fn check_goal_values(task: &TaskKind, values: &[f64]) -> Result<(), SessionError> {
+    let params = task.def().map(|d| d.goal.clone()).unwrap_or_default();
+    let fits = |v: &f64| v.is_finite() && v.abs() <= crate::program::task::MAX_GOAL_ABS;
+    if values.len() == params.len() && values.iter().all(fits) {
+        return Ok(());
+    }
+    let names: Vec<&str> = params.iter().map(|p| p.name.as_str()).collect();
+    Err(SessionError::BadGoalValues {
+        goal: values
+            .iter()
+            .take(8)
+            .map(|v| short_num(*v))
+            .collect::<Vec<_>>()
+            .join(", "),
+        task: task.clone(),
+        params: if names.is_empty() {
+            "none (its runs have no goal values)".into()
+        } else {
+            names.join(", ")
+        },
+    })
 }
 
 /// A goal a run can reach: x and y within [`MAX_GOAL_M`] of the start, theta within ±2π. The one

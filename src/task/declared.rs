@@ -17,7 +17,7 @@ use crate::backend::BaseState;
 use crate::domain::Domain;
 use crate::geometry::Pose;
 use crate::policy::Policy;
-use crate::program::task::{self as def, EndRule, TaskDef, TeacherTarget};
+use crate::program::task::{self as def, Drawn, EndRule, TaskDef, TeacherTarget};
 use crate::task::{Controller, Ending, Score, Task};
 
 /// One run of a declared task toward one goal.
@@ -248,6 +248,24 @@ pub fn recorded_goal(def: &TaskDef, pose: Pose) -> Option<Vec<f64>> {
     env[def::Y] = pose.y_m;
     env[def::THETA] = pose.theta_rad;
     Some(rec.iter().map(|ir| ir.eval_task(&env, &env)).collect())
+}
+
+/// What pictures of a run toward `goal` draw, by the task's `draw` clauses (missing goal values
+/// read 0, as [`Declared::new`] runs them).
+pub fn drawings(def: &TaskDef, goal: &[f64]) -> Vec<Drawn> {
+    let mut env = vec![0.0; def.slots()];
+    let g = def.goal_slot();
+    for (slot, v) in env[g..g + def.goal.len()].iter_mut().zip(goal) {
+        *slot = *v;
+    }
+    def.draw
+        .iter()
+        .map(|d| Drawn {
+            name: d.name.clone(),
+            shape: d.shape,
+            values: d.args.iter().map(|ir| ir.eval_task(&env, &env)).collect(),
+        })
+        .collect()
 }
 
 /// A teacher written in the language: a stateless policy of the observations.

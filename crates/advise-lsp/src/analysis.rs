@@ -394,6 +394,10 @@ fn domain_node<'f>(d: &'f DomainDecl, offset: usize) -> Option<Node<'f>> {
             Clause::EndWhen { cond, hold, .. } => expr_node(cond, offset, &in_domain)
                 .or_else(|| hold.as_ref().and_then(|h| expr_node(h, offset, &in_domain))),
             Clause::EndAfter { limit, .. } => expr_node(limit, offset, &in_domain),
+            Clause::Draw(ds) => ds
+                .iter()
+                .flat_map(|d| &d.args)
+                .find_map(|e| expr_node(e, offset, &in_domain)),
             Clause::Test { .. } => None,
             Clause::Teacher { stmts, .. } => stmts
                 .iter()
@@ -690,6 +694,10 @@ pub const KEYWORDS: &[&str] = &[
     "after",
     "score",
     "recorded",
+    "draw",
+    "pose",
+    "point",
+    "circle",
     "test",
     "seed",
     "teacher",

@@ -4,6 +4,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use super::labels::{self, Candidate, Side};
 use super::*;
 
 /// A plotters error as text (the backend's error type is generic).
@@ -17,7 +18,7 @@ enum Mark {
     Line(RGBColor, u32),
     Band(RGBColor, f64),
     Dot(RGBColor),
-    Cross,
+    Cross(RGBColor),
     Square(RGBColor),
     Ring(RGBColor),
 }
@@ -45,8 +46,8 @@ fn legend(
             Mark::Dot(c) => area
                 .draw(&Circle::new(((x0 + x1) / 2, y), 5, c.filled()))
                 .map_err(drawing)?,
-            Mark::Cross => area
-                .draw(&Cross::new(((x0 + x1) / 2, y), 6, BLACK.stroke_width(2)))
+            Mark::Cross(c) => area
+                .draw(&Cross::new(((x0 + x1) / 2, y), 6, c.stroke_width(2)))
                 .map_err(drawing)?,
             Mark::Square(c) => area
                 .draw(&Rectangle::new(
@@ -187,6 +188,14 @@ pub(super) fn render_paths(
                         BALL.stroke_width(2),
                     ))
                     .map_err(drawing)?;
+                // The ball's index marks, at the robot's stride: where the ball was at point N.
+                chart
+                    .draw_series(
+                        ball.iter()
+                            .step_by(INDEX_EVERY)
+                            .map(|b| Circle::new((b[0], b[1]), 2, BALL.filled())),
+                    )
+                    .map_err(drawing)?;
                 if let Some(b) = ball.last() {
                     chart
                         .draw_series(std::iter::once(Circle::new((b[0], b[1]), 4, BALL.filled())))
@@ -208,26 +217,15 @@ pub(super) fn render_paths(
                     }
                 }
             }
-            // Index marks: a dot every INDEX_EVERY points, numbered unless the number would
-            // sit on the previous one (where the robot crawls).
-            let mut last_label: Option<(i32, i32)> = None;
-            for (i, p) in v.path.iter().enumerate().step_by(INDEX_EVERY) {
-                chart
-                    .draw_series(std::iter::once(Circle::new(xy(p), 3, color.filled())))
-                    .map_err(drawing)?;
-                let at = chart.backend_coord(&xy(p));
-                if last_label.is_some_and(|(x, y)| (x - at.0).abs() < 24 && (y - at.1).abs() < 14) {
-                    continue;
-                }
-                last_label = Some(at);
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        i.to_string(),
-                        xy(p),
-                        ("sans-serif", 12).into_font().color(&color),
-                    )))
-                    .map_err(drawing)?;
-            }
+            // Index marks: a dot every INDEX_EVERY points, numbered below (after every layer).
+            chart
+                .draw_series(
+                    v.path
+                        .iter()
+                        .step_by(INDEX_EVERY)
+                        .map(|p| Circle::new(xy(p), 3, color.filled())),
+                )
+                .map_err(drawing)?;
             if let Some(first) = v.path.first() {
                 chart
                     .draw_series(std::iter::once(Circle::new(xy(first), 5, BLACK.filled())))
@@ -254,44 +252,164 @@ pub(super) fn render_paths(
                 });
             }
         }
-        let goals: Vec<Pose> = views.iter().filter_map(|v| v.goal).collect();
-        for g in &goals {
-            let arrow = 0.3;
-            chart
-                .draw_series(std::iter::once(Cross::new(
-                    (g.x_m, g.y_m),
-                    8,
-                    BLACK.stroke_width(2),
-                )))
-                .map_err(drawing)?;
-            chart
-                .draw_series(LineSeries::new(
-                    [
-                        (g.x_m, g.y_m),
-                        (
-                            g.x_m + arrow * g.theta_rad.cos(),
-                            g.y_m + arrow * g.theta_rad.sin(),
-                        ),
-                    ],
-                    BLACK.stroke_width(2),
-                ))
-                .map_err(drawing)?;
-        }
+        let drawn_entries = draw_shapes(&mut chart, views)?;
+        number_points(&mut chart, views, &colors)?;
         entries.push((Mark::Dot(BLACK), "start".into()));
         entries.push((
             Mark::Dot(PATH),
-            format!("every {INDEX_EVERY}th point, numbered"),
+            format!("every {INDEX_EVERY}th point (numbered where there is room)"),
         ));
-        if !goals.is_empty() {
-            entries.push((Mark::Cross, "goal (and heading)".into()));
-        }
+        entries.extend(drawn_entries);
         if views.iter().any(|v| v.ball.is_some()) {
-            entries.push((Mark::Line(BALL, 2), "ball (dot: where it ended)".into()));
+            entries.push((
+                Mark::Line(BALL, 2),
+                format!("ball (dots: every {INDEX_EVERY}th point; big: where it ended)"),
+            ));
         }
         legend(&side, &entries, &notes)?;
         root.present().map_err(drawing)?;
     }
     Ok(svg)
+}
+
+/// The chart of a path plot.
+type PathChart<'a, 'b> = ChartContext<
+    'a,
+    SVGBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// Draw what the task draws for each view's goal (its `draw` clauses): the goal in black, other
+/// shapes in grey; a pose as a cross with a heading arrow, a point as a cross, a circle as a ring.
+/// Returns the legend's entries, one per name.
+fn draw_shapes(
+    chart: &mut PathChart<'_, '_>,
+    views: &[&PlotView<'_>],
+) -> Result<Vec<(Mark, String)>, String> {
+    let mut entries: Vec<(Mark, String)> = Vec::new();
+    let mut named: Vec<&str> = Vec::new();
+    for d in views
+        .iter()
+        .flat_map(|v| &v.drawn)
+        .filter(|d| d.is_finite())
+    {
+        let color = if d.is_goal() { BLACK } else { DRAWN };
+        let (x, y) = d.at();
+        match d.shape {
+            ShapeKind::Pose | ShapeKind::Point => {
+                chart
+                    .draw_series(std::iter::once(Cross::new(
+                        (x, y),
+                        8,
+                        color.stroke_width(2),
+                    )))
+                    .map_err(drawing)?;
+            }
+            ShapeKind::Circle => {
+                let r = d.radius();
+                let ring = (0..=72).map(|k| {
+                    let a = f64::from(k) * std::f64::consts::TAU / 72.0;
+                    (x + r * a.cos(), y + r * a.sin())
+                });
+                chart
+                    .draw_series(LineSeries::new(ring, color.stroke_width(1)))
+                    .map_err(drawing)?;
+            }
+        }
+        if let Some(h) = d.heading() {
+            let arrow = 0.3;
+            chart
+                .draw_series(LineSeries::new(
+                    [(x, y), (x + arrow * h.cos(), y + arrow * h.sin())],
+                    color.stroke_width(2),
+                ))
+                .map_err(drawing)?;
+        }
+        if named.contains(&d.name.as_str()) {
+            continue;
+        }
+        named.push(&d.name);
+        entries.push(match d.shape {
+            ShapeKind::Pose => (Mark::Cross(color), format!("{} (and heading)", d.name)),
+            ShapeKind::Point => (Mark::Cross(color), d.name.clone()),
+            ShapeKind::Circle => (
+                Mark::Ring(color),
+                format!("{} (circle, r {} m)", d.name, tick(d.radius(), 1.0)),
+            ),
+        });
+    }
+    Ok(entries)
+}
+
+/// Number the index marks of every path (the robot's, then the ball's), thinned so that no two
+/// labels overlap ([`labels::place`]); a single run's selection ends are always numbered.
+fn number_points(
+    chart: &mut PathChart<'_, '_>,
+    views: &[&PlotView<'_>],
+    colors: &[RGBColor],
+) -> Result<(), String> {
+    let single = views.len() == 1;
+    let mut taken = Vec::new();
+    for (k, v) in views.iter().enumerate() {
+        let xy: Vec<(f64, f64)> = v.path.iter().map(|p| (p.x_m, p.y_m)).collect();
+        let ends: Vec<usize> = v
+            .selection
+            .filter(|_| single && !xy.is_empty())
+            .map(|s| vec![s.start.min(xy.len() - 1), s.end.min(xy.len() - 1)])
+            .unwrap_or_default();
+        let side = if k % 2 == 0 { Side::Below } else { Side::Above };
+        let color = colors[k % colors.len()];
+        label_marks(chart, &xy, &ends, side, color, &mut taken)?;
+    }
+    for v in views {
+        if let Some(ball) = v.ball {
+            let xy: Vec<(f64, f64)> = ball.iter().map(|b| (b[0], b[1])).collect();
+            label_marks(chart, &xy, &[], Side::Above, BALL, &mut taken)?;
+        }
+    }
+    Ok(())
+}
+
+/// Number every [`INDEX_EVERY`]-th point of `xy` and the points `keep` (in the selection's
+/// colour), where their labels clear the ones in `taken`.
+fn label_marks(
+    chart: &mut PathChart<'_, '_>,
+    xy: &[(f64, f64)],
+    keep: &[usize],
+    side: Side,
+    color: RGBColor,
+    taken: &mut Vec<labels::LabelBox>,
+) -> Result<(), String> {
+    let cands: Vec<Candidate> = keep
+        .iter()
+        .map(|&i| (i, true))
+        .chain(
+            (0..xy.len())
+                .step_by(INDEX_EVERY)
+                .filter(|i| !keep.contains(i))
+                .map(|i| (i, false)),
+        )
+        .map(|(index, keep)| Candidate {
+            index,
+            at: chart.backend_coord(&xy[index]),
+            keep,
+        })
+        .collect();
+    for p in labels::place(&cands, side, taken) {
+        let at = chart.backend_coord(&xy[p.index]);
+        let c = if p.keep { SELECTED } else { color };
+        chart
+            .draw_series(std::iter::once(
+                EmptyElement::at(xy[p.index])
+                    + Text::new(
+                        p.index.to_string(),
+                        (p.bx.x - at.0, p.bx.y - at.1),
+                        ("sans-serif", 12).into_font().color(&c),
+                    ),
+            ))
+            .map_err(drawing)?;
+    }
+    Ok(())
 }
 
 /// The actions plot: one panel per curve against point index, chunks shaded.
@@ -394,6 +512,16 @@ pub(super) fn render_actions(view: &PlotView<'_>) -> Result<String, String> {
         let mut notes = Vec::new();
         if let Some(o) = &view.outcome {
             notes.push(o.clone());
+        }
+        // What the task draws on the path plot, as numbers: the goal this run drove to.
+        for d in &view.drawn {
+            let values: Vec<String> = d.values.iter().map(|v| tick(*v, 1.0)).collect();
+            notes.push(format!(
+                "{}: {} ({})",
+                d.name,
+                d.shape.word(),
+                values.join(", ")
+            ));
         }
         notes.push(format!("{n} points; `select A..B` by the index axis"));
         legend(&side, &entries, &notes)?;

@@ -6,8 +6,9 @@ use std::fmt::Write as _;
 use super::*;
 
 /// A character plot `width` x `height`: `.` path, `#` selection, `x` critiqued, `+` advised,
-/// `S` start, `E` end, `G` goal, `o` ball. The axes have the same scale (a character is about
-/// twice as tall as it is wide).
+/// `S` start, `E` end, `G` goal, `o` ball, and what else the task draws: `*` a point or pose, `:`
+/// a circle (a circle named `goal` has `G` at its centre). The axes have the same scale (a
+/// character is about twice as tall as it is wide).
 pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
     let (width, height) = (width.max(8), height.max(4));
     let (x0, x1, y0, y1) = equal_scale(bounds(&[view]), width as u32, (height * 2) as u32);
@@ -19,6 +20,18 @@ pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
             .max(0.0) as usize;
         (r.min(height - 1), c.min(width - 1))
     };
+    let drawn: Vec<&Drawn> = view.drawn.iter().filter(|d| d.is_finite()).collect();
+    // Circles under everything: a ring of `:` (enough dots to close it at this size).
+    for d in drawn.iter().filter(|d| d.shape == ShapeKind::Circle) {
+        let (x, y) = d.at();
+        let r = d.radius();
+        let steps = 4 * (width + height);
+        for k in 0..steps {
+            let a = k as f64 * std::f64::consts::TAU / steps as f64;
+            let (row, col) = cell(x + r * a.cos(), y + r * a.sin());
+            grid[row][col] = ':';
+        }
+    }
     for b in view.ball.unwrap_or(&[]) {
         let (r, c) = cell(b[0], b[1]);
         grid[r][c] = 'o';
@@ -35,9 +48,17 @@ pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
             '.'
         };
         // Marks outrank plain path where points overlap.
-        if grid[r][c] == ' ' || grid[r][c] == '.' || grid[r][c] == 'o' || mark == '#' {
+        if matches!(grid[r][c], ' ' | '.' | 'o' | ':') || mark == '#' {
             grid[r][c] = mark;
         }
+    }
+    for d in drawn
+        .iter()
+        .filter(|d| !d.is_goal() && d.shape != ShapeKind::Circle)
+    {
+        let (x, y) = d.at();
+        let (r, c) = cell(x, y);
+        grid[r][c] = '*';
     }
     if let Some(first) = view.path.first() {
         let (r, c) = cell(first.x_m, first.y_m);
@@ -47,8 +68,9 @@ pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
         let (r, c) = cell(last.x_m, last.y_m);
         grid[r][c] = 'E';
     }
-    if let Some(g) = view.goal {
-        let (r, c) = cell(g.x_m, g.y_m);
+    for g in drawn.iter().filter(|d| d.is_goal()) {
+        let (x, y) = g.at();
+        let (r, c) = cell(x, y);
         grid[r][c] = 'G';
     }
     let mut out = String::new();
@@ -67,6 +89,22 @@ pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
         tick(y0, span),
         tick(y1, span)
     ));
+    // The task's other drawings, by name (the goal is in the line above).
+    let others: Vec<String> = drawn
+        .iter()
+        .filter(|d| !d.is_goal())
+        .map(|d| {
+            let mark = if d.shape == ShapeKind::Circle {
+                ':'
+            } else {
+                '*'
+            };
+            format!("{mark} {}", d.name)
+        })
+        .collect();
+    if !others.is_empty() {
+        let _ = writeln!(out, " {}", others.join("  "));
+    }
     out
 }
 

@@ -613,6 +613,26 @@ pub enum CheckError {
         #[label("this clause")]
         span: Loc,
     },
+    #[error("`{shape}` is not a shape a task can draw")]
+    #[diagnostic(code(advise::check::task_draw_shape))]
+    TaskDrawShape {
+        shape: String,
+        /// "did you mean", or the shapes: `pose(x, y, heading)`, `point(x, y)`, `circle(x, y, radius)`.
+        #[help]
+        help: String,
+        #[label("not `pose`, `point` or `circle`")]
+        span: Loc,
+    },
+    #[error("`{shape}` takes {expected} values, found {found}")]
+    #[diagnostic(code(advise::check::task_draw_arity), help("{signature}"))]
+    TaskDrawArity {
+        shape: String,
+        expected: usize,
+        found: usize,
+        signature: String,
+        #[label("{found} value{}", if *found == 1 { "" } else { "s" })]
+        span: Loc,
+    },
 }
 
 /// A diagnostic from either front-end phase (parse or check), so one list can hold all of a

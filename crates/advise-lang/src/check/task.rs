@@ -12,8 +12,8 @@ use super::*;
 use crate::domain::Space;
 use crate::program::ir::{Func, Ir};
 use crate::program::task::{
-    Axis, BASE, Drive, EndRule, GoalParam, MAX_GOAL_ABS, MAX_GOAL_PARAMS, MAX_TEST_GOALS,
-    MAX_TIME_LIMIT_S, TaskDef, TeacherDef, TeacherTarget,
+    Axis, BASE, DrawDef, Drive, EndRule, GoalParam, MAX_GOAL_ABS, MAX_GOAL_PARAMS, MAX_TEST_GOALS,
+    MAX_TIME_LIMIT_S, ShapeKind, TaskDef, TeacherDef, TeacherTarget,
 };
 
 /// What kind of value a task name is; each clause may read some kinds.
@@ -277,6 +277,7 @@ impl Checker<'_> {
             .flatten()
             .collect();
         let recorded = self.recorded(f, d, task, &names.kinds, &goal_names);
+        let draw = self.draw(f, d, task, &names.kinds);
         let (test_count, test_seed) = self.test_set(f, d, task);
         let teacher = self.teacher(f, d, task, domain, &names.kinds);
 
@@ -301,6 +302,7 @@ impl Checker<'_> {
             efficiency: scores.efficiency,
             success: success?,
             recorded,
+            draw,
             teacher,
         };
         // Where each value and score is defined, for what the finiteness check finds.
@@ -1028,6 +1030,88 @@ impl Checker<'_> {
             }
         }
         (all.len() == goal.len()).then_some(all)
+    }
+
+    /// The `draw` clauses: each shape known, with its number of values, each value an expression
+    /// of the goal's parameters (a picture is drawn for a goal, before and after the run), and
+    /// each name once.
+    fn draw(
+        &mut self,
+        f: usize,
+        d: &DomainDecl,
+        task: &str,
+        names: &HashMap<String, (usize, Kind)>,
+    ) -> Vec<DrawDef> {
+        let mut out = Vec::new();
+        let mut seen: Vec<&str> = Vec::new();
+        for c in &d.clauses {
+            let Clause::Draw(drawings) = c else { continue };
+            for dr in drawings {
+                let name = dr.name.name.as_str();
+                if seen.contains(&name) {
+                    self.err(
+                        f,
+                        dr.name.span,
+                        CheckError::TaskDuplicateName {
+                            name: name.into(),
+                            help: "each drawing has a name of its own: the legend's".into(),
+                            span: self.at(f, dr.name.span),
+                        },
+                    );
+                }
+                seen.push(name);
+                let Some(shape) = ShapeKind::named(&dr.shape.name) else {
+                    let words: Vec<&str> = ShapeKind::ALL.iter().map(|k| k.word()).collect();
+                    self.err(
+                        f,
+                        dr.shape.span,
+                        CheckError::TaskDrawShape {
+                            shape: dr.shape.name.clone(),
+                            help: hint(&dr.shape.name, "shapes", &words),
+                            span: self.at(f, dr.shape.span),
+                        },
+                    );
+                    continue;
+                };
+                if dr.args.len() != shape.arity() {
+                    self.err(
+                        f,
+                        dr.span,
+                        CheckError::TaskDrawArity {
+                            shape: shape.word().into(),
+                            expected: shape.arity(),
+                            found: dr.args.len(),
+                            signature: shape.signature().into(),
+                            span: self.at(f, dr.span),
+                        },
+                    );
+                    continue;
+                }
+                let ts = TaskScope {
+                    task,
+                    names,
+                    allowed: &[Kind::Goal],
+                    context: "`draw` (a picture is drawn from the goal alone)",
+                    prev_ok: false,
+                    hidden: None,
+                };
+                let args = dr
+                    .args
+                    .iter()
+                    .map(|e| {
+                        let (ir, ty) = self.resolve(f, Scope::Task(&ts), e, "");
+                        self.expect(f, e, ty, Ty::Num, None);
+                        ir
+                    })
+                    .collect();
+                out.push(DrawDef {
+                    name: name.into(),
+                    shape,
+                    args,
+                });
+            }
+        }
+        out
     }
 
     fn test_set(&mut self, f: usize, d: &DomainDecl, task: &str) -> (usize, u64) {

@@ -115,6 +115,101 @@ pub struct TeacherDef {
     pub stmts: Vec<(TeacherTarget, Ir)>,
 }
 
+/// The shapes a task can draw, each from a fixed number of values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShapeKind {
+    /// `pose(x, y, heading)`: a cross with a heading arrow.
+    Pose,
+    /// `point(x, y)`: a cross.
+    Point,
+    /// `circle(x, y, radius)`: a ring.
+    Circle,
+}
+
+impl ShapeKind {
+    pub const ALL: [ShapeKind; 3] = [ShapeKind::Pose, ShapeKind::Point, ShapeKind::Circle];
+
+    pub fn word(self) -> &'static str {
+        match self {
+            ShapeKind::Pose => "pose",
+            ShapeKind::Point => "point",
+            ShapeKind::Circle => "circle",
+        }
+    }
+
+    /// How it is written, with what each value is.
+    pub fn signature(self) -> &'static str {
+        match self {
+            ShapeKind::Pose => "pose(x, y, heading): a position in m and a heading in rad",
+            ShapeKind::Point => "point(x, y): a position in m",
+            ShapeKind::Circle => "circle(x, y, radius): a centre and a radius in m",
+        }
+    }
+
+    /// How many values it takes.
+    pub fn arity(self) -> usize {
+        match self {
+            ShapeKind::Pose | ShapeKind::Circle => 3,
+            ShapeKind::Point => 2,
+        }
+    }
+
+    pub fn named(word: &str) -> Option<ShapeKind> {
+        ShapeKind::ALL.into_iter().find(|k| k.word() == word)
+    }
+}
+
+/// A `draw` shape as checked: its values are expressions of the goal's parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DrawDef {
+    /// What the legend calls it; the one named [`GOAL_DRAWING`] is the goal.
+    pub name: String,
+    pub shape: ShapeKind,
+    pub args: Vec<Ir>,
+}
+
+/// The name of the drawing that is the goal (`S start  E end  G goal` in the terminal).
+pub const GOAL_DRAWING: &str = "goal";
+
+/// A drawing evaluated for one goal: what a picture draws, in metres and radians.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Drawn {
+    pub name: String,
+    pub shape: ShapeKind,
+    /// `[x, y, heading]` of a pose, `[x, y]` of a point, `[x, y, radius]` of a circle.
+    pub values: Vec<f64>,
+}
+
+impl Drawn {
+    pub fn is_goal(&self) -> bool {
+        self.name == GOAL_DRAWING
+    }
+
+    /// Where it is, `(x, y)`.
+    pub fn at(&self) -> (f64, f64) {
+        let v = |i: usize| self.values.get(i).copied().unwrap_or(f64::NAN);
+        (v(0), v(1))
+    }
+
+    /// The radius of a circle (its absolute value), else 0.
+    pub fn radius(&self) -> f64 {
+        match self.shape {
+            ShapeKind::Circle => self.values.get(2).map_or(0.0, |r| r.abs()),
+            _ => 0.0,
+        }
+    }
+
+    /// The heading of a pose.
+    pub fn heading(&self) -> Option<f64> {
+        (self.shape == ShapeKind::Pose).then(|| self.values.get(2).copied().unwrap_or(f64::NAN))
+    }
+
+    /// Whether every value is a number a picture can place.
+    pub fn is_finite(&self) -> bool {
+        self.values.iter().all(|v| v.is_finite())
+    }
+}
+
 /// A checked task.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TaskDef {
@@ -143,6 +238,8 @@ pub struct TaskDef {
     pub success: Ir,
     /// How each goal parameter is read from the pose a recording ends at.
     pub recorded: Option<Vec<Ir>>,
+    /// What pictures of a run draw, from its goal (`draw`), in declaration order.
+    pub draw: Vec<DrawDef>,
     pub teacher: Option<TeacherDef>,
 }
 

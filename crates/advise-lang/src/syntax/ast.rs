@@ -123,6 +123,8 @@ pub enum Clause {
     Score(Vec<Binding>),
     /// `recorded x_g = x, ...`
     Recorded(Vec<Binding>),
+    /// `draw goal pose(x_g, y_g, theta_g), ...`
+    Draw(Vec<Drawing>),
     /// `test COUNT [seed SEED]`
     Test {
         count: f64,
@@ -143,10 +145,22 @@ impl Clause {
             Clause::EndWhen { .. } | Clause::EndAfter { .. } => "end",
             Clause::Score(_) => "score",
             Clause::Recorded(_) => "recorded",
+            Clause::Draw(_) => "draw",
             Clause::Test { .. } => "test",
             Clause::Teacher { .. } => "teacher",
         }
     }
+}
+
+/// One shape of a `draw` clause: `goal pose(x_g, y_g, theta_g)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Drawing {
+    /// What the legend calls it; `goal` is the goal.
+    pub name: Ident,
+    /// `pose`, `point` or `circle`.
+    pub shape: Ident,
+    pub args: Vec<Expr>,
+    pub span: Span,
 }
 
 /// A statement of a teacher: `let d = sqrt(dist2)` (a local value) or `trans = d` (an action).
@@ -459,6 +473,15 @@ impl EraseSpans for Binding {
     }
 }
 
+impl EraseSpans for Drawing {
+    fn erase_spans(&mut self) {
+        self.name.erase_spans();
+        self.shape.erase_spans();
+        self.args.erase_spans();
+        self.span.erase_spans();
+    }
+}
+
 impl EraseSpans for TeacherStmt {
     fn erase_spans(&mut self) {
         self.binding.erase_spans();
@@ -470,6 +493,7 @@ impl EraseSpans for Clause {
         match self {
             Clause::Goal(d) => d.erase_spans(),
             Clause::Let(b) | Clause::Score(b) | Clause::Recorded(b) => b.erase_spans(),
+            Clause::Draw(d) => d.erase_spans(),
             Clause::Success { cond, span } => {
                 cond.erase_spans();
                 span.erase_spans();

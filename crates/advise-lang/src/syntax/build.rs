@@ -118,6 +118,14 @@ impl Builder {
                 Rule::let_group => clauses.push(Clause::Let(self.bindings(part)?)),
                 Rule::score_group => clauses.push(Clause::Score(self.bindings(part)?)),
                 Rule::recorded_group => clauses.push(Clause::Recorded(self.bindings(part)?)),
+                Rule::draw_group => {
+                    let drawings = part
+                        .into_inner()
+                        .filter(|d| d.as_rule() == Rule::drawing)
+                        .map(|d| self.drawing(d))
+                        .collect::<Result<_, _>>()?;
+                    clauses.push(Clause::Draw(drawings));
+                }
                 Rule::success_rule => {
                     let span = self.span(&part);
                     let e = part.into_inner().find(|e| e.as_rule() == Rule::expr);
@@ -176,6 +184,29 @@ impl Builder {
             .filter(|b| b.as_rule() == Rule::binding)
             .map(|b| self.binding(b))
             .collect()
+    }
+
+    /// `goal pose(x_g, y_g, theta_g)`: a name, a shape and its arguments.
+    fn drawing(&self, p: Pair<'_, Rule>) -> Result<Drawing, ParseError> {
+        let span = self.span(&p);
+        let mut names = Vec::new();
+        let mut args = Vec::new();
+        for x in p.into_inner() {
+            match x.as_rule() {
+                Rule::name => names.push(self.ident(x)),
+                Rule::expr => args.push(self.expr(x, 0)?),
+                _ => {}
+            }
+        }
+        let mut names = names.into_iter();
+        let name = names.next().expect("a drawing has a name");
+        let shape = names.next().expect("a drawing has a shape");
+        Ok(Drawing {
+            name,
+            shape,
+            args,
+            span,
+        })
     }
 
     fn binding(&self, p: Pair<'_, Rule>) -> Result<Binding, ParseError> {

@@ -114,6 +114,14 @@ fn write_list<T: Display>(f: &mut Formatter<'_>, items: &[T]) -> fmt::Result {
     Ok(())
 }
 
+impl Display for Drawing {
+    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
+        write!(f, "{} {}(", self.name.name, self.shape.name)?;
+        write_list(f, &self.args)?;
+        f.write_char(')')
+    }
+}
+
 impl Display for Clause {
     fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
         match self {
@@ -124,6 +132,10 @@ impl Display for Clause {
             Clause::Let(b) | Clause::Score(b) | Clause::Recorded(b) => {
                 write!(f, "{} ", self.keyword())?;
                 write_list(f, b)
+            }
+            Clause::Draw(d) => {
+                f.write_str("draw ")?;
+                write_list(f, d)
             }
             Clause::Success { cond, .. } => write!(f, "success when {cond}"),
             Clause::EndWhen { cond, hold, .. } => {
