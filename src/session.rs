@@ -25,6 +25,7 @@ mod run;
 pub mod script;
 mod text;
 mod undo;
+pub mod view;
 
 use std::path::{Path, PathBuf};
 
