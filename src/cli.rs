@@ -110,8 +110,24 @@ pub enum Command {
         /// The journal to replay; by default the newest in the journal folder.
         journal: Option<PathBuf>,
     },
-    /// Open the REPL (what `advise` with no arguments does).
-    Repl(SessionArgs),
+    /// Open the REPL (what `advise` with no arguments does); with `--view`, the web view of the
+    /// same session beside it.
+    Repl {
+        #[command(flatten)]
+        session: SessionArgs,
+        #[command(flatten)]
+        view: ViewArgs,
+    },
+    /// Serve the session as a web page (the teacher's view in a browser) at the URL it prints;
+    /// runs until Ctrl-C.
+    Serve {
+        #[command(flatten)]
+        session: SessionArgs,
+        /// The address to listen on; anything but loopback is reachable from other machines
+        /// (the token still guards it) and is warned about.
+        #[arg(long, default_value = "127.0.0.1:0", value_name = "ADDR:PORT")]
+        listen: std::net::SocketAddr,
+    },
     /// Reproduce one of the paper's studies with automated teachers and print its figures.
     Experiment(ExperimentArgs),
     /// Fit the constants the paper leaves open to the figures it gives as a study's starting
@@ -124,6 +140,22 @@ pub enum Command {
     /// The simulator as a ROS 2 robot: subscribes `cmd_vel`, publishes `odom` at 50 Hz, what
     /// `--backend ros2` drives when no robot is at hand. Runs until Ctrl-C.
     Ros2Sim(Ros2SimArgs),
+}
+
+/// `advise repl --view`: the web view beside the REPL.
+#[derive(Args)]
+pub struct ViewArgs {
+    /// Serve the session as a web page too, at the URL printed (the same session and journal).
+    #[arg(long)]
+    pub view: bool,
+    /// With `--view`: the address to listen on (loopback unless said otherwise, with a warning).
+    #[arg(
+        long,
+        default_value = "127.0.0.1:0",
+        value_name = "ADDR:PORT",
+        requires = "view"
+    )]
+    pub listen: std::net::SocketAddr,
 }
 
 #[derive(Args)]

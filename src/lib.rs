@@ -25,3 +25,4 @@ pub mod recording;
 pub mod repl;
 pub mod session;
 pub mod task;
+pub mod web;

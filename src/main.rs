@@ -12,6 +12,7 @@ use advise::cli::{self, CliError, Command, SessionArgs, operators, tools};
 use advise::diag::SourceMap;
 use advise::session::{Session, SessionOptions, journal, script};
 use advise::task::TaskKind;
+use advise::web;
 
 /// mimalloc, not glibc's malloc: parsing allocates for every token, and a tree built on one of
 /// `advise check`'s parse threads is freed on the checker's, which glibc makes slow (a 50 MB file
@@ -25,8 +26,9 @@ fn main() -> ExitCode {
         Err(code) => return code,
     };
     let result = match cli.command {
-        None => repl(SessionArgs::default()),
-        Some(Command::Repl(args)) => repl(args),
+        None => repl(SessionArgs::default(), None),
+        Some(Command::Repl { session, view }) => repl(session, view.view.then_some(view.listen)),
+        Some(Command::Serve { session, listen }) => serve(session, listen),
         Some(Command::Run {
             script,
             keep_going,
@@ -103,13 +105,56 @@ fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
     Ok(session)
 }
 
-/// The main job: the REPL on the simulator with the default demonstrations loaded.
-fn repl(args: SessionArgs) -> miette::Result<ExitCode> {
+/// The main job: the REPL on the simulator with the default demonstrations loaded; with
+/// `--view` (`view` is its address), the web view of the same session beside it.
+fn repl(args: SessionArgs, view: Option<std::net::SocketAddr>) -> miette::Result<ExitCode> {
     let mut session = new_session(&args, args.demos)?;
     start_journal(&mut session, &args)?;
     choose_backend(&mut session, &args)?;
-    advise::repl::run(&mut session).into_diagnostic()?;
+    let Some(listen) = view else {
+        advise::repl::run(&mut session).into_diagnostic()?;
+        return Ok(ExitCode::SUCCESS);
+    };
+    let hub = web::Hub::new(session);
+    let _server = start_view(&hub, listen)?;
+    hub.with(|s| advise::repl::greet(s));
+    let signal = hub.stop_signal();
+    advise::repl::run_on(&mut web::ReplSide(hub), &signal).into_diagnostic()?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// `advise serve`: the session with only the web view, until Ctrl-C (the first stops the base,
+/// a second leaves).
+fn serve(args: SessionArgs, listen: std::net::SocketAddr) -> miette::Result<ExitCode> {
+    let mut session = new_session(&args, args.demos)?;
+    start_journal(&mut session, &args)?;
+    choose_backend(&mut session, &args)?;
+    let hub = web::Hub::new(session);
+    advise::repl::install_ctrl_c(&hub.stop_signal());
+    let server = start_view(&hub, listen)?;
+    hub.with(|s| println!("advise: {}", s.status()));
+    println!("Ctrl-C stops the base; twice leaves");
+    server.wait();
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Start the web view on `listen` and print its URL (and a warning when it is reachable from
+/// other machines).
+fn start_view(hub: &web::Hub, listen: std::net::SocketAddr) -> miette::Result<web::Server> {
+    let server = web::start(hub.clone(), listen)?;
+    if !web::is_private(&server.addr) {
+        eprintln!(
+            "warning: the view listens on {}, reachable from other machines; anyone with the URL can drive the session (and its robot)",
+            server.addr
+        );
+    }
+    println!("view: {}", server.url);
+    hub.with(|s| {
+        if let Some(j) = s.journal_path() {
+            println!("journal: {}", j.display());
+        }
+    });
+    Ok(server)
 }
 
 /// `--backend`: the same as the statement `backend SPEC` (journalled, so a resume can say which

@@ -79,19 +79,72 @@ fn facts_of(session: &Session) -> Facts {
     }
 }
 
+/// What one statement typed at the prompt gave: the text to print (or the diagnostic, rendered)
+/// and whether it was `quit`.
+pub struct Typed {
+    pub shown: Result<String, String>,
+    pub quit: bool,
+}
+
+/// The session the REPL's loop drives: one it owns ([`run`]), or one it shares with the web view
+/// (`advise repl --view`, [`crate::web::Hub`]), which takes its lock for each statement.
+pub trait Statements {
+    /// Run one statement typed at the prompt (`origin` names it in diagnostics).
+    fn execute(&mut self, text: &str, origin: &str, colour: bool) -> Typed;
+    /// Stop the robot (Ctrl-C at the prompt).
+    fn stop_robot(&mut self) -> String;
+    /// What completion and hints offer.
+    fn facts(&self) -> Facts;
+}
+
+impl Statements for Session {
+    fn execute(&mut self, text: &str, origin: &str, colour: bool) -> Typed {
+        typed(self, text, origin, colour)
+    }
+
+    fn stop_robot(&mut self) -> String {
+        Session::stop_robot(self)
+    }
+
+    fn facts(&self) -> Facts {
+        facts_of(self)
+    }
+}
+
+/// Run `text` on `session` and render what it gave as the terminal shows it.
+pub fn typed(session: &mut Session, text: &str, origin: &str, colour: bool) -> Typed {
+    let result = session.execute(text, origin);
+    shown(session, result, colour)
+}
+
+/// A statement's result as the terminal shows it (diagnostics rendered against `session`'s
+/// sources).
+pub fn shown(
+    session: &Session,
+    result: Result<crate::session::Reply, crate::session::SessionError>,
+    colour: bool,
+) -> Typed {
+    match result {
+        Ok(reply) => Typed {
+            shown: Ok(reply.to_string()),
+            quit: reply.is_quit(),
+        },
+        Err(e) => Typed {
+            shown: Err(render(session.sources(), &e, colour)),
+            quit: false,
+        },
+    }
+}
+
 /// Run the REPL on `session` until `quit` or end of input.
 pub fn run(session: &mut Session) -> rustyline::Result<()> {
-    let config = Config::builder()
-        .completion_type(CompletionType::List)
-        .auto_add_history(true)
-        .max_history_size(10_000)?
-        .build();
-    let facts = Arc::new(Mutex::new(facts_of(session)));
-    let mut rl: Editor<AdviseHelper, DefaultHistory> = Editor::with_config(config)?;
-    rl.set_helper(Some(AdviseHelper::new(facts.clone())));
-    let history = crate::session::journal::default_dir().join("history.txt");
-    let _ = rl.load_history(&history);
-    let colour = std::io::IsTerminal::is_terminal(&std::io::stdout());
+    greet(session);
+    let signal = session.stop_signal();
+    run_on(session, &signal)
+}
+
+/// The banner: the session, its journal, and what to type first.
+pub fn greet(session: &Session) {
     println!("advise: {}", session.status());
     if let Some(j) = session.journal_path() {
         println!("journal: {} (`advise resume` restores it)", j.display());
@@ -109,32 +162,43 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
         "`run start 0`, then `select 40..70`, `advise NAME` (`help` lists the task's operators)"
     };
     println!("type `help` for the commands, Tab to complete; e.g. {example}");
-    let signal = session.stop_signal();
-    install_ctrl_c(&signal);
+}
+
+/// The REPL's loop on `statements` until `quit` or end of input; Ctrl-C raises `signal`.
+pub fn run_on(statements: &mut dyn Statements, signal: &StopSignal) -> rustyline::Result<()> {
+    let config = Config::builder()
+        .completion_type(CompletionType::List)
+        .auto_add_history(true)
+        .max_history_size(10_000)?
+        .build();
+    let facts = Arc::new(Mutex::new(statements.facts()));
+    let mut rl: Editor<AdviseHelper, DefaultHistory> = Editor::with_config(config)?;
+    rl.set_helper(Some(AdviseHelper::new(facts.clone())));
+    let history = crate::session::journal::default_dir().join("history.txt");
+    let _ = rl.load_history(&history);
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stdout());
+    install_ctrl_c(signal);
     let mut n = 0;
     loop {
         match read_statement(&mut rl) {
             Ok(line) => {
                 n += 1;
                 signal.clear();
-                match session.execute(&line, &format!("<input {n}>")) {
-                    Ok(reply) => {
-                        let text = reply.to_string();
-                        if !text.is_empty() {
-                            println!("{}", text.trim_end());
-                        }
-                        if reply.is_quit() {
-                            break;
-                        }
-                    }
-                    Err(e) => eprint!("{}", render(session.sources(), &e, colour)),
+                let typed = statements.execute(&line, &format!("<input {n}>"), colour);
+                match typed.shown {
+                    Ok(text) if !text.is_empty() => println!("{}", text.trim_end()),
+                    Ok(_) => {}
+                    Err(diagnostic) => eprint!("{diagnostic}"),
+                }
+                if typed.quit {
+                    break;
                 }
                 if let Ok(mut f) = facts.lock() {
-                    *f = facts_of(session);
+                    *f = statements.facts();
                 }
             }
             Err(ReadlineError::Interrupted) => {
-                println!("^C {}; `quit` or Ctrl-D to leave", session.stop_robot());
+                println!("^C {}; `quit` or Ctrl-D to leave", statements.stop_robot());
             }
             Err(ReadlineError::Eof) => break,
             Err(e) => return Err(e),

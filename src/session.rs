@@ -26,6 +26,7 @@ pub mod script;
 pub mod sidecar;
 mod text;
 mod undo;
+pub mod view;
 
 use std::path::{Path, PathBuf};
 

@@ -46,6 +46,7 @@ const CRATES: &[(&str, &[&str])] = &[
             "experiment",
             "session",
             "repl",
+            "web",
             "cli",
         ],
     ),
