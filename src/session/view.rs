@@ -5,17 +5,12 @@
 use serde_json::{Value, json};
 
 use super::{HeldExecution, Session, SessionError};
-use crate::geometry::Pose;
 use crate::syntax::command::{Command, Statement, parse_statement};
 use crate::trace::Chunk;
 use crate::{check, interp};
 
 fn chunk(c: Chunk) -> Value {
     json!([c.range().start, c.range().end])
-}
-
-fn pose(p: Pose) -> Value {
-    json!([p.x_m, p.y_m, p.theta_rad])
 }
 
 impl Session {
@@ -117,7 +112,11 @@ impl Session {
             "points": rec.trace.len(),
             "t": rec.trace.t,
             "path": view.path.iter().map(|p| [p.x_m, p.y_m]).collect::<Vec<_>>(),
-            "goal": view.goal.map(pose),
+            "drawn": view
+                .drawn
+                .iter()
+                .map(|d| json!({"name": d.name, "shape": d.shape.word(), "values": d.values, "goal": d.is_goal()}))
+                .collect::<Vec<_>>(),
             "ball": view.ball,
             "arena": view.arena.map(|a| json!({"half_m": a.half_m, "capture_m": a.capture_m})),
             "outcome": view.outcome,
