@@ -174,7 +174,7 @@ pub enum SessionError {
     GoalParamTwice { name: String, params: String },
     #[error("the goal of {task} needs {missing} too")]
     #[diagnostic(
-        code(advise::session::goal_count),
+        code(advise::session::goal_missing),
         help("its goal is {params}, in that order or by name: {example}")
     )]
     GoalMissing {

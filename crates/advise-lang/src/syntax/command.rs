@@ -5,7 +5,6 @@
 use super::ast::{Ident, Item, Span};
 use super::{Builder, InvArg, Invocation, ParseError, Rule, delims, run};
 use crate::diag::{SourceId, Src};
-use crate::trace::{PointRange, RangeStart};
 use pest::iterators::Pair;
 
 mod table;
@@ -504,6 +503,25 @@ impl Builder {
             .parse::<usize>()
             .map_err(|_| self.too_large(p.as_str(), span))
     }
+}
+
+/// A range of points as a teacher writes it, before the execution it selects from is known:
+/// `40..70`, `125..end` (or `125..`) to the last point, `-30..end` the last 30 points. A range
+/// copied from a transcript keeps meaning the same stretch when the run is a point shorter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PointRange {
+    pub start: RangeStart,
+    /// The point after the last, or `None` for the execution's end.
+    pub end: Option<usize>,
+}
+
+/// Where a [`PointRange`] starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RangeStart {
+    /// Point `A`.
+    At(usize),
+    /// `N` points before the end: `-N`.
+    FromEnd(usize),
 }
 
 #[cfg(test)]

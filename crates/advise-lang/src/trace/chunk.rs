@@ -7,6 +7,8 @@ use miette::Diagnostic;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+pub use crate::syntax::command::{PointRange, RangeStart};
+
 /// A contiguous, half-open range `start..end` of point indices of one trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct Chunk {
@@ -45,25 +47,6 @@ impl Chunk {
     pub fn range(&self) -> Range<usize> {
         self.start..self.end
     }
-}
-
-/// A range of points as a teacher writes it, before the execution it selects from is known:
-/// `40..70`, `125..end` (or `125..`) to the last point, `-30..end` the last 30 points. A range
-/// copied from a transcript keeps meaning the same stretch when the run is a point shorter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct PointRange {
-    pub start: RangeStart,
-    /// The point after the last, or `None` for the execution's end.
-    pub end: Option<usize>,
-}
-
-/// Where a [`PointRange`] starts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RangeStart {
-    /// Point `A`.
-    At(usize),
-    /// `N` points before the end: `-N`.
-    FromEnd(usize),
 }
 
 impl PointRange {
@@ -155,7 +138,7 @@ pub enum ChunkError {
     },
     #[error("there are no last {last} points: the execution has {len}")]
     #[diagnostic(
-        code(advise::chunk::out_of_range),
+        code(advise::chunk::fewer_points),
         help(
             "`-N..end` selects the last N points, N at most {len}; the whole execution is 0..end"
         )
@@ -163,7 +146,7 @@ pub enum ChunkError {
     FewerPoints { last: usize, len: usize },
     #[error("point {start} is past the end of the execution, which has {len} points")]
     #[diagnostic(
-        code(advise::chunk::out_of_range),
+        code(advise::chunk::start_past_end),
         help("`A..end` selects from point A to the end, A at most {len}")
     )]
     StartPastEnd { start: usize, len: usize },
