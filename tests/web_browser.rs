@@ -181,12 +181,12 @@ fn the_teacher_flow_on_positioning() {
 #[test]
 fn the_teacher_flow_on_standoff() {
     let file = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/tasks/standoff.adv");
-    flow("standoff", &[&format!("tasks {file}"), "task standoff"], "goal 2.5 0.5", "creep");
+    flow("standoff", &[&format!("tasks {file}"), "task standoff", "load demos teacher:1"], "goal 2.5 0.5", "creep");
 }
 
 #[test]
 fn the_teacher_flow_on_interception() {
-    flow("interception", &["task interception"], "start 3", "slow_down");
+    flow("interception", &["task interception", "load demos teacher:1"], "start 3", "slow_down");
 }
 
 #[test]

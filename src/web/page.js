@@ -156,7 +156,7 @@ function legend(svg, x, y, items) {
 
 /** The actions plot's time axis (the SVG's x to seconds and back). */
 function timeFrame(ex, w) {
-  const t = ex.t, t0 = t[0] || 0, t1 = t[t.length - 1] || 1, left = 70, right = 10;
+  const t = ex.t, t0 = t[0] || 0, t1 = t[t.length - 1] || 1, left = 42, right = 10;
   const span = t1 > t0 ? t1 - t0 : 1;
   return { left, x: (s) => left + (w - left - right) * (s - t0) / span, s: (x) => t0 + (x - left) * span / (w - left - right) };
 }
@@ -185,7 +185,7 @@ function drawActions(ex) {
     if (hi - lo < 1e-9) { lo -= 1; hi += 1; }
     const y = (v) => top + h - h * (v - lo) / (hi - lo);
     el(svg, "line", { x1: tf.left, x2: vb.width - 10, y1: y(0), y2: y(0), stroke: "#ccc" });
-    el(svg, "text", { x: 4, y: top + h / 2 + 4 }, s.label);
+    el(svg, "text", { x: tf.left + 6, y: top + 11, class: "label" }, s.label);
     el(svg, "text", { x: tf.left - 4, y: top + 9, "text-anchor": "end" }, hi.toFixed(2));
     el(svg, "text", { x: tf.left - 4, y: top + h, "text-anchor": "end" }, lo.toFixed(2));
     polyline(svg, s.values.map((v, j) => [tf.x(ex.t[j]), y(v)]).filter((p) => isFinite(p[1])), { stroke: COLOURS.path, "stroke-width": 1.3 });
@@ -350,7 +350,7 @@ async function runPreview() {
 
 function drawSide() {
   $("task").textContent = S.task;
-  $("status").textContent = `${S.status} · ${S.backend}${S.simulator ? " (simulated)" : ""} · learner ${S.learner}`;
+  $("status").textContent = S.status;
   const ex = $("exec");
   const labels = S.executions.map((e) => `${e.index}: ${e.label} (${e.points} points)`);
   if ([...ex.options].map((o) => o.text).join() !== labels.join()) {
@@ -420,8 +420,13 @@ function onSubmit(id, statement) {
 onSubmit("runf", () => `run goal ${$("goal").value.trim()}`);
 onSubmit("startf", () => `run start ${$("start").value}`);
 onSubmit("f", () => $("stmt").value.trim());
-$("advise").onclick = () => { const inv = invocation(); preview = null; if (inv) run(`advise ${inv}`); };
-$("critique").onclick = () => { preview = null; run($("directional").checked ? "critique --directional" : "critique"); };
+/** The preview is of the state before a change: drop it once the session changes. */
+function dropPreview() {
+  preview = null;
+  $("previewtext").textContent = "Change an operator's parameter to preview it again.";
+}
+$("advise").onclick = () => { const inv = invocation(); dropPreview(); if (inv) run(`advise ${inv}`); };
+$("critique").onclick = () => { dropPreview(); run($("directional").checked ? "critique --directional" : "critique"); };
 $("undo").onclick = () => run("undo");
 $("redo").onclick = () => run("redo");
 $("eval").onclick = () => run("eval");

@@ -44,19 +44,27 @@ def state(url):
 
 
 def until(url, what, test, seconds):
-    """The session's state once `test` holds of it, polled for at most `seconds`."""
+    """The session's state once `test` holds of it, polled for at most `seconds`; a statement
+    that failed meanwhile ends the wait with its diagnostic."""
     deadline = time.monotonic() + seconds
     while True:
         s = state(url)
         if test(s):
             return s
+        failed = [l for l in s["log"][REPORTED[0]:] if not l["ok"]]
+        if failed:
+            raise SystemExit(f"waiting for {what}, `{failed[0]['statement']}` failed:\n{failed[0]['reply']}")
         if time.monotonic() > deadline:
             last = s["log"][-3:] if s.get("log") else []
             raise SystemExit(f"timed out waiting for {what}; the log's last entries: {last}")
         time.sleep(0.2)
 
 
+REPORTED = [0]  # how many statements the session had logged at the last step reported
+
+
 def report(driver, outdir, label, step, s):
+    REPORTED[0] = len(s["log"])
     driver.save_screenshot(os.path.join(outdir, f"{label}-{step}.png"))
     brief = {k: s[k] for k in ["selection", "history", "points", "evals", "executions", "current"]}
     brief["log"] = [{k: l[k] for k in ["from", "statement", "ok"]} for l in s["log"]]
