@@ -118,11 +118,14 @@ function drawPath(ex) {
       const th = d.values[2];
       el(svg, "line", { x1: f.x(x), y1: f.y(y), x2: f.x(x + 0.4 * Math.cos(th)), y2: f.y(y + 0.4 * Math.sin(th)), stroke: c, "stroke-width": 2.5 });
     }
-    el(svg, "text", { x: f.x(x) + 8, y: f.y(y) - 8, fill: c }, d.name);
+    // A circle is named at its top, so it does not cover a point drawn at its centre.
+    const ly = d.shape === "circle" ? f.y(y + d.values[2]) - 4 : f.y(y) - 8;
+    el(svg, "text", { x: f.x(x) + 8, y: ly, fill: c }, d.name);
   }
   if (ex.ball && ex.ball.length) {
     polyline(svg, ex.ball.map(([x, y]) => [f.x(x), f.y(y)]), { stroke: COLOURS.ball, "stroke-dasharray": "5 3", "stroke-width": 1.5 });
-    const [bx, by] = ex.ball[ex.ball.length - 1];
+    const [sx, sy] = ex.ball[0], [bx, by] = ex.ball[ex.ball.length - 1];
+    el(svg, "circle", { cx: f.x(sx), cy: f.y(sy), r: 4, fill: "#fff", stroke: COLOURS.ball, "stroke-width": 1.5 });
     el(svg, "circle", { cx: f.x(bx), cy: f.y(by), r: 5, fill: COLOURS.ball });
     if (ex.arena) el(svg, "circle", { cx: f.x(bx), cy: f.y(by), r: ex.arena.capture_m * f.k, fill: "none", stroke: COLOURS.ball, "stroke-opacity": 0.5 });
     el(svg, "text", { x: f.x(bx) + 8, y: f.y(by) + 14, fill: COLOURS.ball }, "ball");
@@ -193,6 +196,9 @@ function drawActions(ex) {
       preview.source_index.forEach((src, j) => el(svg, "circle", { cx: tf.x(ex.t[src]), cy: y(extra[j]), r: 2.2, fill: COLOURS.after }));
     }
   });
+  if (preview && preview.execution === ex.index && preview.space === "action") {
+    legend(svg, vb.width - 170, 12, [["executed", COLOURS.path], ["preview: " + preview.invocation.split("(")[0], COLOURS.after]]);
+  }
   const t0 = ex.t[0] || 0, t1 = ex.t[ex.t.length - 1] || 0, step = niceStep(t1 - t0);
   for (let s = Math.ceil(t0 / step) * step; s <= t1 + 1e-9; s += step) {
     el(svg, "text", { x: tf.x(s), y: vb.height - 4, "text-anchor": "middle" }, `${+s.toFixed(1)} s`);
