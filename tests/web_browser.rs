@@ -125,7 +125,10 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
         Duration::from_secs(1200),
     );
     let names: Vec<&str> = steps.iter().map(|s| s["step"].as_str().unwrap()).collect();
-    assert_eq!(names, ["loaded", "run", "select", "preview", "advise", "undo", "eval"]);
+    assert_eq!(
+        names,
+        ["loaded", "run", "select", "preview", "advise", "undo", "eval", "error"]
+    );
     let at = |name: &str| &steps.iter().find(|s| s["step"] == name).unwrap()["state"];
     // What the REPL side typed before the page opened is in the page's log too.
     assert_eq!(statements(at("loaded")).len(), setup.len());
@@ -163,12 +166,22 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     let ev = at("eval");
     assert_eq!(ev["evals"].as_array().unwrap().len(), 1);
     assert_eq!(statements(ev).last().unwrap(), "eval");
-    for s in &steps {
+    for s in &steps[..steps.len() - 1] {
         assert_eq!(s["state"]["error_shown"], false, "no error at {}", s["step"]);
     }
-    // The hub's own log: every statement the page ran came from the page, and all succeeded.
+    // A statement the session refuses shows its diagnostic in the page: code, message, help.
+    let err = at("error");
+    assert_eq!(err["error_shown"], true);
+    let text = err["error_text"].as_str().unwrap();
     let log = hub.log();
-    assert!(log.iter().skip(setup.len()).all(|l| l.from == "page" && l.ok), "{log:?}");
+    let refused = log.last().unwrap();
+    assert!(!refused.ok && refused.statement == "advise no_such_operator(1)");
+    assert!(text.contains("advise::") && text.contains("no_such_operator"), "{text}");
+    assert_eq!(text.trim(), refused.reply.trim(), "the page shows the session's diagnostic");
+    // The hub's own log: every statement the page ran came from the page; all but the last
+    // succeeded.
+    let page = &log[setup.len()..log.len() - 1];
+    assert!(page.iter().all(|l| l.from == "page" && l.ok), "{log:?}");
     // What the task draws reached the page.
     assert!(!ran["drawn"].as_array().unwrap().is_empty() || ran["ball"] == true);
 }

@@ -71,6 +71,7 @@ def report(driver, outdir, label, step, s):
     brief["drawn"] = [d["name"] for d in (s["shown"] or {}).get("drawn", [])]
     brief["ball"] = bool((s["shown"] or {}).get("ball"))
     brief["error_shown"] = driver.find_element(By.ID, "error").is_displayed()
+    brief["error_text"] = driver.find_element(By.ID, "error").text
     brief["preview_text"] = driver.find_element(By.ID, "previewtext").text
     print(json.dumps({"step": step, "state": brief}), flush=True)
 
@@ -131,6 +132,13 @@ def flow(url, outdir, label, run, operator):
         s = until(url, "the eval", lambda s: s["evals"], 600)
         WebDriverWait(driver, 10).until(lambda d: d.find_element(By.ID, "evaltext").text)
         report(driver, outdir, label, "eval", s)
+
+        box = driver.find_element(By.ID, "stmt")
+        box.send_keys("advise no_such_operator(1)")
+        driver.find_element(By.XPATH, "//button[text()='Do']").click()
+        WebDriverWait(driver, 20).until(lambda d: d.find_element(By.ID, "error").is_displayed())
+        REPORTED[0] = len(s["log"]) + 1  # this statement is meant to fail
+        report(driver, outdir, label, "error", state(url))
     finally:
         driver.quit()
 
