@@ -28,6 +28,7 @@ function el(parent, name, attrs = {}, text) {
 /** Show `text` (a diagnostic as the session renders it: code, message, help) or hide the box. */
 function showError(text) {
   $("error").hidden = !text;
+  $("error").title = "click to dismiss";
   $("error").textContent = text || "";
 }
 
@@ -144,13 +145,13 @@ function drawPath(ex) {
   }
   if (preview && preview.execution === ex.index) {
     const [a, b] = preview.chunk;
-    const mid = screen[Math.min(Math.floor((a + b) / 2), screen.length - 1)];
-    if (mid) el(svg, "text", { x: mid[0] + 10, y: mid[1] + 16, fill: COLOURS.after }, `preview: ${preview.invocation}`);
+    el(svg, "text", { x: vb.width - 8, y: vb.height - 8, "text-anchor": "end", fill: COLOURS.after, class: "label" }, `preview: ${preview.invocation} on ${a}..${b}, drawn on the actions below`);
   }
   legend(svg, vb.width - 150, 16, [["path", COLOURS.path], ["selection", COLOURS.sel], ["critiqued", COLOURS.flagged], ["advised", COLOURS.advised]]);
 }
 
 function legend(svg, x, y, items) {
+  el(svg, "rect", { x: x - 4, y: y - 12, width: 160, height: 15 * items.length + 4, fill: "#fff", "fill-opacity": 0.85 });
   items.forEach(([name, colour], i) => {
     el(svg, "rect", { x, y: y + i * 15 - 8, width: 14, height: 8, fill: colour, "fill-opacity": 0.8 });
     el(svg, "text", { x: x + 20, y: y + i * 15 }, name);
@@ -433,6 +434,7 @@ function dropPreview() {
 }
 $("advise").onclick = () => { const inv = invocation(); dropPreview(); if (inv) run(`advise ${inv}`); };
 $("critique").onclick = () => { dropPreview(); run($("directional").checked ? "critique --directional" : "critique"); };
+$("error").onclick = () => showError("");
 $("undo").onclick = () => run("undo");
 $("redo").onclick = () => run("redo");
 $("eval").onclick = () => run("eval");
