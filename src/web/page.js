@@ -143,10 +143,6 @@ function drawPath(ex) {
     const [lx, ly] = screen[screen.length - 1];
     el(svg, "rect", { x: lx - 4, y: ly - 4, width: 8, height: 8, fill: COLOURS.path });
   }
-  if (preview && preview.execution === ex.index) {
-    const [a, b] = preview.chunk;
-    el(svg, "text", { x: vb.width - 8, y: vb.height - 8, "text-anchor": "end", fill: COLOURS.after, class: "label" }, `preview: ${preview.invocation} on ${a}..${b}, drawn on the actions below`);
-  }
   legend(svg, vb.width - 150, 16, [["path", COLOURS.path], ["selection", COLOURS.sel], ["critiqued", COLOURS.flagged], ["advised", COLOURS.advised]]);
 }
 
@@ -367,7 +363,8 @@ function drawSide() {
   $("outcome").textContent = S.shown ? S.shown.outcome || "" : "";
   const sel = S.shown && S.shown.selection;
   $("seltext").className = sel ? "hint on" : "hint";
-  $("seltext").textContent = sel ? `select ${sel[0]}..${sel[1]} in ${S.shown.index}   (${sel[1] - sel[0]} points)` : "Drag over the path or the actions to select a chunk; click a point to ask why; shift-click the plane to set a goal.";
+  const previewed = preview && preview.space === "action" ? ` · preview ${preview.invocation} in orange on the actions` : "";
+  $("seltext").textContent = sel ? `select ${sel[0]}..${sel[1]} in ${S.shown.index}   (${sel[1] - sel[0]} points)${previewed}` : "Drag over the path or the actions to select a chunk; click a point to ask why; shift-click the plane to set a goal.";
   $("history").replaceChildren(...S.history.map((h) => {
     const li = document.createElement("li");
     li.value = h.number;
