@@ -127,7 +127,10 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     let names: Vec<&str> = steps.iter().map(|s| s["step"].as_str().unwrap()).collect();
     assert_eq!(
         names,
-        ["loaded", "run", "select", "preview", "advise", "undo", "eval", "error"]
+        [
+            "loaded", "run", "select", "preview", "why", "advise", "undo", "eval", "event",
+            "error"
+        ]
     );
     let at = |name: &str| &steps.iter().find(|s| s["step"] == name).unwrap()["state"];
     // What the REPL side typed before the page opened is in the page's log too.
@@ -154,6 +157,12 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     assert_eq!(pre["points"], ran["points"]);
     assert!(at("preview")["preview_text"].as_str().unwrap().contains("points"));
 
+    // A click on a point (no drag) asks why the policy acts there, and changes nothing.
+    let why = at("why");
+    assert!(statements(why).last().unwrap().starts_with("why "));
+    assert_eq!(why["selection"], at("select")["selection"]);
+    assert!(why["history"].as_array().unwrap().is_empty());
+
     let adv = at("advise");
     assert_eq!(adv["history"].as_array().unwrap().len(), 1);
     assert!(adv["points"].as_u64() > ran["points"].as_u64(), "advice adds points");
@@ -166,6 +175,9 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     let ev = at("eval");
     assert_eq!(ev["evals"].as_array().unwrap().len(), 1);
     assert_eq!(statements(ev).last().unwrap(), "eval");
+    // A statement from outside the page (here over HTTP, as the REPL's would) reached it by
+    // the event stream.
+    assert_eq!(statements(at("event")).last().unwrap(), "history");
     for s in &steps[..steps.len() - 1] {
         assert_eq!(s["state"]["error_shown"], false, "no error at {}", s["step"]);
     }
@@ -182,6 +194,7 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     // succeeded.
     let page = &log[setup.len()..log.len() - 1];
     assert!(page.iter().all(|l| l.from == "page" && l.ok), "{log:?}");
+    assert_eq!(page.len(), statements(at("event")).len() - setup.len());
     // What the task draws reached the page.
     assert!(!ran["drawn"].as_array().unwrap().is_empty() || ran["ball"] == true);
 }

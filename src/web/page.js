@@ -264,6 +264,11 @@ function selecting(svg) {
     const [a, b] = [Math.min(drag.a, drag.b), Math.max(drag.a, drag.b)];
     drag = null;
     if (a === b) {
+      if (S.shown.index !== S.current) {
+        $("why").hidden = false;
+        $("why").textContent = `why explains points of the current execution (${S.current}); this is execution ${S.shown.index}.`;
+        return;
+      }
       const r = await run(`why ${a}`);
       $("why").hidden = !(r && r.ok);
       if (r && r.ok) $("why").textContent = r.reply;

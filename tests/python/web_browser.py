@@ -90,6 +90,13 @@ def drag_over_path(driver, a, b):
     actions.perform()
 
 
+def click_on_path(driver, i):
+    x, y = driver.execute_script("return pathPointOnScreen(arguments[0])", i)
+    actions = ActionBuilder(driver)
+    actions.pointer_action.move_to_location(int(x), int(y)).pointer_down().pointer_up()
+    actions.perform()
+
+
 def flow(url, outdir, label, run, operator):
     driver = browser()
     try:
@@ -120,6 +127,11 @@ def flow(url, outdir, label, run, operator):
             lambda d: d.find_element(By.ID, "previewtext").text.startswith("preview "))
         report(driver, outdir, label, "preview", state(url))
 
+        click_on_path(driver, n // 3)
+        s = until(url, "why", lambda s: s["log"][-1]["statement"].startswith("why "), 30)
+        WebDriverWait(driver, 10).until(lambda d: d.find_element(By.ID, "why").is_displayed())
+        report(driver, outdir, label, "why", s)
+
         driver.find_element(By.ID, "advise").click()
         s = until(url, "the advice", lambda s: s["history"], 120)
         report(driver, outdir, label, "advise", s)
@@ -132,6 +144,13 @@ def flow(url, outdir, label, run, operator):
         s = until(url, "the eval", lambda s: s["evals"], 600)
         WebDriverWait(driver, 10).until(lambda d: d.find_element(By.ID, "evaltext").text)
         report(driver, outdir, label, "eval", s)
+
+        # Another client (the REPL's side) runs a statement: the page shows it without being asked.
+        post = url.replace("/?token=", "/api/statement?token=")
+        urllib.request.urlopen(urllib.request.Request(post, data=b"history", method="POST"), timeout=30)
+        WebDriverWait(driver, 20).until(
+            lambda d: "> history" in d.find_element(By.ID, "log").text.replace("\n", " "))
+        report(driver, outdir, label, "event", state(url))
 
         box = driver.find_element(By.ID, "stmt")
         box.send_keys("advise no_such_operator(1)")
