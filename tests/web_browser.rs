@@ -31,7 +31,8 @@ fn required() -> bool {
 fn chromium() -> Result<(), String> {
     static INSTALLING: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _one = INSTALLING.lock().unwrap_or_else(|e| e.into_inner());
-    let have = || Path::new("/usr/bin/chromium").exists() && Path::new("/usr/bin/chromedriver").exists();
+    let have =
+        || Path::new("/usr/bin/chromium").exists() && Path::new("/usr/bin/chromedriver").exists();
     if have() {
         return Ok(());
     }
@@ -40,21 +41,32 @@ fn chromium() -> Result<(), String> {
     }
     python::run(
         Command::new("apt-get")
-            .args(["install", "-y", "--no-install-recommends", "chromium", "chromium-driver"])
+            .args([
+                "install",
+                "-y",
+                "--no-install-recommends",
+                "chromium",
+                "chromium-driver",
+            ])
             .env("DEBIAN_FRONTEND", "noninteractive"),
         Duration::from_secs(900),
     )?;
-    if have() { Ok(()) } else { Err("apt-get ran but /usr/bin/chromium or chromedriver is missing".into()) }
+    if have() {
+        Ok(())
+    } else {
+        Err("apt-get ran but /usr/bin/chromium or chromedriver is missing".into())
+    }
 }
 
 /// The venv's Python with Selenium, once Chromium is there; `None` (printed) to skip.
 fn peer() -> Option<PathBuf> {
-    let made = chromium().and_then(|()| {
-        python::venv("web", &PACKAGES, "import selenium.webdriver")
-    });
+    let made =
+        chromium().and_then(|()| python::venv("web", &PACKAGES, "import selenium.webdriver"));
     match made {
         Ok(p) => Some(p),
-        Err(why) if required() => panic!("ADVISE_REQUIRE_PEERS=1, but the browser cannot be had: {why}"),
+        Err(why) if required() => {
+            panic!("ADVISE_REQUIRE_PEERS=1, but the browser cannot be had: {why}")
+        }
         Err(why) => {
             eprintln!("skipping: no headless Chromium with Selenium ({why})");
             None
@@ -87,7 +99,9 @@ fn drive(python: &Path, label: &str, args: &[&str], limit: Duration) -> Vec<Valu
         "the browser's driver failed ({status:?}):\n{text}\n{}",
         std::fs::read_to_string(&err).unwrap_or_default()
     );
-    text.lines().map(|l| serde_json::from_str(l).unwrap()).collect()
+    text.lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
 }
 
 fn session(setup: &[&str]) -> Hub {
@@ -121,15 +135,21 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     let steps = drive(
         &python,
         label,
-        &["flow", &server.url, shots().to_str().unwrap(), label, run, operator],
+        &[
+            "flow",
+            &server.url,
+            shots().to_str().unwrap(),
+            label,
+            run,
+            operator,
+        ],
         Duration::from_secs(1200),
     );
     let names: Vec<&str> = steps.iter().map(|s| s["step"].as_str().unwrap()).collect();
     assert_eq!(
         names,
         [
-            "loaded", "run", "select", "preview", "why", "advise", "undo", "eval", "event",
-            "error"
+            "loaded", "run", "select", "preview", "why", "advise", "undo", "eval", "event", "error"
         ]
     );
     let at = |name: &str| &steps.iter().find(|s| s["step"] == name).unwrap()["state"];
@@ -146,16 +166,35 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     let n = ran["executions"][0]["points"].as_u64().unwrap();
     assert!(a < b && b <= n, "{sel} of {n} points");
     // The drag went from a quarter to half of the path: the selection is about that.
-    assert!(a.abs_diff(n / 4) <= 2 && b.abs_diff(n / 2 + 1) <= 2, "{sel} of {n} points");
-    assert_eq!(statements(at("select")).last().unwrap(), &format!("select {a}..{b} in 0"));
+    assert!(
+        a.abs_diff(n / 4) <= 2 && b.abs_diff(n / 2 + 1) <= 2,
+        "{sel} of {n} points"
+    );
+    assert_eq!(
+        statements(at("select")).last().unwrap(),
+        &format!("select {a}..{b} in 0")
+    );
 
     let pre = at("preview");
     let last = pre["log"].as_array().unwrap().last().unwrap();
-    assert!(last["statement"].as_str().unwrap().starts_with(&format!("preview {operator}")));
+    assert!(
+        last["statement"]
+            .as_str()
+            .unwrap()
+            .starts_with(&format!("preview {operator}"))
+    );
     assert_eq!(last["ok"], true, "{last}");
-    assert!(pre["history"].as_array().unwrap().is_empty(), "a preview adds nothing");
+    assert!(
+        pre["history"].as_array().unwrap().is_empty(),
+        "a preview adds nothing"
+    );
     assert_eq!(pre["points"], ran["points"]);
-    assert!(at("preview")["preview_text"].as_str().unwrap().contains("points"));
+    assert!(
+        at("preview")["preview_text"]
+            .as_str()
+            .unwrap()
+            .contains("points")
+    );
 
     // A click on a point (no drag) asks why the policy acts there, and changes nothing.
     let why = at("why");
@@ -165,8 +204,16 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
 
     let adv = at("advise");
     assert_eq!(adv["history"].as_array().unwrap().len(), 1);
-    assert!(adv["points"].as_u64() > ran["points"].as_u64(), "advice adds points");
-    assert!(statements(adv).last().unwrap().starts_with(&format!("advise {operator}")));
+    assert!(
+        adv["points"].as_u64() > ran["points"].as_u64(),
+        "advice adds points"
+    );
+    assert!(
+        statements(adv)
+            .last()
+            .unwrap()
+            .starts_with(&format!("advise {operator}"))
+    );
 
     let undo = at("undo");
     assert_eq!(undo["history"][0]["undone"], true);
@@ -179,7 +226,11 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     // the event stream.
     assert_eq!(statements(at("event")).last().unwrap(), "history");
     for s in &steps[..steps.len() - 1] {
-        assert_eq!(s["state"]["error_shown"], false, "no error at {}", s["step"]);
+        assert_eq!(
+            s["state"]["error_shown"], false,
+            "no error at {}",
+            s["step"]
+        );
     }
     // A statement the session refuses shows its diagnostic in the page: code, message, help.
     let err = at("error");
@@ -188,8 +239,15 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     let log = hub.log();
     let refused = log.last().unwrap();
     assert!(!refused.ok && refused.statement == "advise no_such_operator(1)");
-    assert!(text.contains("advise::") && text.contains("no_such_operator"), "{text}");
-    assert_eq!(text.trim(), refused.reply.trim(), "the page shows the session's diagnostic");
+    assert!(
+        text.contains("advise::") && text.contains("no_such_operator"),
+        "{text}"
+    );
+    assert_eq!(
+        text.trim(),
+        refused.reply.trim(),
+        "the page shows the session's diagnostic"
+    );
     // The hub's own log: every statement the page ran came from the page; all but the last
     // succeeded.
     let page = &log[setup.len()..log.len() - 1];
@@ -207,12 +265,26 @@ fn the_teacher_flow_on_positioning() {
 #[test]
 fn the_teacher_flow_on_standoff() {
     let file = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/tasks/standoff.adv");
-    flow("standoff", &[&format!("tasks {file}"), "task standoff", "load demos teacher:1"], "goal 2.5 0.5", "creep");
+    flow(
+        "standoff",
+        &[
+            &format!("tasks {file}"),
+            "task standoff",
+            "load demos teacher:1",
+        ],
+        "goal 2.5 0.5",
+        "creep",
+    );
 }
 
 #[test]
 fn the_teacher_flow_on_interception() {
-    flow("interception", &["task interception", "load demos teacher:1"], "start 3", "slow_down");
+    flow(
+        "interception",
+        &["task interception", "load demos teacher:1"],
+        "start 3",
+        "slow_down",
+    );
 }
 
 #[test]
@@ -220,7 +292,12 @@ fn the_page_without_its_token_gets_nothing() {
     let Some(python) = peer() else { return };
     let hub = session(&[]);
     let server = start(hub.clone(), "127.0.0.1:0".parse().unwrap()).unwrap();
-    let got = drive(&python, "notoken", &["notoken", &server.url, shots().to_str().unwrap()], Duration::from_secs(120));
+    let got = drive(
+        &python,
+        "notoken",
+        &["notoken", &server.url, shots().to_str().unwrap()],
+        Duration::from_secs(120),
+    );
     let source = got[0]["source"].as_str().unwrap();
     assert!(!source.contains("/api/"), "{source}");
     assert!(!source.contains("<svg"), "{source}");
