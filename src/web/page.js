@@ -13,6 +13,7 @@ let viewed = null; // the execution the page shows (null: the session's current 
 let drag = null; // {a, b}: the point indices of a drag in progress
 let preview = null; // the last preview's data
 let previewTimer = null;
+let overlay = null; // {index, path}: another execution drawn under the shown one (`plot compare`)
 
 /** An SVG element with attributes, appended to `parent`. */
 function el(parent, name, attrs = {}, text) {
@@ -70,6 +71,7 @@ function pathFrame(ex, w, h) {
   const xs = [], ys = [];
   const add = (x, y) => { if (isFinite(x) && isFinite(y)) { xs.push(x); ys.push(y); } };
   ex.path.forEach(([x, y]) => add(x, y));
+  if (overlay) overlay.path.forEach(([x, y]) => add(x, y));
   (ex.ball || []).forEach(([x, y]) => add(x, y));
   for (const d of ex.drawn) {
     const r = d.shape === "circle" ? d.values[2] : 0;
@@ -131,6 +133,9 @@ function drawPath(ex) {
     if (ex.arena) el(svg, "circle", { cx: f.x(bx), cy: f.y(by), r: ex.arena.capture_m * f.k, fill: "none", stroke: COLOURS.ball, "stroke-opacity": 0.5 });
     el(svg, "text", { x: f.x(bx) + 8, y: f.y(by) + 14, fill: COLOURS.ball }, "ball");
   }
+  if (overlay && overlay.index !== ex.index) {
+    polyline(svg, overlay.path.map(([x, y]) => [f.x(x), f.y(y)]), { class: "overlay", stroke: "#888", "stroke-width": 1.5, "stroke-dasharray": "6 3" });
+  }
   const screen = ex.path.map(([x, y]) => [f.x(x), f.y(y)]);
   const stretch = (c, colour, width, opacity) => polyline(svg, screen.slice(c[0], c[1]), { stroke: colour, "stroke-width": width, "stroke-opacity": opacity, "stroke-linecap": "round" });
   const sel = drag ? [Math.min(drag.a, drag.b), Math.max(drag.a, drag.b) + 1] : ex.selection;
@@ -143,7 +148,9 @@ function drawPath(ex) {
     const [lx, ly] = screen[screen.length - 1];
     el(svg, "rect", { x: lx - 4, y: ly - 4, width: 8, height: 8, fill: COLOURS.path });
   }
-  legend(svg, vb.width - 150, 16, [["path", COLOURS.path], ["selection", COLOURS.sel], ["critiqued", COLOURS.flagged], ["advised", COLOURS.advised]]);
+  const items = [["path", COLOURS.path], ["selection", COLOURS.sel], ["critiqued", COLOURS.flagged], ["advised", COLOURS.advised]];
+  if (overlay && overlay.index !== ex.index) items.push([`execution ${overlay.index}`, "#888"]);
+  legend(svg, vb.width - 150, 16, items);
 }
 
 function legend(svg, x, y, items) {
@@ -365,6 +372,11 @@ function drawSide() {
     ex.replaceChildren(...S.executions.map((e, i) => new Option(labels[i], e.index)));
   }
   if (S.shown) ex.value = S.shown.index;
+  const over = $("overlay");
+  if (over.options.length !== labels.length + 1) {
+    over.replaceChildren(new Option("none", ""), ...S.executions.map((e, i) => new Option(labels[i], e.index)));
+    over.value = overlay ? overlay.index : "";
+  }
   $("outcome").textContent = S.shown ? S.shown.outcome || "" : "";
   const sel = S.shown && S.shown.selection;
   $("seltext").className = sel ? "hint on" : "hint";
@@ -442,6 +454,16 @@ $("redo").onclick = () => run("redo");
 $("eval").onclick = () => run("eval");
 $("op").onchange = () => { drawParams(); schedulePreview(); };
 $("exec").onchange = () => { viewed = +$("exec").value; preview = null; run(`show ${viewed}`); };
+$("overlay").onchange = async () => {
+  const v = $("overlay").value;
+  overlay = null;
+  if (v !== "") {
+    const res = await fetch(api("/api/state", "&execution=" + v));
+    const other = res.ok ? (await res.json()).shown : null;
+    if (other) overlay = { index: other.index, path: other.path };
+  }
+  draw();
+};
 $("stop").onclick = async () => {
   const res = await fetch(api("/api/stop"), { method: "POST" });
   showError(res.ok ? "" : `Stop: HTTP ${res.status}`);
