@@ -149,7 +149,8 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     assert_eq!(
         names,
         [
-            "loaded", "run", "select", "preview", "why", "advise", "undo", "eval", "event", "error"
+            "loaded", "run", "select", "preview", "why", "advise", "undo", "eval", "compare",
+            "event", "error"
         ]
     );
     let at = |name: &str| &steps.iter().find(|s| s["step"] == name).unwrap()["state"];
@@ -222,6 +223,10 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
     let ev = at("eval");
     assert_eq!(ev["evals"].as_array().unwrap().len(), 1);
     assert_eq!(statements(ev).last().unwrap(), "eval");
+    // A second run from the page, shown over the first.
+    let cmp = at("compare");
+    assert_eq!(cmp["executions"].as_array().unwrap().len(), 2);
+    assert_eq!(statements(cmp).last().unwrap(), &format!("run {run}"));
     // A statement from outside the page (here over HTTP, as the REPL's would) reached it by
     // the event stream.
     assert_eq!(statements(at("event")).last().unwrap(), "history");
