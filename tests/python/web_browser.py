@@ -145,14 +145,6 @@ def flow(url, outdir, label, run, operator):
         WebDriverWait(driver, 10).until(lambda d: d.find_element(By.ID, "evaltext").text)
         report(driver, outdir, label, "eval", s)
 
-        # A second run, and the first drawn under it (as `plot compare 0 1`).
-        driver.find_element(By.XPATH, f"//button[text()='{button}']").click()
-        s = until(url, "the second run", lambda s: len(s["executions"]) == 2 and s["current"] == 1, 300)
-        WebDriverWait(driver, 20).until(lambda d: len(Select(d.find_element(By.ID, "overlay")).options) == 3)
-        Select(driver.find_element(By.ID, "overlay")).select_by_value("0")
-        WebDriverWait(driver, 20).until(lambda d: d.find_elements(By.CSS_SELECTOR, "#path polyline.overlay"))
-        report(driver, outdir, label, "compare", state(url))
-
         # Another client (the REPL's side) runs a statement: the page shows it without being asked.
         post = url.replace("/?token=", "/api/statement?token=")
         urllib.request.urlopen(urllib.request.Request(post, data=b"history", method="POST"), timeout=30)
@@ -166,6 +158,14 @@ def flow(url, outdir, label, run, operator):
         WebDriverWait(driver, 20).until(lambda d: d.find_element(By.ID, "error").is_displayed())
         REPORTED[0] = len(s["log"]) + 1  # this statement is meant to fail
         report(driver, outdir, label, "error", state(url))
+
+        # A second run, and the first drawn under it (as `plot compare 0 1`).
+        driver.find_element(By.XPATH, f"//button[text()='{button}']").click()
+        s = until(url, "the second run", lambda s: len(s["executions"]) == 2 and s["current"] == 1, 300)
+        WebDriverWait(driver, 20).until(lambda d: len(Select(d.find_element(By.ID, "overlay")).options) == 3)
+        Select(driver.find_element(By.ID, "overlay")).select_by_value("0")
+        WebDriverWait(driver, 20).until(lambda d: d.find_elements(By.CSS_SELECTOR, "#path polyline.overlay"))
+        report(driver, outdir, label, "compare", state(url))
     finally:
         driver.quit()
 
