@@ -39,18 +39,23 @@ fn chromium() -> Result<(), String> {
     if !Path::new("/usr/bin/apt-get").exists() {
         return Err("no /usr/bin/chromium and no apt-get to install it".into());
     }
-    python::run(
-        Command::new("apt-get")
-            .args([
-                "install",
-                "-y",
-                "--no-install-recommends",
-                "chromium",
-                "chromium-driver",
-            ])
-            .env("DEBIAN_FRONTEND", "noninteractive"),
-        Duration::from_secs(900),
-    )?;
+    let apt = |args: &[&str]| {
+        python::run(
+            Command::new("apt-get")
+                .args(args)
+                .env("DEBIAN_FRONTEND", "noninteractive"),
+            Duration::from_secs(900),
+        )
+    };
+    let install = [
+        "install",
+        "-y",
+        "--no-install-recommends",
+        "chromium",
+        "chromium-driver",
+    ];
+    // Package lists may be missing or stale: read them again once before giving up.
+    apt(&install).or_else(|_| apt(&["update"]).and_then(|()| apt(&install)))?;
     if have() {
         Ok(())
     } else {
