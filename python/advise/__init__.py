@@ -7,6 +7,8 @@ runs; nothing is recomputed in Python.
 - ``Operators(*files)``: the standard operators plus those of ``files``; ``apply`` runs one on
   numpy arrays.
 - ``BC``, ``LWR``: the paper's learners; ``fit`` and ``predict`` on numpy arrays.
+- ``gym.AdviseEnv``: the simulator as the Gymnasium environments ``advise/Positioning-v0`` and
+  ``advise/Interception-v0``, registered on import when gymnasium is installed.
 - ``AdviseError``: every refusal, with ``code`` (``advise::area::name``) and ``diagnostics``.
 """
 
@@ -16,9 +18,17 @@ from ._advise import (
     AdviseError,
     Diagnostic,
     Operators,
+    SimEnv,
     Span,
     check,
 )
+
+try:  # The Gymnasium environments, where gymnasium is installed.
+    from . import gym as _gym
+except ImportError:  # pragma: no cover - gymnasium is optional
+    _gym = None
+else:
+    _gym.register()
 
 __all__ = [
     "AdviseError",
@@ -26,6 +36,7 @@ __all__ = [
     "Diagnostic",
     "LWR",
     "Operators",
+    "SimEnv",
     "Span",
     "check",
 ]
