@@ -85,7 +85,8 @@ impl Diagnostic {
     pub fn all_of(map: &SourceMap, d: &dyn miette::Diagnostic, severity: &str) -> Vec<Diagnostic> {
         match d.related() {
             Some(related) => {
-                let v: Vec<Diagnostic> = related.map(|r| Diagnostic::of(map, r, severity)).collect();
+                let v: Vec<Diagnostic> =
+                    related.map(|r| Diagnostic::of(map, r, severity)).collect();
                 if v.is_empty() {
                     vec![Diagnostic::of(map, d, severity)]
                 } else {

@@ -27,6 +27,15 @@ pub struct SimEnv {
     episode: Option<Episode>,
 }
 
+/// What `step` returns: observation, reward, terminated, truncated, info (Gymnasium's order).
+type Transition<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    f64,
+    bool,
+    bool,
+    Bound<'py, PyDict>,
+);
+
 /// The episode under way.
 struct Episode {
     backend: SimBackend,
@@ -113,7 +122,7 @@ impl SimEnv {
         &mut self,
         py: Python<'py>,
         action: &Bound<'py, PyAny>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, f64, bool, bool, Bound<'py, PyDict>)> {
+    ) -> PyResult<Transition<'py>> {
         let np = py.import("numpy")?;
         let row = np.call_method1("reshape", (action, (1, -1)))?;
         let (mut a, _) = matrix(py, &row, "action", Some(self.domain.act_dim()))?;

@@ -116,12 +116,9 @@ impl Fitted {
     /// it (CSV, JSON, or a saved dataset).
     fn fit_file(&mut self, py: Python<'_>, path: &str) -> PyResult<()> {
         let mut files = SourceMap::new();
-        let demos = advise::policy::dataset::load_demonstrations(
-            &mut files,
-            &self.domain,
-            Path::new(path),
-        )
-        .map_err(|e| from_diag(py, &files, &e))?;
+        let demos =
+            advise::policy::dataset::load_demonstrations(&mut files, &self.domain, Path::new(path))
+                .map_err(|e| from_diag(py, &files, &e))?;
         self.derive(py, demos.episodes)
     }
 
@@ -156,6 +153,8 @@ impl Fitted {
 macro_rules! learner_class {
     ($name:ident, $kind:expr, $doc:literal) => {
         #[doc = $doc]
+        // The Python names of the paper's learners (`advise.BC`, `advise.LWR`).
+        #[allow(clippy::upper_case_acronyms)]
         #[pyclass(module = "advise")]
         pub struct $name(Fitted);
 

@@ -58,6 +58,13 @@ pub fn check(py: Python<'_>, path_or_text: &str) -> PyResult<Vec<Diagnostic>> {
     merge(py, &OperatorSet::standard(), &[path_or_text.to_string()]).map(|(_, w)| w)
 }
 
+/// What `apply` returns: the synthesized observations and actions, and the skipped mask.
+type Applied<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<bool>>,
+);
+
 /// A checked set of advice operators: the standard ones plus those of the given files or texts.
 #[pyclass(module = "advise", frozen)]
 pub struct Operators {
@@ -88,7 +95,12 @@ impl Operators {
     /// The names of the operators of `domain`.
     fn names(&self, py: Python<'_>, domain: &str) -> PyResult<Vec<String>> {
         self.domain_of(py, Some(domain), None)?;
-        Ok(self.set.operator_names(domain).into_iter().map(String::from).collect())
+        Ok(self
+            .set
+            .operator_names(domain)
+            .into_iter()
+            .map(String::from)
+            .collect())
     }
 
     /// apply(name, args, observations, actions, *, domain=None, task=None, chunk=None, times=None)
@@ -111,11 +123,7 @@ impl Operators {
         task: Option<&str>,
         chunk: Option<(usize, usize)>,
         times: Option<&Bound<'py, PyAny>>,
-    ) -> PyResult<(
-        Bound<'py, PyArray2<f64>>,
-        Bound<'py, PyArray2<f64>>,
-        Bound<'py, PyArray1<bool>>,
-    )> {
+    ) -> PyResult<Applied<'py>> {
         let domain = self.domain_of(py, domain, task)?;
         let trace = trace_of(py, &domain, observations, actions, times)?;
         let chunk = match chunk {
@@ -147,7 +155,12 @@ impl Operators {
 
 impl Operators {
     /// The domain named `domain`, or the domain of task `task` (exactly one of them).
-    fn domain_of(&self, py: Python<'_>, domain: Option<&str>, task: Option<&str>) -> PyResult<Domain> {
+    fn domain_of(
+        &self,
+        py: Python<'_>,
+        domain: Option<&str>,
+        task: Option<&str>,
+    ) -> PyResult<Domain> {
         domain_in(py, &self.set, domain, task)
     }
 }
@@ -246,7 +259,12 @@ pub fn trace_of(
     let mut trace = Trace::new(domain);
     for i in 0..n {
         let (od, ad) = (domain.obs_dim(), domain.act_dim());
-        trace.push(t[i], &z[i * od..(i + 1) * od], &a[i * ad..(i + 1) * ad], None);
+        trace.push(
+            t[i],
+            &z[i * od..(i + 1) * od],
+            &a[i * ad..(i + 1) * ad],
+            None,
+        );
     }
     Ok(trace)
 }
