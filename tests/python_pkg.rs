@@ -31,7 +31,14 @@ fn install_package(python: &Path) -> Result<(), String> {
     let _ = std::fs::remove_dir_all(&wheels);
     let mut build = Command::new(python);
     build
-        .args(["-m", "maturin", "build", "--profile", "dev", "--interpreter"])
+        .args([
+            "-m",
+            "maturin",
+            "build",
+            "--profile",
+            "dev",
+            "--interpreter",
+        ])
         .arg(python)
         .arg("--out")
         .arg(&wheels)
