@@ -9,6 +9,8 @@ runs; nothing is recomputed in Python.
 - ``BC``, ``LWR``: the paper's learners; ``fit`` and ``predict`` on numpy arrays.
 - ``gym.AdviseEnv``: the simulator as the Gymnasium environments ``advise/Positioning-v0`` and
   ``advise/Interception-v0``, registered on import when gymnasium is installed.
+- ``Session(task=..., backend="sim")``: a teaching session; ``execute(statement)`` returns
+  the reply as a dict.
 - ``AdviseError``: every refusal, with ``code`` (``advise::area::name``) and ``diagnostics``.
 """
 
@@ -18,6 +20,7 @@ from ._advise import (
     AdviseError,
     Diagnostic,
     Operators,
+    Session,
     SimEnv,
     Span,
     check,
@@ -36,6 +39,7 @@ __all__ = [
     "Diagnostic",
     "LWR",
     "Operators",
+    "Session",
     "SimEnv",
     "Span",
     "check",

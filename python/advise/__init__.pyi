@@ -5,6 +5,7 @@ from ._advise import (
     AdviseError as AdviseError,
     Diagnostic as Diagnostic,
     Operators as Operators,
+    Session as Session,
     SimEnv as SimEnv,
     Span as Span,
     check as check,

@@ -14,6 +14,7 @@ mod env;
 mod error;
 mod learn;
 mod ops;
+mod session;
 
 /// The module Python imports as `advise._advise` (re-exported by `advise/__init__.py`).
 #[pymodule]
@@ -27,5 +28,6 @@ fn _advise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<learn::BC>()?;
     m.add_class::<learn::LWR>()?;
     m.add_class::<env::SimEnv>()?;
+    m.add_class::<session::Session>()?;
     Ok(())
 }
