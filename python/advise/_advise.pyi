@@ -2,6 +2,8 @@
 
 from typing import Any, Mapping, Sequence
 
+from typing_extensions import Self
+
 import numpy as np
 import numpy.typing as npt
 
@@ -69,31 +71,27 @@ class Operators:
     ) -> tuple[Array, Array, npt.NDArray[np.bool_]]:
         """The synthesized observations and actions, and the mask of chunk points skipped."""
 
-class BC:
+class _Learner:
+    """What BC and LWR share (in these stubs only: the runtime classes are separate)."""
+
+    def __init__(self, *, task: str | None = None, domain: str | None = None, seed: int = 0) -> None: ...
+    def fit(
+        self, observations: npt.ArrayLike, actions: npt.ArrayLike, episodes: Sequence[int] | None = None
+    ) -> Self:
+        """Derive the policy from demonstrations (rows with one episode label form an episode)."""
+    def fit_file(self, path: str) -> Self:
+        """Derive the policy from a demonstrations file, read as `load demos FILE` reads it."""
+    def predict(self, observations: npt.ArrayLike) -> Array:
+        """The action for each row of observations; the GIL is released while it computes."""
+    def __len__(self) -> int: ...
+    @property
+    def domain(self) -> str: ...
+
+class BC(_Learner):
     """Binary Critiquing's learner: weighted 1-NN over range-scaled observations."""
 
-    def __init__(self, *, task: str | None = None, domain: str | None = None, seed: int = 0) -> None: ...
-    def fit(
-        self, observations: npt.ArrayLike, actions: npt.ArrayLike, episodes: Sequence[int] | None = None
-    ) -> BC: ...
-    def fit_file(self, path: str) -> BC: ...
-    def predict(self, observations: npt.ArrayLike) -> Array: ...
-    def __len__(self) -> int: ...
-    @property
-    def domain(self) -> str: ...
-
-class LWR:
+class LWR(_Learner):
     """A-OPI's learner: locally weighted regression, kernel tuned by cross-validation."""
-
-    def __init__(self, *, task: str | None = None, domain: str | None = None, seed: int = 0) -> None: ...
-    def fit(
-        self, observations: npt.ArrayLike, actions: npt.ArrayLike, episodes: Sequence[int] | None = None
-    ) -> LWR: ...
-    def fit_file(self, path: str) -> LWR: ...
-    def predict(self, observations: npt.ArrayLike) -> Array: ...
-    def __len__(self) -> int: ...
-    @property
-    def domain(self) -> str: ...
 
 class SimEnv:
     """One simulated episode of a built-in task, stepped from Python (see advise.gym)."""
