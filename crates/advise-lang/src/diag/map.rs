@@ -230,6 +230,13 @@ impl SourceMap {
         }
     }
 
+    /// The name and text of the source holding the global offset `at`, and `at` within that
+    /// text (for bindings that show a place as file, line and column).
+    pub fn local(&self, at: usize) -> Option<(&str, &str, usize)> {
+        self.find(at)
+            .map(|s| (s.name.as_str(), &*s.text, at - s.base))
+    }
+
     fn get(&self, id: SourceId) -> Option<&Entry> {
         let i = self.sources.binary_search_by_key(&id.0, |s| s.base).ok()?;
         Some(&self.sources[i])

@@ -1,0 +1,185 @@
+//! `advise._advise.SimEnv`: one simulated episode of a task, stepped from Python; the Gymnasium
+//! environments of `advise/gym.py` wrap it.
+//!
+//! A step is one iteration of [`advise::task::run_episode`]'s loop, in its order: the action
+//! clamped to the domain's limits, [`Task::command`], the base commanded and stepped,
+//! [`Task::advance`], then the next observation. Episode `index` of `seed` starts from the task's
+//! practice start `index` of `seed` on a simulator seeded with `episode_seed(seed, index)`: the
+//! episode `advise demo --seed SEED` records as `demo-INDEX`.
+
+use advise::backend::Backend;
+use advise::backend::sim::{SimBackend, SimParams};
+use advise::domain::Domain;
+use advise::task::{Ending, MAX_EPISODE_STEPS, Task, TaskKind, episode_seed};
+use numpy::{IntoPyArray, PyArray1};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::arrays::matrix;
+use crate::error::simple;
+
+/// The simulator of a built-in task (`positioning`, `interception`), stepped from Python.
+#[pyclass(module = "advise", unsendable)]
+pub struct SimEnv {
+    kind: TaskKind,
+    domain: Domain,
+    params: SimParams,
+    episode: Option<Episode>,
+}
+
+/// What `step` returns: observation, reward, terminated, truncated, info (Gymnasium's order).
+type Transition<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    f64,
+    bool,
+    bool,
+    Bound<'py, PyDict>,
+);
+
+/// The episode under way.
+struct Episode {
+    backend: SimBackend,
+    task: Box<dyn Task>,
+    state: advise::backend::BaseState,
+    steps: usize,
+    over: bool,
+}
+
+#[pymethods]
+impl SimEnv {
+    #[new]
+    fn new(py: Python<'_>, task: &str) -> PyResult<SimEnv> {
+        let kind = TaskKind::builtin(task).ok_or_else(|| {
+            simple(
+                py,
+                "advise::py::unknown_task",
+                format!("there is no built-in task `{task}`"),
+                "the simulator's tasks are `positioning` and `interception`",
+            )
+        })?;
+        Ok(SimEnv {
+            domain: kind.domain(),
+            kind,
+            params: SimParams::default(),
+            episode: None,
+        })
+    }
+
+    /// The observation's dimension.
+    #[getter]
+    fn obs_dim(&self) -> usize {
+        self.domain.obs_dim()
+    }
+
+    /// Each action dimension's (low, high) limits.
+    fn action_limits(&self) -> Vec<(f64, f64)> {
+        self.domain
+            .act
+            .iter()
+            .map(|d| d.limits.map_or((f64::MIN, f64::MAX), |l| (l.lo, l.hi)))
+            .collect()
+    }
+
+    /// The control period, seconds.
+    #[getter]
+    fn period_s(&self) -> f64 {
+        self.params.period_s()
+    }
+
+    /// reset(seed, index) -> observation: start episode `index` of `seed`.
+    fn reset<'py>(
+        &mut self,
+        py: Python<'py>,
+        seed: u64,
+        index: u64,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let start = self
+            .kind
+            .practice_start(seed, index)
+            .map_err(|e| crate::error::from_diag(py, &advise::diag::SourceMap::new(), &e))?;
+        let mut backend = SimBackend::new(self.params.clone(), episode_seed(seed, index));
+        let mut task = start.task();
+        let state = backend
+            .reset(task.start())
+            .map_err(|e| crate::error::from_diag(py, &advise::diag::SourceMap::new(), &e))?;
+        task.begin(&state);
+        let ep = Episode {
+            backend,
+            task,
+            state,
+            steps: 0,
+            over: false,
+        };
+        let z = observe(&self.domain, &ep);
+        self.episode = Some(ep);
+        Ok(z.into_pyarray(py))
+    }
+
+    /// step(action) -> (observation, reward, terminated, truncated, info)
+    ///
+    /// The reward is 1 at the end of a successful episode, else 0.
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        action: &Bound<'py, PyAny>,
+    ) -> PyResult<Transition<'py>> {
+        let np = py.import("numpy")?;
+        let row = np.call_method1("reshape", (action, (1, -1)))?;
+        let (mut a, _) = matrix(py, &row, "action", Some(self.domain.act_dim()))?;
+        let domain = &self.domain;
+        let Some(ep) = self.episode.as_mut().filter(|e| !e.over) else {
+            return Err(simple(
+                py,
+                "advise::py::not_reset",
+                "the episode is over or was never started".into(),
+                "call `reset()` first",
+            ));
+        };
+        for (v, dim) in a.iter_mut().zip(&domain.act) {
+            if let Some(l) = dim.limits {
+                *v = l.clamp(*v);
+            }
+        }
+        let (speed, rot) = ep.task.command(&ep.state, &a);
+        let dt = ep.backend.period_s();
+        let stepped = ep
+            .backend
+            .command(speed, rot)
+            .and_then(|()| ep.backend.step());
+        ep.state = stepped.map_err(|e| crate::error::from_diag(py, &Default::default(), &e))?;
+        ep.steps += 1;
+        let truth = ep.backend.true_pose();
+        let mut ending = ep.task.advance(dt, &ep.state, truth);
+        let z = observe(domain, ep);
+        if ending.is_none() && z.iter().any(|v| !v.is_finite()) {
+            ending = Some(Ending::NonFinite);
+        }
+        let truncated = ending == Some(Ending::TimeLimit)
+            || (ending.is_none() && ep.steps >= MAX_EPISODE_STEPS);
+        let info = PyDict::new(py);
+        let mut reward = 0.0;
+        if let Some(end) = ending {
+            let score = ep.task.score(end, truth.unwrap_or(ep.state.pose));
+            let success = score.success && end != Ending::NonFinite;
+            reward = if success { 1.0 } else { 0.0 };
+            info.set_item("ending", format!("{end:?}"))?;
+            info.set_item("success", success)?;
+            info.set_item("position_error_m", score.position_error_m)?;
+        }
+        ep.over = ending.is_some() || truncated;
+        Ok((
+            z.into_pyarray(py),
+            reward,
+            ending.is_some() && !truncated,
+            truncated,
+            info,
+        ))
+    }
+}
+
+/// The task's observation of the episode's current state.
+fn observe(domain: &Domain, ep: &Episode) -> Vec<f64> {
+    let mut z = vec![0.0; domain.obs_dim()];
+    ep.task.observe(&ep.state, &mut z);
+    z
+}

@@ -1,0 +1,238 @@
+//! `advise.BC` and `advise.LWR`: the learners of the paper on numpy arrays, derived exactly as a
+//! session derives them (`load demos`: [`Learner::new`] then the demonstrations added), so that
+//! their predictions equal the command line's to the bit.
+
+use std::path::Path;
+
+use advise::check::OperatorSet;
+use advise::diag::SourceMap;
+use advise::domain::Domain;
+use advise::policy::Policy as _;
+use advise::policy::learner::{Learner, LearnerKind};
+use advise::trace::Episode;
+use numpy::PyArray2;
+use pyo3::prelude::*;
+
+use crate::arrays::{matrix, to_numpy};
+use crate::error::{from_diag, simple};
+use crate::ops::{domain_in, trace_of};
+
+/// What BC and LWR share: the domain and, once fitted, the learner.
+struct Fitted {
+    kind: LearnerKind,
+    domain: Domain,
+    seed: u64,
+    learner: Option<Learner>,
+}
+
+impl Fitted {
+    fn new(
+        py: Python<'_>,
+        kind: LearnerKind,
+        domain: Option<&str>,
+        task: Option<&str>,
+        seed: u64,
+    ) -> PyResult<Fitted> {
+        let domain = domain_in(py, &OperatorSet::standard(), domain, task)?;
+        Ok(Fitted {
+            kind,
+            domain,
+            seed,
+            learner: None,
+        })
+    }
+
+    /// Derive from `episodes` as a session's `load demos` does.
+    fn derive(&mut self, py: Python<'_>, episodes: Vec<Episode>) -> PyResult<()> {
+        let (domain, kind, seed) = (&self.domain, self.kind, self.seed);
+        let learner = py
+            .detach(|| {
+                let mut l = Learner::new(domain, kind, seed);
+                l.add_demonstrations_owned(episodes).map(|_| l)
+            })
+            .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
+        self.learner = Some(learner);
+        Ok(())
+    }
+
+    /// The demonstrations of arrays: rows with the same label in `episodes` (contiguous) form one
+    /// episode, named after the label; no labels is one episode.
+    fn fit(
+        &mut self,
+        py: Python<'_>,
+        observations: &Bound<'_, PyAny>,
+        actions: &Bound<'_, PyAny>,
+        episodes: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<()> {
+        let trace = trace_of(py, &self.domain, observations, actions, None)?;
+        let labels: Vec<i64> = match episodes {
+            None => vec![0; trace.len()],
+            Some(e) => {
+                let l: Vec<i64> = e.extract().map_err(|_| {
+                    simple(
+                        py,
+                        "advise::py::bad_argument",
+                        "`episodes` is not a sequence of integers".into(),
+                        "one integer episode label per row",
+                    )
+                })?;
+                if l.len() != trace.len() {
+                    return Err(simple(
+                        py,
+                        "advise::py::shape",
+                        format!("{} episode labels for {} rows", l.len(), trace.len()),
+                        "one integer episode label per row",
+                    ));
+                }
+                l
+            }
+        };
+        let mut eps: Vec<Episode> = Vec::new();
+        let mut start = 0;
+        for end in 1..=labels.len() {
+            if end == labels.len() || labels[end] != labels[start] {
+                eps.push(Episode {
+                    name: format!("episode-{}", labels[start]),
+                    trace: trace.slice(
+                        advise::trace::Chunk::new(start, end, trace.len())
+                            .expect("start < end <= len"),
+                    ),
+                });
+                start = end;
+            }
+        }
+        if eps.is_empty() {
+            return Err(simple(
+                py,
+                "advise::trace::no_demonstrations",
+                "no rows to fit".into(),
+                "pass at least one demonstrated point",
+            ));
+        }
+        self.derive(py, eps)
+    }
+
+    /// The demonstrations of a file, read as `load demos FILE` and `advise eval --dataset` read
+    /// it (CSV, JSON, or a saved dataset).
+    fn fit_file(&mut self, py: Python<'_>, path: &str) -> PyResult<()> {
+        let mut files = SourceMap::new();
+        let demos =
+            advise::policy::dataset::load_demonstrations(&mut files, &self.domain, Path::new(path))
+                .map_err(|e| from_diag(py, &files, &e))?;
+        self.derive(py, demos.episodes)
+    }
+
+    /// The action for each row of `observations`, computed without the GIL.
+    fn predict<'py>(
+        &self,
+        py: Python<'py>,
+        observations: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let Some(learner) = &self.learner else {
+            return Err(simple(
+                py,
+                "advise::py::not_fitted",
+                format!("this {} learner has no data", self.kind.name()),
+                "call `fit(observations, actions)` or `fit_file(path)` first",
+            ));
+        };
+        let (od, ad) = (self.domain.obs_dim(), self.domain.act_dim());
+        let (z, n) = matrix(py, observations, "observations", Some(od))?;
+        let a = py.detach(|| {
+            let mut a = vec![0.0; n * ad];
+            for (zi, ai) in z.chunks_exact(od).zip(a.chunks_exact_mut(ad)) {
+                learner.act(zi, ai);
+            }
+            a
+        });
+        to_numpy(py, a, n, ad)
+    }
+}
+
+/// One learner class per kind: the same methods over [`Fitted`].
+macro_rules! learner_class {
+    ($name:ident, $kind:expr, $doc:literal) => {
+        #[doc = $doc]
+        // The Python names of the paper's learners (`advise.BC`, `advise.LWR`).
+        #[allow(clippy::upper_case_acronyms)]
+        #[pyclass(module = "advise")]
+        pub struct $name(Fitted);
+
+        #[pymethods]
+        impl $name {
+            #[new]
+            #[pyo3(signature = (*, task=None, domain=None, seed=0))]
+            fn new(
+                py: Python<'_>,
+                task: Option<&str>,
+                domain: Option<&str>,
+                seed: u64,
+            ) -> PyResult<Self> {
+                Fitted::new(py, $kind, domain, task, seed).map($name)
+            }
+
+            /// fit(observations, actions, episodes=None) -> self
+            ///
+            /// Derive the policy from demonstrations: `observations` (n, obs_dim) and `actions`
+            /// (n, act_dim); `episodes` labels each row's episode (contiguous), default one.
+            #[pyo3(signature = (observations, actions, episodes=None))]
+            fn fit<'py>(
+                mut slf: PyRefMut<'py, Self>,
+                observations: &Bound<'py, PyAny>,
+                actions: &Bound<'py, PyAny>,
+                episodes: Option<&Bound<'py, PyAny>>,
+            ) -> PyResult<PyRefMut<'py, Self>> {
+                let py = slf.py();
+                slf.0.fit(py, observations, actions, episodes)?;
+                Ok(slf)
+            }
+
+            /// fit_file(path) -> self
+            ///
+            /// Derive the policy from a demonstrations file (CSV, JSON, a saved dataset), read
+            /// as `load demos FILE` reads it.
+            fn fit_file<'py>(
+                mut slf: PyRefMut<'py, Self>,
+                path: &str,
+            ) -> PyResult<PyRefMut<'py, Self>> {
+                let py = slf.py();
+                slf.0.fit_file(py, path)?;
+                Ok(slf)
+            }
+
+            /// predict(observations) -> actions
+            ///
+            /// The policy's action for each row of `observations` (n, obs_dim), as an
+            /// (n, act_dim) array; the GIL is released while it computes.
+            fn predict<'py>(
+                &self,
+                py: Python<'py>,
+                observations: &Bound<'py, PyAny>,
+            ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+                self.0.predict(py, observations)
+            }
+
+            /// The number of data points the policy holds.
+            fn __len__(&self) -> usize {
+                self.0.learner.as_ref().map_or(0, Learner::len)
+            }
+
+            /// The domain's name.
+            #[getter]
+            fn domain(&self) -> String {
+                self.0.domain.name.clone()
+            }
+        }
+    };
+}
+
+learner_class!(
+    BC,
+    LearnerKind::Bc,
+    "Binary Critiquing's learner: weighted 1-nearest-neighbour over range-scaled observations."
+);
+learner_class!(
+    LWR,
+    LearnerKind::Lwr,
+    "A-OPI's learner: locally weighted regression, its kernel tuned by cross-validation."
+);

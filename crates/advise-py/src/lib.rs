@@ -1,0 +1,33 @@
+//! `advise._advise`: the Python face of advise (issue 38). Thin bindings over the workspace's own
+//! APIs: the language's check and interpreter ([`ops`]), the learners ([`learn`]) and the
+//! simulator ([`env`]); nothing is computed here that the command line computes elsewhere.
+//!
+//! Every refusal is an `advise.AdviseError` carrying the `advise::` code of the diagnostic and
+//! the diagnostics themselves ([`error`]), never a panic: arrays are checked for shape and
+//! finiteness here before they reach code that asserts them.
+
+use pyo3::prelude::*;
+
+mod arrays;
+mod diag;
+mod env;
+mod error;
+mod learn;
+mod ops;
+mod session;
+
+/// The module Python imports as `advise._advise` (re-exported by `advise/__init__.py`).
+#[pymodule]
+fn _advise(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("AdviseError", py.get_type::<error::AdviseError>())?;
+    m.add_class::<diag::Diagnostic>()?;
+    m.add_class::<diag::Span>()?;
+    m.add_function(wrap_pyfunction!(ops::check, m)?)?;
+    m.add_class::<ops::Operators>()?;
+    m.add_class::<learn::BC>()?;
+    m.add_class::<learn::LWR>()?;
+    m.add_class::<env::SimEnv>()?;
+    m.add_class::<session::Session>()?;
+    Ok(())
+}

@@ -1,0 +1,311 @@
+//! `advise.check` and `advise.Operators`: the language's check and interpreter on numpy arrays.
+
+use std::path::Path;
+
+use advise::check::{Checked, OperatorSet};
+use advise::diag::{SourceId, SourceMap};
+use advise::domain::Domain;
+use advise::trace::{Chunk, Trace};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
+
+use crate::arrays::{matrix, to_numpy};
+use crate::diag::Diagnostic;
+use crate::error::{from_diag, raise, simple};
+
+/// `path_or_text` as a source of `map`: an existing file is read (with the files' rules: regular,
+/// capped, UTF-8), anything else is operator text named `<text>`.
+fn source(py: Python<'_>, map: &mut SourceMap, path_or_text: &str) -> PyResult<SourceId> {
+    let path = Path::new(path_or_text);
+    if !path_or_text.contains('\n') && path.exists() {
+        advise::files::read_source(map, path).map_err(|e| from_diag(py, map, &e))
+    } else {
+        Ok(map.add("<text>", path_or_text))
+    }
+}
+
+/// Check `sources` on top of the standard operators; the warnings, or an `AdviseError` with
+/// every error.
+fn merge(
+    py: Python<'_>,
+    base: &OperatorSet,
+    sources: &[String],
+) -> PyResult<(OperatorSet, Vec<Diagnostic>)> {
+    let mut map = SourceMap::new();
+    let ids = sources
+        .iter()
+        .map(|s| source(py, &mut map, s))
+        .collect::<PyResult<Vec<_>>>()?;
+    match base.merge_in(&map, &ids) {
+        Ok(Checked { set, warnings }) => {
+            let w = warnings
+                .iter()
+                .map(|w| Diagnostic::of(&map, w, "warning"))
+                .collect();
+            Ok((set, w))
+        }
+        Err(errors) => Err(raise(py, Diagnostic::all_of(&map, &errors, "error"))),
+    }
+}
+
+/// check(path_or_text) -> list[Diagnostic]
+///
+/// Check an operator file (a path) or operator text on top of the standard operators, as
+/// `advise check FILE` does. Returns the warnings; raises AdviseError with every error.
+#[pyfunction]
+pub fn check(py: Python<'_>, path_or_text: &str) -> PyResult<Vec<Diagnostic>> {
+    merge(py, &OperatorSet::standard(), &[path_or_text.to_string()]).map(|(_, w)| w)
+}
+
+/// What `apply` returns: the synthesized observations and actions, and the skipped mask.
+type Applied<'py> = (
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyArray1<bool>>,
+);
+
+/// A checked set of advice operators: the standard ones plus those of the given files or texts.
+#[pyclass(module = "advise", frozen)]
+pub struct Operators {
+    set: OperatorSet,
+    warnings: Vec<Diagnostic>,
+}
+
+#[pymethods]
+impl Operators {
+    #[new]
+    #[pyo3(signature = (*files))]
+    fn new(py: Python<'_>, files: Vec<String>) -> PyResult<Operators> {
+        let (set, warnings) = merge(py, &OperatorSet::standard(), &files)?;
+        Ok(Operators { set, warnings })
+    }
+
+    /// The warnings the check of the files gave.
+    #[getter]
+    fn warnings(&self) -> Vec<Diagnostic> {
+        self.warnings.clone()
+    }
+
+    /// The names of the domains the set declares.
+    fn domains(&self) -> Vec<String> {
+        self.set.domains().iter().map(|d| d.name.clone()).collect()
+    }
+
+    /// The names of the operators of `domain`.
+    fn names(&self, py: Python<'_>, domain: &str) -> PyResult<Vec<String>> {
+        self.domain_of(py, Some(domain), None)?;
+        Ok(self
+            .set
+            .operator_names(domain)
+            .into_iter()
+            .map(String::from)
+            .collect())
+    }
+
+    /// apply(name, args, observations, actions, *, domain=None, task=None, chunk=None, times=None)
+    /// -> (observations, actions, skipped)
+    ///
+    /// Apply operator `name` with `args` (a dict of parameter values) to the points of `chunk`
+    /// (a (start, end) pair, default all) of a trace. Returns the synthesized observations and
+    /// actions (one row per point not skipped) and a boolean mask over the chunk, True where the
+    /// operator's guard skipped the point.
+    #[pyo3(signature = (name, args, observations, actions, *, domain=None, task=None, chunk=None, times=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn apply<'py>(
+        &self,
+        py: Python<'py>,
+        name: &str,
+        args: &Bound<'py, PyDict>,
+        observations: &Bound<'py, PyAny>,
+        actions: &Bound<'py, PyAny>,
+        domain: Option<&str>,
+        task: Option<&str>,
+        chunk: Option<(usize, usize)>,
+        times: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Applied<'py>> {
+        let domain = self.domain_of(py, domain, task)?;
+        let trace = trace_of(py, &domain, observations, actions, times)?;
+        let chunk = match chunk {
+            None => Chunk::new(0, trace.len(), trace.len()),
+            Some((a, b)) => Chunk::new(a, b, trace.len()),
+        }
+        .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
+        let text = invocation(py, name, args)?;
+        let inv = advise::syntax::parse_invocation(&text)
+            .map_err(|e| from_diag(py, &e.sources, &e.error))?;
+        let mut files = SourceMap::new();
+        let call = advise::check::bind(&mut files, &self.set, &domain.name, &inv)
+            .map_err(|e| from_diag(py, &files, &e))?;
+        let out = py
+            .detach(|| advise::interp::apply(&call, &trace, chunk))
+            .map_err(|e| from_diag(py, &files, &e))?;
+        let mut skipped = vec![true; chunk.len()];
+        for &i in &out.source_index {
+            skipped[i - chunk.start] = false;
+        }
+        let n = out.points.len();
+        Ok((
+            to_numpy(py, out.points.z, n, domain.obs_dim())?,
+            to_numpy(py, out.points.a, n, domain.act_dim())?,
+            skipped.into_pyarray(py),
+        ))
+    }
+}
+
+impl Operators {
+    /// The domain named `domain`, or the domain of task `task` (exactly one of them).
+    fn domain_of(
+        &self,
+        py: Python<'_>,
+        domain: Option<&str>,
+        task: Option<&str>,
+    ) -> PyResult<Domain> {
+        domain_in(py, &self.set, domain, task)
+    }
+}
+
+/// The domain named `domain`, or that of the task `task`, in `set` (exactly one of them given).
+pub fn domain_in(
+    py: Python<'_>,
+    set: &OperatorSet,
+    domain: Option<&str>,
+    task: Option<&str>,
+) -> PyResult<Domain> {
+    let name = match (domain, task) {
+        (Some(d), None) => d.to_string(),
+        (None, Some(t)) => match advise::task::TaskKind::builtin(t) {
+            Some(kind) => kind.domain().name,
+            None if set.tasks().iter().any(|x| x.name() == t) => t.to_string(),
+            None => {
+                let mut names = vec!["positioning", "interception"];
+                names.extend(set.tasks().iter().map(|t| t.name()));
+                names.dedup();
+                return Err(simple(
+                    py,
+                    "advise::py::unknown_task",
+                    format!("there is no task `{t}`"),
+                    &format!("the tasks are: {}", names.join(", ")),
+                ));
+            }
+        },
+        _ => {
+            return Err(simple(
+                py,
+                "advise::py::domain_or_task",
+                "give exactly one of `domain=` and `task=`".into(),
+                "`domain=\"positioning\"` or `task=\"interception\"`",
+            ));
+        }
+    };
+    set.domain(&name).cloned().ok_or_else(|| {
+        let names: Vec<&str> = set.domains().iter().map(|d| d.name.as_str()).collect();
+        simple(
+            py,
+            "advise::py::unknown_domain",
+            format!("there is no domain `{name}`"),
+            &format!("the domains are: {}", names.join(", ")),
+        )
+    })
+}
+
+/// A trace of `domain` from arrays of observations and actions (and times: by default the point
+/// index times the simulator's control period).
+pub fn trace_of(
+    py: Python<'_>,
+    domain: &Domain,
+    observations: &Bound<'_, PyAny>,
+    actions: &Bound<'_, PyAny>,
+    times: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Trace> {
+    let (z, n) = matrix(py, observations, "observations", Some(domain.obs_dim()))?;
+    let (a, m) = matrix(py, actions, "actions", Some(domain.act_dim()))?;
+    if n != m {
+        return Err(simple(
+            py,
+            "advise::py::shape",
+            format!("{n} rows of observations but {m} rows of actions"),
+            "one action per observation",
+        ));
+    }
+    let t = match times {
+        Some(t) => {
+            let np = py.import("numpy")?;
+            let col = np.call_method1("reshape", (t, (-1, 1)))?;
+            let (t, k) = matrix(py, &col, "times", Some(1))?;
+            if k != n {
+                return Err(simple(
+                    py,
+                    "advise::py::shape",
+                    format!("{k} times for {n} points"),
+                    "one time per point",
+                ));
+            }
+            if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
+                return Err(simple(
+                    py,
+                    "advise::trace::time_backwards",
+                    format!("time does not increase at point {}", i + 1),
+                    "times must strictly increase within a trace",
+                ));
+            }
+            t
+        }
+        None => {
+            let dt = advise::backend::sim::SimParams::default().period_s();
+            (0..n).map(|i| i as f64 * dt).collect()
+        }
+    };
+    let mut trace = Trace::new(domain);
+    for i in 0..n {
+        let (od, ad) = (domain.obs_dim(), domain.act_dim());
+        trace.push(
+            t[i],
+            &z[i * od..(i + 1) * od],
+            &a[i * ad..(i + 1) * ad],
+            None,
+        );
+    }
+    Ok(trace)
+}
+
+/// The invocation text `name(k = v, ...)` for a dict of numbers and booleans; numbers are written
+/// so that they read back as the same float.
+fn invocation(py: Python<'_>, name: &str, args: &Bound<'_, PyDict>) -> PyResult<String> {
+    let mut parts = Vec::new();
+    for (k, v) in args.iter() {
+        let k: String = k.extract().map_err(|_| {
+            simple(
+                py,
+                "advise::py::bad_argument",
+                "argument names must be strings".into(),
+                "`{\"rate\": 0.3}`",
+            )
+        })?;
+        let text = if v.is_instance_of::<PyBool>() {
+            v.extract::<bool>()?.to_string()
+        } else if v.is_instance_of::<PyInt>() || v.is_instance_of::<PyFloat>() {
+            let x: f64 = v.extract()?;
+            if !x.is_finite() {
+                return Err(simple(
+                    py,
+                    "advise::py::not_finite",
+                    format!("argument `{k}` is {x}"),
+                    "arguments must be finite numbers",
+                ));
+            }
+            format!("{x:?}")
+        } else if v.is_instance_of::<PyString>() {
+            v.extract::<String>()?
+        } else {
+            return Err(simple(
+                py,
+                "advise::py::bad_argument",
+                format!("argument `{k}` is not a number"),
+                "operator arguments are numbers (or booleans)",
+            ));
+        };
+        parts.push(format!("{k} = {text}"));
+    }
+    Ok(format!("{name}({})", parts.join(", ")))
+}

@@ -1,0 +1,14 @@
+from . import gym as gym
+from ._advise import (
+    BC as BC,
+    LWR as LWR,
+    AdviseError as AdviseError,
+    Diagnostic as Diagnostic,
+    Operators as Operators,
+    Session as Session,
+    SimEnv as SimEnv,
+    Span as Span,
+    check as check,
+)
+
+__all__: list[str]

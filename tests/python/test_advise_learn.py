@@ -1,0 +1,95 @@
+"""advise.BC and advise.LWR against the command line: a session's executions record the action
+its policy chose at each observation, so the same demonstrations fitted from Python must predict
+those actions to the bit (clamped to the domain's limits, as a run clamps them)."""
+
+import json
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import advise
+
+ADVISE = os.environ["ADVISE_BIN"]
+SCRIPT = """load demos demos.csv
+run goal 2 -1 0.5
+learner bc
+run goal 1.5 1 0
+save out.json
+"""
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    d = tmp_path_factory.mktemp("session")
+    subprocess.run(
+        [ADVISE, "demo", "--task", "positioning", "--count", "4", "--out", "demos.csv"],
+        cwd=d, check=True, capture_output=True, timeout=120,
+    )
+    (d / "s.adv").write_text(SCRIPT)
+    subprocess.run(
+        [ADVISE, "run", "s.adv", "--demos", "0", "--no-journal"],
+        cwd=d, check=True, capture_output=True, timeout=120,
+    )
+    saved = json.loads((d / "out.json").read_text())
+    runs = []
+    for e in saved["executions"]:
+        z = np.array([p["z"] for p in e["points"]])
+        a = np.array([p["a"] for p in e["points"]])
+        runs.append((z, a))
+    return d, runs
+
+
+def clamp(a):
+    # The positioning domain's action limits (trans, rot), as the run clamps the policy's action.
+    return np.clip(a, -1.0, 1.0)
+
+
+def test_lwr_predicts_the_session_actions_to_the_bit(session):
+    d, runs = session
+    z, a = runs[0]  # the first run used the positioning task's default learner, LWR
+    lwr = advise.LWR(task="positioning").fit_file(str(d / "demos.csv"))
+    assert len(lwr) > 0
+    assert np.array_equal(clamp(lwr.predict(z)), a)
+
+
+def test_bc_predicts_the_session_actions_to_the_bit(session):
+    d, runs = session
+    z, a = runs[1]  # after `learner bc`
+    bc = advise.BC(task="positioning").fit_file(str(d / "demos.csv"))
+    assert np.array_equal(bc.predict(z), a)
+
+
+def test_fit_from_arrays_equals_fit_from_the_file(session):
+    d, runs = session
+    rows = np.genfromtxt(d / "demos.csv", delimiter=",", skip_header=1, dtype=str)
+    labels = np.unique(rows[:, 0], return_inverse=True)[1]
+    values = rows[:, 2:7].astype(float)
+    z, a = values[:, :3], values[:, 3:5]
+    for cls in (advise.BC, advise.LWR):
+        from_arrays = cls(task="positioning").fit(z, a, episodes=labels)
+        from_file = cls(task="positioning").fit_file(str(d / "demos.csv"))
+        q = runs[0][0]
+        assert np.array_equal(from_arrays.predict(q), from_file.predict(q))
+
+
+def test_bad_inputs_raise_coded_errors(session):
+    d, runs = session
+    bc = advise.BC(task="positioning")
+    with pytest.raises(advise.AdviseError) as e:
+        bc.predict(np.zeros((1, 3)))
+    assert e.value.code == "advise::py::not_fitted"
+    bc.fit_file(str(d / "demos.csv"))
+    with pytest.raises(advise.AdviseError) as e:
+        bc.predict(np.zeros((2, 4)))
+    assert e.value.code == "advise::py::shape"
+    with pytest.raises(advise.AdviseError) as e:
+        bc.predict(np.array([[np.nan, 0.0, 0.0]]))
+    assert e.value.code == "advise::py::not_finite"
+    with pytest.raises(advise.AdviseError) as e:
+        advise.LWR(task="docking")
+    assert e.value.code == "advise::py::unknown_task"
+    with pytest.raises(advise.AdviseError) as e:
+        advise.BC(task="positioning").fit_file(str(d / "missing.csv"))
+    assert e.value.code.startswith("advise::file::")
