@@ -318,7 +318,7 @@ impl Session {
                     .map_err(LearnerError::from)?;
                 // The rule a live `open` applies: another task's dataset is refused.
                 let learner = self.task.adopt_dataset(ds, self.seed)?;
-                self.take_learner(learner);
+                self.adopt_opened(learner, path)?;
             }
         }
         Ok(())
