@@ -326,7 +326,9 @@ impl Session {
                 dropped.join(", ")
             );
         }
-        let _ = write!(reply, "\nwarning: {}", restored.not_restored());
+        if let Some(lost) = restored.not_restored() {
+            let _ = write!(reply, "\nwarning: {lost}");
+        }
         Ok(reply)
     }
 
@@ -501,18 +503,17 @@ impl Restored {
         (!parts.is_empty()).then(|| format!("restored {}", parts.join(" and ")))
     }
 
-    /// What a dataset file cannot give back, said on every `open` (never dropped silently).
-    fn not_restored(&self) -> String {
-        let runs = if self.executions > 0 {
-            "a run's label, goal and outcome (the executions are named by the file; `critique` \
-             needs a run made in this session, which knows what recommended each step), "
-        } else {
-            ""
-        };
-        format!(
-            "a dataset file does not hold {runs}the selection, undone edits or the last \
-             evaluation: they were not restored"
-        )
+    /// What a dataset file of a session (one with executions) cannot give back, said whenever
+    /// it brought some back, so nothing is dropped silently. A file of demonstrations only was
+    /// never a session's: nothing of one is missing.
+    fn not_restored(&self) -> Option<String> {
+        (self.executions > 0).then(|| {
+            "a dataset file does not hold a run's label, goal and outcome (the executions are \
+             named by the file; `critique` needs a run made in this session, which knows what \
+             recommended each step), the selection, undone edits or the last evaluation: they \
+             were not restored"
+                .to_string()
+        })
     }
 }
 
