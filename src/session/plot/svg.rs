@@ -424,7 +424,15 @@ fn label_marks(
         let c = if p.keep { SELECTED } else { color };
         chart
             .draw_series(std::iter::once(
+                // A pale box under the number keeps it readable where it lies on a path.
                 EmptyElement::at(xy[p.index])
+                    + Rectangle::new(
+                        [
+                            (p.bx.x - at.0, p.bx.y - at.1),
+                            (p.bx.x - at.0 + p.bx.w, p.bx.y - at.1 + p.bx.h - 1),
+                        ],
+                        WHITE.mix(0.75).filled(),
+                    )
                     + Text::new(
                         p.index.to_string(),
                         (p.bx.x - at.0, p.bx.y - at.1),
@@ -477,7 +485,7 @@ pub(super) fn render_actions(view: &PlotView<'_>) -> Result<String, String> {
                         _ => i.to_string(),
                     }
                 })
-                .y_label_formatter(&|v| tick(*v, span))
+                .y_label_formatter(&|v| fine_tick(*v, span))
                 .x_desc(if last {
                     "point index (time since the start)"
                 } else {
