@@ -113,7 +113,19 @@ impl Session {
                     &mut |done, total| bar.show(done, total),
                 );
                 bar.done();
-                let demos = demos.map_err(LearnerError::from)?;
+                let demos = match demos {
+                    Ok(d) => d,
+                    Err(e) => {
+                        return Err(match self.recorded_for_another_task(path) {
+                            Some(found) => SessionError::DemosOfAnotherTask {
+                                path: path.to_string(),
+                                found,
+                                task: self.domain.name.clone(),
+                            },
+                            None => LearnerError::from(e).into(),
+                        });
+                    }
+                };
                 if let Some((d, a)) = demos.from_dataset {
                     from_dataset = format!(
                         ": a saved dataset's {d} demonstration{} and {a} piece{} of advice, each as one demonstration (critique weights are not carried)",
@@ -213,6 +225,32 @@ impl Session {
             "loaded execution {} from {path}: {n} points",
             self.state.executions.len() - 1
         ))
+    }
+
+    /// The task another domain's demonstrations file was recorded for: the session's domain
+    /// (a declared task's or a paper's) whose every observation and action is a column of the
+    /// file's header (its first line, read to at most 64 KiB), the one with the most columns
+    /// when several fit. `None` for a file that is not such a CSV.
+    fn recorded_for_another_task(&self, path: &str) -> Option<String> {
+        use std::io::{BufRead as _, Read as _};
+        let file = std::fs::File::open(path).ok()?;
+        let mut header = String::new();
+        std::io::BufReader::new(file.take(64 * 1024))
+            .read_line(&mut header)
+            .ok()?;
+        let columns: Vec<&str> = header.trim_end().split(',').map(str::trim).collect();
+        self.ops
+            .domains()
+            .iter()
+            .filter(|d| d.name != self.domain.name && !d.act.is_empty())
+            .filter(|d| {
+                d.observe
+                    .iter()
+                    .chain(&d.act)
+                    .all(|dim| columns.contains(&dim.name.as_str()))
+            })
+            .max_by_key(|d| d.observe.len() + d.act.len())
+            .map(|d| d.name.clone())
     }
 
     /// `tasks FILE`: the file is checked and added as `operators FILE` does; the reply names
