@@ -384,22 +384,9 @@ impl Session {
             .filter(|t| !before.iter().any(|b| b == t.name()))
             .cloned()
             .collect();
-        for task in new {
-            let own: Vec<String> = self
-                .ops
-                .operators(task.name())
-                .map(|o| o.name().to_string())
-                .collect();
-            let own: Vec<&str> = own.iter().map(String::as_str).collect();
-            let Some(text) = crate::check::role_operators(&task, &own) else {
-                continue;
-            };
-            let mut map = crate::diag::SourceMap::new();
-            let id = map.add(format!("standard operators for {}", task.name()), text);
-            if let Ok(checked) = self.ops.merge_in(&map, &[id]) {
-                self.ops = checked.set;
-            }
-        }
+        let mut map = crate::diag::SourceMap::new();
+        let ops = std::mem::take(&mut self.ops);
+        self.ops = crate::check::with_role_operators(ops, &mut map, &new);
     }
 
     pub(super) fn take_learner(&mut self, learner: Learner) {
