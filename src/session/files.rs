@@ -233,6 +233,10 @@ impl Session {
     /// when several fit. `None` for a file that is not such a CSV.
     fn recorded_for_another_task(&self, path: &str) -> Option<String> {
         use std::io::{BufRead as _, Read as _};
+        // A regular file only: opening a FIFO would wait for a writer.
+        if !std::fs::metadata(path).ok()?.is_file() {
+            return None;
+        }
         let file = std::fs::File::open(path).ok()?;
         let mut header = String::new();
         std::io::BufReader::new(file.take(64 * 1024))
