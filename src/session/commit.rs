@@ -371,11 +371,8 @@ impl Session {
         Ok(())
     }
 
-    /// Work on an opened dataset from now on (its executions and history start empty).
-    /// The standard operators written against roles, for each task declared since `before`
-    /// whose actions drive speed and turn ([`crate::check::role_operators`]); the task's own
-    /// operators shadow them. A rewritten operator that does not check for the task (a name
-    /// clash with one of its dimensions) is left out, not reported: the task file is not wrong.
+    /// The standard operators written against roles for each task declared since `before`
+    /// ([`crate::check::with_role_operators`]); the task's own operators shadow them.
     fn add_role_operators(&mut self, before: &[String]) {
         let new: Vec<_> = self
             .ops
@@ -389,6 +386,8 @@ impl Session {
         self.ops = crate::check::with_role_operators(ops, &mut map, &new);
     }
 
+    /// Work on `learner`'s dataset from now on, with no executions or history (`open` then
+    /// brings back the file's: [`Session::adopt_opened`]).
     pub(super) fn take_learner(&mut self, learner: Learner) {
         self.domain = learner.domain().clone();
         self.state = TaskState::with_learner(learner);
