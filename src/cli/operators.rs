@@ -85,10 +85,22 @@ pub fn check_files(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitC
     let checked = OperatorSet::standard()
         .merge_in(&map, task_ids)
         .and_then(|first| {
-            let declared = first.set.tasks().to_vec();
-            let set = check::with_role_operators(first.set, &mut map, &declared);
-            let mut rest = set.merge_in(&map, op_ids)?;
-            rest.warnings.splice(0..0, first.warnings);
+            // The tasks the files declare (not the standard ones, whose operators are written).
+            let standard = OperatorSet::standard();
+            let declared: Vec<_> = first
+                .set
+                .tasks()
+                .iter()
+                .filter(|t| standard.tasks().iter().all(|s| s.name() != t.name()))
+                .cloned()
+                .collect();
+            // Every role operator, then the task files again on top: a task file's own operator
+            // of a standard name shadows it there and says so (`shadows_standard`), as an
+            // operator file's does. The second check's warnings are the task files' ones.
+            let set = check::with_role_operators(first.set, &mut map, &declared, false);
+            let again = set.merge_in(&map, task_ids)?;
+            let mut rest = again.set.merge_in(&map, op_ids)?;
+            rest.warnings.splice(0..0, again.warnings);
             Ok(rest)
         });
     match checked {

@@ -383,7 +383,7 @@ impl Session {
             .collect();
         let mut map = crate::diag::SourceMap::new();
         let ops = std::mem::take(&mut self.ops);
-        self.ops = crate::check::with_role_operators(ops, &mut map, &new);
+        self.ops = crate::check::with_role_operators(ops, &mut map, &new, true);
     }
 
     /// Work on `learner`'s dataset from now on, with no executions or history (`open` then

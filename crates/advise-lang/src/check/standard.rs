@@ -140,18 +140,21 @@ mod tests {
 }
 
 /// `set` with the standard operators by role ([`role_operators`]) added for each of `tasks`
-/// whose actions drive speed and turn; the operators `set` already has for a task shadow them
-/// (they are left out). The texts go into `map` under [`role_source_name`]. A rewritten operator
+/// whose actions drive speed and turn. With `leave_out_own`, the operators `set` already has for
+/// a task shadow them (they are left out); without, every one is added, on top (`advise check`
+/// then checks the task files again over them, so that their own operators warn). The texts go into `map` under [`role_source_name`]. A rewritten operator
 /// that does not check for the task (a name clash with one of its dimensions) is left out, not
 /// reported: the task file is not wrong. The session and `advise check` both come here.
 pub fn with_role_operators(
     mut set: OperatorSet,
     map: &mut SourceMap,
     tasks: &[Arc<crate::program::task::TaskDef>],
+    leave_out_own: bool,
 ) -> OperatorSet {
     for task in tasks {
         let own: Vec<String> = set
             .operators(task.name())
+            .filter(|_| leave_out_own)
             .map(|o| o.name().to_string())
             .collect();
         let own: Vec<&str> = own.iter().map(String::as_str).collect();
