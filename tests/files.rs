@@ -368,3 +368,49 @@ fn data_files_stay_in_the_sessions_source_map_only_when_they_fail() {
     transcript(&mut s, &format!("load trace {}/t1.csv\n", d.display()));
     assert_eq!(s.sources().len(), 4, "{:?}", s.sources());
 }
+
+/// `advise check --tasks TASKS OPS`: the task file's task gets the standard operators by role (the
+/// reply counts them), so an operator file, or the task file itself, that defines its own
+/// `slow_down` for the task is told, with a coded warning, that it shadows the standard one, and
+/// where each is.
+#[test]
+fn check_with_tasks_counts_the_role_operators_and_warns_of_a_shadowing_one() {
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join(
+        "tests/sessions/a_task_written_from_scratch_is_checked_run_drawn_advised_explained_evaluated_saved_and_opened",
+    );
+    let read = |name: &str| std::fs::read(fixtures.join(name)).unwrap();
+    let shadow = b"/// Slow down, the lab's way: only the forward speed.\n\
+operator slow_down(rate = 0.2 in [0, 1]) for waypoint on action where fwd > 0 {\n  fwd *= 1 - rate\n}\n";
+    let files = vec![
+        ("waypoint.adv".to_string(), read("waypoint.adv")),
+        ("waypointops.adv".to_string(), read("waypointops.adv")),
+        ("shadow.adv".to_string(), shadow.to_vec()),
+        // The task and its own `slow_down` in one file.
+        (
+            "withown.adv".to_string(),
+            [read("waypoint.adv"), shadow.to_vec()].concat(),
+        ),
+    ];
+    let check = |tasks: &str, ops: &str| {
+        let inv = common::Invocation {
+            args: ["check", "--tasks", tasks, ops].map(String::from).to_vec(),
+            files: files.clone(),
+        };
+        let out = inv.run();
+        assert_eq!(out.code, Some(0), "{}", out.text);
+        format!("{}\n{}", inv.command_line(), out.text)
+    };
+    let plain = check("waypoint.adv", "waypointops.adv");
+    assert!(
+        plain.contains("standard ones by role: 11 for waypoint"),
+        "{plain}"
+    );
+    let shadowed = check("waypoint.adv", "shadow.adv");
+    assert!(
+        shadowed.contains("advise::check::shadows_standard"),
+        "{shadowed}"
+    );
+    let own = check("withown.adv", "waypointops.adv");
+    assert!(own.contains("advise::check::shadows_standard"), "{own}");
+    insta::assert_snapshot!(format!("{plain}\n{shadowed}\n{own}"));
+}

@@ -271,6 +271,19 @@ fn binding() -> impl Strategy<Value = Binding> {
 }
 
 /// A task clause, as the printer must write it back.
+/// One shape of a `draw` clause: any name and shape word (the checker, not the parser, knows
+/// `pose`, `point` and `circle`), with zero to three arguments.
+fn drawing() -> impl Strategy<Value = Drawing> {
+    (ident(), ident(), prop::collection::vec(expr(), 0..4)).prop_map(|(name, shape, args)| {
+        Drawing {
+            name,
+            shape,
+            args,
+            span: Span::default(),
+        }
+    })
+}
+
 fn clause() -> impl Strategy<Value = Clause> {
     let goal_dim =
         (ident(), prop::option::of("[^\"\n\r]{0,6}"), limits()).prop_map(|(name, unit, limits)| {
@@ -289,6 +302,7 @@ fn clause() -> impl Strategy<Value = Clause> {
         bindings().prop_map(Clause::Let),
         bindings().prop_map(Clause::Score),
         bindings().prop_map(Clause::Recorded),
+        prop::collection::vec(drawing(), 1..3).prop_map(Clause::Draw),
         expr().prop_map(|cond| Clause::Success {
             cond,
             span: Span::default()

@@ -154,3 +154,68 @@ fn replies_say_what_happened_as_data() {
     assert!(s.execute("quit", "<test>").unwrap().is_quit());
     assert_eq!(s.execute("// a comment", "<test>").unwrap(), Reply::Nothing);
 }
+
+/// `open` of a saved session brings back its executions and history, and so does a resume of a
+/// journal that holds the `open`: the same history, the same dataset, and `undo` of an opened
+/// edit takes back exactly its points in both. Critiques come back as edits too.
+#[test]
+fn open_restores_executions_and_history_and_a_resume_restores_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = positioning(3);
+    let journal = live.start_journal(dir.path()).unwrap();
+    let saved = dir.path().join("s.json");
+    let lines = format!(
+        "run goal 2 -1 0.5\nselect 20..60\nadvise speed_up(0.3)\ncritique\nrun goal 1 1 0\nselect 5..15\nadvise slow_down\nsave {}\n",
+        saved.display()
+    );
+    let mut slow_down_from = 0;
+    for l in lines.lines() {
+        if l.starts_with("advise slow_down") {
+            slow_down_from = live.learner().len();
+        }
+        live.execute(l, "<test>").unwrap();
+    }
+    let history = live.execute("history", "<test>").unwrap().to_string();
+    let points = live.learner().len();
+    let opened = live
+        .execute(&format!("open {}", saved.display()), "<test>")
+        .unwrap()
+        .to_string();
+    assert!(
+        opened.contains("restored 2 executions and 3 edits of the history"),
+        "{opened}"
+    );
+    assert!(opened.contains("\nwarning: "), "{opened}");
+    let reopened = live.execute("history", "<test>").unwrap().to_string();
+    // The same edits, in order; the executions are named by the file now.
+    let strip = |h: &str| -> Vec<String> {
+        h.lines()
+            .map(|l| l.split(" (").next().unwrap_or("").to_string())
+            .collect()
+    };
+    assert_eq!(strip(&reopened), strip(&history));
+    assert_eq!(live.learner().len(), points);
+
+    let copy = journal.with_extension("copy.jsonl");
+    std::fs::copy(&journal, &copy).unwrap();
+    let mut back = Session::restore(&copy, dir.path()).unwrap().session;
+    assert_eq!(
+        back.execute("history", "<test>").unwrap().to_string(),
+        reopened
+    );
+    for s in [&mut live, &mut back] {
+        s.execute("undo", "<test>").unwrap();
+        assert_eq!(
+            s.learner().len(),
+            slow_down_from,
+            "undo took back slow_down"
+        );
+        s.execute("undo", "<test>").unwrap();
+        s.execute("redo", "<test>").unwrap();
+    }
+    assert_eq!(back.status(), live.status());
+    assert_eq!(
+        back.execute("history", "<test>").unwrap().to_string(),
+        live.execute("history", "<test>").unwrap().to_string()
+    );
+}

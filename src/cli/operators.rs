@@ -42,6 +42,27 @@ fn tasks_listed(set: &OperatorSet) -> String {
     }
 }
 
+/// How many standard operators each declared task gets by role: " (by role: 11 for waypoint)".
+fn by_role(set: &OperatorSet) -> String {
+    let counts: Vec<String> = set
+        .tasks()
+        .iter()
+        .filter_map(|t| {
+            let role_origin = format!("rewritten for `{}`'s", t.name());
+            let n = set
+                .operators(t.name())
+                .filter(|o| o.origin().contains(&role_origin))
+                .count();
+            (n > 0).then(|| format!("{n} for {}", t.name()))
+        })
+        .collect();
+    if counts.is_empty() {
+        String::new()
+    } else {
+        format!(" (standard ones by role: {})", counts.join(", "))
+    }
+}
+
 /// Read `files` into `map`, the first unreadable one as the error.
 fn read_sources(map: &mut SourceMap, files: &[PathBuf]) -> miette::Result<Vec<SourceId>> {
     files
@@ -57,7 +78,32 @@ pub fn check_files(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitC
     let files = all.as_slice();
     let mut map = SourceMap::new();
     let ids = read_sources(&mut map, files)?;
-    match OperatorSet::standard().merge_in(&map, &ids) {
+    // The task files first; then each of their tasks gets the standard operators by role, as a
+    // session's `tasks FILE` gives them, so that an operator file's `slow_down` for the task
+    // warns that it shadows one; then the operator files.
+    let (task_ids, op_ids) = ids.split_at(tasks.len());
+    let checked = OperatorSet::standard()
+        .merge_in(&map, task_ids)
+        .and_then(|first| {
+            // The tasks the files declare (not the standard ones, whose operators are written).
+            let standard = OperatorSet::standard();
+            let declared: Vec<_> = first
+                .set
+                .tasks()
+                .iter()
+                .filter(|t| standard.tasks().iter().all(|s| s.name() != t.name()))
+                .cloned()
+                .collect();
+            // Every role operator, then the task files again on top: a task file's own operator
+            // of a standard name shadows it there and says so (`shadows_standard`), as an
+            // operator file's does. The second check's warnings are the task files' ones.
+            let set = check::with_role_operators(first.set, &mut map, &declared, false);
+            let again = set.merge_in(&map, task_ids)?;
+            let mut rest = again.set.merge_in(&map, op_ids)?;
+            rest.warnings.splice(0..0, again.warnings);
+            Ok(rest)
+        });
+    match checked {
         Ok(check::Checked { set, warnings }) => {
             let n = warnings.len();
             for w in warnings {
@@ -65,12 +111,13 @@ pub fn check_files(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitC
             }
             let ops: usize = set.operator_count();
             println!(
-                "checked {} file{}: {} domains ({}) and {} operators in all, no errors{}",
+                "checked {} file{}: {} domains ({}) and {} operators in all{}, no errors{}",
                 files.len(),
                 if files.len() == 1 { "" } else { "s" },
                 set.domains().len(),
                 tasks_listed(&set),
                 ops,
+                by_role(&set),
                 match n {
                     0 => String::new(),
                     1 => ", 1 warning".into(),

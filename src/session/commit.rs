@@ -318,7 +318,7 @@ impl Session {
                     .map_err(LearnerError::from)?;
                 // The rule a live `open` applies: another task's dataset is refused.
                 let learner = self.task.adopt_dataset(ds, self.seed)?;
-                self.take_learner(learner);
+                self.adopt_opened(learner, path)?;
             }
         }
         Ok(())
@@ -371,11 +371,8 @@ impl Session {
         Ok(())
     }
 
-    /// Work on an opened dataset from now on (its executions and history start empty).
-    /// The standard operators written against roles, for each task declared since `before`
-    /// whose actions drive speed and turn ([`crate::check::role_operators`]); the task's own
-    /// operators shadow them. A rewritten operator that does not check for the task (a name
-    /// clash with one of its dimensions) is left out, not reported: the task file is not wrong.
+    /// The standard operators written against roles for each task declared since `before`
+    /// ([`crate::check::with_role_operators`]); the task's own operators shadow them.
     fn add_role_operators(&mut self, before: &[String]) {
         let new: Vec<_> = self
             .ops
@@ -384,24 +381,13 @@ impl Session {
             .filter(|t| !before.iter().any(|b| b == t.name()))
             .cloned()
             .collect();
-        for task in new {
-            let own: Vec<String> = self
-                .ops
-                .operators(task.name())
-                .map(|o| o.name().to_string())
-                .collect();
-            let own: Vec<&str> = own.iter().map(String::as_str).collect();
-            let Some(text) = crate::check::role_operators(&task, &own) else {
-                continue;
-            };
-            let mut map = crate::diag::SourceMap::new();
-            let id = map.add(format!("standard operators for {}", task.name()), text);
-            if let Ok(checked) = self.ops.merge_in(&map, &[id]) {
-                self.ops = checked.set;
-            }
-        }
+        let mut map = crate::diag::SourceMap::new();
+        let ops = std::mem::take(&mut self.ops);
+        self.ops = crate::check::with_role_operators(ops, &mut map, &new, true);
     }
 
+    /// Work on `learner`'s dataset from now on, with no executions or history (`open` then
+    /// brings back the file's: [`Session::adopt_opened`]).
     pub(super) fn take_learner(&mut self, learner: Learner) {
         self.domain = learner.domain().clone();
         self.state = TaskState::with_learner(learner);

@@ -91,6 +91,18 @@ pub enum SessionError {
     #[error("unknown task `{name}`")]
     #[diagnostic(code(advise::session::unknown_task), help("{help}"))]
     UnknownTask { name: String, help: String },
+    #[error("{path} was recorded for the task `{found}`, not `{task}`")]
+    #[diagnostic(
+        code(advise::session::demos_of_another_task),
+        help(
+            "its columns are `{found}`'s observations and actions: load it on that task (`task {found}` then `load demos {path}`), or record demonstrations for `{task}` with `load demos teacher:N`"
+        )
+    )]
+    DemosOfAnotherTask {
+        path: String,
+        found: String,
+        task: String,
+    },
     #[error("{path} declares no task")]
     #[diagnostic(
         code(advise::session::no_tasks),

@@ -113,7 +113,19 @@ impl Session {
                     &mut |done, total| bar.show(done, total),
                 );
                 bar.done();
-                let demos = demos.map_err(LearnerError::from)?;
+                let demos = match demos {
+                    Ok(d) => d,
+                    Err(e) => {
+                        return Err(match self.recorded_for_another_task(path) {
+                            Some(found) => SessionError::DemosOfAnotherTask {
+                                path: path.to_string(),
+                                found,
+                                task: self.domain.name.clone(),
+                            },
+                            None => LearnerError::from(e).into(),
+                        });
+                    }
+                };
                 if let Some((d, a)) = demos.from_dataset {
                     from_dataset = format!(
                         ": a saved dataset's {d} demonstration{} and {a} piece{} of advice, each as one demonstration (critique weights are not carried)",
@@ -215,6 +227,36 @@ impl Session {
         ))
     }
 
+    /// The task another domain's demonstrations file was recorded for: the session's domain
+    /// (a declared task's or a paper's) whose every observation and action is a column of the
+    /// file's header (its first line, read to at most 64 KiB), the one with the most columns
+    /// when several fit. `None` for a file that is not such a CSV.
+    fn recorded_for_another_task(&self, path: &str) -> Option<String> {
+        use std::io::{BufRead as _, Read as _};
+        // A regular file only: opening a FIFO would wait for a writer.
+        if !std::fs::metadata(path).ok()?.is_file() {
+            return None;
+        }
+        let file = std::fs::File::open(path).ok()?;
+        let mut header = String::new();
+        std::io::BufReader::new(file.take(64 * 1024))
+            .read_line(&mut header)
+            .ok()?;
+        let columns: Vec<&str> = header.trim_end().split(',').map(str::trim).collect();
+        self.ops
+            .domains()
+            .iter()
+            .filter(|d| d.name != self.domain.name && !d.act.is_empty())
+            .filter(|d| {
+                d.observe
+                    .iter()
+                    .chain(&d.act)
+                    .all(|dim| columns.contains(&dim.name.as_str()))
+            })
+            .max_by_key(|d| d.observe.len() + d.act.len())
+            .map(|d| d.name.clone())
+    }
+
     /// `tasks FILE`: the file is checked and added as `operators FILE` does; the reply names
     /// its tasks. A file that declares none is refused before anything changes.
     pub(super) fn load_tasks(&mut self, path: &str) -> Result<String, SessionError> {
@@ -308,7 +350,7 @@ impl Session {
             .open_learner(&mut self.sources, Path::new(path), self.seed)?;
         let dataset = learner.dataset().to_json_string();
         let dropped = self.dropped_by_open();
-        self.take_learner(learner);
+        let restored = self.adopt_opened(learner, path)?;
         // Applied above without deriving the policy twice; `apply` does the same on restore.
         self.journal_effect(Effect::Open {
             path: path.to_string(),
@@ -316,18 +358,96 @@ impl Session {
         })?;
         self.read_input(path, true);
         let mut reply = format!("opened {path}: {} points", self.state.learner.len());
+        if let Some(said) = restored.said() {
+            let _ = write!(reply, "; {said}");
+        }
         if !dropped.is_empty() {
             let _ = write!(
                 reply,
-                "\ndropped {}: a dataset holds points, not runs (the journal keeps them: `advise resume`)",
+                "\nreplaced this task's {} (the journal keeps them: `advise resume`)",
                 dropped.join(", ")
             );
+        }
+        if let Some(lost) = restored.not_restored() {
+            let _ = write!(reply, "\nwarning: {lost}");
         }
         Ok(reply)
     }
 
-    /// What `open` drops of the current task's work, counted for its reply: the points are
-    /// replaced, and the file has no executions, history or evaluation to put in their place.
+    /// Put an opened dataset in place of this task's work and bring back what the file holds of
+    /// the session besides its points: every execution advice or critique could refer to (each
+    /// run is kept in the dataset) and the history of edits (each piece of advice and critique
+    /// still in it, in the order made, so `history`, `why`, `show` and `undo` find them). The
+    /// live `open` and a journal's `open` line both come here, so a resumed session restores the
+    /// same numbering.
+    pub(super) fn adopt_opened(
+        &mut self,
+        learner: crate::policy::learner::Learner,
+        path: &str,
+    ) -> Result<Restored, SessionError> {
+        self.take_learner(learner);
+        let ds = self.state.learner.dataset();
+        let mut executions = Vec::new();
+        for (i, rec) in ds.executions().iter().enumerate() {
+            executions.push(super::HeldExecution {
+                label: format!("{path} execution {i}"),
+                trace: ds.execution(rec.id).map_err(LearnerError::from)?,
+                goal: None,
+                goal_values: None,
+                execution: None,
+                support: None,
+                id: rec.id,
+                flagged: Vec::new(),
+                advised: Vec::new(),
+            });
+        }
+        let index_of = |id| ds.execution_number(id).unwrap_or(usize::MAX);
+        // Advice and critiques share one id counter, so id order is the order they were made.
+        let mut edits: Vec<super::undo::Edit> = Vec::new();
+        for r in ds.advice() {
+            let execution = index_of(r.execution);
+            let Some(held) = executions.get_mut(execution) else {
+                continue;
+            };
+            held.advised.push(r.applied.chunk);
+            edits.push(super::undo::Edit::Advice {
+                number: 0,
+                id: r.id,
+                execution,
+                syn: Box::new(advice_points(ds, r, &held.trace)),
+            });
+        }
+        for r in ds.critiques() {
+            let execution = index_of(r.execution);
+            let Some(held) = executions.get_mut(execution) else {
+                continue;
+            };
+            held.flagged.push(r.critique.chunk);
+            edits.push(super::undo::Edit::Critique {
+                number: 0,
+                id: r.id,
+                execution,
+                critique: r.critique.clone(),
+            });
+        }
+        edits.sort_by_key(|e| e.id());
+        for (i, e) in edits.iter_mut().enumerate() {
+            e.renumber(i + 1);
+        }
+        let st = &mut self.state;
+        st.runs = executions.len() as u64;
+        st.current = executions.len().checked_sub(1);
+        st.executions = executions;
+        st.next_edit = edits.len() + 1;
+        st.undo = edits;
+        Ok(Restored {
+            executions: st.executions.len(),
+            edits: st.undo.len(),
+        })
+    }
+
+    /// What `open` replaces of the current task's work, counted for its reply: the file's points,
+    /// executions and history take their place.
     fn dropped_by_open(&self) -> Vec<String> {
         let st = &self.state;
         let count = |n: usize, one: &str, many: &str| match n {
@@ -350,7 +470,7 @@ impl Session {
                 format!("#{first}-#{last}")
             };
             out.push(format!(
-                "{} ({numbers}; their points stay in the dataset if it was saved after them, but `history` and `undo` start afresh)",
+                "{} ({numbers})",
                 count(st.undo.len(), "edit of the history", "edits of the history")
             ));
         }
@@ -362,9 +482,7 @@ impl Session {
             ));
         }
         if st.last_eval.is_some() {
-            out.push(
-                "the last evaluation (the next `eval` has nothing to compare with)".to_string(),
-            );
+            out.push("the last evaluation".to_string());
         }
         out
     }
@@ -398,6 +516,81 @@ impl Session {
         Ok(format!(
             "wrote {n} advised points with their provenance to {path}"
         ))
+    }
+}
+
+/// What `open` brought back of a saved session besides its points, for its reply.
+pub(super) struct Restored {
+    executions: usize,
+    edits: usize,
+}
+
+impl Restored {
+    fn said(&self) -> Option<String> {
+        let count = |n: usize, one: &str, many: &str| match n {
+            1 => format!("1 {one}"),
+            n => format!("{n} {many}"),
+        };
+        let mut parts = Vec::new();
+        if self.executions > 0 {
+            parts.push(count(self.executions, "execution", "executions"));
+        }
+        if self.edits > 0 {
+            parts.push(format!(
+                "{} (#1-#{}: `history` lists them, `undo` takes them back)",
+                count(self.edits, "edit of the history", "edits of the history"),
+                self.edits
+            ));
+        }
+        (!parts.is_empty()).then(|| format!("restored {}", parts.join(" and ")))
+    }
+
+    /// What a dataset file of a session (one with executions) cannot give back, said whenever
+    /// it brought some back, so nothing is dropped silently. A file of demonstrations only was
+    /// never a session's: nothing of one is missing.
+    fn not_restored(&self) -> Option<String> {
+        (self.executions > 0).then(|| {
+            "a dataset file does not hold a run's label, goal and outcome (the executions are \
+             named by the file; `critique` needs a run made in this session, which knows what \
+             recommended each step), the selection, undone edits or the last evaluation: they \
+             were not restored"
+                .to_string()
+        })
+    }
+}
+
+/// Advice `r`'s synthesized points as the dataset holds them, in order, with the time and pose
+/// of the execution point each came from: what `redo` adds back after an `undo`.
+fn advice_points(
+    ds: &crate::policy::dataset::Dataset,
+    r: &crate::policy::dataset::AdviceRecord,
+    execution: &Trace,
+) -> crate::interp::Synthesized {
+    use crate::policy::dataset::Provenance;
+    let mut found: Vec<(u32, u32, usize)> = (0..ds.len())
+        .filter_map(|i| match ds.provenance(i) {
+            Provenance::Advice {
+                advice,
+                index,
+                source,
+            } if advice == r.id => Some((index, source, i)),
+            _ => None,
+        })
+        .collect();
+    found.sort_unstable();
+    let mut points = Trace::new(ds.domain());
+    let mut source_index = Vec::with_capacity(found.len());
+    for (_, source, i) in found {
+        let s = source as usize;
+        let t = execution.t.get(s).copied().unwrap_or(0.0);
+        let pose = execution.pose.as_ref().and_then(|p| p.get(s).copied());
+        points.push(t, ds.z(i), ds.a(i), pose);
+        source_index.push(s);
+    }
+    crate::interp::Synthesized {
+        points,
+        source_index,
+        advice: r.applied.clone(),
     }
 }
 

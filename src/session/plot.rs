@@ -186,6 +186,26 @@ fn equal_scale(b: (f64, f64, f64, f64), px_w: u32, px_h: u32) -> (f64, f64, f64,
 }
 
 /// A tick label with as many decimals as the axis needs, and never `-0.0`.
+/// `-0.00` reads `0.00`.
+fn no_minus_zero(s: String) -> String {
+    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
+        s[1..].to_string()
+    } else {
+        s
+    }
+}
+
+/// An axis tick of a panel whose values may span far less than one unit (an actions panel): below
+/// a span of 2, a decimal more per tenfold narrower span than [`tick`] (a command spanning 0.03
+/// read `0.01, 0.01, 0.00` with two).
+fn fine_tick(v: f64, span: f64) -> String {
+    if !(span > 0.0 && span < 0.2) {
+        return tick(v, span);
+    }
+    let decimals = (2.0 - (span / 2.0).log10()).floor().clamp(3.0, 6.0) as usize;
+    no_minus_zero(format!("{v:.decimals$}"))
+}
+
 fn tick(v: f64, span: f64) -> String {
     let decimals = if span < 2.0 {
         2
@@ -194,12 +214,7 @@ fn tick(v: f64, span: f64) -> String {
     } else {
         0
     };
-    let s = format!("{v:.decimals$}");
-    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
-        s[1..].to_string()
-    } else {
-        s
-    }
+    no_minus_zero(format!("{v:.decimals$}"))
 }
 
 /// Why a plot could not be drawn or written.
@@ -379,6 +394,18 @@ mod tests {
         );
         let speed: Vec<String> = s[1].values.iter().map(|v| format!("{v:.2}")).collect();
         assert_eq!(speed, ["0.10", "0.20", "0.25", "0.25", "0.25"]);
+    }
+
+    #[test]
+    fn ticks_of_a_narrow_span_are_distinct() {
+        // Ticks 0.005 apart over a span of 0.03 (a command that barely moves).
+        let shown: Vec<String> = [-0.01, -0.005, 0.0, 0.005, 0.01]
+            .iter()
+            .map(|v| fine_tick(*v, 0.03))
+            .collect();
+        assert_eq!(shown, ["-0.010", "-0.005", "0.000", "0.005", "0.010"]);
+        assert_eq!(fine_tick(0.5, 1.0), "0.50");
+        assert_eq!(fine_tick(-0.0001, 0.03), "0.000");
     }
 
     #[test]

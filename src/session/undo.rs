@@ -38,6 +38,21 @@ impl Edit {
         }
     }
 
+    /// The learner's id of the advice or critique (one counter for both: id order is the order
+    /// they were made).
+    pub(super) fn id(&self) -> u32 {
+        match self {
+            Edit::Advice { id, .. } | Edit::Critique { id, .. } => *id,
+        }
+    }
+
+    /// Give the edit the number `history` shows (an opened file's edits are numbered afresh).
+    pub(super) fn renumber(&mut self, n: usize) {
+        match self {
+            Edit::Advice { number, .. } | Edit::Critique { number, .. } => *number = n,
+        }
+    }
+
     pub(super) fn describe(&self, executions: &[HeldExecution]) -> String {
         match self {
             Edit::Advice { execution, syn, .. } => format!(

@@ -42,7 +42,7 @@ use compose::{Known, Step};
 use decls::domain_difference;
 pub use error::{CheckError, CheckErrors, CheckWarning, ParseOrCheckError};
 use names::Dom;
-pub use standard::{STANDARD_SOURCES, role_operators};
+pub use standard::{STANDARD_SOURCES, role_operators, role_source_name, with_role_operators};
 pub use trace_domain::TraceDomainError;
 
 /// A named source text: a file, a REPL line, an embedded standard file.
@@ -531,12 +531,20 @@ impl<'s> Checker<'s> {
             params: sig.params.clone(),
             definition,
             hash,
-            origin: format!(
-                "{} at line {}",
-                source.name,
-                self.line(sig.file, sig.decl.name.span.start)
-            ),
-            standard: STANDARD_SOURCES.iter().any(|(n, _)| *n == source.name),
+            origin: match source.name.strip_prefix(standard::ROLE_SOURCE_PREFIX) {
+                // Generated text: its lines are nobody's; name the file it was written from.
+                Some(task) => format!(
+                    "{}, rewritten for `{task}`'s actions by the roles they drive",
+                    STANDARD_SOURCES[0].0
+                ),
+                None => format!(
+                    "{} at line {}",
+                    source.name,
+                    self.line(sig.file, sig.decl.name.span.start)
+                ),
+            },
+            standard: STANDARD_SOURCES.iter().any(|(n, _)| *n == source.name)
+                || source.name.starts_with(standard::ROLE_SOURCE_PREFIX),
             stages: expanded,
             body,
         })

@@ -23,6 +23,10 @@ enum Mark {
     Ring(RGBColor),
 }
 
+/// The characters of a legend entry's label per line: what the panel holds right of the mark at
+/// 14 px sans-serif (about 7.5 px a character).
+const LABEL_CHARS: usize = 24;
+
 /// Draw the legend in its own panel beside the data, with text lines below the entries.
 fn legend(
     area: &DrawingArea<SVGBackend<'_>, Shift>,
@@ -61,8 +65,14 @@ fn legend(
             area.draw(&Circle::new(((x0 + x1) / 2, y), 7, c.stroke_width(1)))
                 .map_err(drawing)?;
         }
-        area.draw(&Text::new(label.clone(), (x1 + 8, y - 7), font.clone()))
-            .map_err(drawing)?;
+        // Long labels wrap within the panel (the panel's right edge is the picture's).
+        for (i, line) in wrap(label, LABEL_CHARS).into_iter().enumerate() {
+            if i > 0 {
+                y += 17;
+            }
+            area.draw(&Text::new(line, (x1 + 8, y - 7), font.clone()))
+                .map_err(drawing)?;
+        }
         y += 24;
     }
     y += 8;
@@ -349,7 +359,21 @@ fn number_points(
     colors: &[RGBColor],
 ) -> Result<(), String> {
     let single = views.len() == 1;
-    let mut taken = Vec::new();
+    // The crosses of goals and points are read too: no number covers one.
+    let mut taken: Vec<labels::LabelBox> = views
+        .iter()
+        .flat_map(|v| &v.drawn)
+        .filter(|d| d.is_finite() && !matches!(d.shape, ShapeKind::Circle))
+        .map(|d| {
+            let (x, y) = chart.backend_coord(&d.at());
+            labels::LabelBox {
+                x: x - 9,
+                y: y - 9,
+                w: 19,
+                h: 19,
+            }
+        })
+        .collect();
     for (k, v) in views.iter().enumerate() {
         let xy: Vec<(f64, f64)> = v.path.iter().map(|p| (p.x_m, p.y_m)).collect();
         let ends: Vec<usize> = v
@@ -400,7 +424,15 @@ fn label_marks(
         let c = if p.keep { SELECTED } else { color };
         chart
             .draw_series(std::iter::once(
+                // A pale box under the number keeps it readable where it lies on a path.
                 EmptyElement::at(xy[p.index])
+                    + Rectangle::new(
+                        [
+                            (p.bx.x - at.0, p.bx.y - at.1),
+                            (p.bx.x - at.0 + p.bx.w, p.bx.y - at.1 + p.bx.h - 1),
+                        ],
+                        WHITE.mix(0.75).filled(),
+                    )
                     + Text::new(
                         p.index.to_string(),
                         (p.bx.x - at.0, p.bx.y - at.1),
@@ -453,7 +485,7 @@ pub(super) fn render_actions(view: &PlotView<'_>) -> Result<String, String> {
                         _ => i.to_string(),
                     }
                 })
-                .y_label_formatter(&|v| tick(*v, span))
+                .y_label_formatter(&|v| fine_tick(*v, span))
                 .x_desc(if last {
                     "point index (time since the start)"
                 } else {

@@ -139,6 +139,45 @@ mod tests {
     }
 }
 
+/// `set` with the standard operators by role ([`role_operators`]) added for each of `tasks`
+/// whose actions drive speed and turn. With `leave_out_own`, the operators `set` already has for
+/// a task shadow them (they are left out); without, every one is added, on top (`advise check`
+/// then checks the task files again over them, so that their own operators warn). The texts go into `map` under [`role_source_name`]. A rewritten operator
+/// that does not check for the task (a name clash with one of its dimensions) is left out, not
+/// reported: the task file is not wrong. The session and `advise check` both come here.
+pub fn with_role_operators(
+    mut set: OperatorSet,
+    map: &mut SourceMap,
+    tasks: &[Arc<crate::program::task::TaskDef>],
+    leave_out_own: bool,
+) -> OperatorSet {
+    for task in tasks {
+        let own: Vec<String> = set
+            .operators(task.name())
+            .filter(|_| leave_out_own)
+            .map(|o| o.name().to_string())
+            .collect();
+        let own: Vec<&str> = own.iter().map(String::as_str).collect();
+        let Some(text) = role_operators(task, &own) else {
+            continue;
+        };
+        let id = map.add(role_source_name(task.name()), text);
+        if let Ok(checked) = set.merge_in(map, &[id]) {
+            set = checked.set;
+        }
+    }
+    set
+}
+
+/// The name of the source that holds `task`'s standard operators by role: an operator from it is
+/// standard, so a task's operator defined later under the same name warns that it shadows it.
+pub fn role_source_name(task: &str) -> String {
+    format!("{ROLE_SOURCE_PREFIX}{task}")
+}
+
+/// What every [`role_source_name`] starts with.
+pub(super) const ROLE_SOURCE_PREFIX: &str = "standard operators for ";
+
 /// The standard operators written against roles: positioning's action-side operators, whose
 /// `trans` drives the base's speed and `rot` its turn, rewritten for `task`, whose own actions
 /// drive those roles (`act NAME ... drives speed`, `drives turn`). `None` when its actions do not
