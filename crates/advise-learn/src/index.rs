@@ -146,11 +146,13 @@ struct Bulk<const D: usize> {
     points: Vec<[f64; D]>,
     /// Each leaf's points' range, by leaf number (leaves numbered in leaf order).
     leaves: Vec<[u32; 2]>,
-    /// The points again in `f32`, leaf by leaf, one dimension after another within a leaf: leaf
-    /// `b`'s dimension `k` for its `j`-th point is `coarse[(b * D + k) * LEAF + j]`, +inf past
-    /// its points. A radius query computes a leaf's distances from these, [`LEAF`] at a time
-    /// from one contiguous block of half the bytes, and measures exactly only the points they
-    /// cannot rule out (see [`Coarse`]).
+    /// The points again in `f32`, leaf by leaf, one dimension after another within a leaf: the
+    /// leaf of points `first..first + len` has dimension `k` of its `j`-th point at
+    /// `coarse[first * D + k * len + j]` (no padding between leaves; [`LEAF`] lanes of +inf
+    /// after the last). A radius query computes a leaf's distances from these, [`LEAF`] lanes at
+    /// a time (those past the leaf's points read its neighbour's values and are masked off) from
+    /// one contiguous block of half the bytes, and measures exactly only the points they cannot
+    /// rule out (see [`Coarse`]).
     coarse: Vec<f32>,
     /// The largest magnitude of any coordinate, for [`Coarse`]'s error bound.
     max_abs: f64,
@@ -165,30 +167,20 @@ struct Bulk<const D: usize> {
 impl<const D: usize> Bulk<D> {
     /// The tree over groups `0..n` of `idx`, their scaled observations computed from `pts` (the
     /// points the index refers to), with their action sums when the index keeps them.
+    ///
+    /// Built without a second copy of the points: the `(group, point)` pairs the splits order
+    /// become the points in place (the ids taken out first), and the action sums are made after
+    /// that, so the build's peak is about the tree's own size.
     fn build(idx: &Index, pts: Points, n: usize) -> Bulk<D> {
-        let mut order: Vec<(u32, [f64; D])> = (0..n)
-            .map(|g| {
-                let mut row = [0.0; D];
-                idx.group_scaled(g, pts, &mut row);
-                (g as u32, row)
-            })
-            .collect();
+        let mut order: Vec<(u32, [f64; D])> = Vec::with_capacity(n);
+        order.extend((0..n).map(|g| {
+            let mut row = [0.0; D];
+            idx.group_scaled(g, pts, &mut row);
+            (g as u32, row)
+        }));
         let mut nodes = Vec::with_capacity(4 * n / LEAF + 1);
         if n > 0 {
             Self::build_node(&mut nodes, &mut order, 0);
-        }
-        let (mut sums, mut at) = (Vec::new(), Vec::new());
-        if let Some(act_dim) = idx.act_dim {
-            sums.resize(n * (act_dim + 1), 0.0);
-            at.resize(n, 0);
-            for (i, &(g, _)) in order.iter().enumerate() {
-                idx.group_sum(
-                    g as usize,
-                    pts,
-                    &mut sums[i * (act_dim + 1)..][..act_dim + 1],
-                );
-                at[g as usize] = i as u32;
-            }
         }
         // Leaves numbered in leaf order (the nodes are in depth-first order, left first).
         let mut leaf_of = vec![u32::MAX; nodes.len()];
@@ -199,11 +191,16 @@ impl<const D: usize> Bulk<D> {
                 leaves.push([node.first_or_right, node.end]);
             }
         }
-        let mut coarse = vec![f32::INFINITY; leaves.len() * D * LEAF];
-        for (b, &[first, end]) in leaves.iter().enumerate() {
-            for (j, (_, p)) in order[first as usize..end as usize].iter().enumerate() {
+        leaves.shrink_to_fit();
+        // Each leaf's block of `D * len` values from `first * D` on; [`LEAF`] lanes past the
+        // last block so that every leaf can be read [`LEAF`] lanes at a time.
+        let mut coarse = vec![f32::INFINITY; n * D + LEAF];
+        for &[first, end] in &leaves {
+            let (first, len) = (first as usize, (end - first) as usize);
+            let block = &mut coarse[first * D..][..len * D];
+            for (j, (_, p)) in order[first..first + len].iter().enumerate() {
                 for k in 0..D {
-                    coarse[(b * D + k) * LEAF + j] = p[k] as f32;
+                    block[k * len + j] = p[k] as f32;
                 }
             }
         }
@@ -215,14 +212,33 @@ impl<const D: usize> Bulk<D> {
         if n > 0 {
             Self::build_wide(&nodes, &leaf_of, &mut wide, 0);
         }
+        drop(leaf_of);
+        let ids: Vec<u32> = order.iter().map(|(g, _)| *g).collect();
+        // In place: the pairs' allocation becomes the points' (shrunk to fit, which for an
+        // allocation this large moves no bytes).
+        let mut points: Vec<[f64; D]> = order.into_iter().map(|(_, p)| p).collect();
+        points.shrink_to_fit();
+        let (mut sums, mut at) = (Vec::new(), Vec::new());
+        if let Some(act_dim) = idx.act_dim {
+            sums.resize(n * (act_dim + 1), 0.0);
+            at.resize(n, 0);
+            for (i, &g) in ids.iter().enumerate() {
+                idx.group_sum(
+                    g as usize,
+                    pts,
+                    &mut sums[i * (act_dim + 1)..][..act_dim + 1],
+                );
+                at[g as usize] = i as u32;
+            }
+        }
         Bulk {
             nodes,
             wide,
-            points: order.iter().map(|(_, p)| *p).collect(),
+            points,
             leaves,
             coarse,
             max_abs,
-            ids: order.iter().map(|(g, _)| *g).collect(),
+            ids,
             sums,
             at,
         }
@@ -440,7 +456,7 @@ impl<const D: usize> Bulk<D> {
                 // Candidates as bits, then visited bit by bit: a branch per point inside the
                 // radius or not was mispredicted about as often as not.
                 let mut maybe = match &coarse {
-                    Some(c) => c.candidates(&self.coarse[at as usize * D * LEAF..][..D * LEAF]),
+                    Some(c) => c.candidates(&self.coarse[first * D..], end - first),
                     None => u64::MAX,
                 };
                 // A leaf holds 1 to LEAF <= 64 points.
@@ -506,13 +522,13 @@ impl<const D: usize> Coarse<D> {
         })
     }
 
-    /// Bit `j` set unless the leaf's `j`-th point (of a block of [`Bulk::coarse`]) is certainly
-    /// outside the radius.
+    /// Bit `j` set unless the leaf's `j`-th point (of a block of [`Bulk::coarse`], `len` lanes
+    /// a dimension) is certainly outside the radius; bits from `len` on are the caller's to mask.
     #[inline(always)]
-    fn candidates(&self, block: &[f32]) -> u64 {
+    fn candidates(&self, block: &[f32], len: usize) -> u64 {
         let mut s = [0.0f32; LEAF];
         for (k, qk) in self.q.iter().enumerate() {
-            let c: &[f32; LEAF] = block[k * LEAF..][..LEAF]
+            let c: &[f32; LEAF] = block[k * len..][..LEAF]
                 .try_into()
                 .expect("a block holds LEAF lanes of each dimension");
             for (s, c) in s.iter_mut().zip(c) {
@@ -956,9 +972,32 @@ impl Index {
         }
     }
 
+    /// Room for `points` more points (so at most that many new groups), reserved exactly, with
+    /// the group table sized for them at once: a bulk load then grows neither again (no
+    /// doubling slack kept, no table rebuilt at each doubling). Where a group's slot is does not
+    /// number it, so no answer changes.
+    pub fn reserve(&mut self, points: usize, pts: Points) {
+        self.first.reserve_exact(points);
+        let want = self.first.len() + points;
+        let mut size = self.slots.len().max(16);
+        while want * 100 > size * LOAD_PERCENT {
+            size *= 2;
+        }
+        if size > self.slots.len() {
+            self.grow_to(size, pts);
+        }
+    }
+
     /// Double the group table (16 slots at first) and place every group anew.
     fn grow(&mut self, pts: Points) {
-        let size = (self.slots.len() * 2).max(16);
+        self.grow_to((self.slots.len() * 2).max(16), pts);
+    }
+
+    /// The group table at `size` slots (a power of two), every group placed anew.
+    fn grow_to(&mut self, size: usize, pts: Points) {
+        // The old table goes before the new one is made: only one is held at a time.
+        self.slots = Vec::new();
+        self.tags = Vec::new();
         self.slots = vec![FREE; size];
         self.tags = vec![0; size];
         let mut q = [0.0; MAX_DIM];

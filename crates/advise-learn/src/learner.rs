@@ -600,6 +600,14 @@ impl Learner {
     /// Bring the index up to date with points added since (incremental).
     pub fn ensure_derived(&mut self) {
         if self.ds.obs_dim_supported() {
+            if self.indexed == 0 {
+                // A fresh index (a re-derivation): sized for every point at once.
+                let (n, pts) = (self.ds.len(), self.ds.points());
+                self.index.reserve(n, pts);
+                if let Some(l) = &mut self.lwr_index {
+                    l.reserve(n, pts);
+                }
+            }
             for i in self.indexed..self.ds.len() {
                 self.index.add(i as u32, self.ds.points());
                 if let Some(l) = &mut self.lwr_index {
@@ -639,6 +647,7 @@ impl Learner {
         };
         let act_dim = self.ds.domain().act_dim();
         self.lwr_index = Index::with_action_sums(scale, act_dim).map(|mut idx| {
+            idx.reserve(self.ds.len(), self.ds.points());
             for i in 0..self.indexed.min(self.ds.len()) {
                 idx.add_with_action(i as u32, self.ds.points());
             }
