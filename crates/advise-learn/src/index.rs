@@ -1086,6 +1086,16 @@ impl Index {
         }
     }
 
+    /// Build the bulk tree now if it is not built (the first query that needs it would).
+    pub fn build_bulk(&self, pts: Points) {
+        if !self.is_empty() {
+            let plan = self.plan(pts);
+            each_tree!(&self.tree, t => {
+                plan.bulk(t);
+            });
+        }
+    }
+
     /// How many groups the bulk tree holds (the rest are in the small mutable tree).
     pub fn bulk_groups(&self) -> usize {
         self.planned
