@@ -7,7 +7,7 @@
 #   cargo build --release && benches/scale.sh 1000000 5000000
 #
 # ADVISE (default target/release/advise) and ADVISE_SCALE_DIR (default target/scale) may be set.
-# Runs under `nice -n 10`; the CSV of 20M points is about 1 GB, the measurement needs some 6 GB.
+# Runs under `nice -n 10`; the CSV of 20M points is about 1 GB, the measurement needs some 3 GB.
 set -eu
 ADVISE=$(realpath "${ADVISE:-target/release/advise}")
 DIR=${ADVISE_SCALE_DIR:-target/scale}
