@@ -143,6 +143,8 @@ fn measure(points: usize) -> (Learner, Vec<Vec<f64>>) {
     let mut l = Learner::new(&d, LearnerKind::Lwr, 0);
     l.add_demonstrations(&episodes)
         .expect("synthetic demonstrations are valid");
+    // What a session's run does first: both trees built, BC's first (`Learner::prepare`).
+    l.prepare();
     let mut a = [0.0; 2];
     l.act(&queries[0], &mut a);
     let _ = l.support(&queries[0]);

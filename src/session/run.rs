@@ -76,7 +76,7 @@ impl Session {
                 task: self.task.clone(),
             });
         }
-        self.state.learner.ensure_derived();
+        self.state.learner.prepare();
         // A declared task's goal is kept for its pictures; positioning's is `goal`.
         let goal_values = match &start {
             Start::Declared(_, values) => Some(values.clone()),

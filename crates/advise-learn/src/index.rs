@@ -135,22 +135,22 @@ fn f32_outwards(x: f64, down: bool) -> f32 {
 }
 
 /// A balanced kd-tree built once over a fixed set of groups: each node split at the median of
-/// its widest dimension, every node keeping the tight box of its points, the points stored in
+/// its widest dimension, every node keeping the tight box of its points, the points' groups in
 /// leaf order. The tight boxes matter on trajectory data: points lie along curves, so a cell's
 /// points fill a sliver of it, and a query prunes on the sliver. Queries allocate nothing.
 struct Bulk<const D: usize> {
     nodes: Vec<Node<D>>,
     /// The same tree with levels merged, for radius queries: see [`Wide`].
     wide: Vec<Wide<D>>,
-    /// The points in leaf order.
-    points: Vec<[f64; D]>,
     /// Each leaf's points' range, by leaf number (leaves numbered in leaf order).
     leaves: Vec<[u32; 2]>,
-    /// The points again in `f32`, leaf by leaf, one dimension after another within a leaf: leaf
-    /// `b`'s dimension `k` for its `j`-th point is `coarse[(b * D + k) * LEAF + j]`, +inf past
-    /// its points. A radius query computes a leaf's distances from these, [`LEAF`] at a time
-    /// from one contiguous block of half the bytes, and measures exactly only the points they
-    /// cannot rule out (see [`Coarse`]).
+    /// The points again in `f32`, leaf by leaf, one dimension after another within a leaf: the
+    /// leaf of points `first..first + len` has dimension `k` of its `j`-th point at
+    /// `coarse[first * D + k * len + j]` (no padding between leaves; [`LEAF`] lanes of +inf
+    /// after the last). A radius query computes a leaf's distances from these, [`LEAF`] lanes at
+    /// a time (those past the leaf's points read its neighbour's values and are masked off) from
+    /// one contiguous block of half the bytes, and measures exactly only the points they cannot
+    /// rule out (see [`Coarse`]).
     coarse: Vec<f32>,
     /// The largest magnitude of any coordinate, for [`Coarse`]'s error bound.
     max_abs: f64,
@@ -165,30 +165,21 @@ struct Bulk<const D: usize> {
 impl<const D: usize> Bulk<D> {
     /// The tree over groups `0..n` of `idx`, their scaled observations computed from `pts` (the
     /// points the index refers to), with their action sums when the index keeps them.
+    ///
+    /// The tree keeps no copy of the points' exact observations (its queries compute them from
+    /// the points, [`Exact`]): the `(group, point)` pairs the splits order are dropped once the
+    /// ids and the `f32` copy are taken out, before the action sums are made, so the build's
+    /// peak is the pairs and the tree's own size.
     fn build(idx: &Index, pts: Points, n: usize) -> Bulk<D> {
-        let mut order: Vec<(u32, [f64; D])> = (0..n)
-            .map(|g| {
-                let mut row = [0.0; D];
-                idx.group_scaled(g, pts, &mut row);
-                (g as u32, row)
-            })
-            .collect();
+        let mut order: Vec<(u32, [f64; D])> = Vec::with_capacity(n);
+        order.extend((0..n).map(|g| {
+            let mut row = [0.0; D];
+            idx.group_scaled(g, pts, &mut row);
+            (g as u32, row)
+        }));
         let mut nodes = Vec::with_capacity(4 * n / LEAF + 1);
         if n > 0 {
             Self::build_node(&mut nodes, &mut order, 0);
-        }
-        let (mut sums, mut at) = (Vec::new(), Vec::new());
-        if let Some(act_dim) = idx.act_dim {
-            sums.resize(n * (act_dim + 1), 0.0);
-            at.resize(n, 0);
-            for (i, &(g, _)) in order.iter().enumerate() {
-                idx.group_sum(
-                    g as usize,
-                    pts,
-                    &mut sums[i * (act_dim + 1)..][..act_dim + 1],
-                );
-                at[g as usize] = i as u32;
-            }
         }
         // Leaves numbered in leaf order (the nodes are in depth-first order, left first).
         let mut leaf_of = vec![u32::MAX; nodes.len()];
@@ -199,11 +190,16 @@ impl<const D: usize> Bulk<D> {
                 leaves.push([node.first_or_right, node.end]);
             }
         }
-        let mut coarse = vec![f32::INFINITY; leaves.len() * D * LEAF];
-        for (b, &[first, end]) in leaves.iter().enumerate() {
-            for (j, (_, p)) in order[first as usize..end as usize].iter().enumerate() {
+        leaves.shrink_to_fit();
+        // Each leaf's block of `D * len` values from `first * D` on; [`LEAF`] lanes past the
+        // last block so that every leaf can be read [`LEAF`] lanes at a time.
+        let mut coarse = vec![f32::INFINITY; n * D + LEAF];
+        for &[first, end] in &leaves {
+            let (first, len) = (first as usize, (end - first) as usize);
+            let block = &mut coarse[first * D..][..len * D];
+            for (j, (_, p)) in order[first..first + len].iter().enumerate() {
                 for k in 0..D {
-                    coarse[(b * D + k) * LEAF + j] = p[k] as f32;
+                    block[k * len + j] = p[k] as f32;
                 }
             }
         }
@@ -215,14 +211,29 @@ impl<const D: usize> Bulk<D> {
         if n > 0 {
             Self::build_wide(&nodes, &leaf_of, &mut wide, 0);
         }
+        drop(leaf_of);
+        let ids: Vec<u32> = order.iter().map(|(g, _)| *g).collect();
+        drop(order);
+        let (mut sums, mut at) = (Vec::new(), Vec::new());
+        if let Some(act_dim) = idx.act_dim {
+            sums.resize(n * (act_dim + 1), 0.0);
+            at.resize(n, 0);
+            for (i, &g) in ids.iter().enumerate() {
+                idx.group_sum(
+                    g as usize,
+                    pts,
+                    &mut sums[i * (act_dim + 1)..][..act_dim + 1],
+                );
+                at[g as usize] = i as u32;
+            }
+        }
         Bulk {
             nodes,
             wide,
-            points: order.iter().map(|(_, p)| *p).collect(),
             leaves,
             coarse,
             max_abs,
-            ids: order.iter().map(|(g, _)| *g).collect(),
+            ids,
             sums,
             at,
         }
@@ -233,7 +244,6 @@ impl<const D: usize> Bulk<D> {
         use std::mem::size_of;
         self.nodes.capacity() * size_of::<Node<D>>()
             + self.wide.capacity() * size_of::<Wide<D>>()
-            + self.points.capacity() * size_of::<[f64; D]>()
             + self.leaves.capacity() * 8
             + self.coarse.capacity() * 4
             + self.ids.capacity() * 4
@@ -339,17 +349,18 @@ impl<const D: usize> Bulk<D> {
         Self::order(right);
     }
 
-    fn nearest_one(&self, q: &[f64; D], best: &mut (f64, u64)) {
+    fn nearest_one(&self, q: &[f64; D], best: &mut (f64, u64), ex: &Exact<D>) {
         if !self.nodes.is_empty() {
-            self.nearest_one_in(0, q, best);
+            self.nearest_one_in(0, q, best, ex);
         }
     }
 
-    fn nearest_one_in(&self, at: usize, q: &[f64; D], best: &mut (f64, u64)) {
+    fn nearest_one_in(&self, at: usize, q: &[f64; D], best: &mut (f64, u64), ex: &Exact<D>) {
         let node = &self.nodes[at];
         if node.end != INNER {
             for i in node.first_or_right as usize..node.end as usize {
-                let c = (dist2(q, &self.points[i]), u64::from(self.ids[i]));
+                let g = self.ids[i];
+                let c = (dist2(q, &ex.row(g)), u64::from(g));
                 if before(c, *best) {
                     *best = c;
                 }
@@ -358,7 +369,7 @@ impl<const D: usize> Bulk<D> {
         }
         for (d, next) in self.children_nearest_first(at, q) {
             if d <= best.0 {
-                self.nearest_one_in(next, q, best);
+                self.nearest_one_in(next, q, best, ex);
             }
         }
     }
@@ -377,23 +388,31 @@ impl<const D: usize> Bulk<D> {
     }
 
     /// The `n` nearest into `heap`, a max-heap under [`before`] holding at most `n`.
-    fn nearest_n(&self, q: &[f64; D], n: usize, heap: &mut Vec<(f64, u64)>) {
+    fn nearest_n(&self, q: &[f64; D], n: usize, heap: &mut Vec<(f64, u64)>, ex: &Exact<D>) {
         if !self.nodes.is_empty() && n > 0 {
-            self.nearest_n_in(0, q, n, heap);
+            self.nearest_n_in(0, q, n, heap, ex);
         }
     }
 
-    fn nearest_n_in(&self, at: usize, q: &[f64; D], n: usize, heap: &mut Vec<(f64, u64)>) {
+    fn nearest_n_in(
+        &self,
+        at: usize,
+        q: &[f64; D],
+        n: usize,
+        heap: &mut Vec<(f64, u64)>,
+        ex: &Exact<D>,
+    ) {
         let node = &self.nodes[at];
         if node.end != INNER {
             for i in node.first_or_right as usize..node.end as usize {
-                heap_offer(heap, n, (dist2(q, &self.points[i]), u64::from(self.ids[i])));
+                let g = self.ids[i];
+                heap_offer(heap, n, (dist2(q, &ex.row(g)), u64::from(g)));
             }
             return;
         }
         for (d, next) in self.children_nearest_first(at, q) {
             if heap.len() < n || d <= heap[0].0 {
-                self.nearest_n_in(next, q, n, heap);
+                self.nearest_n_in(next, q, n, heap, ex);
             }
         }
     }
@@ -403,13 +422,13 @@ impl<const D: usize> Bulk<D> {
     /// order the binary tree with [`SPLIT`]-point leaves reported them in, so kernel sums keep
     /// their bits. A leaf's points are first tested coarsely ([`Coarse`]); the few it cannot
     /// rule out are measured exactly.
-    fn within(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize)) {
+    fn within(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize), ex: &Exact<D>) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: this processor has AVX2, checked just above.
-            return unsafe { self.within_avx2(q, r2, f) };
+            return unsafe { self.within_avx2(q, r2, f, ex) };
         }
-        self.within_any(q, r2, f)
+        self.within_any(q, r2, f, ex)
     }
 
     /// [`Bulk::within`] compiled for AVX2: eight `f32` lanes of a leaf's coarse distances and
@@ -417,12 +436,12 @@ impl<const D: usize> Bulk<D> {
     /// Without fused multiply-adds (Rust never contracts them), so the same bits.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn within_avx2(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize)) {
-        self.within_any(q, r2, f)
+    fn within_avx2(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize), ex: &Exact<D>) {
+        self.within_any(q, r2, f, ex)
     }
 
     #[inline(always)]
-    fn within_any(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize)) {
+    fn within_any(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize), ex: &Exact<D>) {
         if self.wide.is_empty() {
             return;
         }
@@ -440,14 +459,14 @@ impl<const D: usize> Bulk<D> {
                 // Candidates as bits, then visited bit by bit: a branch per point inside the
                 // radius or not was mispredicted about as often as not.
                 let mut maybe = match &coarse {
-                    Some(c) => c.candidates(&self.coarse[at as usize * D * LEAF..][..D * LEAF]),
+                    Some(c) => c.candidates(&self.coarse[first * D..], end - first),
                     None => u64::MAX,
                 };
                 // A leaf holds 1 to LEAF <= 64 points.
                 maybe &= u64::MAX >> (64 - (end - first));
                 while maybe != 0 {
                     let i = first + maybe.trailing_zeros() as usize;
-                    let d = dist2(q, &self.points[i]);
+                    let d = dist2(q, &ex.row(self.ids[i]));
                     if d <= r2 {
                         f(d, i);
                     }
@@ -471,6 +490,33 @@ impl<const D: usize> Bulk<D> {
                 }
             }
         }
+    }
+}
+
+/// The exact scaled observations the bulk tree's queries measure, computed from the points the
+/// index refers to (the tree keeps no copy of them): group `g`'s first point's observation times
+/// the scale, the same product [`Index::scaled`] makes, so the same bits as a stored copy.
+struct Exact<'a, const D: usize> {
+    idx: &'a Index,
+    z: &'a [f64],
+    scale: [f64; D],
+}
+
+impl<'a, const D: usize> Exact<'a, D> {
+    fn new(idx: &'a Index, pts: Points<'a>) -> Self {
+        Exact {
+            idx,
+            z: pts.z,
+            scale: std::array::from_fn(|k| idx.scale[k]),
+        }
+    }
+
+    /// Group `g`'s scaled observation.
+    #[inline(always)]
+    fn row(&self, g: u32) -> [f64; D] {
+        let p = self.idx.group(u64::from(g))[0] as usize;
+        let z = &self.z[p * D..][..D];
+        std::array::from_fn(|k| z[k] * self.scale[k])
     }
 }
 
@@ -506,13 +552,13 @@ impl<const D: usize> Coarse<D> {
         })
     }
 
-    /// Bit `j` set unless the leaf's `j`-th point (of a block of [`Bulk::coarse`]) is certainly
-    /// outside the radius.
+    /// Bit `j` set unless the leaf's `j`-th point (of a block of [`Bulk::coarse`], `len` lanes
+    /// a dimension) is certainly outside the radius; bits from `len` on are the caller's to mask.
     #[inline(always)]
-    fn candidates(&self, block: &[f32]) -> u64 {
+    fn candidates(&self, block: &[f32], len: usize) -> u64 {
         let mut s = [0.0f32; LEAF];
         for (k, qk) in self.q.iter().enumerate() {
-            let c: &[f32; LEAF] = block[k * LEAF..][..LEAF]
+            let c: &[f32; LEAF] = block[k * len..][..LEAF]
                 .try_into()
                 .expect("a block holds LEAF lanes of each dimension");
             for (s, c) in s.iter_mut().zip(c) {
@@ -639,7 +685,7 @@ impl Tree {
         each_tree!(self, t => {
             let q = q.try_into().expect("dimension checked at construction");
             let mut best = (f64::INFINITY, u64::MAX);
-            plan.bulk(t).nearest_one(q, &mut best);
+            plan.bulk(t).nearest_one(q, &mut best, &plan.exact());
             if plan.recent > 0 {
                 // Only groups at most as far as the bulk's nearest can change the answer: a
                 // radius search that small visits a few of kiddo's leaves.
@@ -657,7 +703,7 @@ impl Tree {
         out.clear();
         each_tree!(self, t => {
             let q = q.try_into().expect("dimension checked at construction");
-            plan.bulk(t).nearest_n(q, n, out);
+            plan.bulk(t).nearest_n(q, n, out, &plan.exact());
             if plan.recent > 0 {
                 if out.len() < n {
                     out.extend(t.recent.nearest_n::<SquaredEuclidean>(q, n).into_iter().map(|n| (n.distance, n.item)));
@@ -677,7 +723,7 @@ impl Tree {
         each_tree!(self, t => {
             let q = q.try_into().expect("dimension checked at construction");
             let bulk = plan.bulk(t);
-            bulk.within(q, r2, &mut |d, i| out.push((d, u64::from(bulk.ids[i]))));
+            bulk.within(q, r2, &mut |d, i| out.push((d, u64::from(bulk.ids[i]))), &plan.exact());
             if plan.recent > 0 {
                 let found = t.recent.within_unsorted::<SquaredEuclidean>(q, r2);
                 out.extend(found.into_iter().map(|n| (n.distance, n.item)));
@@ -697,7 +743,7 @@ impl Tree {
             bulk.within(q, r2, &mut |d, i| {
                 let row = &bulk.sums[i * w..(i + 1) * w];
                 f(d, &row[..act_dim], row[act_dim]);
-            });
+            }, &plan.exact());
             if plan.recent > 0 {
                 // A recent group's sum is made from its points here, as the bulk's copy is
                 // when it is built: the same additions in the same order, so the same bits.
@@ -743,7 +789,11 @@ struct Plan<'a> {
     recent: usize,
 }
 
-impl Plan<'_> {
+impl<'a> Plan<'a> {
+    fn exact<const D: usize>(&self) -> Exact<'a, D> {
+        Exact::new(self.idx, self.pts)
+    }
+
     fn bulk<'t, const D: usize>(&self, t: &'t Trees<D>) -> &'t Bulk<D> {
         t.bulk
             .get_or_init(|| Bulk::build(self.idx, self.pts, self.idx.planned))
@@ -751,8 +801,8 @@ impl Plan<'_> {
 }
 
 /// The points an index refers to, borrowed for each call: the dataset's own arrays, so the index
-/// keeps no copy of the observations in point or group order (its bulk tree keeps its scaled
-/// observations in leaf order, which its queries read). Point `p`'s observation is
+/// keeps no copy of the exact observations (its bulk tree keeps an `f32` copy in leaf order, for
+/// a radius query's first test, and computes the exact ones from these). Point `p`'s observation is
 /// `z[p * obs_dim..][..obs_dim]` and its action `a[p * act_dim..][..act_dim]` (the actions are
 /// read only by an index with action sums). Every call on one index must pass the same points,
 /// or more of them (points added since): an index holds point numbers, not values.
@@ -956,9 +1006,32 @@ impl Index {
         }
     }
 
+    /// Room for `points` more points (so at most that many new groups), reserved exactly, with
+    /// the group table sized for them at once: a bulk load then grows neither again (no
+    /// doubling slack kept, no table rebuilt at each doubling). Where a group's slot is does not
+    /// number it, so no answer changes.
+    pub fn reserve(&mut self, points: usize, pts: Points) {
+        self.first.reserve_exact(points);
+        let want = self.first.len() + points;
+        let mut size = self.slots.len().max(16);
+        while want * 100 > size * LOAD_PERCENT {
+            size *= 2;
+        }
+        if size > self.slots.len() {
+            self.grow_to(size, pts);
+        }
+    }
+
     /// Double the group table (16 slots at first) and place every group anew.
     fn grow(&mut self, pts: Points) {
-        let size = (self.slots.len() * 2).max(16);
+        self.grow_to((self.slots.len() * 2).max(16), pts);
+    }
+
+    /// The group table at `size` slots (a power of two), every group placed anew.
+    fn grow_to(&mut self, size: usize, pts: Points) {
+        // The old table goes before the new one is made: only one is held at a time.
+        self.slots = Vec::new();
+        self.tags = Vec::new();
         self.slots = vec![FREE; size];
         self.tags = vec![0; size];
         let mut q = [0.0; MAX_DIM];
@@ -1010,6 +1083,16 @@ impl Index {
             idx: self,
             pts,
             recent: self.first.len() - self.planned,
+        }
+    }
+
+    /// Build the bulk tree now if it is not built (the first query that needs it would).
+    pub fn build_bulk(&self, pts: Points) {
+        if !self.is_empty() {
+            let plan = self.plan(pts);
+            each_tree!(&self.tree, t => {
+                plan.bulk(t);
+            });
         }
     }
 
