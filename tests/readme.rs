@@ -324,21 +324,20 @@ fn the_simulator_table_is_what_its_commands_print() {
     let csv = std::fs::read_to_string(dir.join("demos.csv")).unwrap();
     let points = csv.lines().count() - 1;
     assert!((810..=990).contains(&points), "{points} points");
-    let bc = json_of(
-        &[
-            "eval",
-            "--task",
-            "positioning",
-            "--dataset",
-            "demos.csv",
-            "--policy",
-            "bc",
-            "--seed",
-            "0",
-            "--json",
-        ],
-        dir,
-    );
+    // The README's `--policy bc --seed 0` evaluation: its table row from `--json`, its text block
+    // from the same command without it.
+    let bc_eval = [
+        "eval",
+        "--task",
+        "positioning",
+        "--dataset",
+        "demos.csv",
+        "--policy",
+        "bc",
+        "--seed",
+        "0",
+    ];
+    let bc = json_of(&[&bc_eval[..], &["--json"]].concat(), dir);
     let row = |label: &str, r: &Value, count: bool| {
         let n = r["episodes"].as_u64().unwrap();
         let ok = r["successes"].as_u64().unwrap();
@@ -373,20 +372,7 @@ fn the_simulator_table_is_what_its_commands_print() {
     );
     quoted(&row("positioning teacher, test set", &teacher, true));
     // The text block the README shows under its commands: the `--policy bc --seed 0` evaluation.
-    let text = advise(
-        &[
-            "eval",
-            "--task",
-            "positioning",
-            "--dataset",
-            "demos.csv",
-            "--policy",
-            "bc",
-            "--seed",
-            "0",
-        ],
-        dir,
-    );
+    let text = advise(&bc_eval, dir);
     let text = String::from_utf8(text.stdout).unwrap();
     quoted(text.trim_end());
 
