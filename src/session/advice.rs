@@ -109,18 +109,39 @@ impl Session {
         }))
     }
 
+    /// What `inv` would add to the selection, synthesized and nothing added: `preview`'s text
+    /// and the web view's data (`Session::preview_json`) both come from it.
+    pub(super) fn preview_points(
+        &mut self,
+        inv: &crate::syntax::Invocation,
+    ) -> Result<Previewed, SessionError> {
+        let (execution, chunk) = self.selection()?;
+        let rec = &self.state.executions[execution];
+        let call = check::bind(&mut self.sources, &self.ops, &rec.trace.domain, inv)?;
+        let syn = interp::apply(&call, &rec.trace, chunk)?;
+        Ok(Previewed {
+            execution,
+            chunk,
+            guard: guard_of(call.operator().definition()),
+            syn,
+        })
+    }
+
     pub(super) fn preview(
         &mut self,
         inv: &crate::syntax::Invocation,
     ) -> Result<String, SessionError> {
-        let (i, chunk) = self.selection()?;
+        let Previewed {
+            execution: i,
+            chunk,
+            guard,
+            syn,
+        } = self.preview_points(inv)?;
         let rec = &self.state.executions[i];
-        let call = check::bind(&mut self.sources, &self.ops, &rec.trace.domain, inv)?;
-        let syn = interp::apply(&call, &rec.trace, chunk)?;
         let space = syn.advice.space;
         let dims = self.domain.dims(space);
         let skipped = chunk.len() - syn.points.len();
-        let guard = match guard_of(call.operator().definition()) {
+        let guard = match guard {
             Some(guard) if skipped > 0 => format!(" by its guard `{guard}`"),
             _ => String::new(),
         };
@@ -138,10 +159,7 @@ impl Session {
         let shown = syn.points.len().min(12);
         for (j, &src) in syn.source_index.iter().take(shown).enumerate() {
             let _ = write!(out, "{src:>6}");
-            let (before, after) = match space {
-                crate::domain::Space::Action => (rec.trace.a(src), syn.points.a(j)),
-                crate::domain::Space::Observation => (rec.trace.z(src), syn.points.z(j)),
-            };
+            let (before, after) = before_after(&rec.trace, &syn, j, src);
             for (b, a) in before.iter().zip(after) {
                 let _ = write!(out, "  {:>24}", format!("{b:.4} -> {a:.4}"));
             }
@@ -207,5 +225,28 @@ pub(super) fn check_kappa(kappa: f64) -> Result<(), SessionError> {
         Err(SessionError::BadKappa {
             kappa: short_num(kappa),
         })
+    }
+}
+
+/// The points a piece of advice would add, and where: [`Session::preview_points`].
+pub(super) struct Previewed {
+    pub execution: usize,
+    pub chunk: Chunk,
+    /// The operator's guard, as written, if it has one.
+    pub guard: Option<String>,
+    pub syn: interp::Synthesized,
+}
+
+/// Synthesized point `j`'s values in the advice's space, beside those of the executed point `src`
+/// it came from: `(before, after)`.
+pub(super) fn before_after<'a>(
+    trace: &'a crate::trace::Trace,
+    syn: &'a interp::Synthesized,
+    j: usize,
+    src: usize,
+) -> (&'a [f64], &'a [f64]) {
+    match syn.advice.space {
+        crate::domain::Space::Action => (trace.a(src), syn.points.a(j)),
+        crate::domain::Space::Observation => (trace.z(src), syn.points.z(j)),
     }
 }

@@ -7,7 +7,6 @@ use serde_json::{Value, json};
 use super::{HeldExecution, Session, SessionError};
 use crate::syntax::command::{Command, Statement, parse_statement};
 use crate::trace::Chunk;
-use crate::{check, interp};
 
 fn chunk(c: Chunk) -> Value {
     json!([c.range().start, c.range().end])
@@ -144,28 +143,23 @@ impl Session {
         else {
             return Ok(Value::Null);
         };
-        let (i, sel) = self.selection()?;
+        let super::advice::Previewed {
+            execution: i,
+            chunk: sel,
+            syn,
+            ..
+        } = self.preview_points(&inv)?;
         let rec = &self.state.executions[i];
-        let call = check::bind(&mut self.sources, &self.ops, &rec.trace.domain, &inv)?;
-        let syn = interp::apply(&call, &rec.trace, sel)?;
         let space = syn.advice.space;
-        let rows = |get: &dyn Fn(usize, usize) -> Vec<f64>| -> Vec<Vec<f64>> {
-            syn.source_index
-                .iter()
-                .enumerate()
-                .map(|(j, &src)| get(j, src))
-                .collect()
-        };
-        let (before, after) = match space {
-            crate::domain::Space::Action => (
-                rows(&|_, src| rec.trace.a(src).to_vec()),
-                rows(&|j, _| syn.points.a(j).to_vec()),
-            ),
-            crate::domain::Space::Observation => (
-                rows(&|_, src| rec.trace.z(src).to_vec()),
-                rows(&|j, _| syn.points.z(j).to_vec()),
-            ),
-        };
+        let (before, after): (Vec<Vec<f64>>, Vec<Vec<f64>>) = syn
+            .source_index
+            .iter()
+            .enumerate()
+            .map(|(j, &src)| {
+                let (b, a) = super::advice::before_after(&rec.trace, &syn, j, src);
+                (b.to_vec(), a.to_vec())
+            })
+            .unzip();
         Ok(json!({
             "execution": i,
             "chunk": chunk(sel),
