@@ -199,6 +199,8 @@ pub struct Session {
     statement: Option<(String, String)>,
     /// Warnings of the last definition checked (shadowed standard operators), for its reply.
     warnings: Vec<crate::check::CheckWarning>,
+    /// Set by [`Session::execute_previewing`]: `preview` leaves its points here as data.
+    previewed: Option<serde_json::Value>,
     /// Effects made before a journal was started (the starting demonstrations), written first
     /// into the journal when one is started; `None` once one was (or never will be).
     preamble: Option<Vec<Entry>>,
@@ -270,6 +272,7 @@ impl Session {
             stop: StopSignal::new(),
             statement: None,
             warnings: Vec::new(),
+            previewed: None,
             preamble: None,
             sources: crate::diag::SourceMap::new(),
             inputs: Vec::new(),

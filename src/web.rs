@@ -149,9 +149,27 @@ impl Hub {
     /// Run one statement on the session, log it and announce it; `colour` renders its
     /// diagnostic for a terminal.
     pub fn execute(&self, text: &str, origin: &str, from: &'static str, colour: bool) -> Typed {
+        self.execute_with(text, from, colour, |s| (s.execute(text, origin), ()))
+            .0
+    }
+
+    /// Run `preview INVOCATION` (or any statement) as [`Hub::execute`] does, under the same one
+    /// lock, with the points a preview would add as data ([`Session::execute_previewing`]).
+    pub fn preview(&self, text: &str, origin: &str, from: &'static str) -> (Typed, Value) {
+        self.execute_with(text, from, false, |s| s.execute_previewing(text, origin))
+    }
+
+    /// [`Hub::execute`] with the statement run by `run`, which may give more than the reply.
+    fn execute_with<T>(
+        &self,
+        text: &str,
+        from: &'static str,
+        colour: bool,
+        run: impl FnOnce(&mut Session) -> (Result<Reply, crate::session::SessionError>, T),
+    ) -> (Typed, T) {
         let mut live = self.live();
         self.inner.stop.clear();
-        let result = live.session.execute(text, origin);
+        let (result, more) = run(&mut live.session);
         let eval = match &result {
             Ok(Reply::Evaluated(e)) => {
                 Some((e.report.success_rate, e.report.mean_position_error_m))
@@ -195,7 +213,7 @@ impl Hub {
             .inner
             .events
             .send(serde_json::to_string(&logged).unwrap_or_default());
-        typed
+        (typed, more)
     }
 
     /// The state the page draws: the session's view, the statement log and the eval curve.
@@ -432,12 +450,7 @@ async fn statement(State(app): State<App>, body: String) -> Response {
 async fn preview(State(app): State<App>, body: String) -> Response {
     let hub = app.hub.clone();
     let run = move || {
-        let typed = hub.execute(&body, "<page>", "page", false);
-        let data = if typed.shown.is_ok() {
-            hub.with(|s| s.preview_json(&body).unwrap_or(Value::Null))
-        } else {
-            Value::Null
-        };
+        let (typed, data) = hub.preview(&body, "<page>", "page");
         json!({"ok": typed.shown.is_ok(), "reply": typed.shown.unwrap_or_else(|e| e), "preview": data})
     };
     match tokio::task::spawn_blocking(run).await {

@@ -110,7 +110,7 @@ impl Session {
     }
 
     /// What `inv` would add to the selection, synthesized and nothing added: `preview`'s text
-    /// and the web view's data (`Session::preview_json`) both come from it.
+    /// and the web view's data (`Session::execute_previewing`) both come from it.
     pub(super) fn preview_points(
         &mut self,
         inv: &crate::syntax::Invocation,
@@ -131,12 +131,16 @@ impl Session {
         &mut self,
         inv: &crate::syntax::Invocation,
     ) -> Result<String, SessionError> {
+        let previewed = self.preview_points(inv)?;
+        if self.previewed.is_some() {
+            self.previewed = Some(self.preview_data(&previewed));
+        }
         let Previewed {
             execution: i,
             chunk,
             guard,
             syn,
-        } = self.preview_points(inv)?;
+        } = previewed;
         let rec = &self.state.executions[i];
         let space = syn.advice.space;
         let dims = self.domain.dims(space);

@@ -5,7 +5,6 @@
 use serde_json::{Value, json};
 
 use super::{HeldExecution, Session, SessionError};
-use crate::syntax::command::{Command, Statement, parse_statement};
 use crate::trace::Chunk;
 
 fn chunk(c: Chunk) -> Value {
@@ -126,29 +125,29 @@ impl Session {
         })
     }
 
-    /// What `statement` (`preview INVOCATION`) would add, as data: for each synthesized point
-    /// the executed point it came from, and its values before and after in the operator's space.
-    /// Nothing is added and nothing journalled; an error is the one `execute` gives for the same
-    /// statement.
-    pub fn preview_json(&mut self, statement: &str) -> Result<Value, SessionError> {
-        let mark = self.sources.len();
-        let result = self.preview_data(statement);
-        self.sources.truncate(mark);
-        result
+    /// Run `statement` as [`Session::execute`] does; when it is a `preview`, also give what it
+    /// would add as data (else `null`): for each synthesized point the executed point it came
+    /// from, and its values before and after in the operator's space. The reply's text and the
+    /// data come from one synthesis, so they agree.
+    pub fn execute_previewing(
+        &mut self,
+        statement: &str,
+        origin: &str,
+    ) -> (Result<super::Reply, SessionError>, Value) {
+        self.previewed = Some(Value::Null);
+        let reply = self.execute(statement, origin);
+        (reply, self.previewed.take().unwrap_or(Value::Null))
     }
 
-    fn preview_data(&mut self, statement: &str) -> Result<Value, SessionError> {
-        let id = self.sources.add("<page>", statement);
-        let Statement::Command(Command::Preview(inv), _) = parse_statement(self.sources.src(id))?
-        else {
-            return Ok(Value::Null);
-        };
+    /// [`Session::execute_previewing`]'s data.
+    pub(super) fn preview_data(&self, previewed: &super::advice::Previewed) -> Value {
         let super::advice::Previewed {
             execution: i,
             chunk: sel,
             syn,
             ..
-        } = self.preview_points(&inv)?;
+        } = previewed;
+        let (i, sel) = (*i, *sel);
         let rec = &self.state.executions[i];
         let space = syn.advice.space;
         let (before, after): (Vec<Vec<f64>>, Vec<Vec<f64>>) = syn
@@ -156,11 +155,11 @@ impl Session {
             .iter()
             .enumerate()
             .map(|(j, &src)| {
-                let (b, a) = super::advice::before_after(&rec.trace, &syn, j, src);
+                let (b, a) = super::advice::before_after(&rec.trace, syn, j, src);
                 (b.to_vec(), a.to_vec())
             })
             .unzip();
-        Ok(json!({
+        json!({
             "execution": i,
             "chunk": chunk(sel),
             "invocation": syn.advice.invocation(),
@@ -169,6 +168,6 @@ impl Session {
             "source_index": syn.source_index,
             "before": before,
             "after": after,
-        }))
+        })
     }
 }
