@@ -414,3 +414,40 @@ operator slow_down(rate = 0.2 in [0, 1]) for waypoint on action where fwd > 0 {\
     assert!(own.contains("advise::check::shadows_standard"), "{own}");
     insta::assert_snapshot!(format!("{plain}\n{shadowed}\n{own}"));
 }
+
+/// A session's `tasks FILE` warns as `advise check --tasks` does when the task file defines its
+/// own operator of a standard name: the task's `slow_down` shadows the one by role, the reply
+/// says so with the coded warning, and it is the task's own that advice then binds (its guard
+/// and its one-dimensional body).
+#[test]
+fn tasks_in_a_session_warns_when_the_task_file_shadows_a_standard_operator() {
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join(
+        "tests/sessions/a_task_written_from_scratch_is_checked_run_drawn_advised_explained_evaluated_saved_and_opened",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let shadow = "/// Slow down, the lab's way: only the forward speed.\n\
+operator slow_down(rate = 0.2 in [0, 1]) for waypoint on action where fwd > 0 {\n  fwd *= 1 - rate\n}\n";
+    let task = std::fs::read_to_string(fixtures.join("waypoint.adv")).unwrap();
+    std::fs::write(dir.path().join("withown.adv"), format!("{task}{shadow}")).unwrap();
+    std::fs::write(dir.path().join("plain.adv"), &task).unwrap();
+    let mut s = session(TaskKind::Positioning, 0);
+    let own = transcript(
+        &mut s,
+        &format!("tasks {}", dir.path().join("withown.adv").display()),
+    );
+    assert!(own.contains("advise::check::shadows_standard"), "{own}");
+    assert!(own.contains("slow_down"), "{own}");
+    insta::assert_snapshot!(own.replace(&dir.path().display().to_string(), "DIR"));
+    let docs = transcript(&mut s, "task waypoint\nhelp slow_down");
+    assert!(
+        docs.contains("the lab's way"),
+        "the task's own slow_down is bound: {docs}"
+    );
+    // A task file without its own operator of a standard name warns of nothing.
+    let mut s = session(TaskKind::Positioning, 0);
+    let plain = transcript(
+        &mut s,
+        &format!("tasks {}", dir.path().join("plain.adv").display()),
+    );
+    assert!(!plain.contains("shadows_standard"), "{plain}");
+}

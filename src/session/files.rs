@@ -303,12 +303,13 @@ impl Session {
                 )
             })
             .collect();
+        let warnings = warnings_text(&self.sources, &std::mem::take(&mut self.warnings));
         Ok(format!(
             "checked {path}: task{} {}; switch with `task {}`",
             if new.len() == 1 { "" } else { "s" },
             described.join(", "),
             new[0].name()
-        ))
+        ) + &warnings)
     }
 
     pub(super) fn load_operators(&mut self, path: &str) -> Result<String, SessionError> {
