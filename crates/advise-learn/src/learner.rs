@@ -142,8 +142,12 @@ pub struct Learner {
     /// [`LwrParams::scales`]), so a query's radius search covers exactly the kernel's support
     /// instead of a box inflated by the smallest scale. `None` for a BC learner.
     lwr_index: Option<Index>,
-    /// [`Learner::lwr`] with unit scales: the parameters that query `lwr_index`.
+    /// [`Learner::lwr`] with unit scales and its bandwidth times [`Learner::lwr_density`]: the
+    /// parameters that query `lwr_index`.
     lwr_unit: LwrParams,
+    /// [`lwr::density_factor`] of the last tuning: 1 unless it tuned on a sample. `lwr` keeps
+    /// the tuned bandwidth, which a warm re-tuning starts from.
+    lwr_density: f64,
     seed: u64,
     /// Points added since the index was last brought up to date.
     indexed: usize,
@@ -189,6 +193,7 @@ impl Learner {
             lwr: LwrParams::default_for(dim),
             lwr_index: None,
             lwr_unit: LwrParams::default_for(dim),
+            lwr_density: 1.0,
             ds,
             seed,
             indexed: 0,
@@ -570,20 +575,32 @@ impl Learner {
                 }
                 _ => false,
             };
-            self.lwr = if warm {
+            let start = if warm {
                 self.tuning.since_full = self.tuning.since_full.map(|s| s + 1);
-                lwr::tune_from(&self.ds, self.index.scale(), 5, self.seed, Some(&self.lwr))
+                Some(&self.lwr)
             } else {
                 self.tuning = TuningState {
                     since_full: Some(0),
                     full_at_len: n,
                 };
-                lwr::tune(&self.ds, self.index.scale(), 5, self.seed)
+                None
             };
+            let (tuned, sample) =
+                lwr::tune_sized(&self.ds, self.index.scale(), 5, self.seed, start);
+            self.lwr = tuned;
+            self.lwr_density = lwr::density_factor(sample, n, dim);
             self.build_lwr_index();
             let scales: Vec<String> = self.lwr.scales.iter().map(|s| format!("{s}")).collect();
+            let density = if self.lwr_density == 1.0 {
+                String::new()
+            } else {
+                format!(
+                    " on a sample of {sample} points, applied as {:.4} at {n} points",
+                    self.lwr_unit.bandwidth
+                )
+            };
             format!(
-                "; LWR {} by 5-fold cross-validation: bandwidth {}, scales [{}]",
+                "; LWR {} by 5-fold cross-validation: bandwidth {}{density}, scales [{}]",
                 if warm {
                     "re-tuned from the last tuning"
                 } else {
@@ -643,6 +660,7 @@ impl Learner {
             .collect();
         self.lwr_unit = LwrParams {
             scales: vec![1.0; scale.len()],
+            bandwidth: self.lwr.bandwidth * self.lwr_density,
             ..self.lwr.clone()
         };
         let act_dim = self.ds.domain().act_dim();
@@ -874,18 +892,12 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// A ready learner (both trees built, as a run needs them) holds its points in under 160
-    /// bytes each: the dataset's 40, the two group tables, BC's tree and LWR's with its action
-    /// sums, and no copy of the exact observations in either tree (207 with them, 150 without,
-    /// here at 100,000 points where the group tables are at their emptiest).
-    /// Its answers are those of brute force over the points.
-    #[test]
-    fn a_ready_learner_holds_its_points_compactly() {
-        let d = Domain::positioning();
+    /// `count` seeded positioning demonstrations of 1,000 points each, drifting towards the goal.
+    fn drifting_episodes(d: &Domain, count: usize) -> Vec<Episode> {
         let mut rng = ChaCha8Rng::seed_from_u64(9);
-        let episodes: Vec<Episode> = (0..100)
+        (0..count)
             .map(|e| {
-                let mut t = Trace::new(&d);
+                let mut t = Trace::new(d);
                 let (mut r, mut b): (f64, f64) =
                     (rng.random_range(0.5..9.0), rng.random_range(-3.0..3.0));
                 for i in 0..1000 {
@@ -900,7 +912,46 @@ mod tests {
                     trace: t,
                 }
             })
-            .collect();
+            .collect()
+    }
+
+    /// A learner larger than LWR's tuning sample queries with the tuned bandwidth shrunk for its
+    /// density ([`lwr::density_factor`]) and says so; one that was tuned on all its points
+    /// queries with the tuned bandwidth itself, to the bit.
+    #[test]
+    fn the_bandwidth_follows_the_density_beyond_the_tuning_sample() {
+        let d = Domain::positioning();
+        let mut small = Learner::new(&d, LearnerKind::Lwr, 0);
+        small
+            .add_demonstrations_owned(drifting_episodes(&d, 12))
+            .unwrap();
+        assert_eq!(small.lwr_density, 1.0);
+        assert_eq!(small.lwr_unit.bandwidth, small.lwr.bandwidth);
+        let mut large = Learner::new(&d, LearnerKind::Lwr, 0);
+        large
+            .add_demonstrations_owned(drifting_episodes(&d, 60))
+            .unwrap();
+        let factor = lwr::density_factor(lwr::TUNE_POINTS, 60_000, 3);
+        assert!((factor - (1.0f64 / 3.0).powf(1.0 / 7.0)).abs() < 1e-15);
+        assert_eq!(large.lwr_density, factor);
+        assert_eq!(large.lwr_unit.bandwidth, large.lwr.bandwidth * factor);
+        let note = large.rederive();
+        assert!(
+            note.contains("on a sample of 20000 points, applied as"),
+            "{note}"
+        );
+        assert!(!small.rederive().contains("sample"));
+    }
+
+    /// A ready learner (both trees built, as a run needs them) holds its points in under 160
+    /// bytes each: the dataset's 40, the two group tables, BC's tree and LWR's with its action
+    /// sums, and no copy of the exact observations in either tree (207 with them, 150 without,
+    /// here at 100,000 points where the group tables are at their emptiest).
+    /// Its answers are those of brute force over the points.
+    #[test]
+    fn a_ready_learner_holds_its_points_compactly() {
+        let d = Domain::positioning();
+        let episodes = drifting_episodes(&d, 100);
         let mut l = Learner::new(&d, LearnerKind::Lwr, 0);
         l.add_demonstrations_owned(episodes).unwrap();
         l.prepare();
