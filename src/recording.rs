@@ -16,6 +16,7 @@ pub mod bag;
 pub mod lerobot;
 pub mod mcap_export;
 pub mod mcap_read;
+pub mod parquet_demos;
 
 use std::path::{Path, PathBuf};
 

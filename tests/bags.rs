@@ -777,3 +777,101 @@ fn a_bag_imports_as_demonstrations_of_a_declared_task() {
         );
     }
 }
+
+/// Parquet demonstrations (issue 36), written by pandas and pyarrow from `advise demo`'s CSV: they
+/// load to the very points the CSV loads to (float64 to the bit; float32 to the nearest float32),
+/// in a session as in the library, and every way a file can be wrong is refused with its row and
+/// column, as a user sees it.
+#[test]
+fn parquet_demonstrations_from_pandas_and_pyarrow_load_as_their_csv_does() {
+    let Some(py) = peer() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let (ok, text) = advise(
+        &[
+            "demo",
+            "--task",
+            "positioning",
+            "--count",
+            "4",
+            "--out",
+            "demos.csv",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{text}");
+    python::run(
+        Command::new(&py)
+            .arg(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/tests/python/parquet_demos.py"
+            ))
+            .arg(dir.path().join("demos.csv"))
+            .arg(dir.path()),
+        Duration::from_secs(120),
+    )
+    .unwrap();
+    let domain = advise::domain::Domain::positioning();
+    let mut sources = advise::diag::SourceMap::new();
+    let csv = advise::policy::dataset::load_demonstrations(
+        &mut sources,
+        &domain,
+        &dir.path().join("demos.csv"),
+    )
+    .unwrap()
+    .episodes;
+    let read = |name: &str| {
+        advise::recording::parquet_demos::read_demos(
+            &domain,
+            &dir.path().join(name),
+            1_000_000,
+            &mut |_, _| {},
+        )
+    };
+    assert_eq!(read("good.parquet").unwrap(), csv, "float64 from pandas");
+    let f32 = read("good-f32.parquet").unwrap();
+    assert_eq!(f32.len(), csv.len());
+    for (g, w) in f32.iter().zip(&csv) {
+        assert_eq!(g.name, w.name);
+        let rounded = |v: &[f64]| v.iter().map(|x| f64::from(*x as f32)).collect::<Vec<_>>();
+        for i in 0..w.trace.len() {
+            assert_eq!(g.trace.z(i), rounded(w.trace.z(i)).as_slice());
+            assert_eq!(g.trace.a(i), rounded(w.trace.a(i)).as_slice());
+        }
+    }
+    // A session loads it as the CSV: the same reply, but for the file's name.
+    let load = |name: &str| {
+        let script = format!("load-{name}.adv");
+        std::fs::write(dir.path().join(&script), format!("load demos {name}\n")).unwrap();
+        advise(
+            &["run", "--demos", "0", "--no-journal", &script],
+            dir.path(),
+        )
+    };
+    let (ok, parquet) = load("good.parquet");
+    assert!(ok, "{parquet}");
+    let (_, from_csv) = load("demos.csv");
+    let strip = |t: &str| {
+        t.replace("good.parquet", "FILE")
+            .replace("demos.csv", "FILE")
+            .split(" points (")
+            .next()
+            .unwrap_or_default()
+            .to_string()
+    };
+    assert_eq!(strip(&parquet), strip(&from_csv));
+    let mut refused = String::new();
+    for bad in [
+        "null",
+        "int-t",
+        "nan",
+        "limits",
+        "misspelled",
+        "missing",
+        "split",
+    ] {
+        let (ok, text) = load(&format!("{bad}.parquet"));
+        assert!(!ok, "{bad}: {text}");
+        refused.push_str(&format!("--- {bad}.parquet\n{text}\n"));
+    }
+    insta::assert_snapshot!(refused);
+}

@@ -45,6 +45,9 @@ pub enum SessionError {
     Plot(#[from] plot::PlotError),
     #[error(transparent)]
     #[diagnostic(transparent)]
+    ParquetDemos(#[from] crate::recording::parquet_demos::ParquetDemosError),
+    #[error(transparent)]
+    #[diagnostic(transparent)]
     File(#[from] crate::files::FileError),
     #[error(transparent)]
     #[diagnostic(transparent)]

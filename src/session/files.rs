@@ -104,6 +104,17 @@ impl Session {
                 task::finite_demos(&self.task, &recorded)?;
                 recorded.into_iter().map(|(e, _)| e).collect()
             }
+            None if crate::recording::parquet_demos::is_parquet(recording) => {
+                let mut bar = Progress::rows();
+                let episodes = crate::recording::parquet_demos::read_demos(
+                    &self.domain,
+                    recording,
+                    crate::policy::dataset::MAX_STREAM_POINTS,
+                    &mut |done, total| bar.show(done, total),
+                );
+                bar.done();
+                episodes?
+            }
             None => {
                 let mut bar = Progress::default();
                 let demos = crate::policy::dataset::load_demonstrations_with(
@@ -600,9 +611,18 @@ fn advice_points(
 #[derive(Default)]
 struct Progress {
     bar: Option<indicatif::ProgressBar>,
+    /// Counted in rows (a Parquet file), not bytes.
+    rows: bool,
 }
 
 impl Progress {
+    fn rows() -> Progress {
+        Progress {
+            bar: None,
+            rows: true,
+        }
+    }
+
     fn show(&mut self, done: u64, total: u64) {
         use std::io::IsTerminal;
         let bar = self.bar.get_or_insert_with(|| {
@@ -610,9 +630,12 @@ impl Progress {
                 return indicatif::ProgressBar::hidden();
             }
             let bar = indicatif::ProgressBar::new(total);
-            if let Ok(style) = indicatif::ProgressStyle::with_template(
-                "reading demonstrations {bar:40} {bytes}/{total_bytes} ({eta} left)",
-            ) {
+            let template = if self.rows {
+                "reading demonstrations {bar:40} {human_pos}/{human_len} rows ({eta} left)"
+            } else {
+                "reading demonstrations {bar:40} {bytes}/{total_bytes} ({eta} left)"
+            };
+            if let Ok(style) = indicatif::ProgressStyle::with_template(template) {
                 bar.set_style(style);
             }
             bar
