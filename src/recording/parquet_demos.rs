@@ -84,7 +84,9 @@ pub enum ParquetDemosError {
         help: String,
     },
 
-    #[error("{path}: episode `{episode}` starts again at row {row} (it began at row {first_row}; rows count from 0)")]
+    #[error(
+        "{path}: episode `{episode}` starts again at row {row} (it began at row {first_row}; rows count from 0)"
+    )]
     #[diagnostic(
         code(advise::parquet::episode_split),
         help("an episode's rows are contiguous: sort the table by episode, then by t")
