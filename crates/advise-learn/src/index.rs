@@ -155,11 +155,6 @@ struct Bulk<const D: usize> {
     /// The largest magnitude of any coordinate, for [`Coarse`]'s error bound.
     max_abs: f64,
     ids: Vec<u32>,
-    /// A tree without action sums (BC's) of at most [`EXACT_COPY_MAX`] groups: their exact
-    /// scaled observations in leaf order, `D` values each (the same bits [`Exact`] computes), so
-    /// a nearest search reads a leaf's rows one after another instead of each group's point in
-    /// the dataset; empty otherwise.
-    rows: Vec<f64>,
     /// With action sums: each point's group's sum and count (`act_dim + 1` values) in leaf
     /// order, so a kernel sum reads the rows beside the points it found instead of one scattered
     /// row per neighbour; `at[g]` is group `g`'s position, to keep the copy current.
@@ -218,11 +213,6 @@ impl<const D: usize> Bulk<D> {
         }
         drop(leaf_of);
         let ids: Vec<u32> = order.iter().map(|(g, _)| *g).collect();
-        let rows: Vec<f64> = if idx.act_dim.is_none() && n <= EXACT_COPY_MAX {
-            order.iter().flat_map(|(_, p)| *p).collect()
-        } else {
-            Vec::new()
-        };
         drop(order);
         let (mut sums, mut at) = (Vec::new(), Vec::new());
         if let Some(act_dim) = idx.act_dim {
@@ -244,19 +234,8 @@ impl<const D: usize> Bulk<D> {
             coarse,
             max_abs,
             ids,
-            rows,
             sums,
             at,
-        }
-    }
-
-    /// The exact scaled observation of the group at leaf position `i`: from [`Bulk::rows`] when
-    /// the tree keeps them, else computed from the points.
-    #[inline(always)]
-    fn row(&self, i: usize, ex: &Exact<D>) -> [f64; D] {
-        match self.rows.get(i * D..(i + 1) * D) {
-            Some(r) => std::array::from_fn(|k| r[k]),
-            None => ex.row(self.ids[i]),
         }
     }
 
@@ -268,7 +247,6 @@ impl<const D: usize> Bulk<D> {
             + self.leaves.capacity() * 8
             + self.coarse.capacity() * 4
             + self.ids.capacity() * 4
-            + self.rows.capacity() * 8
             + self.sums.capacity() * 8
             + self.at.capacity() * 4
     }
@@ -382,7 +360,7 @@ impl<const D: usize> Bulk<D> {
         if node.end != INNER {
             for i in node.first_or_right as usize..node.end as usize {
                 let g = self.ids[i];
-                let c = (dist2(q, &self.row(i, ex)), u64::from(g));
+                let c = (dist2(q, &ex.row(g)), u64::from(g));
                 if before(c, *best) {
                     *best = c;
                 }
@@ -428,7 +406,7 @@ impl<const D: usize> Bulk<D> {
         if node.end != INNER {
             for i in node.first_or_right as usize..node.end as usize {
                 let g = self.ids[i];
-                heap_offer(heap, n, (dist2(q, &self.row(i, ex)), u64::from(g)));
+                heap_offer(heap, n, (dist2(q, &ex.row(g)), u64::from(g)));
             }
             return;
         }
@@ -488,7 +466,7 @@ impl<const D: usize> Bulk<D> {
                 maybe &= u64::MAX >> (64 - (end - first));
                 while maybe != 0 {
                     let i = first + maybe.trailing_zeros() as usize;
-                    let d = dist2(q, &self.row(i, ex));
+                    let d = dist2(q, &ex.row(self.ids[i]));
                     if d <= r2 {
                         f(d, i);
                     }
@@ -861,12 +839,6 @@ pub struct Index {
     /// bulk tree beside its points in leaf order (made from the points when it is built).
     act_dim: Option<usize>,
 }
-
-/// The most groups whose exact rows a tree without action sums keeps ([`Bulk::rows`]): a
-/// million, 24 MB at three dimensions. BC's queries on datasets up to there read them instead of
-/// the dataset's points (issue 36: a third faster at 100,000 points); larger ones keep memory to
-/// the points and the tree (8 bytes a dimension a point would be 480 MB at 20 million).
-const EXACT_COPY_MAX: usize = 1_000_000;
 
 /// In [`Index::first`]: the value is a position in [`Index::many`]. Point numbers stay below it
 /// (a dataset of 2^31 points would not fit in memory).

@@ -943,11 +943,10 @@ mod tests {
         assert!(!small.rederive().contains("sample"));
     }
 
-    /// A ready learner (both trees built, as a run needs them) holds its points in under 180
+    /// A ready learner (both trees built, as a run needs them) holds its points in under 160
     /// bytes each: the dataset's 40, the two group tables, BC's tree and LWR's with its action
-    /// sums, and an exact copy of the observations only in BC's tree, which keeps one up to a
-    /// million groups for speed (24 bytes a point here; 173.5 in all, at 100,000 points where
-    /// the group tables are at their emptiest; 150 without the copy, 207 with one in both).
+    /// sums, and no copy of the exact observations in either tree (207 with them, 150 without,
+    /// here at 100,000 points where the group tables are at their emptiest).
     /// Its answers are those of brute force over the points.
     #[test]
     fn a_ready_learner_holds_its_points_compactly() {
@@ -957,7 +956,7 @@ mod tests {
         l.add_demonstrations_owned(episodes).unwrap();
         l.prepare();
         let per_point = l.held_bytes() as f64 / l.len() as f64;
-        assert!(per_point < 180.0, "{per_point:.1} bytes per point");
+        assert!(per_point < 160.0, "{per_point:.1} bytes per point");
         let q = [3.0, 0.1, 0.05];
         let s = l.support(&q).unwrap();
         let scale = l.index().scale().to_vec();
