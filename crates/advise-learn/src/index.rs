@@ -270,6 +270,11 @@ impl<const D: usize> Bulk<D> {
             + self.at.capacity() * 4
     }
 
+    /// The bytes of the exact copy (none above [`EXACT_COPY_MAX`] groups).
+    fn exact_copy_bytes(&self) -> usize {
+        self.points.capacity() * std::mem::size_of::<[f64; D]>()
+    }
+
     fn build_node(nodes: &mut Vec<Node<D>>, part: &mut [(u32, [f64; D])], start: usize) {
         let (lo, hi) = Self::bounds(part);
         let me = nodes.len();
@@ -806,6 +811,11 @@ impl Tree {
     fn held_bytes(&self) -> usize {
         each_tree!(self, t => t.held_bytes())
     }
+
+    /// The bytes of the bulk tree's exact copy ([`Bulk::points`]), when built.
+    fn exact_copy_bytes(&self) -> usize {
+        each_tree!(self, t => t.bulk.get().map_or(0, Bulk::exact_copy_bytes))
+    }
 }
 
 /// Which groups each tree holds: the bulk tree groups `0..planned`, kiddo's the `recent` after.
@@ -1179,6 +1189,12 @@ impl Index {
         let mut out = [0.0; MAX_DIM];
         self.group_scaled(g as usize, pts, &mut out[..self.dim]);
         out
+    }
+
+    /// The bytes of the exact copy the bulk tree keeps when it holds at most [`EXACT_COPY_MAX`]
+    /// groups (part of [`Index::held_bytes`]).
+    pub(crate) fn exact_copy_bytes(&self) -> usize {
+        self.tree.exact_copy_bytes()
     }
 
     /// The bytes this index holds (its tables and built trees, not the points it refers to):
