@@ -271,6 +271,7 @@ impl<const D: usize> Bulk<D> {
     }
 
     /// The bytes of the exact copy (none above [`EXACT_COPY_MAX`] groups).
+    #[cfg(test)]
     fn exact_copy_bytes(&self) -> usize {
         self.points.capacity() * std::mem::size_of::<[f64; D]>()
     }
@@ -813,6 +814,7 @@ impl Tree {
     }
 
     /// The bytes of the bulk tree's exact copy ([`Bulk::points`]), when built.
+    #[cfg(test)]
     fn exact_copy_bytes(&self) -> usize {
         each_tree!(self, t => t.bulk.get().map_or(0, Bulk::exact_copy_bytes))
     }
@@ -1193,6 +1195,7 @@ impl Index {
 
     /// The bytes of the exact copy the bulk tree keeps when it holds at most [`EXACT_COPY_MAX`]
     /// groups (part of [`Index::held_bytes`]).
+    #[cfg(test)]
     pub(crate) fn exact_copy_bytes(&self) -> usize {
         self.tree.exact_copy_bytes()
     }
