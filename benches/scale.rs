@@ -7,9 +7,9 @@
 //! ready LWR learner (dataset, range scaling, LWR tuning, both indexes, the first BC and LWR
 //! queries that build the bulk trees); the bytes the learner holds per point
 //! ([`Learner::held_bytes`]) and the process's resident memory then (VmRSS, with the
-//! demonstrations dropped) and at its peak (VmHWM); and BC and LWR query latency p50/p99 over
+//! demonstrations dropped) and at its peak (VmHWM); BC and LWR query latency p50/p99 over
 //! 10,000 queries from demonstrations to other goals (`ADVISE_SCALE_QUERIES=N` uses N of them,
-//! spread evenly). Criterion then measures both queries' rate at the last size.
+//! spread evenly), and the points an LWR query sums on average. Criterion then measures both queries' rate at the last size.
 //!
 //! With `ADVISE_SCALE_CSV=DIR` it only writes each size's demonstrations as `DIR/demos-N.csv`
 //! (the columns `advise` reads), for the end-to-end measurement of `benches/scale.sh`: `advise
@@ -185,8 +185,14 @@ fn measure(points: usize) -> (Learner, Vec<Vec<f64>>) {
         l.act(q, &mut a);
         std::hint::black_box(a);
     });
+    // The points an LWR query sums, on average (the tuned bandwidth is the one tuning chose; the
+    // learner's derivation note says the one it queries with when that differs).
+    let neighbours: usize = queries
+        .iter()
+        .map(|q| l.regress(q, &mut [0.0; 2]).neighbours)
+        .sum();
     eprintln!(
-        "scale {n} points: ready in {:.1} s; held {:.1} bytes/point ({:.0} MB); resident {:.0} MB after ({:.0} MB with the demonstrations before), peak {:.0} MB; BC p50 {:.1} us p99 {:.1} us; LWR p50 {:.1} us p99 {:.1} us",
+        "scale {n} points: ready in {:.1} s; held {:.1} bytes/point ({:.0} MB); resident {:.0} MB after ({:.0} MB with the demonstrations before), peak {:.0} MB; BC p50 {:.1} us p99 {:.1} us; LWR p50 {:.1} us p99 {:.1} us, {:.0} neighbours a query (tuned bandwidth {})",
         ready.as_secs_f64(),
         l.held_bytes() as f64 / n as f64,
         l.held_bytes() as f64 / 1e6,
@@ -196,7 +202,9 @@ fn measure(points: usize) -> (Learner, Vec<Vec<f64>>) {
         bc.0,
         bc.1,
         lwr.0,
-        lwr.1
+        lwr.1,
+        neighbours as f64 / queries.len() as f64,
+        l.lwr_params().bandwidth
     );
     (l, queries)
 }
