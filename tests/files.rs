@@ -451,3 +451,48 @@ operator slow_down(rate = 0.2 in [0, 1]) for waypoint on action where fwd > 0 {\
     );
     assert!(!plain.contains("shadows_standard"), "{plain}");
 }
+
+/// A dataset saved as CSV loads back as demonstrations (it used to be refused for its `source`
+/// column): the same points as the same dataset saved as JSON gives, each source one episode;
+/// an edited file with an action beyond its limits is refused with its line and column.
+#[test]
+fn a_dataset_saved_as_csv_loads_back_as_its_json_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    saved_dataset(d);
+    let mut s = session(TaskKind::Positioning, 0);
+    transcript(
+        &mut s,
+        &format!("load demos {0}/base.json\nsave {0}/base.csv\n", d.display()),
+    );
+    let reload = |name: &str| {
+        let mut s = session(TaskKind::Positioning, 0);
+        let t = transcript(
+            &mut s,
+            &format!(
+                "load demos {0}/{name}\nsave {0}/{name}.out.csv\n",
+                d.display()
+            ),
+        );
+        assert!(t.contains("a saved dataset's"), "{t}");
+        // The points (observations and actions), without their provenance's wording.
+        std::fs::read_to_string(d.join(format!("{name}.out.csv")))
+            .unwrap()
+            .lines()
+            .map(|l| l.split(',').skip(2).collect::<Vec<_>>().join(","))
+            .collect::<Vec<_>>()
+    };
+    let (csv, json) = (reload("base.csv"), reload("base.json"));
+    assert!(csv.len() > 50, "{} rows", csv.len());
+    assert_eq!(csv, json);
+    // An edited file: the first row's first action set beyond its limits.
+    let text = std::fs::read_to_string(d.join("base.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut fields: Vec<String> = lines[1].split(',').map(String::from).collect();
+    fields[5] = "40".into();
+    lines[1] = fields.join(",");
+    std::fs::write(d.join("edited.csv"), lines.join("\n") + "\n").unwrap();
+    let mut s = session(TaskKind::Positioning, 0);
+    let t = transcript(&mut s, &format!("load demos {}/edited.csv\n", d.display()));
+    common::masked(Some(d)).bind(|| insta::assert_snapshot!(t));
+}

@@ -35,7 +35,9 @@ pub enum DatasetError {
     #[error("the dataset file is malformed: {message}")]
     #[diagnostic(
         code(advise::dataset::json),
-        help("dataset files are written by `save FILE.json`; a CSV export cannot be opened again")
+        help(
+            "dataset files are written by `save FILE.json`; a CSV export cannot be opened again (`load demos` reads it as demonstrations)"
+        )
     )]
     Json {
         message: String,

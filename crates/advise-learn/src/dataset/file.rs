@@ -321,6 +321,9 @@ pub fn load_demonstrations_with(
                 from_dataset: Some(from),
             });
         }
+        if !is_json && src.text.starts_with("source,detail,") {
+            return saved_csv(domain, src);
+        }
         let episodes = if is_json {
             Episode::parse_json(domain, src)?
         } else {
@@ -330,6 +333,104 @@ pub fn load_demonstrations_with(
             episodes,
             from_dataset: None,
         })
+    })
+}
+
+/// A dataset saved as CSV ([`Dataset::write_csv`]: `source,detail`, the observations, the
+/// actions, `m`) read back as demonstrations, as a saved JSON dataset is
+/// ([`Dataset::to_episodes`]): each source (`demo 3`, `advice 7`) one episode of its rows in file
+/// order, at times 0, 1, 2... s, named `FILE demo 3`; the critique weight `m` is not carried.
+/// Every value is checked as a dataset's are ([`check_point`]); a source's rows are contiguous.
+fn saved_csv(
+    domain: &Domain,
+    src: advise_lang::diag::Src<'_>,
+) -> Result<Demonstrations, DatasetError> {
+    let mut columns = vec!["source".to_string(), "detail".to_string()];
+    columns.extend(domain.observe.iter().map(|d| d.name.clone()));
+    columns.extend(domain.act.iter().map(|d| d.name.clone()));
+    columns.push("m".into());
+    let record = |at: String, what: String| DatasetError::Record { at, what };
+    let mut rows = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .from_reader(src.text.as_bytes());
+    let header: Vec<String> = rows
+        .headers()
+        .map_err(|e| record(format!("{} line 1", src.name), e.to_string()))?
+        .iter()
+        .map(String::from)
+        .collect();
+    if header != columns {
+        return Err(DatasetError::Dimension {
+            at: format!("{} line 1", src.name),
+            what: format!(
+                "its columns are {}; a `{}` dataset saved as CSV has {}",
+                header.join(","),
+                domain.name,
+                columns.join(",")
+            ),
+            expected: expected(domain),
+        });
+    }
+    let (od, ad) = (domain.obs_dim(), domain.act_dim());
+    let mut episodes: Vec<Episode> = Vec::new();
+    let mut seen: HashMap<String, u64> = HashMap::new();
+    let (mut z, mut a) = (vec![0.0; od], vec![0.0; ad]);
+    for row in rows.records() {
+        let row = row.map_err(|e| record(src.name.to_string(), e.to_string()))?;
+        let line = row.position().map_or(0, |p| p.line());
+        let at = |c: usize| format!("{}:{line} column {}", src.name, columns[c]);
+        if row.len() != columns.len() {
+            return Err(record(
+                format!("{} line {line}", src.name),
+                format!("{} fields; the header has {}", row.len(), columns.len()),
+            ));
+        }
+        for c in 2..2 + od + ad {
+            let v: f64 = row[c]
+                .parse()
+                .map_err(|_| record(at(c), format!("`{}` is not a number", &row[c])))?;
+            if c < 2 + od {
+                z[c - 2] = v;
+            } else {
+                a[c - 2 - od] = v;
+            }
+        }
+        check_point(domain, &z, &a, |space, k| {
+            at(2 + k + if space == "a" { od } else { 0 })
+        })?;
+        let source = &row[0];
+        if episodes
+            .last()
+            .is_none_or(|e| !e.name.ends_with(&format!(" {source}")))
+        {
+            if let Some(first) = seen.get(source) {
+                return Err(record(
+                    at(0),
+                    format!(
+                        "`{source}` starts again here (it began on line {first}); a source's rows are contiguous, as `save` writes them"
+                    ),
+                ));
+            }
+            seen.insert(source.to_string(), line);
+            episodes.push(Episode {
+                name: format!("{} {source}", src.name),
+                trace: Trace::new(domain),
+            });
+        }
+        if let Some(e) = episodes.last_mut() {
+            e.trace.push(e.trace.len() as f64, &z, &a, None);
+        }
+    }
+    if episodes.is_empty() {
+        return Err(record(
+            src.name.to_string(),
+            "a saved dataset with no points holds no demonstrations".into(),
+        ));
+    }
+    let demos = seen.keys().filter(|k| k.starts_with("demo ")).count();
+    Ok(Demonstrations {
+        from_dataset: Some((demos, episodes.len() - demos)),
+        episodes,
     })
 }
 
@@ -347,7 +448,7 @@ impl SavedFormat {
     pub fn describe(self) -> &'static str {
         match self {
             SavedFormat::Json => "JSON, with provenance; `open` reads it back",
-            SavedFormat::Csv => "CSV, points only; it cannot be opened again",
+            SavedFormat::Csv => "CSV, points only; `load demos` reads it back, `open` cannot",
         }
     }
 }
