@@ -185,6 +185,8 @@ pub struct LeRobotReadOptions {
 pub struct LeRobotRead {
     /// One per episode, in `episode_index` order, named `episode N`.
     pub episodes: Vec<Episode>,
+    /// Each episode's `episode_index` in the dataset.
+    pub episode_ids: Vec<i64>,
     /// Each point's episode index (the dataset's), points in the episodes' order.
     pub episode_index: Vec<i64>,
     /// Each point's frame index within its episode (the dataset's).
@@ -615,6 +617,7 @@ pub fn read_lerobot(
     }
     let mut read = LeRobotRead {
         episodes: Vec::with_capacity(by_episode.len()),
+        episode_ids: by_episode.keys().copied().collect(),
         episode_index: Vec::new(),
         frame_index: Vec::new(),
         fps,
