@@ -159,6 +159,14 @@ fn bad_datasets_are_refused_with_codes() {
             Box::new(|d| std::fs::remove_dir_all(d.join("lr/data")).unwrap()),
         ),
         (
+            "a truncated frames file",
+            Box::new(|d| {
+                let path = d.join("lr/data/chunk-000/file-000.parquet");
+                let bytes = std::fs::read(&path).unwrap();
+                std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
+            }),
+        ),
+        (
             "a LeRobot v2.1 dataset",
             Box::new(|d| edit_info(d, |i| i["codebase_version"] = json!("v2.1"))),
         ),
