@@ -2,6 +2,8 @@
 //! exporter's datasets read back as the same points, and bad datasets refused with
 //! `advise::lerobot::*` diagnostics.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
@@ -10,15 +12,7 @@ use advise::recording::lerobot_in::{LeRobotReadOptions, read_lerobot};
 use advise::trace::Episode;
 
 fn advise(args: &[&str], dir: &Path) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_advise"))
-        .args(args)
-        .current_dir(dir)
-        .env("NO_COLOR", "1")
-        .output()
-        .unwrap();
-    let mut text = String::from_utf8_lossy(&out.stdout).into_owned();
-    text.push_str(&String::from_utf8_lossy(&out.stderr));
-    (out.status.success(), text)
+    common::advise_in(dir, args)
 }
 
 /// A session's dataset (3 demonstrations and one piece of advice) saved as `s.json` and exported
