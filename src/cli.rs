@@ -295,7 +295,7 @@ pub struct ImportArgs {
     pub logs: Vec<PathBuf>,
     /// A LeRobot v3.0 dataset directory: its episodes as demonstrations of `--task`, its
     /// `observation.state` and `action` mapped to the task's dimensions by their names.
-    #[arg(long, value_name = "DIR", conflicts_with = "logs")]
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["logs", "goal", "split_gap", "keep_idle"])]
     pub lerobot: Option<PathBuf>,
     /// With `--lerobot`: map `observation.state` and `action` position by position where their
     /// names are not the task's dimensions (the widths must agree).

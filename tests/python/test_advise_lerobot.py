@@ -156,6 +156,21 @@ def test_bad_datasets_raise_coded_errors(lerobot, tmp_path):
         ),
         (tmp_path / "nowhere", "advise::lerobot::missing_file", "meta/info.json"),
     ]
+    # More frames than advise reads: refused from the file's row count, before reading them.
+    big = tmp_path / "big"
+    import shutil
+
+    shutil.copytree(lerobot, big)
+    n = 1_000_001
+    zeros = lambda k: pa.FixedSizeListArray.from_arrays(  # noqa: E731
+        pa.array(np.zeros(n * k, dtype=np.float32)), k
+    )
+    ints = pa.array(np.zeros(n, dtype=np.int64))
+    pq.write_table(
+        pa.table({"observation.state": zeros(3), "action": zeros(2), "episode_index": ints, "frame_index": ints}),
+        big / DATA,
+    )
+    cases.append((big, "advise::lerobot::too_large", "1000001 frames"))
     for d, code, where in cases:
         with pytest.raises(advise.AdviseError) as e:
             advise.load_lerobot(str(d))
