@@ -6,16 +6,17 @@
 //! action: mapped by the features' `names` when they name every dimension of the domain (in any
 //! order, extra ones ignored), else position by position when [`LeRobotReadOptions::by_position`]
 //! says so or the feature has no names, the widths then equal. Frames are grouped by
-//! `episode_index` and ordered by `frame_index`; a point's time is the frame's `timestamp` (or
+//! `episode_index`, their `frame_index` increasing within an episode (as stored); a point's time is the frame's `timestamp` (or
 //! `frame_index / fps`).
 //!
 //! Every refusal is an `advise::lerobot::*` diagnostic naming the file and the row. Hostile
 //! input is bounded: `info.json` is read up to [`MAX_INFO_BYTES`], a parquet file up to
-//! [`crate::files::MAX_READ_BYTES`], at most [`MAX_FRAMES`] frames (counted from the files' own
+//! [`crate::files::MAX_READ_BYTES`], a list column to its rows times its width (from the row groups'
+//! metadata, before a row is built), at most [`MAX_FRAMES`] frames (counted from the files' own
 //! row counts, not from `info.json`), at most [`MAX_DATA_FILES`] files, and a declared width is
 //! compared to the domain's before anything is allocated for it.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 use miette::Diagnostic;
@@ -170,6 +171,38 @@ pub enum LeRobotInError {
         )
     )]
     Parquet { path: PathBuf, reason: String },
+    #[error(
+        "{path}: column `{column}` holds {values} values in {rows} rows, more than its width {width} allows"
+    )]
+    #[diagnostic(
+        code(advise::lerobot::list_too_long),
+        help(
+            "each frame's `{column}` holds exactly the width `meta/info.json` declares: rewrite the file, or fix `features.{column}.shape`"
+        )
+    )]
+    ListTooLong {
+        path: PathBuf,
+        column: String,
+        values: i64,
+        rows: i64,
+        width: usize,
+    },
+    #[error(
+        "{path}, row {row}: episode {episode}'s frame_index {frame} does not follow its frame {previous}"
+    )]
+    #[diagnostic(
+        code(advise::lerobot::frame_order),
+        help(
+            "an episode's frames are stored once each, in increasing `frame_index`: drop the repeated frames or renumber them"
+        )
+    )]
+    FrameOrder {
+        path: PathBuf,
+        row: usize,
+        episode: i64,
+        frame: i64,
+        previous: i64,
+    },
 }
 
 /// How to read a LeRobot dataset.
@@ -429,6 +462,31 @@ fn read_frames(
             limit: MAX_FRAMES,
         });
     }
+    // Before any row is built: a list longer than its width would be read whole (a 4 KB file
+    // can hold a list of 100M zeros), so each row group's count of list values is held to
+    // rows * width (+ rows, for empty or null lists).
+    for group in reader.metadata().row_groups() {
+        let rows = group.num_rows().max(0);
+        for c in group.columns() {
+            let column = c.column_path().parts().first().map_or("", String::as_str);
+            let width = match column {
+                "observation.state" => state.width,
+                "action" => action.width,
+                _ => continue,
+            };
+            let most = rows.saturating_mul(width as i64 + 1);
+            if c.num_values() > most || c.uncompressed_size() > most.saturating_mul(16).max(1 << 20)
+            {
+                return Err(LeRobotInError::ListTooLong {
+                    path: path.to_path_buf(),
+                    column: column.to_string(),
+                    values: c.num_values(),
+                    rows,
+                    width,
+                });
+            }
+        }
+    }
     const WANTED: [&str; 5] = [
         "observation.state",
         "action",
@@ -590,8 +648,20 @@ pub fn read_lerobot(
         rows_of.push((path, before..frames.len()));
     }
     // Check the values where they were read, before grouping them.
+    let mut last_frame: HashMap<i64, i64> = HashMap::new();
     for (path, range) in &rows_of {
         for (row, f) in frames[range.clone()].iter().enumerate() {
+            if let Some(previous) = last_frame.insert(f.episode, f.frame)
+                && previous >= f.frame
+            {
+                return Err(LeRobotInError::FrameOrder {
+                    path: path.clone(),
+                    row,
+                    episode: f.episode,
+                    frame: f.frame,
+                    previous,
+                });
+            }
             let values =
                 f.z.iter()
                     .zip(&domain.observe)
@@ -623,8 +693,7 @@ pub fn read_lerobot(
         fps,
         mapping: vec![state.described, action.described],
     };
-    for (e, mut fs) in by_episode {
-        fs.sort_by_key(|f| f.frame);
+    for (e, fs) in by_episode {
         let mut trace = Trace::new(domain);
         let mut last = f64::NEG_INFINITY;
         for f in &fs {

@@ -171,6 +171,27 @@ def test_bad_datasets_raise_coded_errors(lerobot, tmp_path):
         big / DATA,
     )
     cases.append((big, "advise::lerobot::too_large", "1000001 frames"))
+    # One frame whose state is a list of 10M zeros (a few KB on disk): refused from the
+    # column's count of values, before a row is built.
+    huge = tmp_path / "huge"
+    shutil.copytree(lerobot, huge)
+    one = pa.array(np.zeros(1, dtype=np.int64))
+    long_list = pa.ListArray.from_arrays(
+        pa.array([0, 10_000_000], pa.int32()), pa.array(np.zeros(10_000_000, dtype=np.float32))
+    )
+    pq.write_table(
+        pa.table({"observation.state": long_list, "action": zeros(2)[:1], "episode_index": one, "frame_index": one}),
+        huge / DATA,
+    )
+    cases.append((huge, "advise::lerobot::list_too_long", "10000000 values in 1 rows"))
+    # Every frame numbered 0: refused, not read as one episode of repeated frames.
+    cases.append(
+        (
+            rewritten(lerobot, tmp_path / "zero", "frame_index", pa.array(np.zeros(t.num_rows, dtype=np.int64))),
+            "advise::lerobot::frame_order",
+            "row 1: episode 0's frame_index 0 does not follow its frame 0",
+        )
+    )
     for d, code, where in cases:
         with pytest.raises(advise.AdviseError) as e:
             advise.load_lerobot(str(d))
