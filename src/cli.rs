@@ -291,8 +291,16 @@ pub struct DemoArgs {
 pub struct ImportArgs {
     /// The recordings, each one demonstration (or several with `--split-gap`): ROS 2 bags (a
     /// rosbag2 directory or an `.mcap` file) or CSV logs `time,x,y,theta,v,w`.
-    #[arg(required = true, value_name = "BAG|LOG")]
+    #[arg(required_unless_present = "lerobot", value_name = "BAG|LOG")]
     pub logs: Vec<PathBuf>,
+    /// A LeRobot v3.0 dataset directory: its episodes as demonstrations of `--task`, its
+    /// `observation.state` and `action` mapped to the task's dimensions by their names.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["logs", "goal", "split_gap", "keep_idle"])]
+    pub lerobot: Option<PathBuf>,
+    /// With `--lerobot`: map `observation.state` and `action` position by position where their
+    /// names are not the task's dimensions (the widths must agree).
+    #[arg(long, requires = "lerobot")]
+    pub by_position: bool,
     /// A bag's command topic (geometry_msgs Twist or TwistStamped).
     #[arg(long, value_name = "TOPIC", default_value = "/cmd_vel")]
     pub cmd_topic: String,

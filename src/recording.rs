@@ -14,6 +14,7 @@
 
 pub mod bag;
 pub mod lerobot;
+pub mod lerobot_in;
 pub mod mcap_export;
 pub mod mcap_read;
 pub mod parquet_demos;

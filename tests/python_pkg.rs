@@ -17,11 +17,14 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-const PACKAGES: [&str; 4] = [
+const PACKAGES: [&str; 6] = [
     "numpy==2.4.6",
     "gymnasium==1.4.0",
     "pytest==9.2.0",
     "maturin==1.16.0",
+    // The LeRobot tests (test_advise_lerobot.py), the versions tests/bags.rs pins.
+    "pyarrow==26.0.1",
+    "pandas==2.3.3",
 ];
 
 /// Build the wheel of the package with the venv's maturin and install it in that venv.
@@ -71,7 +74,7 @@ fn install_package(python: &Path) -> Result<(), String> {
 
 #[test]
 fn the_python_package_passes_its_pytest_files() {
-    let probe = "import numpy, gymnasium, pytest, maturin";
+    let probe = "import numpy, gymnasium, pytest, maturin, pyarrow, pandas";
     let python = match python::venv("advise", &PACKAGES, probe) {
         Ok(p) => p,
         Err(why) => {

@@ -11,6 +11,10 @@ runs; nothing is recomputed in Python.
   ``advise/Interception-v0``, registered on import when gymnasium is installed.
 - ``Session(task=..., backend="sim")``: a teaching session; ``execute(statement)`` returns
   the reply as a dict.
+- ``load_lerobot(dir, task=...)``: a LeRobot v3.0 dataset's frames as numpy arrays;
+  ``to_arrow(data)`` as a pyarrow table with provenance columns; ``advise_lerobot(src, out,
+  episode=..., frames=(a, b), operator=..., params=...)`` writes a chunk of an episode corrected
+  by an operator as a new LeRobot dataset.
 - ``AdviseError``: every refusal, with ``code`` (``advise::area::name``) and ``diagnostics``.
 """
 
@@ -25,6 +29,8 @@ from ._advise import (
     Span,
     check,
 )
+from ._advise import advise_lerobot, load_lerobot
+from .lerobot import to_arrow
 
 try:  # The Gymnasium environments, where gymnasium is installed.
     from . import gym as _gym
@@ -43,4 +49,7 @@ __all__ = [
     "SimEnv",
     "Span",
     "check",
+    "advise_lerobot",
+    "load_lerobot",
+    "to_arrow",
 ]

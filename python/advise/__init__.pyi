@@ -10,5 +10,7 @@ from ._advise import (
     Span as Span,
     check as check,
 )
+from ._advise import advise_lerobot as advise_lerobot, load_lerobot as load_lerobot
+from .lerobot import to_arrow as to_arrow
 
 __all__: list[str]

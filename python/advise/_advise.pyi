@@ -114,3 +114,26 @@ class Session:
     def execute(self, statement: str) -> dict[str, Any]:
         """Run one statement; the reply as a dict with ``kind``, ``text`` and its fields."""
     def __len__(self) -> int: ...
+
+def load_lerobot(path: str, task: str = "positioning", *, by_position: bool = False) -> dict[str, Any]:
+    """A LeRobot v3.0 dataset's frames as numpy arrays: ``observations``, ``actions``,
+    ``episode_index``, ``frame_index``, ``timestamp``; and ``fps``, ``domain``,
+    ``observation_names``, ``action_names``, ``mapping``, ``path``."""
+    ...
+
+def advise_lerobot(
+    src: str,
+    out: str,
+    *,
+    episode: int,
+    frames: tuple[int, int],
+    operator: str,
+    params: Mapping[str, float | bool],
+    task: str = "positioning",
+    operators: Sequence[str] = (),
+    by_position: bool = False,
+    fps: int | None = None,
+) -> dict[str, Any]:
+    """Apply ``operator`` to ``frames`` of ``episode`` of the LeRobot dataset ``src`` and write
+    the corrected episode as a new LeRobot v3.0 dataset in ``out``, with its provenance."""
+    ...

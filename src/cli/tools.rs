@@ -233,6 +233,9 @@ where
 pub fn import(args: ImportArgs) -> miette::Result<()> {
     use crate::recording::{ImportOptions, write_demonstrations};
     let kind = super::resolve_task(&args.task, &args.tasks)?;
+    if let Some(dir) = &args.lerobot {
+        return import_lerobot(dir, &kind.domain(), &args);
+    }
     let def = match kind.def() {
         Some(d) if d.recorded.is_some() || args.goal.is_some() => d,
         Some(d) if d.goal.is_empty() => d,
@@ -317,6 +320,43 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
         "wrote {} demonstration{} ({points} points) to {}; `load demos {}` adds them to a session",
         episodes.len(),
         if episodes.len() == 1 { "" } else { "s" },
+        args.out.display(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// `advise import --lerobot DIR`: a LeRobot v3.0 dataset's episodes to a demonstrations file.
+fn import_lerobot(
+    dir: &std::path::Path,
+    domain: &crate::domain::Domain,
+    args: &ImportArgs,
+) -> miette::Result<()> {
+    use crate::recording::lerobot_in::{LeRobotReadOptions, read_lerobot};
+    let mut inputs: Vec<std::path::PathBuf> = args.tasks.clone();
+    inputs.push(dir.join("meta/info.json"));
+    crate::files::refuse_overwriting_inputs(&args.out, inputs.iter().map(|p| p.as_path()))?;
+    if args.out.starts_with(dir) {
+        return Err(miette::miette!(
+            code = "advise::import::out_in_dataset",
+            help = "write the demonstrations outside the dataset's directory",
+            "`{}` is inside the LeRobot dataset {}",
+            args.out.display(),
+            dir.display()
+        ));
+    }
+    let options = LeRobotReadOptions {
+        by_position: args.by_position,
+    };
+    let read = read_lerobot(dir, domain, &options)?;
+    crate::recording::write_demonstrations(&args.out, domain, &read.episodes)?;
+    let points = read.episode_index.len();
+    eprintln!(
+        "read {}: {}; wrote {} demonstration{} ({points} points) to {}; `load demos {}` adds them to a session",
+        dir.display(),
+        read.mapping.join(", "),
+        read.episodes.len(),
+        if read.episodes.len() == 1 { "" } else { "s" },
         args.out.display(),
         args.out.display()
     );

@@ -119,6 +119,10 @@ struct EpisodePoints {
     name: String,
     points: Vec<usize>,
     trace: Option<crate::trace::Trace>,
+    /// Each frame's source where they differ (a corrected episode's); empty: `source` for all.
+    frame_sources: Vec<&'static str>,
+    /// The BC weight of a trace's frames (an execution's 0: not a training point).
+    trace_weight: f64,
 }
 
 /// The dataset's executions as episodes, numbered in the order the session ran them.
@@ -134,6 +138,8 @@ fn execution_episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
                 name: format!("execution {n}"),
                 points: Vec::new(),
                 trace: Some(trace),
+                frame_sources: Vec::new(),
+                trace_weight: 0.0,
             })
         })
         .collect()
@@ -148,6 +154,8 @@ fn episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
             name: d.name.clone(),
             points: Vec::new(),
             trace: None,
+            frame_sources: Vec::new(),
+            trace_weight: 0.0,
         })
         .collect();
     let mut advice: Vec<EpisodePoints> = dataset
@@ -158,6 +166,8 @@ fn episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
             name: a.applied.invocation(),
             points: Vec::new(),
             trace: None,
+            frame_sources: Vec::new(),
+            trace_weight: 0.0,
         })
         .collect();
     // (episode, index within it) of each point, to order the frames.
@@ -533,15 +543,55 @@ pub fn export_lerobot(
 }
 
 /// [`export_lerobot`] with its options.
-///
-/// Over 150 lines because it lays out the dataset's files in sequence (the frames' parquet, the
-/// episodes' table, `info.json`, the statistics), each block reading the same episode table.
 pub fn export_lerobot_with(
     dataset: &Dataset,
     dir: &Path,
     options: &LeRobotOptions,
 ) -> Result<LeRobotSummary, LeRobotError> {
-    let fps = options.fps.max(1);
+    let mut eps = episodes(dataset);
+    if options.with_executions {
+        eps.extend(execution_episodes(dataset));
+    }
+    write_lerobot(dataset, eps, dir, options.fps, Value::Null)
+}
+
+/// Write `trace`, one corrected episode of `domain` named `name`, as a new LeRobot dataset in
+/// `dir` at `fps`: each frame's `advise.source` from `sources` (`demonstration` where it was
+/// kept, `advice` where an operator synthesized it), BC weight 1, and `provenance` (what produced
+/// it) in `info.json`'s `advise.provenance`.
+pub fn export_corrected_episode(
+    domain: &crate::domain::Domain,
+    name: String,
+    trace: crate::trace::Trace,
+    sources: Vec<&'static str>,
+    dir: &Path,
+    fps: u32,
+    provenance: Value,
+) -> Result<LeRobotSummary, LeRobotError> {
+    let episode = EpisodePoints {
+        source: "advice",
+        name,
+        points: Vec::new(),
+        trace: Some(trace),
+        frame_sources: sources,
+        trace_weight: 1.0,
+    };
+    write_lerobot(&Dataset::new(domain), vec![episode], dir, fps, provenance)
+}
+
+/// Write the episodes `eps` (of `dataset`'s points, or traces) to `dir`; `provenance`, unless
+/// null, goes in `info.json`'s `advise.provenance`.
+///
+/// Over 150 lines because it lays out the dataset's files in sequence (the frames' parquet, the
+/// episodes' table, `info.json`, the statistics), each block reading the same episode table.
+fn write_lerobot(
+    dataset: &Dataset,
+    eps: Vec<EpisodePoints>,
+    dir: &Path,
+    fps: u32,
+    provenance: Value,
+) -> Result<LeRobotSummary, LeRobotError> {
+    let fps = fps.max(1);
     if std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_some()) {
         return Err(LeRobotError::Exists {
             path: dir.to_path_buf(),
@@ -556,10 +606,6 @@ pub fn export_lerobot_with(
     };
     let domain = dataset.domain();
     let (zd, ad) = (domain.observe.len(), domain.act.len());
-    let mut eps = episodes(dataset);
-    if options.with_executions {
-        eps.extend(execution_episodes(dataset));
-    }
     let frames: usize = eps
         .iter()
         .map(|e| e.trace.as_ref().map_or(e.points.len(), |t| t.len()))
@@ -578,7 +624,7 @@ pub fn export_lerobot_with(
                 Some(t) => {
                     state.extend_from_slice(t.z(f));
                     action.extend_from_slice(t.a(f));
-                    weight.push(0.0);
+                    weight.push(ep.trace_weight);
                 }
                 None => {
                     let i = ep.points[f];
@@ -591,7 +637,7 @@ pub fn export_lerobot_with(
             frame_index.push(f as i64);
             episode_index.push(e as i64);
             index.push(index.len() as i64);
-            source.push(ep.source);
+            source.push(ep.frame_sources.get(f).copied().unwrap_or(ep.source));
         }
         rows.push((e as i64, length as i64, from, index.len() as i64));
     }
@@ -658,7 +704,7 @@ pub fn export_lerobot_with(
         dims.iter().map(|d| d.name.clone()).collect()
     };
     let scalar = |dtype: &str| json!({"dtype": dtype, "shape": [1], "names": null});
-    let info = json!({
+    let mut info = json!({
         "codebase_version": CODEBASE_VERSION,
         "robot_type": "differential_drive",
         "total_episodes": eps.len(),
@@ -687,6 +733,9 @@ pub fn export_lerobot_with(
             "sources": "each demonstration and each piece of advice is an episode (and each execution with `--with-executions`); `advise.source` says which, `advise.weight` is the point's BC weight (0 for an execution's, which is not a training point)",
         },
     });
+    if !provenance.is_null() {
+        info["advise"]["provenance"] = provenance;
+    }
     let as_f64 = |v: &[i64]| v.iter().map(|&x| x as f64).collect::<Vec<_>>();
     let stats_json = json!({
         "observation.state": stats(&state, zd),

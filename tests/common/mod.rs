@@ -256,3 +256,17 @@ impl Backend for Flaky {
         self.inner.stop()
     }
 }
+
+/// Run the `advise` binary with `args` in `dir` (no colour): whether it succeeded, and its
+/// stdout then stderr.
+pub fn advise_in(dir: &Path, args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_advise"))
+        .args(args)
+        .current_dir(dir)
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    let mut text = String::from_utf8_lossy(&out.stdout).into_owned();
+    text.push_str(&String::from_utf8_lossy(&out.stderr));
+    (out.status.success(), text)
+}

@@ -13,6 +13,7 @@ mod diag;
 mod env;
 mod error;
 mod learn;
+mod lerobot;
 mod ops;
 mod session;
 
@@ -29,5 +30,7 @@ fn _advise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<learn::LWR>()?;
     m.add_class::<env::SimEnv>()?;
     m.add_class::<session::Session>()?;
+    m.add_function(wrap_pyfunction!(lerobot::load_lerobot, m)?)?;
+    m.add_function(wrap_pyfunction!(lerobot::advise_lerobot, m)?)?;
     Ok(())
 }

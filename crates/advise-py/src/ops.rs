@@ -27,7 +27,7 @@ fn source(py: Python<'_>, map: &mut SourceMap, path_or_text: &str) -> PyResult<S
 
 /// Check `sources` on top of the standard operators; the warnings, or an `AdviseError` with
 /// every error.
-fn merge(
+pub(crate) fn merge(
     py: Python<'_>,
     base: &OperatorSet,
     sources: &[String],
@@ -271,7 +271,7 @@ pub fn trace_of(
 
 /// The invocation text `name(k = v, ...)` for a dict of numbers and booleans; numbers are written
 /// so that they read back as the same float.
-fn invocation(py: Python<'_>, name: &str, args: &Bound<'_, PyDict>) -> PyResult<String> {
+pub(crate) fn invocation(py: Python<'_>, name: &str, args: &Bound<'_, PyDict>) -> PyResult<String> {
     let mut parts = Vec::new();
     for (k, v) in args.iter() {
         let k: String = k.extract().map_err(|_| {
