@@ -126,8 +126,9 @@ fn percentiles(mut ts: Vec<Duration>) -> (f64, f64) {
 
 /// How many of the 10,000 query observations the latency percentiles use
 /// (`ADVISE_SCALE_QUERIES`, default all; spread evenly over the ten query demonstrations). At 20M
-/// points an LWR query sums thousands of times the points it does at 100k (the kernel is tuned on
-/// a sample), so 10,000 of them take many CPU-minutes; 1,000 keep the run to minutes.
+/// points an LWR query sums about 1.9 million points on average even with the bandwidth scaled
+/// for the density (`lwr::density_factor`; the synthetic demonstrations all start at the origin
+/// and crowd their goals), so 10,000 of them take many CPU-minutes; 1,000 keep the run to minutes.
 fn query_count() -> usize {
     std::env::var("ADVISE_SCALE_QUERIES")
         .ok()
