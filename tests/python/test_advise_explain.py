@@ -1,12 +1,10 @@
 """advise.BC/LWR's critique and why against the REPL's: the same demonstrations, the same run,
 the same chunk critiqued give the same increments (to the bit), the same reply, and afterwards
-the same actions; why gives the REPL's text. predict releases the GIL."""
+the same actions; why gives the REPL's text."""
 
 import json
 import os
 import subprocess
-import threading
-import time
 
 import numpy as np
 import pytest
@@ -104,26 +102,3 @@ def test_bad_critiques_raise_coded_errors(session):
         bc.why(np.zeros(4))
     assert e.value.code == "advise::py::shape"
 
-
-def test_predict_releases_the_gil(session):
-    # While one thread predicts a large batch, the main thread keeps running Python: the largest
-    # pause between its clock readings stays far below the prediction's duration. With the GIL
-    # held through the prediction, that pause would be the whole prediction.
-    d, *_ = session
-    lwr = advise.LWR(task="positioning").fit_file(str(d / "demos.csv"))
-    q = np.random.default_rng(0).uniform([0, -1, -1], [5, 1, 1], size=(2000, 3))
-    start = time.perf_counter()
-    lwr.predict(q)
-    while time.perf_counter() - start < 0.5 and len(q) < 2_000_000:
-        q = np.concatenate([q, q])
-        start = time.perf_counter()
-        lwr.predict(q)
-    took = time.perf_counter() - start
-    t = threading.Thread(target=lwr.predict, args=(q,))
-    stamps = []
-    t.start()
-    while t.is_alive():
-        stamps.append(time.perf_counter())
-    t.join()
-    gap = max(np.diff(stamps)) if len(stamps) > 1 else took
-    assert gap < took / 2, (gap, took)
