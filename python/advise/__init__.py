@@ -6,7 +6,8 @@ runs; nothing is recomputed in Python.
 - ``check(path_or_text)``: check operator text or a file on top of the standard operators.
 - ``Operators(*files)``: the standard operators plus those of ``files``; ``apply`` runs one on
   numpy arrays.
-- ``BC``, ``LWR``: the paper's learners; ``fit`` and ``predict`` on numpy arrays.
+- ``BC``, ``LWR``: the paper's learners; ``fit``, ``predict``, ``critique`` and ``why`` on numpy
+  arrays (``Critique``, ``Why``, ``Provenance``: their results).
 - ``gym.AdviseEnv``: the simulator as the Gymnasium environments ``advise/Positioning-v0`` and
   ``advise/Interception-v0``, registered on import when gymnasium is installed.
 - ``Session(task=..., backend="sim")``: a teaching session; ``execute(statement)`` returns
@@ -22,11 +23,14 @@ from ._advise import (
     BC,
     LWR,
     AdviseError,
+    Critique,
     Diagnostic,
     Operators,
+    Provenance,
     Session,
     SimEnv,
     Span,
+    Why,
     check,
 )
 from ._advise import advise_lerobot, load_lerobot
@@ -42,12 +46,15 @@ else:
 __all__ = [
     "AdviseError",
     "BC",
+    "Critique",
     "Diagnostic",
     "LWR",
     "Operators",
+    "Provenance",
     "Session",
     "SimEnv",
     "Span",
+    "Why",
     "check",
     "advise_lerobot",
     "load_lerobot",

@@ -3,11 +3,14 @@ from ._advise import (
     BC as BC,
     LWR as LWR,
     AdviseError as AdviseError,
+    Critique as Critique,
     Diagnostic as Diagnostic,
     Operators as Operators,
+    Provenance as Provenance,
     Session as Session,
     SimEnv as SimEnv,
     Span as Span,
+    Why as Why,
     check as check,
 )
 from ._advise import advise_lerobot as advise_lerobot, load_lerobot as load_lerobot

@@ -83,9 +83,87 @@ class _Learner:
         """Derive the policy from a demonstrations file, read as `load demos FILE` reads it."""
     def predict(self, observations: npt.ArrayLike) -> Array:
         """The action for each row of observations; the GIL is released while it computes."""
+    def critique(
+        self,
+        observations: npt.ArrayLike,
+        *,
+        chunk: tuple[int, int] | None = None,
+        kappa: float = 1.0,
+        rule: str = "paper",
+        actions: npt.ArrayLike | None = None,
+    ) -> Critique:
+        """The REPL's ``critique KAPPA`` on ``chunk`` of a trace of ``observations``: the data
+        points that supported those steps get their weight raised; the trace is recorded."""
+    def why(self, observation: npt.ArrayLike) -> Why:
+        """The REPL's ``why`` at one observation: BC's nearest point, LWR's neighbourhood."""
+    def weights(self) -> Array:
+        """Every data point's weight m (the paper's rule), in dataset order."""
     def __len__(self) -> int: ...
     @property
     def domain(self) -> str: ...
+
+class Provenance:
+    """Where a data point came from: ``kind`` ``demonstration`` (point ``index`` of demonstration
+    ``id`` named ``name``) or ``advice`` (synthesized point ``index`` of advice ``id``, from
+    execution point ``source``)."""
+
+    @property
+    def kind(self) -> str: ...
+    @property
+    def id(self) -> int: ...
+    @property
+    def name(self) -> str | None: ...
+    @property
+    def index(self) -> int: ...
+    @property
+    def source(self) -> int | None: ...
+
+class Critique:
+    """What a critique did: per increment the dataset point raised, by how much, its weight
+    after; ``summary`` is the REPL's reply."""
+
+    @property
+    def chunk(self) -> tuple[int, int]: ...
+    @property
+    def kappa(self) -> float: ...
+    @property
+    def rule(self) -> str: ...
+    @property
+    def summary(self) -> str: ...
+    @property
+    def provenance(self) -> list[Provenance]: ...
+    @property
+    def points(self) -> npt.NDArray[np.int64]: ...
+    @property
+    def increments(self) -> Array: ...
+    @property
+    def weights(self) -> Array: ...
+
+class Why:
+    """Why a learner acts as it does at one observation (the REPL's ``why``)."""
+
+    @property
+    def point(self) -> int | None: ...
+    @property
+    def distance(self) -> float | None: ...
+    @property
+    def m(self) -> float | None: ...
+    @property
+    def weighted(self) -> float | None: ...
+    @property
+    def bc_action(self) -> list[float] | None: ...
+    @property
+    def provenance(self) -> Provenance | None: ...
+    @property
+    def lwr_neighbours(self) -> int: ...
+    @property
+    def lwr_total_weight(self) -> float: ...
+    @property
+    def lwr_action(self) -> list[float]: ...
+    @property
+    def action(self) -> list[float]: ...
+    @property
+    def text(self) -> str: ...
 
 class BC(_Learner):
     """Binary Critiquing's learner: weighted 1-NN over range-scaled observations."""

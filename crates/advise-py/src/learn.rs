@@ -122,6 +122,15 @@ impl Fitted {
         self.derive(py, demos.episodes)
     }
 
+    /// The learner, once fitted (`advise::py::not_fitted` before), and the domain.
+    fn fitted(&mut self, py: Python<'_>) -> PyResult<(&mut Learner, &Domain)> {
+        let kind = self.kind;
+        match &mut self.learner {
+            Some(l) => Ok((l, &self.domain)),
+            None => Err(not_fitted(py, kind)),
+        }
+    }
+
     /// The action for each row of `observations`, computed without the GIL.
     fn predict<'py>(
         &self,
@@ -129,12 +138,7 @@ impl Fitted {
         observations: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let Some(learner) = &self.learner else {
-            return Err(simple(
-                py,
-                "advise::py::not_fitted",
-                format!("this {} learner has no data", self.kind.name()),
-                "call `fit(observations, actions)` or `fit_file(path)` first",
-            ));
+            return Err(not_fitted(py, self.kind));
         };
         let (od, ad) = (self.domain.obs_dim(), self.domain.act_dim());
         let (z, n) = matrix(py, observations, "observations", Some(od))?;
@@ -147,6 +151,16 @@ impl Fitted {
         });
         to_numpy(py, a, n, ad)
     }
+}
+
+/// `advise::py::not_fitted`: a learner of `kind` asked to act before it has data.
+fn not_fitted(py: Python<'_>, kind: LearnerKind) -> PyErr {
+    simple(
+        py,
+        "advise::py::not_fitted",
+        format!("this {} learner has no data", kind.name()),
+        "call `fit(observations, actions)` or `fit_file(path)` first",
+    )
 }
 
 /// One learner class per kind: the same methods over [`Fitted`].
@@ -210,6 +224,61 @@ macro_rules! learner_class {
                 observations: &Bound<'py, PyAny>,
             ) -> PyResult<Bound<'py, PyArray2<f64>>> {
                 self.0.predict(py, observations)
+            }
+
+            /// critique(observations, *, chunk=None, kappa=1.0, rule="paper", actions=None)
+            /// -> Critique
+            ///
+            /// The REPL's `critique KAPPA` on `chunk` ((start, end), default all) of a trace
+            /// of `observations` (n, obs_dim): the data points that supported those steps
+            /// get their weight m raised by kappa over their scaled distance (`rule=
+            /// "directional"`: only for queries from the flagged side). The trace, with
+            /// `actions` (default the learner's own), is recorded in the dataset as the
+            /// critiqued execution. Returns what was raised, by how much, and the REPL's reply.
+            #[pyo3(signature = (observations, *, chunk=None, kappa=advise::session::DEFAULT_KAPPA, rule="paper", actions=None))]
+            fn critique(
+                &mut self,
+                py: Python<'_>,
+                observations: &Bound<'_, PyAny>,
+                chunk: Option<(usize, usize)>,
+                kappa: f64,
+                rule: &str,
+                actions: Option<&Bound<'_, PyAny>>,
+            ) -> PyResult<crate::explain::Critique> {
+                let args = crate::explain::CritiqueArgs {
+                    observations,
+                    actions,
+                    chunk,
+                    kappa,
+                    rule,
+                };
+                let (learner, domain) = self.0.fitted(py)?;
+                crate::explain::critique(py, learner, domain, args)
+            }
+
+            /// why(observation) -> Why
+            ///
+            /// The REPL's `why` at one observation: the BC nearest point with its distance,
+            /// weight and provenance, LWR's neighbourhood, each one's action, and the REPL's
+            /// text.
+            fn why(
+                &mut self,
+                py: Python<'_>,
+                observation: &Bound<'_, PyAny>,
+            ) -> PyResult<crate::explain::Why> {
+                let (learner, domain) = self.0.fitted(py)?;
+                crate::explain::why(py, learner, domain, observation)
+            }
+
+            /// weights() -> array
+            ///
+            /// Every data point's weight m (the paper's rule), in dataset order.
+            fn weights<'py>(
+                &mut self,
+                py: Python<'py>,
+            ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
+                let (learner, _) = self.0.fitted(py)?;
+                Ok(crate::explain::weights(py, learner))
             }
 
             /// The number of data points the policy holds.

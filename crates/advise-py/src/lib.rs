@@ -12,6 +12,7 @@ mod arrays;
 mod diag;
 mod env;
 mod error;
+mod explain;
 mod learn;
 mod lerobot;
 mod ops;
@@ -28,6 +29,9 @@ fn _advise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ops::Operators>()?;
     m.add_class::<learn::BC>()?;
     m.add_class::<learn::LWR>()?;
+    m.add_class::<explain::Critique>()?;
+    m.add_class::<explain::Why>()?;
+    m.add_class::<explain::Provenance>()?;
     m.add_class::<env::SimEnv>()?;
     m.add_class::<session::Session>()?;
     m.add_function(wrap_pyfunction!(lerobot::load_lerobot, m)?)?;
