@@ -11,6 +11,8 @@ runs; nothing is recomputed in Python.
   ``advise/Interception-v0``, registered on import when gymnasium is installed.
 - ``Session(task=..., backend="sim")``: a teaching session; ``execute(statement)`` returns
   the reply as a dict.
+- ``fmt(text_or_path)``, ``test(path_or_text)``: ``advise fmt`` and ``advise test`` as
+  functions (the formatted text; a ``TestResult`` per doc example).
 - ``AdviseError``: every refusal, with ``code`` (``advise::area::name``) and ``diagnostics``.
 """
 
@@ -23,7 +25,10 @@ from ._advise import (
     Session,
     SimEnv,
     Span,
+    TestResult,
     check,
+    fmt,
+    test,
 )
 
 try:  # The Gymnasium environments, where gymnasium is installed.
@@ -42,5 +47,8 @@ __all__ = [
     "Session",
     "SimEnv",
     "Span",
+    "TestResult",
     "check",
+    "fmt",
+    "test",
 ]

@@ -8,7 +8,10 @@ from ._advise import (
     Session as Session,
     SimEnv as SimEnv,
     Span as Span,
+    TestResult as TestResult,
     check as check,
+    fmt as fmt,
+    test as test,
 )
 
 __all__: list[str]

@@ -15,6 +15,7 @@ mod error;
 mod learn;
 mod ops;
 mod session;
+mod tools;
 
 /// The module Python imports as `advise._advise` (re-exported by `advise/__init__.py`).
 #[pymodule]
@@ -29,5 +30,8 @@ fn _advise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<learn::LWR>()?;
     m.add_class::<env::SimEnv>()?;
     m.add_class::<session::Session>()?;
+    m.add_function(wrap_pyfunction!(tools::fmt, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::test, m)?)?;
+    m.add_class::<tools::TestResult>()?;
     Ok(())
 }
