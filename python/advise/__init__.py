@@ -11,6 +11,8 @@ runs; nothing is recomputed in Python.
   ``advise/Interception-v0``, registered on import when gymnasium is installed.
 - ``Session(task=..., backend="sim")``: a teaching session; ``execute(statement)`` returns
   the reply as a dict.
+- ``load_demos(path, task=...)``: a demonstrations file (CSV, JSON, a saved dataset) as numpy
+  observations, actions, episode index and names, as ``load demos`` reads it.
 - ``fmt(text_or_path)``, ``test(path_or_text)``: ``advise fmt`` and ``advise test`` as
   functions (the formatted text; a ``TestResult`` per doc example).
 - ``AdviseError``: every refusal, with ``code`` (``advise::area::name``) and ``diagnostics``.
@@ -28,6 +30,7 @@ from ._advise import (
     TestResult,
     check,
     fmt,
+    load_demos,
     test,
 )
 
@@ -50,5 +53,6 @@ __all__ = [
     "TestResult",
     "check",
     "fmt",
+    "load_demos",
     "test",
 ]

@@ -11,6 +11,7 @@ from ._advise import (
     TestResult as TestResult,
     check as check,
     fmt as fmt,
+    load_demos as load_demos,
     test as test,
 )
 

@@ -49,6 +49,13 @@ def check(path_or_text: str) -> list[Diagnostic]:
     """Check an operator file or text on top of the standard operators; the warnings, or
     AdviseError with every error."""
 
+def load_demos(
+    path: str, *, task: str | None = None, domain: str | None = None
+) -> tuple[Array, Array, npt.NDArray[np.int64], list[str]]:
+    """The demonstrations of a file (CSV, JSON, a saved dataset) as ``load demos`` reads them:
+    observations, actions, each row's episode index and the episodes' names (default task
+    positioning); AdviseError when the file cannot be read."""
+
 def fmt(text_or_path: str) -> str:
     """The canonical layout of an operator file or text, as ``advise fmt`` writes it (the file
     is not changed); AdviseError when it does not parse."""

@@ -9,6 +9,7 @@
 use pyo3::prelude::*;
 
 mod arrays;
+mod demos;
 mod diag;
 mod env;
 mod error;
@@ -30,6 +31,7 @@ fn _advise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<learn::LWR>()?;
     m.add_class::<env::SimEnv>()?;
     m.add_class::<session::Session>()?;
+    m.add_function(wrap_pyfunction!(demos::load_demos, m)?)?;
     m.add_function(wrap_pyfunction!(tools::fmt, m)?)?;
     m.add_function(wrap_pyfunction!(tools::test, m)?)?;
     m.add_class::<tools::TestResult>()?;
