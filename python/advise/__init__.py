@@ -16,6 +16,10 @@ runs; nothing is recomputed in Python.
   ``to_arrow(data)`` as a pyarrow table with provenance columns; ``advise_lerobot(src, out,
   episode=..., frames=(a, b), operator=..., params=...)`` writes a chunk of an episode corrected
   by an operator as a new LeRobot dataset.
+- ``load_demos(path, task=...)``: a demonstrations file (CSV, JSON, a saved dataset) as numpy
+  observations, actions, episode index and names, as ``load demos`` reads it.
+- ``fmt(text_or_path)``, ``test(path_or_text)``: ``advise fmt`` and ``advise test`` as
+  functions (the formatted text; a ``TestResult`` per doc example).
 - ``AdviseError``: every refusal, with ``code`` (``advise::area::name``) and ``diagnostics``.
 """
 
@@ -31,7 +35,11 @@ from ._advise import (
     SimEnv,
     Span,
     Why,
+    TestResult,
     check,
+    fmt,
+    load_demos,
+    test,
 )
 from ._advise import advise_lerobot, load_lerobot
 from .lerobot import to_arrow
@@ -59,4 +67,8 @@ __all__ = [
     "advise_lerobot",
     "load_lerobot",
     "to_arrow",
+    "TestResult",
+    "fmt",
+    "load_demos",
+    "test",
 ]

@@ -11,7 +11,11 @@ from ._advise import (
     SimEnv as SimEnv,
     Span as Span,
     Why as Why,
+    TestResult as TestResult,
     check as check,
+    fmt as fmt,
+    load_demos as load_demos,
+    test as test,
 )
 from ._advise import advise_lerobot as advise_lerobot, load_lerobot as load_lerobot
 from .lerobot import to_arrow as to_arrow

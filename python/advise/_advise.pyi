@@ -49,6 +49,41 @@ def check(path_or_text: str) -> list[Diagnostic]:
     """Check an operator file or text on top of the standard operators; the warnings, or
     AdviseError with every error."""
 
+def load_demos(
+    path: str, *, task: str | None = None, domain: str | None = None
+) -> tuple[Array, Array, npt.NDArray[np.int64], list[str]]:
+    """The demonstrations of a file (CSV, JSON, a saved dataset) as ``load demos`` reads them:
+    observations, actions, each row's episode index and the episodes' names (default task
+    positioning); AdviseError when the file cannot be read."""
+
+def fmt(text_or_path: str) -> str:
+    """The canonical layout of an operator file or text, as ``advise fmt`` writes it (the file
+    is not changed); AdviseError when it does not parse."""
+
+class TestResult:
+    """One doc example run by ``test``: operator ``domain/name``, the example line, where it is,
+    whether it held, and why not (``message``, ``diagnostic``)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def example(self) -> str: ...
+    @property
+    def file(self) -> str: ...
+    @property
+    def line(self) -> int: ...
+    @property
+    def passed(self) -> bool: ...
+    @property
+    def message(self) -> str | None: ...
+    @property
+    def diagnostic(self) -> Diagnostic | None: ...
+    def __bool__(self) -> bool: ...
+
+def test(path_or_text: str | None = None) -> list[TestResult]:
+    """Run the doc examples of an operator file or text (checked on top of the standard
+    operators), or of the standard operators, as ``advise test`` does."""
+
 class Operators:
     """The standard advice operators plus those of ``files`` (paths or operator text)."""
 

@@ -91,3 +91,49 @@ fn make_venv(name: &str, packages: &[&str], probe: &str) -> Result<PathBuf, Stri
     run(&mut pip, Duration::from_secs(600))?;
     usable(&python).map(|()| python)
 }
+
+/// Build the wheel of the Python package `advise` with the venv's maturin, in the target directory
+/// `cargo test` uses (see tests/python_pkg.rs), into `target/WHEELS`, and install it in that venv.
+pub fn install_advise(python: &Path, wheels: &str) -> Result<(), String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let target = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .parent()
+        .map_or_else(|| root.join("target"), Path::to_path_buf);
+    let wheels = target.join(wheels);
+    let _ = std::fs::remove_dir_all(&wheels);
+    let mut build = Command::new(python);
+    build
+        .args([
+            "-m",
+            "maturin",
+            "build",
+            "--profile",
+            "dev",
+            "--interpreter",
+        ])
+        .arg(python)
+        .arg("--out")
+        .arg(&wheels)
+        .current_dir(root)
+        .env("CARGO_TARGET_DIR", &target);
+    run(&mut build, Duration::from_secs(1800))?;
+    let wheel: PathBuf = std::fs::read_dir(&wheels)
+        .map_err(|e| format!("{}: {e}", wheels.display()))?
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| p.extension().is_some_and(|x| x == "whl"))
+        .ok_or_else(|| format!("maturin wrote no wheel to {}", wheels.display()))?;
+    run(
+        Command::new(python)
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "--quiet",
+                "--no-deps",
+                "--force-reinstall",
+            ])
+            .arg(&wheel),
+        Duration::from_secs(300),
+    )
+}

@@ -69,6 +69,19 @@ pub struct Outcome {
     pub failures: Vec<ExampleError>,
     /// Operators of the files with no example, `domain/name`.
     pub without_example: Vec<String>,
+    /// Every example run, in order (for callers that list passes as well as failures).
+    pub ran: Vec<Ran>,
+}
+
+/// One example run: its operator (`domain/name`), its line (`Example: ...` to the line's end, a
+/// byte range of source `id`) and, when it failed, the index of its error in
+/// [`Outcome::failures`].
+#[derive(Debug, Clone)]
+pub struct Ran {
+    pub op: String,
+    pub id: SourceId,
+    pub line: Range<usize>,
+    pub failure: Option<usize>,
 }
 
 /// Run every example of the operators declared in `ids` (sources of `map`, already checked into
@@ -95,9 +108,16 @@ pub fn run(map: &mut SourceMap, set: &OperatorSet, ids: &[SourceId]) -> Outcome 
                 outcome.examples += 1;
                 let at = |r: Range<usize>| id.at(range.start + r.start..range.start + r.end);
                 let line = &text[range.clone()];
-                if let Err(e) = run_one(map, set, op, line, &at) {
+                let failure = run_one(map, set, op, line, &at).err().map(|e| {
                     outcome.failures.push(e);
-                }
+                    outcome.failures.len() - 1
+                });
+                outcome.ran.push(Ran {
+                    op: format!("{}/{}", decl.domain.name, decl.name.name),
+                    id,
+                    line: range.clone(),
+                    failure,
+                });
             }
         }
     }

@@ -9,6 +9,7 @@
 use pyo3::prelude::*;
 
 mod arrays;
+mod demos;
 mod diag;
 mod env;
 mod error;
@@ -17,6 +18,7 @@ mod learn;
 mod lerobot;
 mod ops;
 mod session;
+mod tools;
 
 /// The module Python imports as `advise._advise` (re-exported by `advise/__init__.py`).
 #[pymodule]
@@ -36,5 +38,9 @@ fn _advise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<session::Session>()?;
     m.add_function(wrap_pyfunction!(lerobot::load_lerobot, m)?)?;
     m.add_function(wrap_pyfunction!(lerobot::advise_lerobot, m)?)?;
+    m.add_function(wrap_pyfunction!(demos::load_demos, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::fmt, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::test, m)?)?;
+    m.add_class::<tools::TestResult>()?;
     Ok(())
 }

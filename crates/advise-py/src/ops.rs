@@ -16,7 +16,11 @@ use crate::error::{from_diag, raise, simple};
 
 /// `path_or_text` as a source of `map`: an existing file is read (with the files' rules: regular,
 /// capped, UTF-8), anything else is operator text named `<text>`.
-fn source(py: Python<'_>, map: &mut SourceMap, path_or_text: &str) -> PyResult<SourceId> {
+pub(crate) fn source(
+    py: Python<'_>,
+    map: &mut SourceMap,
+    path_or_text: &str,
+) -> PyResult<SourceId> {
     let path = Path::new(path_or_text);
     if !path_or_text.contains('\n') && path.exists() {
         advise::files::read_source(map, path).map_err(|e| from_diag(py, map, &e))
