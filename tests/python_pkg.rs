@@ -13,7 +13,7 @@
 #[path = "python/mod.rs"]
 mod python;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
@@ -27,51 +27,6 @@ const PACKAGES: [&str; 6] = [
     "pandas==2.3.3",
 ];
 
-/// Build the wheel of the package with the venv's maturin and install it in that venv.
-fn install_package(python: &Path) -> Result<(), String> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let target = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .parent()
-        .map_or_else(|| root.join("target"), Path::to_path_buf);
-    let wheels = target.join("py-pkg-wheels");
-    let _ = std::fs::remove_dir_all(&wheels);
-    let mut build = Command::new(python);
-    build
-        .args([
-            "-m",
-            "maturin",
-            "build",
-            "--profile",
-            "dev",
-            "--interpreter",
-        ])
-        .arg(python)
-        .arg("--out")
-        .arg(&wheels)
-        .current_dir(root)
-        .env("CARGO_TARGET_DIR", &target);
-    python::run(&mut build, Duration::from_secs(1800))?;
-    let wheel: PathBuf = std::fs::read_dir(&wheels)
-        .map_err(|e| format!("{}: {e}", wheels.display()))?
-        .flatten()
-        .map(|e| e.path())
-        .find(|p| p.extension().is_some_and(|x| x == "whl"))
-        .ok_or_else(|| format!("maturin wrote no wheel to {}", wheels.display()))?;
-    python::run(
-        Command::new(python)
-            .args([
-                "-m",
-                "pip",
-                "install",
-                "--quiet",
-                "--no-deps",
-                "--force-reinstall",
-            ])
-            .arg(&wheel),
-        Duration::from_secs(300),
-    )
-}
-
 #[test]
 fn the_python_package_passes_its_pytest_files() {
     let probe = "import numpy, gymnasium, pytest, maturin, pyarrow, pandas";
@@ -82,7 +37,7 @@ fn the_python_package_passes_its_pytest_files() {
             return;
         }
     };
-    if let Err(why) = install_package(&python) {
+    if let Err(why) = python::install_advise(&python, "py-pkg-wheels") {
         panic!("the Python package did not build and install: {why}");
     }
     let root = env!("CARGO_MANIFEST_DIR");
