@@ -9,7 +9,8 @@ runs; nothing is recomputed in Python.
 - ``BC``, ``LWR``: the paper's learners; ``fit``, ``predict``, ``critique`` and ``why`` on numpy
   arrays (``Critique``, ``Why``, ``Provenance``: their results).
 - ``gym.AdviseEnv``: the simulator as the Gymnasium environments ``advise/Positioning-v0`` and
-  ``advise/Interception-v0``, registered on import when gymnasium is installed.
+  ``advise/Interception-v0``, registered on import when gymnasium is installed;
+  ``make_env(tasks="dock.adv", task="dock")`` for a task declared in the language.
 - ``Session(task=..., backend="sim")``: a teaching session; ``execute(statement)`` returns
   the reply as a dict.
 - ``load_lerobot(dir, task=...)``: a LeRobot v3.0 dataset's frames as numpy arrays;
@@ -48,8 +49,14 @@ try:  # The Gymnasium environments, where gymnasium is installed.
     from . import gym as _gym
 except ImportError:  # pragma: no cover - gymnasium is optional
     _gym = None
+
+    def make_env(tasks, task):  # type: ignore[no-redef]
+        """A declared task as a Gymnasium environment: needs gymnasium (``pip install
+        'advise[gym]'``)."""
+        raise ImportError("advise.make_env needs gymnasium: pip install 'advise[gym]'")
 else:
     _gym.register()
+    make_env = _gym.make_env
 
 __all__ = [
     "AdviseError",
@@ -70,5 +77,6 @@ __all__ = [
     "TestResult",
     "fmt",
     "load_demos",
+    "make_env",
     "test",
 ]

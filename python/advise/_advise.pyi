@@ -207,9 +207,10 @@ class LWR(_Learner):
     """A-OPI's learner: locally weighted regression, kernel tuned by cross-validation."""
 
 class SimEnv:
-    """One simulated episode of a built-in task, stepped from Python (see advise.gym)."""
+    """One simulated episode of a task, stepped from Python (see advise.gym): a built-in one, or
+    one declared in the task files ``tasks``."""
 
-    def __init__(self, task: str) -> None: ...
+    def __init__(self, task: str, tasks: list[str] | None = None) -> None: ...
     @property
     def obs_dim(self) -> int: ...
     @property

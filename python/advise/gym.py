@@ -23,8 +23,8 @@ class AdviseEnv(gymnasium.Env):
 
     metadata: dict[str, Any] = {"render_modes": []}
 
-    def __init__(self, task: str = "positioning") -> None:
-        self._sim = SimEnv(task)
+    def __init__(self, task: str = "positioning", tasks: list[str] | None = None) -> None:
+        self._sim = SimEnv(task, tasks)
         self.task = task
         lo, hi = zip(*self._sim.action_limits())
         self.action_space = spaces.Box(
@@ -51,3 +51,13 @@ def register() -> None:
         env_id = f"advise/{name}"
         if env_id not in gymnasium.registry:
             gymnasium.register(id=env_id, entry_point=AdviseEnv, kwargs={"task": task})
+
+
+def make_env(tasks: str | list[str], task: str) -> AdviseEnv:
+    """The simulator on ``task``, declared in the task file(s) ``tasks`` (checked on top of the
+    standard operators, as ``advise run --tasks FILE`` checks them; a mistake raises
+    ``advise.AdviseError`` with its diagnostics), as a Gymnasium environment with the dynamics
+    of ``advise run --tasks FILE --task TASK``: ``reset(seed=S, options={"start": I})`` starts
+    practice goal ``I`` of seed ``S`` as ``advise demo --tasks FILE --task TASK --seed S`` does."""
+    files = [tasks] if isinstance(tasks, str) else list(tasks)
+    return AdviseEnv(task, files)

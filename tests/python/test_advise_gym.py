@@ -78,3 +78,47 @@ def test_replaying_a_cli_demonstration_gives_its_observations_to_the_bit(tmp_pat
             obs, _, terminated, truncated, _ = env.step(a[k])
             assert np.array_equal(obs, z[k + 1]), (name, k)
             assert not (terminated or truncated)
+
+
+STANDOFF = "examples/tasks/standoff.adv"
+
+
+def test_a_declared_task_is_an_environment_that_passes_the_checker():
+    env = advise.make_env(tasks=STANDOFF, task="standoff")
+    check_env(env, skip_render_check=True)
+    obs, _ = env.reset(seed=3, options={"start": 1})
+    again, _ = advise.make_env(tasks=[STANDOFF], task="standoff").reset(
+        seed=3, options={"start": 1})
+    assert np.array_equal(obs, again)
+
+
+def test_a_declared_task_starts_as_the_command_lines_demonstration(tmp_path):
+    # `advise demo --tasks FILE --task T --seed 5` records demo-i from practice goal i on a
+    # simulator seeded for episode i: its first observation is the environment's after reset.
+    import os
+    import subprocess
+
+    out = tmp_path / "demos.csv"
+    subprocess.run(
+        [os.environ["ADVISE_BIN"], "demo", "--tasks", STANDOFF, "--task", "standoff",
+         "--count", "2", "--seed", "5", "--out", str(out)],
+        check=True, capture_output=True, timeout=120,
+    )
+    rows = np.genfromtxt(out, delimiter=",", skip_header=1, dtype=str)
+    env = advise.make_env(tasks=STANDOFF, task="standoff")
+    od = env.observation_space.shape[0]
+    for i, name in enumerate(["demo-0", "demo-1"]):
+        ep = rows[rows[:, 0] == name]
+        obs, _ = env.reset(seed=5, options={"start": i})
+        assert np.array_equal(obs, ep[0, 2 : 2 + od].astype(float)), name
+
+
+def test_a_bad_task_file_or_name_raises_its_diagnostics(tmp_path):
+    bad = tmp_path / "bad.adv"
+    bad.write_text("domain dock {\n  observe d \"m\" = nosuch\n}\n")
+    with pytest.raises(advise.AdviseError) as e:
+        advise.make_env(tasks=str(bad), task="dock")
+    assert e.value.code.startswith("advise::"), e.value.code
+    with pytest.raises(advise.AdviseError) as e:
+        advise.make_env(tasks=STANDOFF, task="standof")
+    assert "standoff" in str(e.value)

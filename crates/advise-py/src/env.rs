@@ -18,7 +18,8 @@ use pyo3::types::PyDict;
 use crate::arrays::matrix;
 use crate::error::simple;
 
-/// The simulator of a built-in task (`positioning`, `interception`), stepped from Python.
+/// The simulator of a task (`positioning`, `interception`, or one declared in a file), stepped
+/// from Python.
 #[pyclass(module = "advise", unsendable)]
 pub struct SimEnv {
     kind: TaskKind,
@@ -47,16 +48,28 @@ struct Episode {
 
 #[pymethods]
 impl SimEnv {
+    /// `SimEnv(task, tasks=None)`: a built-in task, or one declared in the files `tasks`
+    /// (checked on top of the standard operators, as `advise run --tasks FILE` checks them).
     #[new]
-    fn new(py: Python<'_>, task: &str) -> PyResult<SimEnv> {
-        let kind = TaskKind::builtin(task).ok_or_else(|| {
-            simple(
-                py,
-                "advise::py::unknown_task",
-                format!("there is no built-in task `{task}`"),
-                "the simulator's tasks are `positioning` and `interception`",
-            )
-        })?;
+    #[pyo3(signature = (task, tasks=None))]
+    fn new(py: Python<'_>, task: &str, tasks: Option<Vec<String>>) -> PyResult<SimEnv> {
+        let kind = match tasks {
+            Some(files) => {
+                let files: Vec<std::path::PathBuf> = files.into_iter().map(Into::into).collect();
+                advise::cli::resolve_task(task, &files).map_err(|r| {
+                    crate::error::from_diag(py, &advise::diag::SourceMap::new(), r.as_ref())
+                })?
+            }
+            None => TaskKind::builtin(task).ok_or_else(|| {
+                simple(
+                    py,
+                    "advise::py::unknown_task",
+                    format!("there is no built-in task `{task}`"),
+                    "the simulator's tasks are `positioning` and `interception`; a declared \
+                     task needs its file: `advise.make_env(tasks=\"FILE.adv\", task=...)`",
+                )
+            })?,
+        };
         Ok(SimEnv {
             domain: kind.domain(),
             kind,
