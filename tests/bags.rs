@@ -9,6 +9,8 @@
 #[path = "python/mod.rs"]
 mod python;
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
@@ -109,15 +111,7 @@ fn bags_from_three_writers_import_to_the_independent_pairing() {
 }
 
 fn advise(args: &[&str], dir: &Path) -> (bool, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_advise"))
-        .args(args)
-        .current_dir(dir)
-        .env("NO_COLOR", "1")
-        .output()
-        .unwrap();
-    let mut text = String::from_utf8_lossy(&out.stdout).into_owned();
-    text.push_str(&String::from_utf8_lossy(&out.stderr));
-    (out.status.success(), text)
+    common::advise_in(dir, args)
 }
 
 #[test]
@@ -371,7 +365,7 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
     );
     let (ok, text) = advise(&["export", "s.json", "--mcap", "cli.mcap"], d);
     assert!(ok, "{text}");
-    let read_mcap = |file: &str| python_peer(&py, "read_mcap.py", &d.join(file));
+    let read_mcap = |file: &str| python::peer_json(&py, "read_mcap.py", &d.join(file));
     let read = read_mcap("cli.mcap");
     assert_eq!(read["profile"], "ros2");
     // The session's export and the command line's hold the same messages; only their timelines'
@@ -562,28 +556,9 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
     );
 }
 
-/// What the Python peer `tests/python/SCRIPT` prints as JSON for `arg`; it must succeed.
-fn python_peer(py: &Path, script: &str, arg: &Path) -> serde_json::Value {
-    let out = Command::new(py)
-        .arg(
-            Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("tests/python")
-                .join(script),
-        )
-        .arg(arg)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
-}
-
 /// A LeRobot export as `tests/python/read_lerobot.py` reads it, the way LeRobot's loader does.
 fn read_lerobot(py: &Path, dir: &Path) -> serde_json::Value {
-    python_peer(py, "read_lerobot.py", dir)
+    python::peer_json(py, "read_lerobot.py", dir)
 }
 
 /// A session's dataset exported as LeRobot v3.0: pyarrow reads every table; each frame is a

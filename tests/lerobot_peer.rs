@@ -12,8 +12,6 @@
 #[path = "python/mod.rs"]
 mod python;
 
-use std::process::Command;
-
 #[test]
 fn a_lerobot_dataset_advised_on_a_chunk_loads_in_lerobots_own_loader() {
     if std::env::var("ADVISE_LEROBOT_PEER").as_deref() != Ok("1") {
@@ -30,20 +28,7 @@ fn a_lerobot_dataset_advised_on_a_chunk_loads_in_lerobots_own_loader() {
     .expect("ADVISE_LEROBOT_PEER=1 asks for LeRobot 0.4.4 from PyPI");
     python::install_advise(&py, "lerobot-wheels").expect("the package builds and installs");
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(&py)
-        .arg(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/python/lerobot_roundtrip.py"
-        ))
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = python::peer_json(&py, "lerobot_roundtrip.py", dir.path());
     // LeRobot's writer: 65 frames in two episodes, read by advise with the names remapped.
     assert_eq!(v["source_frames"], 65);
     assert_eq!(v["source_trans_first"], 0.5);

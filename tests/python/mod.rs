@@ -137,3 +137,22 @@ pub fn install_advise(python: &Path, wheels: &str) -> Result<(), String> {
         Duration::from_secs(300),
     )
 }
+
+/// What the Python peer `tests/python/SCRIPT` prints as JSON for `arg`; it must succeed.
+pub fn peer_json(py: &Path, script: &str, arg: &Path) -> serde_json::Value {
+    let out = Command::new(py)
+        .arg(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("tests/python")
+                .join(script),
+        )
+        .arg(arg)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
