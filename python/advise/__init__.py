@@ -21,6 +21,8 @@ runs; nothing is recomputed in Python.
   observations, actions, episode index and names, as ``load demos`` reads it.
 - ``fmt(text_or_path)``, ``test(path_or_text)``: ``advise fmt`` and ``advise test`` as
   functions (the formatted text; a ``TestResult`` per doc example).
+- ``study(name, seed, ...)`` and ``studies.bc``/``studies.aopi``: the paper's studies as
+  functions of a seed, returning ``advise experiment --json``'s data.
 - ``AdviseError``: every refusal, with ``code`` (``advise::area::name``) and ``diagnostics``.
 """
 
@@ -44,6 +46,8 @@ from ._advise import (
 )
 from ._advise import advise_lerobot, load_lerobot
 from .lerobot import to_arrow
+from ._advise import study
+from . import studies
 
 try:  # The Gymnasium environments, where gymnasium is installed.
     from . import gym as _gym
@@ -77,6 +81,8 @@ __all__ = [
     "TestResult",
     "fmt",
     "load_demos",
+    "study",
+    "studies",
     "make_env",
     "test",
 ]

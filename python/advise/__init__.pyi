@@ -20,5 +20,7 @@ from ._advise import (
 from ._advise import advise_lerobot as advise_lerobot, load_lerobot as load_lerobot
 from .lerobot import to_arrow as to_arrow
 from .gym import make_env as make_env
+from ._advise import study as study
+from . import studies as studies
 
 __all__: list[str]

@@ -251,3 +251,16 @@ def advise_lerobot(
     """Apply ``operator`` to ``frames`` of ``episode`` of the LeRobot dataset ``src`` and write
     the corrected episode as a new LeRobot v3.0 dataset in ``out``, with its provenance."""
     ...
+
+
+def study(
+    study: str,
+    seed: int,
+    *,
+    revert: str | None = None,
+    critique: str | None = None,
+    sim_params: str | None = None,
+) -> dict[str, Any]:
+    """Run one seed of ``study`` (``"bc"`` or ``"aopi"``) on the simulator: the data
+    ``advise experiment STUDY --seed SEED --json`` prints. Runs without the GIL."""
+    ...

@@ -18,6 +18,7 @@ mod learn;
 mod lerobot;
 mod ops;
 mod session;
+mod studies;
 mod tools;
 
 /// The module Python imports as `advise._advise` (re-exported by `advise/__init__.py`).
@@ -42,5 +43,6 @@ fn _advise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tools::fmt, m)?)?;
     m.add_function(wrap_pyfunction!(tools::test, m)?)?;
     m.add_class::<tools::TestResult>()?;
+    m.add_function(wrap_pyfunction!(studies::study, m)?)?;
     Ok(())
 }

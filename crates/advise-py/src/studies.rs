@@ -1,0 +1,83 @@
+//! `advise.study`: the paper's studies as plain functions of a seed and the command line's
+//! parameters, returning the data `advise experiment STUDY --seed SEED --json` prints (the same
+//! function runs them), so a sweep over seeds can be mapped by any engine (Ray, Dask, a pool).
+
+use clap::ValueEnum;
+use pyo3::prelude::*;
+
+use crate::error::simple;
+
+/// The names a clap value enum accepts, for a refusal's help.
+fn names<T: ValueEnum>() -> String {
+    T::value_variants()
+        .iter()
+        .filter_map(|v| v.to_possible_value())
+        .map(|v| format!("`{}`", v.get_name()))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// `name` as one of `T`'s values, or an `AdviseError` coded `code` listing them.
+fn parse<T: ValueEnum>(py: Python<'_>, name: &str, what: &str) -> PyResult<T> {
+    T::from_str(name, false).map_err(|_| {
+        simple(
+            py,
+            "advise::py::bad_argument",
+            format!("`{name}` is not a {what}"),
+            &format!("the {what}s are {}", names::<T>()),
+        )
+    })
+}
+
+/// study(study, seed, *, revert=None, critique=None, sim_params=None) -> dict
+///
+/// Run one seed of `study` (`"bc"` or `"aopi"`) on the simulator and return the data that
+/// `advise experiment STUDY --seed SEED --json` prints, as Python objects. `revert` puts one of
+/// the protocol's choices back (`--revert`), `critique` picks the BC study's rules
+/// (`--critique`), `sim_params` is a simulator parameters file (`--sim-params`). Runs without
+/// the GIL.
+#[pyfunction]
+#[pyo3(signature = (study, seed, *, revert=None, critique=None, sim_params=None))]
+pub fn study<'py>(
+    py: Python<'py>,
+    study: &str,
+    seed: u64,
+    revert: Option<&str>,
+    critique: Option<&str>,
+    sim_params: Option<std::path::PathBuf>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use advise::experiment::{ablation::Revert, bc::Rules, study as s};
+    let which: s::Study = parse(py, study, "study")?;
+    let revert: Option<Revert> = revert
+        .map(|r| parse(py, r, "protocol choice to revert"))
+        .transpose()?;
+    if let Some(choice) = revert
+        && !choice.affects(which)
+    {
+        return Err(simple(
+            py,
+            "advise::py::bad_argument",
+            format!("the {study} study has no choice `{}` to revert", choice.name()),
+            "see `advise experiment --help` for each study's choices",
+        ));
+    }
+    let rules = match (which, critique) {
+        (s::Study::Bc, Some(c)) => parse(py, c, "critique rule")?,
+        (s::Study::Bc, None) => Rules::default(),
+        (s::Study::Aopi, Some(_)) => {
+            return Err(simple(
+                py,
+                "advise::py::bad_argument",
+                "`critique` is the BC study's".into(),
+                "leave it out for the A-OPI study",
+            ));
+        }
+        (s::Study::Aopi, None) => Rules::default(),
+    };
+    let sim = advise::cli::sim_params(sim_params.as_deref())
+        .map_err(|r| crate::error::from_diag(py, &advise::diag::SourceMap::new(), r.as_ref()))?;
+    let out = py
+        .detach(|| s::run(which, &s::Seeds::One(seed), sim, rules, revert, None, false))
+        .map_err(|e| crate::error::from_diag(py, &advise::diag::SourceMap::new(), &e))?;
+    py.import("json")?.call_method1("loads", (out.json,))
+}
