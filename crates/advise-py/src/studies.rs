@@ -57,7 +57,10 @@ pub fn study<'py>(
         return Err(simple(
             py,
             "advise::py::bad_argument",
-            format!("the {study} study has no choice `{}` to revert", choice.name()),
+            format!(
+                "the {study} study has no choice `{}` to revert",
+                choice.name()
+            ),
             "see `advise experiment --help` for each study's choices",
         ));
     }
