@@ -38,3 +38,19 @@ def test_bad_arguments_raise_coded_errors():
     with pytest.raises(advise.AdviseError) as e:
         advise.studies.bc(0, sim_params="/nonexistent/sim.json")
     assert e.value.code.startswith("advise::")
+
+
+def test_the_readmes_ray_example_maps_a_study_over_seeds():
+    # The README's example, on a local Ray cluster bound to the loopback address only.
+    import ray  # pinned in the test venv: a missing Ray fails here, it does not skip
+
+    import advise.studies
+
+    ray.init(num_cpus=2, include_dashboard=False, _node_ip_address="127.0.0.1",
+             log_to_driver=False)
+    try:
+        run = ray.remote(advise.studies.bc)
+        results = ray.get([run.remote(seed, critique="paper") for seed in [2]])
+    finally:
+        ray.shutdown()
+    assert results == [cli("bc", "--seed", "2", "--critique", "paper")]
