@@ -2,16 +2,11 @@
 the same chunk critiqued give the same increments (to the bit), the same reply, and afterwards
 the same actions; why gives the REPL's text."""
 
-import json
-import os
-import subprocess
-
 import numpy as np
 import pytest
 
 import advise
 
-ADVISE = os.environ["ADVISE_BIN"]
 SCRIPT = """load demos demos.csv
 learner bc
 run goal 2 -1 0.5
@@ -24,23 +19,8 @@ save out.json
 
 
 @pytest.fixture(scope="module")
-def session(tmp_path_factory):
-    d = tmp_path_factory.mktemp("critique")
-    subprocess.run(
-        [ADVISE, "demo", "--task", "positioning", "--count", "4", "--out", "demos.csv"],
-        cwd=d, check=True, capture_output=True, timeout=120,
-    )
-    (d / "s.adv").write_text(SCRIPT)
-    out = subprocess.run(
-        [ADVISE, "run", "s.adv", "--demos", "0", "--no-journal"],
-        cwd=d, check=True, capture_output=True, text=True, timeout=120,
-    ).stdout
-    saved = json.loads((d / "out.json").read_text())
-    runs = [
-        (np.array([p["z"] for p in e["points"]]), np.array([p["a"] for p in e["points"]]))
-        for e in saved["executions"]
-    ]
-    return d, out, saved, runs
+def session(scripted_session):
+    return scripted_session(SCRIPT, "critique")
 
 
 def test_critique_equals_the_repls(session):

@@ -2,16 +2,11 @@
 its policy chose at each observation, so the same demonstrations fitted from Python must predict
 those actions to the bit (clamped to the domain's limits, as a run clamps them)."""
 
-import json
-import os
-import subprocess
-
 import numpy as np
 import pytest
 
 import advise
 
-ADVISE = os.environ["ADVISE_BIN"]
 SCRIPT = """load demos demos.csv
 run goal 2 -1 0.5
 learner bc
@@ -21,23 +16,8 @@ save out.json
 
 
 @pytest.fixture(scope="module")
-def session(tmp_path_factory):
-    d = tmp_path_factory.mktemp("session")
-    subprocess.run(
-        [ADVISE, "demo", "--task", "positioning", "--count", "4", "--out", "demos.csv"],
-        cwd=d, check=True, capture_output=True, timeout=120,
-    )
-    (d / "s.adv").write_text(SCRIPT)
-    subprocess.run(
-        [ADVISE, "run", "s.adv", "--demos", "0", "--no-journal"],
-        cwd=d, check=True, capture_output=True, timeout=120,
-    )
-    saved = json.loads((d / "out.json").read_text())
-    runs = []
-    for e in saved["executions"]:
-        z = np.array([p["z"] for p in e["points"]])
-        a = np.array([p["a"] for p in e["points"]])
-        runs.append((z, a))
+def session(scripted_session):
+    d, _, _, runs = scripted_session(SCRIPT, "session")
     return d, runs
 
 
