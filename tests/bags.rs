@@ -794,14 +794,20 @@ fn parquet_demonstrations_from_pandas_and_pyarrow_load_as_their_csv_does() {
     )
     .unwrap()
     .episodes;
-    let read = |name: &str| {
+    let read_at_most = |name: &str, max: usize| {
         advise::recording::parquet_demos::read_demos(
             &domain,
             &dir.path().join(name),
-            1_000_000,
+            max,
             &mut |_, _| {},
         )
     };
+    let read = |name: &str| read_at_most(name, 1_000_000);
+    // More rows than may be held: refused by the file's row count, before any is read.
+    assert!(matches!(
+        read_at_most("good.parquet", 100),
+        Err(advise::recording::parquet_demos::ParquetDemosError::TooManyPoints { rows, max: 100, .. }) if rows > 100
+    ));
     assert_eq!(read("good.parquet").unwrap(), csv, "float64 from pandas");
     let f32 = read("good-f32.parquet").unwrap();
     assert_eq!(f32.len(), csv.len());

@@ -495,4 +495,21 @@ fn a_dataset_saved_as_csv_loads_back_as_its_json_does() {
     let mut s = session(TaskKind::Positioning, 0);
     let t = transcript(&mut s, &format!("load demos {}/edited.csv\n", d.display()));
     common::masked(Some(d)).bind(|| insta::assert_snapshot!(t));
+    // A source's rows split apart (the first row moved to the end), and a header of another
+    // domain's columns: each refused, saying where.
+    let mut split = text.lines().map(String::from).collect::<Vec<_>>();
+    let first = split.remove(1);
+    split.push(first);
+    std::fs::write(d.join("split.csv"), split.join("\n") + "\n").unwrap();
+    let other = text.replacen("dist2", "distance", 1);
+    std::fs::write(d.join("other.csv"), other).unwrap();
+    for (name, says) in [
+        ("split.csv", "starts again here"),
+        ("other.csv", "a `positioning` dataset saved as CSV has"),
+    ] {
+        let mut s = session(TaskKind::Positioning, 0);
+        let t = transcript(&mut s, &format!("load demos {}/{name}\n", d.display()));
+        assert!(t.contains(says), "{name}: {t}");
+        assert!(t.contains(name), "{name} is named: {t}");
+    }
 }

@@ -374,6 +374,8 @@ fn saved_csv(
     let (od, ad) = (domain.obs_dim(), domain.act_dim());
     let mut episodes: Vec<Episode> = Vec::new();
     let mut seen: HashMap<String, u64> = HashMap::new();
+    // The source of the episode being read.
+    let mut current = String::new();
     let (mut z, mut a) = (vec![0.0; od], vec![0.0; ad]);
     for row in rows.records() {
         let row = row.map_err(|e| record(src.name.to_string(), e.to_string()))?;
@@ -399,10 +401,7 @@ fn saved_csv(
             at(2 + k + if space == "a" { od } else { 0 })
         })?;
         let source = &row[0];
-        if episodes
-            .last()
-            .is_none_or(|e| !e.name.ends_with(&format!(" {source}")))
-        {
+        if episodes.is_empty() || source != current {
             if let Some(first) = seen.get(source) {
                 return Err(record(
                     at(0),
@@ -412,6 +411,7 @@ fn saved_csv(
                 ));
             }
             seen.insert(source.to_string(), line);
+            current = source.to_string();
             episodes.push(Episode {
                 name: format!("{} {source}", src.name),
                 trace: Trace::new(domain),
