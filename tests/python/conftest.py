@@ -1,10 +1,11 @@
-"""Shared fixtures of the package's pytest files (tests/python_pkg.rs runs them)."""
+"""Shared fixtures of the package's pytest files (tests/python_pkg.rs runs them). Other pytest
+runs load this file too (tests/lsp.rs's, in a venv without numpy): import only the standard
+library and pytest at the top."""
 
 import json
 import os
 import subprocess
 
-import numpy as np
 import pytest
 
 
@@ -14,6 +15,8 @@ def scripted_session(tmp_path_factory):
     ``advise demo`` as ``demos.csv``, then ``script`` (which saves ``out.json``) run by
     ``advise run``. Gives the folder, the run's stdout, the saved dataset, and each execution's
     observations and actions as arrays."""
+    import numpy as np
+
     advise_bin = os.environ["ADVISE_BIN"]
 
     def run(script, name):
