@@ -59,13 +59,58 @@ pub fn venv(name: &str, packages: &[&str], probe: &str) -> Result<PathBuf, Strin
     // of racing `python -m venv` into the same folder.
     static MAKING: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _one_at_a_time = MAKING.lock().unwrap_or_else(|e| e.into_inner());
-    let made = make_venv(name, packages, probe);
+    // Other processes too (another test binary, or `.ci/run` installing LeRobot's venv beside the
+    // build) make it under the same lock, `flock(2)` on `py-venv-NAME.lock`.
+    let made = locked(name).and_then(|_lock| make_venv(name, packages, probe));
     if let Err(why) = &made
         && std::env::var("ADVISE_REQUIRE_PEERS").is_ok_and(|v| v == "1")
     {
         panic!("ADVISE_REQUIRE_PEERS=1, but the Python peer `{name}` cannot be made: {why}");
     }
     made
+}
+
+/// The lock on making the venv `name`, waited for at most 20 minutes.
+fn locked(name: &str) -> Result<std::fs::File, String> {
+    let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("py-venv-{name}.lock"));
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let start = Instant::now();
+    loop {
+        match file.try_lock() {
+            Ok(()) => return Ok(file),
+            Err(std::fs::TryLockError::WouldBlock) if start.elapsed() < LOCK_WAIT => {
+                std::thread::sleep(Duration::from_millis(500));
+            }
+            Err(e) => {
+                return Err(format!(
+                    "{}: {e} (waited {:?})",
+                    path.display(),
+                    start.elapsed()
+                ));
+            }
+        }
+    }
+}
+
+/// How long a test waits for another process making the same venv.
+const LOCK_WAIT: Duration = Duration::from_secs(20 * 60);
+
+/// The packages of a requirements file under tests/python (`#` comments and blank lines left out).
+pub fn requirements(file: &str) -> Vec<String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/python")
+        .join(file);
+    std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .lines()
+        .map(|l| l.split('#').next().unwrap_or("").trim().to_string())
+        .filter(|l| !l.is_empty())
+        .collect()
 }
 
 fn make_venv(name: &str, packages: &[&str], probe: &str) -> Result<PathBuf, String> {
