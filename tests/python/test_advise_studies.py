@@ -20,11 +20,14 @@ def test_the_bc_study_is_the_command_lines():
     assert advise.studies.bc(2, critique="paper") == cli("bc", "--seed", "2", "--critique", "paper")
 
 
+def test_the_aopi_study_is_the_command_lines():
+    assert advise.studies.aopi(1) == cli("aopi", "--seed", "1")
+
+
 def test_a_reverted_choice_is_the_command_lines():
-    # The A-OPI study runs through the same function; its seed takes minutes in the test
-    # build's unoptimised extension, so the parameters are checked on the BC study's choice.
     assert advise.study("bc", 1, revert="ball", critique="paper") == cli(
         "bc", "--seed", "1", "--revert", "ball", "--critique", "paper")
+    assert advise.studies.aopi(2, revert="advisor") == cli("aopi", "--seed", "2", "--revert", "advisor")
 
 
 def test_bad_arguments_raise_coded_errors():
@@ -49,8 +52,8 @@ def test_the_readmes_ray_example_maps_a_study_over_seeds():
     ray.init(num_cpus=2, include_dashboard=False, _node_ip_address="127.0.0.1",
              log_to_driver=False)
     try:
-        run = ray.remote(advise.studies.bc)
-        results = ray.get([run.remote(seed, critique="paper") for seed in [2]])
+        run = ray.remote(advise.studies.aopi)
+        results = ray.get([run.remote(seed) for seed in range(2)])
     finally:
         ray.shutdown()
-    assert results == [cli("bc", "--seed", "2", "--critique", "paper")]
+    assert results == [cli("aopi", "--seed", str(seed)) for seed in range(2)]
