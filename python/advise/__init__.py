@@ -17,8 +17,12 @@ runs; nothing is recomputed in Python.
   ``to_arrow(data)`` as a pyarrow table with provenance columns; ``advise_lerobot(src, out,
   episode=..., frames=(a, b), operator=..., params=...)`` writes a chunk of an episode corrected
   by an operator as a new LeRobot dataset.
-- ``load_demos(path, task=...)``: a demonstrations file (CSV, JSON, a saved dataset) as numpy
-  observations, actions, episode index and names, as ``load demos`` reads it.
+- ``load_demos(path, task=...)``: a demonstrations file (CSV, JSON, a saved dataset, Parquet, a
+  ROS 2 bag or CSV log) as numpy observations, actions, episode index and names, as ``load
+  demos`` reads it; ``advise_demos(src, out, episode=..., frames=(a, b), operator=...,
+  params=...)`` advises a chunk of one of its episodes and writes the result next to it as a
+  saved dataset with provenance; ``BC.dataset()``/``LWR.dataset()``: the points with their
+  provenance (``to_arrow`` makes a table of them).
 - ``fmt(text_or_path)``, ``test(path_or_text)``: ``advise fmt`` and ``advise test`` as
   functions (the formatted text; a ``TestResult`` per doc example).
 - ``study(name, seed, ...)`` and ``studies.bc``/``studies.aopi``: the paper's studies as
@@ -44,7 +48,7 @@ from ._advise import (
     load_demos,
     test,
 )
-from ._advise import advise_lerobot, load_lerobot
+from ._advise import advise_demos, advise_lerobot, load_lerobot
 from .lerobot import to_arrow
 from ._advise import study
 from . import studies
@@ -75,6 +79,7 @@ __all__ = [
     "Span",
     "Why",
     "check",
+    "advise_demos",
     "advise_lerobot",
     "load_lerobot",
     "to_arrow",

@@ -17,7 +17,7 @@ from ._advise import (
     load_demos as load_demos,
     test as test,
 )
-from ._advise import advise_lerobot as advise_lerobot, load_lerobot as load_lerobot
+from ._advise import advise_demos as advise_demos, advise_lerobot as advise_lerobot, load_lerobot as load_lerobot
 from .lerobot import to_arrow as to_arrow
 from .gym import make_env as make_env
 from ._advise import study as study

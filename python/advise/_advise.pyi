@@ -143,6 +143,11 @@ class _Learner:
         """The REPL's ``why`` at one observation: BC's nearest point, LWR's neighbourhood."""
     def weights(self) -> Array:
         """Every data point's weight m (the paper's rule), in dataset order."""
+    def dataset(self) -> dict[str, Any]:
+        """The data points with their provenance: ``observations``, ``actions``, ``weights``,
+        ``source`` (``demonstration``/``advice``), ``source_id``, ``index``,
+        ``execution_index`` (numpy arrays, dataset order), ``demonstrations``, ``advice``,
+        ``domain``, ``observation_names``, ``action_names``."""
     def __len__(self) -> int: ...
     @property
     def domain(self) -> str: ...
@@ -243,6 +248,28 @@ def load_lerobot(path: str, task: str = "positioning", *, by_position: bool = Fa
     """A LeRobot v3.0 dataset's frames as numpy arrays: ``observations``, ``actions``,
     ``episode_index``, ``frame_index``, ``timestamp``; and ``fps``, ``domain``,
     ``observation_names``, ``action_names``, ``mapping``, ``path``."""
+    ...
+
+def advise_demos(
+    src: str,
+    out: str,
+    *,
+    episode: int | str,
+    frames: tuple[int, int],
+    operator: str,
+    params: Mapping[str, float | bool],
+    task: str = "positioning",
+    tasks: Sequence[str] | None = None,
+    operators: Sequence[str] = (),
+    cmd_topic: str | None = None,
+    odom_topic: str | None = None,
+) -> dict[str, Any]:
+    """Apply ``operator`` to ``frames`` of ``episode`` (index or name) of any demonstrations
+    file ``load_demos`` reads, and write it next to the original as a saved dataset ``out``
+    (``.json`` with provenance; ``load demos``/``open`` read it): the file's episodes as
+    demonstrations, the advised episode as the execution, the synthesized points as the advice.
+    Returns ``path``, ``episode``, ``demonstrations``, ``synthesized``, ``skipped``,
+    ``invocation`` and the corrected episode (``observations``, ``actions``, ``source``)."""
     ...
 
 def advise_lerobot(

@@ -292,6 +292,24 @@ macro_rules! learner_class {
                 Ok(crate::explain::weights(py, learner))
             }
 
+            /// dataset() -> dict
+            ///
+            /// The data points with their provenance, in dataset order (as `save` writes
+            /// them): `observations` (n, obs_dim), `actions` (n, act_dim), `weights` (n,) m,
+            /// `source` (n,) `"demonstration"` or `"advice"`, `source_id` (n,) the
+            /// demonstration's or the advice's id, `index` (n,) the point's index in it,
+            /// `execution_index` (n,) the execution point an advice point was synthesized from
+            /// (-1 for a demonstration); `demonstrations` and `advice` (a dict each: id, name or
+            /// operator, invocation, chunk), `domain`, `observation_names`, `action_names`.
+            /// `advise.to_arrow` makes it a pyarrow table.
+            fn dataset<'py>(
+                &mut self,
+                py: Python<'py>,
+            ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+                let (learner, _) = self.0.fitted(py)?;
+                crate::dataset::dataset_dict(py, learner.dataset())
+            }
+
             /// The number of data points the policy holds.
             fn __len__(&self) -> usize {
                 self.0.learner.as_ref().map_or(0, Learner::len)

@@ -10,14 +10,14 @@ use advise::check::OperatorSet;
 use advise::diag::SourceMap;
 use advise::domain::Domain;
 use advise::recording::lerobot_in::{LeRobotRead, LeRobotReadOptions, read_lerobot};
-use advise::trace::{Chunk, Trace};
+use advise::trace::Trace;
 use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::arrays::to_numpy;
 use crate::error::{from_diag, simple};
-use crate::ops::{domain_in, invocation, merge};
+use crate::ops::{apply_on_chunk, domain_in, merge};
 
 /// The dataset in `path` as demonstrations of `task`'s domain (an `AdviseError` with the
 /// `advise::lerobot::*` diagnostic if it cannot be).
@@ -131,17 +131,7 @@ pub fn advise_lerobot<'py>(
     let (set, _warnings) = merge(py, &OperatorSet::standard(), &operators)?;
     let (domain, read) = read(py, &set, src, task, by_position)?;
     let trace = episode_of(py, &read, episode)?;
-    let chunk = Chunk::new(frames.0, frames.1, trace.len())
-        .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
-    let text = invocation(py, operator, params)?;
-    let inv =
-        advise::syntax::parse_invocation(&text).map_err(|e| from_diag(py, &e.sources, &e.error))?;
-    let mut files = SourceMap::new();
-    let call = advise::check::bind(&mut files, &set, &domain.name, &inv)
-        .map_err(|e| from_diag(py, &files, &e))?;
-    let applied = py
-        .detach(|| advise::interp::apply(&call, trace, chunk))
-        .map_err(|e| from_diag(py, &files, &e))?;
+    let (applied, chunk) = apply_on_chunk(py, &set, &domain, operator, params, trace, frames)?;
     // The corrected episode: the frames before the chunk, the synthesized points, the frames
     // after it. Times are the dataset's (the export writes `frame_index / fps`).
     let mut corrected = Trace::new(&domain);

@@ -9,6 +9,7 @@
 use pyo3::prelude::*;
 
 mod arrays;
+mod dataset;
 mod demos;
 mod diag;
 mod env;
@@ -40,6 +41,7 @@ fn _advise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(lerobot::load_lerobot, m)?)?;
     m.add_function(wrap_pyfunction!(lerobot::advise_lerobot, m)?)?;
     m.add_function(wrap_pyfunction!(demos::load_demos, m)?)?;
+    m.add_function(wrap_pyfunction!(dataset::advise_demos, m)?)?;
     m.add_function(wrap_pyfunction!(tools::fmt, m)?)?;
     m.add_function(wrap_pyfunction!(tools::test, m)?)?;
     m.add_class::<tools::TestResult>()?;

@@ -275,6 +275,32 @@ pub fn trace_of(
 
 /// The invocation text `name(k = v, ...)` for a dict of numbers and booleans; numbers are written
 /// so that they read back as the same float.
+/// `operator` with `params` (a dict of numbers) applied by the interpreter to the points
+/// `frames` = (start, end) of `trace`, as `Operators.apply` and the REPL's `advise` apply it:
+/// the synthesized points (each with the trace's point it came from) and the chunk.
+pub(crate) fn apply_on_chunk(
+    py: Python<'_>,
+    set: &OperatorSet,
+    domain: &Domain,
+    operator: &str,
+    params: &Bound<'_, PyDict>,
+    trace: &Trace,
+    frames: (usize, usize),
+) -> PyResult<(advise::interp::Synthesized, Chunk)> {
+    let chunk = Chunk::new(frames.0, frames.1, trace.len())
+        .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
+    let text = invocation(py, operator, params)?;
+    let inv =
+        advise::syntax::parse_invocation(&text).map_err(|e| from_diag(py, &e.sources, &e.error))?;
+    let mut files = SourceMap::new();
+    let call = advise::check::bind(&mut files, set, &domain.name, &inv)
+        .map_err(|e| from_diag(py, &files, &e))?;
+    let applied = py
+        .detach(|| advise::interp::apply(&call, trace, chunk))
+        .map_err(|e| from_diag(py, &files, &e))?;
+    Ok((applied, chunk))
+}
+
 pub(crate) fn invocation(py: Python<'_>, name: &str, args: &Bound<'_, PyDict>) -> PyResult<String> {
     let mut parts = Vec::new();
     for (k, v) in args.iter() {
