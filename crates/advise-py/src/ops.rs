@@ -130,20 +130,8 @@ impl Operators {
     ) -> PyResult<Applied<'py>> {
         let domain = self.domain_of(py, domain, task)?;
         let trace = trace_of(py, &domain, observations, actions, times)?;
-        let chunk = match chunk {
-            None => Chunk::new(0, trace.len(), trace.len()),
-            Some((a, b)) => Chunk::new(a, b, trace.len()),
-        }
-        .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
-        let text = invocation(py, name, args)?;
-        let inv = advise::syntax::parse_invocation(&text)
-            .map_err(|e| from_diag(py, &e.sources, &e.error))?;
-        let mut files = SourceMap::new();
-        let call = advise::check::bind(&mut files, &self.set, &domain.name, &inv)
-            .map_err(|e| from_diag(py, &files, &e))?;
-        let out = py
-            .detach(|| advise::interp::apply(&call, &trace, chunk))
-            .map_err(|e| from_diag(py, &files, &e))?;
+        let frames = chunk.unwrap_or((0, trace.len()));
+        let (out, chunk) = apply_on_chunk(py, &self.set, &domain, name, args, &trace, frames)?;
         let mut skipped = vec![true; chunk.len()];
         for &i in &out.source_index {
             skipped[i - chunk.start] = false;
