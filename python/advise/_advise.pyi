@@ -244,7 +244,9 @@ class Session:
         """Run one statement; the reply as a dict with ``kind``, ``text`` and its fields."""
     def __len__(self) -> int: ...
 
-def load_lerobot(path: str, task: str = "positioning", *, by_position: bool = False) -> dict[str, Any]:
+def load_lerobot(
+    path: str, task: str = "positioning", *, by_position: bool = False, tasks: Sequence[str] = ()
+) -> dict[str, Any]:
     """A LeRobot v3.0 dataset's frames as numpy arrays: ``observations``, ``actions``,
     ``episode_index``, ``frame_index``, ``timestamp``; and ``fps``, ``domain``,
     ``observation_names``, ``action_names``, ``mapping``, ``path``."""
@@ -284,6 +286,7 @@ def advise_lerobot(
     operators: Sequence[str] = (),
     by_position: bool = False,
     fps: int | None = None,
+    tasks: Sequence[str] = (),
 ) -> dict[str, Any]:
     """Apply ``operator`` to ``frames`` of ``episode`` of the LeRobot dataset ``src`` and write
     the corrected episode as a new LeRobot v3.0 dataset in ``out``, with its provenance."""

@@ -213,3 +213,24 @@ def test_bad_datasets_raise_coded_errors(lerobot, tmp_path):
         )
     assert e.value.code.startswith("advise::")
     assert not (tmp_path / "o").exists()
+
+
+def test_a_declared_tasks_dataset_reads_and_advises_with_its_task_file(tmp_path):
+    tasks = os.path.abspath("examples/tasks/standoff.adv")
+    (tmp_path / "s.adv").write_text("save s.json\n")
+    for args in (
+        ["run", "--tasks", tasks, "--task", "standoff", "--demos", "2", "--no-journal", "s.adv"],
+        ["export", "s.json", "--lerobot", "lr", "--fps", "10"],
+    ):
+        subprocess.run([ADVISE, *args], cwd=tmp_path, check=True, capture_output=True, timeout=120)
+    with pytest.raises(advise.AdviseError) as e:
+        advise.load_lerobot(str(tmp_path / "lr"), "standoff")
+    assert e.value.code == "advise::py::unknown_task"
+    data = advise.load_lerobot(str(tmp_path / "lr"), "standoff", tasks=[tasks])
+    z, a, ep, _ = advise.load_demos(str(tmp_path / "s.json"), task="standoff", tasks=[tasks])
+    assert data["domain"] == "standoff"
+    assert np.allclose(data["observations"], z) and np.allclose(data["actions"], a)
+    r = advise.advise_lerobot(str(tmp_path / "lr"), str(tmp_path / "out"), episode=0,
+                              frames=(5, 15), operator="creep", params={"gain": 0.1},
+                              task="standoff", tasks=[tasks])
+    assert r["synthesized"] + r["skipped"] == 10

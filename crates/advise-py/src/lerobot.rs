@@ -36,7 +36,7 @@ fn read(
     Ok((domain, read))
 }
 
-/// load_lerobot(path, task="positioning", *, by_position=False) -> dict
+/// load_lerobot(path, task="positioning", *, by_position=False, tasks=()) -> dict
 ///
 /// Read the LeRobot v3.0 dataset in directory `path` as demonstrations of `task`'s domain, as
 /// `advise import --lerobot` does: its `observation.state` and `action` mapped to the domain's
@@ -47,15 +47,18 @@ fn read(
 /// `timestamp` (n,); and `fps`, `domain`, `observation_names`, `action_names`, `mapping` (how
 /// the values were mapped) and `path`. Raises AdviseError (`advise::lerobot::*`) when the widths
 /// or names disagree, a file is missing, a column has the wrong type or a value is not finite.
+/// `tasks` are task files declaring `task` (`advise import --lerobot DIR --tasks FILE`).
 #[pyfunction]
-#[pyo3(signature = (path, task = "positioning", *, by_position = false))]
+#[pyo3(signature = (path, task = "positioning", *, by_position = false, tasks = Vec::new()))]
 pub fn load_lerobot<'py>(
     py: Python<'py>,
     path: &str,
     task: &str,
     by_position: bool,
+    tasks: Vec<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (domain, read) = read(py, &OperatorSet::standard(), path, task, by_position)?;
+    let (set, _warnings) = merge(py, &OperatorSet::standard(), &tasks)?;
+    let (domain, read) = read(py, &set, path, task, by_position)?;
     let n = read.episode_index.len();
     let (mut z, mut a, mut t) = (Vec::new(), Vec::new(), Vec::new());
     for e in &read.episodes {
@@ -101,7 +104,7 @@ fn episode_of<'a>(py: Python<'_>, read: &'a LeRobotRead, episode: i64) -> PyResu
 }
 
 /// advise_lerobot(src, out, *, episode, frames, operator, params, task="positioning",
-/// operators=(), by_position=False, fps=None) -> dict
+/// operators=(), by_position=False, fps=None, tasks=()) -> dict
 ///
 /// Apply `operator` with `params` (a dict of numbers) to the frames `frames` = (start, end) of
 /// episode `episode` (its `episode_index`) of the LeRobot v3.0 dataset `src`, and write the
@@ -110,10 +113,10 @@ fn episode_of<'a>(py: Python<'_>, read: &'a LeRobotRead, episode: i64) -> PyResu
 /// the operator's synthesized points (`advise.source` = `advice`; a point the operator's guard
 /// skipped is dropped). `meta/info.json`'s `advise.provenance` says the source dataset, episode,
 /// frames, operator, parameters and the invocation. `operators` are files of operators checked
-/// on top of the standard ones. Returns a summary dict: `path`, `frames`, `kept`,
-/// `synthesized`, `skipped`, `invocation`.
+/// on top of the standard ones, `tasks` task files declaring `task`. Returns a summary dict:
+/// `path`, `frames`, `kept`, `synthesized`, `skipped`, `invocation`.
 #[pyfunction]
-#[pyo3(signature = (src, out, *, episode, frames, operator, params, task = "positioning", operators = Vec::new(), by_position = false, fps = None))]
+#[pyo3(signature = (src, out, *, episode, frames, operator, params, task = "positioning", operators = Vec::new(), by_position = false, fps = None, tasks = Vec::new()))]
 #[allow(clippy::too_many_arguments)]
 pub fn advise_lerobot<'py>(
     py: Python<'py>,
@@ -127,8 +130,10 @@ pub fn advise_lerobot<'py>(
     operators: Vec<String>,
     by_position: bool,
     fps: Option<u32>,
+    tasks: Vec<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (set, _warnings) = merge(py, &OperatorSet::standard(), &operators)?;
+    let files: Vec<String> = tasks.into_iter().chain(operators).collect();
+    let (set, _warnings) = merge(py, &OperatorSet::standard(), &files)?;
     let (domain, read) = read(py, &set, src, task, by_position)?;
     let trace = episode_of(py, &read, episode)?;
     let (applied, chunk) = apply_on_chunk(py, &set, &domain, operator, params, trace, frames)?;
