@@ -15,6 +15,7 @@ mod commit;
 pub mod effect;
 mod error;
 mod files;
+pub use files::{DemosFile, read_demos_file};
 mod help;
 pub mod journal;
 mod measure;

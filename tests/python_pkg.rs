@@ -17,7 +17,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-const PACKAGES: [&str; 7] = [
+const PACKAGES: [&str; 8] = [
     "numpy==2.4.6",
     "gymnasium==1.4.0",
     "pytest==9.2.0",
@@ -25,13 +25,15 @@ const PACKAGES: [&str; 7] = [
     // The LeRobot tests (test_advise_lerobot.py), the versions tests/bags.rs pins.
     "pyarrow==26.0.1",
     "pandas==2.3.3",
+    // A rosbag2 bag for `advise.load_demos` (test_advise_demos.py), the version tests/bags.rs pins.
+    "rosbags==0.11.9",
     // The README's Ray example (test_advise_studies.py): 11 s to install here.
     "ray==2.60.0",
 ];
 
 #[test]
 fn the_python_package_passes_its_pytest_files() {
-    let probe = "import numpy, gymnasium, pytest, maturin, pyarrow, pandas, ray";
+    let probe = "import numpy, gymnasium, pytest, maturin, pyarrow, pandas, ray, rosbags";
     let python = match python::venv("advise", &PACKAGES, probe) {
         Ok(p) => p,
         Err(why) => {

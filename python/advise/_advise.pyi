@@ -50,11 +50,21 @@ def check(path_or_text: str) -> list[Diagnostic]:
     AdviseError with every error."""
 
 def load_demos(
-    path: str, *, task: str | None = None, domain: str | None = None
+    path: str,
+    *,
+    task: str | None = None,
+    domain: str | None = None,
+    tasks: Sequence[str] | None = None,
+    cmd_topic: str | None = None,
+    odom_topic: str | None = None,
+    keep_idle: bool = False,
 ) -> tuple[Array, Array, npt.NDArray[np.int64], list[str]]:
-    """The demonstrations of a file (CSV, JSON, a saved dataset) as ``load demos`` reads them:
-    observations, actions, each row's episode index and the episodes' names (default task
-    positioning); AdviseError when the file cannot be read."""
+    """The demonstrations of a file as ``load demos`` reads them: CSV, JSON, a saved dataset,
+    Parquet, or a ROS 2 bag (rosbag2 folder or ``.mcap``) or CSV log of a base's drive, made into
+    demonstrations as ``advise import`` makes them (``cmd_topic``/``odom_topic``: a bag's topics;
+    idle points trimmed unless ``keep_idle``). Returns observations, actions, each row's episode
+    index and the episodes' names (default task positioning; ``tasks``: files declaring
+    ``task``); AdviseError when the file cannot be read."""
 
 def fmt(text_or_path: str) -> str:
     """The canonical layout of an operator file or text, as ``advise fmt`` writes it (the file

@@ -46,45 +46,8 @@ impl Session {
     ) -> Result<String, SessionError> {
         let started = Instant::now();
         let mut from_dataset = String::new();
-        let recording = Path::new(path);
-        if (options.cmd_topic.is_some() || options.odom_topic.is_some())
-            && !crate::recording::bag::is_bag(recording)
-        {
-            return Err(SessionError::TopicsNeedABag {
-                path: path.to_string(),
-            });
-        }
+        topics_only_for_a_bag(path, options)?;
         let episodes = match path.strip_prefix("teacher:") {
-            None if crate::recording::is_recording(recording) => {
-                let def = self.task.def().filter(|d| {
-                    d.recorded.is_some()
-                        && [&d.speed, &d.turn]
-                            .iter()
-                            .all(|x| x.as_ref().is_none_or(|x| x.integrate.is_none()))
-                });
-                let Some(def) = def else {
-                    return Err(SessionError::RecordingNeedsPositioning {
-                        path: path.to_string(),
-                    });
-                };
-                let options = crate::recording::ImportOptions {
-                    task: Some(def),
-                    ..options.clone()
-                };
-                let imported = crate::recording::import_recording(recording, &options)?;
-                for w in &imported.warnings {
-                    from_dataset.push_str(&format!("\nwarning: {w}"));
-                }
-                // Idle points are trimmed as `advise import` trims them (its `--keep-idle`
-                // keeps them): the same demonstrations either way.
-                if let Some(note) = crate::recording::describe_trim(
-                    imported.idle_trimmed,
-                    "`advise import --keep-idle`",
-                ) {
-                    from_dataset.push_str(&format!("\n{note}"));
-                }
-                imported.episodes
-            }
             Some(n) => {
                 let count: usize = n
                     .parse()
@@ -104,47 +67,20 @@ impl Session {
                 task::finite_demos(&self.task, &recorded)?;
                 recorded.into_iter().map(|(e, _)| e).collect()
             }
-            None if crate::recording::parquet_demos::is_parquet(recording) => {
-                let mut bar = Progress::rows();
-                let episodes = crate::recording::parquet_demos::read_demos(
-                    &self.domain,
-                    recording,
-                    crate::policy::dataset::MAX_STREAM_POINTS,
-                    &mut |done, total| bar.show(done, total),
-                );
-                bar.done();
-                episodes?
-            }
             None => {
-                let mut bar = Progress::default();
-                let demos = crate::policy::dataset::load_demonstrations_with(
+                let read = read_demos_file(
                     &mut self.sources,
+                    &self.ops,
                     &self.domain,
-                    Path::new(path),
-                    &mut |done, total| bar.show(done, total),
-                );
-                bar.done();
-                let demos = match demos {
-                    Ok(d) => d,
-                    Err(e) => {
-                        return Err(match self.recorded_for_another_task(path) {
-                            Some(found) => SessionError::DemosOfAnotherTask {
-                                path: path.to_string(),
-                                found,
-                                task: self.domain.name.clone(),
-                            },
-                            None => LearnerError::from(e).into(),
-                        });
-                    }
-                };
-                if let Some((d, a)) = demos.from_dataset {
-                    from_dataset = format!(
-                        ": a saved dataset's {d} demonstration{} and {a} piece{} of advice, each as one demonstration (critique weights are not carried)",
-                        if d == 1 { "" } else { "s" },
-                        if a == 1 { "" } else { "s" },
-                    );
+                    self.task.def().as_ref(),
+                    path,
+                    options,
+                )?;
+                from_dataset = read.said;
+                for note in read.notes {
+                    from_dataset.push_str(&format!("\n{note}"));
                 }
-                demos.episodes
+                read.episodes
             }
         };
         if !path.starts_with("teacher:") {
@@ -236,36 +172,6 @@ impl Session {
             "loaded execution {} from {path}: {n} points",
             self.state.executions.len() - 1
         ))
-    }
-
-    /// The task another domain's demonstrations file was recorded for: the session's domain
-    /// (a declared task's or a paper's) whose every observation and action is a column of the
-    /// file's header (its first line, read to at most 64 KiB), the one with the most columns
-    /// when several fit. `None` for a file that is not such a CSV.
-    fn recorded_for_another_task(&self, path: &str) -> Option<String> {
-        use std::io::{BufRead as _, Read as _};
-        // A regular file only: opening a FIFO would wait for a writer.
-        if !std::fs::metadata(path).ok()?.is_file() {
-            return None;
-        }
-        let file = std::fs::File::open(path).ok()?;
-        let mut header = String::new();
-        std::io::BufReader::new(file.take(64 * 1024))
-            .read_line(&mut header)
-            .ok()?;
-        let columns: Vec<&str> = header.trim_end().split(',').map(str::trim).collect();
-        self.ops
-            .domains()
-            .iter()
-            .filter(|d| d.name != self.domain.name && !d.act.is_empty())
-            .filter(|d| {
-                d.observe
-                    .iter()
-                    .chain(&d.act)
-                    .all(|dim| columns.contains(&dim.name.as_str()))
-            })
-            .max_by_key(|d| d.observe.len() + d.act.len())
-            .map(|d| d.name.clone())
     }
 
     /// `tasks FILE`: the file is checked and added as `operators FILE` does; the reply names
@@ -604,6 +510,156 @@ fn advice_points(
         source_index,
         advice: r.applied.clone(),
     }
+}
+
+/// What [`read_demos_file`] read.
+#[derive(Debug)]
+pub struct DemosFile {
+    pub episodes: Vec<crate::trace::Episode>,
+    /// What `load demos` says of the file after its path (`: a saved dataset's ...`), or empty.
+    pub said: String,
+    /// A recording's warnings (`warning: ...`) and what was trimmed of it, a line each.
+    pub notes: Vec<String>,
+}
+
+/// The demonstrations of the file `path` for `domain`, read as `load demos FILE` reads them,
+/// whatever the file: a ROS 2 bag or a CSV log of a base's drive (made into demonstrations of
+/// `task`, which must read its goal from where a recording ends, as `advise import` does, idle
+/// points trimmed unless `options.keep_idle`), a Parquet file of demonstrations, or a CSV or JSON
+/// demonstrations file or a saved dataset. `options` name a bag's topics; a topic given for a
+/// file that is not a bag is refused. A progress bar shows on a terminal while a large file is
+/// read. The session and the Python package (`advise.load_demos`, `fit_file`) both read with it.
+pub fn read_demos_file(
+    sources: &mut crate::diag::SourceMap,
+    ops: &crate::check::OperatorSet,
+    domain: &crate::domain::Domain,
+    task: Option<&std::sync::Arc<crate::program::task::TaskDef>>,
+    path: &str,
+    options: &crate::recording::ImportOptions,
+) -> Result<DemosFile, SessionError> {
+    let recording = Path::new(path);
+    topics_only_for_a_bag(path, options)?;
+    let mut read = DemosFile {
+        episodes: Vec::new(),
+        said: String::new(),
+        notes: Vec::new(),
+    };
+    if crate::recording::is_recording(recording) {
+        // A task whose actions are the speeds commanded and which reads its goal from where a
+        // recording ends.
+        let def = task.filter(|d| {
+            d.recorded.is_some()
+                && [&d.speed, &d.turn]
+                    .iter()
+                    .all(|x| x.as_ref().is_none_or(|x| x.integrate.is_none()))
+        });
+        let Some(def) = def else {
+            return Err(SessionError::RecordingNeedsPositioning {
+                path: path.to_string(),
+            });
+        };
+        let options = crate::recording::ImportOptions {
+            task: Some(def.clone()),
+            ..options.clone()
+        };
+        let imported = crate::recording::import_recording(recording, &options)?;
+        read.notes = imported
+            .warnings
+            .iter()
+            .map(|w| format!("warning: {w}"))
+            .collect();
+        // Idle points are trimmed as `advise import` trims them (its `--keep-idle` keeps them):
+        // the same demonstrations either way.
+        read.notes.extend(crate::recording::describe_trim(
+            imported.idle_trimmed,
+            "`advise import --keep-idle`",
+        ));
+        read.episodes = imported.episodes;
+    } else if crate::recording::parquet_demos::is_parquet(recording) {
+        let mut bar = Progress::rows();
+        let episodes = crate::recording::parquet_demos::read_demos(
+            domain,
+            recording,
+            crate::policy::dataset::MAX_STREAM_POINTS,
+            &mut |done, total| bar.show(done, total),
+        );
+        bar.done();
+        read.episodes = episodes?;
+    } else {
+        let mut bar = Progress::default();
+        let demos = crate::policy::dataset::load_demonstrations_with(
+            sources,
+            domain,
+            recording,
+            &mut |done, total| bar.show(done, total),
+        );
+        bar.done();
+        let demos = demos.map_err(|e| match recorded_for_another_task(ops, domain, path) {
+            Some(found) => SessionError::DemosOfAnotherTask {
+                path: path.to_string(),
+                found,
+                task: domain.name.clone(),
+            },
+            None => LearnerError::from(e).into(),
+        })?;
+        if let Some((d, a)) = demos.from_dataset {
+            read.said = format!(
+                ": a saved dataset's {d} demonstration{} and {a} piece{} of advice, each as one demonstration (critique weights are not carried)",
+                if d == 1 { "" } else { "s" },
+                if a == 1 { "" } else { "s" },
+            );
+        }
+        read.episodes = demos.episodes;
+    }
+    Ok(read)
+}
+
+/// The task another domain's demonstrations file was recorded for: the session's domain
+/// (a declared task's or a paper's) whose every observation and action is a column of the
+/// file's header (its first line, read to at most 64 KiB), the one with the most columns
+/// when several fit. `None` for a file that is not such a CSV.
+fn recorded_for_another_task(
+    ops: &crate::check::OperatorSet,
+    domain: &crate::domain::Domain,
+    path: &str,
+) -> Option<String> {
+    use std::io::{BufRead as _, Read as _};
+    // A regular file only: opening a FIFO would wait for a writer.
+    if !std::fs::metadata(path).ok()?.is_file() {
+        return None;
+    }
+    let file = std::fs::File::open(path).ok()?;
+    let mut header = String::new();
+    std::io::BufReader::new(file.take(64 * 1024))
+        .read_line(&mut header)
+        .ok()?;
+    let columns: Vec<&str> = header.trim_end().split(',').map(str::trim).collect();
+    ops.domains()
+        .iter()
+        .filter(|d| d.name != domain.name && !d.act.is_empty())
+        .filter(|d| {
+            d.observe
+                .iter()
+                .chain(&d.act)
+                .all(|dim| columns.contains(&dim.name.as_str()))
+        })
+        .max_by_key(|d| d.observe.len() + d.act.len())
+        .map(|d| d.name.clone())
+}
+
+/// `options` name a bag's topics only for a bag.
+fn topics_only_for_a_bag(
+    path: &str,
+    options: &crate::recording::ImportOptions,
+) -> Result<(), SessionError> {
+    if (options.cmd_topic.is_some() || options.odom_topic.is_some())
+        && !crate::recording::bag::is_bag(Path::new(path))
+    {
+        return Err(SessionError::TopicsNeedABag {
+            path: path.to_string(),
+        });
+    }
+    Ok(())
 }
 
 /// A progress bar for a large demonstrations file read in a stream, drawn on standard error when

@@ -3,6 +3,7 @@
 import json
 import os
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -61,3 +62,80 @@ def test_bad_files_and_names_raise_coded_errors(tmp_path):
     with pytest.raises(advise.AdviseError) as e:
         advise.load_demos(str(bad), domain="nowhere")
     assert e.value.code == "advise::py::unknown_domain"
+
+
+BAGS = os.path.join(os.path.dirname(__file__), "bags.py")
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory):
+    """A rosbag2 folder written by `rosbags` (a library advise did not write), with what
+    `advise import` makes of it."""
+    d = tmp_path_factory.mktemp("bag")
+    out = d / "rosbags-messy"
+    subprocess.run([sys.executable, BAGS, "rosbags", "messy", str(out)],
+                   check=True, capture_output=True, timeout=120)
+    subprocess.run([ADVISE, "import", str(out), "--out", "imported.csv"],
+                   cwd=d, check=True, capture_output=True, timeout=120)
+    return out, d / "imported.csv"
+
+
+def test_a_bag_loads_as_advise_import_makes_it(bag):
+    folder, imported = bag
+    z, a, ep, names = advise.load_demos(str(folder))
+    zi, ai, epi, namesi = advise.load_demos(str(imported))
+    assert len(z) > 20 and np.array_equal(z, zi) and np.array_equal(a, ai)
+    assert np.array_equal(ep, epi) and names == namesi
+    # The learners read the bag the same way.
+    q = zi[::5]
+    assert np.array_equal(advise.BC(task="positioning").fit_file(str(folder)).predict(q),
+                          advise.BC(task="positioning").fit_file(str(imported)).predict(q))
+    # The idle points kept: at least as many, the trimmed ones among them.
+    zk, _, _, _ = advise.load_demos(str(folder), keep_idle=True)
+    assert len(zk) >= len(z)
+
+
+def test_a_bags_topics_and_task_are_checked(bag):
+    folder, imported = bag
+    with pytest.raises(advise.AdviseError) as e:
+        advise.load_demos(str(folder), cmd_topic="/robot1/cmd_vel")
+    assert e.value.code.startswith("advise::import::"), e.value.code
+    assert "/robot1/cmd_vel" in str(e.value)
+    with pytest.raises(advise.AdviseError) as e:
+        advise.load_demos(str(imported), cmd_topic="/cmd_vel")
+    assert e.value.code == "advise::session::topics_need_a_bag"
+    # A domain alone does not say how a recording's goal is read; interception cannot be.
+    for kw in ({"domain": "positioning"}, {"task": "interception"}):
+        with pytest.raises(advise.AdviseError) as e:
+            advise.load_demos(str(folder), **kw)
+        assert e.value.code == "advise::session::recording_needs_positioning", kw
+    with pytest.raises(advise.AdviseError) as e:
+        advise.load_demos(str(folder), domain="positioning", task="positioning")
+    assert e.value.code == "advise::py::domain_or_task"
+
+
+def test_parquet_demonstrations_load_as_their_csv(files, tmp_path):
+    import pandas as pd
+
+    pd.read_csv(files / "d.csv", float_precision="round_trip").to_parquet(tmp_path / "d.parquet", index=False)
+    z, a, ep, names = advise.load_demos(str(files / "d.csv"))
+    zp, ap, epp, namesp = advise.load_demos(str(tmp_path / "d.parquet"))
+    assert np.array_equal(z, zp) and np.array_equal(a, ap)
+    assert np.array_equal(ep, epp) and names == namesp
+
+
+def test_a_declared_tasks_demonstrations_load_from_its_file(tmp_path):
+    tasks = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "tasks", "standoff.adv")
+    subprocess.run(
+        [ADVISE, "demo", "--tasks", tasks, "--task", "standoff", "--count", "2", "--out", "s.csv"],
+        cwd=tmp_path, check=True, capture_output=True, timeout=120,
+    )
+    z, a, ep, names = advise.load_demos(str(tmp_path / "s.csv"), task="standoff", tasks=[tasks])
+    # The file's columns: episode, t, the observations, the actions, then the pose.
+    rows = [r.split(",") for r in (tmp_path / "s.csv").read_text().splitlines()[1:]]
+    want = np.array([[float(v) for v in r[2:7]] for r in rows])
+    assert np.array_equal(np.hstack([z, a]), want)
+    assert names == ["demo-0", "demo-1"] and np.array_equal(np.unique(ep), [0, 1])
+    with pytest.raises(advise.AdviseError) as e:
+        advise.load_demos(str(tmp_path / "s.csv"), task="standof", tasks=[tasks])
+    assert "standoff" in str(e.value) or "standoff" in str(e.value.diagnostics[0].help)

@@ -73,3 +73,40 @@ def test_bad_inputs_raise_coded_errors(session):
     with pytest.raises(advise.AdviseError) as e:
         advise.BC(task="positioning").fit_file(str(d / "missing.csv"))
     assert e.value.code.startswith("advise::file::")
+
+
+@pytest.mark.parametrize("cls", [advise.BC, advise.LWR])
+def test_predict_lets_other_python_threads_run(session, cls):
+    # A long batched predict in one thread while this one notes each time it gets to run. Were
+    # the GIL held through predict, this thread could not run between its start and its end.
+    import threading
+    import time
+
+    d, _ = session
+    learner = cls(task="positioning").fit_file(str(d / "demos.csv"))
+    z, _, _, _ = advise.load_demos(str(d / "demos.csv"))
+    started = time.perf_counter()
+    learner.predict(np.resize(z, (2000, z.shape[1])))
+    per_row = (time.perf_counter() - started) / 2000
+    # About half a second of work, at most 4 million rows.
+    q = np.resize(z, (int(min(max(0.5 / per_row, 2000), 4e6)), z.shape[1]))
+    span = {}
+
+    def work():
+        span["start"] = time.perf_counter()
+        learner.predict(q)
+        span["end"] = time.perf_counter()
+
+    ticks = []
+    worker = threading.Thread(target=work)
+    worker.start()
+    while worker.is_alive() and len(ticks) < 50_000_000:
+        ticks.append(time.perf_counter())
+    worker.join(timeout=120)
+    took = span["end"] - span["start"]
+    assert took > 0.1, took
+    # The longest stretch of predict during which this thread did not run: a few switch
+    # intervals at most when the GIL is free, all of predict but its first moments when held.
+    inside = [span["start"]] + [t for t in ticks if span["start"] < t < span["end"]] + [span["end"]]
+    longest = max(b - a for a, b in zip(inside, inside[1:]))
+    assert longest < 0.5 * took, (longest, took, len(inside))

@@ -1,14 +1,15 @@
 //! `advise.load_demos`: a demonstrations file as numpy arrays, read as `load demos FILE` reads it.
 
-use std::path::Path;
-
 use advise::check::OperatorSet;
 use advise::diag::SourceMap;
+use advise::recording::ImportOptions;
+use advise::session::read_demos_file;
+use advise::task::TaskKind;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 
 use crate::arrays::to_numpy;
-use crate::error::from_diag;
+use crate::error::{from_diag, simple};
 use crate::ops::domain_in;
 
 /// What `load_demos` returns: observations, actions, each row's episode index, episode names.
@@ -19,32 +20,66 @@ type Loaded<'py> = (
     Vec<String>,
 );
 
-/// load_demos(path, *, task=None, domain=None) -> (observations, actions, episodes, names)
+/// load_demos(path, *, task=None, domain=None, tasks=None, cmd_topic=None, odom_topic=None,
+/// keep_idle=False) -> (observations, actions, episodes, names)
 ///
-/// The demonstrations of a file (CSV or JSON demonstrations, or a dataset a session saved), read
-/// as `load demos FILE` reads them for the domain named `domain` or that of `task` (default
-/// positioning). Returns the observations and actions of every point (episode after episode),
-/// each point's episode index, and the episodes' names. Raises AdviseError with the file's
-/// diagnostic when it cannot be read.
+/// The demonstrations of a file, read as `load demos FILE` reads them, whatever the file: a CSV
+/// or JSON demonstrations file, a dataset a session saved, a Parquet file of demonstrations, or a
+/// ROS 2 bag (a rosbag2 folder or an `.mcap` file) or CSV log of a base's drive, made into
+/// demonstrations as `advise import` makes them (`cmd_topic`/`odom_topic` name a bag's topics;
+/// idle points are trimmed unless `keep_idle`). The domain is `domain`'s or `task`'s (default
+/// positioning); `tasks` are task files (`advise --tasks FILE`) declaring `task`. Returns the
+/// observations and actions of every point (episode after episode), each point's episode index,
+/// and the episodes' names. Raises AdviseError with the file's diagnostic when it cannot be read.
 #[pyfunction]
-#[pyo3(signature = (path, *, task=None, domain=None))]
+#[pyo3(signature = (path, *, task=None, domain=None, tasks=None, cmd_topic=None, odom_topic=None, keep_idle=false))]
+#[allow(clippy::too_many_arguments)] // Python's keyword arguments, each with its default.
 pub fn load_demos<'py>(
     py: Python<'py>,
     path: &str,
     task: Option<&str>,
     domain: Option<&str>,
+    tasks: Option<Vec<String>>,
+    cmd_topic: Option<String>,
+    odom_topic: Option<String>,
+    keep_idle: bool,
 ) -> PyResult<Loaded<'py>> {
-    let task = if domain.is_none() && task.is_none() {
-        Some("positioning")
-    } else {
-        task
+    let (domain, def) = match (domain, task, tasks) {
+        (Some(d), None, None) => (
+            domain_in(py, &OperatorSet::standard(), Some(d), None)?,
+            None,
+        ),
+        (None, task, files) => {
+            let kind = task_kind(py, task.unwrap_or("positioning"), files)?;
+            (kind.domain(), kind.def())
+        }
+        _ => {
+            return Err(simple(
+                py,
+                "advise::py::domain_or_task",
+                "give `domain=` alone, or `task=` (with `tasks=` for a declared task)".into(),
+                "`domain=\"positioning\"`, `task=\"interception\"` or `task=\"dock\", tasks=[\"dock.adv\"]`",
+            ));
+        }
     };
-    let domain = domain_in(py, &OperatorSet::standard(), domain, task)?;
+    let options = ImportOptions {
+        cmd_topic,
+        odom_topic,
+        keep_idle,
+        ..ImportOptions::default()
+    };
     let mut files = SourceMap::new();
-    let demos = advise::policy::dataset::load_demonstrations(&mut files, &domain, Path::new(path))
-        .map_err(|e| from_diag(py, &files, &e))?;
+    let read = read_demos_file(
+        &mut files,
+        &OperatorSet::standard(),
+        &domain,
+        def.as_ref(),
+        path,
+        &options,
+    )
+    .map_err(|e| from_diag(py, &files, &e))?;
     let (mut z, mut a, mut index, mut names) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    for (i, e) in demos.episodes.iter().enumerate() {
+    for (i, e) in read.episodes.iter().enumerate() {
         z.extend_from_slice(&e.trace.z);
         a.extend_from_slice(&e.trace.a);
         index.extend(std::iter::repeat_n(i as i64, e.trace.len()));
@@ -57,4 +92,25 @@ pub fn load_demos<'py>(
         index.into_pyarray(py),
         names,
     ))
+}
+
+/// The task `name`: a built-in one, or one declared in the task files `files` (checked as
+/// `advise --tasks FILE` checks them).
+pub fn task_kind(py: Python<'_>, name: &str, files: Option<Vec<String>>) -> PyResult<TaskKind> {
+    match files {
+        Some(files) => {
+            let files: Vec<std::path::PathBuf> = files.into_iter().map(Into::into).collect();
+            advise::cli::resolve_task(name, &files)
+                .map_err(|r| from_diag(py, &SourceMap::new(), r.as_ref()))
+        }
+        None => TaskKind::builtin(name).ok_or_else(|| {
+            simple(
+                py,
+                "advise::py::unknown_task",
+                format!("there is no built-in task `{name}`"),
+                "the built-in tasks are `positioning` and `interception`; a declared task needs \
+                 its file: `tasks=[\"FILE.adv\"]`",
+            )
+        }),
+    }
 }

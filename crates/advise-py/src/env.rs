@@ -53,23 +53,7 @@ impl SimEnv {
     #[new]
     #[pyo3(signature = (task, tasks=None))]
     fn new(py: Python<'_>, task: &str, tasks: Option<Vec<String>>) -> PyResult<SimEnv> {
-        let kind = match tasks {
-            Some(files) => {
-                let files: Vec<std::path::PathBuf> = files.into_iter().map(Into::into).collect();
-                advise::cli::resolve_task(task, &files).map_err(|r| {
-                    crate::error::from_diag(py, &advise::diag::SourceMap::new(), r.as_ref())
-                })?
-            }
-            None => TaskKind::builtin(task).ok_or_else(|| {
-                simple(
-                    py,
-                    "advise::py::unknown_task",
-                    format!("there is no built-in task `{task}`"),
-                    "the simulator's tasks are `positioning` and `interception`; a declared \
-                     task needs its file: `advise.make_env(tasks=\"FILE.adv\", task=...)`",
-                )
-            })?,
-        };
+        let kind = crate::demos::task_kind(py, task, tasks)?;
         Ok(SimEnv {
             domain: kind.domain(),
             kind,

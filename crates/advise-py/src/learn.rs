@@ -2,8 +2,6 @@
 //! session derives them (`load demos`: [`Learner::new`] then the demonstrations added), so that
 //! their predictions equal the command line's to the bit.
 
-use std::path::Path;
-
 use advise::check::OperatorSet;
 use advise::diag::SourceMap;
 use advise::domain::Domain;
@@ -22,6 +20,9 @@ struct Fitted {
     kind: LearnerKind,
     domain: Domain,
     seed: u64,
+    /// The built-in task's definition (`task=`): how `fit_file` makes a recording of a base's
+    /// drive into demonstrations.
+    def: Option<std::sync::Arc<advise::program::task::TaskDef>>,
     learner: Option<Learner>,
 }
 
@@ -38,6 +39,9 @@ impl Fitted {
             kind,
             domain,
             seed,
+            def: task
+                .and_then(advise::task::TaskKind::builtin)
+                .and_then(|t| t.def()),
             learner: None,
         })
     }
@@ -112,14 +116,20 @@ impl Fitted {
         self.derive(py, eps)
     }
 
-    /// The demonstrations of a file, read as `load demos FILE` and `advise eval --dataset` read
-    /// it (CSV, JSON, or a saved dataset).
+    /// The demonstrations of a file, read as `load demos FILE` reads it (see
+    /// [`advise::session::read_demos_file`]).
     fn fit_file(&mut self, py: Python<'_>, path: &str) -> PyResult<()> {
         let mut files = SourceMap::new();
-        let demos =
-            advise::policy::dataset::load_demonstrations(&mut files, &self.domain, Path::new(path))
-                .map_err(|e| from_diag(py, &files, &e))?;
-        self.derive(py, demos.episodes)
+        let read = advise::session::read_demos_file(
+            &mut files,
+            &OperatorSet::standard(),
+            &self.domain,
+            self.def.as_ref(),
+            path,
+            &Default::default(),
+        )
+        .map_err(|e| from_diag(py, &files, &e))?;
+        self.derive(py, read.episodes)
     }
 
     /// The learner, once fitted (`advise::py::not_fitted` before), and the domain.
@@ -203,8 +213,9 @@ macro_rules! learner_class {
 
             /// fit_file(path) -> self
             ///
-            /// Derive the policy from a demonstrations file (CSV, JSON, a saved dataset), read
-            /// as `load demos FILE` reads it.
+            /// Derive the policy from a demonstrations file, read as `load demos FILE` reads
+            /// it: CSV, JSON, a saved dataset, Parquet, or (with `task=`) a ROS 2 bag or CSV
+            /// log of a base's drive.
             fn fit_file<'py>(
                 mut slf: PyRefMut<'py, Self>,
                 path: &str,
