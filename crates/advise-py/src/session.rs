@@ -6,8 +6,7 @@
 
 use std::path::PathBuf;
 
-use advise::check::CheckErrors;
-use advise::diag::{SourceMap, Sourced};
+use advise::diag::SourceMap;
 use advise::session::{HeldExecution, Reply};
 use advise::session::{Session as Inner, SessionOptions, journal};
 use advise::task::TaskKind;
@@ -18,7 +17,7 @@ use pyo3::types::{PyBool, PyDict};
 
 use crate::arrays::to_numpy;
 use crate::diag::Diagnostic;
-use crate::error::{from_diag, raise, simple};
+use crate::error::{from_diag, simple};
 use crate::explain::Provenance;
 
 /// A session on a built-in task or one declared in `tasks` files, in the simulator unless
@@ -48,7 +47,7 @@ impl Session {
     fn new(
         py: Python<'_>,
         task: &str,
-        tasks: Option<Vec<PathBuf>>,
+        tasks: Option<Vec<String>>,
         backend: &str,
         seed: u64,
         demos: usize,
@@ -56,7 +55,7 @@ impl Session {
     ) -> PyResult<Session> {
         // A bad `journal` is refused before any demonstration is recorded.
         let journal_dir = journal_dir(py, journal)?;
-        let mut inner = start(py, task, &tasks.unwrap_or_default(), seed, demos)?;
+        let mut inner = start(py, task, tasks, seed, demos)?;
         if let Some(dir) = journal_dir {
             inner
                 .start_journal(&dir)
@@ -227,10 +226,12 @@ impl Session {
         self.inner = None;
     }
 
+    /// The session itself, for `with advise.Session(...) as s:`.
     fn __enter__(slf: Py<Self>) -> Py<Self> {
         slf
     }
 
+    /// Close the session at the end of a `with` block (an exception goes on).
     fn __exit__(
         &mut self,
         _kind: Option<&Bound<'_, PyAny>>,
@@ -368,23 +369,12 @@ fn journal_dir(py: Python<'_>, journal: Option<&Bound<'_, PyAny>>) -> PyResult<O
 fn start(
     py: Python<'_>,
     task: &str,
-    tasks: &[PathBuf],
+    tasks: Option<Vec<String>>,
     seed: u64,
     demos: usize,
 ) -> PyResult<Inner> {
-    let kind = if tasks.is_empty() {
-        TaskKind::builtin(task).ok_or_else(|| {
-            simple(
-                py,
-                "advise::py::unknown_task",
-                format!("there is no built-in task `{task}`"),
-                "the built-in tasks are `positioning` and `interception`; a declared task needs \
-                 its file: `advise.Session(tasks=[\"FILE.adv\"], task=...)`",
-            )
-        })?
-    } else {
-        advise::cli::resolve_task(task, tasks).map_err(|r| tasks_error(py, &r))?
-    };
+    let files = tasks.clone().unwrap_or_default();
+    let kind = crate::demos::task_kind(py, task, tasks)?;
     let builtin = TaskKind::builtin(task);
     let opts = SessionOptions {
         task: builtin.clone().unwrap_or(TaskKind::Positioning),
@@ -399,12 +389,8 @@ fn start(
             .map(drop)
             .map_err(|e| from_diag(py, inner.sources(), &e))
     };
-    for file in tasks {
-        step(
-            &mut inner,
-            format!("tasks \"{}\"", file.display()),
-            "--tasks",
-        )?;
+    for file in &files {
+        step(&mut inner, format!("tasks \"{file}\""), "--tasks")?;
     }
     if builtin.is_none() {
         step(&mut inner, format!("task {task}"), "--task")?;
@@ -413,15 +399,6 @@ fn start(
         }
     }
     Ok(inner)
-}
-
-/// The refusal of `--tasks` files or a task name: a check's errors each with its place (as
-/// `advise.check` gives them), anything else as it is.
-fn tasks_error(py: Python<'_>, r: &miette::Report) -> PyErr {
-    match r.downcast_ref::<Sourced<CheckErrors>>() {
-        Some(s) => raise(py, Diagnostic::all_of(&s.sources, &s.error, "error")),
-        None => from_diag(py, &SourceMap::new(), r.as_ref()),
-    }
 }
 
 /// `poses` as an array of shape (n, 3): x, y, theta.
