@@ -1,5 +1,7 @@
 """advise.Session: the REPL's statements from Python, replies as dicts, the same text the REPL
-prints."""
+prints; the CLI's journal (written here and resumed by `advise resume`, written by `advise run`
+and resumed here), executions as arrays equal to the bit to what the journal holds, and tasks
+declared in files as `--tasks FILE --task NAME` starts them."""
 
 import json
 import os
@@ -89,7 +91,7 @@ def timeless(text):
 
 
 def journal_of(home):
-    """The one journal in `home`, parsed: the header and the entries."""
+    """The one journal in `home`: its path, and its header and entries parsed."""
     names = [n for n in os.listdir(home) if n.startswith("session-") and n.endswith(".jsonl")]
     assert len(names) == 1, names
     path = os.path.join(home, names[0])
@@ -97,6 +99,7 @@ def journal_of(home):
 
 
 def read_journal(path):
+    """A journal's header and entries, parsed (JSON, not bytes: numbers compare as values)."""
     with open(path) as f:
         lines = [json.loads(line) for line in f]
     return lines[0], lines[1:]
@@ -111,6 +114,15 @@ def cli_journal(tmp_path, statements, extra_args=(), name="cli"):
     out = cli(["run", "s.adv", "--demos", "3", *extra_args], cwd=d, home=d / "home")
     path, (header, entries) = journal_of(d / "home")
     return out, path, header, entries
+
+
+def cli_out_of(tmp_path, statements, extra_args=()):
+    """`advise run` of `statements` with `--demos 3` and no journal: its stdout, timeless."""
+    d = tmp_path / "whole"
+    d.mkdir(exist_ok=True)
+    (d / "s.adv").write_text("\n".join(statements) + "\n")
+    out = cli(["run", "s.adv", "--demos", "3", "--no-journal", *extra_args], cwd=d)
+    return timeless(out)
 
 
 def task_args(task, tasks):
@@ -195,14 +207,6 @@ def test_a_cli_journal_is_resumed_by_python(tmp_path):
     assert [e["statement"] for e in after[5:]] == SCRIPT[4:]
     assert all(e["origin"] == "<python>" for e in after[5:])
 
-
-def cli_out_of(tmp_path, statements, extra_args=()):
-    """`advise run` of `statements` with `--demos 3` and no journal: its stdout, timeless."""
-    d = tmp_path / "whole"
-    d.mkdir(exist_ok=True)
-    (d / "s.adv").write_text("\n".join(statements) + "\n")
-    out = cli(["run", "s.adv", "--demos", "3", "--no-journal", *extra_args], cwd=d)
-    return timeless(out)
 
 
 def bits(x):
@@ -404,3 +408,22 @@ def test_what_a_resume_refuses(tmp_path):
 def live_path(folder):
     (name,) = [n for n in os.listdir(folder) if n.endswith(".jsonl")]
     return str(folder / name)
+
+
+def test_demonstrations_from_a_file_resume_from_the_journals_sidecar(tmp_path):
+    # `load demos FILE` in a journalled session writes its points beside the journal (a sidecar):
+    # the file may change or go; the resumed session, here and in the CLI, has the same points.
+    cli(["demo", "--task", "positioning", "--count", "3", "--out", "demos.csv"], cwd=tmp_path)
+    with advise.Session(journal=str(tmp_path / "j")) as s:
+        s.execute(f"load demos {tmp_path / 'demos.csv'}")
+        s.execute("run goal 1 1 0")
+        path, status, points = s.journal_path, s.status, len(s)
+        run = s.execution(0)
+    os.remove(tmp_path / "demos.csv")
+    out = cli(["resume", path], cwd=tmp_path, home=tmp_path / "j", stdin="quit\n")
+    assert f"resumed {path}: 2 statements restored; {status}\n" in out, out
+    r = advise.Session.resume(path, journal_dir=str(tmp_path / "j"))
+    assert r.resumed["entries"] == 2 and len(r) == points and r.status == status
+    again = r.execution(0)
+    for k in ("observations", "actions", "t", "pose", "true_pose"):
+        assert_bits(again[k], run[k])
