@@ -239,7 +239,7 @@ class Session:
         self,
         *,
         task: str = "positioning",
-        tasks: Sequence[str] | None = None,
+        tasks: str | Sequence[str] | None = None,
         backend: str = "sim",
         seed: int = 0,
         demos: int = 0,

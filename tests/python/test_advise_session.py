@@ -282,7 +282,7 @@ def test_executions_as_arrays_equal_the_clis_journal(tmp_path, task, tasks, stat
 def test_a_declared_task_session_replies_as_the_cli(tmp_path):
     statements = ["run goal px=2 py=1", "select 5..25", "advise creep(0.1)"]
     out = cli_out_of(tmp_path, statements, ["--tasks", STANDOFF, "--task", "standoff"])
-    s = advise.Session(task="standoff", tasks=[STANDOFF], demos=3)
+    s = advise.Session(task="standoff", tasks=STANDOFF, demos=3)
     assert s.status.startswith("task standoff, backend sim, ")
     for st in statements:
         first = timeless(s.execute(st)["text"]).splitlines()[0]
@@ -310,7 +310,7 @@ def test_a_resumed_session_is_on_the_simulator_whatever_it_was_on(tmp_path):
 
 
 def test_a_damaged_journal_resumes_up_to_the_damage_in_a_new_journal(tmp_path):
-    with advise.Session(demos=2, journal=str(tmp_path / "j")) as s:
+    with advise.Session(demos=2, journal=tmp_path / "j") as s:  # a pathlib.Path too
         s.execute("run goal 1 1 0")
         s.execute("select 5..25")
         path = s.journal_path
@@ -353,6 +353,8 @@ def test_what_a_session_refuses(tmp_path):
     assert (d.span.file, d.span.line, d.span.column) == (str(bad), 2, 3)
     d = error_of(lambda: advise.Session(task="docking"))
     assert (d.code, d.message) == ("advise::py::unknown_task", "there is no built-in task `docking`")
+    d = error_of(lambda: advise.Session(task="standoff", tasks=3))
+    assert (d.code, d.message) == ("advise::py::tasks", "`tasks` is 3, not a task file or a list of them")
     d = error_of(lambda: advise.Session(journal=42))
     assert (d.code, d.message) == ("advise::py::journal", "`journal` is 42, not a folder, True or None")
     (tmp_path / "a-file").write_text("")

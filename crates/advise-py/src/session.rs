@@ -20,8 +20,14 @@ use crate::diag::Diagnostic;
 use crate::error::{from_diag, simple};
 use crate::explain::Provenance;
 
-/// A session on a built-in task or one declared in `tasks` files, in the simulator unless
-/// `backend` says otherwise.
+/// Session(*, task="positioning", tasks=None, backend="sim", seed=0, demos=0, journal=None)
+///
+/// A teaching session (the REPL's statements) on a built-in task, or on one declared in the
+/// `tasks` file(s), started as `advise --tasks FILE --task NAME --demos N --seed S` starts one:
+/// `demos` teacher demonstrations recorded first (for a declared task, when it has a teacher).
+/// In the simulator unless `backend` names a base (`backend SPEC`). `journal`: None (or False)
+/// keeps no journal (`--no-journal`), True journals where `advise resume` looks ($ADVISE_HOME,
+/// else ~/.advise), a folder journals there. A bad task, file or argument raises AdviseError.
 #[pyclass(module = "advise", unsendable)]
 pub struct Session {
     /// None once `close` ended it (its journal closed and unlocked).
@@ -47,7 +53,7 @@ impl Session {
     fn new(
         py: Python<'_>,
         task: &str,
-        tasks: Option<Vec<String>>,
+        tasks: Option<&Bound<'_, PyAny>>,
         backend: &str,
         seed: u64,
         demos: usize,
@@ -55,6 +61,7 @@ impl Session {
     ) -> PyResult<Session> {
         // A bad `journal` is refused before any demonstration is recorded.
         let journal_dir = journal_dir(py, journal)?;
+        let tasks = task_files(py, tasks)?;
         let mut inner = start(py, task, tasks, seed, demos)?;
         if let Some(dir) = journal_dir {
             inner
@@ -337,6 +344,28 @@ fn closed(py: Python<'_>) -> PyErr {
         "the session is closed".into(),
         "a closed session's journal may be continued: `advise.Session.resume(PATH)`",
     )
+}
+
+/// `tasks=`: a task file, or a list of them (as `advise.make_env` takes them).
+fn task_files(py: Python<'_>, tasks: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<String>>> {
+    let Some(t) = tasks.filter(|t| !t.is_none()) else {
+        return Ok(None);
+    };
+    if let Ok(one) = t.extract::<String>() {
+        return Ok(Some(vec![one]));
+    }
+    t.extract::<Vec<String>>().map(Some).map_err(|_| {
+        simple(
+            py,
+            "advise::py::tasks",
+            format!(
+                "`tasks` is {}, not a task file or a list of them",
+                t.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+            ),
+            "pass the path of a file declaring the task (`tasks=\"dock.adv\"`) or a list of \
+             paths (`tasks=[\"dock.adv\", \"more.adv\"]`)",
+        )
+    })
 }
 
 /// `journal=`: None or False keeps none, True the CLI's directory, a path that directory.
