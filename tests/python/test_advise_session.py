@@ -429,3 +429,42 @@ def test_demonstrations_from_a_file_resume_from_the_journals_sidecar(tmp_path):
     again = r.execution(0)
     for k in ("observations", "actions", "t", "pose", "true_pose"):
         assert_bits(again[k], run[k])
+
+
+def test_a_statement_lets_other_python_threads_run():
+    # `eval` (25 simulated episodes) in another thread while this one notes each time it gets to
+    # run: were the GIL held through the statement, this thread could not run between its start
+    # and its end. Meanwhile the session refuses this thread rather than make it wait.
+    import threading
+    import time
+
+    s = advise.Session(demos=9)
+    span = {}
+
+    def work():
+        span["start"] = time.perf_counter()
+        span["reply"] = s.execute("eval")
+        span["end"] = time.perf_counter()
+
+    ticks, busy = [], []
+    worker = threading.Thread(target=work)
+    worker.start()
+    while worker.is_alive() and len(ticks) < 50_000_000:
+        ticks.append(time.perf_counter())
+        if not busy and "start" in span:
+            try:
+                s.status
+            except advise.AdviseError as e:
+                busy.append(e.diagnostics[0])
+    worker.join(timeout=120)
+    assert span["reply"]["kind"] == "evaluated"
+    took = span["end"] - span["start"]
+    assert took > 0.05, took
+    inside = [span["start"]] + [t for t in ticks if span["start"] < t < span["end"]] + [span["end"]]
+    longest = max(b - a for a, b in zip(inside, inside[1:]))
+    assert longest < 0.5 * took, (longest, took, len(inside))
+    assert [(d.code, d.message) for d in busy] == [
+        ("advise::py::busy", "the session is running a statement in another thread")
+    ]
+    # Free again once the statement is done.
+    assert s.status.startswith("task positioning, backend sim, ")

@@ -5,6 +5,7 @@
 //! as `advise resume` does ([`Session::resume`]): nothing re-run, no robot connected or driven.
 
 use std::path::PathBuf;
+use std::sync::{Mutex, MutexGuard, TryLockError};
 
 use advise::diag::SourceMap;
 use advise::session::{HeldExecution, Reply};
@@ -28,10 +29,12 @@ use crate::explain::Provenance;
 /// In the simulator unless `backend` names a base (`backend SPEC`). `journal`: None (or False)
 /// keeps no journal (`--no-journal`), True journals where `advise resume` looks ($ADVISE_HOME,
 /// else ~/.advise), a folder journals there. A bad task, file or argument raises AdviseError.
-#[pyclass(module = "advise", unsendable)]
+#[pyclass(module = "advise")]
 pub struct Session {
-    /// None once `close` ended it (its journal closed and unlocked).
-    inner: Option<Inner>,
+    /// None once `close` ended it (its journal closed and unlocked). Behind a lock so a session
+    /// may be used from any Python thread; a second thread is refused while a statement runs
+    /// (`advise::py::busy`), never made to wait: it would wait holding the GIL the first needs.
+    inner: Mutex<Option<Inner>>,
     /// What the restore said, for a session made by [`Session::resume`].
     resumed: Option<Resumed>,
 }
@@ -68,8 +71,8 @@ impl Session {
                 .start_journal(&dir)
                 .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
         }
-        let mut s = Session {
-            inner: Some(inner),
+        let s = Session {
+            inner: Mutex::new(Some(inner)),
             resumed: None,
         };
         if backend != "sim" {
@@ -128,7 +131,7 @@ impl Session {
             ),
         };
         Ok(Session {
-            inner: Some(inner),
+            inner: Mutex::new(Some(inner)),
             resumed: Some(resumed),
         })
     }
@@ -140,15 +143,15 @@ impl Session {
     /// `critiqued`, `evaluated`, `defined`, `message`, `nothing`, `quit`), `text` (what the
     /// REPL prints) and the kind's fields. A failing statement raises AdviseError. With a
     /// journal, what the statement changed is journalled before the reply is returned.
-    fn execute<'py>(&mut self, py: Python<'py>, statement: &str) -> PyResult<Bound<'py, PyDict>> {
+    fn execute<'py>(&self, py: Python<'py>, statement: &str) -> PyResult<Bound<'py, PyDict>> {
         self.run(py, statement, "<python>")
     }
 
     /// The journal this session writes (a path), or None when it keeps none.
     #[getter]
-    fn journal_path(&self) -> Option<String> {
-        let j = self.inner.as_ref()?.journal_path()?;
-        Some(j.display().to_string())
+    fn journal_path(&self, py: Python<'_>) -> PyResult<Option<String>> {
+        let path = |i: &mut Inner| i.journal_path().map(|p| p.display().to_string());
+        Ok(self.lock(py)?.as_mut().and_then(path))
     }
 
     /// For a session made by `Session.resume`, what the restore said (what `advise resume`
@@ -174,13 +177,13 @@ impl Session {
     /// REPL's banner prints it.
     #[getter]
     fn status(&self, py: Python<'_>) -> PyResult<String> {
-        Ok(self.live(py)?.status())
+        self.with(py, |i| Ok(i.status()))
     }
 
     /// The number of executions the current task holds (`execution(i)` gives each).
     #[getter]
     fn executions(&self, py: Python<'_>) -> PyResult<usize> {
-        Ok(self.live(py)?.executions().len())
+        self.with(py, |i| Ok(i.executions().len()))
     }
 
     /// execution(index) -> dict
@@ -195,32 +198,12 @@ impl Session {
     /// `flagged` and `advised` (the chunks critiqued and advised, as (start, end)),
     /// `observation_names` and `action_names`. An index out of range raises AdviseError.
     fn execution<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyDict>> {
-        let inner = self.live(py)?;
-        let all = inner.executions();
-        let i = if index < 0 {
-            all.len().checked_sub(index.unsigned_abs())
-        } else {
-            Some(index.unsigned_abs()).filter(|&i| i < all.len())
-        };
-        let Some(i) = i else {
-            return Err(simple(
-                py,
-                "advise::py::no_execution",
-                format!(
-                    "there is no execution {index}: the session holds {} (task {})",
-                    all.len(),
-                    inner.task()
-                ),
-                "executions are numbered from 0 in the order they were run or loaded \
-                 (`Session.executions` counts them); a negative index counts from the end",
-            ));
-        };
-        self.execution_dict(py, i, &all[i])
+        self.with(py, |inner| execution_at(py, inner, index))
     }
 
     /// The number of data points the policy holds.
     fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
-        Ok(self.live(py)?.learner().len())
+        self.with(py, |i| Ok(i.learner().len()))
     }
 
     /// close()
@@ -229,8 +212,9 @@ impl Session {
     /// `Session.resume` may continue it (nothing is lost: every statement was journalled as it
     /// ran). Any later use raises AdviseError `advise::py::closed`; closing again does nothing.
     /// `with advise.Session(...) as s:` closes it at the end of the block.
-    fn close(&mut self) {
-        self.inner = None;
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        *self.lock(py)? = None;
+        Ok(())
     }
 
     /// The session itself, for `with advise.Session(...) as s:`.
@@ -240,100 +224,142 @@ impl Session {
 
     /// Close the session at the end of a `with` block (an exception goes on).
     fn __exit__(
-        &mut self,
+        &self,
+        py: Python<'_>,
         _kind: Option<&Bound<'_, PyAny>>,
         _value: Option<&Bound<'_, PyAny>>,
         _traceback: Option<&Bound<'_, PyAny>>,
-    ) -> bool {
-        self.close();
-        false
+    ) -> PyResult<bool> {
+        self.close(py)?;
+        Ok(false)
     }
 }
 
 impl Session {
     /// Execute `statement` as coming from `origin` (journalled with it); the reply as a dict.
     fn run<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         statement: &str,
         origin: &str,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let inner = self.inner.as_mut().ok_or_else(|| closed(py))?;
-        let reply = inner
-            .execute(statement, origin)
-            .map_err(|e| from_diag(py, inner.sources(), &e))?;
-        reply_dict(py, &reply)
+        self.with(py, |inner| {
+            // A run or an evaluation takes seconds: other Python threads run meanwhile.
+            let reply = py
+                .detach(|| inner.execute(statement, origin))
+                .map_err(|e| from_diag(py, inner.sources(), &e))?;
+            reply_dict(py, &reply)
+        })
     }
 
-    /// The session, unless `close` ended it.
-    fn live(&self, py: Python<'_>) -> PyResult<&Inner> {
-        self.inner.as_ref().ok_or_else(|| closed(py))
+    /// The session's lock, unless another thread holds it. A statement that panicked left the
+    /// session as the panic found it; it is used on (the panic was raised in Python).
+    fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Option<Inner>>> {
+        match self.inner.try_lock() {
+            Ok(g) => Ok(g),
+            Err(TryLockError::Poisoned(p)) => Ok(p.into_inner()),
+            Err(TryLockError::WouldBlock) => Err(simple(
+                py,
+                "advise::py::busy",
+                "the session is running a statement in another thread".into(),
+                "a session runs one statement at a time: wait for that thread (`join` it), or \
+                 give each thread a session of its own",
+            )),
+        }
     }
 
-    /// Execution `i` (`rec`) as a dict of arrays: see `execution`.
-    fn execution_dict<'py>(
-        &self,
-        py: Python<'py>,
-        i: usize,
-        rec: &HeldExecution,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let tr = &rec.trace;
-        let n = tr.len();
-        let d = PyDict::new(py);
-        let inner = self.live(py)?;
-        let domain = inner.domain();
-        d.set_item("index", i)?;
-        d.set_item("label", &rec.label)?;
-        d.set_item("observations", to_numpy(py, tr.z.clone(), n, tr.obs_dim())?)?;
-        d.set_item("actions", to_numpy(py, tr.a.clone(), n, tr.act_dim())?)?;
-        d.set_item("t", tr.t.clone().into_pyarray(py))?;
-        d.set_item("pose", poses(py, tr.pose.as_deref())?)?;
-        let run = rec.execution.as_ref();
-        d.set_item(
-            "true_pose",
-            poses(py, run.and_then(|e| e.true_poses.as_deref()))?,
-        )?;
-        let ball = match run.and_then(|e| e.ball.as_ref()) {
-            Some(b) => Some(to_numpy(py, b.concat(), b.len(), 2)?),
-            None => None,
-        };
-        d.set_item("ball", ball)?;
-        let outcome = match run {
-            Some(e) => Some(json_value(py, serde_json::to_string(&e.outcome))?),
-            None => None,
-        };
-        d.set_item("outcome", outcome)?;
-        let learner = inner.learner();
-        let support = rec.support.as_ref().map(|s| {
-            s.iter()
-                .map(|p| p.map(|p| Provenance::of(learner, p)))
-                .collect::<Vec<_>>()
-        });
-        let points = rec.support.as_ref().map(|s| {
-            s.iter()
-                .map(|p| {
-                    p.and_then(|p| learner.dataset().position(p))
-                        .map_or(-1, |x| x as i64)
-                })
-                .collect::<Vec<i64>>()
-                .into_pyarray(py)
-        });
-        d.set_item("support", support)?;
-        d.set_item("support_points", points)?;
-        d.set_item("goal", rec.goal.map(|g| (g.x_m, g.y_m, g.theta_rad)))?;
-        d.set_item("goal_values", rec.goal_values.clone())?;
-        let chunks = |c: &[advise::trace::Chunk]| -> Vec<(usize, usize)> {
-            c.iter().map(|c| (c.start, c.end)).collect()
-        };
-        d.set_item("flagged", chunks(&rec.flagged))?;
-        d.set_item("advised", chunks(&rec.advised))?;
-        let names = |dims: &[advise::domain::Dim]| -> Vec<String> {
-            dims.iter().map(|x| x.name.clone()).collect()
-        };
-        d.set_item("observation_names", names(&domain.observe))?;
-        d.set_item("action_names", names(&domain.act))?;
-        Ok(d)
+    /// `f` on the session, unless `close` ended it or another thread is using it.
+    fn with<R>(&self, py: Python<'_>, f: impl FnOnce(&mut Inner) -> PyResult<R>) -> PyResult<R> {
+        f(self.lock(py)?.as_mut().ok_or_else(|| closed(py))?)
     }
+}
+
+/// Execution `index` of `inner` (negative from the end): see `Session.execution`.
+fn execution_at<'py>(py: Python<'py>, inner: &Inner, index: isize) -> PyResult<Bound<'py, PyDict>> {
+    let all = inner.executions();
+    let i = if index < 0 {
+        all.len().checked_sub(index.unsigned_abs())
+    } else {
+        Some(index.unsigned_abs()).filter(|&i| i < all.len())
+    };
+    let Some(i) = i else {
+        return Err(simple(
+            py,
+            "advise::py::no_execution",
+            format!(
+                "there is no execution {index}: the session holds {} (task {})",
+                all.len(),
+                inner.task()
+            ),
+            "executions are numbered from 0 in the order they were run or loaded \
+             (`Session.executions` counts them); a negative index counts from the end",
+        ));
+    };
+    execution_dict(py, inner, i, &all[i])
+}
+
+/// Execution `i` (`rec`) of `inner` as a dict of arrays: see `Session.execution`.
+fn execution_dict<'py>(
+    py: Python<'py>,
+    inner: &Inner,
+    i: usize,
+    rec: &HeldExecution,
+) -> PyResult<Bound<'py, PyDict>> {
+    let tr = &rec.trace;
+    let n = tr.len();
+    let d = PyDict::new(py);
+    let domain = inner.domain();
+    d.set_item("index", i)?;
+    d.set_item("label", &rec.label)?;
+    d.set_item("observations", to_numpy(py, tr.z.clone(), n, tr.obs_dim())?)?;
+    d.set_item("actions", to_numpy(py, tr.a.clone(), n, tr.act_dim())?)?;
+    d.set_item("t", tr.t.clone().into_pyarray(py))?;
+    d.set_item("pose", poses(py, tr.pose.as_deref())?)?;
+    let run = rec.execution.as_ref();
+    d.set_item(
+        "true_pose",
+        poses(py, run.and_then(|e| e.true_poses.as_deref()))?,
+    )?;
+    let ball = match run.and_then(|e| e.ball.as_ref()) {
+        Some(b) => Some(to_numpy(py, b.concat(), b.len(), 2)?),
+        None => None,
+    };
+    d.set_item("ball", ball)?;
+    let outcome = match run {
+        Some(e) => Some(json_value(py, serde_json::to_string(&e.outcome))?),
+        None => None,
+    };
+    d.set_item("outcome", outcome)?;
+    let learner = inner.learner();
+    let support = rec.support.as_ref().map(|s| {
+        s.iter()
+            .map(|p| p.map(|p| Provenance::of(learner, p)))
+            .collect::<Vec<_>>()
+    });
+    let points = rec.support.as_ref().map(|s| {
+        s.iter()
+            .map(|p| {
+                p.and_then(|p| learner.dataset().position(p))
+                    .map_or(-1, |x| x as i64)
+            })
+            .collect::<Vec<i64>>()
+            .into_pyarray(py)
+    });
+    d.set_item("support", support)?;
+    d.set_item("support_points", points)?;
+    d.set_item("goal", rec.goal.map(|g| (g.x_m, g.y_m, g.theta_rad)))?;
+    d.set_item("goal_values", rec.goal_values.clone())?;
+    let chunks = |c: &[advise::trace::Chunk]| -> Vec<(usize, usize)> {
+        c.iter().map(|c| (c.start, c.end)).collect()
+    };
+    d.set_item("flagged", chunks(&rec.flagged))?;
+    d.set_item("advised", chunks(&rec.advised))?;
+    let names = |dims: &[advise::domain::Dim]| -> Vec<String> {
+        dims.iter().map(|x| x.name.clone()).collect()
+    };
+    d.set_item("observation_names", names(&domain.observe))?;
+    d.set_item("action_names", names(&domain.act))?;
+    Ok(d)
 }
 
 /// The refusal of a session `close` ended.
