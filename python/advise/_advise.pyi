@@ -233,7 +233,8 @@ class SimEnv:
 class Session:
     """A teaching session (the REPL's statements) on a built-in task or one declared in ``tasks``
     files, as ``advise --tasks FILE --task NAME --demos N`` starts one; journalled as the CLI
-    journals when ``journal`` says so."""
+    journals when ``journal`` says so. Any thread may use it, one statement at a time (the GIL
+    is released while one runs; another thread's call meanwhile raises ``advise::py::busy``)."""
 
     def __init__(
         self,

@@ -29,6 +29,8 @@ use crate::explain::Provenance;
 /// In the simulator unless `backend` names a base (`backend SPEC`). `journal`: None (or False)
 /// keeps no journal (`--no-journal`), True journals where `advise resume` looks ($ADVISE_HOME,
 /// else ~/.advise), a folder journals there. A bad task, file or argument raises AdviseError.
+/// Any thread may use it, one statement at a time: the GIL is released while a statement runs,
+/// and another thread's call meanwhile raises AdviseError `advise::py::busy`.
 #[pyclass(module = "advise")]
 pub struct Session {
     /// None once `close` ended it (its journal closed and unlocked). Behind a lock so a session
