@@ -301,6 +301,11 @@ impl Session {
         &self.state.learner
     }
 
+    /// The executions the current task holds, in the order `show N` numbers them.
+    pub fn executions(&self) -> &[HeldExecution] {
+        &self.state.executions
+    }
+
     /// Operators of the current domain with their signatures (for completion and hints).
     pub fn operator_signatures(&self) -> Vec<(String, String)> {
         self.ops

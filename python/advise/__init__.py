@@ -11,8 +11,9 @@ runs; nothing is recomputed in Python.
 - ``gym.AdviseEnv``: the simulator as the Gymnasium environments ``advise/Positioning-v0`` and
   ``advise/Interception-v0``, registered on import when gymnasium is installed;
   ``make_env(tasks="dock.adv", task="dock")`` for a task declared in the language.
-- ``Session(task=..., backend="sim")``: a teaching session; ``execute(statement)`` returns
-  the reply as a dict.
+- ``Session(task=..., backend="sim", journal=True)``: a teaching session; ``execute(statement)``
+  returns the reply as a dict, ``execution(i)`` an execution as arrays; its journal is the
+  CLI's (``Session.resume(path)`` restores one as ``advise resume`` does).
 - ``load_lerobot(dir, task=...)``: a LeRobot v3.0 dataset's frames as numpy arrays;
   ``to_arrow(data)`` as a pyarrow table with provenance columns; ``advise_lerobot(src, out,
   episode=..., frames=(a, b), operator=..., params=...)`` writes a chunk of an episode corrected

@@ -1,5 +1,6 @@
 """Type stubs of the extension module ``advise._advise`` (crates/advise-py)."""
 
+import os
 from typing import Any, Mapping, Sequence
 
 from typing_extensions import Self
@@ -235,13 +236,55 @@ class SimEnv:
     def step(self, action: npt.ArrayLike) -> tuple[Array, float, bool, bool, dict[str, Any]]: ...
 
 class Session:
-    """A teaching session on a built-in task (the REPL's statements), without a journal."""
+    """A teaching session (the REPL's statements) on a built-in task or one declared in ``tasks``
+    files, as ``advise --tasks FILE --task NAME --demos N`` starts one; journalled as the CLI
+    journals when ``journal`` says so. Any thread may use it, one statement at a time (the GIL
+    is released while one runs; another thread's call meanwhile raises ``advise::py::busy``)."""
 
     def __init__(
-        self, *, task: str = "positioning", backend: str = "sim", seed: int = 0, demos: int = 0
-    ) -> None: ...
+        self,
+        *,
+        task: str = "positioning",
+        tasks: str | Sequence[str] | None = None,
+        backend: str = "sim",
+        seed: int = 0,
+        demos: int = 0,
+        journal: bool | str | os.PathLike[str] | None = None,
+    ) -> None:
+        """``journal``: None (or False) keeps none, True journals where ``advise resume`` looks
+        ($ADVISE_HOME, else ~/.advise), a folder journals there."""
+    @staticmethod
+    def resume(
+        path: str | os.PathLike[str] | None = None,
+        journal_dir: str | os.PathLike[str] | None = None,
+    ) -> Session:
+        """Restore a journal as ``advise resume PATH`` does: nothing re-run, no robot connected
+        or driven; the newest journal of ``journal_dir`` without ``path``. What the restore said
+        is ``resumed``."""
     def execute(self, statement: str) -> dict[str, Any]:
         """Run one statement; the reply as a dict with ``kind``, ``text`` and its fields."""
+    @property
+    def journal_path(self) -> str | None:
+        """The journal this session writes, or None."""
+    @property
+    def resumed(self) -> dict[str, Any] | None:
+        """For a resumed session: ``path``, ``entries``, ``notes`` (list[str]), ``stopped``
+        (Diagnostic | None) and ``text`` (the line ``advise resume`` prints)."""
+    @property
+    def status(self) -> str:
+        """The one-line summary the REPL's banner prints."""
+    @property
+    def executions(self) -> int:
+        """How many executions the current task holds."""
+    def execution(self, index: int) -> dict[str, Any]:
+        """Execution ``index`` (negative from the end) as arrays: ``observations``, ``actions``,
+        ``t``, ``pose``, ``true_pose``, ``ball``, ``support`` (list[Provenance | None]),
+        ``support_points`` (int64, -1 for none), ``outcome``, ``label``, ``goal``,
+        ``goal_values``, ``flagged``, ``advised``, ``observation_names``, ``action_names``."""
+    def close(self) -> None:
+        """End the session, closing and unlocking its journal."""
+    def __enter__(self) -> Self: ...
+    def __exit__(self, *exc: object) -> bool: ...
     def __len__(self) -> int: ...
 
 def load_lerobot(

@@ -1,7 +1,7 @@
 //! `advise.load_demos`: a demonstrations file as numpy arrays, read as `load demos FILE` reads it.
 
-use advise::check::OperatorSet;
-use advise::diag::SourceMap;
+use advise::check::{CheckErrors, OperatorSet};
+use advise::diag::{SourceMap, Sourced};
 use advise::recording::ImportOptions;
 use advise::session::read_demos_file;
 use advise::task::TaskKind;
@@ -9,7 +9,8 @@ use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 
 use crate::arrays::to_numpy;
-use crate::error::{from_diag, simple};
+use crate::diag::Diagnostic;
+use crate::error::{from_diag, raise, simple};
 use crate::ops::domain_in;
 
 /// What `load_demos` returns: observations, actions, each row's episode index, episode names.
@@ -100,8 +101,7 @@ pub fn task_kind(py: Python<'_>, name: &str, files: Option<Vec<String>>) -> PyRe
     match files {
         Some(files) => {
             let files: Vec<std::path::PathBuf> = files.into_iter().map(Into::into).collect();
-            advise::cli::resolve_task(name, &files)
-                .map_err(|r| from_diag(py, &SourceMap::new(), r.as_ref()))
+            advise::cli::resolve_task(name, &files).map_err(|r| tasks_error(py, &r))
         }
         None => TaskKind::builtin(name).ok_or_else(|| {
             simple(
@@ -112,5 +112,14 @@ pub fn task_kind(py: Python<'_>, name: &str, files: Option<Vec<String>>) -> PyRe
                  its file: `tasks=[\"FILE.adv\"]`",
             )
         }),
+    }
+}
+
+/// The refusal of task files or a task name: a check's errors each with its place (as
+/// `advise.check` gives them), anything else as it is.
+fn tasks_error(py: Python<'_>, r: &miette::Report) -> PyErr {
+    match r.downcast_ref::<Sourced<CheckErrors>>() {
+        Some(s) => raise(py, Diagnostic::all_of(&s.sources, &s.error, "error")),
+        None => from_diag(py, &SourceMap::new(), r.as_ref()),
     }
 }

@@ -44,7 +44,7 @@ impl Provenance {
 }
 
 impl Provenance {
-    fn of(learner: &Learner, p: Prov) -> Provenance {
+    pub(crate) fn of(learner: &Learner, p: Prov) -> Provenance {
         match p {
             Prov::Demonstration { demo, index } => Provenance {
                 kind: "demonstration".into(),

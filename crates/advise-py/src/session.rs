@@ -1,51 +1,141 @@
 //! `advise.Session`: a teaching session (the REPL's statements) driven from Python, each reply as
-//! a dict. No journal is kept (as `advise run --no-journal`).
+//! a dict, each execution as numpy arrays. It starts as `advise --tasks FILE --task NAME` starts
+//! (the same statements, journalled the same way), journals as the CLI does when asked
+//! (`journal=True`: into `$ADVISE_HOME`, where `advise resume` finds it), and restores a journal
+//! as `advise resume` does ([`Session::resume`]): nothing re-run, no robot connected or driven.
 
-use advise::session::Reply;
-use advise::session::{Session as Inner, SessionOptions};
+use std::path::PathBuf;
+use std::sync::{Mutex, MutexGuard, TryLockError};
+
+use advise::diag::SourceMap;
+use advise::session::{HeldExecution, Reply};
+use advise::session::{Session as Inner, SessionOptions, journal};
 use advise::task::TaskKind;
+use advise::trace::Pose;
+use numpy::{IntoPyArray, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBool, PyDict};
 
+use crate::arrays::to_numpy;
+use crate::diag::Diagnostic;
 use crate::error::{from_diag, simple};
+use crate::explain::Provenance;
 
-/// A session on a built-in task, in the simulator unless `backend` says otherwise.
-#[pyclass(module = "advise", unsendable)]
+/// Session(*, task="positioning", tasks=None, backend="sim", seed=0, demos=0, journal=None)
+///
+/// A teaching session (the REPL's statements) on a built-in task, or on one declared in the
+/// `tasks` file(s), started as `advise --tasks FILE --task NAME --demos N --seed S` starts one:
+/// `demos` teacher demonstrations recorded first (for a declared task, when it has a teacher).
+/// In the simulator unless `backend` names a base (`backend SPEC`). `journal`: None (or False)
+/// keeps no journal (`--no-journal`), True journals where `advise resume` looks ($ADVISE_HOME,
+/// else ~/.advise), a folder journals there. A bad task, file or argument raises AdviseError.
+/// Any thread may use it, one statement at a time: the GIL is released while a statement runs,
+/// and another thread's call meanwhile raises AdviseError `advise::py::busy`.
+#[pyclass(module = "advise")]
 pub struct Session {
-    inner: Inner,
+    /// None once `close` ended it (its journal closed and unlocked). Behind a lock so a session
+    /// may be used from any Python thread; a second thread is refused while a statement runs
+    /// (`advise::py::busy`), never made to wait: it would wait holding the GIL the first needs.
+    inner: Mutex<Option<Inner>>,
+    /// What the restore said, for a session made by [`Session::resume`].
+    resumed: Option<Resumed>,
+}
+
+/// What `advise resume` prints when it restores a journal, kept for `Session.resumed`.
+struct Resumed {
+    path: String,
+    entries: usize,
+    notes: Vec<String>,
+    stopped: Option<Diagnostic>,
+    /// The CLI's line: `resumed PATH: N statements restored; STATUS`.
+    text: String,
 }
 
 #[pymethods]
 impl Session {
     #[new]
-    #[pyo3(signature = (*, task="positioning", backend="sim", seed=0, demos=0))]
+    #[pyo3(signature = (*, task="positioning", tasks=None, backend="sim", seed=0, demos=0, journal=None))]
     fn new(
         py: Python<'_>,
         task: &str,
+        tasks: Option<&Bound<'_, PyAny>>,
         backend: &str,
         seed: u64,
         demos: usize,
+        journal: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Session> {
-        let kind = TaskKind::builtin(task).ok_or_else(|| {
-            simple(
-                py,
-                "advise::py::unknown_task",
-                format!("there is no built-in task `{task}`"),
-                "the built-in tasks are `positioning` and `interception`",
-            )
-        })?;
-        let opts = SessionOptions {
-            task: kind,
-            seed,
-            default_demos: demos,
-            ..SessionOptions::default()
+        // A bad `journal` is refused before any demonstration is recorded.
+        let journal_dir = journal_dir(py, journal)?;
+        let tasks = task_files(py, tasks)?;
+        let mut inner = start(py, task, tasks, seed, demos)?;
+        if let Some(dir) = journal_dir {
+            inner
+                .start_journal(&dir)
+                .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
+        }
+        let s = Session {
+            inner: Mutex::new(Some(inner)),
+            resumed: None,
         };
-        let inner = Inner::new(opts).map_err(|e| from_diag(py, &Default::default(), &e))?;
-        let mut s = Session { inner };
         if backend != "sim" {
-            s.execute(py, &format!("backend {backend}"))?;
+            s.run(py, &format!("backend {backend}"), "--backend")?;
         }
         Ok(s)
+    }
+
+    /// resume(path=None, journal_dir=None) -> Session
+    ///
+    /// Restore a journalled session as `advise resume PATH` does: every effect applied as it was
+    /// recorded, nothing re-run, no file but the journal (and its sidecars) read, no robot
+    /// connected or driven: a session that was on a robot is on `sim` and says so in a note;
+    /// only an explicit `backend SPEC` statement connects again. Without `path`, the newest
+    /// journal of `journal_dir`. The session journals on into the same file (or, when a line was
+    /// damaged or refused, into a new one in `journal_dir`); `journal_dir` defaults to the CLI's,
+    /// `$ADVISE_HOME` else `~/.advise`. What the restore said is `resumed`. A journal another
+    /// session holds, or one that is not a journal, raises AdviseError.
+    #[staticmethod]
+    #[pyo3(signature = (path=None, journal_dir=None))]
+    fn resume(
+        py: Python<'_>,
+        path: Option<PathBuf>,
+        journal_dir: Option<PathBuf>,
+    ) -> PyResult<Session> {
+        let dir = journal_dir.unwrap_or_else(journal::default_dir);
+        let path = match path {
+            Some(p) => p,
+            None => journal::newest(&dir).ok_or_else(|| {
+                simple(
+                    py,
+                    "advise::resume::no_journal",
+                    format!("there is no session journal in {}", dir.display()),
+                    "start a session with a journal first (`advise.Session(journal=True)`, or \
+                     `advise`); journals are kept in $ADVISE_HOME or ~/.advise",
+                )
+            })?,
+        };
+        let restored =
+            Inner::restore(&path, &dir).map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
+        let inner = restored.session;
+        let stopped = restored
+            .stopped
+            .as_ref()
+            .map(|s| Diagnostic::of(inner.sources(), s, "warning"));
+        let resumed = Resumed {
+            path: path.display().to_string(),
+            entries: restored.entries,
+            notes: restored.notes,
+            stopped,
+            text: format!(
+                "resumed {}: {} statements restored; {}",
+                path.display(),
+                restored.entries,
+                inner.status()
+            ),
+        };
+        Ok(Session {
+            inner: Mutex::new(Some(inner)),
+            resumed: Some(resumed),
+        })
     }
 
     /// execute(statement) -> dict
@@ -53,19 +143,340 @@ impl Session {
     /// Run one statement (`load demos FILE`, `run goal 2 -1 0.5`, `select 10..20`,
     /// `advise slow_down(0.3)`, `eval`...). The reply: `kind` (`ran`, `selected`, `advised`,
     /// `critiqued`, `evaluated`, `defined`, `message`, `nothing`, `quit`), `text` (what the
-    /// REPL prints) and the kind's fields. A failing statement raises AdviseError.
-    fn execute<'py>(&mut self, py: Python<'py>, statement: &str) -> PyResult<Bound<'py, PyDict>> {
-        let reply = self
-            .inner
-            .execute(statement, "<python>")
-            .map_err(|e| from_diag(py, self.inner.sources(), &e))?;
-        reply_dict(py, &reply)
+    /// REPL prints) and the kind's fields. A failing statement raises AdviseError. With a
+    /// journal, what the statement changed is journalled before the reply is returned.
+    fn execute<'py>(&self, py: Python<'py>, statement: &str) -> PyResult<Bound<'py, PyDict>> {
+        self.run(py, statement, "<python>")
+    }
+
+    /// The journal this session writes (a path), or None when it keeps none.
+    #[getter]
+    fn journal_path(&self, py: Python<'_>) -> PyResult<Option<String>> {
+        let path = |i: &mut Inner| i.journal_path().map(|p| p.display().to_string());
+        Ok(self.lock(py)?.as_mut().and_then(path))
+    }
+
+    /// For a session made by `Session.resume`, what the restore said (what `advise resume`
+    /// prints): `path`, `entries` (statements restored), `notes` (a cut statement dropped, the
+    /// robot the session was on, a new journal), `stopped` (an advise.Diagnostic for the line the
+    /// restore stopped at, or None) and `text` (`resumed PATH: N statements restored; STATUS`).
+    /// None for a new session.
+    #[getter]
+    fn resumed<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(r) = &self.resumed else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("path", &r.path)?;
+        d.set_item("entries", r.entries)?;
+        d.set_item("notes", r.notes.clone())?;
+        d.set_item("stopped", r.stopped.clone())?;
+        d.set_item("text", &r.text)?;
+        Ok(Some(d))
+    }
+
+    /// The session's one-line summary (task, backend, data points, learner, executions), as the
+    /// REPL's banner prints it.
+    #[getter]
+    fn status(&self, py: Python<'_>) -> PyResult<String> {
+        self.with(py, |i| Ok(i.status()))
+    }
+
+    /// The number of executions the current task holds (`execution(i)` gives each).
+    #[getter]
+    fn executions(&self, py: Python<'_>) -> PyResult<usize> {
+        self.with(py, |i| Ok(i.executions().len()))
+    }
+
+    /// execution(index) -> dict
+    ///
+    /// Execution `index` of the current task (negative counts from the end) as arrays: `index`,
+    /// `label`, `observations` (n x obs_dim), `actions` (n x act_dim), `t` (n), the recorded
+    /// `pose` (n x 3: x, y, theta; None when the trace has none), and for a run `true_pose`
+    /// (n x 3, when the simulator knew it), `ball` (n x 2, interception), `outcome` (dict), and
+    /// `support`: for each step the data point whose action it took (an advise.Provenance, or
+    /// None), with `support_points` its position in the dataset now (-1 for none or a point no
+    /// longer there). `goal` ((x, y, theta) or None), `goal_values` (a declared task's goal),
+    /// `flagged` and `advised` (the chunks critiqued and advised, as (start, end)),
+    /// `observation_names` and `action_names`. An index out of range raises AdviseError.
+    fn execution<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyDict>> {
+        self.with(py, |inner| execution_at(py, inner, index))
     }
 
     /// The number of data points the policy holds.
-    fn __len__(&self) -> usize {
-        self.inner.learner().len()
+    fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
+        self.with(py, |i| Ok(i.learner().len()))
     }
+
+    /// close()
+    ///
+    /// End the session: its journal is closed and unlocked, so `advise resume` or
+    /// `Session.resume` may continue it (nothing is lost: every statement was journalled as it
+    /// ran). Any later use raises AdviseError `advise::py::closed`; closing again does nothing.
+    /// `with advise.Session(...) as s:` closes it at the end of the block.
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        *self.lock(py)? = None;
+        Ok(())
+    }
+
+    /// The session itself, for `with advise.Session(...) as s:`.
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    /// Close the session at the end of a `with` block (an exception goes on).
+    fn __exit__(
+        &self,
+        py: Python<'_>,
+        _kind: Option<&Bound<'_, PyAny>>,
+        _value: Option<&Bound<'_, PyAny>>,
+        _traceback: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<bool> {
+        self.close(py)?;
+        Ok(false)
+    }
+}
+
+impl Session {
+    /// Execute `statement` as coming from `origin` (journalled with it); the reply as a dict.
+    fn run<'py>(
+        &self,
+        py: Python<'py>,
+        statement: &str,
+        origin: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        self.with(py, |inner| {
+            // A run or an evaluation takes seconds: other Python threads run meanwhile.
+            let reply = py
+                .detach(|| inner.execute(statement, origin))
+                .map_err(|e| from_diag(py, inner.sources(), &e))?;
+            reply_dict(py, &reply)
+        })
+    }
+
+    /// The session's lock, unless another thread holds it. A statement that panicked left the
+    /// session as the panic found it; it is used on (the panic was raised in Python).
+    fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Option<Inner>>> {
+        match self.inner.try_lock() {
+            Ok(g) => Ok(g),
+            Err(TryLockError::Poisoned(p)) => Ok(p.into_inner()),
+            Err(TryLockError::WouldBlock) => Err(simple(
+                py,
+                "advise::py::busy",
+                "the session is running a statement in another thread".into(),
+                "a session runs one statement at a time: wait for that thread (`join` it), or \
+                 give each thread a session of its own",
+            )),
+        }
+    }
+
+    /// `f` on the session, unless `close` ended it or another thread is using it.
+    fn with<R>(&self, py: Python<'_>, f: impl FnOnce(&mut Inner) -> PyResult<R>) -> PyResult<R> {
+        f(self.lock(py)?.as_mut().ok_or_else(|| closed(py))?)
+    }
+}
+
+/// Execution `index` of `inner` (negative from the end): see `Session.execution`.
+fn execution_at<'py>(py: Python<'py>, inner: &Inner, index: isize) -> PyResult<Bound<'py, PyDict>> {
+    let all = inner.executions();
+    let i = if index < 0 {
+        all.len().checked_sub(index.unsigned_abs())
+    } else {
+        Some(index.unsigned_abs()).filter(|&i| i < all.len())
+    };
+    let Some(i) = i else {
+        return Err(simple(
+            py,
+            "advise::py::no_execution",
+            format!(
+                "there is no execution {index}: the session holds {} (task {})",
+                all.len(),
+                inner.task()
+            ),
+            "executions are numbered from 0 in the order they were run or loaded \
+             (`Session.executions` counts them); a negative index counts from the end",
+        ));
+    };
+    execution_dict(py, inner, i, &all[i])
+}
+
+/// Execution `i` (`rec`) of `inner` as a dict of arrays: see `Session.execution`.
+fn execution_dict<'py>(
+    py: Python<'py>,
+    inner: &Inner,
+    i: usize,
+    rec: &HeldExecution,
+) -> PyResult<Bound<'py, PyDict>> {
+    let tr = &rec.trace;
+    let n = tr.len();
+    let d = PyDict::new(py);
+    let domain = inner.domain();
+    d.set_item("index", i)?;
+    d.set_item("label", &rec.label)?;
+    d.set_item("observations", to_numpy(py, tr.z.clone(), n, tr.obs_dim())?)?;
+    d.set_item("actions", to_numpy(py, tr.a.clone(), n, tr.act_dim())?)?;
+    d.set_item("t", tr.t.clone().into_pyarray(py))?;
+    d.set_item("pose", poses(py, tr.pose.as_deref())?)?;
+    let run = rec.execution.as_ref();
+    d.set_item(
+        "true_pose",
+        poses(py, run.and_then(|e| e.true_poses.as_deref()))?,
+    )?;
+    let ball = match run.and_then(|e| e.ball.as_ref()) {
+        Some(b) => Some(to_numpy(py, b.concat(), b.len(), 2)?),
+        None => None,
+    };
+    d.set_item("ball", ball)?;
+    let outcome = match run {
+        Some(e) => Some(json_value(py, serde_json::to_string(&e.outcome))?),
+        None => None,
+    };
+    d.set_item("outcome", outcome)?;
+    let learner = inner.learner();
+    let support = rec.support.as_ref().map(|s| {
+        s.iter()
+            .map(|p| p.map(|p| Provenance::of(learner, p)))
+            .collect::<Vec<_>>()
+    });
+    let points = rec.support.as_ref().map(|s| {
+        s.iter()
+            .map(|p| {
+                p.and_then(|p| learner.dataset().position(p))
+                    .map_or(-1, |x| x as i64)
+            })
+            .collect::<Vec<i64>>()
+            .into_pyarray(py)
+    });
+    d.set_item("support", support)?;
+    d.set_item("support_points", points)?;
+    d.set_item("goal", rec.goal.map(|g| (g.x_m, g.y_m, g.theta_rad)))?;
+    d.set_item("goal_values", rec.goal_values.clone())?;
+    let chunks = |c: &[advise::trace::Chunk]| -> Vec<(usize, usize)> {
+        c.iter().map(|c| (c.start, c.end)).collect()
+    };
+    d.set_item("flagged", chunks(&rec.flagged))?;
+    d.set_item("advised", chunks(&rec.advised))?;
+    let names = |dims: &[advise::domain::Dim]| -> Vec<String> {
+        dims.iter().map(|x| x.name.clone()).collect()
+    };
+    d.set_item("observation_names", names(&domain.observe))?;
+    d.set_item("action_names", names(&domain.act))?;
+    Ok(d)
+}
+
+/// The refusal of a session `close` ended.
+fn closed(py: Python<'_>) -> PyErr {
+    simple(
+        py,
+        "advise::py::closed",
+        "the session is closed".into(),
+        "a closed session's journal may be continued: `advise.Session.resume(PATH)`",
+    )
+}
+
+/// `tasks=`: a task file, or a list of them (as `advise.make_env` takes them).
+fn task_files(py: Python<'_>, tasks: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<String>>> {
+    let Some(t) = tasks.filter(|t| !t.is_none()) else {
+        return Ok(None);
+    };
+    if let Ok(one) = t.extract::<String>() {
+        return Ok(Some(vec![one]));
+    }
+    t.extract::<Vec<String>>().map(Some).map_err(|_| {
+        simple(
+            py,
+            "advise::py::tasks",
+            format!(
+                "`tasks` is {}, not a task file or a list of them",
+                t.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+            ),
+            "pass the path of a file declaring the task (`tasks=\"dock.adv\"`) or a list of \
+             paths (`tasks=[\"dock.adv\", \"more.adv\"]`)",
+        )
+    })
+}
+
+/// `journal=`: None or False keeps none, True the CLI's directory, a path that directory.
+fn journal_dir(py: Python<'_>, journal: Option<&Bound<'_, PyAny>>) -> PyResult<Option<PathBuf>> {
+    let Some(j) = journal.filter(|j| !j.is_none()) else {
+        return Ok(None);
+    };
+    if let Ok(b) = j.cast::<PyBool>() {
+        return Ok(b.is_true().then(journal::default_dir));
+    }
+    j.extract::<PathBuf>().map(Some).map_err(|_| {
+        simple(
+            py,
+            "advise::py::journal",
+            format!(
+                "`journal` is {}, not a folder, True or None",
+                j.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+            ),
+            "pass journal=True to journal where `advise resume` looks ($ADVISE_HOME or \
+             ~/.advise), a folder (str or pathlib.Path) to journal there, or None for no journal",
+        )
+    })
+}
+
+/// A session on `task` as `advise --tasks FILE... --task NAME --demos N` starts one
+/// (`new_session` of the CLI): a built-in task directly; a declared task by the statements
+/// `tasks FILE` and `task NAME` (journalled, so a resumed session has them), then
+/// `load demos teacher:N` when the task has a teacher. Every mistake in the files, or an unknown
+/// name, is refused before anything starts.
+fn start(
+    py: Python<'_>,
+    task: &str,
+    tasks: Option<Vec<String>>,
+    seed: u64,
+    demos: usize,
+) -> PyResult<Inner> {
+    let files = tasks.clone().unwrap_or_default();
+    let kind = crate::demos::task_kind(py, task, tasks)?;
+    let builtin = TaskKind::builtin(task);
+    let opts = SessionOptions {
+        task: builtin.clone().unwrap_or(TaskKind::Positioning),
+        seed,
+        default_demos: if builtin.is_some() { demos } else { 0 },
+        ..SessionOptions::default()
+    };
+    let mut inner = Inner::new(opts).map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
+    let step = |inner: &mut Inner, statement: String, origin: &str| {
+        inner
+            .execute(&statement, origin)
+            .map(drop)
+            .map_err(|e| from_diag(py, inner.sources(), &e))
+    };
+    for file in &files {
+        step(&mut inner, format!("tasks \"{file}\""), "--tasks")?;
+    }
+    if builtin.is_none() {
+        step(&mut inner, format!("task {task}"), "--task")?;
+        if demos > 0 && kind.has_teacher() {
+            step(&mut inner, format!("load demos teacher:{demos}"), "--demos")?;
+        }
+    }
+    Ok(inner)
+}
+
+/// `poses` as an array of shape (n, 3): x, y, theta.
+fn poses<'py>(
+    py: Python<'py>,
+    poses: Option<&[Pose]>,
+) -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
+    let Some(p) = poses else {
+        return Ok(None);
+    };
+    let values = p.iter().flat_map(|q| [q.x_m, q.y_m, q.theta_rad]).collect();
+    to_numpy(py, values, p.len(), 3).map(Some)
+}
+
+/// `json` (what serde_json wrote) as Python data: dicts, lists, numbers.
+fn json_value<'py>(
+    py: Python<'py>,
+    json: serde_json::Result<String>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let json = json.expect("plain data serializes");
+    py.import("json")?.call_method1("loads", (json,))
 }
 
 /// `reply` as a dict: `kind`, `text` and the variant's fields.
@@ -108,9 +519,7 @@ fn reply_dict<'py>(py: Python<'py>, reply: &Reply) -> PyResult<Bound<'py, PyDict
             "critiqued"
         }
         Reply::Evaluated(e) => {
-            let json = serde_json::to_string(&e.report).expect("a report is plain data");
-            let report = py.import("json")?.call_method1("loads", (json,))?;
-            d.set_item("report", report)?;
+            d.set_item("report", json_value(py, serde_json::to_string(&e.report))?)?;
             "evaluated"
         }
     };
