@@ -103,3 +103,26 @@ def test_a_learners_dataset_carries_provenance_and_weights(demos):
     assert np.array_equal(np.array(t.column("observation").to_pylist()), z)
     assert json.loads(t.schema.metadata[b"advise.demonstrations"])[0]["name"] == names[0]
     assert t.schema.metadata[b"advise.domain"] == b"positioning"
+
+
+def test_a_sessions_dataset_says_which_points_are_advice(demos):
+    pa = pytest.importorskip("pyarrow")
+    s = advise.Session(task="positioning", demos=0)
+    s.execute(f"load demos {demos / 'd.csv'}")
+    s.execute("run goal 2 -1 0.5")
+    s.execute("select 10..30")
+    adv = s.execute("advise slow_down(0.3)")
+    ds = s.dataset()
+    is_advice = ds["source"] == "advice"
+    assert is_advice.sum() == adv["added"] and len(ds["weights"]) == len(s)
+    assert ds["advice"][0]["invocation"] == "slow_down(rate = 0.3)"
+    assert ds["advice"][0]["chunk"] == (10, 30)
+    # Each advice point came from an execution point in the chunk, in order.
+    src = ds["execution_index"][is_advice]
+    assert ((src >= 10) & (src < 30)).all() and (np.diff(src) > 0).all()
+    assert (ds["execution_index"][~is_advice] == -1).all()
+    # The run's own arrays: the advice points are synthesized from its observations.
+    run = s.execution(0)
+    assert run["observations"].shape[1] == ds["observations"].shape[1]
+    t = advise.to_arrow(ds)
+    assert t.column("advise.source").to_pylist().count("advice") == adv["added"]

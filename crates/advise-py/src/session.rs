@@ -203,6 +203,18 @@ impl Session {
         self.with(py, |inner| execution_at(py, inner, index))
     }
 
+    /// dataset() -> dict
+    ///
+    /// The current task's data points with their provenance, in dataset order (what `save`
+    /// writes): the same dict as `BC.dataset()` (`observations`, `actions`, `weights`, `source`
+    /// `"demonstration"` or `"advice"`, `source_id`, `index`, `execution_index`,
+    /// `demonstrations`, `advice`...). `advise.to_arrow` makes it a pyarrow table.
+    fn dataset<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        self.with(py, |i| {
+            crate::dataset::dataset_dict(py, i.learner().dataset())
+        })
+    }
+
     /// The number of data points the policy holds.
     fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
         self.with(py, |i| Ok(i.learner().len()))
