@@ -50,16 +50,19 @@ def test_why_gives_the_repls_text(session):
     bc.critique(z, chunk=(10, 30), kappa=2.0, actions=a)
     w = bc.why(z[12])
     assert isinstance(w, advise.Why)
-    # The BC part word for word. The LWR line differs: the REPL's learner was switched to BC
-    # after loading (`learner bc`) and its why reports no LWR neighbourhood, while a BC fitted
-    # here reports one (noted for the lead, not changed here).
+    # The BC part word for word. The LWR line differs: the REPL's learner ran as LWR before
+    # `learner bc` and keeps the LWR parameters tuned then; a BC fitted here never tuned LWR,
+    # and says so instead of reporting its untuned defaults' neighbourhood.
     bc_part = w.text.split("LWR:")[0]
     assert bc_part.startswith("nearest (BC): point ") and bc_part in out
+    assert not w.lwr_tuned
+    assert "LWR: not tuned on this data (the running learner is BC 1-NN; `learner lwr` tunes it)" in w.text
     assert w.provenance.kind == "demonstration" and w.provenance.name.startswith("demo-")
     assert w.weighted == pytest.approx(w.m * w.distance)
     assert w.action == w.bc_action
     lwr = advise.LWR(task="positioning").fit_file(str(d / "demos.csv"))
     assert np.array_equal(np.array([lwr.why(q).action for q in z[:5]]), lwr.predict(z[:5]))
+    assert lwr.why(z[12]).lwr_tuned and "LWR: not tuned" not in lwr.why(z[12]).text
 
 
 def test_bad_critiques_raise_coded_errors(session):

@@ -216,6 +216,13 @@ impl Learner {
         self.kind
     }
 
+    /// The number of points LWR's parameters were last fully tuned on; `None` while a BC
+    /// learner has never run as LWR (its LWR parameters are the untuned defaults). After
+    /// `learner bc`, LWR keeps the parameters tuned while it ran.
+    pub fn lwr_tuned_at(&self) -> Option<usize> {
+        self.tuning.since_full.map(|_| self.tuning.full_at_len)
+    }
+
     pub fn set_kind(&mut self, kind: LearnerKind) {
         self.kind = kind;
     }
@@ -742,7 +749,14 @@ impl Learner {
         }
         let mut a = vec![0.0; self.ds.domain().act_dim()];
         let ans = self.regress(z, &mut a);
-        if ans.total_weight > 0.0 {
+        if self.lwr_tuned_at().is_none() {
+            // A BC learner that never ran as LWR: its LWR parameters are the untuned defaults,
+            // whose answer says nothing about this data.
+            let _ = writeln!(
+                out,
+                "LWR: not tuned on this data (the running learner is BC 1-NN; `learner lwr` tunes it)"
+            );
+        } else if ans.total_weight > 0.0 {
             let _ = writeln!(
                 out,
                 "LWR: {} neighbours, total kernel weight {:.4}, a = [{}]",

@@ -120,8 +120,9 @@ impl Critique {
 
 /// Why the learner acts as it does at one observation: the BC 1-nearest point (`point`, its
 /// scaled `distance`, weight `m`, `weighted` = m * distance, its `bc_action` and `provenance`),
-/// LWR's `lwr_neighbours`, `lwr_total_weight` and `lwr_action`, the running learner's `action`,
-/// and `text`, what the REPL's `why` prints after its first line.
+/// LWR's `lwr_neighbours`, `lwr_total_weight` and `lwr_action` (`lwr_tuned` False for a BC learner
+/// that never ran as LWR: those three then come from LWR's untuned default parameters), the
+/// running learner's `action`, and `text`, what the REPL's `why` prints after its first line.
 #[pyclass(module = "advise", frozen, get_all)]
 pub struct Why {
     pub point: Option<usize>,
@@ -133,6 +134,7 @@ pub struct Why {
     pub lwr_neighbours: usize,
     pub lwr_total_weight: f64,
     pub lwr_action: Vec<f64>,
+    pub lwr_tuned: bool,
     pub action: Vec<f64>,
     pub text: String,
 }
@@ -288,6 +290,7 @@ pub fn why(
         lwr_neighbours: answer.neighbours,
         lwr_total_weight: answer.total_weight,
         lwr_action,
+        lwr_tuned: learner.lwr_tuned_at().is_some(),
         action,
         text,
     })
