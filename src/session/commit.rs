@@ -239,6 +239,14 @@ impl Session {
                     None => None,
                 };
                 let id = self.state.learner.try_add_execution(&trace)?;
+                // The dataset keeps the goal too, so that `open` gives the run back with it.
+                let goal = entry
+                    .goal
+                    .map(|g| vec![g.x_m, g.y_m, g.theta_rad])
+                    .or_else(|| entry.goal_values.clone());
+                if let Some(goal) = goal {
+                    self.state.learner.set_execution_goal(id, goal)?;
+                }
                 let (execution, support) = match &entry.run {
                     Some(run) => {
                         self.state.runs = runs.unwrap_or(self.state.runs);

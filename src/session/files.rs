@@ -298,6 +298,39 @@ impl Session {
     /// still in it, in the order made, so `history`, `why`, `show` and `undo` find them). The
     /// live `open` and a journal's `open` line both come here, so a resumed session restores the
     /// same numbering.
+    /// A saved execution's goal as the session's task holds it: positioning's pose, or a declared
+    /// task's values; held to the rules a run's goal is held to. Nothing for a file without one
+    /// (a loaded trace, or a file written before goals were kept) or for interception.
+    fn opened_goal(
+        &self,
+        goal: Option<&[f64]>,
+    ) -> Result<(Option<crate::trace::Pose>, Option<Vec<f64>>), SessionError> {
+        let Some(values) = goal else {
+            return Ok((None, None));
+        };
+        match &self.task {
+            task::TaskKind::Positioning => match *values {
+                [x, y, theta] => {
+                    super::run::check_goal(x, y, theta)?;
+                    Ok((Some(crate::trace::Pose::new(x, y, theta)), None))
+                }
+                _ => Err(SessionError::BadGoal {
+                    goal: values
+                        .iter()
+                        .take(8)
+                        .map(|v| crate::number::fmt_num(*v))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                }),
+            },
+            task::TaskKind::Declared(_) => {
+                super::run::check_goal_values(&self.task, values)?;
+                Ok((None, Some(values.to_vec())))
+            }
+            task::TaskKind::Interception => Ok((None, None)),
+        }
+    }
+
     pub(super) fn adopt_opened(
         &mut self,
         learner: crate::policy::learner::Learner,
@@ -307,11 +340,12 @@ impl Session {
         let ds = self.state.learner.dataset();
         let mut executions = Vec::new();
         for (i, rec) in ds.executions().iter().enumerate() {
+            let (goal, goal_values) = self.opened_goal(rec.goal.as_deref())?;
             executions.push(super::HeldExecution {
                 label: format!("{path} execution {i}"),
                 trace: ds.execution(rec.id).map_err(LearnerError::from)?,
-                goal: None,
-                goal_values: None,
+                goal,
+                goal_values,
                 execution: None,
                 support: None,
                 id: rec.id,
@@ -468,7 +502,7 @@ impl Restored {
     /// never a session's: nothing of one is missing.
     fn not_restored(&self) -> Option<String> {
         (self.executions > 0).then(|| {
-            "a dataset file does not hold a run's label, goal and outcome (the executions are \
+            "a dataset file does not hold a run's label and outcome (the executions are \
              named by the file; `critique` needs a run made in this session, which knows what \
              recommended each step), the selection, undone edits or the last evaluation: they \
              were not restored"

@@ -473,3 +473,38 @@ def test_a_statement_lets_other_python_threads_run():
     ]
     # Free again once the statement is done.
     assert s.status.startswith("task positioning, backend sim, ")
+
+
+def test_an_opened_datasets_runs_keep_their_goals(tmp_path):
+    # Positioning's goal pose and a declared task's goal values are saved with the run, and
+    # `open` gives the runs back with them (plots draw them); a goal edited out of range is
+    # refused as a run's goal is.
+    s = advise.Session(demos=3)
+    s.execute("run goal 2 -1 0.5")
+    s.execute("select 10..30")
+    s.execute("advise slow_down(0.3)")
+    s.execute(f"save {tmp_path / 'p.json'}")
+    saved = json.loads((tmp_path / "p.json").read_text())
+    assert saved["executions"][0]["goal"] == [2, -1, 0.5]
+    o = advise.Session()
+    o.execute(f"open {tmp_path / 'p.json'}")
+    assert o.execution(0)["goal"] == (2.0, -1.0, 0.5) and o.execution(0)["goal_values"] is None
+    tasks = os.path.abspath("examples/tasks/standoff.adv")
+    st = advise.Session(task="standoff", tasks=tasks, demos=2)
+    ran = st.execute("run start 0")
+    st.execute(f"save {tmp_path / 's.json'}")
+    values = st.execution(0)["goal_values"]
+    assert values and json.loads((tmp_path / "s.json").read_text())["executions"][0]["goal"] == values
+    so = advise.Session(task="standoff", tasks=tasks)
+    so.execute(f"open {tmp_path / 's.json'}")
+    assert so.execution(0)["goal_values"] == values and so.execution(0)["goal"] is None
+    saved["executions"][0]["goal"] = [2, -1]
+    (tmp_path / "bad.json").write_text(json.dumps(saved))
+    with pytest.raises(advise.AdviseError) as e:
+        advise.Session().execute(f"open {tmp_path / 'bad.json'}")
+    assert e.value.code == "advise::session::bad_goal"
+    saved["executions"][0]["goal"] = [2, -1, 99]
+    (tmp_path / "bad.json").write_text(json.dumps(saved))
+    with pytest.raises(advise.AdviseError) as e:
+        advise.Session().execute(f"open {tmp_path / 'bad.json'}")
+    assert e.value.code == "advise::session::bad_goal"

@@ -64,6 +64,12 @@ pub struct DemoRecord {
 #[serde(deny_unknown_fields)]
 pub struct ExecutionRecord {
     pub id: ExecutionId,
+    /// The goal the run was given, a value for each of the task's goal parameters (x, y, theta
+    /// for positioning), so that an opened dataset's runs keep their goals (plots draw them).
+    /// Absent for a trace loaded from a file, an interception run, and in files written before
+    /// goals were kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal: Option<Vec<f64>>,
     pub points: Vec<JsonPoint>,
 }
 
@@ -526,9 +532,29 @@ impl Dataset {
         let id = self.fresh_id()?;
         self.executions.push(ExecutionRecord {
             id,
+            goal: None,
             points: trace.to_json().points,
         });
         Ok(id)
+    }
+
+    /// Record the goal execution `id` was run to (see [`ExecutionRecord::goal`]); values that
+    /// are not all finite are refused.
+    pub fn set_execution_goal(
+        &mut self,
+        id: ExecutionId,
+        goal: Vec<f64>,
+    ) -> Result<(), DatasetError> {
+        for &v in &goal {
+            check_finite_value(v, || format!("the goal of execution {id}"))?;
+        }
+        let rec = self
+            .executions
+            .iter_mut()
+            .find(|e| e.id == id)
+            .ok_or(DatasetError::UnknownExecution(id))?;
+        rec.goal = Some(goal);
+        Ok(())
     }
 
     /// The position of execution `id` among the dataset's executions (0 for the first recorded):

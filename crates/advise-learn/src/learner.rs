@@ -330,6 +330,15 @@ impl Learner {
         Ok(self.ds.add_execution(trace)?)
     }
 
+    /// Record the goal execution `id` was run to ([`Dataset::set_execution_goal`]).
+    pub fn set_execution_goal(
+        &mut self,
+        id: ExecutionId,
+        goal: Vec<f64>,
+    ) -> Result<(), LearnerError> {
+        Ok(self.ds.set_execution_goal(id, goal)?)
+    }
+
     /// Add synthesized advice points; the policy is updated incrementally.
     pub fn add_advice(
         &mut self,

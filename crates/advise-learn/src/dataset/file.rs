@@ -568,6 +568,9 @@ fn validate_ids(file: &DatasetFile) -> Result<(), DatasetError> {
 fn validate_executions(file: &DatasetFile) -> Result<(), DatasetError> {
     let domain = &file.domain;
     for (i, e) in file.executions.iter().enumerate() {
+        for &v in e.goal.iter().flatten() {
+            finite(format!("executions[{i}].goal"), v)?;
+        }
         for (j, p) in e.points.iter().enumerate() {
             let at = format!("executions[{i}].points[{j}]");
             // Executions are what the base recorded; they are checked for shape, not limits
