@@ -508,3 +508,45 @@ def test_an_opened_datasets_runs_keep_their_goals(tmp_path):
     with pytest.raises(advise.AdviseError) as e:
         advise.Session().execute(f"open {tmp_path / 'bad.json'}")
     assert e.value.code == "advise::session::bad_goal"
+
+
+def test_ctrl_c_stops_a_run_on_a_real_base_and_keeps_the_execution():
+    # A run on `advise rmp-emulator` (a Segway RMP on the loopback address, driven in real time),
+    # interrupted by SIGINT after 1.5 s: the statement ends within moments with the signal's
+    # exception, and the run so far is kept, marked interrupted, as at the REPL.
+    import signal
+    import threading
+    import time
+
+    emu = subprocess.Popen([os.environ["ADVISE_BIN"], "rmp-emulator", "--bind", "127.0.0.1:0"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        addr = re.search(r" on (127\.0\.0\.1:\d+)", emu.stdout.readline()).group(1)
+        s = advise.Session(backend=f"rmp:{addr}", demos=9)
+
+        class Interrupted(Exception):
+            pass
+
+        def handler(signum, frame):
+            raise Interrupted()
+
+        old = signal.signal(signal.SIGINT, handler)
+        timer = threading.Timer(1.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+        try:
+            started = time.perf_counter()
+            timer.start()
+            with pytest.raises(Interrupted):
+                s.execute("run goal 3 1 0")
+            took = time.perf_counter() - started
+        finally:
+            timer.cancel()
+            signal.signal(signal.SIGINT, old)
+        assert 1.4 < took < 3.5, took
+        run = s.execution(-1)
+        assert run["label"] == "run goal 3 1 0 (interrupted)", run["label"]
+        # Some 1.5 s of 50 Hz control steps, not the whole run.
+        assert 30 < len(run["t"]) < 150, len(run["t"])
+        s.close()
+    finally:
+        emu.terminate()
+        emu.wait(timeout=10)

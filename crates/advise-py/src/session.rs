@@ -5,7 +5,9 @@
 //! as `advise resume` does ([`Session::resume`]): nothing re-run, no robot connected or driven.
 
 use std::path::PathBuf;
+use std::sync::mpsc::RecvTimeoutError;
 use std::sync::{Mutex, MutexGuard, TryLockError};
+use std::time::Duration;
 
 use advise::diag::SourceMap;
 use advise::session::{HeldExecution, Reply};
@@ -258,10 +260,55 @@ impl Session {
         origin: &str,
     ) -> PyResult<Bound<'py, PyDict>> {
         self.with(py, |inner| {
-            // A run or an evaluation takes seconds: other Python threads run meanwhile.
-            let reply = py
-                .detach(|| inner.execute(statement, origin))
-                .map_err(|e| from_diag(py, inner.sources(), &e))?;
+            let stop = inner.stop_signal();
+            let mut interrupted: Option<PyErr> = None;
+            // The statement runs on a thread of its own while this one, without the GIL but for
+            // a moment every 50 ms, waits for it: other Python threads run meanwhile, and Ctrl-C
+            // (a Python signal, which only this thread can see) stops a run as it does at the
+            // REPL: the base is commanded to zero at once and the run ends at its next step.
+            let result = std::thread::scope(|scope| {
+                let (tx, rx) = std::sync::mpsc::channel();
+                let work = &mut *inner;
+                scope.spawn(move || {
+                    let _ = tx.send(work.execute(statement, origin));
+                });
+                let mut rx = rx;
+                loop {
+                    // The receiver goes to the GIL-free closure and back (it is not `Sync`).
+                    let (back, got) = py.detach(move || {
+                        let got = rx.recv_timeout(Duration::from_millis(50));
+                        (rx, got)
+                    });
+                    rx = back;
+                    match got {
+                        Ok(r) => return Some(r),
+                        // The statement panicked: the scope raises it when it ends.
+                        Err(RecvTimeoutError::Disconnected) => return None,
+                        Err(RecvTimeoutError::Timeout) => {
+                            // Raised again each time: a run starting after the signal clears it.
+                            if interrupted.is_some() {
+                                stop.raise();
+                            } else if let Err(e) = py.check_signals() {
+                                stop.raise();
+                                interrupted = Some(e);
+                            }
+                        }
+                    }
+                }
+            });
+            if let Some(e) = interrupted {
+                // What was done is kept (an interrupted run's execution among them).
+                return Err(e);
+            }
+            let Some(result) = result else {
+                return Err(simple(
+                    py,
+                    "advise::py::panicked",
+                    "the statement ended without a reply".into(),
+                    "this is a bug of advise; the session is as the statement left it",
+                ));
+            };
+            let reply = result.map_err(|e| from_diag(py, inner.sources(), &e))?;
             reply_dict(py, &reply)
         })
     }
