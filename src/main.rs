@@ -73,35 +73,26 @@ fn main() -> ExitCode {
 /// session has them), then `load demos teacher:N` when the task has a teacher.
 fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
     // Every mistake in the files, or an unknown name, is reported before anything starts.
-    let kind = cli::resolve_task(&args.task, &args.tasks)?;
-    let builtin = TaskKind::builtin(&args.task);
+    cli::resolve_task(&args.task, &args.tasks)?;
+    let builtin = TaskKind::builtin(&args.task).is_some();
     let opts = SessionOptions {
-        task: builtin.clone().unwrap_or(TaskKind::Positioning),
-        seed: args.seed,
-        default_demos: if builtin.is_some() { demos } else { 0 },
         progress: true,
-        ..SessionOptions::default()
+        ..SessionOptions::starting_on(&args.task, args.seed, demos)
     };
     let mut session = Session::new(opts)?;
     // The session starts on `--task`: a file's hint to switch to it would be a step already taken.
     let switch = format!("; switch with `task {}`", args.task);
-    for file in &args.tasks {
-        let quoted = format!("\"{}\"", file.display());
-        let reply = session
-            .execute(&format!("tasks {quoted}"), "--tasks")?
-            .to_string();
-        match reply.strip_suffix(&switch).filter(|_| builtin.is_none()) {
-            Some(checked) => eprintln!("{checked}; the session starts on task {}", args.task),
-            None => eprintln!("{reply}"),
+    session.reach_task(&args.task, &args.tasks, demos, &mut |origin, reply| {
+        let reply = reply.to_string();
+        match origin {
+            "--tasks" => match reply.strip_suffix(&switch).filter(|_| !builtin) {
+                Some(checked) => eprintln!("{checked}; the session starts on task {}", args.task),
+                None => eprintln!("{reply}"),
+            },
+            "--demos" => eprintln!("{reply}"),
+            _ => {}
         }
-    }
-    if builtin.is_none() {
-        session.execute(&format!("task {}", args.task), "--task")?;
-        if demos > 0 && kind.has_teacher() {
-            let reply = session.execute(&format!("load demos teacher:{demos}"), "--demos")?;
-            eprintln!("{reply}");
-        }
-    }
+    })?;
     Ok(session)
 }
 
@@ -246,13 +237,8 @@ fn resume(journal_path: Option<PathBuf>) -> miette::Result<ExitCode> {
         })?,
     };
     let restored = Session::restore(&path, &dir)?;
+    println!("{}", restored.summary(&path));
     let mut session = restored.session;
-    println!(
-        "resumed {}: {} statements restored; {}",
-        path.display(),
-        restored.entries,
-        session.status()
-    );
     if let Some(stopped) = &restored.stopped {
         cli::print_report(session.sources(), stopped);
     }

@@ -102,6 +102,33 @@ impl Default for SessionOptions {
     }
 }
 
+impl SessionOptions {
+    /// Options for a session that starts on the task `name` (see [`Session::reach_task`]): a
+    /// built-in task directly, with `demos` teacher demonstrations; a declared one starts on
+    /// positioning, without any, and is reached by statements.
+    pub fn starting_on(name: &str, seed: u64, demos: usize) -> SessionOptions {
+        let builtin = TaskKind::builtin(name);
+        SessionOptions {
+            default_demos: if builtin.is_some() { demos } else { 0 },
+            task: builtin.unwrap_or(TaskKind::Positioning),
+            seed,
+            ..SessionOptions::default()
+        }
+    }
+}
+
+impl Restored {
+    /// What `advise resume` says of it: `resumed PATH: N statements restored; STATUS`.
+    pub fn summary(&self, path: &Path) -> String {
+        format!(
+            "resumed {}: {} statements restored; {}",
+            path.display(),
+            self.entries,
+            self.session.status()
+        )
+    }
+}
+
 /// What one task's work consists of. Each task keeps its own: switching task parks it and
 /// switching back restores it.
 struct TaskState {
@@ -345,6 +372,33 @@ impl Session {
     /// commanded to zero and decelerate-to-zero, and this waits (bounded) until it is at rest.
     pub fn stop_robot(&mut self) -> String {
         self.backend.stop_now()
+    }
+
+    /// Reach the task `name` as a teacher would (`advise --tasks FILE... --task NAME --demos N`,
+    /// on a session made with [`SessionOptions::starting_on`]): `tasks FILE` for each of `files`,
+    /// then, for a declared task, `task NAME` and, when it has a teacher, `load demos teacher:N`.
+    /// Each is journalled with its origin (`--tasks`, `--task`, `--demos`), so a resumed session
+    /// has them; `said` is given each statement's origin and reply.
+    pub fn reach_task(
+        &mut self,
+        name: &str,
+        files: &[PathBuf],
+        demos: usize,
+        said: &mut dyn FnMut(&str, &Reply),
+    ) -> Result<(), SessionError> {
+        for file in files {
+            let reply = self.execute(&format!("tasks \"{}\"", file.display()), "--tasks")?;
+            said("--tasks", &reply);
+        }
+        if TaskKind::builtin(name).is_none() {
+            let reply = self.execute(&format!("task {name}"), "--task")?;
+            said("--task", &reply);
+            if demos > 0 && self.task.has_teacher() {
+                let reply = self.execute(&format!("load demos teacher:{demos}"), "--demos")?;
+                said("--demos", &reply);
+            }
+        }
+        Ok(())
     }
 
     /// Run one statement. `origin` names it in diagnostics (`<repl>`, `script.adv:12`).

@@ -2,7 +2,6 @@
 //! kept, idempotent, the meaning unchanged) and `advise test` (the doc examples, run).
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use advise::diag::SourceMap;
 use advise::syntax::fmt::{format, format_script, is_script};
@@ -10,20 +9,8 @@ use advise::syntax::fmt::{format, format_script, is_script};
 mod common;
 
 fn advise(dir: &Path, args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_advise"))
-        .args(args)
-        .current_dir(dir)
-        .env("NO_COLOR", "1")
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        format!(
-            "{}{}",
-            String::from_utf8_lossy(&out.stdout),
-            String::from_utf8_lossy(&out.stderr)
-        ),
-    )
+    let (status, text) = common::advise_status(dir, args);
+    (status.code().unwrap_or(-1), text)
 }
 
 fn files_under(dir: &str) -> Vec<PathBuf> {

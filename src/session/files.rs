@@ -46,9 +46,10 @@ impl Session {
     ) -> Result<String, SessionError> {
         let started = Instant::now();
         let mut from_dataset = String::new();
-        topics_only_for_a_bag(path, options)?;
         let episodes = match path.strip_prefix("teacher:") {
             Some(n) => {
+                // A file's topics are checked where it is read (`read_demos_file`).
+                topics_only_for_a_bag(path, options)?;
                 let count: usize = n
                     .parse()
                     .ok()

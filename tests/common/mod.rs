@@ -260,6 +260,12 @@ impl Backend for Flaky {
 /// Run the `advise` binary with `args` in `dir` (no colour): whether it succeeded, and its
 /// stdout then stderr.
 pub fn advise_in(dir: &Path, args: &[&str]) -> (bool, String) {
+    let (status, text) = advise_status(dir, args);
+    (status.success(), text)
+}
+
+/// [`advise_in`], with the exit status itself.
+pub fn advise_status(dir: &Path, args: &[&str]) -> (std::process::ExitStatus, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_advise"))
         .args(args)
         .current_dir(dir)
@@ -268,5 +274,5 @@ pub fn advise_in(dir: &Path, args: &[&str]) -> (bool, String) {
         .unwrap();
     let mut text = String::from_utf8_lossy(&out.stdout).into_owned();
     text.push_str(&String::from_utf8_lossy(&out.stderr));
-    (out.status.success(), text)
+    (out.status, text)
 }

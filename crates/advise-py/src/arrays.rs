@@ -1,8 +1,10 @@
 //! Numpy arrays in and out: any array-like is taken as a C-contiguous float64 matrix, checked
 //! for its shape and for values that are not numbers before Rust code sees it.
 
+use advise::domain::{Dim, Domain};
 use numpy::{IntoPyArray, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 use crate::error::simple;
 
@@ -65,4 +67,16 @@ pub fn to_numpy<'py>(
     cols: usize,
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     values.into_pyarray(py).reshape([rows, cols])
+}
+
+/// `strings` as a numpy array of str (numpy's own `array`, so its dtype is numpy's choice).
+pub fn str_array<'py>(py: Python<'py>, strings: Vec<&str>) -> PyResult<Bound<'py, PyAny>> {
+    py.import("numpy")?.call_method1("array", (strings,))
+}
+
+/// `observation_names` and `action_names` of `domain` into `d`: its dimensions' names, in order.
+pub fn set_dim_names(d: &Bound<'_, PyDict>, domain: &Domain) -> PyResult<()> {
+    let names = |dims: &[Dim]| dims.iter().map(|x| x.name.clone()).collect::<Vec<_>>();
+    d.set_item("observation_names", names(&domain.observe))?;
+    d.set_item("action_names", names(&domain.act))
 }

@@ -12,7 +12,7 @@ use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use crate::arrays::to_numpy;
+use crate::arrays::{set_dim_names, str_array, to_numpy};
 use crate::demos::task_kind;
 use crate::error::{from_diag, simple};
 use crate::ops::{apply_on_chunk, merge};
@@ -51,12 +51,11 @@ pub fn dataset_dict<'py>(py: Python<'py>, ds: &Dataset) -> PyResult<Bound<'py, P
             }
         }
     }
-    let numpy = py.import("numpy")?;
     let d = PyDict::new(py);
     d.set_item("observations", to_numpy(py, z, n, domain.obs_dim())?)?;
     d.set_item("actions", to_numpy(py, a, n, domain.act_dim())?)?;
     d.set_item("weights", ds.weights().into_pyarray(py))?;
-    d.set_item("source", numpy.call_method1("array", (source,))?)?;
+    d.set_item("source", str_array(py, source)?)?;
     d.set_item("source_id", source_id.into_pyarray(py))?;
     d.set_item("index", index.into_pyarray(py))?;
     d.set_item("execution_index", from.into_pyarray(py))?;
@@ -81,10 +80,7 @@ pub fn dataset_dict<'py>(py: Python<'py>, ds: &Dataset) -> PyResult<Bound<'py, P
     }
     d.set_item("advice", advice)?;
     d.set_item("domain", &domain.name)?;
-    let names =
-        |dims: &[advise::domain::Dim]| dims.iter().map(|x| x.name.clone()).collect::<Vec<_>>();
-    d.set_item("observation_names", names(&domain.observe))?;
-    d.set_item("action_names", names(&domain.act))?;
+    set_dim_names(&d, domain)?;
     Ok(d)
 }
 
@@ -193,10 +189,7 @@ pub fn advise_demos<'py>(
     reply.set_item("invocation", applied.advice.invocation())?;
     reply.set_item("observations", to_numpy(py, z, n, od)?)?;
     reply.set_item("actions", to_numpy(py, a, n, ad)?)?;
-    reply.set_item(
-        "source",
-        py.import("numpy")?.call_method1("array", (source,))?,
-    )?;
+    reply.set_item("source", str_array(py, source)?)?;
     Ok(reply)
 }
 

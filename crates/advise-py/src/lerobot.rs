@@ -15,7 +15,7 @@ use numpy::IntoPyArray;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use crate::arrays::to_numpy;
+use crate::arrays::{set_dim_names, to_numpy};
 use crate::error::{from_diag, simple};
 use crate::ops::{apply_on_chunk, domain_in, merge};
 
@@ -66,9 +66,6 @@ pub fn load_lerobot<'py>(
         a.extend_from_slice(&e.trace.a);
         t.extend_from_slice(&e.trace.t);
     }
-    let names = |dims: &[advise::domain::Dim]| -> Vec<String> {
-        dims.iter().map(|d| d.name.clone()).collect()
-    };
     let out = PyDict::new(py);
     out.set_item("observations", to_numpy(py, z, n, domain.obs_dim())?)?;
     out.set_item("actions", to_numpy(py, a, n, domain.act_dim())?)?;
@@ -77,8 +74,7 @@ pub fn load_lerobot<'py>(
     out.set_item("timestamp", t.into_pyarray(py))?;
     out.set_item("fps", read.fps)?;
     out.set_item("domain", &domain.name)?;
-    out.set_item("observation_names", names(&domain.observe))?;
-    out.set_item("action_names", names(&domain.act))?;
+    set_dim_names(&out, &domain)?;
     out.set_item("mapping", read.mapping)?;
     out.set_item("path", path)?;
     Ok(out)

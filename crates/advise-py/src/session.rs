@@ -12,13 +12,12 @@ use std::time::Duration;
 use advise::diag::SourceMap;
 use advise::session::{HeldExecution, Reply};
 use advise::session::{Session as Inner, SessionOptions, journal};
-use advise::task::TaskKind;
 use advise::trace::Pose;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
 
-use crate::arrays::to_numpy;
+use crate::arrays::{set_dim_names, to_numpy};
 use crate::diag::Diagnostic;
 use crate::error::{from_diag, simple};
 use crate::explain::Provenance;
@@ -117,6 +116,7 @@ impl Session {
         };
         let restored =
             Inner::restore(&path, &dir).map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
+        let text = restored.summary(&path);
         let inner = restored.session;
         let stopped = restored
             .stopped
@@ -127,12 +127,7 @@ impl Session {
             entries: restored.entries,
             notes: restored.notes,
             stopped,
-            text: format!(
-                "resumed {}: {} statements restored; {}",
-                path.display(),
-                restored.entries,
-                inner.status()
-            ),
+            text,
         };
         Ok(Session {
             inner: Mutex::new(Some(inner)),
@@ -415,11 +410,7 @@ fn execution_dict<'py>(
     };
     d.set_item("flagged", chunks(&rec.flagged))?;
     d.set_item("advised", chunks(&rec.advised))?;
-    let names = |dims: &[advise::domain::Dim]| -> Vec<String> {
-        dims.iter().map(|x| x.name.clone()).collect()
-    };
-    d.set_item("observation_names", names(&domain.observe))?;
-    d.set_item("action_names", names(&domain.act))?;
+    set_dim_names(&d, domain)?;
     Ok(d)
 }
 
@@ -478,10 +469,8 @@ fn journal_dir(py: Python<'_>, journal: Option<&Bound<'_, PyAny>>) -> PyResult<O
 }
 
 /// A session on `task` as `advise --tasks FILE... --task NAME --demos N` starts one
-/// (`new_session` of the CLI): a built-in task directly; a declared task by the statements
-/// `tasks FILE` and `task NAME` (journalled, so a resumed session has them), then
-/// `load demos teacher:N` when the task has a teacher. Every mistake in the files, or an unknown
-/// name, is refused before anything starts.
+/// ([`SessionOptions::starting_on`], [`Inner::reach_task`]). Every mistake in the files, or an
+/// unknown name, is refused before anything starts.
 fn start(
     py: Python<'_>,
     task: &str,
@@ -489,31 +478,13 @@ fn start(
     seed: u64,
     demos: usize,
 ) -> PyResult<Inner> {
-    let files = tasks.clone().unwrap_or_default();
-    let kind = crate::demos::task_kind(py, task, tasks)?;
-    let builtin = TaskKind::builtin(task);
-    let opts = SessionOptions {
-        task: builtin.clone().unwrap_or(TaskKind::Positioning),
-        seed,
-        default_demos: if builtin.is_some() { demos } else { 0 },
-        ..SessionOptions::default()
-    };
+    let files: Vec<PathBuf> = tasks.iter().flatten().map(PathBuf::from).collect();
+    crate::demos::task_kind(py, task, tasks)?;
+    let opts = SessionOptions::starting_on(task, seed, demos);
     let mut inner = Inner::new(opts).map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
-    let step = |inner: &mut Inner, statement: String, origin: &str| {
-        inner
-            .execute(&statement, origin)
-            .map(drop)
-            .map_err(|e| from_diag(py, inner.sources(), &e))
-    };
-    for file in &files {
-        step(&mut inner, format!("tasks \"{file}\""), "--tasks")?;
-    }
-    if builtin.is_none() {
-        step(&mut inner, format!("task {task}"), "--task")?;
-        if demos > 0 && kind.has_teacher() {
-            step(&mut inner, format!("load demos teacher:{demos}"), "--demos")?;
-        }
-    }
+    inner
+        .reach_task(task, &files, demos, &mut |_, _| {})
+        .map_err(|e| from_diag(py, inner.sources(), &e))?;
     Ok(inner)
 }
 
