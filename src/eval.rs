@@ -21,7 +21,7 @@ use crate::backend::sim::SimParams;
 use crate::backend::{Backend, BackendError};
 use crate::domain::Domain;
 use crate::policy::Policy;
-use crate::policy::learner::{Learner, LearnerKind};
+use crate::policy::learner::{KernelCoverage, Learner, LearnerKind};
 use crate::task::{Controller, Ending, Outcome, TaskKind, episode_seed, run_episode, run_sim};
 use crate::trace::Episode;
 
@@ -61,6 +61,10 @@ pub struct Report {
     pub mean_efficiency_success: Option<f64>,
     /// How many episodes ended each way.
     pub endings: BTreeMap<String, usize>,
+    /// LWR: how many of all the episodes' steps found data in the kernel (a policy without a
+    /// kernel, and reports journalled before it was counted: `None`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kernel: Option<KernelCoverage>,
     /// Every episode, in test-set order.
     pub outcomes: Vec<Outcome>,
 }
@@ -99,6 +103,7 @@ impl Report {
             mean_efficiency_success: mean(&|o| o.efficiency.filter(|_| o.success)),
             endings,
             outcomes,
+            kernel: None,
         }
     }
 
@@ -146,6 +151,23 @@ impl Report {
             s.push_str(&format!(
                 "  stopped             episode {i} first: {n}{code}\n"
             ));
+        }
+        if let Some(k) = self.kernel {
+            s.push_str(&format!(
+                "  LWR kernel          {} of {} steps ({:.0}%) found data\n",
+                k.covered,
+                k.steps,
+                100.0 * k.share()
+            ));
+            let w = crate::session::kernel_warning(
+                k,
+                "steps of the test runs",
+                "the test starts lead where the data is sparse: run one (`run start N`), look with `why`, and demonstrate or advise there",
+            );
+            if !w.is_empty() {
+                s.push_str(w.trim_start_matches('\n'));
+                s.push('\n');
+            }
         }
         s
     }

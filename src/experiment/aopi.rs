@@ -44,7 +44,7 @@ use crate::experiment::{Progress, eval_seed, evaluate_starts, pct, practice_seed
 use crate::interp;
 use crate::policy::Policy;
 use crate::policy::dataset::Dataset;
-use crate::policy::learner::{Learner, LearnerKind, Retune};
+use crate::policy::learner::{CoverageCounter, Learner, LearnerKind, Retune};
 use crate::task::{
     Controller, Execution, Outcome, Start, TaskKind, episode_seed, recorded_at, run_sim,
 };
@@ -204,6 +204,9 @@ pub struct Selected {
     pub executions: usize,
     /// Practice goals run by this policy's time.
     pub practice: usize,
+    /// The share of the test runs' steps whose LWR kernel held data (the rest answered as 1-NN).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kernel_coverage: Option<f64>,
 }
 
 impl Selected {
@@ -217,6 +220,7 @@ impl Selected {
             dataset_size: p.dataset_size,
             executions: p.executions,
             practice: p.practice,
+            kernel_coverage: r.kernel.map(|k| k.share()),
         }
     }
 }
@@ -271,8 +275,11 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
     let baseline_learner = Learner::with_dataset(ds.clone(), LearnerKind::Lwr, seed);
     let eseed = eval_seed(seed);
     let evaluate = |learner: &Learner| -> Report {
-        let policy: &dyn Policy = learner.policy();
-        evaluate_starts(kind.clone(), test, || policy, sim, eseed)
+        let counter = CoverageCounter::new(learner);
+        let policy: &dyn Policy = &counter;
+        let mut report = evaluate_starts(kind.clone(), test, || policy, sim, eseed);
+        report.kernel = counter.coverage();
+        report
     };
     // The validation goals: drawn like the practice goals, from a stream of their own (never
     // the test set, never an arm's practice goal); only the stopping rule reads them.
@@ -637,6 +644,19 @@ impl AopiResult {
             pct(a.advised.best.success_rate),
             pct(a.hybrid.best.success_rate),
             pct(a.teleop.best.success_rate)
+        );
+        let share = |f: &ArmFigures| {
+            f.halted
+                .kernel_coverage
+                .map_or_else(|| "-".to_string(), |c| format!("{:.0}%", 100.0 * c))
+        };
+        let _ = writeln!(
+            s,
+            "  test-run steps whose LWR kernel held data (the rest answered as 1-NN): baseline {}, advised {}, hybrid {}, teleop {}\n",
+            share(&a.baseline),
+            share(&a.advised),
+            share(&a.hybrid),
+            share(&a.teleop)
         );
         let _ = writeln!(
             s,

@@ -7,7 +7,7 @@ use super::{Evaluated, Reply, Session, SessionError, Since};
 use crate::diag::did_you_mean;
 use crate::eval;
 use crate::eval::EvalOptions;
-use crate::policy::learner::LearnerKind;
+use crate::policy::learner::{CoverageCounter, LearnerKind};
 use crate::syntax::ast::Ident;
 
 impl Session {
@@ -17,8 +17,19 @@ impl Session {
         // not the tuned numbers (`apply` makes the same call on restore).
         let what = self.state.learner.rederive();
         self.journal_effect(Effect::Rederive)?;
+        let warning = match (
+            self.state.learner.kind(),
+            self.state.learner.held_out_coverage(),
+        ) {
+            (LearnerKind::Lwr, Some(c)) => super::kernel_warning(
+                c,
+                "held-out points",
+                "the demonstrations and advice are far apart for this kernel, and the learner's runs will mostly answer as 1-NN: demonstrate more starts (`load demos`, `teleop`) so that trajectories neighbour each other",
+            ),
+            _ => String::new(),
+        };
         Ok(format!(
-            "re-derived the {} policy from {} points in {:.1} ms{what}",
+            "re-derived the {} policy from {} points in {:.1} ms{what}{warning}",
             self.state.learner.kind_name(),
             self.state.learner.len(),
             started.elapsed().as_secs_f64() * 1e3
@@ -37,7 +48,9 @@ impl Session {
             params: self.sim_params(),
             progress: self.progress,
         };
-        let report = eval::evaluate(self.task.clone(), self.state.learner.policy(), &opts);
+        let counter = CoverageCounter::new(&self.state.learner);
+        let mut report = eval::evaluate(self.task.clone(), &counter, &opts);
+        report.kernel = counter.coverage();
         // The whole test set on a robot takes minutes and needs room: not from the prompt.
         let robot = (!self.backend.is_simulator()).then(|| self.backend.name());
         // The simulator and the learners are deterministic: a report equal to the last one means

@@ -6,6 +6,7 @@ use std::fmt;
 
 use crate::domain::Space;
 use crate::eval::Report;
+use crate::policy::learner::{KernelCoverage, KernelEmpty};
 use crate::trace::Chunk;
 
 use super::text::eval_change;
@@ -68,6 +69,8 @@ pub struct Ran {
     pub outcome: String,
     /// The stretch worth a look (where the robot slowed or turned most), and what it did there.
     pub worth_a_look: Option<(Chunk, &'static str)>,
+    /// LWR: how many of the run's steps found data in the kernel (`None` for BC).
+    pub kernel: Option<KernelCoverage>,
 }
 
 /// Advice given.
@@ -151,6 +154,14 @@ impl fmt::Display for Reply {
                         "\nthe robot {what} most over {chunk}: `select {chunk}` to critique or advise it"
                     )?;
                 }
+                if let Some(k) = r.kernel {
+                    write!(f, "\n{}", k.line("steps"))?;
+                    f.write_str(&kernel_warning(
+                        k,
+                        "steps of this run",
+                        "the run went where the data is sparse: `why N` at those steps, then demonstrate near them (`teleop`, `record demo`) or advise the run",
+                    ))?;
+                }
                 Ok(())
             }
             Reply::Selected { execution, chunk } => write!(
@@ -200,4 +211,17 @@ impl fmt::Display for Reply {
             Reply::Message(text) => f.write_str(text),
         }
     }
+}
+
+/// The `advise::learner::kernel_empty` warning for `coverage`, rendered after a blank line; empty
+/// when most steps found data.
+pub fn kernel_warning(coverage: KernelCoverage, what: &str, help: &str) -> String {
+    KernelEmpty::of(coverage, what, help)
+        .map(|w| {
+            format!(
+                "\n\n{}",
+                crate::diag::render(&crate::diag::SourceMap::new(), &w, false).trim_end()
+            )
+        })
+        .unwrap_or_default()
 }

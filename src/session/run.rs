@@ -110,6 +110,7 @@ impl Session {
         // The dataset has not changed during the run: the points nearest now are the ones that
         // recommended each action, kept for `critique`.
         let support = self.state.learner.support_provenance(&exec.trace);
+        let kernel = self.state.learner.kernel_coverage(&exec.trace);
         let summary = outcome_line(&exec);
         let goal_named = self
             .task
@@ -156,6 +157,7 @@ impl Session {
             goal: goal_named,
             outcome: summary,
             worth_a_look: hint,
+            kernel,
         }))
     }
 

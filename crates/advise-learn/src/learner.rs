@@ -105,6 +105,117 @@ pub enum LearnerError {
     NonFiniteQuery { values: String },
 }
 
+/// How many of the steps of a run (or of every run of an evaluation) found data in LWR's kernel;
+/// the rest were answered with the nearest point's action, as 1-NN would.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KernelCoverage {
+    pub steps: usize,
+    pub covered: usize,
+}
+
+impl KernelCoverage {
+    /// The share of steps whose kernel held data (1 with no steps).
+    pub fn share(&self) -> f64 {
+        if self.steps == 0 {
+            1.0
+        } else {
+            self.covered as f64 / self.steps as f64
+        }
+    }
+
+    /// Most steps found no data: the kernel is not what answers (`advise::learner::kernel_empty`).
+    pub fn mostly_empty(&self) -> bool {
+        2 * self.covered < self.steps
+    }
+
+    /// `LWR: 170 of 190 steps (89%) found data in the kernel`.
+    pub fn line(&self, what: &str) -> String {
+        format!(
+            "LWR: {} of {} {what} ({:.0}%) found data in the kernel",
+            self.covered,
+            self.steps,
+            100.0 * self.share()
+        )
+    }
+}
+
+/// The warning when most steps found no data in LWR's kernel: there, "LWR" answered as 1-NN.
+#[derive(Debug, Error, Diagnostic)]
+#[error(
+    "LWR's kernel held no data at {empty} of {steps} {what} ({share:.0}%): there the policy answered with the nearest point's action, as 1-NN"
+)]
+#[diagnostic(
+    code(advise::learner::kernel_empty),
+    severity(Warning),
+    help(
+        "{help}; `why N` shows a step's neighbourhood, `rederive` re-tunes the kernel on the data as it is"
+    )
+)]
+pub struct KernelEmpty {
+    pub empty: usize,
+    pub steps: usize,
+    pub what: String,
+    pub share: f64,
+    pub help: String,
+}
+
+impl KernelEmpty {
+    /// The warning for `coverage` of `what` ("steps of this run", "held-out points"), if most
+    /// found no data; `help` says what to do in that place.
+    pub fn of(coverage: KernelCoverage, what: &str, help: &str) -> Option<KernelEmpty> {
+        coverage.mostly_empty().then(|| KernelEmpty {
+            empty: coverage.steps - coverage.covered,
+            steps: coverage.steps,
+            what: what.to_string(),
+            share: 100.0 * (1.0 - coverage.share()),
+            help: help.to_string(),
+        })
+    }
+}
+
+/// A policy that counts, as it answers, the steps whose LWR kernel held data: the evaluation
+/// harness runs it on many threads, and the counts are sums, the same whatever the schedule.
+pub struct CoverageCounter<'a> {
+    learner: &'a Learner,
+    steps: std::sync::atomic::AtomicUsize,
+    covered: std::sync::atomic::AtomicUsize,
+}
+
+impl<'a> CoverageCounter<'a> {
+    pub fn new(learner: &'a Learner) -> CoverageCounter<'a> {
+        CoverageCounter {
+            learner,
+            steps: Default::default(),
+            covered: Default::default(),
+        }
+    }
+
+    /// What was counted; `None` for a BC learner.
+    pub fn coverage(&self) -> Option<KernelCoverage> {
+        use std::sync::atomic::Ordering::Relaxed;
+        (self.learner.kind == LearnerKind::Lwr).then(|| KernelCoverage {
+            steps: self.steps.load(Relaxed),
+            covered: self.covered.load(Relaxed),
+        })
+    }
+}
+
+impl Policy for CoverageCounter<'_> {
+    fn act(&self, z: &[f64], a: &mut [f64]) {
+        use std::sync::atomic::Ordering::Relaxed;
+        if self.learner.kind != LearnerKind::Lwr {
+            return self.learner.act(z, a);
+        }
+        a.iter_mut().for_each(|v| *v = 0.0);
+        let ans = self.learner.regress(z, a);
+        self.steps.fetch_add(1, Relaxed);
+        if ans.total_weight > 0.0 {
+            self.covered.fetch_add(1, Relaxed);
+        }
+    }
+}
+
 /// The critique a teacher's flag would make ([`Learner::plan_critique`]), not made yet.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CritiquePlan {
@@ -154,6 +265,8 @@ pub struct Learner {
     /// How [`Learner::rederive`] re-tunes LWR, and what it needs to know for that.
     retune: Retune,
     tuning: TuningState,
+    /// What the last tuning found (`None` before LWR was first tuned).
+    last_tuning: Option<lwr::Tuning>,
 }
 
 /// How a re-derivation re-tunes the LWR kernel.
@@ -199,6 +312,7 @@ impl Learner {
             indexed: 0,
             retune: Retune::Full,
             tuning: TuningState::default(),
+            last_tuning: None,
         };
         l.rederive();
         l
@@ -266,6 +380,43 @@ impl Learner {
 
     pub fn lwr_params(&self) -> &LwrParams {
         &self.lwr
+    }
+
+    /// What LWR's last tuning found: folds, loss and its standard error, held-out coverage.
+    pub fn last_tuning(&self) -> Option<&lwr::Tuning> {
+        self.last_tuning.as_ref()
+    }
+
+    /// The bandwidth LWR queries with: the tuned one, times the density factor beyond the
+    /// tuning sample.
+    pub fn lwr_query_bandwidth(&self) -> f64 {
+        self.lwr_unit.bandwidth
+    }
+
+    /// The scored held-out points of the last tuning whose kernel held data of other sources
+    /// (what the learner's next execution can expect); `None` before LWR was tuned.
+    pub fn held_out_coverage(&self) -> Option<KernelCoverage> {
+        let t = self.last_tuning.as_ref()?;
+        Some(KernelCoverage {
+            steps: t.scored,
+            covered: t.covered,
+        })
+    }
+
+    /// How many steps of `trace` find data in LWR's kernel, as the learner is now; `None` for a
+    /// BC learner (whose policy has no kernel).
+    pub fn kernel_coverage(&self, trace: &Trace) -> Option<KernelCoverage> {
+        if self.kind != LearnerKind::Lwr || self.ds.is_empty() {
+            return None;
+        }
+        let mut a = vec![0.0; self.ds.domain().act_dim()];
+        let covered = (0..trace.len())
+            .filter(|&t| self.regress(trace.z(t), &mut a).total_weight > 0.0)
+            .count();
+        Some(KernelCoverage {
+            steps: trace.len(),
+            covered,
+        })
     }
 
     fn check_dim(&self) -> Result<(), LearnerError> {
@@ -601,9 +752,9 @@ impl Learner {
                 };
                 None
             };
-            let (tuned, sample) =
-                lwr::tune_sized(&self.ds, self.index.scale(), 5, self.seed, start);
-            self.lwr = tuned;
+            let tuning = lwr::tune_report(&self.ds, self.index.scale(), 5, self.seed, start);
+            let sample = tuning.sample;
+            self.lwr = tuning.params.clone();
             self.lwr_density = lwr::density_factor(sample, n, dim);
             self.build_lwr_index();
             let scales: Vec<String> = self.lwr.scales.iter().map(|s| format!("{s}")).collect();
@@ -615,13 +766,29 @@ impl Learner {
                     self.lwr_unit.bandwidth
                 )
             };
+            let how = if tuning.folds == 0 {
+                "left at its defaults (too few points to cross-validate)".to_string()
+            } else {
+                format!(
+                    "{} by cross-validation over {} held-out source{} in {} folds",
+                    if warm {
+                        "re-tuned from the last tuning"
+                    } else {
+                        "tuned"
+                    },
+                    tuning.sources,
+                    if tuning.sources == 1 { "" } else { "s" },
+                    tuning.folds
+                )
+            };
+            let coverage = self
+                .held_out_coverage()
+                .filter(|_| tuning.folds > 0)
+                .map(|c| format!("; {}", c.line("held-out points")))
+                .unwrap_or_default();
+            self.last_tuning = Some(tuning);
             format!(
-                "; LWR {} by 5-fold cross-validation: bandwidth {}{density}, scales [{}]",
-                if warm {
-                    "re-tuned from the last tuning"
-                } else {
-                    "tuned"
-                },
+                "; LWR {how}: bandwidth {}{density}, scales [{}]{coverage}",
                 self.lwr.bandwidth,
                 scales.join(", ")
             )

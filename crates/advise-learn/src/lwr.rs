@@ -6,8 +6,9 @@
 //! would fall below [`LwrParams::tolerance`], so a query is one radius search of the kd-tree. A
 //! query far from all data finds no neighbour: the answer says so (`total_weight == 0`) and falls
 //! back to the nearest point's action rather than silently averaging nothing. [`tune`] chooses the
-//! scales and bandwidth by seeded k-fold cross-validation, at a cost bounded whatever the data's
-//! size.
+//! scales and bandwidth by seeded cross-validation over whole sources (a held-out demonstration
+//! or piece of advice is a new trajectory, as the learner's next execution is) with the
+//! one-standard-error rule, at a cost bounded whatever the data's size.
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -145,7 +146,7 @@ pub const TUNE_POINTS: usize = 20_000;
 /// sums some 300,000 neighbours. Every dataset of up to [`TUNE_POINTS`] points (every study) is
 /// tuned on all its points and answered unchanged to the bit. The fold hold-out (tuning answers
 /// from (k-1)/k of its sample) is not corrected for: that is within a step of
-/// [`BANDWIDTH_GRID`], where the sampling at 20 million is several steps.
+/// the bandwidth grid ([`bandwidth_at`]), where the sampling at 20 million is several steps.
 pub fn density_factor(sample: usize, n: usize, dim: usize) -> f64 {
     if sample == 0 || sample >= n {
         return 1.0;
@@ -153,36 +154,92 @@ pub fn density_factor(sample: usize, n: usize, dim: usize) -> f64 {
     (sample as f64 / n as f64).powf(1.0 / (dim as f64 + 4.0))
 }
 
-/// The bandwidth grid [`tune`] searches, smallest first.
-pub const BANDWIDTH_GRID: [f64; 7] = [0.01, 0.02, 0.035, 0.05, 0.08, 0.12, 0.2];
+/// The `i`-th bandwidth of the tuning grid: the E6 series (1, 1.5, 2.2, 3.3, 4.7, 6.8 per
+/// decade) upwards from 0.01, a ratio of about 1.47 a step. Each value is the `f64` nearest its
+/// decimal (0.015, not 0.01 * 1.5), so a tuned bandwidth prints as the grid's number.
+pub fn bandwidth_at(i: usize) -> f64 {
+    const E6: [u32; 6] = [10, 15, 22, 33, 47, 68];
+    let exp = (i / 6) as i64 - 3;
+    format!("{}e{exp}", E6[i % 6])
+        .parse()
+        .expect("a decimal with an exponent is a float")
+}
 
-/// Choose scales and bandwidth by k-fold cross-validation (seeded): a grid over the bandwidth
-/// (the smallest within 5% of the best loss wins), then one pass of coordinate descent over each
-/// dimension's multiplier (kept only when it gains more than 1%). The loss is the mean squared
-/// action error, each action dimension divided by its data range.
+/// The grid index nearest `h` on a log scale (0 for anything at or below the grid's start).
+pub fn grid_index(h: f64) -> usize {
+    // NaN, zero and anything below the start: the start.
+    if h.is_nan() || h <= bandwidth_at(0) {
+        return 0;
+    }
+    (0..MAX_GRID)
+        .min_by(|&a, &b| {
+            let da = (bandwidth_at(a) / h).ln().abs();
+            let db = (bandwidth_at(b) / h).ln().abs();
+            da.total_cmp(&db)
+        })
+        .unwrap_or(0)
+}
+
+/// Grid steps at most: 0.01 to 6.8e3, far past any data's diameter (at most `2 sqrt(8)` in the
+/// kernel's units, scales of 2 in 8 dimensions); a bound on the scan, never reached in practice.
+const MAX_GRID: usize = 36;
+
+/// What one tuning found, and how sure it is.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tuning {
+    /// The chosen parameters.
+    pub params: LwrParams,
+    /// Points that took part (all of them up to [`TUNE_POINTS`]).
+    pub sample: usize,
+    /// Folds, and the sources (demonstrations, pieces of advice) they hold.
+    pub folds: usize,
+    pub sources: usize,
+    /// The chosen parameters' cross-validated loss and its standard error.
+    pub loss: f64,
+    pub se: f64,
+    /// Held-out points scored, and how many of them found data of other sources in the kernel
+    /// under the chosen parameters: what the learner's next execution can expect.
+    pub scored: usize,
+    pub covered: usize,
+    /// Loss evaluations made.
+    pub evaluations: usize,
+}
+
+/// Choose scales and bandwidth by cross-validation over whole sources (seeded), the protocol of
+/// `docs/protocol.md` ("LWR's kernel, tuned for the learner's next execution"):
 ///
-/// The cost is bounded whatever the size of the data, and so is the memory:
-/// - At most [`TUNE_POINTS`] points take part: all of them in smaller datasets, whole
-///   demonstrations and pieces of advice in larger ones (see [`tuning_sample`]), in one index built
-///   here under `range_scale`. The folds are a seeded shuffle of those points; a held-out point is
-///   answered from the points of the other folds, found in that index by skipping its own fold's.
-/// - At most [`TUNE_QUERIES`] held-out points are scored per evaluation (the first of each fold).
-/// - The bandwidth grid is searched upwards and stops once the loss has risen twice in a row
-///   above 1.05 times the best so far (the loss is taken to be unimodal in the bandwidth): wider
-///   kernels than that cannot be chosen, and on dense data each of their queries would sum a large
-///   part of the data.
+/// - **Folds of sources.** Each demonstration and each piece of advice is one source; sources go,
+///   in a seeded order, to the fold with the fewest points so far; `k` folds, or one per source
+///   when there are fewer (a single source is cut into `k` contiguous stretches). A held-out point
+///   is answered from the other folds only, never from its own trajectory: the learner is asked to
+///   act on a new execution, and the narrowest kernel wins whenever a held-out point keeps its
+///   trajectory neighbours (single points held out, as before this rule).
+/// - **The loss**: the mean squared action error, each action dimension divided by its range, over
+///   at most [`TUNE_QUERIES`] held-out points spread evenly over the folds and along each fold's
+///   points; its standard error from the folds' mean losses.
+/// - **The one-standard-error rule**: of the bandwidths within one standard error of the best,
+///   the widest: the smoother model when the data cannot tell them apart.
+/// - **The grid** ([`bandwidth_at`]) is scanned upwards from 0.01 until two consecutive bandwidths
+///   past the best are above that threshold, or the bandwidth reaches the data's diameter in the
+///   kernel's space (beyond, the model is about the global mean).
+/// - **Scales**: one pass, each dimension's multiplier halved and doubled, a change kept only when
+///   it lowers the loss by more than one standard error; then the bandwidth is chosen again.
 ///
-/// Deterministic for a seed: per-query errors are computed in parallel and summed in order.
+/// The cost is bounded whatever the size of the data: at most [`TUNE_POINTS`] points take part
+/// (whole sources of larger datasets, [`tuning_sample`]), at most [`TUNE_QUERIES`] are scored an
+/// evaluation, and the grid at most [`MAX_GRID`] steps (about 17 in practice). Deterministic for a
+/// seed: per-query errors are computed in parallel and summed in order.
 pub fn tune(ds: &Dataset, range_scale: &[f64], k: usize, seed: u64) -> LwrParams {
     tune_from(ds, range_scale, k, seed, None)
 }
 
 /// [`tune`], warm-started from `start` (the parameters of the last tuning) when given: the same
-/// folds and loss, but only the bandwidths next to `start`'s on [`BANDWIDTH_GRID`] are tried (the
-/// smallest within 5% of the best of those wins), and `start`'s per-dimension scales are kept.
-/// Three loss evaluations instead of about thirteen: what a learner re-derived after every
-/// advised execution needs, since a few dozen added points move the optimum by a grid step at
-/// most. A bandwidth off the grid (a loaded parameter set) starts from the nearest grid value.
+/// folds and loss, but only `start`'s bandwidth and its grid neighbours one step each side are
+/// tried (the widest within one standard error of their best wins), and `start`'s per-dimension
+/// scales are kept. Three loss evaluations instead of about twenty: what a learner re-derived
+/// after every advised execution needs, since a few dozen added points move the optimum by a grid
+/// step at most. A bandwidth off the grid (a loaded parameter set) starts from the nearest grid
+/// value.
 pub fn tune_from(
     ds: &Dataset,
     range_scale: &[f64],
@@ -190,11 +247,11 @@ pub fn tune_from(
     seed: u64,
     start: Option<&LwrParams>,
 ) -> LwrParams {
-    tune_sized(ds, range_scale, k, seed, start).0
+    tune_report(ds, range_scale, k, seed, start).params
 }
 
-/// [`tune_from`] (or [`tune`] when `start` is `None`), with the number of points the tuning
-/// saw: all of them up to [`TUNE_POINTS`], a sample of larger datasets ([`density_factor`]).
+/// [`tune_from`], with the number of points the tuning saw: all of them up to [`TUNE_POINTS`], a
+/// sample of larger datasets ([`density_factor`]).
 pub fn tune_sized(
     ds: &Dataset,
     range_scale: &[f64],
@@ -202,38 +259,69 @@ pub fn tune_sized(
     seed: u64,
     start: Option<&LwrParams>,
 ) -> (LwrParams, usize) {
+    let t = tune_report(ds, range_scale, k, seed, start);
+    (t.params, t.sample)
+}
+
+/// A loss evaluation: the mean loss, its standard error, and the held-out coverage.
+#[derive(Clone, Copy, Debug)]
+struct Eval {
+    loss: f64,
+    se: f64,
+    covered: usize,
+}
+
+/// [`tune_from`], with everything the tuning found ([`Tuning`]).
+pub fn tune_report(
+    ds: &Dataset,
+    range_scale: &[f64],
+    k: usize,
+    seed: u64,
+    start: Option<&LwrParams>,
+) -> Tuning {
     let n = ds.len();
     let dim = range_scale.len();
     let mut params = LwrParams::default_for(dim);
+    let untuned = |params: LwrParams| Tuning {
+        params,
+        sample: n,
+        folds: 0,
+        sources: 0,
+        loss: f64::NAN,
+        se: f64::NAN,
+        scored: 0,
+        covered: 0,
+        evaluations: 0,
+    };
     let k = k.clamp(2, 255);
     let Some(mut index) = Index::new(range_scale.to_vec()) else {
-        return (params, n);
+        return untuned(params);
     };
     if n < 2 * k {
-        return (params, n);
+        return untuned(params);
     }
-    let mut order = tuning_sample(ds, seed);
-    let sampled = order.len();
-    order.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
-    // Fold f is order[f], order[f + k], ...; its first `per_fold` members are scored.
-    let mut fold = vec![u8::MAX; n];
-    for (r, &i) in order.iter().enumerate() {
-        fold[i] = (r % k) as u8;
-        index.add(i as u32, ds.points());
+    let sample = tuning_sample(ds, seed);
+    let sampled = sample.iter().map(Vec::len).sum::<usize>();
+    let sources = sample.len();
+    let (fold, members) = assign_folds(&sample, k, seed);
+    let folds = members.len();
+    for s in &sample {
+        for &i in s {
+            index.add(i, ds.points());
+        }
     }
-    let per_fold = TUNE_QUERIES / k + 1;
-    let queries: Vec<(usize, u8)> = (0..k)
-        .flat_map(|f| {
-            order
-                .iter()
-                .copied()
-                .skip(f)
-                .step_by(k)
-                .take(per_fold)
-                .map(move |i| (i, f as u8))
+    drop(sample);
+    // Each fold's scored points: evenly along its points in order.
+    let per_fold = (TUNE_QUERIES / folds).max(1);
+    let queries: Vec<(usize, u8)> = members
+        .iter()
+        .enumerate()
+        .flat_map(|(f, pts)| {
+            let take = per_fold.min(pts.len());
+            (0..take).map(move |j| (pts[j * pts.len() / take] as usize, f as u8))
         })
         .collect();
-    drop(order);
+    drop(members);
     let act_dim = ds.domain().act_dim();
     let mut act_range = vec![1.0; act_dim];
     for (j, r) in act_range.iter_mut().enumerate() {
@@ -247,102 +335,201 @@ pub fn tune_sized(
         index: &index,
         fold: &fold,
     };
-    let loss = |p: &LwrParams| -> f64 {
-        let errors: Vec<f64> = queries
+    let mut evaluations = 0;
+    let mut loss = |p: &LwrParams| -> Eval {
+        evaluations += 1;
+        let errors: Vec<(f64, bool)> = queries
             .par_iter()
             .map_init(
                 || (Scratch::default(), vec![0.0; act_dim]),
                 |(scratch, a), &(i, f)| {
-                    cv.query(p, ds.z(i), f, a, scratch);
-                    (0..act_dim)
+                    let covered = cv.query(p, ds.z(i), f, a, scratch);
+                    let e = (0..act_dim)
                         .map(|j| {
                             let e = (a[j] - ds.a(i)[j]) / act_range[j];
                             e * e
                         })
-                        .sum::<f64>()
+                        .sum::<f64>();
+                    (e, covered)
                 },
             )
             .collect();
-        errors.iter().sum::<f64>() / errors.len().max(1) as f64
-    };
-    if let Some(start) = start.filter(|s| s.scales.len() == dim) {
-        let at = BANDWIDTH_GRID
+        let mut per_fold = vec![(0.0, 0usize); folds];
+        for (&(_, f), &(e, _)) in queries.iter().zip(&errors) {
+            per_fold[f as usize].0 += e;
+            per_fold[f as usize].1 += 1;
+        }
+        let total = errors.len().max(1) as f64;
+        let means: Vec<f64> = per_fold
             .iter()
-            .enumerate()
-            .min_by(|(_, a), (_, b)| {
-                (*a - start.bandwidth)
-                    .abs()
-                    .total_cmp(&(*b - start.bandwidth).abs())
-            })
-            .map_or(0, |(i, _)| i);
-        let near = &BANDWIDTH_GRID[at.saturating_sub(1)..(at + 2).min(BANDWIDTH_GRID.len())];
+            .filter(|(_, c)| *c > 0)
+            .map(|(s, c)| s / *c as f64)
+            .collect();
+        Eval {
+            loss: errors.iter().map(|e| e.0).sum::<f64>() / total,
+            se: standard_error(&means),
+            covered: errors.iter().filter(|e| e.1).count(),
+        }
+    };
+    let at = |params: &LwrParams, h: f64| LwrParams {
+        bandwidth: h,
+        ..params.clone()
+    };
+    let chosen = if let Some(start) = start.filter(|s| s.scales.len() == dim) {
         params.scales = start.scales.clone();
         params.tolerance = start.tolerance;
-        let losses: Vec<f64> = near
-            .iter()
-            .map(|&h| {
-                loss(&LwrParams {
-                    bandwidth: h,
-                    ..params.clone()
-                })
-            })
+        let i = grid_index(start.bandwidth);
+        let tried: Vec<(f64, Eval)> = (i.saturating_sub(1)..=(i + 1).min(MAX_GRID - 1))
+            .map(|j| (bandwidth_at(j), loss(&at(&params, bandwidth_at(j)))))
             .collect();
-        let min = losses.iter().copied().fold(f64::INFINITY, f64::min);
-        if let Some(i) = losses.iter().position(|l| *l <= min * 1.05) {
-            params.bandwidth = near[i];
+        widest_within_one_se(&tried)
+    } else {
+        let mut chosen = scan_bandwidths(&params, &mut loss);
+        params.bandwidth = chosen.0;
+        let mut changed = false;
+        for d in 0..dim {
+            for m in [0.5, 2.0] {
+                let mut cand = params.clone();
+                cand.scales[d] *= m;
+                let e = loss(&cand);
+                if e.loss < chosen.1.loss - chosen.1.se {
+                    chosen = (cand.bandwidth, e);
+                    params = cand;
+                    changed = true;
+                }
+            }
         }
-        return (params, sampled);
+        if changed {
+            chosen = scan_bandwidths(&params, &mut loss);
+        }
+        chosen
+    };
+    params.bandwidth = chosen.0;
+    Tuning {
+        params,
+        sample: sampled,
+        folds,
+        sources,
+        loss: chosen.1.loss,
+        se: chosen.1.se,
+        scored: queries.len(),
+        covered: chosen.1.covered,
+        evaluations,
     }
-    // Prefer locality: the smallest bandwidth whose loss is within 5% of the best, and a scale
-    // change only when it gains more than 1%. A wider kernel that is barely better costs a
-    // neighbourhood many times larger on every query (the volume grows as h^dim) and blurs the
-    // local corrections advice adds.
-    let mut losses: Vec<f64> = Vec::with_capacity(BANDWIDTH_GRID.len());
-    let mut rises = 0;
-    for &h in &BANDWIDTH_GRID {
-        let l = loss(&LwrParams {
+}
+
+/// The standard error of the mean of `means` (0 with fewer than two).
+fn standard_error(means: &[f64]) -> f64 {
+    let m = means.len();
+    if m < 2 {
+        return 0.0;
+    }
+    let mean = means.iter().sum::<f64>() / m as f64;
+    let var = means.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (m - 1) as f64;
+    (var / m as f64).sqrt()
+}
+
+/// Scan the grid upwards under `params`' scales and choose by the one-standard-error rule:
+/// stop after two consecutive bandwidths past the best above its threshold, or at the first
+/// bandwidth at least the data's diameter in the kernel's space.
+fn scan_bandwidths(params: &LwrParams, loss: &mut impl FnMut(&LwrParams) -> Eval) -> (f64, Eval) {
+    let diameter = params.scales.iter().map(|s| s * s).sum::<f64>().sqrt();
+    let mut tried: Vec<(f64, Eval)> = Vec::new();
+    for i in 0..MAX_GRID {
+        let h = bandwidth_at(i);
+        let e = loss(&LwrParams {
             bandwidth: h,
             ..params.clone()
         });
-        let min = losses.iter().copied().fold(l, f64::min);
-        rises = match losses.last() {
-            Some(&prev) if l > prev && l > 1.05 * min => rises + 1,
-            _ => 0,
-        };
-        losses.push(l);
-        if rises == 2 {
+        tried.push((h, e));
+        if h >= diameter {
+            break;
+        }
+        let best = best_of(&tried);
+        let threshold = tried[best].1.loss + tried[best].1.se;
+        let above = tried[best + 1..]
+            .iter()
+            .rev()
+            .take_while(|(_, e)| e.loss > threshold)
+            .count();
+        if above >= 2 {
             break;
         }
     }
-    let min = losses.iter().copied().fold(f64::INFINITY, f64::min);
-    if let Some(i) = losses.iter().position(|l| *l <= min * 1.05) {
-        params.bandwidth = BANDWIDTH_GRID[i];
-    }
-    let mut best = loss(&params);
-    for d in 0..dim {
-        for m in [0.5, 2.0] {
-            let mut cand = params.clone();
-            cand.scales[d] *= m;
-            let l = loss(&cand);
-            if l < best * 0.99 {
-                best = l;
-                params = cand;
-            }
-        }
-    }
-    (params, sampled)
+    widest_within_one_se(&tried)
 }
 
-/// The points that take part in tuning: all of them up to [`TUNE_POINTS`]; beyond, whole
-/// demonstrations and pieces of advice in a seeded order, as many as fit in [`TUNE_POINTS`]
-/// points. Whole ones, because consecutive points of a trajectory are close in observation space:
-/// a sample of single points would leave each held-out point without its trajectory neighbours,
-/// and tune the kernel for a sparser dataset than the learner has.
-fn tuning_sample(ds: &Dataset, seed: u64) -> Vec<usize> {
-    let n = ds.len();
-    if n <= TUNE_POINTS {
-        return (0..n).collect();
+/// The position of the lowest loss (the first of equals).
+fn best_of(tried: &[(f64, Eval)]) -> usize {
+    tried
+        .iter()
+        .enumerate()
+        .min_by(|(_, a), (_, b)| a.1.loss.total_cmp(&b.1.loss))
+        .map_or(0, |(i, _)| i)
+}
+
+/// The widest bandwidth whose loss is within one standard error of the best's (`tried` is in
+/// increasing bandwidth).
+fn widest_within_one_se(tried: &[(f64, Eval)]) -> (f64, Eval) {
+    let best = tried[best_of(tried)].1;
+    let threshold = best.loss + best.se;
+    tried
+        .iter()
+        .rev()
+        .find(|(_, e)| e.loss <= threshold)
+        .copied()
+        .unwrap_or(tried[best_of(tried)])
+}
+
+/// Each point's fold (`u8::MAX` for points outside the sample) and each fold's points in order.
+/// Sources go, in a seeded order, to the fold with the fewest points so far (ties to the lowest
+/// fold); `k` folds, or one per source when there are fewer; a single source is cut into `k`
+/// contiguous stretches.
+fn assign_folds(sources: &[Vec<u32>], k: usize, seed: u64) -> (Vec<u8>, Vec<Vec<u32>>) {
+    let n = sources
+        .iter()
+        .flat_map(|s| s.iter().map(|&i| i as usize + 1))
+        .max()
+        .unwrap_or(0);
+    let mut fold = vec![u8::MAX; n];
+    let mut members: Vec<Vec<u32>> = Vec::new();
+    if sources.len() == 1 {
+        let s = &sources[0];
+        let k = k.min(s.len()).max(1);
+        members = (0..k)
+            .map(|f| s[f * s.len() / k..(f + 1) * s.len() / k].to_vec())
+            .collect();
+    } else {
+        let folds = k.min(sources.len());
+        members.resize(folds, Vec::new());
+        let mut order: Vec<usize> = (0..sources.len()).collect();
+        order.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+        for s in order {
+            let f = (0..folds)
+                .min_by_key(|&f| (members[f].len(), f))
+                .unwrap_or(0);
+            members[f].extend_from_slice(&sources[s]);
+        }
+        for m in &mut members {
+            m.sort_unstable();
+        }
     }
+    for (f, m) in members.iter().enumerate() {
+        for &i in m {
+            fold[i as usize] = f as u8;
+        }
+    }
+    (fold, members)
+}
+
+/// The sources that take part in tuning, each its points in order: all of them up to
+/// [`TUNE_POINTS`] points; beyond, whole demonstrations and pieces of advice in a seeded order,
+/// as many as fit in [`TUNE_POINTS`] points. Whole ones, because consecutive points of a
+/// trajectory are close in observation space: a sample of single points would leave each
+/// held-out point without its trajectory neighbours, and tune the kernel for a sparser dataset
+/// than the learner has.
+fn tuning_sample(ds: &Dataset, seed: u64) -> Vec<Vec<u32>> {
+    let n = ds.len();
     let mut sources: Vec<Vec<u32>> = Vec::new();
     let mut by_key: HashMap<(bool, u32), usize> = HashMap::new();
     for i in 0..n {
@@ -356,20 +543,28 @@ fn tuning_sample(ds: &Dataset, seed: u64) -> Vec<usize> {
         });
         sources[s].push(i as u32);
     }
+    if n <= TUNE_POINTS {
+        return sources;
+    }
     let mut picks: Vec<usize> = (0..sources.len()).collect();
     picks.shuffle(&mut ChaCha8Rng::seed_from_u64(seed ^ SAMPLE_SALT));
-    let mut sample: Vec<usize> = Vec::with_capacity(TUNE_POINTS);
+    let mut taken = 0;
+    let mut sample: Vec<usize> = Vec::new();
     for s in picks {
-        if sample.len() + sources[s].len() <= TUNE_POINTS {
-            sample.extend(sources[s].iter().map(|&i| i as usize));
+        if taken + sources[s].len() <= TUNE_POINTS {
+            taken += sources[s].len();
+            sample.push(s);
         }
     }
     if sample.is_empty() {
         // Every source alone is larger than the sample: the start of the first one.
-        sample.extend((0..TUNE_POINTS).map(|r| sources[0][r] as usize));
+        return vec![sources[0][..TUNE_POINTS].to_vec()];
     }
     sample.sort_unstable();
     sample
+        .into_iter()
+        .map(|s| std::mem::take(&mut sources[s]))
+        .collect()
 }
 
 /// Salt of the seed that orders the sources of [`tuning_sample`] (the folds use the seed itself).
@@ -467,8 +662,16 @@ fn group_weight(
 impl CrossValidation<'_> {
     /// [`query`]'s answer for `z` from the points outside fold `held_out`: the same kernel sum
     /// (general path), skipping the held-out fold's points; far from them all, the action of the
-    /// first other-fold point of the nearest group that has one.
-    fn query(&self, params: &LwrParams, z: &[f64], held_out: u8, a: &mut [f64], s: &mut Scratch) {
+    /// first other-fold point of the nearest group that has one. True when the kernel held
+    /// data of the other folds.
+    fn query(
+        &self,
+        params: &LwrParams,
+        z: &[f64],
+        held_out: u8,
+        a: &mut [f64],
+        s: &mut Scratch,
+    ) -> bool {
         let (index, ds) = (self.index, self.ds);
         a.iter_mut().for_each(|v| *v = 0.0);
         let inv = gather(index, ds.points(), params, z, s);
@@ -490,7 +693,7 @@ impl CrossValidation<'_> {
         }
         if total > 0.0 {
             a.iter_mut().for_each(|v| *v /= total);
-            return;
+            return true;
         }
         // Far from the other folds: widen a nearest-groups search until one holds such a point
         // (there is one: every fold has at least two points and `index` holds them all). This
@@ -510,10 +713,10 @@ impl CrossValidation<'_> {
             });
             if let Some(&i) = other {
                 a.copy_from_slice(ds.a(i as usize));
-                return;
+                return false;
             }
             if m >= index.groups() {
-                return;
+                return false;
             }
             m = (m * 4).min(index.groups());
         }
@@ -637,22 +840,21 @@ mod tests {
         assert_eq!(tune_from(&ds, &scale, 5, 3, None), tune(&ds, &scale, 5, 3));
         for (at, scales) in [
             (0, vec![1.0, 1.0]),
-            (3, vec![2.0, 0.5]),
-            (6, vec![0.5, 1.0]),
+            (5, vec![2.0, 0.5]),
+            (9, vec![0.5, 1.0]),
         ] {
             let start = LwrParams {
                 scales: scales.clone(),
-                bandwidth: BANDWIDTH_GRID[at],
+                bandwidth: bandwidth_at(at),
                 tolerance: 1e-3,
             };
-            let warm = tune_from(&ds, &scale, 5, 3, Some(&start));
-            assert_eq!(warm.scales, scales);
-            let i = BANDWIDTH_GRID
-                .iter()
-                .position(|&h| h == warm.bandwidth)
-                .expect("a grid bandwidth");
+            let warm = tune_report(&ds, &scale, 5, 3, Some(&start));
+            assert_eq!(warm.params.scales, scales);
+            assert_eq!(warm.evaluations, if at == 0 { 2 } else { 3 });
+            let i = grid_index(warm.params.bandwidth);
+            assert_eq!(bandwidth_at(i), warm.params.bandwidth, "a grid bandwidth");
             assert!(i.abs_diff(at) <= 1, "{at} -> {i}");
-            assert_eq!(warm, tune_from(&ds, &scale, 5, 3, Some(&start)));
+            assert_eq!(warm.params, tune_from(&ds, &scale, 5, 3, Some(&start)));
         }
         // Off the grid: the nearest grid value's neighbourhood.
         let off = LwrParams {
@@ -660,14 +862,107 @@ mod tests {
             ..LwrParams::default_for(2)
         };
         let warm = tune_from(&ds, &scale, 5, 3, Some(&off));
-        assert!([0.12, 0.2].contains(&warm.bandwidth), "{warm:?}");
+        assert!([0.22, 0.33, 0.47].contains(&warm.bandwidth), "{warm:?}");
+    }
+
+    /// The grid's values are the E6 series' decimals, increasing by about 1.47 a step, and
+    /// `grid_index` finds them back.
+    #[test]
+    fn the_grid_is_the_e6_series() {
+        let first: Vec<f64> = (0..8).map(bandwidth_at).collect();
+        assert_eq!(first, [0.01, 0.015, 0.022, 0.033, 0.047, 0.068, 0.1, 0.15]);
+        assert_eq!(bandwidth_at(12), 1.0);
+        assert_eq!(bandwidth_at(15), 3.3);
+        for i in 0..MAX_GRID {
+            assert_eq!(grid_index(bandwidth_at(i)), i);
+            if i > 0 {
+                let r = bandwidth_at(i) / bandwidth_at(i - 1);
+                assert!((1.35..1.55).contains(&r), "{i}: {r}");
+            }
+        }
+        assert_eq!(grid_index(0.0), 0);
+        assert_eq!(grid_index(f64::NAN), 0);
+    }
+
+    /// Folds hold whole sources: no source is split over two folds, every point of the sample
+    /// has a fold, and the folds are balanced by points (the greedy rule); a single source is cut
+    /// into contiguous stretches.
+    #[test]
+    fn folds_hold_whole_sources() {
+        let ds = dataset(13, 40, 8);
+        let sample = tuning_sample(&ds, 1);
+        assert_eq!(sample.len(), 13);
+        let (fold, members) = assign_folds(&sample, 5, 1);
+        assert_eq!(members.len(), 5);
+        for s in &sample {
+            let f = fold[s[0] as usize];
+            assert!(s.iter().all(|&i| fold[i as usize] == f), "a source split");
+        }
+        let sizes: Vec<usize> = members.iter().map(Vec::len).collect();
+        assert!(sizes.iter().all(|&c| c == 80 || c == 120), "{sizes:?}");
+        assert_eq!(sizes.iter().sum::<usize>(), ds.len());
+        // Fewer sources than folds: one fold a source.
+        let (_, members) = assign_folds(&sample[..3], 5, 1);
+        assert_eq!(members.len(), 3);
+        // One source: contiguous stretches.
+        let one = vec![(0..50u32).collect::<Vec<_>>()];
+        let (fold, members) = assign_folds(&one, 5, 1);
+        assert_eq!(members[1], (10..20).collect::<Vec<u32>>());
+        assert!(fold.windows(2).all(|w| w[0] <= w[1]));
+    }
+
+    /// The one-standard-error rule: the widest bandwidth within one standard error of the best,
+    /// not the best itself, and not one past a bandwidth above the threshold's reach.
+    #[test]
+    fn the_widest_within_one_standard_error_wins() {
+        let e = |loss: f64, se: f64| Eval {
+            loss,
+            se,
+            covered: 0,
+        };
+        let tried = [
+            (0.01, e(0.30, 0.01)),
+            (0.015, e(0.20, 0.02)),
+            (0.022, e(0.21, 0.01)),
+            (0.033, e(0.219, 0.01)),
+            (0.047, e(0.25, 0.01)),
+        ];
+        assert_eq!(widest_within_one_se(&tried).0, 0.033);
+        // The scan stops two bandwidths past the best above its threshold.
+        let losses = [0.5, 0.3, 0.2, 0.25, 0.3, 0.1];
+        let mut calls = 0;
+        let (h, _) = scan_bandwidths(&LwrParams::default_for(2), &mut |p: &LwrParams| {
+            calls += 1;
+            e(losses[grid_index(p.bandwidth)], 0.01)
+        });
+        assert_eq!((h, calls), (0.022, 5));
+    }
+
+    /// On trajectories, held-out sources need a kernel wide enough to reach other trajectories:
+    /// the tuning no longer picks the grid's narrowest bandwidth, and most held-out points find
+    /// data in the kernel.
+    #[test]
+    fn held_out_trajectories_find_data_in_the_kernel() {
+        let ds = dataset(30, 60, 6);
+        let scale = range_scale(&ds);
+        let t = tune_report(&ds, &scale, 5, 2, None);
+        assert!(t.params.bandwidth > bandwidth_at(2), "{t:?}");
+        assert!(t.covered as f64 > 0.8 * t.scored as f64, "{t:?}");
+        assert!(t.scored > 1000, "{t:?}");
+        assert_eq!((t.folds, t.sources, t.sample), (5, 30, ds.len()));
+        assert!(t.se > 0.0 && t.loss.is_finite(), "{t:?}");
     }
 
     #[test]
     fn large_datasets_are_sampled_by_whole_demonstrations() {
         let ds = dataset(300, 100, 3);
         assert!(ds.len() > TUNE_POINTS);
-        let sample = tuning_sample(&ds, 9);
+        let flat = |s: Vec<Vec<u32>>| -> Vec<usize> {
+            let mut v: Vec<usize> = s.into_iter().flatten().map(|i| i as usize).collect();
+            v.sort_unstable();
+            v
+        };
+        let sample = flat(tuning_sample(&ds, 9));
         assert!(sample.len() <= TUNE_POINTS && sample.len() > TUNE_POINTS - 100);
         assert!(sample.windows(2).all(|w| w[0] < w[1]));
         // Whole demonstrations: every point of a demonstration, or none.
@@ -678,17 +973,22 @@ mod tests {
             }
         }
         assert!(per_demo.values().all(|&c| c == 100), "{per_demo:?}");
-        assert_eq!(tuning_sample(&ds, 9), sample, "deterministic per seed");
+        assert_eq!(
+            flat(tuning_sample(&ds, 9)),
+            sample,
+            "deterministic per seed"
+        );
         assert_ne!(
-            tuning_sample(&ds, 10),
+            flat(tuning_sample(&ds, 10)),
             sample,
             "another seed, another sample"
         );
         let small = dataset(10, 100, 3);
         assert_eq!(
-            tuning_sample(&small, 9),
+            flat(tuning_sample(&small, 9)),
             (0..small.len()).collect::<Vec<_>>()
         );
+        assert_eq!(tuning_sample(&small, 9).len(), 10, "one entry a source");
     }
 
     /// Tuning a dataset past the sample size is deterministic per seed, and it does tune: the
@@ -699,7 +999,7 @@ mod tests {
         let scale = range_scale(&ds);
         let a = tune(&ds, &scale, 5, 11);
         assert_eq!(a, tune(&ds, &scale, 5, 11));
-        assert!(BANDWIDTH_GRID.contains(&a.bandwidth), "{a:?}");
+        assert_eq!(bandwidth_at(grid_index(a.bandwidth)), a.bandwidth, "{a:?}");
         assert_ne!(
             a,
             LwrParams::default_for(2),
