@@ -201,6 +201,8 @@ pub struct Tuning {
     /// under the chosen parameters: what the learner's next execution can expect.
     pub scored: usize,
     pub covered: usize,
+    /// The mean number of other-source points in the chosen kernel per scored point.
+    pub mean_neighbours: f64,
     /// Loss evaluations made.
     pub evaluations: usize,
 }
@@ -269,6 +271,8 @@ struct Eval {
     loss: f64,
     se: f64,
     covered: usize,
+    /// Kernel neighbours summed over the scored points.
+    neighbours: usize,
 }
 
 /// [`tune_from`], with everything the tuning found ([`Tuning`]).
@@ -291,6 +295,7 @@ pub fn tune_report(
         se: f64::NAN,
         scored: 0,
         covered: 0,
+        mean_neighbours: 0.0,
         evaluations: 0,
     };
     let k = k.clamp(2, 255);
@@ -338,19 +343,19 @@ pub fn tune_report(
     let mut evaluations = 0;
     let mut loss = |p: &LwrParams| -> Eval {
         evaluations += 1;
-        let errors: Vec<(f64, bool)> = queries
+        let errors: Vec<(f64, usize)> = queries
             .par_iter()
             .map_init(
                 || (Scratch::default(), vec![0.0; act_dim]),
                 |(scratch, a), &(i, f)| {
-                    let covered = cv.query(p, ds.z(i), f, a, scratch);
+                    let neighbours = cv.query(p, ds.z(i), f, a, scratch);
                     let e = (0..act_dim)
                         .map(|j| {
                             let e = (a[j] - ds.a(i)[j]) / act_range[j];
                             e * e
                         })
                         .sum::<f64>();
-                    (e, covered)
+                    (e, neighbours)
                 },
             )
             .collect();
@@ -368,7 +373,8 @@ pub fn tune_report(
         Eval {
             loss: errors.iter().map(|e| e.0).sum::<f64>() / total,
             se: standard_error(&means),
-            covered: errors.iter().filter(|e| e.1).count(),
+            covered: errors.iter().filter(|e| e.1 > 0).count(),
+            neighbours: errors.iter().map(|e| e.1).sum(),
         }
     };
     let at = |params: &LwrParams, h: f64| LwrParams {
@@ -414,6 +420,7 @@ pub fn tune_report(
         se: chosen.1.se,
         scored: queries.len(),
         covered: chosen.1.covered,
+        mean_neighbours: chosen.1.neighbours as f64 / queries.len().max(1) as f64,
         evaluations,
     }
 }
@@ -662,8 +669,8 @@ fn group_weight(
 impl CrossValidation<'_> {
     /// [`query`]'s answer for `z` from the points outside fold `held_out`: the same kernel sum
     /// (general path), skipping the held-out fold's points; far from them all, the action of the
-    /// first other-fold point of the nearest group that has one. True when the kernel held
-    /// data of the other folds.
+    /// first other-fold point of the nearest group that has one. Returns the number of
+    /// other-fold points in the kernel (0: the kernel held none).
     fn query(
         &self,
         params: &LwrParams,
@@ -671,12 +678,13 @@ impl CrossValidation<'_> {
         held_out: u8,
         a: &mut [f64],
         s: &mut Scratch,
-    ) -> bool {
+    ) -> usize {
         let (index, ds) = (self.index, self.ds);
         a.iter_mut().for_each(|v| *v = 0.0);
         let inv = gather(index, ds.points(), params, z, s);
         let r2 = params.r2();
         let mut total = 0.0;
+        let mut count = 0;
         for &(_, g) in &s.found {
             let Some(w) = group_weight(index, ds.points(), g, &s.q, params, r2, inv) else {
                 continue;
@@ -689,11 +697,12 @@ impl CrossValidation<'_> {
                     *out += w * v;
                 }
                 total += w;
+                count += 1;
             }
         }
         if total > 0.0 {
             a.iter_mut().for_each(|v| *v /= total);
-            return true;
+            return count;
         }
         // Far from the other folds: widen a nearest-groups search until one holds such a point
         // (there is one: every fold has at least two points and `index` holds them all). This
@@ -713,10 +722,10 @@ impl CrossValidation<'_> {
             });
             if let Some(&i) = other {
                 a.copy_from_slice(ds.a(i as usize));
-                return false;
+                return 0;
             }
             if m >= index.groups() {
-                return false;
+                return 0;
             }
             m = (m * 4).min(index.groups());
         }
@@ -919,6 +928,7 @@ mod tests {
             loss,
             se,
             covered: 0,
+            neighbours: 0,
         };
         let tried = [
             (0.01, e(0.30, 0.01)),
