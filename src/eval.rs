@@ -159,7 +159,7 @@ impl Report {
                 k.steps,
                 100.0 * k.share()
             ));
-            let w = crate::session::kernel_warning(
+            let w = crate::policy::learner::kernel_warning(
                 k,
                 "steps of the test runs",
                 "the test starts lead where the data is sparse: run one (`run start N`), look with `why`, and demonstrate or advise there",

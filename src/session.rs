@@ -47,7 +47,7 @@ use effect::{Effect, Entry};
 use journal::Journal;
 
 pub use error::SessionError;
-pub use reply::{Advised, Defined, Evaluated, Ran, Reply, Since, kernel_warning};
+pub use reply::{Advised, Defined, Evaluated, Ran, Reply, Since};
 use undo::Edit;
 
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met

@@ -21,7 +21,7 @@ impl Session {
             self.state.learner.kind(),
             self.state.learner.held_out_coverage(),
         ) {
-            (LearnerKind::Lwr, Some(c)) => super::kernel_warning(
+            (LearnerKind::Lwr, Some(c)) => crate::policy::learner::kernel_warning(
                 c,
                 "held-out points",
                 "the demonstrations and advice are far apart for this kernel, and the learner's runs will mostly answer as 1-NN: demonstrate more starts (`load demos`, `teleop`) so that trajectories neighbour each other",

@@ -6,7 +6,7 @@ use std::fmt;
 
 use crate::domain::Space;
 use crate::eval::Report;
-use crate::policy::learner::{KernelCoverage, KernelEmpty};
+use crate::policy::learner::{KernelCoverage, kernel_warning};
 use crate::trace::Chunk;
 
 use super::text::eval_change;
@@ -211,17 +211,4 @@ impl fmt::Display for Reply {
             Reply::Message(text) => f.write_str(text),
         }
     }
-}
-
-/// The `advise::learner::kernel_empty` warning for `coverage`, rendered after a blank line; empty
-/// when most steps found data.
-pub fn kernel_warning(coverage: KernelCoverage, what: &str, help: &str) -> String {
-    KernelEmpty::of(coverage, what, help)
-        .map(|w| {
-            format!(
-                "\n\n{}",
-                crate::diag::render(&crate::diag::SourceMap::new(), &w, false).trim_end()
-            )
-        })
-        .unwrap_or_default()
 }

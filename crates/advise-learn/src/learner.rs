@@ -174,6 +174,20 @@ impl KernelEmpty {
     }
 }
 
+/// The `advise::learner::kernel_empty` warning for `coverage` of `what`, rendered as a reply
+/// shows it after a blank line; empty when most steps found data.
+pub fn kernel_warning(coverage: KernelCoverage, what: &str, help: &str) -> String {
+    KernelEmpty::of(coverage, what, help)
+        .map(|w| {
+            let sources = advise_lang::diag::SourceMap::new();
+            format!(
+                "\n\n{}",
+                advise_lang::diag::render(&sources, &w, false).trim_end()
+            )
+        })
+        .unwrap_or_default()
+}
+
 /// A policy that counts, as it answers, the steps whose LWR kernel held data: the evaluation
 /// harness runs it on many threads, and the counts are sums, the same whatever the schedule.
 pub struct CoverageCounter<'a> {

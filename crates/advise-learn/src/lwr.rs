@@ -340,15 +340,30 @@ pub fn tune_report(
         index: &index,
         fold: &fold,
     };
+    let flat = Flat::new(ds, &index, &fold);
     let mut evaluations = 0;
+    // The share of the other folds' points the last evaluation's kernels held, and its
+    // bandwidth: when the next kernel is expected to hold more than an eighth of them, a scan of
+    // the contiguous sample beats the tree's radius search (wide kernels: a query would visit
+    // most leaves anyway).
+    let mut last: Option<(f64, f64)> = None;
+    let others = (sampled as f64 * (folds - 1) as f64 / folds as f64).max(1.0);
     let mut loss = |p: &LwrParams| -> Eval {
         evaluations += 1;
+        let expected = last.map_or(0.0, |(share, h): (f64, f64)| {
+            share * (p.bandwidth / h).powi(dim as i32)
+        });
+        let scan = expected > 0.125;
         let errors: Vec<(f64, usize)> = queries
             .par_iter()
             .map_init(
                 || (Scratch::default(), vec![0.0; act_dim]),
                 |(scratch, a), &(i, f)| {
-                    let neighbours = cv.query(p, ds.z(i), f, a, scratch);
+                    let neighbours = if scan {
+                        flat.query(&cv, p, ds.z(i), f, a, scratch)
+                    } else {
+                        cv.query(p, ds.z(i), f, a, scratch)
+                    };
                     let e = (0..act_dim)
                         .map(|j| {
                             let e = (a[j] - ds.a(i)[j]) / act_range[j];
@@ -370,11 +385,13 @@ pub fn tune_report(
             .filter(|(_, c)| *c > 0)
             .map(|(s, c)| s / *c as f64)
             .collect();
+        let neighbours: usize = errors.iter().map(|e| e.1).sum();
+        last = Some((neighbours as f64 / total / others, p.bandwidth));
         Eval {
             loss: errors.iter().map(|e| e.0).sum::<f64>() / total,
             se: standard_error(&means),
             covered: errors.iter().filter(|e| e.1 > 0).count(),
-            neighbours: errors.iter().map(|e| e.1).sum(),
+            neighbours,
         }
     };
     let at = |params: &LwrParams, h: f64| LwrParams {
@@ -666,6 +683,87 @@ fn group_weight(
     (d2 <= r2).then(|| (-d2 * inv).exp())
 }
 
+/// The tuning sample in one contiguous block, in point order: range-scaled observations (as the
+/// index scales them), actions and folds. What a held-out query scans when its kernel spans much
+/// of the data.
+struct Flat {
+    dim: usize,
+    act_dim: usize,
+    z: Vec<f64>,
+    a: Vec<f64>,
+    fold: Vec<u8>,
+}
+
+impl Flat {
+    fn new(ds: &Dataset, index: &Index, fold: &[u8]) -> Flat {
+        let (dim, act_dim) = (index.scale().len(), ds.domain().act_dim());
+        let members: Vec<usize> = (0..fold.len()).filter(|&i| fold[i] != u8::MAX).collect();
+        let mut z = vec![0.0; members.len() * dim];
+        let mut a = Vec::with_capacity(members.len() * act_dim);
+        for (row, &i) in z.chunks_exact_mut(dim.max(1)).zip(&members) {
+            index.scaled(ds.z(i), row);
+            a.extend_from_slice(ds.a(i));
+        }
+        Flat {
+            dim,
+            act_dim,
+            z,
+            a,
+            fold: members.iter().map(|&i| fold[i]).collect(),
+        }
+    }
+
+    /// [`CrossValidation::query`]'s kernel sum by a scan of the sample (in point order, so the
+    /// last bits may differ from the tree's group order); far from every other-fold point, the
+    /// tree's answer.
+    fn query(
+        &self,
+        cv: &CrossValidation,
+        params: &LwrParams,
+        z: &[f64],
+        held_out: u8,
+        a: &mut [f64],
+        s: &mut Scratch,
+    ) -> usize {
+        let dim = self.dim;
+        s.q.resize(dim, 0.0);
+        cv.index.scaled(z, &mut s.q);
+        let r2 = params.r2();
+        let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
+        a.iter_mut().for_each(|v| *v = 0.0);
+        let (mut total, mut count) = (0.0, 0);
+        for (p, row) in self.z.chunks_exact(dim.max(1)).enumerate() {
+            if self.fold[p] == held_out {
+                continue;
+            }
+            let d2: f64 = row
+                .iter()
+                .zip(&s.q)
+                .zip(&params.scales)
+                .map(|((p, q), s)| {
+                    let d = (p - q) * s;
+                    d * d
+                })
+                .sum();
+            if d2 > r2 {
+                continue;
+            }
+            let w = (-d2 * inv).exp();
+            let act = &self.a[p * self.act_dim..(p + 1) * self.act_dim];
+            for (out, v) in a.iter_mut().zip(act) {
+                *out += w * v;
+            }
+            total += w;
+            count += 1;
+        }
+        if total > 0.0 {
+            a.iter_mut().for_each(|v| *v /= total);
+            return count;
+        }
+        cv.query(params, z, held_out, a, s)
+    }
+}
+
 impl CrossValidation<'_> {
     /// [`query`]'s answer for `z` from the points outside fold `held_out`: the same kernel sum
     /// (general path), skipping the held-out fold's points; far from them all, the action of the
@@ -836,6 +934,48 @@ mod tests {
                     let tol = if ans.total_weight > 0.0 { 1e-9 } else { 0.0 };
                     assert!((a[0] - b[0]).abs() <= tol, "fold {f} z {z:?}: {a:?} {b:?}");
                 }
+            }
+        }
+    }
+
+    /// The scan of the contiguous sample answers as the tree does: the same neighbours, the same
+    /// sum up to the order of its terms, and the tree's answer far from the other folds.
+    #[test]
+    fn the_scan_answers_as_the_tree() {
+        let ds = dataset(12, 40, 3);
+        let scale = range_scale(&ds);
+        let fold: Vec<u8> = (0..ds.len()).map(|i| (i / 40 % 4) as u8).collect();
+        let mut index = Index::new(scale).unwrap();
+        for i in 0..ds.len() {
+            index.add(i as u32, ds.points());
+        }
+        let cv = CrossValidation {
+            ds: &ds,
+            index: &index,
+            fold: &fold,
+        };
+        let flat = Flat::new(&ds, &index, &fold);
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let mut s = Scratch::default();
+        for h in [0.01, 0.1, 0.47, 2.2] {
+            let params = LwrParams {
+                scales: vec![0.5, 2.0],
+                bandwidth: h,
+                tolerance: 1e-3,
+            };
+            for q in 0..80 {
+                let z = if q % 2 == 0 {
+                    ds.z((q * 7) % ds.len()).to_vec()
+                } else {
+                    vec![rng.random_range(-1.0..2.0), rng.random_range(-1.0..2.0)]
+                };
+                let f = (q % 4) as u8;
+                let (mut a, mut b) = ([0.0], [0.0]);
+                let n = cv.query(&params, &z, f, &mut a, &mut s);
+                let m = flat.query(&cv, &params, &z, f, &mut b, &mut s);
+                assert_eq!(n, m, "h {h} z {z:?}");
+                let tol = if n > 0 { 1e-12 } else { 0.0 };
+                assert!((a[0] - b[0]).abs() <= tol, "h {h} z {z:?}: {a:?} {b:?}");
             }
         }
     }
