@@ -270,7 +270,10 @@ fn flow(label: &str, setup: &[&str], run: &str, operator: &str) {
 
 #[test]
 fn the_teacher_flow_on_positioning() {
-    flow("positioning", &[], "goal 2 -1 0", "slow_down");
+    // BC's 1-NN drives the default demonstrations' run on a clean path, which the drag's quarter
+    // to half of the path selects unambiguously: LWR's kernel, tuned on whole held-out
+    // demonstrations since issue 48, averages widely and its run wanders over itself for 60 s.
+    flow("positioning", &["learner bc"], "goal 2 -1 0", "slow_down");
 }
 
 #[test]

@@ -24,7 +24,7 @@ impl Session {
             (LearnerKind::Lwr, Some(c)) => crate::policy::learner::kernel_warning(
                 c,
                 "held-out points",
-                "the demonstrations and advice are far apart for this kernel, and the learner's runs will mostly answer as 1-NN: demonstrate more starts (`load demos`, `teleop`) so that trajectories neighbour each other",
+                "the demonstrations and advice lie too far apart for any kernel the data supports, so the learner's runs will mostly answer as 1-NN: demonstrate more starts (`load demos`, `teleop`) so that trajectories neighbour each other",
             ),
             _ => String::new(),
         };

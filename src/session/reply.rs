@@ -159,7 +159,7 @@ impl fmt::Display for Reply {
                     f.write_str(&kernel_warning(
                         k,
                         "steps of this run",
-                        "the run went where the data is sparse: `why N` at those steps, then demonstrate near them (`teleop`, `record demo`) or advise the run",
+                        "the run went where the data is sparse: look at its steps with `why N`, then demonstrate near them (`teleop`, `record demo`) or advise the run; `rederive` re-tunes the kernel on the data as it is",
                     ))?;
                 }
                 Ok(())

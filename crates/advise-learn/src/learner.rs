@@ -145,13 +145,7 @@ impl KernelCoverage {
 #[error(
     "LWR's kernel held no data at {empty} of {steps} {what} ({share:.0}%): there the policy answered with the nearest point's action, as 1-NN"
 )]
-#[diagnostic(
-    code(advise::learner::kernel_empty),
-    severity(Warning),
-    help(
-        "{help}; `why N` shows a step's neighbourhood, `rederive` re-tunes the kernel on the data as it is"
-    )
-)]
+#[diagnostic(code(advise::learner::kernel_empty), severity(Warning), help("{help}"))]
 pub struct KernelEmpty {
     pub empty: usize,
     pub steps: usize,
@@ -783,17 +777,22 @@ impl Learner {
             let how = if tuning.folds == 0 {
                 "left at its defaults (too few points to cross-validate)".to_string()
             } else {
-                format!(
-                    "{} by cross-validation over {} held-out source{} in {} folds",
-                    if warm {
-                        "re-tuned from the last tuning"
-                    } else {
-                        "tuned"
-                    },
-                    tuning.sources,
-                    if tuning.sources == 1 { "" } else { "s" },
-                    tuning.folds
-                )
+                let verb = if warm {
+                    "re-tuned from the last tuning"
+                } else {
+                    "tuned"
+                };
+                if tuning.sources == 1 {
+                    format!(
+                        "{verb} by cross-validation over {} stretches of its one demonstration",
+                        tuning.folds
+                    )
+                } else {
+                    format!(
+                        "{verb} by cross-validation over {} held-out sources in {} folds",
+                        tuning.sources, tuning.folds
+                    )
+                }
             };
             let coverage = self
                 .held_out_coverage()
