@@ -53,15 +53,15 @@ pub fn install_ctrl_c(signal: &StopSignal) -> bool {
             match current {
                 Some(s) if s.is_raised() => {
                     s.raise();
-                    eprintln!("\n^C again: leaving");
+                    crate::errln!("\n^C again: leaving");
                     std::process::exit(130);
                 }
                 Some(s) => {
                     s.raise();
                     if s.has_base() {
-                        eprintln!("\n^C: stopping the base (zero commanded)");
+                        crate::errln!("\n^C: stopping the base (zero commanded)");
                     } else {
-                        eprintln!("\n^C: stopping (Ctrl-C again to leave at once)");
+                        crate::errln!("\n^C: stopping (Ctrl-C again to leave at once)");
                     }
                 }
                 None => std::process::exit(130),
@@ -145,14 +145,14 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
 
 /// The banner: the session, its journal, and what to type first.
 pub fn greet(session: &Session) {
-    println!("advise: {}", session.status());
+    crate::outln!("advise: {}", session.status());
     if let Some(j) = session.journal_path() {
-        println!("journal: {} (`advise resume` restores it)", j.display());
+        crate::outln!("journal: {} (`advise resume` restores it)", j.display());
     }
     let ds = session.learner().dataset();
     // A fresh start (not a resumed session with advice or critiques in it).
     if !ds.is_empty() && ds.advice().is_empty() && ds.critiques().is_empty() {
-        println!(
+        crate::outln!(
             "the starting policy comes from a few teacher demonstrations and is meant to be weak (the paper's baseline): run it, see where it goes wrong, advise it"
         );
     }
@@ -161,7 +161,7 @@ pub fn greet(session: &Session) {
     } else {
         "`run start 0`, then `select 40..70`, `advise NAME` (`help` lists the task's operators)"
     };
-    println!("type `help` for the commands, Tab to complete; e.g. {example}");
+    crate::outln!("type `help` for the commands, Tab to complete; e.g. {example}");
 }
 
 /// The REPL's loop on `statements` until `quit` or end of input; Ctrl-C raises `signal`.
@@ -186,9 +186,9 @@ pub fn run_on(statements: &mut dyn Statements, signal: &StopSignal) -> rustyline
                 signal.clear();
                 let typed = statements.execute(&line, &format!("<input {n}>"), colour);
                 match typed.shown {
-                    Ok(text) if !text.is_empty() => println!("{}", text.trim_end()),
+                    Ok(text) if !text.is_empty() => crate::outln!("{}", text.trim_end()),
                     Ok(_) => {}
-                    Err(diagnostic) => eprint!("{diagnostic}"),
+                    Err(diagnostic) => crate::err!("{diagnostic}"),
                 }
                 if typed.quit {
                     break;
@@ -198,7 +198,7 @@ pub fn run_on(statements: &mut dyn Statements, signal: &StopSignal) -> rustyline
                 }
             }
             Err(ReadlineError::Interrupted) => {
-                println!("^C {}; `quit` or Ctrl-D to leave", statements.stop_robot());
+                crate::outln!("^C {}; `quit` or Ctrl-D to leave", statements.stop_robot());
             }
             Err(ReadlineError::Eof) => break,
             Err(e) => return Err(e),
@@ -224,7 +224,7 @@ fn read_statement(rl: &mut Editor<AdviseHelper, DefaultHistory>) -> rustyline::R
                 text.push_str(&more);
             }
             Err(ReadlineError::Interrupted) => {
-                println!("^C the unfinished statement is dropped");
+                crate::outln!("^C the unfinished statement is dropped");
                 return Ok(String::new());
             }
             // The end of the input: hand on what there is, so its error is reported.

@@ -20,7 +20,7 @@ pub fn check_standard() -> miette::Result<ExitCode> {
         .collect();
     match check::check_in(&map, None, &ids) {
         Ok(checked) => {
-            println!(
+            crate::outln!(
                 "checked {} domains ({}) and {} operators in operators/: all good",
                 checked.set.domains().len(),
                 tasks_listed(&checked.set),
@@ -110,7 +110,7 @@ pub fn check_files(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitC
                 print_report(&map, &w);
             }
             let ops: usize = set.operator_count();
-            println!(
+            crate::outln!(
                 "checked {} file{}: {} domains ({}) and {} operators in all{}, no errors{}",
                 files.len(),
                 if files.len() == 1 { "" } else { "s" },
@@ -211,7 +211,7 @@ fn report_check_errors(map: &SourceMap, errors: check::CheckErrors, files: usize
     for e in &errors.errors {
         print_report(map, e);
     }
-    eprintln!(
+    crate::errln!(
         "advise: {n} error{} in {files} file{}",
         if n == 1 { "" } else { "s" },
         if files == 1 { "" } else { "s" }
@@ -262,7 +262,7 @@ pub fn apply(
         .write_csv(&domain, &mut stdout)
         .into_diagnostic()
         .wrap_err("cannot write the points")?;
-    eprintln!(
+    crate::errln!(
         "advise: {} synthesized {} of {} points ({} skipped by its guard)",
         out.advice.invocation(),
         out.points.len(),
@@ -300,22 +300,31 @@ pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
         if formatted == text {
             continue;
         }
-        changed += 1;
         if check {
-            println!("would reformat {}", path.display());
+            changed += 1;
+            crate::outln!("would reformat {}", path.display());
         } else if let Err(e) = crate::files::write_bytes(path, formatted.as_bytes()) {
+            // Refused (read-only, not a regular file, ...): not counted as reformatted.
             print_report(&map, &e);
             failed += 1;
         } else {
-            println!("formatted {}", path.display());
+            changed += 1;
+            crate::outln!("formatted {}", path.display());
         }
     }
     let n = files.len();
     let files_word = |n: usize| if n == 1 { "file" } else { "files" };
+    let failures = match failed {
+        0 => String::new(),
+        f => format!("; {f} failed"),
+    };
     match (check, changed) {
-        (true, 0) => println!("{n} {} already formatted", files_word(n)),
-        (true, c) => println!("{c} of {n} {} would be reformatted", files_word(n)),
-        (false, c) => println!("{c} of {n} {} reformatted", files_word(n)),
+        (true, 0) if failed == 0 => crate::outln!("{n} {} already formatted", files_word(n)),
+        (true, c) => crate::outln!(
+            "{c} of {n} {} would be reformatted{failures}",
+            files_word(n)
+        ),
+        (false, c) => crate::outln!("{c} of {n} {} reformatted{failures}", files_word(n)),
     }
     Ok(if failed > 0 || (check && changed > 0) {
         ExitCode::FAILURE
@@ -346,13 +355,13 @@ pub fn test(files: &[PathBuf]) -> miette::Result<ExitCode> {
         print_report(&map, f);
     }
     if !outcome.without_example.is_empty() {
-        println!(
+        crate::outln!(
             "no example: {} (add a `/// Example: ...` line to test them)",
             outcome.without_example.join(", ")
         );
     }
     let m = outcome.failures.len();
-    println!(
+    crate::outln!(
         "{} example{}, {m} failed",
         outcome.examples,
         if outcome.examples == 1 { "" } else { "s" }
