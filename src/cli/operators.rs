@@ -63,8 +63,27 @@ fn by_role(set: &OperatorSet) -> String {
     }
 }
 
-/// Read `files` into `map`, the first unreadable one as the error.
+/// Read `files` into `map`, the first unreadable one as the error. Files that together hold more
+/// than one check reads ([`check::MAX_CHECK_BYTES`]) are refused before they are read.
 fn read_sources(map: &mut SourceMap, files: &[PathBuf]) -> miette::Result<Vec<SourceId>> {
+    let size: u64 = files
+        .iter()
+        .filter_map(|f| std::fs::metadata(f).ok())
+        .filter(|m| m.is_file())
+        .map(|m| m.len())
+        .sum();
+    if size > check::MAX_CHECK_BYTES as u64 {
+        let what = match files {
+            [one] => format!("`{}`", one.display()),
+            many => format!("the {} files", many.len()),
+        };
+        return Err(check::CheckError::TooLarge {
+            what,
+            size: crate::files::fmt_bytes(size),
+            limit: crate::files::fmt_bytes(check::MAX_CHECK_BYTES as u64),
+        }
+        .into());
+    }
     files
         .iter()
         .map(|f| crate::files::read_source(map, f).map_err(|e| Report::from(map.attach(e))))
