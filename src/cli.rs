@@ -853,51 +853,8 @@ pub fn print_stdout(text: &str) -> miette::Result<()> {
 /// An error that points into a source map brings it along ([`crate::diag::Sourced`]).
 pub fn print_report(sources: &crate::diag::SourceMap, diag: &dyn Diagnostic) {
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    crate::errln!(
+    errln!(
         "{}",
         crate::diag::render_with_width(sources, diag, colour, 80)
     );
-}
-
-/// Write to standard output (`false`) or standard error (`true`) without ever panicking, as
-/// `println!` and `eprintln!` do when the reader has gone (`advise ... 2>&1 | head -1`, issue 47):
-/// the text has nowhere to go, so it is dropped, and advise goes on to end with its own exit
-/// code. [`outln!`](crate::outln), [`errln!`](crate::errln) and [`err!`](crate::err) call it.
-pub fn print_to(stderr: bool, args: std::fmt::Arguments<'_>) {
-    use std::io::Write;
-    let _ = if stderr {
-        std::io::stderr().lock().write_fmt(args)
-    } else {
-        std::io::stdout().lock().write_fmt(args)
-    };
-}
-
-/// `println!` on standard output that survives a closed pipe ([`cli::print_to`](crate::cli::print_to)).
-#[macro_export]
-macro_rules! outln {
-    () => {
-        $crate::cli::print_to(false, ::std::format_args!("\n"))
-    };
-    ($($arg:tt)*) => {
-        $crate::cli::print_to(false, ::std::format_args!("{}\n", ::std::format_args!($($arg)*)))
-    };
-}
-
-/// `eprintln!` that survives a closed pipe ([`cli::print_to`](crate::cli::print_to)).
-#[macro_export]
-macro_rules! errln {
-    () => {
-        $crate::cli::print_to(true, ::std::format_args!("\n"))
-    };
-    ($($arg:tt)*) => {
-        $crate::cli::print_to(true, ::std::format_args!("{}\n", ::std::format_args!($($arg)*)))
-    };
-}
-
-/// `eprint!` that survives a closed pipe ([`cli::print_to`](crate::cli::print_to)).
-#[macro_export]
-macro_rules! err {
-    ($($arg:tt)*) => {
-        $crate::cli::print_to(true, ::std::format_args!($($arg)*))
-    };
 }

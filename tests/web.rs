@@ -330,13 +330,28 @@ fn end_of_input_waits_for_the_pages_statement_journals_and_answers_it() {
         .unwrap();
     let port: u16 = addr.rsplit_once(':').unwrap().1.parse().unwrap();
     let host = addr.to_string();
-    let statement = "load demos teacher:400";
+    let statement = "load demos teacher:2000";
     let page = {
-        let token = token.to_string();
+        let (token, host) = (token.to_string(), host.clone());
         std::thread::spawn(move || post(port, &format!("?token={token}"), &host, None, statement))
     };
-    // The statement is under way (it takes seconds); then Ctrl-D.
-    std::thread::sleep(Duration::from_millis(700));
+    // Ctrl-D once the statement is under way: a state, which waits for the session's lock, is
+    // not answered at once.
+    let running = eventually(Duration::from_secs(30), || {
+        let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+        s.set_read_timeout(Some(Duration::from_millis(300)))
+            .unwrap();
+        let get = format!(
+            "GET /api/state?token={token} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
+        );
+        s.write_all(get.as_bytes()).unwrap();
+        let mut first = [0u8; 1];
+        matches!(
+            s.read(&mut first),
+            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut)
+        )
+    });
+    assert!(running, "the page's statement never held the session");
     drop(child.stdin.take());
     let start = std::time::Instant::now();
     let status = loop {

@@ -20,7 +20,7 @@ pub fn check_standard() -> miette::Result<ExitCode> {
         .collect();
     match check::check_in(&map, None, &ids) {
         Ok(checked) => {
-            crate::outln!(
+            outln!(
                 "checked {} domains ({}) and {} operators in operators/: all good",
                 checked.set.domains().len(),
                 tasks_listed(&checked.set),
@@ -129,7 +129,7 @@ pub fn check_files(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitC
                 print_report(&map, &w);
             }
             let ops: usize = set.operator_count();
-            crate::outln!(
+            outln!(
                 "checked {} file{}: {} domains ({}) and {} operators in all{}, no errors{}",
                 files.len(),
                 if files.len() == 1 { "" } else { "s" },
@@ -230,7 +230,7 @@ fn report_check_errors(map: &SourceMap, errors: check::CheckErrors, files: usize
     for e in &errors.errors {
         print_report(map, e);
     }
-    crate::errln!(
+    errln!(
         "advise: {n} error{} in {files} file{}",
         if n == 1 { "" } else { "s" },
         if files == 1 { "" } else { "s" }
@@ -281,7 +281,7 @@ pub fn apply(
         .write_csv(&domain, &mut stdout)
         .into_diagnostic()
         .wrap_err("cannot write the points")?;
-    crate::errln!(
+    errln!(
         "advise: {} synthesized {} of {} points ({} skipped by its guard)",
         out.advice.invocation(),
         out.points.len(),
@@ -321,14 +321,14 @@ pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
         }
         if check {
             changed += 1;
-            crate::outln!("would reformat {}", path.display());
+            outln!("would reformat {}", path.display());
         } else if let Err(e) = crate::files::write_bytes(path, formatted.as_bytes()) {
             // Refused (read-only, not a regular file, ...): not counted as reformatted.
             print_report(&map, &e);
             failed += 1;
         } else {
             changed += 1;
-            crate::outln!("formatted {}", path.display());
+            outln!("formatted {}", path.display());
         }
     }
     let n = files.len();
@@ -338,12 +338,12 @@ pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
         f => format!("; {f} failed"),
     };
     match (check, changed) {
-        (true, 0) if failed == 0 => crate::outln!("{n} {} already formatted", files_word(n)),
-        (true, c) => crate::outln!(
+        (true, 0) if failed == 0 => outln!("{n} {} already formatted", files_word(n)),
+        (true, c) => outln!(
             "{c} of {n} {} would be reformatted{failures}",
             files_word(n)
         ),
-        (false, c) => crate::outln!("{c} of {n} {} reformatted{failures}", files_word(n)),
+        (false, c) => outln!("{c} of {n} {} reformatted{failures}", files_word(n)),
     }
     Ok(if failed > 0 || (check && changed > 0) {
         ExitCode::FAILURE
@@ -374,13 +374,13 @@ pub fn test(files: &[PathBuf]) -> miette::Result<ExitCode> {
         print_report(&map, f);
     }
     if !outcome.without_example.is_empty() {
-        crate::outln!(
+        outln!(
             "no example: {} (add a `/// Example: ...` line to test them)",
             outcome.without_example.join(", ")
         );
     }
     let m = outcome.failures.len();
-    crate::outln!(
+    outln!(
         "{} example{}, {m} failed",
         outcome.examples,
         if outcome.examples == 1 { "" } else { "s" }
