@@ -853,7 +853,7 @@ pub fn print_stdout(text: &str) -> miette::Result<()> {
 /// An error that points into a source map brings it along ([`crate::diag::Sourced`]).
 pub fn print_report(sources: &crate::diag::SourceMap, diag: &dyn Diagnostic) {
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    eprintln!(
+    errln!(
         "{}",
         crate::diag::render_with_width(sources, diag, colour, 80)
     );

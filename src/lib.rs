@@ -17,12 +17,14 @@ pub use advise_lang::{
 pub use advise_learn as policy;
 pub use advise_lsp as lsp;
 
+// First, so that its printing macros (`outln!`, `errln!`, `err!`) reach the modules below.
+#[macro_use]
+pub mod repl;
 pub mod backend;
 pub mod cli;
 pub mod eval;
 pub mod experiment;
 pub mod recording;
-pub mod repl;
 pub mod session;
 pub mod task;
 pub mod web;

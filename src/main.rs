@@ -86,10 +86,12 @@ fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
         let reply = reply.to_string();
         match origin {
             "--tasks" => match reply.strip_suffix(&switch).filter(|_| !builtin) {
-                Some(checked) => eprintln!("{checked}; the session starts on task {}", args.task),
-                None => eprintln!("{reply}"),
+                Some(checked) => {
+                    advise::errln!("{checked}; the session starts on task {}", args.task)
+                }
+                None => advise::errln!("{reply}"),
             },
-            "--demos" => eprintln!("{reply}"),
+            "--demos" => advise::errln!("{reply}"),
             _ => {}
         }
     })?;
@@ -107,12 +109,20 @@ fn repl(args: SessionArgs, view: Option<std::net::SocketAddr>) -> miette::Result
         return Ok(ExitCode::SUCCESS);
     };
     let hub = web::Hub::new(session);
-    let _server = start_view(&hub, listen)?;
+    let server = start_view(&hub, listen)?;
     hub.with(|s| advise::repl::greet(s));
     let signal = hub.stop_signal();
-    advise::repl::run_on(&mut web::ReplSide(hub), &signal).into_diagnostic()?;
+    let ended = advise::repl::run_on(&mut web::ReplSide(hub.clone()), &signal);
+    // `quit` or end of input: a page's statement under way is finished (journalled) and
+    // answered before the process leaves; none starts after.
+    hub.close();
+    server.shutdown(VIEW_GRACE);
+    ended.into_diagnostic()?;
     Ok(ExitCode::SUCCESS)
 }
+
+/// How long the view, once the REPL ends, gives a page's reply under way to be sent.
+const VIEW_GRACE: std::time::Duration = std::time::Duration::from_secs(5);
 
 /// `advise serve`: the session with only the web view, until Ctrl-C (the first stops the base,
 /// a second leaves).
@@ -123,8 +133,8 @@ fn serve(args: SessionArgs, listen: std::net::SocketAddr) -> miette::Result<Exit
     let hub = web::Hub::new(session);
     advise::repl::install_ctrl_c(&hub.stop_signal());
     let server = start_view(&hub, listen)?;
-    hub.with(|s| println!("advise: {}", s.status()));
-    println!("Ctrl-C stops the base; twice leaves");
+    hub.with(|s| advise::outln!("advise: {}", s.status()));
+    advise::outln!("Ctrl-C stops the base; twice leaves");
     server.wait();
     Ok(ExitCode::SUCCESS)
 }
@@ -134,15 +144,15 @@ fn serve(args: SessionArgs, listen: std::net::SocketAddr) -> miette::Result<Exit
 fn start_view(hub: &web::Hub, listen: std::net::SocketAddr) -> miette::Result<web::Server> {
     let server = web::start(hub.clone(), listen)?;
     if !web::is_private(&server.addr) {
-        eprintln!(
+        advise::errln!(
             "warning: the view listens on {}, reachable from other machines; anyone with the URL can drive the session (and its robot)",
             server.addr
         );
     }
-    println!("view: {}", server.url);
+    advise::outln!("view: {}", server.url);
     hub.with(|s| {
         if let Some(j) = s.journal_path() {
-            println!("journal: {}", j.display());
+            advise::outln!("journal: {}", j.display());
         }
     });
     Ok(server)
@@ -158,7 +168,7 @@ fn choose_backend(session: &mut Session, args: &SessionArgs) -> miette::Result<(
     )?;
     if backend != "sim" {
         let reply = session.execute(&format!("backend {backend}"), "--backend")?;
-        eprintln!("{reply}");
+        advise::errln!("{reply}");
     }
     Ok(())
 }
@@ -183,7 +193,7 @@ fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Resu
     let mut session = new_session(args, args.demos)?;
     start_journal(&mut session, args)?;
     if let Some(j) = session.journal_path() {
-        eprintln!("journal: {} (`advise resume` restores it)", j.display());
+        advise::errln!("journal: {} (`advise resume` restores it)", j.display());
     }
     choose_backend(&mut session, args)?;
     // A script that drives a real base is stopped by Ctrl-C like the REPL.
@@ -203,7 +213,7 @@ fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Resu
         source,
     })?;
     if failures > 0 {
-        eprintln!(
+        advise::errln!(
             "advise: {failures} statement{} of {} failed{}",
             if failures == 1 { "" } else { "s" },
             path.display(),
@@ -237,13 +247,13 @@ fn resume(journal_path: Option<PathBuf>) -> miette::Result<ExitCode> {
         })?,
     };
     let restored = Session::restore(&path, &dir)?;
-    println!("{}", restored.summary(&path));
+    advise::outln!("{}", restored.summary(&path));
     let mut session = restored.session;
     if let Some(stopped) = &restored.stopped {
         cli::print_report(session.sources(), stopped);
     }
     for note in &restored.notes {
-        println!("note: {note}");
+        advise::outln!("note: {note}");
     }
     advise::repl::run(&mut session).into_diagnostic()?;
     Ok(ExitCode::SUCCESS)

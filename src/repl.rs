@@ -9,6 +9,51 @@
 //! second Ctrl-C in the same statement leaves the program (after stopping the base again).
 //! Ctrl-D or `quit` ends the session.
 
+/// Write to standard output (`false`) or standard error (`true`) without ever panicking, as
+/// `println!` and `eprintln!` do when the reader has gone (`advise ... 2>&1 | head -1`, issue 47):
+/// the text has nowhere to go, so it is dropped, and advise goes on to end with its own exit
+/// code. The REPL's and the command line's printing goes through it: [`outln!`](crate::outln),
+/// [`errln!`](crate::errln) and [`err!`](crate::err) (usable without a path in the modules
+/// declared after this one, which `lib.rs` marks `#[macro_use]`).
+pub fn print_to(stderr: bool, args: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let _ = if stderr {
+        std::io::stderr().lock().write_fmt(args)
+    } else {
+        std::io::stdout().lock().write_fmt(args)
+    };
+}
+
+/// `println!` that survives a closed pipe ([`print_to`]).
+#[macro_export]
+macro_rules! outln {
+    () => {
+        $crate::repl::print_to(false, ::std::format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::repl::print_to(false, ::std::format_args!("{}\n", ::std::format_args!($($arg)*)))
+    };
+}
+
+/// `eprintln!` that survives a closed pipe ([`print_to`]).
+#[macro_export]
+macro_rules! errln {
+    () => {
+        $crate::repl::print_to(true, ::std::format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::repl::print_to(true, ::std::format_args!("{}\n", ::std::format_args!($($arg)*)))
+    };
+}
+
+/// `eprint!` that survives a closed pipe ([`print_to`]).
+#[macro_export]
+macro_rules! err {
+    ($($arg:tt)*) => {
+        $crate::repl::print_to(true, ::std::format_args!($($arg)*))
+    };
+}
+
 pub mod helper;
 
 use std::sync::{Arc, Mutex, OnceLock};
@@ -53,15 +98,15 @@ pub fn install_ctrl_c(signal: &StopSignal) -> bool {
             match current {
                 Some(s) if s.is_raised() => {
                     s.raise();
-                    eprintln!("\n^C again: leaving");
+                    errln!("\n^C again: leaving");
                     std::process::exit(130);
                 }
                 Some(s) => {
                     s.raise();
                     if s.has_base() {
-                        eprintln!("\n^C: stopping the base (zero commanded)");
+                        errln!("\n^C: stopping the base (zero commanded)");
                     } else {
-                        eprintln!("\n^C: stopping (Ctrl-C again to leave at once)");
+                        errln!("\n^C: stopping (Ctrl-C again to leave at once)");
                     }
                 }
                 None => std::process::exit(130),
@@ -145,14 +190,14 @@ pub fn run(session: &mut Session) -> rustyline::Result<()> {
 
 /// The banner: the session, its journal, and what to type first.
 pub fn greet(session: &Session) {
-    println!("advise: {}", session.status());
+    outln!("advise: {}", session.status());
     if let Some(j) = session.journal_path() {
-        println!("journal: {} (`advise resume` restores it)", j.display());
+        outln!("journal: {} (`advise resume` restores it)", j.display());
     }
     let ds = session.learner().dataset();
     // A fresh start (not a resumed session with advice or critiques in it).
     if !ds.is_empty() && ds.advice().is_empty() && ds.critiques().is_empty() {
-        println!(
+        outln!(
             "the starting policy comes from a few teacher demonstrations and is meant to be weak (the paper's baseline): run it, see where it goes wrong, advise it"
         );
     }
@@ -161,7 +206,7 @@ pub fn greet(session: &Session) {
     } else {
         "`run start 0`, then `select 40..70`, `advise NAME` (`help` lists the task's operators)"
     };
-    println!("type `help` for the commands, Tab to complete; e.g. {example}");
+    outln!("type `help` for the commands, Tab to complete; e.g. {example}");
 }
 
 /// The REPL's loop on `statements` until `quit` or end of input; Ctrl-C raises `signal`.
@@ -186,9 +231,9 @@ pub fn run_on(statements: &mut dyn Statements, signal: &StopSignal) -> rustyline
                 signal.clear();
                 let typed = statements.execute(&line, &format!("<input {n}>"), colour);
                 match typed.shown {
-                    Ok(text) if !text.is_empty() => println!("{}", text.trim_end()),
+                    Ok(text) if !text.is_empty() => outln!("{}", text.trim_end()),
                     Ok(_) => {}
-                    Err(diagnostic) => eprint!("{diagnostic}"),
+                    Err(diagnostic) => err!("{diagnostic}"),
                 }
                 if typed.quit {
                     break;
@@ -198,7 +243,7 @@ pub fn run_on(statements: &mut dyn Statements, signal: &StopSignal) -> rustyline
                 }
             }
             Err(ReadlineError::Interrupted) => {
-                println!("^C {}; `quit` or Ctrl-D to leave", statements.stop_robot());
+                outln!("^C {}; `quit` or Ctrl-D to leave", statements.stop_robot());
             }
             Err(ReadlineError::Eof) => break,
             Err(e) => return Err(e),
@@ -224,7 +269,7 @@ fn read_statement(rl: &mut Editor<AdviseHelper, DefaultHistory>) -> rustyline::R
                 text.push_str(&more);
             }
             Err(ReadlineError::Interrupted) => {
-                println!("^C the unfinished statement is dropped");
+                outln!("^C the unfinished statement is dropped");
                 return Ok(String::new());
             }
             // The end of the input: hand on what there is, so its error is reported.

@@ -149,6 +149,25 @@ fn fmt_rewrites_checks_and_reports_what_it_cannot_parse() {
     ));
 }
 
+/// Issue 47: a file `fmt` could not write was counted as reformatted ("2 of 2 files
+/// reformatted"). A name so long that no temporary file fits beside it is refused as root too
+/// (where a read-only file is not: root may write it).
+#[test]
+fn fmt_counts_only_the_files_it_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let messy = "operator halt   for positioning on action {trans=0}\n";
+    let long = format!("{}.adv", "l".repeat(240));
+    std::fs::write(d.join("messy.adv"), messy).unwrap();
+    std::fs::write(d.join(&long), messy).unwrap();
+    let (code, out) = advise(d, &["fmt", "messy.adv", &long]);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("advise::file::write"), "{out}");
+    assert!(out.contains("1 of 2 files reformatted; 1 failed"), "{out}");
+    assert_eq!(std::fs::read_to_string(d.join(&long)).unwrap(), messy);
+    assert_ne!(std::fs::read_to_string(d.join("messy.adv")).unwrap(), messy);
+}
+
 #[test]
 fn advise_test_runs_the_standard_librarys_examples() {
     let dir = tempfile::tempdir().unwrap();

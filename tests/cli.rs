@@ -229,3 +229,59 @@ fn apply_takes_one_episode_of_a_demonstrations_file_and_run_counts_failures() {
         "{err}"
     );
 }
+
+/// Issue 47: `advise ... 2>&1 | head -1` made advise panic ("failed printing to stderr: Broken
+/// pipe") and exit 101 when the reader left first. Here the reader is gone before advise starts,
+/// so every write fails: each command ends with the code it ends with when read to the end.
+#[test]
+fn a_closed_pipe_on_stdout_and_stderr_keeps_advises_own_exit_code() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut bad = String::new();
+    for i in 0..50 {
+        bad.push_str(&format!(
+            "operator o{i} for positioning on action {{ trans = nope{i} }}\n"
+        ));
+    }
+    std::fs::write(d.join("bad.adv"), bad).unwrap();
+    std::fs::write(
+        d.join("messy.adv"),
+        "operator halt   for positioning on action {trans=0}\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("script.adv"),
+        "help\nrun goal 1 0 0\nnot_a_command\n",
+    )
+    .unwrap();
+    let cases: [&[&str]; 7] = [
+        &["check"],
+        &["check", "bad.adv"],
+        &["fmt", "--check", "messy.adv"],
+        &["--help"],
+        &["--no-such-option"],
+        &["run", "--no-journal", "--demos", "1", "script.adv"],
+        &["test"],
+    ];
+    for args in cases {
+        let run = |closed: bool| {
+            let mut cmd = Command::new(env!("CARGO_BIN_EXE_advise"));
+            cmd.args(args)
+                .current_dir(d)
+                .env("NO_COLOR", "1")
+                .env("ADVISE_HOME", d);
+            if closed {
+                let (reader, writer) = std::io::pipe().unwrap();
+                drop(reader);
+                cmd.stdout(writer.try_clone().unwrap()).stderr(writer);
+            } else {
+                cmd.stdout(std::process::Stdio::piped())
+                    .stderr(std::process::Stdio::piped());
+            }
+            cmd.output().unwrap().status
+        };
+        let (open, closed) = (run(false), run(true));
+        assert_ne!(closed.code(), Some(101), "advise {args:?} panicked");
+        assert_eq!(closed.code(), open.code(), "advise {args:?}");
+    }
+}

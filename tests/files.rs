@@ -249,6 +249,60 @@ fn open_validates_the_whole_file_and_a_failed_open_changes_nothing() {
     );
 }
 
+/// Issue 47: an execution's goal that is short or out of reach was refused only after the
+/// session had taken the opened dataset, so its demonstrations were gone, `save` wrote the bad
+/// goal and the journal (without the failed open) resumed to a state the session never had.
+#[test]
+fn an_open_refused_for_an_executions_goal_changes_nothing_saved_or_journalled() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let base = saved_dataset(d);
+    let bad = |name: &str, goal: Value| {
+        let mut v = base.clone();
+        v["executions"][0]["goal"] = goal;
+        std::fs::write(d.join(name), serde_json::to_string(&v).unwrap()).unwrap();
+    };
+    bad("short.json", serde_json::json!([1.0, 2.0]));
+    bad("far.json", serde_json::json!([1.0e9, 0.0, 0.0]));
+    let mut s = session(TaskKind::Positioning, 3);
+    let journal = s.start_journal(d).unwrap();
+    transcript(
+        &mut s,
+        "run goal 1 1 0
+select 2..12
+advise slow_down
+",
+    );
+    let before = (s.status(), s.learner().dataset().to_json_string());
+    for name in ["short.json", "far.json"] {
+        let t = transcript(&mut s, &format!("open {}/{name}\n", d.display()));
+        assert!(t.contains("advise::session::bad_goal"), "{t}");
+        assert_eq!(
+            (s.status(), s.learner().dataset().to_json_string()),
+            before,
+            "{name}"
+        );
+    }
+    // What `save` writes and what the journal resumes are the session as it was.
+    transcript(&mut s, &format!("save {}/after.json\n", d.display()));
+    let after: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("after.json")).unwrap()).unwrap();
+    assert_eq!(
+        after["executions"][0]["goal"],
+        serde_json::json!([1.0, 1.0, 0.0])
+    );
+    drop(s);
+    let back = Session::restore(&journal, d).unwrap_or_else(|e| panic!("{e:?}"));
+    assert!(back.stopped.is_none(), "{:?}", back.stopped);
+    assert_eq!(
+        (
+            back.session.status(),
+            back.session.learner().dataset().to_json_string()
+        ),
+        before
+    );
+}
+
 #[test]
 fn a_saved_dataset_is_demonstrations_for_load_demos_and_eval() {
     let dir = tempfile::tempdir().unwrap();

@@ -470,6 +470,31 @@ operator skipped for positioning on action where k > 0 { trans = dist2[-k / k] }
     );
 }
 
+/// Issue 47: `advise check` of 250 MB of compositions (under the 256 MiB a file may be) aborted at
+/// 3.6 GB. One check now reads at most `MAX_CHECK_BYTES` of operator text (and `MAX_OPERATORS`
+/// operators), refused before anything is parsed.
+#[test]
+fn a_check_past_its_text_bound_is_refused_before_parsing() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("huge.adv");
+    let line = "operator c for positioning on action = slow_down then no_turning then speed_up\n";
+    let text = line.repeat(check::MAX_CHECK_BYTES / line.len() + 1);
+    std::fs::write(&path, &text).unwrap();
+    let (status, out, err) = advise(&["check", path.to_str().unwrap()]);
+    assert_eq!(status, Some(1), "{out}\n{err}");
+    common::masked_as(&[(path.to_str().unwrap(), "huge.adv")])
+        .bind(|| insta::assert_snapshot!(format!("----- STDOUT\n{out}----- STDERR\n{err}")));
+    // Two sources together count as one check.
+    let half = line.repeat(check::MAX_CHECK_BYTES / line.len() / 2 + 1);
+    let errors = OperatorSet::standard()
+        .merge(&[
+            Source::new("a.adv", half.clone()),
+            Source::new("b.adv", half),
+        ])
+        .unwrap_err();
+    assert!(check::render_all(&errors).contains("advise::check::too_large"));
+}
+
 #[test]
 fn check_prints_shadowing_warnings_and_succeeds() {
     let dir = tempfile::tempdir().unwrap();

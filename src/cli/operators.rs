@@ -20,7 +20,7 @@ pub fn check_standard() -> miette::Result<ExitCode> {
         .collect();
     match check::check_in(&map, None, &ids) {
         Ok(checked) => {
-            println!(
+            outln!(
                 "checked {} domains ({}) and {} operators in operators/: all good",
                 checked.set.domains().len(),
                 tasks_listed(&checked.set),
@@ -63,8 +63,27 @@ fn by_role(set: &OperatorSet) -> String {
     }
 }
 
-/// Read `files` into `map`, the first unreadable one as the error.
+/// Read `files` into `map`, the first unreadable one as the error. Files that together hold more
+/// than one check reads ([`check::MAX_CHECK_BYTES`]) are refused before they are read.
 fn read_sources(map: &mut SourceMap, files: &[PathBuf]) -> miette::Result<Vec<SourceId>> {
+    let size: u64 = files
+        .iter()
+        .filter_map(|f| std::fs::metadata(f).ok())
+        .filter(|m| m.is_file())
+        .map(|m| m.len())
+        .sum();
+    if size > check::MAX_CHECK_BYTES as u64 {
+        let what = match files {
+            [one] => format!("`{}`", one.display()),
+            many => format!("the {} files", many.len()),
+        };
+        return Err(check::CheckError::TooLarge {
+            what,
+            size: crate::files::fmt_bytes(size),
+            limit: crate::files::fmt_bytes(check::MAX_CHECK_BYTES as u64),
+        }
+        .into());
+    }
     files
         .iter()
         .map(|f| crate::files::read_source(map, f).map_err(|e| Report::from(map.attach(e))))
@@ -110,7 +129,7 @@ pub fn check_files(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitC
                 print_report(&map, &w);
             }
             let ops: usize = set.operator_count();
-            println!(
+            outln!(
                 "checked {} file{}: {} domains ({}) and {} operators in all{}, no errors{}",
                 files.len(),
                 if files.len() == 1 { "" } else { "s" },
@@ -211,7 +230,7 @@ fn report_check_errors(map: &SourceMap, errors: check::CheckErrors, files: usize
     for e in &errors.errors {
         print_report(map, e);
     }
-    eprintln!(
+    errln!(
         "advise: {n} error{} in {files} file{}",
         if n == 1 { "" } else { "s" },
         if files == 1 { "" } else { "s" }
@@ -262,7 +281,7 @@ pub fn apply(
         .write_csv(&domain, &mut stdout)
         .into_diagnostic()
         .wrap_err("cannot write the points")?;
-    eprintln!(
+    errln!(
         "advise: {} synthesized {} of {} points ({} skipped by its guard)",
         out.advice.invocation(),
         out.points.len(),
@@ -300,22 +319,31 @@ pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
         if formatted == text {
             continue;
         }
-        changed += 1;
         if check {
-            println!("would reformat {}", path.display());
+            changed += 1;
+            outln!("would reformat {}", path.display());
         } else if let Err(e) = crate::files::write_bytes(path, formatted.as_bytes()) {
+            // Refused (read-only, not a regular file, ...): not counted as reformatted.
             print_report(&map, &e);
             failed += 1;
         } else {
-            println!("formatted {}", path.display());
+            changed += 1;
+            outln!("formatted {}", path.display());
         }
     }
     let n = files.len();
     let files_word = |n: usize| if n == 1 { "file" } else { "files" };
+    let failures = match failed {
+        0 => String::new(),
+        f => format!("; {f} failed"),
+    };
     match (check, changed) {
-        (true, 0) => println!("{n} {} already formatted", files_word(n)),
-        (true, c) => println!("{c} of {n} {} would be reformatted", files_word(n)),
-        (false, c) => println!("{c} of {n} {} reformatted", files_word(n)),
+        (true, 0) if failed == 0 => outln!("{n} {} already formatted", files_word(n)),
+        (true, c) => outln!(
+            "{c} of {n} {} would be reformatted{failures}",
+            files_word(n)
+        ),
+        (false, c) => outln!("{c} of {n} {} reformatted{failures}", files_word(n)),
     }
     Ok(if failed > 0 || (check && changed > 0) {
         ExitCode::FAILURE
@@ -346,13 +374,13 @@ pub fn test(files: &[PathBuf]) -> miette::Result<ExitCode> {
         print_report(&map, f);
     }
     if !outcome.without_example.is_empty() {
-        println!(
+        outln!(
             "no example: {} (add a `/// Example: ...` line to test them)",
             outcome.without_example.join(", ")
         );
     }
     let m = outcome.failures.len();
-    println!(
+    outln!(
         "{} example{}, {m} failed",
         outcome.examples,
         if outcome.examples == 1 { "" } else { "s" }

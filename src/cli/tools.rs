@@ -46,7 +46,7 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
             Episode::write_csv(&domain, &episodes, out)
         }
     })?;
-    eprintln!(
+    errln!(
         "recorded {} {kind} demonstrations ({points} points) to {}; the teacher succeeded in {successes}",
         episodes.len(),
         args.out.display(),
@@ -160,7 +160,7 @@ pub fn experiment(args: ExperimentArgs) -> miette::Result<()> {
     )?;
     print_stdout(if args.json { &out.json } else { &out.text })?;
     for p in out.plots {
-        eprintln!("wrote {}", p.display());
+        errln!("wrote {}", p.display());
     }
     Ok(())
 }
@@ -190,7 +190,7 @@ pub fn calibrate(args: CalibrateArgs) -> miette::Result<()> {
             print_stdout(&out.json)?;
             return Err(e.into());
         }
-        eprintln!("wrote {}", path.display());
+        errln!("wrote {}", path.display());
     }
     print_stdout(if args.json { &out.json } else { &out.text })?;
     Ok(())
@@ -219,11 +219,11 @@ where
     signal.set_base(base.remote_stop());
     let mut guarded = crate::backend::Interruptible::new(base.as_mut(), signal.clone());
     crate::repl::install_ctrl_c(&signal);
-    eprintln!("evaluating {kind} on {spec} in real time; Ctrl-C stops the base");
+    errln!("evaluating {kind} on {spec} in real time; Ctrl-C stops the base");
     match eval::evaluate_on(kind, make, &mut guarded, opts, limit) {
         Ok(r) => Ok(r),
         Err(e) => {
-            eprint!("{}", e.report.render());
+            err!("{}", e.report.render());
             Err((*e).into())
         }
     }
@@ -307,16 +307,16 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
     for log in &args.logs {
         let mut imported = crate::recording::import_recording(log, &options)?;
         for w in &imported.warnings {
-            eprintln!("warning: {}: {w}", log.display());
+            errln!("warning: {}: {w}", log.display());
         }
         for note in imported.notes("--keep-idle") {
-            eprintln!("{}: {note}", log.display());
+            errln!("{}: {note}", log.display());
         }
         episodes.append(&mut imported.episodes);
     }
     write_demonstrations(&args.out, &def.domain, &episodes)?;
     let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
-    eprintln!(
+    errln!(
         "wrote {} demonstration{} ({points} points) to {}; `load demos {}` adds them to a session",
         episodes.len(),
         if episodes.len() == 1 { "" } else { "s" },
@@ -351,7 +351,7 @@ fn import_lerobot(
     let read = read_lerobot(dir, domain, &options)?;
     crate::recording::write_demonstrations(&args.out, domain, &read.episodes)?;
     let points = read.episode_index.len();
-    eprintln!(
+    errln!(
         "read {}: {}; wrote {} demonstration{} ({points} points) to {}; `load demos {}` adds them to a session",
         dir.display(),
         read.mapping.join(", "),
@@ -381,7 +381,7 @@ pub fn export(args: super::ExportArgs) -> miette::Result<()> {
             .unwrap_or_else(|_| std::time::SystemTime::now());
         let summary = export_mcap(&dataset, out, &McapOptions::starting_at(saved))?;
         let shown = out.display().to_string();
-        eprintln!(
+        errln!(
             "{}",
             crate::recording::mcap_export::describe(&summary, &shown)
         );
@@ -393,7 +393,7 @@ pub fn export(args: super::ExportArgs) -> miette::Result<()> {
             with_executions: args.with_executions,
         };
         let summary = lerobot::export_lerobot_with(&dataset, dir, &options)?;
-        eprintln!(
+        errln!(
             "{}",
             lerobot::describe(&summary, &dir.display().to_string())
         );
@@ -429,15 +429,18 @@ pub fn ros2_sim(args: Ros2SimArgs) -> miette::Result<()> {
         args.command_timeout,
         &stop,
         |cmd, odom, domain| {
-            eprintln!(
+            errln!(
                 "ros2-sim: commands on {cmd}, odometry on {odom} at 50 Hz, domain {domain}; a command is held for {} s; drive it with `--backend {}`; Ctrl-C stops it",
-                args.command_timeout, spec
+                args.command_timeout,
+                spec
             )
         },
     )?;
-    eprintln!(
+    errln!(
         "ros2-sim: {} commands received, {} odometry messages published, {} command timeouts",
-        counts.commands, counts.odometry, counts.timeouts
+        counts.commands,
+        counts.odometry,
+        counts.timeouts
     );
     Ok(())
 }
@@ -460,7 +463,7 @@ pub fn rmp_emulator(args: EmulatorArgs) -> miette::Result<()> {
     let emu = Emulator::bind_sim(args.bind, cfg.clone(), params, args.seed)?;
     let stop = StopSignal::new();
     crate::repl::install_ctrl_c(&stop);
-    println!(
+    outln!(
         "RMP emulator: an {} with {} feedback on {}, the simulator behind it{}",
         cfg.platform.name(),
         cfg.order.name(),
@@ -474,7 +477,7 @@ pub fn rmp_emulator(args: EmulatorArgs) -> miette::Result<()> {
             )
         }
     );
-    println!(
+    outln!(
         "drive it with `--backend rmp:{}` (or `backend rmp:{}` in the REPL); Ctrl-C stops it",
         emu.addr(),
         emu.addr()
@@ -483,7 +486,7 @@ pub fn rmp_emulator(args: EmulatorArgs) -> miette::Result<()> {
     while !stop.is_raised() {
         let s = emu.snapshot();
         if last != Some(s.state) {
-            println!("state: {}", s.state.name());
+            outln!("state: {}", s.state.name());
             last = Some(s.state);
         }
         std::thread::sleep(std::time::Duration::from_millis(50));
@@ -491,7 +494,7 @@ pub fn rmp_emulator(args: EmulatorArgs) -> miette::Result<()> {
     let s = emu.snapshot();
     emu.shutdown();
     let c = s.counts;
-    println!(
+    outln!(
         "stopped in {}: {} datagrams received, {} accepted, {} bad CRC, {} bad length, {} unknown id, {} sent; injected {} drops, {} corruptions, {} delays",
         s.state.name(),
         c.received,

@@ -337,8 +337,9 @@ impl Session {
         learner: crate::policy::learner::Learner,
         path: &str,
     ) -> Result<Restored, SessionError> {
-        self.take_learner(learner);
-        let ds = self.state.learner.dataset();
+        // Everything is built and checked from the opened dataset before the session's state is
+        // touched: a failed open changes nothing (issue 47).
+        let ds = learner.dataset();
         let mut executions = Vec::new();
         for (i, rec) in ds.executions().iter().enumerate() {
             let (goal, goal_values) = self.opened_goal(rec.goal.as_deref())?;
@@ -387,6 +388,7 @@ impl Session {
         for (i, e) in edits.iter_mut().enumerate() {
             e.renumber(i + 1);
         }
+        self.take_learner(learner);
         let st = &mut self.state;
         st.runs = executions.len() as u64;
         st.current = executions.len().checked_sub(1);

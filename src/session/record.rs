@@ -47,10 +47,10 @@ impl Session {
         // At a terminal, Enter (or Ctrl-C, a key in raw mode) ends the recording; in a script the
         // time limit, the idle rule or the stop signal do.
         let mut terminal = if std::io::stdin().is_terminal() {
-            eprint!(
+            to_terminal(format_args!(
                 "recording {}: drive with your teleoperation; Enter ends\r\n",
                 spec.resolve(&opts.teleop_topic)
-            );
+            ));
             TerminalKeys::open().ok()
         } else {
             None
@@ -118,14 +118,17 @@ impl Session {
         let mut teleop = Teleop::new(params.max_speed_mps, params.max_rot_radps);
         let mut keys =
             TerminalKeys::open().map_err(|error| SessionError::RecordFailed { error })?;
-        eprint!("teleop on {}: {KEYS_HELP}\r\n", self.backend_name());
+        to_terminal(format_args!(
+            "teleop on {}: {KEYS_HELP}\r\n",
+            self.backend_name()
+        ));
         let mut show = |t: &Teleop| {
-            eprint!(
+            to_terminal(format_args!(
                 "\r  speed {:+.2} m/s, turn {:+.2} rad/s (steps of {:.0}%)      ",
                 t.speed_mps,
                 t.rot_radps,
                 t.step_fraction * 100.0
-            );
+            ));
         };
         self.stop.clear();
         let seed = episode_seed(self.seed, 2_000_000 + self.state.runs);
@@ -142,7 +145,7 @@ impl Session {
             &mut show,
         );
         drop(keys);
-        eprintln!();
+        to_terminal(format_args!("\n"));
         self.stop.clear();
         let drive = drive.map_err(|error| SessionError::RecordFailed { error })?;
         // The demonstration starts at the first key that moved the base, as `record demo`'s.
@@ -245,4 +248,11 @@ fn checked_limits(
         None => None,
     };
     Ok((max_s, goal))
+}
+
+/// What the teacher reads while driving, on stderr; a closed stderr drops it rather than
+/// panicking as `eprint!` would (issue 47).
+fn to_terminal(args: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let _ = std::io::stderr().lock().write_fmt(args);
 }

@@ -73,6 +73,17 @@ pub const MAX_NODES: usize = 4096;
 /// How many parameters an operator may declare (every composition stage binds them all).
 pub const MAX_PARAMS: usize = 64;
 
+/// The most operator text one check reads, all its sources together: 64 MiB. A check holds
+/// what it reads until it ends (the trees of compositions, compiled bodies, definitions), about
+/// 20 bytes a byte of text where it is densest (long compositions), so this is what bounds its
+/// memory (issue 47: 250 MB of compositions, under the 256 MiB any file may be, aborted at
+/// 3.6 GB).
+pub const MAX_CHECK_BYTES: usize = 64 * 1024 * 1024;
+
+/// The most operators one check reads: each costs about 2 KB while it is checked whatever its
+/// length (`operator a for d on action = b`), so a file of short ones is bounded by this.
+pub const MAX_OPERATORS: usize = 400_000;
+
 /// How many errors one check reports before it stops looking: each costs work in proportion to
 /// the text (hints compare names), so an input of many mistakes would otherwise cost its square.
 pub const MAX_ERRORS: usize = 100;
@@ -126,6 +137,21 @@ pub fn check_in(
     ids: &[SourceId],
 ) -> Result<Checked, CheckErrors> {
     let srcs: Vec<Src<'_>> = ids.iter().map(|&id| map.src(id)).collect();
+    let size: usize = srcs.iter().map(|s| s.text.len()).sum();
+    if size > MAX_CHECK_BYTES {
+        let what = match srcs.as_slice() {
+            [one] => format!("`{}`", one.name),
+            many => format!("the {} files", many.len()),
+        };
+        let error = CheckError::TooLarge {
+            what,
+            size: crate::files::fmt_bytes(size as u64),
+            limit: crate::files::fmt_bytes(MAX_CHECK_BYTES as u64),
+        };
+        return Err(CheckErrors {
+            errors: vec![error.into()],
+        });
+    }
     let mut c = Checker::new(&srcs);
     let result = c.run(base);
     let mut errors = c.errors;
@@ -242,6 +268,19 @@ impl<'s> Checker<'s> {
         syntax::each_item(self.sources[f], |item| {
             match item {
                 Ok(Item::Domain(d)) => self.read_domain(f, &d, read),
+                Ok(Item::Operator(o)) if read.ops.len() >= MAX_OPERATORS => {
+                    let span = self.at(f, o.name.span);
+                    self.errors.push((
+                        f,
+                        o.name.span.start,
+                        CheckError::TooManyOperators {
+                            limit: MAX_OPERATORS,
+                            span,
+                        }
+                        .into(),
+                    ));
+                    return ControlFlow::Break(());
+                }
                 Ok(Item::Operator(o)) => self.read_operator(f, o, read),
                 Err(e) => {
                     let (errors, warnings, dropped, doms, tasks, ops) = mark;

@@ -171,7 +171,9 @@ fn read_messages<R: BufRead, W: Write>(
                 }
             }
             Frame::Bad(e) => {
-                eprintln!(
+                // A closed stderr (the editor stopped reading it) drops the message, never a panic.
+                let _ = writeln!(
+                    std::io::stderr().lock(),
                     "{}",
                     advise_lang::diag::render_with_width(
                         &advise_lang::diag::SourceMap::new(),

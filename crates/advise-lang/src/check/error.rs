@@ -403,6 +403,30 @@ pub enum CheckError {
         help("fix these and check again to see the rest")
     )]
     TooManyErrors { shown: usize },
+    #[error("{what} holds {size} of operator text; one check takes at most {limit}")]
+    #[diagnostic(
+        code(advise::check::too_large),
+        help(
+            "split the operators into files checked apart (each check holds what it reads, about 20 times the text at worst, so this bound keeps one check's memory under about 1.5 GB)"
+        )
+    )]
+    TooLarge {
+        what: String,
+        size: String,
+        limit: String,
+    },
+    #[error("more than {limit} operators in one check")]
+    #[diagnostic(
+        code(advise::check::too_many_operators),
+        help(
+            "split the operators into files checked apart (each operator costs a few KB while it is checked, so this bound keeps one check's memory under about 1.5 GB)"
+        )
+    )]
+    TooManyOperators {
+        limit: usize,
+        #[label("the operator past the limit")]
+        span: Loc,
+    },
 
     // Task declarations.
     #[error("`{name}` is not a value of the task `{task}`")]

@@ -137,7 +137,10 @@ impl EmulatorHandle {
         if let Some(t) = self.thread.take() {
             // The loop only ends by this flag; a panic in it is a bug we want to see in tests.
             if t.join().is_err() {
-                eprintln!("rmp emulator thread panicked");
+                let _ = std::io::Write::write_all(
+                    &mut std::io::stderr(),
+                    b"rmp emulator thread panicked\n",
+                );
             }
         }
     }
