@@ -208,6 +208,10 @@ pub struct ExperimentArgs {
     /// `advisor` (5, aopi), `stopping` (6, aopi), `rate` (7, aopi).
     #[arg(long, value_name = "CHOICE")]
     pub revert: Option<crate::experiment::ablation::Revert>,
+    /// `aopi` only: at most N practice goals per arm (1 to 1000; default: the calibrated arm
+    /// length), for a quick look at the study's machinery; the protocol's figures use the default.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub practice: Option<u32>,
 }
 
 #[derive(Args)]
@@ -540,6 +544,12 @@ pub enum CliError {
         help("use it with `advise experiment bc`, or leave it out")
     )]
     CritiqueWithoutBc { study: String },
+    #[error("`--practice` caps the A-OPI study's arms; the `bc` study has no arms")]
+    #[diagnostic(
+        code(advise::cli::practice_without_aopi),
+        help("use it with `advise experiment aopi`, or leave it out")
+    )]
+    PracticeWithoutAopi,
     #[error("protocol choice {point} (`{choice}`) is not part of the `{study}` study")]
     #[diagnostic(
         code(advise::cli::revert_not_in_study),

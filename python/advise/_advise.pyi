@@ -347,6 +347,7 @@ def study(
     revert: str | None = None,
     critique: str | None = None,
     sim_params: str | None = None,
+    practice: int | None = None,
 ) -> dict[str, Any]:
     """Run one seed of ``study`` (``"bc"`` or ``"aopi"``) on the simulator: the data
     ``advise experiment STUDY --seed SEED --json`` prints. Runs without the GIL."""

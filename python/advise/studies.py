@@ -21,9 +21,10 @@ def bc(seed: int, *, revert: str | None = None, critique: str | None = None,
 
 
 def aopi(seed: int, *, revert: str | None = None,
-         sim_params: str | None = None) -> dict[str, Any]:
-    """The A-OPI study (Figures 8, 9, 11) for ``seed``: ``advise experiment aopi``."""
-    return study("aopi", seed, revert=revert, sim_params=sim_params)
+         sim_params: str | None = None, practice: int | None = None) -> dict[str, Any]:
+    """The A-OPI study (Figures 8, 9, 11) for ``seed``: ``advise experiment aopi``
+    (``practice`` caps each arm's practice goals, ``--practice``)."""
+    return study("aopi", seed, revert=revert, sim_params=sim_params, practice=practice)
 
 
 __all__ = ["aopi", "bc", "study"]

@@ -149,12 +149,16 @@ pub fn experiment(args: ExperimentArgs) -> miette::Result<()> {
         }
         .into());
     }
+    if args.practice.is_some() && args.study == study::Study::Bc {
+        return Err(CliError::PracticeWithoutAopi.into());
+    }
     let out = study::run(
         args.study,
         &seeds,
         sim,
         critique,
         args.revert,
+        args.practice.map(|n| n as usize),
         args.plot.as_deref(),
         true,
     )?;

@@ -40,14 +40,19 @@ pub struct StudyOutput {
 }
 
 /// Run `study` for `seeds` on the simulator with `sim` (the BC study under the critique rules
-/// `critique`; with the protocol's choice `revert` reverted, for the ablation), plotting each run
-/// into `plot_dir` (created if needed, before anything runs) when given.
+/// `critique`; with the protocol's choice `revert` reverted, for the ablation; the A-OPI arms
+/// capped at `practice` practice goals when given), plotting each run into `plot_dir` (created
+/// if needed, before anything runs) when given.
+// Each argument is one of `advise experiment`'s options, as the command line and the Python
+// package pass them.
+#[allow(clippy::too_many_arguments)]
 pub fn run(
     study: Study,
     seeds: &Seeds,
     sim: SimParams,
     critique: bc::Rules,
     revert: Option<Revert>,
+    practice: Option<usize>,
     plot_dir: Option<&Path>,
     progress: bool,
 ) -> Result<StudyOutput, ExperimentError> {
@@ -78,9 +83,11 @@ pub fn run(
             )
         }
         Study::Aopi => {
+            let defaults = aopi::AopiParams::default();
             let params = aopi::AopiParams {
                 sim,
-                ..aopi::AopiParams::default()
+                max_practice: practice.unwrap_or(defaults.max_practice),
+                ..defaults
             };
             let params = match revert {
                 Some(choice) => choice.aopi(params),

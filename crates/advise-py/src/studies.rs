@@ -29,15 +29,15 @@ fn parse<T: ValueEnum>(py: Python<'_>, name: &str, what: &str) -> PyResult<T> {
     })
 }
 
-/// study(study, seed, *, revert=None, critique=None, sim_params=None) -> dict
+/// study(study, seed, *, revert=None, critique=None, sim_params=None, practice=None) -> dict
 ///
 /// Run one seed of `study` (`"bc"` or `"aopi"`) on the simulator and return the data that
 /// `advise experiment STUDY --seed SEED --json` prints, as Python objects. `revert` puts one of
 /// the protocol's choices back (`--revert`), `critique` picks the BC study's rules
-/// (`--critique`), `sim_params` is a simulator parameters file (`--sim-params`). Runs without
-/// the GIL.
+/// (`--critique`), `sim_params` is a simulator parameters file (`--sim-params`), `practice` caps
+/// the A-OPI arms' practice goals (`--practice`, 1 to 1000). Runs without the GIL.
 #[pyfunction]
-#[pyo3(signature = (study, seed, *, revert=None, critique=None, sim_params=None))]
+#[pyo3(signature = (study, seed, *, revert=None, critique=None, sim_params=None, practice=None))]
 pub fn study<'py>(
     py: Python<'py>,
     study: &str,
@@ -45,6 +45,7 @@ pub fn study<'py>(
     revert: Option<&str>,
     critique: Option<&str>,
     sim_params: Option<std::path::PathBuf>,
+    practice: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
     use advise::experiment::{ablation::Revert, bc::Rules, study as s};
     let which: s::Study = parse(py, study, "study")?;
@@ -77,10 +78,40 @@ pub fn study<'py>(
         }
         (s::Study::Aopi, None) => Rules::default(),
     };
+    match (which, practice) {
+        (s::Study::Bc, Some(_)) => {
+            return Err(simple(
+                py,
+                "advise::py::bad_argument",
+                "`practice` caps the A-OPI study's arms".into(),
+                "leave it out for the BC study",
+            ));
+        }
+        (_, Some(n)) if !(1..=1000).contains(&n) => {
+            return Err(simple(
+                py,
+                "advise::py::bad_argument",
+                format!("`practice` is {n}"),
+                "give 1 to 1000 practice goals per arm",
+            ));
+        }
+        _ => {}
+    }
     let sim = advise::cli::sim_params(sim_params.as_deref())
         .map_err(|r| crate::error::from_diag(py, &advise::diag::SourceMap::new(), r.as_ref()))?;
     let out = py
-        .detach(|| s::run(which, &s::Seeds::One(seed), sim, rules, revert, None, false))
+        .detach(|| {
+            s::run(
+                which,
+                &s::Seeds::One(seed),
+                sim,
+                rules,
+                revert,
+                practice,
+                None,
+                false,
+            )
+        })
         .map_err(|e| crate::error::from_diag(py, &advise::diag::SourceMap::new(), &e))?;
     py.import("json")?.call_method1("loads", (out.json,))
 }
