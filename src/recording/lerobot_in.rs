@@ -477,9 +477,7 @@ fn read_frames(
     }
     let reader = super::parquet_guard::open(path, crate::files::MAX_READ_BYTES)?;
     let shown = path.display().to_string();
-    super::parquet_guard::guarded(&shown, || {
-        read_frames_of(path, &reader, state, action, out)
-    })
+    super::parquet_guard::guarded(&shown, || read_frames_of(path, &reader, state, action, out))
 }
 
 /// [`read_frames`] of a reader whose footer was checked.

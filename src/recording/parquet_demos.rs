@@ -147,7 +147,10 @@ enum Batch {
     /// every row of its episode).
     Labels(Vec<Rc<str>>),
     /// A label longer than [`MAX_LABEL_BYTES`] at this row: nothing of the batch is kept.
-    TooLong { row: u64, bytes: usize },
+    TooLong {
+        row: u64,
+        bytes: usize,
+    },
 }
 
 /// Each of `values` as a label, consecutive equal values sharing one.
@@ -173,7 +176,9 @@ pub fn read_demos(
     // The row count bounds what is read, not the file's length (a compressed file of
     // `max_points` rows may be any size).
     let reader = parquet_guard::open(path, u64::MAX)?;
-    parquet_guard::guarded(&shown, || read_rows(domain, path, &reader, max_points, progress))
+    parquet_guard::guarded(&shown, || {
+        read_rows(domain, path, &reader, max_points, progress)
+    })
 }
 
 fn read_rows(

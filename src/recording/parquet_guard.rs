@@ -213,9 +213,7 @@ impl FooterFault {
                 message: format!("its metadata cannot be decoded: {m}"),
             },
             FooterFault::Lies(what) => ParquetGuardError::Footer { path, what },
-            FooterFault::TooLarge(what, limit) => {
-                ParquetGuardError::TooLarge { path, what, limit }
-            }
+            FooterFault::TooLarge(what, limit) => ParquetGuardError::TooLarge { path, what, limit },
             FooterFault::Codec(column, codec) => ParquetGuardError::Codec {
                 path,
                 column,
@@ -414,7 +412,11 @@ impl Thrift<'_> {
     }
 
     /// A list of structs, each given to `each` with its index.
-    fn struct_list(&mut self, ty: u8, mut each: impl FnMut(&mut Self, usize) -> Walk<()>) -> Walk<usize> {
+    fn struct_list(
+        &mut self,
+        ty: u8,
+        mut each: impl FnMut(&mut Self, usize) -> Walk<()>,
+    ) -> Walk<usize> {
         if ty != T_LIST {
             return Err(malformed("a list field of another type"));
         }
@@ -578,7 +580,9 @@ fn walk_schema(
         }
         if i == 0 {
             if children == 0 {
-                return Err(FooterFault::Lies("its schema's root holds no columns".into()));
+                return Err(FooterFault::Lies(
+                    "its schema's root holds no columns".into(),
+                ));
             }
             open.push((children, false, String::new()));
             continue;
@@ -620,7 +624,11 @@ fn walk_schema(
     }
     t.depth -= 1;
     if let Some((remaining, _, path)) = open.last() {
-        let what = if path.is_empty() { "its root" } else { path.as_str() };
+        let what = if path.is_empty() {
+            "its root"
+        } else {
+            path.as_str()
+        };
         return Err(FooterFault::Lies(format!(
             "schema group `{what}` lacks {remaining} of its declared children"
         )));
@@ -779,10 +787,10 @@ fn walk_chunk(t: &mut Thrift<'_>) -> Walk<Chunk> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use parquet::file::reader::FileReader;
     use parquet::basic::{Repetition, Type as Physical};
     use parquet::data_type::DoubleType;
     use parquet::file::properties::WriterProperties;
+    use parquet::file::reader::FileReader;
     use parquet::file::writer::SerializedFileWriter;
     use parquet::schema::types::Type;
     use std::sync::Arc;
@@ -867,11 +875,22 @@ mod tests {
         let reader = open(&path, u64::MAX).unwrap();
         let col = reader.metadata().row_group(0).column(0).clone();
         let (unc, comp) = (col.uncompressed_size(), col.compressed_size());
-        let (data, dict) = (col.data_page_offset(), col.dictionary_page_offset().unwrap());
+        let (data, dict) = (
+            col.data_page_offset(),
+            col.dictionary_page_offset().unwrap(),
+        );
         let pair = |h: u8, a: i64, b: i64| [vec![h], zigzag(a), vec![h], zigzag(b)].concat();
         let lies = [
-            ("total_compressed_size", pair(0x16, unc, comp), pair(0x16, unc, -1)),
-            ("dictionary_page_offset", pair(0x26, data, dict), pair(0x26, data, -1)),
+            (
+                "total_compressed_size",
+                pair(0x16, unc, comp),
+                pair(0x16, unc, -1),
+            ),
+            (
+                "dictionary_page_offset",
+                pair(0x26, data, dict),
+                pair(0x26, data, -1),
+            ),
             ("inside", pair(0x26, data, dict), pair(0x26, data, 1 << 40)),
         ];
         for (what, old, new) in lies {
@@ -882,7 +901,10 @@ mod tests {
         for n in [i64::from(i32::MAX), 3, -1] {
             let new = [b"schema\x15".to_vec(), zigzag(n)].concat();
             let f = check_footer(&patched(&meta, &children, &new), end);
-            assert!(matches!(f, Err(FooterFault::Lies(_))), "{n} children: {f:?}");
+            assert!(
+                matches!(f, Err(FooterFault::Lies(_))),
+                "{n} children: {f:?}"
+            );
         }
         // Cut anywhere: a malformed footer, never a panic.
         for k in 0..meta.len() {

@@ -259,12 +259,11 @@ pub fn read(
         source,
     };
     // Refused before it is opened when it is not a regular file: a FIFO would block.
-    let (mut file, len) = crate::files::open_regular(&path, MAX_SIDECAR_BYTES).map_err(|e| {
-        match e {
+    let (mut file, len) =
+        crate::files::open_regular(&path, MAX_SIDECAR_BYTES).map_err(|e| match e {
             crate::files::FileError::Read { source, .. } => missing(source),
             other => SidecarError::File(other),
-        }
-    })?;
+        })?;
     if len != r.bytes || len > MAX_SIDECAR_BYTES {
         return Err(altered(format!(
             "it is {len} bytes long; the journal wrote {}",

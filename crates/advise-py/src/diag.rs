@@ -24,7 +24,10 @@ impl Span {
     }
 
     /// Pickled as its fields (an `AdviseError` from a worker process carries its spans).
-    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
         let args = (
             self.file.clone(),
             self.line,
@@ -97,7 +100,10 @@ impl Diagnostic {
     }
 
     /// Pickled as its fields (an `AdviseError` from a worker process carries its diagnostics).
-    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
         let args = (
             self.code.clone(),
             self.message.clone(),

@@ -118,11 +118,7 @@ impl SimEnv {
     /// step(action) -> (observation, reward, terminated, truncated, info)
     ///
     /// The reward is 1 at the end of a successful episode, else 0.
-    fn step<'py>(
-        &self,
-        py: Python<'py>,
-        action: &Bound<'py, PyAny>,
-    ) -> PyResult<Transition<'py>> {
+    fn step<'py>(&self, py: Python<'py>, action: &Bound<'py, PyAny>) -> PyResult<Transition<'py>> {
         let np = py.import("numpy")?;
         let row = np.call_method1("reshape", (action, (1, -1)))?;
         let (mut a, _) = matrix(py, &row, "action", Some(self.domain.act_dim()))?;

@@ -109,7 +109,10 @@ fn fps_of(py: Python<'_>, fps: Option<&Bound<'_, PyAny>>) -> PyResult<Option<u32
         .extract::<i64>()
         .ok()
         .filter(|_| f.cast::<pyo3::types::PyBool>().is_err());
-    match whole.and_then(|v| u32::try_from(v).ok()).filter(|v| (1..=1000).contains(v)) {
+    match whole
+        .and_then(|v| u32::try_from(v).ok())
+        .filter(|v| (1..=1000).contains(v))
+    {
         Some(v) => Ok(Some(v)),
         None => Err(simple(
             py,

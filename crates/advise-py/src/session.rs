@@ -368,7 +368,10 @@ impl Drop for Session {
     /// the parent): only the parent closes it.
     fn drop(&mut self) {
         if self.forked() {
-            let inner = self.inner.get_mut().map_or_else(|p| p.into_inner().take(), Option::take);
+            let inner = self
+                .inner
+                .get_mut()
+                .map_or_else(|p| p.into_inner().take(), Option::take);
             std::mem::forget(inner);
         }
     }
