@@ -392,6 +392,10 @@ def test_a_forked_child_cannot_write_its_parents_journal(tmp_path):
             code = e.code
         except BaseException as e:  # noqa: BLE001
             code = repr(e)
+        try:
+            s.close()  # the child's copy, put away without touching the parent's journal
+        except BaseException as e:  # noqa: BLE001
+            code += f" close: {e!r}"
         os.write(wr, code.encode())
         os._exit(0)
     os.close(wr)
@@ -400,7 +404,11 @@ def test_a_forked_child_cannot_write_its_parents_journal(tmp_path):
     os.close(rd)
     assert code == "advise::py::forked", code
     assert open(s.journal_path).read() == before
-    # The parent goes on, journalling.
+    assert os.path.exists(s.journal_path + ".lock"), "the child removed the parent's owner file"
+    # The parent goes on, journalling, its journal still its own (locked).
+    with pytest.raises(advise.AdviseError) as e:
+        advise.Session.resume(s.journal_path, journal_dir=str(tmp_path))
+    assert e.value.code == "advise::journal::locked", e.value.code
     s.execute("eval")
     assert len(open(s.journal_path).read()) > len(before)
     s.close()

@@ -233,12 +233,14 @@ impl Session {
     /// ran). Any later use raises AdviseError `advise::py::closed`; closing again does nothing.
     /// `with advise.Session(...) as s:` closes it at the end of the block.
     fn close(&self, py: Python<'_>) -> PyResult<()> {
-        let mut inner = self.lock(py)?;
-        if let Some(i) = inner.take().filter(|_| self.forked()) {
-            // The journal's handle and lock are the parent's: closing them here would unlock
-            // the parent's journal.
-            std::mem::forget(i);
+        if self.forked() {
+            // A forked child's copy: the journal's handle and lock are the parent's, and closing
+            // them here would unlock the parent's journal. The copy is put away unclosed.
+            let mut inner = self.held(py)?;
+            std::mem::forget(inner.take());
+            return Ok(());
         }
+        *self.lock(py)? = None;
         Ok(())
     }
 
@@ -332,6 +334,15 @@ impl Session {
         })
     }
 
+    /// The session's mutex, unless another thread holds it (whoever may then use it).
+    fn held(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Option<Inner>>> {
+        match self.inner.try_lock() {
+            Ok(g) => Ok(g),
+            Err(TryLockError::Poisoned(p)) => Ok(p.into_inner()),
+            Err(TryLockError::WouldBlock) => Err(busy(py)),
+        }
+    }
+
     /// Whether this is a `fork()`ed child's copy of the session.
     fn forked(&self) -> bool {
         std::process::id() != self.pid
@@ -341,11 +352,7 @@ impl Session {
     /// session as the panic found it; it is used on (the panic was raised in Python). In a
     /// `fork()`ed child, a journalled session is refused: its journal is the parent's.
     fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Option<Inner>>> {
-        let guard = match self.inner.try_lock() {
-            Ok(g) => g,
-            Err(TryLockError::Poisoned(p)) => p.into_inner(),
-            Err(TryLockError::WouldBlock) => return Err(busy(py)),
-        };
+        let guard = self.held(py)?;
         if self.forked() && guard.as_ref().is_some_and(|i| i.journal_path().is_some()) {
             return Err(simple(
                 py,
