@@ -456,3 +456,51 @@ def test_ctrl_c_during_a_long_statement_leaves_no_effect_or_keeps_its_reply(tmp_
         # Finished before it saw the stop: kept, journalled, and its reply returned.
         assert len(s) > before and "teacher:6000" in journal
     s.close()
+
+
+def crc64_xz(data):
+    """CRC-64/XZ (what a journal names its sidecar by)."""
+    table = []
+    for i in range(256):
+        c = i
+        for _ in range(8):
+            c = (c >> 1) ^ 0xC96C5795D7870F42 if c & 1 else c >> 1
+        table.append(c)
+    crc = 0xFFFFFFFFFFFFFFFF
+    for b in data:
+        crc = table[(crc ^ b) & 0xFF] ^ (crc >> 8)
+    return crc ^ 0xFFFFFFFFFFFFFFFF
+
+
+def test_a_sidecar_whose_footer_lies_behind_a_matching_crc_is_refused_on_resume(tmp_path):
+    table, _, _ = demos_table()
+    pq.write_table(table, tmp_path / "d.parquet")
+    jdir = tmp_path / "journals"
+    with advise.Session(task="positioning", journal=str(jdir)) as s:
+        s.execute(f"load demos {tmp_path / 'd.parquet'}")
+        journal = s.journal_path
+    lines = open(journal).read().splitlines()
+    k = next(i for i, line in enumerate(lines) if '"demos_file"' in line)
+    entry = json.loads(lines[k])
+    side = jdir / entry["effect"]["sidecar"]["file"]
+    meta = pq.ParquetFile(side).metadata.row_group(0).column(0)
+    unc, comp = meta.total_uncompressed_size, meta.total_compressed_size
+    patch_footer(
+        side,
+        b"\x16" + zigzag_varint(unc) + b"\x16" + zigzag_varint(comp),
+        b"\x16" + zigzag_varint(unc) + b"\x16" + zigzag_varint(-1),
+    )
+    data = side.read_bytes()
+    entry["effect"]["sidecar"]["bytes"] = len(data)
+    entry["effect"]["sidecar"]["crc64"] = f"{crc64_xz(data):016x}"
+    lines[k] = json.dumps(entry, separators=(",", ":"))
+    open(journal, "w").write("\n".join(lines) + "\n")
+    s = advise.Session.resume(journal, journal_dir=str(jdir / "new"))
+    assert "advise::parquet::footer" in str(s.resumed["stopped"]) + s.resumed["text"], s.resumed
+    s.close()
+    r = subprocess.run(
+        [ADVISE, "resume", journal], input="quit\n", capture_output=True, text=True, timeout=60,
+        env={**os.environ, "ADVISE_HOME": str(jdir / "cli")},
+    )
+    assert "advise::parquet::footer" in r.stdout + r.stderr, r.stderr
+    assert "panicked" not in r.stderr
