@@ -43,13 +43,6 @@ pub enum ParquetDemosError {
     #[diagnostic(transparent)]
     Guard(#[from] ParquetGuardError),
 
-    #[error("{path}: not a readable Parquet file: {message}")]
-    #[diagnostic(
-        code(advise::parquet::unreadable),
-        help("write it with a Parquet writer (pyarrow's `pq.write_table`, pandas' `to_parquet`)")
-    )]
-    Unreadable { path: String, message: String },
-
     #[error("{path}: no column `{column}` for the `{domain}` domain")]
     #[diagnostic(
         code(advise::parquet::missing_column),
@@ -189,7 +182,7 @@ fn read_rows(
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Vec<Episode>, ParquetDemosError> {
     let shown = path.display().to_string();
-    let unreadable = |message: String| ParquetDemosError::Unreadable {
+    let unreadable = |message: String| ParquetGuardError::Unreadable {
         path: shown.clone(),
         message,
     };
@@ -256,9 +249,7 @@ fn read_rows(
             left -= n as u64;
             done += n as u64;
             if done > rows {
-                return Err(unreadable(
-                    "its row groups hold more rows than it says".into(),
-                ));
+                return Err(unreadable("its row groups hold more rows than it says".into()).into());
             }
             progress(done, rows);
         }
@@ -360,7 +351,7 @@ fn read_batch(
     path: &str,
 ) -> Result<Batch, ParquetDemosError> {
     let mut defs: Vec<i16> = Vec::with_capacity(if max_def > 0 { n } else { 0 });
-    let bad = |what: String| ParquetDemosError::Unreadable {
+    let bad = |what: String| ParquetGuardError::Unreadable {
         path: path.to_string(),
         message: format!("column `{name}`: {what}"),
     };
@@ -430,7 +421,7 @@ fn read_batch(
         Batch::TooLong { .. } => 0,
     };
     if records != n || got != n {
-        return Err(bad(format!("row group ends before its {n} rows")));
+        return Err(bad(format!("row group ends before its {n} rows")).into());
     }
     Ok(batch)
 }
@@ -589,8 +580,7 @@ mod tests {
             assert!(
                 matches!(
                     err,
-                    ParquetDemosError::Unreadable { .. }
-                        | ParquetDemosError::Guard(ParquetGuardError::Unreadable { .. })
+                    ParquetDemosError::Guard(ParquetGuardError::Unreadable { .. })
                 ),
                 "{name}: {err}"
             );
