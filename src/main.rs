@@ -176,6 +176,7 @@ fn choose_backend(session: &mut Session, args: &SessionArgs) -> miette::Result<(
 /// A new journal (unless `--no-journal`), starting with what the session already holds.
 fn start_journal(session: &mut Session, args: &SessionArgs) -> miette::Result<()> {
     if args.no_journal {
+        session.without_journal();
         return Ok(());
     }
     session.start_journal(&journal::default_dir())?;

@@ -18,6 +18,7 @@ pub mod lerobot_in;
 pub mod mcap_export;
 pub mod mcap_read;
 pub mod parquet_demos;
+pub mod parquet_guard;
 
 use std::path::{Path, PathBuf};
 
@@ -271,11 +272,11 @@ pub fn is_recording(path: &Path) -> bool {
     }
     // Only a regular file is opened: opening a FIFO would block until a writer comes. Anything
     // else is left to the demonstrations reader, which refuses it with a diagnostic.
-    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+    let Ok((mut file, _)) = crate::files::open_regular(path, u64::MAX) else {
         return false;
-    }
+    };
     let mut head = [0u8; 64];
-    let Ok(n) = std::fs::File::open(path).and_then(|mut f| f.read(&mut head)) else {
+    let Ok(n) = file.read(&mut head) else {
         return false;
     };
     let head = String::from_utf8_lossy(&head[..n]);
@@ -788,8 +789,32 @@ pub fn write_demonstrations(
         path: path.to_path_buf(),
         source,
     };
-    // The backstop of the rule: an import writes nothing `load demos` refuses.
+    // The backstop of the rule: an import writes nothing `load demos` refuses (a point at
+    // least, finite times that increase within each demonstration, finite values, actions
+    // within limits).
+    if episodes.iter().all(|e| e.trace.is_empty()) {
+        return Err(ImportError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
     for e in episodes {
+        let t = &e.trace.t;
+        if let Some(i) = t.iter().position(|t| !t.is_finite()) {
+            return Err(ImportError::NotFinite {
+                path: path.to_path_buf(),
+                at: format!("demonstration `{}`, point {i}", e.name),
+                what: "time".into(),
+                value: t[i].to_string(),
+            });
+        }
+        if let Some(i) = (1..t.len()).find(|&i| t[i] <= t[i - 1]) {
+            return Err(ImportError::TimeBackwards {
+                path: path.to_path_buf(),
+                row: i,
+                t: t[i],
+                prev: t[i - 1],
+            });
+        }
         check_demonstration(path, domain, e, &[], &|t: f64| {
             format!("demonstration `{}` at {t} s", e.name)
         })?;

@@ -362,6 +362,13 @@ impl Session {
         &self.backends
     }
 
+    /// This session keeps no journal (`--no-journal`, Python's default): what it holds is no
+    /// longer kept for a journal started later, so a loaded file's points are not copied into
+    /// journal lines nobody writes (20M points took twice the memory of a journalled load).
+    pub fn without_journal(&mut self) {
+        self.preamble = None;
+    }
+
     /// The signal that stops the robot and the running execution from another thread (the REPL's
     /// Ctrl-C handler holds a clone).
     pub fn stop_signal(&self) -> StopSignal {

@@ -20,7 +20,7 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 use miette::Diagnostic;
-use parquet::file::reader::{FileReader, SerializedFileReader};
+use parquet::file::reader::FileReader;
 use parquet::record::Field;
 use serde_json::Value;
 use thiserror::Error;
@@ -41,6 +41,11 @@ pub enum LeRobotInError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     File(#[from] crate::files::FileError),
+    /// A frames file that is not a regular file, whose footer lies, or which declares more
+    /// than is read ([`super::parquet_guard`]).
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Guard(#[from] super::parquet_guard::ParquetGuardError),
     #[error("{path} is missing: {what}")]
     #[diagnostic(
         code(advise::lerobot::missing_file),
@@ -167,7 +172,7 @@ pub enum LeRobotInError {
     #[diagnostic(
         code(advise::lerobot::parquet),
         help(
-            "the frames must be parquet files as LeRobot writes them (uncompressed or snappy); rewrite it with pyarrow if it came from elsewhere"
+            "the frames must be parquet files as LeRobot writes them; rewrite it with pyarrow if it came from elsewhere"
         )
     )]
     Parquet { path: PathBuf, reason: String },
@@ -203,6 +208,29 @@ pub enum LeRobotInError {
         frame: i64,
         previous: i64,
     },
+    #[error(
+        "{path}, row {row}: episode {episode}'s frame {frame} has the timestamp {t}, not after its frame before's {previous}"
+    )]
+    #[diagnostic(
+        code(advise::lerobot::time_order),
+        help(
+            "a demonstration's times increase (`load demos` refuses a file whose times do not): repair the frames' `timestamp`, or drop the column so times are `frame_index / fps`"
+        )
+    )]
+    TimeOrder {
+        path: PathBuf,
+        row: usize,
+        episode: i64,
+        frame: i64,
+        t: f64,
+        previous: f64,
+    },
+    #[error("{path} holds no frames")]
+    #[diagnostic(
+        code(advise::lerobot::no_frames),
+        help("a demonstration has at least one point: import a dataset that holds episodes")
+    )]
+    NoFrames { path: PathBuf },
 }
 
 /// How to read a LeRobot dataset.
@@ -439,11 +467,6 @@ fn read_frames(
     action: &Mapping,
     out: &mut Vec<Frame>,
 ) -> Result<(), LeRobotInError> {
-    use parquet::schema::types::Type;
-    let bad = |reason: String| LeRobotInError::Parquet {
-        path: path.to_path_buf(),
-        reason,
-    };
     let len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
     if len > crate::files::MAX_READ_BYTES {
         return Err(LeRobotInError::TooLarge {
@@ -452,8 +475,43 @@ fn read_frames(
             limit: crate::files::MAX_READ_BYTES as usize,
         });
     }
-    let file = std::fs::File::open(path).map_err(|e| bad(e.to_string()))?;
-    let reader = SerializedFileReader::new(file).map_err(|e| bad(e.to_string()))?;
+    let reader = super::parquet_guard::open(path, crate::files::MAX_READ_BYTES)?;
+    let shown = path.display().to_string();
+    super::parquet_guard::guarded(&shown, || read_frames_of(path, &reader, state, action, out))
+}
+
+/// [`read_frames`] of a reader whose footer was checked.
+fn read_frames_of(
+    path: &Path,
+    reader: &parquet::file::reader::SerializedFileReader<std::fs::File>,
+    state: &Mapping,
+    action: &Mapping,
+    out: &mut Vec<Frame>,
+) -> Result<(), LeRobotInError> {
+    use parquet::schema::types::Type;
+    let bad = |reason: String| LeRobotInError::Parquet {
+        path: path.to_path_buf(),
+        reason,
+    };
+    // A scalar column stored as a list would be read whole into one row (a 1e8-value
+    // `frame_index` list): refused before any row is built.
+    for c in reader.metadata().file_metadata().schema_descr().columns() {
+        let column = c.path().parts().first().map_or("", String::as_str);
+        let want = match column {
+            "episode_index" | "frame_index" => "an integer",
+            "timestamp" => "a float",
+            _ => continue,
+        };
+        if c.max_rep_level() > 0 {
+            return Err(LeRobotInError::ColumnType {
+                path: path.to_path_buf(),
+                row: 0,
+                column: column.to_string(),
+                found: "a list".into(),
+                want: want.into(),
+            });
+        }
+    }
     let rows = usize::try_from(reader.metadata().file_metadata().num_rows()).unwrap_or(0);
     if out.len().saturating_add(rows) > MAX_FRAMES {
         return Err(LeRobotInError::TooLarge {
@@ -587,6 +645,11 @@ fn read_frames(
     Ok(())
 }
 
+/// A frame's time: its `timestamp`, else `frame_index / fps`.
+fn frame_time(f: &Frame, fps: f64) -> f64 {
+    f.t.unwrap_or(f.frame as f64 / fps)
+}
+
 /// Read the LeRobot v3.0 dataset in `dir` as demonstrations of `domain`.
 pub fn read_lerobot(
     dir: &Path,
@@ -647,20 +710,47 @@ pub fn read_lerobot(
         read_frames(&path, &state, &action, &mut frames)?;
         rows_of.push((path, before..frames.len()));
     }
-    // Check the values where they were read, before grouping them.
-    let mut last_frame: HashMap<i64, i64> = HashMap::new();
+    if frames.is_empty() {
+        return Err(LeRobotInError::NoFrames {
+            path: dir.join("data"),
+        });
+    }
+    // Check the values where they were read, before grouping them: the demonstration rules
+    // `load demos` holds (and the bag import), so an import never writes what it refuses.
+    let mut last_frame: HashMap<i64, (i64, f64)> = HashMap::new();
     for (path, range) in &rows_of {
         for (row, f) in frames[range.clone()].iter().enumerate() {
-            if let Some(previous) = last_frame.insert(f.episode, f.frame)
-                && previous >= f.frame
-            {
-                return Err(LeRobotInError::FrameOrder {
+            let t = frame_time(f, fps);
+            if !t.is_finite() {
+                return Err(LeRobotInError::NotFinite {
                     path: path.clone(),
                     row,
                     episode: f.episode,
                     frame: f.frame,
-                    previous,
+                    what: "`timestamp`".into(),
+                    value: t.to_string(),
                 });
+            }
+            if let Some((previous, previous_t)) = last_frame.insert(f.episode, (f.frame, t)) {
+                if previous >= f.frame {
+                    return Err(LeRobotInError::FrameOrder {
+                        path: path.clone(),
+                        row,
+                        episode: f.episode,
+                        frame: f.frame,
+                        previous,
+                    });
+                }
+                if t <= previous_t {
+                    return Err(LeRobotInError::TimeOrder {
+                        path: path.clone(),
+                        row,
+                        episode: f.episode,
+                        frame: f.frame,
+                        t,
+                        previous: previous_t,
+                    });
+                }
             }
             let values =
                 f.z.iter()
@@ -695,13 +785,9 @@ pub fn read_lerobot(
     };
     for (e, fs) in by_episode {
         let mut trace = Trace::new(domain);
-        let mut last = f64::NEG_INFINITY;
         for f in &fs {
-            // Times never go back (a trace's rule): a timestamp behind the previous frame's is
-            // the previous one's.
-            let t = f.t.unwrap_or(f.frame as f64 / fps).max(last);
-            last = t;
-            trace.push(t, &f.z, &f.a, None);
+            // Finite and increasing within the episode: checked above.
+            trace.push(frame_time(f, fps), &f.z, &f.a, None);
             read.episode_index.push(e);
             read.frame_index.push(f.frame);
         }

@@ -6,21 +6,27 @@
 //! ([`crate::trace::demo_value_fault`]), an episode's rows are contiguous and its times
 //! increase; each refusal names the row and the column.
 
-use std::fs::File;
 use std::path::Path;
+use std::rc::Rc;
 
 use miette::Diagnostic;
 use parquet::basic::Type as Physical;
 use parquet::column::reader::{ColumnReader, ColumnReaderImpl};
 use parquet::data_type::{ByteArray, DataType};
-use parquet::file::reader::{FileReader, RowGroupReader, SerializedFileReader};
+use parquet::file::reader::{FileReader, RowGroupReader};
 use thiserror::Error;
+
+use super::parquet_guard::{self, ParquetGuardError};
 
 use crate::domain::{Domain, Space};
 use crate::trace::{Episode, Pose, Trace, ValueFault, demo_value_fault};
 
 /// Rows read from each column at a time: the memory a read holds is this times the columns.
 const BATCH: usize = 65_536;
+
+/// The longest episode label read (bytes): a batch's distinct labels then hold at most
+/// [`BATCH`] times this.
+pub const MAX_LABEL_BYTES: usize = 1024;
 
 /// Whether `path` names a Parquet file (by its extension).
 pub fn is_parquet(path: &Path) -> bool {
@@ -32,12 +38,10 @@ pub fn is_parquet(path: &Path) -> bool {
 /// A Parquet demonstrations file that cannot be read.
 #[derive(Debug, Error, Diagnostic)]
 pub enum ParquetDemosError {
-    #[error("{path}: not a readable Parquet file: {message}")]
-    #[diagnostic(
-        code(advise::parquet::unreadable),
-        help("write it with a Parquet writer (pyarrow's `pq.write_table`, pandas' `to_parquet`)")
-    )]
-    Unreadable { path: String, message: String },
+    /// Not a regular file, a footer that lies, declared sizes beyond bounds.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Guard(#[from] ParquetGuardError),
 
     #[error("{path}: no column `{column}` for the `{domain}` domain")]
     #[diagnostic(
@@ -132,7 +136,26 @@ enum Values {
 /// A column's values of one batch.
 enum Batch {
     Numbers(Vec<f64>),
-    Labels(Vec<String>),
+    /// Consecutive equal labels share one allocation (a dictionary-encoded label repeats on
+    /// every row of its episode).
+    Labels(Vec<Rc<str>>),
+    /// A label longer than [`MAX_LABEL_BYTES`] at this row: nothing of the batch is kept.
+    TooLong {
+        row: u64,
+        bytes: usize,
+    },
+}
+
+/// Each of `values` as a label, consecutive equal values sharing one.
+fn labels<T: PartialEq>(values: &[T], text: impl Fn(&T) -> String) -> Batch {
+    let mut out: Vec<Rc<str>> = Vec::with_capacity(values.len());
+    for (i, v) in values.iter().enumerate() {
+        match out.last() {
+            Some(prev) if i > 0 && values[i - 1] == *v => out.push(prev.clone()),
+            _ => out.push(Rc::from(text(v))),
+        }
+    }
+    Batch::Labels(out)
 }
 
 /// Read the demonstrations of `path` for `domain`, reporting `progress(rows read, rows)`.
@@ -143,12 +166,26 @@ pub fn read_demos(
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Vec<Episode>, ParquetDemosError> {
     let shown = path.display().to_string();
-    let unreadable = |message: String| ParquetDemosError::Unreadable {
+    // The row count bounds what is read, not the file's length (a compressed file of
+    // `max_points` rows may be any size).
+    let reader = parquet_guard::open(path, u64::MAX)?;
+    parquet_guard::guarded(&shown, || {
+        read_rows(domain, path, &reader, max_points, progress)
+    })
+}
+
+fn read_rows(
+    domain: &Domain,
+    path: &Path,
+    reader: &parquet::file::reader::SerializedFileReader<std::fs::File>,
+    max_points: usize,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<Vec<Episode>, ParquetDemosError> {
+    let shown = path.display().to_string();
+    let unreadable = |message: String| ParquetGuardError::Unreadable {
         path: shown.clone(),
         message,
     };
-    let file = File::open(path).map_err(|e| unreadable(e.to_string()))?;
-    let reader = SerializedFileReader::new(file).map_err(|e| unreadable(e.to_string()))?;
     let meta = reader.metadata();
     let rows = u64::try_from(meta.file_metadata().num_rows()).unwrap_or(0);
     if rows > max_points as u64 {
@@ -212,9 +249,7 @@ pub fn read_demos(
             left -= n as u64;
             done += n as u64;
             if done > rows {
-                return Err(unreadable(
-                    "its row groups hold more rows than it says".into(),
-                ));
+                return Err(unreadable("its row groups hold more rows than it says".into()).into());
             }
             progress(done, rows);
         }
@@ -316,7 +351,7 @@ fn read_batch(
     path: &str,
 ) -> Result<Batch, ParquetDemosError> {
     let mut defs: Vec<i16> = Vec::with_capacity(if max_def > 0 { n } else { 0 });
-    let bad = |what: String| ParquetDemosError::Unreadable {
+    let bad = |what: String| ParquetGuardError::Unreadable {
         path: path.to_string(),
         message: format!("column `{name}`: {what}"),
     };
@@ -345,28 +380,48 @@ fn read_batch(
         Values::Float(r) => typed(r, n, defs_arg)
             .map(|(k, v)| (k, Batch::Numbers(v.into_iter().map(f64::from).collect()))),
         Values::Double(r) => typed(r, n, defs_arg).map(|(k, v)| (k, Batch::Numbers(v))),
-        Values::Int32(r) => typed(r, n, defs_arg)
-            .map(|(k, v)| (k, Batch::Labels(v.iter().map(i32::to_string).collect()))),
-        Values::Int64(r) => typed(r, n, defs_arg)
-            .map(|(k, v)| (k, Batch::Labels(v.iter().map(i64::to_string).collect()))),
+        Values::Int32(r) => typed(r, n, defs_arg).map(|(k, v)| (k, labels(&v, |x| x.to_string()))),
+        Values::Int64(r) => typed(r, n, defs_arg).map(|(k, v)| (k, labels(&v, |x| x.to_string()))),
         Values::Text(r) => typed(r, n, defs_arg).map(|(k, v)| {
-            let labels = v
-                .iter()
-                .map(|b: &ByteArray| String::from_utf8_lossy(b.data()).into_owned())
-                .collect();
-            (k, Batch::Labels(labels))
+            if let Some(i) = v.iter().position(|b| b.len() > MAX_LABEL_BYTES) {
+                return (
+                    k,
+                    Batch::TooLong {
+                        row: first + i as u64,
+                        bytes: v[i].len(),
+                    },
+                );
+            }
+            (
+                k,
+                labels(&v, |b: &ByteArray| {
+                    String::from_utf8_lossy(b.data()).into_owned()
+                }),
+            )
         }),
     }
     .map_err(|e| bad(e.to_string()))?;
+    if let Batch::TooLong { row, bytes } = &batch {
+        return Err(ParquetDemosError::BadValue {
+            path: path.to_string(),
+            row: *row,
+            column: name.to_string(),
+            what: format!("an episode label of {bytes} bytes"),
+            help: format!(
+                "an episode is named in at most {MAX_LABEL_BYTES} bytes: use short names or numbers"
+            ),
+        });
+    }
     if let Some(e) = null_at(&defs) {
         return Err(e);
     }
     let got = match &batch {
         Batch::Numbers(v) => v.len(),
         Batch::Labels(v) => v.len(),
+        Batch::TooLong { .. } => 0,
     };
     if records != n || got != n {
-        return Err(bad(format!("row group ends before its {n} rows")));
+        return Err(bad(format!("row group ends before its {n} rows")).into());
     }
     Ok(batch)
 }
@@ -422,9 +477,11 @@ impl<'a> Reading<'a> {
                 let slot = self.slots[c].0;
                 let v = match values {
                     Batch::Labels(l) => {
-                        label = Some(&l[r]);
+                        label = Some(&*l[r]);
                         continue;
                     }
+                    // Refused where the batch was read.
+                    Batch::TooLong { .. } => continue,
                     Batch::Numbers(v) => v[r],
                 };
                 let space = match slot {
@@ -521,7 +578,10 @@ mod tests {
             std::fs::write(&path, bytes).unwrap();
             let err = read_demos(&domain, &path, 1000, &mut |_, _| {}).unwrap_err();
             assert!(
-                matches!(err, ParquetDemosError::Unreadable { .. }),
+                matches!(
+                    err,
+                    ParquetDemosError::Guard(ParquetGuardError::Unreadable { .. })
+                ),
                 "{name}: {err}"
             );
         }

@@ -264,6 +264,14 @@ pub enum SessionError {
         #[diagnostic_source]
         error: BackendError,
     },
+    /// A statement stopped (Ctrl-C, the page's Stop) after its work and before its effect:
+    /// nothing changed and nothing was journalled.
+    #[error("`{statement}` was interrupted; nothing was changed")]
+    #[diagnostic(
+        code(advise::session::interrupted),
+        help("run it again to finish it; the session is as it was before it")
+    )]
+    Stopped { statement: String },
     /// The one failure that changes the session: what the base recorded before it failed is kept
     /// as an execution, as on a real robot it cannot be had again.
     #[error(

@@ -46,6 +46,9 @@ impl Session {
     ) -> Result<String, SessionError> {
         let started = Instant::now();
         let mut from_dataset = String::new();
+        // A stop raised while the demonstrations are recorded or read (Ctrl-C) ends the
+        // statement before its effect: one raised before it began is not this statement's.
+        self.stop.clear();
         let episodes = match path.strip_prefix("teacher:") {
             Some(n) => {
                 // A file's topics are checked where it is read (`read_demos_file`).
@@ -87,9 +90,18 @@ impl Session {
         if !path.starts_with("teacher:") {
             self.read_input(path, false);
         }
+        if self.stop.is_raised() {
+            self.stop.clear();
+            return Err(SessionError::Stopped {
+                statement: format!("load demos {path}"),
+            });
+        }
         let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
         let count = episodes.len();
-        if self.journal.is_some() && !path.starts_with("teacher:") {
+        // A file's points are added without a copy when a journal line needs none of them: with
+        // a journal (the sidecar holds them), or in a session that will never keep one.
+        let no_copy = self.journal.is_some() || self.preamble.is_none();
+        if no_copy && !path.starts_with("teacher:") {
             self.commit_demos_file(path, episodes)?;
         } else {
             self.commit(Effect::Demos {
@@ -661,11 +673,8 @@ fn recorded_for_another_task(
     path: &str,
 ) -> Option<String> {
     use std::io::{BufRead as _, Read as _};
-    // A regular file only: opening a FIFO would wait for a writer.
-    if !std::fs::metadata(path).ok()?.is_file() {
-        return None;
-    }
-    let file = std::fs::File::open(path).ok()?;
+    // A regular file only (the one check): opening a FIFO would wait for a writer.
+    let (file, _) = crate::files::open_regular(Path::new(path), u64::MAX).ok()?;
     let mut header = String::new();
     std::io::BufReader::new(file.take(64 * 1024))
         .read_line(&mut header)

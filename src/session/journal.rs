@@ -230,6 +230,11 @@ impl Journal {
     /// Take an existing journal to continue it (what `advise resume` does before reading it),
     /// refused while another session holds it.
     pub fn continue_at(path: &Path) -> Result<Journal, JournalError> {
+        // Opening a FIFO for writing would block until a reader comes: anything but a regular
+        // file is refused by the reader's own check first (`advise::file::not_regular`).
+        if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+            read(path)?;
+        }
         let file = match OpenOptions::new().append(true).open(path) {
             Ok(file) => file,
             Err(source) => {
@@ -328,7 +333,8 @@ fn owner_path(journal: &Path) -> PathBuf {
 
 /// Who holds the journal at `path`, in words, from its owner file.
 fn owner_of(path: &Path) -> String {
-    let text = std::fs::read_to_string(owner_path(path)).unwrap_or_default();
+    // Through the one reader: a FIFO in its place is refused, not waited on.
+    let text = crate::files::read_text_limited(&owner_path(path), 4096).unwrap_or_default();
     let mut words = text.split_whitespace().map(str::parse::<u64>);
     match (words.next(), words.next()) {
         (Some(Ok(pid)), Some(Ok(since))) => {

@@ -25,6 +25,8 @@ use parquet::column::reader::get_typed_column_reader;
 use parquet::data_type::DoubleType;
 use parquet::file::properties::WriterProperties;
 use parquet::file::reader::{FileReader, SerializedFileReader};
+
+use crate::recording::parquet_guard::{self, ParquetGuardError};
 use parquet::file::writer::SerializedFileWriter;
 use parquet::schema::types::Type;
 use serde::{Deserialize, Serialize};
@@ -81,6 +83,14 @@ pub enum SidecarError {
         )
     )]
     Name { file: String },
+    /// Not a regular file (a FIFO would block the restore), or larger than a sidecar may be.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    File(crate::files::FileError),
+    /// A sidecar whose footer lies (its CRC updated to match): refused before it is read.
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    Guard(#[from] ParquetGuardError),
 }
 
 /// The column names of a sidecar for `obs_dim` observations and `act_dim` actions.
@@ -248,8 +258,12 @@ pub fn read(
         path: shown.clone(),
         source,
     };
-    let mut file = File::open(&path).map_err(missing)?;
-    let len = file.metadata().map_err(missing)?.len();
+    // Refused before it is opened when it is not a regular file: a FIFO would block.
+    let (mut file, len) =
+        crate::files::open_regular(&path, MAX_SIDECAR_BYTES).map_err(|e| match e {
+            crate::files::FileError::Read { source, .. } => missing(source),
+            other => SidecarError::File(other),
+        })?;
     if len != r.bytes || len > MAX_SIDECAR_BYTES {
         return Err(altered(format!(
             "it is {len} bytes long; the journal wrote {}",
@@ -272,19 +286,29 @@ pub fn read(
             r.crc64
         )));
     }
-    read_columns(file, r.points, obs_dim, act_dim).map_err(altered)
+    // A sidecar is written uncompressed: its points' values alone take 8 bytes each.
+    let values = r.points.saturating_mul((obs_dim + act_dim) as u64 * 8);
+    if values > len {
+        return Err(altered(format!(
+            "it is {len} bytes long, too short for the {} points the journal says",
+            r.points
+        )));
+    }
+    let reader = parquet_guard::reader(file, len, &shown)?;
+    parquet_guard::guarded(&shown, || {
+        read_columns(&reader, r.points, obs_dim, act_dim).map_err(altered)
+    })
 }
 
 /// The rows of a sidecar whose bytes are known to be the ones written; the schema and row count
 /// are still checked (a line edited to name another session's sidecar).
 fn read_columns(
-    file: File,
+    reader: &SerializedFileReader<File>,
     points: u64,
     obs_dim: usize,
     act_dim: usize,
 ) -> Result<(Vec<f64>, Vec<f64>), String> {
     let pq = |e: parquet::errors::ParquetError| format!("it is not a sidecar Parquet file ({e})");
-    let reader = SerializedFileReader::new(file).map_err(pq)?;
     let meta = reader.metadata();
     let schema = meta.file_metadata().schema_descr();
     let names = column_names(obs_dim, act_dim);

@@ -9,8 +9,12 @@ use pyo3::types::PyDict;
 use crate::error::simple;
 
 /// A row-major matrix of `cols` columns from `obj` (`name` in messages): its values and rows.
-/// `None` for `cols` takes any width. Wrong shapes and values that are not finite are
-/// `advise::py::shape` and `advise::py::not_finite`.
+/// `None` for `cols` takes any width. Only arrays of real numbers are taken (floats, integers):
+/// complex numbers, booleans, dates and times, text and Python objects are refused
+/// (`advise::py::dtype`) rather than converted, and a masked array with masked values
+/// (`advise::py::masked`) rather than read without its mask. Wrong shapes and values that are
+/// not finite are `advise::py::shape` and `advise::py::not_finite`; a copy that memory cannot
+/// hold is `advise::py::memory` (never an abort).
 pub fn matrix(
     py: Python<'_>,
     obj: &Bound<'_, PyAny>,
@@ -18,16 +22,50 @@ pub fn matrix(
     cols: Option<usize>,
 ) -> PyResult<(Vec<f64>, usize)> {
     let np = py.import("numpy")?;
+    let not_numbers = |e: PyErr| {
+        simple(
+            py,
+            "advise::py::not_numbers",
+            format!("`{name}` is not an array of numbers: {e}"),
+            "pass a numpy array (or nested lists) of floats",
+        )
+    };
+    let ma = np.getattr("ma")?;
+    if ma.call_method1("isMaskedArray", (obj,))?.is_truthy()?
+        && ma.call_method1("is_masked", (obj,))?.is_truthy()?
+    {
+        return Err(simple(
+            py,
+            "advise::py::masked",
+            format!("`{name}` is a masked array with masked values"),
+            "a masked value has no number to use: drop those rows, or fill them (`x.filled(v)`) \
+             if a value is known",
+        ));
+    }
+    let raw = np.call_method1("asarray", (obj,)).map_err(not_numbers)?;
+    let kind: String = raw.getattr("dtype")?.getattr("kind")?.extract()?;
+    let refused = match kind.as_str() {
+        "f" | "i" | "u" => None,
+        "c" => Some("complex numbers (their imaginary part would be dropped)"),
+        "b" => Some("booleans"),
+        "M" | "m" => Some("dates or durations"),
+        "U" | "S" => Some("text"),
+        "O" => Some("Python objects"),
+        _ => Some("values that are not numbers"),
+    };
+    if let Some(what) = refused {
+        let dtype = raw.getattr("dtype")?.str()?.to_string();
+        return Err(simple(
+            py,
+            "advise::py::dtype",
+            format!("`{name}` holds {what} (dtype {dtype})"),
+            "pass real numbers (a float or integer array); convert explicitly first if the \
+             values are numbers held another way (`np.asarray(x, dtype=float)`)",
+        ));
+    }
     let arr = np
-        .call_method1("ascontiguousarray", (obj, "float64"))
-        .map_err(|e| {
-            simple(
-                py,
-                "advise::py::not_numbers",
-                format!("`{name}` is not an array of numbers: {e}"),
-                "pass a numpy array (or nested lists) of floats",
-            )
-        })?;
+        .call_method1("ascontiguousarray", (raw, "float64"))
+        .map_err(not_numbers)?;
     let ndim: usize = arr.getattr("ndim")?.extract()?;
     let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
     let want = cols.map_or("(n, k)".to_string(), |c| format!("(n, {c})"));
@@ -41,7 +79,8 @@ pub fn matrix(
     }
     let arr = arr.cast_into::<PyArray2<f64>>()?;
     let ro = arr.readonly();
-    let values = ro.as_slice()?.to_vec();
+    let slice = ro.as_slice()?;
+    let values = copy_of(py, slice, name)?;
     if let Some(i) = values.iter().position(|v| !v.is_finite()) {
         let w = shape[1].max(1);
         return Err(simple(
@@ -57,6 +96,26 @@ pub fn matrix(
         ));
     }
     Ok((values, ro.shape()[0]))
+}
+
+/// `values` copied into a vector, or `advise::py::memory` when memory cannot hold the copy
+/// (an allocation that fails is refused, never an abort of the interpreter).
+pub fn copy_of(py: Python<'_>, values: &[f64], name: &str) -> PyResult<Vec<f64>> {
+    let mut out = Vec::new();
+    if out.try_reserve_exact(values.len()).is_err() {
+        return Err(simple(
+            py,
+            "advise::py::memory",
+            format!(
+                "`{name}` ({} values, {}) does not fit in the memory left",
+                values.len(),
+                advise::files::fmt_bytes((values.len() as u64).saturating_mul(8))
+            ),
+            "pass fewer rows at a time, or free memory first",
+        ));
+    }
+    out.extend_from_slice(values);
+    Ok(out)
 }
 
 /// `values` (`rows * cols`, row-major) as a numpy array of shape `(rows, cols)`.

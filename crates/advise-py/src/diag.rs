@@ -3,6 +3,7 @@
 
 use advise::diag::SourceMap;
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 
 /// Where a diagnostic points: the source's name (a path, or `<text>`), 1-based line and column,
 /// and the byte range in that source.
@@ -20,6 +21,57 @@ pub struct Span {
 impl Span {
     fn __repr__(&self) -> String {
         format!("Span({}:{}:{})", self.file, self.line, self.column)
+    }
+
+    /// Pickled as its fields (an `AdviseError` from a worker process carries its spans).
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let args = (
+            self.file.clone(),
+            self.line,
+            self.column,
+            self.start,
+            self.end,
+        );
+        Ok((
+            py.import("advise._advise")?.getattr("_span")?,
+            args.into_pyobject(py)?,
+        ))
+    }
+}
+
+/// A `Span` from its fields: what unpickling one calls.
+#[pyfunction]
+pub fn _span(file: String, line: usize, column: usize, start: usize, end: usize) -> Span {
+    Span {
+        file,
+        line,
+        column,
+        start,
+        end,
+    }
+}
+
+/// A `Diagnostic` from its fields: what unpickling one calls.
+#[pyfunction]
+#[pyo3(signature = (code, message, span, help, severity, rendered))]
+pub fn _diagnostic(
+    code: String,
+    message: String,
+    span: Option<PyRef<'_, Span>>,
+    help: Option<String>,
+    severity: String,
+    rendered: String,
+) -> Diagnostic {
+    Diagnostic {
+        code,
+        message,
+        span: span.map(|s| s.clone()),
+        help,
+        severity,
+        rendered,
     }
 }
 
@@ -45,6 +97,25 @@ impl Diagnostic {
 
     fn __str__(&self) -> String {
         self.rendered.clone()
+    }
+
+    /// Pickled as its fields (an `AdviseError` from a worker process carries its diagnostics).
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let args = (
+            self.code.clone(),
+            self.message.clone(),
+            self.span.clone(),
+            self.help.clone(),
+            self.severity.clone(),
+            self.rendered.clone(),
+        );
+        Ok((
+            py.import("advise._advise")?.getattr("_diagnostic")?,
+            args.into_pyobject(py)?,
+        ))
     }
 }
 

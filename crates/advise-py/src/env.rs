@@ -7,6 +7,8 @@
 //! practice start `index` of `seed` on a simulator seeded with `episode_seed(seed, index)`: the
 //! episode `advise demo --seed SEED` records as `demo-INDEX`.
 
+use std::sync::{Mutex, MutexGuard, TryLockError};
+
 use advise::backend::Backend;
 use advise::backend::sim::{SimBackend, SimParams};
 use advise::domain::Domain;
@@ -19,13 +21,14 @@ use crate::arrays::matrix;
 use crate::error::simple;
 
 /// The simulator of a task (`positioning`, `interception`, or one declared in a file), stepped
-/// from Python.
-#[pyclass(module = "advise", unsendable)]
+/// from Python. Any thread may step it, one call at a time: the episode is behind a lock, and a
+/// call while another thread's holds it is refused (`advise::py::busy`).
+#[pyclass(module = "advise")]
 pub struct SimEnv {
     kind: TaskKind,
     domain: Domain,
     params: SimParams,
-    episode: Option<Episode>,
+    episode: Mutex<Option<Episode>>,
 }
 
 /// What `step` returns: observation, reward, terminated, truncated, info (Gymnasium's order).
@@ -58,7 +61,7 @@ impl SimEnv {
             domain: kind.domain(),
             kind,
             params: SimParams::default(),
-            episode: None,
+            episode: Mutex::new(None),
         })
     }
 
@@ -85,7 +88,7 @@ impl SimEnv {
 
     /// reset(seed, index) -> observation: start episode `index` of `seed`.
     fn reset<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         seed: u64,
         index: u64,
@@ -108,23 +111,20 @@ impl SimEnv {
             over: false,
         };
         let z = observe(&self.domain, &ep);
-        self.episode = Some(ep);
+        *self.episode(py)? = Some(ep);
         Ok(z.into_pyarray(py))
     }
 
     /// step(action) -> (observation, reward, terminated, truncated, info)
     ///
     /// The reward is 1 at the end of a successful episode, else 0.
-    fn step<'py>(
-        &mut self,
-        py: Python<'py>,
-        action: &Bound<'py, PyAny>,
-    ) -> PyResult<Transition<'py>> {
+    fn step<'py>(&self, py: Python<'py>, action: &Bound<'py, PyAny>) -> PyResult<Transition<'py>> {
         let np = py.import("numpy")?;
         let row = np.call_method1("reshape", (action, (1, -1)))?;
         let (mut a, _) = matrix(py, &row, "action", Some(self.domain.act_dim()))?;
         let domain = &self.domain;
-        let Some(ep) = self.episode.as_mut().filter(|e| !e.over) else {
+        let mut episode = self.episode(py)?;
+        let Some(ep) = episode.as_mut().filter(|e| !e.over) else {
             return Err(simple(
                 py,
                 "advise::py::not_reset",
@@ -171,6 +171,24 @@ impl SimEnv {
             truncated,
             info,
         ))
+    }
+}
+
+impl SimEnv {
+    /// The episode, unless another thread is stepping or resetting it.
+    fn episode(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Option<Episode>>> {
+        match self.episode.try_lock() {
+            Ok(g) => Ok(g),
+            // A panic mid-step left the episode as it found it: it is used on.
+            Err(TryLockError::Poisoned(p)) => Ok(p.into_inner()),
+            Err(TryLockError::WouldBlock) => Err(simple(
+                py,
+                "advise::py::busy",
+                "the environment is being stepped in another thread".into(),
+                "an environment runs one episode one step at a time: step it from one thread \
+                 at a time, or give each thread an environment of its own",
+            )),
+        }
     }
 }
 

@@ -7,8 +7,11 @@ use pyo3::prelude::*;
 
 use crate::diag::Diagnostic;
 
+// Named `advise.AdviseError` (the package re-exports it there), so `pickle` finds the class by
+// its module and name: an error raised in a `multiprocessing` worker arrives whole, its `code`
+// and `diagnostics` with it (they are the instance's `__dict__`, which pickling keeps).
 create_exception!(
-    _advise,
+    advise,
     AdviseError,
     PyException,
     "A refusal of advise: `code` is the first diagnostic's `advise::` code, `diagnostics` all of them (advise.Diagnostic)."

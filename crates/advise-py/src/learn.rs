@@ -8,6 +8,8 @@ use advise::domain::Domain;
 use advise::policy::Policy as _;
 use advise::policy::learner::{Learner, LearnerKind};
 use advise::trace::Episode;
+use std::sync::{RwLock, RwLockReadGuard, RwLockWriteGuard, TryLockError};
+
 use numpy::PyArray2;
 use pyo3::prelude::*;
 
@@ -163,6 +165,41 @@ impl Fitted {
     }
 }
 
+/// A learner behind a lock any Python thread may take: predictions share it (the GIL is
+/// released while they compute), a fit or a critique holds it alone. A call that finds it
+/// held the other way is refused with `advise::py::busy`, never made to wait (it would wait
+/// holding the GIL the other thread needs to finish).
+struct Shared(RwLock<Fitted>);
+
+impl Shared {
+    fn read(&self, py: Python<'_>) -> PyResult<RwLockReadGuard<'_, Fitted>> {
+        match self.0.try_read() {
+            Ok(g) => Ok(g),
+            Err(TryLockError::Poisoned(p)) => Ok(p.into_inner()),
+            Err(TryLockError::WouldBlock) => Err(busy(py)),
+        }
+    }
+
+    fn write(&self, py: Python<'_>) -> PyResult<RwLockWriteGuard<'_, Fitted>> {
+        match self.0.try_write() {
+            Ok(g) => Ok(g),
+            Err(TryLockError::Poisoned(p)) => Ok(p.into_inner()),
+            Err(TryLockError::WouldBlock) => Err(busy(py)),
+        }
+    }
+}
+
+/// `advise::py::busy`: a learner another thread is fitting, critiquing or predicting with.
+fn busy(py: Python<'_>) -> PyErr {
+    simple(
+        py,
+        "advise::py::busy",
+        "the learner is in use by another thread (a fit or critique holds it alone)".into(),
+        "predictions may run in several threads at once; fit and critique one thread at a \
+         time: wait for that thread (`join` it), or give each thread a learner of its own",
+    )
+}
+
 /// `advise::py::not_fitted`: a learner of `kind` asked to act before it has data.
 fn not_fitted(py: Python<'_>, kind: LearnerKind) -> PyErr {
     simple(
@@ -180,7 +217,7 @@ macro_rules! learner_class {
         // The Python names of the paper's learners (`advise.BC`, `advise.LWR`).
         #[allow(clippy::upper_case_acronyms)]
         #[pyclass(module = "advise")]
-        pub struct $name(Fitted);
+        pub struct $name(Shared);
 
         #[pymethods]
         impl $name {
@@ -192,7 +229,7 @@ macro_rules! learner_class {
                 domain: Option<&str>,
                 seed: u64,
             ) -> PyResult<Self> {
-                Fitted::new(py, $kind, domain, task, seed).map($name)
+                Fitted::new(py, $kind, domain, task, seed).map(|f| $name(Shared(RwLock::new(f))))
             }
 
             /// fit(observations, actions, episodes=None) -> self
@@ -201,13 +238,13 @@ macro_rules! learner_class {
             /// (n, act_dim); `episodes` labels each row's episode (contiguous), default one.
             #[pyo3(signature = (observations, actions, episodes=None))]
             fn fit<'py>(
-                mut slf: PyRefMut<'py, Self>,
+                slf: PyRef<'py, Self>,
                 observations: &Bound<'py, PyAny>,
                 actions: &Bound<'py, PyAny>,
                 episodes: Option<&Bound<'py, PyAny>>,
-            ) -> PyResult<PyRefMut<'py, Self>> {
+            ) -> PyResult<PyRef<'py, Self>> {
                 let py = slf.py();
-                slf.0.fit(py, observations, actions, episodes)?;
+                slf.0.write(py)?.fit(py, observations, actions, episodes)?;
                 Ok(slf)
             }
 
@@ -217,11 +254,11 @@ macro_rules! learner_class {
             /// it: CSV, JSON, a saved dataset, Parquet, or (with `task=`) a ROS 2 bag or CSV
             /// log of a base's drive.
             fn fit_file<'py>(
-                mut slf: PyRefMut<'py, Self>,
+                slf: PyRef<'py, Self>,
                 path: &str,
-            ) -> PyResult<PyRefMut<'py, Self>> {
+            ) -> PyResult<PyRef<'py, Self>> {
                 let py = slf.py();
-                slf.0.fit_file(py, path)?;
+                slf.0.write(py)?.fit_file(py, path)?;
                 Ok(slf)
             }
 
@@ -234,7 +271,7 @@ macro_rules! learner_class {
                 py: Python<'py>,
                 observations: &Bound<'py, PyAny>,
             ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-                self.0.predict(py, observations)
+                self.0.read(py)?.predict(py, observations)
             }
 
             /// critique(observations, *, chunk=None, kappa=1.0, rule="paper", actions=None)
@@ -248,7 +285,7 @@ macro_rules! learner_class {
             /// critiqued execution. Returns what was raised, by how much, and the REPL's reply.
             #[pyo3(signature = (observations, *, chunk=None, kappa=advise::session::DEFAULT_KAPPA, rule="paper", actions=None))]
             fn critique(
-                &mut self,
+                &self,
                 py: Python<'_>,
                 observations: &Bound<'_, PyAny>,
                 chunk: Option<(usize, usize)>,
@@ -263,7 +300,8 @@ macro_rules! learner_class {
                     kappa,
                     rule,
                 };
-                let (learner, domain) = self.0.fitted(py)?;
+                let mut fitted = self.0.write(py)?;
+                let (learner, domain) = fitted.fitted(py)?;
                 crate::explain::critique(py, learner, domain, args)
             }
 
@@ -273,11 +311,12 @@ macro_rules! learner_class {
             /// weight and provenance, LWR's neighbourhood, each one's action, and the REPL's
             /// text.
             fn why(
-                &mut self,
+                &self,
                 py: Python<'_>,
                 observation: &Bound<'_, PyAny>,
             ) -> PyResult<crate::explain::Why> {
-                let (learner, domain) = self.0.fitted(py)?;
+                let mut fitted = self.0.write(py)?;
+                let (learner, domain) = fitted.fitted(py)?;
                 crate::explain::why(py, learner, domain, observation)
             }
 
@@ -285,10 +324,11 @@ macro_rules! learner_class {
             ///
             /// Every data point's weight m (the paper's rule), in dataset order.
             fn weights<'py>(
-                &mut self,
+                &self,
                 py: Python<'py>,
             ) -> PyResult<Bound<'py, numpy::PyArray1<f64>>> {
-                let (learner, _) = self.0.fitted(py)?;
+                let mut fitted = self.0.write(py)?;
+                let (learner, _) = fitted.fitted(py)?;
                 Ok(crate::explain::weights(py, learner))
             }
 
@@ -303,22 +343,23 @@ macro_rules! learner_class {
             /// operator, invocation, chunk), `domain`, `observation_names`, `action_names`.
             /// `advise.to_arrow` makes it a pyarrow table.
             fn dataset<'py>(
-                &mut self,
+                &self,
                 py: Python<'py>,
             ) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
-                let (learner, _) = self.0.fitted(py)?;
+                let mut fitted = self.0.write(py)?;
+                let (learner, _) = fitted.fitted(py)?;
                 crate::dataset::dataset_dict(py, learner.dataset())
             }
 
             /// The number of data points the policy holds.
-            fn __len__(&self) -> usize {
-                self.0.learner.as_ref().map_or(0, Learner::len)
+            fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
+                Ok(self.0.read(py)?.learner.as_ref().map_or(0, Learner::len))
             }
 
             /// The domain's name.
             #[getter]
-            fn domain(&self) -> String {
-                self.0.domain.name.clone()
+            fn domain(&self, py: Python<'_>) -> PyResult<String> {
+                Ok(self.0.read(py)?.domain.name.clone())
             }
         }
     };

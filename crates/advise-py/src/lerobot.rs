@@ -99,6 +99,33 @@ fn episode_of<'a>(py: Python<'_>, read: &'a LeRobotRead, episode: i64) -> PyResu
     }
 }
 
+/// `fps=`: None, or a whole number of frames per second from 1 to 1000 (`advise::py::fps`
+/// otherwise: 0 is not made 1, nor 29.97 made 29).
+fn fps_of(py: Python<'_>, fps: Option<&Bound<'_, PyAny>>) -> PyResult<Option<u32>> {
+    let Some(f) = fps.filter(|f| !f.is_none()) else {
+        return Ok(None);
+    };
+    let whole = f
+        .extract::<i64>()
+        .ok()
+        .filter(|_| f.cast::<pyo3::types::PyBool>().is_err());
+    match whole
+        .and_then(|v| u32::try_from(v).ok())
+        .filter(|v| (1..=1000).contains(v))
+    {
+        Some(v) => Ok(Some(v)),
+        None => Err(simple(
+            py,
+            "advise::py::fps",
+            format!(
+                "`fps` is {}, not a whole number of frames per second from 1 to 1000",
+                f.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+            ),
+            "give the dataset's frame rate (`fps=30`), or leave it out to keep the source's",
+        )),
+    }
+}
+
 /// advise_lerobot(src, out, *, episode, frames, operator, params, task="positioning",
 /// operators=(), by_position=False, fps=None, tasks=()) -> dict
 ///
@@ -125,9 +152,10 @@ pub fn advise_lerobot<'py>(
     task: &str,
     operators: Vec<String>,
     by_position: bool,
-    fps: Option<u32>,
+    fps: Option<&Bound<'py, PyAny>>,
     tasks: Vec<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let fps = fps_of(py, fps)?;
     let files: Vec<String> = tasks.into_iter().chain(operators).collect();
     let (set, _warnings) = merge(py, &OperatorSet::standard(), &files)?;
     let (domain, read) = read(py, &set, src, task, by_position)?;

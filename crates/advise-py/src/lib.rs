@@ -29,6 +29,8 @@ fn _advise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("AdviseError", py.get_type::<error::AdviseError>())?;
     m.add_class::<diag::Diagnostic>()?;
     m.add_class::<diag::Span>()?;
+    m.add_function(wrap_pyfunction!(diag::_diagnostic, m)?)?;
+    m.add_function(wrap_pyfunction!(diag::_span, m)?)?;
     m.add_function(wrap_pyfunction!(ops::check, m)?)?;
     m.add_class::<ops::Operators>()?;
     m.add_class::<learn::BC>()?;

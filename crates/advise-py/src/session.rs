@@ -40,6 +40,10 @@ pub struct Session {
     inner: Mutex<Option<Inner>>,
     /// What the restore said, for a session made by [`Session::resume`].
     resumed: Option<Resumed>,
+    /// The process that made it: a child `fork()`ed from it holds a copy of its journal's
+    /// handle, and is refused (`advise::py::forked`) rather than let write into the parent's
+    /// journal.
+    pid: u32,
 }
 
 /// What `advise resume` prints when it restores a journal, kept for `Session.resumed`.
@@ -69,14 +73,18 @@ impl Session {
         let journal_dir = journal_dir(py, journal)?;
         let tasks = task_files(py, tasks)?;
         let mut inner = start(py, task, tasks, seed, demos)?;
-        if let Some(dir) = journal_dir {
-            inner
-                .start_journal(&dir)
-                .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
+        match journal_dir {
+            Some(dir) => {
+                inner
+                    .start_journal(&dir)
+                    .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
+            }
+            None => inner.without_journal(),
         }
         let s = Session {
             inner: Mutex::new(Some(inner)),
             resumed: None,
+            pid: std::process::id(),
         };
         if backend != "sim" {
             s.run(py, &format!("backend {backend}"), "--backend")?;
@@ -132,6 +140,7 @@ impl Session {
         Ok(Session {
             inner: Mutex::new(Some(inner)),
             resumed: Some(resumed),
+            pid: std::process::id(),
         })
     }
 
@@ -224,6 +233,13 @@ impl Session {
     /// ran). Any later use raises AdviseError `advise::py::closed`; closing again does nothing.
     /// `with advise.Session(...) as s:` closes it at the end of the block.
     fn close(&self, py: Python<'_>) -> PyResult<()> {
+        if self.forked() {
+            // A forked child's copy: the journal's handle and lock are the parent's, and closing
+            // them here would unlock the parent's journal. The copy is put away unclosed.
+            let mut inner = self.held(py)?;
+            std::mem::forget(inner.take());
+            return Ok(());
+        }
         *self.lock(py)? = None;
         Ok(())
     }
@@ -292,8 +308,18 @@ impl Session {
                 }
             });
             if let Some(e) = interrupted {
-                // What was done is kept (an interrupted run's execution among them).
-                return Err(e);
+                match &result {
+                    // The statement finished before it saw the stop: its effect is kept and
+                    // journalled, so its reply is returned, and the interrupt raised again to
+                    // come right after (`_thread.interrupt_main`, as if Ctrl-C came then).
+                    Some(Ok(_)) => {
+                        py.import("_thread")?.call_method0("interrupt_main")?;
+                    }
+                    // It stopped: a statement that reads or records ends before its effect
+                    // (nothing changed, nothing journalled); an interrupted run keeps what the
+                    // base did, as at the REPL.
+                    _ => return Err(e),
+                }
             }
             let Some(result) = result else {
                 return Err(simple(
@@ -308,22 +334,68 @@ impl Session {
         })
     }
 
-    /// The session's lock, unless another thread holds it. A statement that panicked left the
-    /// session as the panic found it; it is used on (the panic was raised in Python).
-    fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Option<Inner>>> {
+    /// The session's mutex, unless another thread holds it (whoever may then use it).
+    fn held(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Option<Inner>>> {
         match self.inner.try_lock() {
             Ok(g) => Ok(g),
             Err(TryLockError::Poisoned(p)) => Ok(p.into_inner()),
-            Err(TryLockError::WouldBlock) => Err(simple(
-                py,
-                "advise::py::busy",
-                "the session is running a statement in another thread".into(),
-                "a session runs one statement at a time: wait for that thread (`join` it), or \
-                 give each thread a session of its own",
-            )),
+            Err(TryLockError::WouldBlock) => Err(busy(py)),
         }
     }
 
+    /// Whether this is a `fork()`ed child's copy of the session.
+    fn forked(&self) -> bool {
+        std::process::id() != self.pid
+    }
+
+    /// The session's lock, unless another thread holds it. A statement that panicked left the
+    /// session as the panic found it; it is used on (the panic was raised in Python). In a
+    /// `fork()`ed child, a journalled session is refused: its journal is the parent's.
+    fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Option<Inner>>> {
+        let guard = self.held(py)?;
+        if self.forked() && guard.as_ref().is_some_and(|i| i.journal_path().is_some()) {
+            return Err(simple(
+                py,
+                "advise::py::forked",
+                format!(
+                    "this journalled session belongs to process {}; this is a child forked from it",
+                    self.pid
+                ),
+                "a forked child may not write its parent's journal: start a session of its own in \
+                 the child (`advise.Session(...)`, or `Session.resume` once the parent closed \
+                 it), or use the `spawn` start method",
+            ));
+        }
+        Ok(guard)
+    }
+}
+
+impl Drop for Session {
+    /// In a forked child, the session is left as it is (its journal's handle and lock belong to
+    /// the parent): only the parent closes it.
+    fn drop(&mut self) {
+        if self.forked() {
+            let inner = self
+                .inner
+                .get_mut()
+                .map_or_else(|p| p.into_inner().take(), Option::take);
+            std::mem::forget(inner);
+        }
+    }
+}
+
+/// `advise::py::busy`: a session another thread is running a statement in.
+fn busy(py: Python<'_>) -> PyErr {
+    simple(
+        py,
+        "advise::py::busy",
+        "the session is running a statement in another thread".into(),
+        "a session runs one statement at a time: wait for that thread (`join` it), or \
+         give each thread a session of its own",
+    )
+}
+
+impl Session {
     /// `f` on the session, unless `close` ended it or another thread is using it.
     fn with<R>(&self, py: Python<'_>, f: impl FnOnce(&mut Inner) -> PyResult<R>) -> PyResult<R> {
         f(self.lock(py)?.as_mut().ok_or_else(|| closed(py))?)
