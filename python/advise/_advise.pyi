@@ -149,6 +149,14 @@ class _Learner:
         ``source`` (``demonstration``/``advice``), ``source_id``, ``index``,
         ``execution_index`` (numpy arrays, dataset order), ``demonstrations``, ``advice``,
         ``domain``, ``observation_names``, ``action_names``."""
+    def kernel(self) -> dict[str, Any] | None:
+        """LWR's kernel as its last tuning chose it: ``bandwidth``, ``query_bandwidth``,
+        ``scales``, ``folds``, ``sources``, ``loss``, ``standard_error``, ``held_out_scored``,
+        ``held_out_covered``, ``held_out_coverage``, ``mean_neighbours``; None before LWR was
+        tuned (a BC learner)."""
+    def coverage(self, observations: npt.ArrayLike) -> dict[str, Any] | None:
+        """How many rows of ``observations`` find data in LWR's kernel: ``steps``, ``covered``,
+        ``share``; None for a BC learner."""
     def __len__(self) -> int: ...
     @property
     def domain(self) -> str: ...

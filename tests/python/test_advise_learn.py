@@ -15,9 +15,14 @@ save out.json
 """
 
 
+# What `advise run` printed for the module's session.
+STDOUT = {}
+
+
 @pytest.fixture(scope="module")
 def session(scripted_session):
-    d, _, _, runs = scripted_session(SCRIPT, "session")
+    d, out, _, runs = scripted_session(SCRIPT, "session")
+    STDOUT["session"] = out
     return d, runs
 
 
@@ -32,6 +37,26 @@ def test_lwr_predicts_the_session_actions_to_the_bit(session):
     lwr = advise.LWR(task="positioning").fit_file(str(d / "demos.csv"))
     assert len(lwr) > 0
     assert np.array_equal(clamp(lwr.predict(z)), a)
+
+
+def test_lwr_reports_its_kernel_and_a_runs_coverage_as_the_session_does(session):
+    import re
+
+    d, runs = session
+    z, _ = runs[0]
+    lwr = advise.LWR(task="positioning").fit_file(str(d / "demos.csv"))
+    k = lwr.kernel()
+    # Four demonstrations: four held-out sources, one fold each (issue 48's tuning).
+    assert (k["folds"], k["sources"]) == (4, 4)
+    assert k["bandwidth"] > 0 and k["query_bandwidth"] == k["bandwidth"]
+    assert len(k["scales"]) == 3 and 0 <= k["held_out_coverage"] <= 1
+    assert k["held_out_covered"] <= k["held_out_scored"]
+    # The run's reply says how many of its steps found data in the kernel: the same count.
+    said = re.search(r"LWR: (\d+) of (\d+) steps", STDOUT["session"])
+    c = lwr.coverage(z)
+    assert (c["covered"], c["steps"]) == (int(said[1]), int(said[2]))
+    assert advise.BC(task="positioning").fit_file(str(d / "demos.csv")).coverage(z) is None
+    assert advise.BC(task="positioning").fit_file(str(d / "demos.csv")).kernel() is None
 
 
 def test_bc_predicts_the_session_actions_to_the_bit(session):

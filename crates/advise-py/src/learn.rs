@@ -351,6 +351,77 @@ macro_rules! learner_class {
                 crate::dataset::dataset_dict(py, learner.dataset())
             }
 
+            /// kernel() -> dict | None
+            ///
+            /// LWR's kernel as its last tuning chose it (docs/protocol.md, issue 48):
+            /// `bandwidth` (tuned), `query_bandwidth` (what queries use: times the density
+            /// factor beyond the 20,000-point tuning sample), `scales` (per observation
+            /// dimension, on top of range scaling), `folds` and `sources` (the held-out
+            /// demonstrations and pieces of advice), `loss` and `standard_error` of the chosen
+            /// kernel, `held_out_scored`, `held_out_covered` and `held_out_coverage` (the share
+            /// of scored held-out points whose kernel held data of other sources),
+            /// `mean_neighbours`. None before the learner tuned LWR (a BC learner).
+            fn kernel<'py>(
+                &self,
+                py: Python<'py>,
+            ) -> PyResult<Option<Bound<'py, pyo3::types::PyDict>>> {
+                let fitted = self.0.read(py)?;
+                let Some(learner) = &fitted.learner else {
+                    return Err(not_fitted(py, fitted.kind));
+                };
+                let Some(t) = learner.last_tuning() else {
+                    return Ok(None);
+                };
+                let d = pyo3::types::PyDict::new(py);
+                d.set_item("bandwidth", t.params.bandwidth)?;
+                d.set_item("query_bandwidth", learner.lwr_query_bandwidth())?;
+                d.set_item("scales", t.params.scales.clone())?;
+                d.set_item("folds", t.folds)?;
+                d.set_item("sources", t.sources)?;
+                d.set_item("loss", t.loss)?;
+                d.set_item("standard_error", t.se)?;
+                d.set_item("held_out_scored", t.scored)?;
+                d.set_item("held_out_covered", t.covered)?;
+                d.set_item(
+                    "held_out_coverage",
+                    t.covered as f64 / t.scored.max(1) as f64,
+                )?;
+                d.set_item("mean_neighbours", t.mean_neighbours)?;
+                Ok(Some(d))
+            }
+
+            /// coverage(observations) -> dict | None
+            ///
+            /// How many rows of `observations` (n, obs_dim) (a run's steps) find data in LWR's
+            /// kernel, as a run's reply counts them: `steps`, `covered`, `share`. None for a
+            /// BC learner, whose policy has no kernel.
+            fn coverage<'py>(
+                &self,
+                py: Python<'py>,
+                observations: &Bound<'py, PyAny>,
+            ) -> PyResult<Option<Bound<'py, pyo3::types::PyDict>>> {
+                let fitted = self.0.read(py)?;
+                let Some(learner) = &fitted.learner else {
+                    return Err(not_fitted(py, fitted.kind));
+                };
+                if learner.kind() != LearnerKind::Lwr {
+                    return Ok(None);
+                }
+                let (od, ad) = (fitted.domain.obs_dim(), fitted.domain.act_dim());
+                let (z, n) = matrix(py, observations, "observations", Some(od))?;
+                let covered = py.detach(|| {
+                    let mut a = vec![0.0; ad];
+                    z.chunks_exact(od)
+                        .filter(|zi| learner.regress(zi, &mut a).total_weight > 0.0)
+                        .count()
+                });
+                let d = pyo3::types::PyDict::new(py);
+                d.set_item("steps", n)?;
+                d.set_item("covered", covered)?;
+                d.set_item("share", if n == 0 { 1.0 } else { covered as f64 / n as f64 })?;
+                Ok(Some(d))
+            }
+
             /// The number of data points the policy holds.
             fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
                 Ok(self.0.read(py)?.learner.as_ref().map_or(0, Learner::len))
