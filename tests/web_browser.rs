@@ -273,7 +273,7 @@ fn the_teacher_flow_on_positioning() {
     // BC's 1-NN drives the default demonstrations' run on a clean path, which the drag's quarter
     // to half of the path selects unambiguously: LWR's kernel, tuned on whole held-out
     // demonstrations since issue 48, averages widely and its run wanders over itself for 60 s.
-    flow("positioning", &["learner bc"], "goal 2 -1 0", "slow_down");
+    flow("positioning", &["learner bc"], "goal 2 -1 0.5", "slow_down");
 }
 
 #[test]

@@ -882,7 +882,7 @@ mod tests {
 
     /// The cross-validation's answer from the shared index, skipping the held-out fold, equals
     /// [`query`] on an index of the other folds' points alone (what tuning used to build), far
-    /// from the data included.
+    /// from the data included; and so does the scan of the contiguous sample wide kernels use.
     #[test]
     fn skipping_a_fold_equals_an_index_without_it() {
         let ds = dataset(12, 40, 1);
@@ -898,6 +898,8 @@ mod tests {
             index: &all,
             fold: &fold,
         };
+        // The scan of the contiguous sample (wide kernels) answers as the tree does.
+        let flat = Flat::new(&ds, &all, &fold);
         let mut rng = ChaCha8Rng::seed_from_u64(2);
         for f in 0..k {
             let mut others = Index::new(scale.clone()).unwrap();
@@ -911,6 +913,11 @@ mod tests {
                     bandwidth: 0.01,
                     tolerance: 1e-3,
                 },
+                LwrParams {
+                    scales: vec![2.0, 1.0],
+                    bandwidth: 0.47,
+                    tolerance: 1e-3,
+                },
             ] {
                 for q in 0..60 {
                     // Data points of the fold, and points anywhere (some far from all data).
@@ -921,7 +928,12 @@ mod tests {
                     };
                     let (mut a, mut b) = ([0.0], [0.0]);
                     let mut s = Scratch::default();
-                    cv.query(&params, &z, f, &mut a, &mut s);
+                    let held = cv.query(&params, &z, f, &mut a, &mut s);
+                    let mut c = [0.0];
+                    let scanned = flat.query(&cv, &params, &z, f, &mut c, &mut s);
+                    assert_eq!(held, scanned, "fold {f} z {z:?}");
+                    let tol = if held > 0 { 1e-12 } else { 0.0 };
+                    assert!((a[0] - c[0]).abs() <= tol, "fold {f} z {z:?}: {a:?} {c:?}");
                     let ans = query(&others, &ds, &params, &z, &mut b, &mut s);
                     if ans.total_weight == 0.0 {
                         // Far from the other folds, tuning answers with the nearest point in
@@ -934,48 +946,6 @@ mod tests {
                     let tol = if ans.total_weight > 0.0 { 1e-9 } else { 0.0 };
                     assert!((a[0] - b[0]).abs() <= tol, "fold {f} z {z:?}: {a:?} {b:?}");
                 }
-            }
-        }
-    }
-
-    /// The scan of the contiguous sample answers as the tree does: the same neighbours, the same
-    /// sum up to the order of its terms, and the tree's answer far from the other folds.
-    #[test]
-    fn the_scan_answers_as_the_tree() {
-        let ds = dataset(12, 40, 3);
-        let scale = range_scale(&ds);
-        let fold: Vec<u8> = (0..ds.len()).map(|i| (i / 40 % 4) as u8).collect();
-        let mut index = Index::new(scale).unwrap();
-        for i in 0..ds.len() {
-            index.add(i as u32, ds.points());
-        }
-        let cv = CrossValidation {
-            ds: &ds,
-            index: &index,
-            fold: &fold,
-        };
-        let flat = Flat::new(&ds, &index, &fold);
-        let mut rng = ChaCha8Rng::seed_from_u64(4);
-        let mut s = Scratch::default();
-        for h in [0.01, 0.1, 0.47, 2.2] {
-            let params = LwrParams {
-                scales: vec![0.5, 2.0],
-                bandwidth: h,
-                tolerance: 1e-3,
-            };
-            for q in 0..80 {
-                let z = if q % 2 == 0 {
-                    ds.z((q * 7) % ds.len()).to_vec()
-                } else {
-                    vec![rng.random_range(-1.0..2.0), rng.random_range(-1.0..2.0)]
-                };
-                let f = (q % 4) as u8;
-                let (mut a, mut b) = ([0.0], [0.0]);
-                let n = cv.query(&params, &z, f, &mut a, &mut s);
-                let m = flat.query(&cv, &params, &z, f, &mut b, &mut s);
-                assert_eq!(n, m, "h {h} z {z:?}");
-                let tol = if n > 0 { 1e-12 } else { 0.0 };
-                assert!((a[0] - b[0]).abs() <= tol, "h {h} z {z:?}: {a:?} {b:?}");
             }
         }
     }
