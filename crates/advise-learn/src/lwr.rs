@@ -19,6 +19,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
 use crate::dataset::{Dataset, Provenance};
+use crate::exp;
 use crate::index::{Index, Points};
 
 /// The regression's parameters.
@@ -62,6 +63,8 @@ pub struct LwrAnswer {
 pub struct Scratch {
     q: Vec<f64>,
     found: Vec<(f64, u64)>,
+    /// A kernel sum's accumulators: the action's, then the total weight.
+    acc: Vec<f64>,
 }
 
 /// Predict the action for `z` into `a`.
@@ -92,16 +95,13 @@ pub fn query(
         scratch.q.resize(z.len(), 0.0);
         index.scaled(z, &mut scratch.q);
         let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
+        let act_dim = a.len();
+        scratch.acc.clear();
+        scratch.acc.resize(act_dim + 1, 0.0);
         // Counted as the sums store it (a whole f64, exact), converted once.
-        let mut points = 0.0;
-        index.sums_within(&scratch.q, r2, ds.points(), |d2, sum, n| {
-            let w = (-d2 * inv).exp();
-            for (out, v) in a.iter_mut().zip(sum) {
-                *out += w * v;
-            }
-            total += w * n;
-            points += n;
-        });
+        let points = index.kernel_within(&scratch.q, r2, inv, ds.points(), &mut scratch.acc);
+        a.copy_from_slice(&scratch.acc[..act_dim]);
+        total = scratch.acc[act_dim];
         count = points as usize;
     } else {
         let inv = gather(index, ds.points(), params, z, scratch);
@@ -663,7 +663,7 @@ fn group_weight(
             d * d
         })
         .sum();
-    (d2 <= r2).then(|| (-d2 * inv).exp())
+    (d2 <= r2).then(|| exp::exp(-d2 * inv))
 }
 
 impl CrossValidation<'_> {
