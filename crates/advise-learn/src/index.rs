@@ -430,6 +430,48 @@ impl<const D: usize> Bulk<D> {
         }
     }
 
+    /// [`Bulk::nearest_n`] among the points within squared distance `r2` only: a sparse
+    /// neighbourhood is not searched beyond it.
+    fn nearest_n_within(
+        &self,
+        q: &[f64; D],
+        n: usize,
+        r2: f64,
+        heap: &mut Vec<(f64, u64)>,
+        ex: &Exact<D>,
+    ) {
+        if !self.nodes.is_empty() && n > 0 {
+            self.nearest_n_within_in(0, q, n, r2, heap, ex);
+        }
+    }
+
+    fn nearest_n_within_in(
+        &self,
+        at: usize,
+        q: &[f64; D],
+        n: usize,
+        r2: f64,
+        heap: &mut Vec<(f64, u64)>,
+        ex: &Exact<D>,
+    ) {
+        let node = &self.nodes[at];
+        if node.end != INNER {
+            for i in node.first_or_right as usize..node.end as usize {
+                let c = (dist2(q, &self.row(i, ex)), u64::from(self.ids[i]));
+                if c.0 <= r2 {
+                    heap_offer(heap, n, c);
+                }
+            }
+            return;
+        }
+        for (d, next) in self.children_nearest_first(at, q) {
+            let bound = if heap.len() < n { r2 } else { heap[0].0 };
+            if d <= bound {
+                self.nearest_n_within_in(next, q, n, r2, heap, ex);
+            }
+        }
+    }
+
     fn nearest_n_in(
         &self,
         at: usize,
@@ -908,6 +950,28 @@ impl Tree {
         out.truncate(n);
     }
 
+    /// The `n` nearest groups within `r2` of `q`, nearest first (ties to the lower group).
+    fn nearest_n_within(
+        &self,
+        plan: &Plan,
+        q: &[f64],
+        n: usize,
+        r2: f64,
+        out: &mut Vec<(f64, u64)>,
+    ) {
+        out.clear();
+        each_tree!(self, t => {
+            let q = q.try_into().expect("dimension checked at construction");
+            plan.bulk(t).nearest_n_within(q, n, r2, out, &plan.exact());
+            if plan.recent > 0 {
+                let bound = if out.len() < n { r2 } else { out[0].0.min(r2) };
+                out.extend(t.recent.within_unsorted::<SquaredEuclidean>(q, bound).into_iter().map(|n| (n.distance, n.item)));
+            }
+        });
+        out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        out.truncate(n);
+    }
+
     fn within(&self, plan: &Plan, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
         out.clear();
         each_tree!(self, t => {
@@ -1374,6 +1438,52 @@ impl Index {
     ) {
         if !self.is_empty() {
             self.tree.sums_within(&self.plan(pts), q, r2, &mut f)
+        }
+    }
+
+    /// The nearest `k` points within squared distance `r2` of scaled query `q`, as groups:
+    /// `f(squared distance, action sum, points)` nearest first (ties to the lower group; a
+    /// group's points are at one distance), `k` points in all at most. When the `k`-th point
+    /// falls inside a group, that group's sum is of its first points only (in the order they
+    /// joined it, as its whole sum is made). An index with action sums; nothing otherwise.
+    /// `found` is a buffer.
+    pub fn nearest_sums(
+        &self,
+        q: &[f64],
+        k: usize,
+        r2: f64,
+        pts: Points,
+        found: &mut Vec<(f64, u64)>,
+        mut f: impl FnMut(f64, &[f64], f64),
+    ) {
+        let Some(act_dim) = self.act_dim else {
+            return;
+        };
+        if self.is_empty() || k == 0 {
+            found.clear();
+            return;
+        }
+        // Every group holds at least one point: the `k` nearest groups hold the `k` nearest
+        // points.
+        self.tree.nearest_n_within(&self.plan(pts), q, k, r2, found);
+        let mut row = vec![0.0; act_dim + 1];
+        let mut left = k;
+        for &(d, g) in found.iter() {
+            if left == 0 {
+                break;
+            }
+            let members = self.group(g);
+            let take = members.len().min(left);
+            row.iter_mut().for_each(|v| *v = 0.0);
+            for &p in &members[..take] {
+                let a = &pts.a[p as usize * act_dim..][..act_dim];
+                for (t, v) in row.iter_mut().zip(a) {
+                    *t += v;
+                }
+            }
+            row[act_dim] = f64::from(take as u32);
+            f(d, &row[..act_dim], row[act_dim]);
+            left -= take;
         }
     }
 
