@@ -346,9 +346,10 @@ impl Learner {
     }
 
     /// The teacher's limit on LWR's kernel: at most its `k` nearest points (`None`: the
-    /// protocol's rule, [`lwr::default_k`]). Takes effect at the next re-derivation.
+    /// protocol's rule, [`lwr::default_k`]). Takes effect at once (the kernel is not re-tuned).
     pub fn set_lwr_k(&mut self, k: Option<usize>) {
         self.lwr_k = k.map(|k| k.max(1));
+        self.lwr_unit.k = self.lwr_query_k();
     }
 
     /// The teacher's limit on LWR's kernel (`None`: the protocol's rule).
