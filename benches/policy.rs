@@ -2,7 +2,10 @@
 //! N = 100,000 points of interception teacher demonstrations (data as the learners see it: dense
 //! along trajectories; uniform noise in 6-D would leave every kernel empty or huge), queried with
 //! the observations of 1,000 points from runs on other starts. `bc_query_100k`: weighted 1-NN after 1,000 critiqued points;
-//! `lwr_query_100k`: truncated-kernel regression; `rederive_30`: add 30 advised points and bring
+//! `lwr_query_100k`: truncated-kernel regression at a fixed kernel of about 1,204 neighbours a
+//! query (the figure earlier versions measured); `lwr_query_100k_tuned`: at the kernel the tuning
+//! picks (issue 48), every point of it summed; with `ADVISE_BENCH_CPU=1` each prints its
+//! neighbours per query and kernel terms per CPU second; `rederive_30`: add 30 advised points and bring
 //! the policy up to date (one query included: the first query after a re-plan builds the index's
 //! bulk tree). Throughput is set so criterion prints queries (or advice points) per
 //! second.

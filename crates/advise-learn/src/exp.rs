@@ -18,8 +18,8 @@
 const LOG2E: f64 = std::f64::consts::LOG2_E;
 /// `ln 2` split Cody-Waite style (fdlibm's): `LN2_HI` has its low 32 bits zero, so `n * LN2_HI`
 /// is exact for the `|n| < 2^11` met here.
-const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-1;
-const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
+const LN2_HI: f64 = 6.931_471_803_691_238e-1;
+const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
 /// `1.5 * 2^52`: added to `t` (`|t| < 2^51`), it rounds `t` to the nearest integer (ties to even)
 /// and leaves that integer in the low bits of the sum.
 const SHIFT: f64 = 6_755_399_441_055_744.0;
@@ -156,7 +156,7 @@ mod tests {
             (-0.5, 0x3fe368b2fc6f960a),
             (-1.0, 0x3fd78b56362cef38),
             (-std::f64::consts::LN_2, 0x3fe0000000000000),
-            (-2.302585092994046, 0x3fb9999999999998),
+            (-std::f64::consts::LN_10, 0x3fb9999999999998),
             (-4.5, 0x3f86c0504695c418),
             (-6.907755278982137, 0x3f50624dd2f1a9fd),
             (-100.0, 0x36ea8c1f14e2af5c),

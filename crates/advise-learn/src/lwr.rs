@@ -5,7 +5,9 @@
 //! [`LwrParams::scales`]; `h` is [`LwrParams::bandwidth`]. The kernel is truncated where a weight
 //! would fall below [`LwrParams::tolerance`], so a query is one radius search of the kd-tree. A
 //! query far from all data finds no neighbour: the answer says so (`total_weight == 0`) and falls
-//! back to the nearest point's action rather than silently averaging nothing. [`tune`] chooses the
+//! back to the nearest point's action rather than silently averaging nothing. The weights are
+//! [`crate::exp::exp`]'s (the same bits on every machine, not glibc's), a leaf's computed together;
+//! [`LwrParams::k`] limits the kernel to its k nearest points. [`tune`] chooses the
 //! scales and bandwidth by seeded cross-validation over whole sources (a held-out demonstration
 //! or piece of advice is a new trajectory, as the learner's next execution is) with the
 //! one-standard-error rule, at a cost bounded whatever the data's size.
