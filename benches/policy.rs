@@ -136,7 +136,7 @@ const FIXED_BANDWIDTH: f64 = 0.018;
 
 /// LWR's index over the learner's points in its range scaling, with action sums, and the fixed
 /// kernel's parameters.
-fn fixed_kernel(l: &Learner) -> (Index, LwrParams) {
+fn fixed_kernel(l: &Learner, bandwidth: f64) -> (Index, LwrParams) {
     let ds = l.dataset();
     let act_dim = ds.domain().act_dim();
     let mut idx = Index::with_action_sums(l.index().scale().to_vec(), act_dim)
@@ -147,7 +147,7 @@ fn fixed_kernel(l: &Learner) -> (Index, LwrParams) {
     }
     idx.build_bulk(ds.points());
     let params = LwrParams {
-        bandwidth: FIXED_BANDWIDTH,
+        bandwidth,
         ..LwrParams::default_for(ds.domain().obs_dim())
     };
     (idx, params)
@@ -207,7 +207,7 @@ fn bench(c: &mut Criterion) {
     // tuning of issue 33's protocol chose on this data), the kernel sum alone on an index of
     // range-scaled points with their action sums, as the learner's own LWR index is.
     let lwr = learner(LearnerKind::Lwr, &data, &critiqued);
-    let fixed = fixed_kernel(&lwr);
+    let fixed = fixed_kernel(&lwr, FIXED_BANDWIDTH);
     let fixed_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
         lwr::query(&fixed.0, lwr.dataset(), &fixed.1, q, a, s)
     };
@@ -231,26 +231,39 @@ fn bench(c: &mut Criterion) {
         })
     });
 
-    // The kernel the tuning picks on this data (issue 48's rule), every point of it summed.
-    let mut lwr = lwr;
-    let per_query = neighbours_per_query(&qs, |q, a| lwr.regress(q, a));
+    // The kernel the tuning picks on this data (issue 48's rule), every point of it summed (the
+    // learner itself limits it to its k nearest beyond 20,000 points, docs/protocol.md).
+    let tuned = fixed_kernel(&lwr, lwr.lwr_query_bandwidth());
+    let tuned_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
+        lwr::query(&tuned.0, lwr.dataset(), &tuned.1, q, a, s)
+    };
+    let per_query = neighbours_per_query(&qs, |q, a| tuned_query(q, a, &mut s));
     eprintln!(
-        "lwr tuned: {:?}; {} distinct observations; {} bulk; {per_query:.1} neighbours per query",
+        "lwr tuned: {:?} (queried at bandwidth {}, the learner's k {:?}); {} distinct observations; {} bulk; {per_query:.1} neighbours per query without k",
         lwr.lwr_params(),
+        lwr.lwr_query_bandwidth(),
+        lwr.lwr_query_k(),
         lwr.index().groups(),
         lwr.index().bulk_groups(),
     );
     cpu_rate_terms("lwr_query_100k_tuned", &qs, per_query, |q| {
-        lwr.act(q, &mut [0.0; 2])
+        tuned_query(q, &mut [0.0; 2], &mut s);
     });
     g.bench_function("lwr_query_100k_tuned", |b| {
         let mut a = [0.0; 2];
+        let mut s = lwr::Scratch::default();
         b.iter(|| {
             for q in &qs {
-                lwr.act(q, &mut a);
+                tuned_query(q, &mut a, &mut s);
             }
             a
         })
+    });
+    // The learner as it answers by default at this size: the k-limited kernel.
+    let mut lwr = lwr;
+    let per_query = neighbours_per_query(&qs, |q, a| lwr.regress(q, a));
+    cpu_rate_terms("lwr_query_100k_k", &qs, per_query, |q| {
+        lwr.act(q, &mut [0.0; 2])
     });
 
     // Advice: `speed_up` on a 30-point chunk of an execution, synthesized once; the measured part
