@@ -2,7 +2,10 @@
 //! N = 100,000 points of interception teacher demonstrations (data as the learners see it: dense
 //! along trajectories; uniform noise in 6-D would leave every kernel empty or huge), queried with
 //! the observations of 1,000 points from runs on other starts. `bc_query_100k`: weighted 1-NN after 1,000 critiqued points;
-//! `lwr_query_100k`: truncated-kernel regression; `rederive_30`: add 30 advised points and bring
+//! `lwr_query_100k`: truncated-kernel regression at a fixed kernel of about 1,204 neighbours a
+//! query (the figure earlier versions measured); `lwr_query_100k_tuned`: at the kernel the tuning
+//! picks (issue 48), every point of it summed; with `ADVISE_BENCH_CPU=1` each prints its
+//! neighbours per query and kernel terms per CPU second; `rederive_30`: add 30 advised points and bring
 //! the policy up to date (one query included: the first query after a re-plan builds the index's
 //! bulk tree). Throughput is set so criterion prints queries (or advice points) per
 //! second.
@@ -12,7 +15,9 @@ use advise::domain::Domain;
 use advise::interp;
 use advise::policy::Policy;
 use advise::policy::dataset::Dataset;
+use advise::policy::index::Index;
 use advise::policy::learner::{Learner, LearnerKind};
+use advise::policy::lwr::{self, LwrAnswer, LwrParams};
 use advise::syntax::parse_invocation;
 use advise::task::{TaskKind, record_demos};
 use advise::trace::{Chunk, Trace};
@@ -105,10 +110,8 @@ fn write_csv(data: &Trace, qs: &[Vec<f64>]) {
 
 /// With `ADVISE_BENCH_CPU` set, queries per second of this thread's CPU time (10 passes): on a
 /// loaded machine criterion's wall-clock figures measure the other processes too.
-fn cpu_rate(name: &str, qs: &[Vec<f64>], f: impl Fn(&[f64])) {
-    if std::env::var_os("ADVISE_BENCH_CPU").is_none() {
-        return;
-    }
+fn cpu_rate(name: &str, qs: &[Vec<f64>], mut f: impl FnMut(&[f64])) -> Option<f64> {
+    std::env::var_os("ADVISE_BENCH_CPU")?;
     let cpu = || {
         let mut t = libc::timespec {
             tv_sec: 0,
@@ -122,11 +125,60 @@ fn cpu_rate(name: &str, qs: &[Vec<f64>], f: impl Fn(&[f64])) {
     for _ in 0..10 {
         qs.iter().for_each(|q| f(q));
     }
-    let s = cpu() - start;
-    eprintln!(
-        "{name}: {:.0} queries per CPU second",
-        10.0 * qs.len() as f64 / s
-    );
+    let rate = 10.0 * qs.len() as f64 / (cpu() - start);
+    eprintln!("{name}: {rate:.0} queries per CPU second");
+    Some(rate)
+}
+
+/// The bandwidth (range-scaled units, unit per-dimension scales) of the fixed kernel: about
+/// 1,204 neighbours a query on this data (1,270), the kernel earlier figures were measured at.
+const FIXED_BANDWIDTH: f64 = 0.018;
+
+/// LWR's index over the learner's points in its range scaling, with action sums, and the fixed
+/// kernel's parameters.
+fn fixed_kernel(l: &Learner, bandwidth: f64) -> (Index, LwrParams) {
+    let ds = l.dataset();
+    let act_dim = ds.domain().act_dim();
+    let mut idx = Index::with_action_sums(l.index().scale().to_vec(), act_dim)
+        .expect("a supported dimension");
+    idx.reserve(ds.len(), ds.points());
+    for i in 0..ds.len() {
+        idx.add_with_action(i as u32, ds.points());
+    }
+    idx.build_bulk(ds.points());
+    let params = LwrParams {
+        bandwidth,
+        ..LwrParams::default_for(ds.domain().obs_dim())
+    };
+    (idx, params)
+}
+
+/// The mean number of points an LWR query sums, over `qs`.
+fn neighbours_per_query(
+    qs: &[Vec<f64>],
+    mut f: impl FnMut(&[f64], &mut [f64]) -> LwrAnswer,
+) -> f64 {
+    let mut a = [0.0; 2];
+    let (mut neighbours, mut far) = (0usize, 0usize);
+    for q in qs {
+        let ans = f(q, &mut a);
+        neighbours += ans.neighbours;
+        far += usize::from(ans.total_weight == 0.0);
+    }
+    if far > 0 {
+        eprintln!("({far} of {} queries far from data)", qs.len());
+    }
+    neighbours as f64 / qs.len() as f64
+}
+
+/// [`cpu_rate`], also in kernel terms (points summed) per CPU second.
+fn cpu_rate_terms(name: &str, qs: &[Vec<f64>], per_query: f64, f: impl FnMut(&[f64])) {
+    if let Some(rate) = cpu_rate(name, qs, f) {
+        eprintln!(
+            "{name}: {:.1} million kernel terms per CPU second ({per_query:.1} a query)",
+            rate * per_query / 1e6
+        );
+    }
 }
 
 fn bench(c: &mut Criterion) {
@@ -151,31 +203,67 @@ fn bench(c: &mut Criterion) {
         })
     });
 
-    let mut lwr = learner(LearnerKind::Lwr, &data, &critiqued);
-    let mut a = [0.0; 2];
-    let (mut neighbours, mut far) = (0usize, 0usize);
-    for q in &qs {
-        let ans = lwr.regress(q, &mut a);
-        neighbours += ans.neighbours;
-        far += usize::from(ans.total_weight == 0.0);
-    }
+    // The kernel of earlier figures, fixed: about 1,204 neighbours a query (the bandwidth the
+    // tuning of issue 33's protocol chose on this data), the kernel sum alone on an index of
+    // range-scaled points with their action sums, as the learner's own LWR index is.
+    let lwr = learner(LearnerKind::Lwr, &data, &critiqued);
+    let fixed = fixed_kernel(&lwr, FIXED_BANDWIDTH);
+    let fixed_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
+        lwr::query(&fixed.0, lwr.dataset(), &fixed.1, q, a, s)
+    };
+    let mut s = lwr::Scratch::default();
+    let per_query = neighbours_per_query(&qs, |q, a| fixed_query(q, a, &mut s));
     eprintln!(
-        "lwr tuned: {:?}; {} distinct observations; {} bulk; {:.1} neighbours per query, {far} of {} queries far from data",
-        lwr.lwr_params(),
-        lwr.index().groups(),
-        lwr.index().bulk_groups(),
-        neighbours as f64 / qs.len() as f64,
-        qs.len()
+        "lwr fixed kernel: bandwidth {} in range-scaled units; {per_query:.1} neighbours per query",
+        fixed.1.bandwidth
     );
-    cpu_rate("lwr_query_100k", &qs, |q| lwr.act(q, &mut [0.0; 2]));
+    cpu_rate_terms("lwr_query_100k", &qs, per_query, |q| {
+        fixed_query(q, &mut [0.0; 2], &mut s);
+    });
     g.bench_function("lwr_query_100k", |b| {
         let mut a = [0.0; 2];
+        let mut s = lwr::Scratch::default();
         b.iter(|| {
             for q in &qs {
-                lwr.act(q, &mut a);
+                fixed_query(q, &mut a, &mut s);
             }
             a
         })
+    });
+
+    // The kernel the tuning picks on this data (issue 48's rule), every point of it summed (the
+    // learner itself limits it to its k nearest beyond 20,000 points, docs/protocol.md).
+    let tuned = fixed_kernel(&lwr, lwr.lwr_query_bandwidth());
+    let tuned_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
+        lwr::query(&tuned.0, lwr.dataset(), &tuned.1, q, a, s)
+    };
+    let per_query = neighbours_per_query(&qs, |q, a| tuned_query(q, a, &mut s));
+    eprintln!(
+        "lwr tuned: {:?} (queried at bandwidth {}, the learner's k {:?}); {} distinct observations; {} bulk; {per_query:.1} neighbours per query without k",
+        lwr.lwr_params(),
+        lwr.lwr_query_bandwidth(),
+        lwr.lwr_query_k(),
+        lwr.index().groups(),
+        lwr.index().bulk_groups(),
+    );
+    cpu_rate_terms("lwr_query_100k_tuned", &qs, per_query, |q| {
+        tuned_query(q, &mut [0.0; 2], &mut s);
+    });
+    g.bench_function("lwr_query_100k_tuned", |b| {
+        let mut a = [0.0; 2];
+        let mut s = lwr::Scratch::default();
+        b.iter(|| {
+            for q in &qs {
+                tuned_query(q, &mut a, &mut s);
+            }
+            a
+        })
+    });
+    // The learner as it answers by default at this size: the k-limited kernel.
+    let mut lwr = lwr;
+    let per_query = neighbours_per_query(&qs, |q, a| lwr.regress(q, a));
+    cpu_rate_terms("lwr_query_100k_k", &qs, per_query, |q| {
+        lwr.act(q, &mut [0.0; 2])
     });
 
     // Advice: `speed_up` on a 30-point chunk of an execution, synthesized once; the measured part

@@ -375,6 +375,10 @@ pub struct EvalArgs {
     /// Which policy to derive (or `teacher` to evaluate the teacher itself).
     #[arg(long, default_value = "bc")]
     pub policy: EvalPolicy,
+    /// LWR's kernel limited to its N nearest points (default: no limit up to 20,000 points,
+    /// beyond it the tuned kernel's mean neighbours; docs/protocol.md).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub lwr_k: Option<u64>,
     /// Seeds the simulator noise; the test set itself is fixed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,

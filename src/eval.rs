@@ -385,6 +385,17 @@ pub fn derive_policy(
     domain: &Domain,
     episodes: &[Episode],
 ) -> Result<Box<dyn Policy>, EvalError> {
+    derive_policy_with(kind, domain, episodes, None)
+}
+
+/// [`derive_policy`], LWR's kernel limited to its `lwr_k` nearest points when given (`--lwr-k`;
+/// otherwise the protocol's rule, [`crate::policy::lwr::default_k`]).
+pub fn derive_policy_with(
+    kind: LearnerKind,
+    domain: &Domain,
+    episodes: &[Episode],
+    lwr_k: Option<usize>,
+) -> Result<Box<dyn Policy>, EvalError> {
     if episodes.iter().all(|e| e.trace.is_empty()) {
         return Err(EvalError::EmptyDataset);
     }
@@ -393,7 +404,11 @@ pub fn derive_policy(
         ds.add_demonstration(&e.name, &e.trace)
             .map_err(|e| EvalError::Learner(Box::new(e.into())))?;
     }
-    Ok(Box::new(Learner::with_dataset(ds, kind, 0)))
+    let mut learner = Learner::with_dataset(ds, kind, 0);
+    if lwr_k.is_some() {
+        learner.set_lwr_k(lwr_k);
+    }
+    Ok(Box::new(learner))
 }
 
 /// Brute-force 1-nearest-neighbour over observations scaled inversely with each dimension's data

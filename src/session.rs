@@ -495,7 +495,7 @@ impl Session {
             Command::History => Ok(Reply::Message(self.history())),
             Command::Rederive => self.rederive().map(Reply::Message),
             Command::Eval { detail } => self.eval(detail),
-            Command::Learner(name) => self.set_learner(&name).map(Reply::Message),
+            Command::Learner { name, k } => self.set_learner(&name, k).map(Reply::Message),
             Command::Why(t) => self.why(t).map(Reply::Message),
             Command::Plot { kind, path } => self.plot(kind, &path).map(Reply::Message),
             Command::Save(path) => self.save(&path).map(Reply::Message),

@@ -243,7 +243,7 @@ proptest! {
         ds.add_demonstration("demo", &trace(&d, &rows)).unwrap();
         let s = scale(&ds, 2);
         let learner = Learner::with_dataset(ds.clone(), LearnerKind::Bc, 0);
-        let params = LwrParams { scales: vec![s0, 1.0], bandwidth, tolerance: 1e-3 };
+        let params = LwrParams { scales: vec![s0, 1.0], bandwidth, tolerance: 1e-3, k: None };
         let r2 = -2.0 * bandwidth * bandwidth * params.tolerance.ln();
         for q in &queries {
             let (mut num, mut den) = ([0.0; 2], 0.0);

@@ -600,3 +600,37 @@ fn advise_run_starts_like_the_repl_and_journals_unless_told_not_to() {
     assert!(out.status.success());
     assert_eq!(journals(home.path()).len(), 1, "--no-journal writes none");
 }
+
+/// `learner lwr k N` is journalled: a resumed session queries the same k-limited kernel (the
+/// same answers to the bit), and `learner lwr` alone returns to the protocol's rule.
+#[test]
+fn the_lwr_kernel_limit_is_restored_from_the_journal() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = positioning(9);
+    let journal = live.start_journal(dir.path()).unwrap();
+    run(&mut live, "learner lwr k 7\nrun goal 2 -1 0.5");
+    assert_eq!(live.learner().lwr_k(), Some(7));
+    assert_eq!(live.learner().lwr_query_k(), Some(7));
+    let text = std::fs::read_to_string(&journal).unwrap();
+    assert!(text.contains("\"k\":7"), "{text}");
+    let mut back = Session::restore(&copy_of(&journal), dir.path())
+        .unwrap()
+        .session;
+    assert_eq!(back.learner().lwr_k(), Some(7));
+    let z = [1.0, 0.3, -0.2];
+    let (mut a, mut b) = ([0.0; 2], [0.0; 2]);
+    let (x, y) = (
+        live.learner().regress(&z, &mut a),
+        back.learner().regress(&z, &mut b),
+    );
+    assert_eq!(
+        (x.neighbours, a.map(f64::to_bits)),
+        (y.neighbours, b.map(f64::to_bits))
+    );
+    assert!(x.neighbours <= 7, "{x:?}");
+    assert_eq!(back.status(), live.status());
+    // Without `k`: the protocol's rule (no limit at this size).
+    run(&mut back, "learner lwr");
+    assert_eq!(back.learner().lwr_k(), None);
+    assert_eq!(back.learner().lwr_query_k(), None);
+}

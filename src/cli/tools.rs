@@ -91,7 +91,8 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
             let mut files = crate::diag::SourceMap::new();
             let demos = crate::policy::dataset::load_demonstrations(&mut files, &domain, path)
                 .map_err(|e| files.attach(e))?;
-            let policy = eval::derive_policy(learner, &domain, &demos.episodes)?;
+            let lwr_k = args.lwr_k.map(|k| k as usize);
+            let policy = eval::derive_policy_with(learner, &domain, &demos.episodes, lwr_k)?;
             if backend.is_simulator() {
                 eval::evaluate(kind.clone(), policy.as_ref(), &opts)
             } else {

@@ -312,8 +312,9 @@ impl Session {
             Effect::Rederive => {
                 self.state.learner.rederive();
             }
-            Effect::Learner { learner } => {
+            Effect::Learner { learner, k } => {
                 self.state.learner.set_kind(*learner);
+                self.state.learner.set_lwr_k(*k);
                 self.state.learner.rederive();
             }
             Effect::Evaluated { report } => {

@@ -109,6 +109,10 @@ pub enum Effect {
     /// The running learner switched (and re-derived).
     Learner {
         learner: LearnerKind,
+        /// LWR's kernel limited to its k nearest points (`learner lwr k N`); absent: the
+        /// protocol's rule.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        k: Option<usize>,
     },
     /// A test-set evaluation, kept so the next one can say what changed.
     Evaluated {

@@ -84,7 +84,11 @@ impl Session {
         }))
     }
 
-    pub(super) fn set_learner(&mut self, name: &Ident) -> Result<String, SessionError> {
+    pub(super) fn set_learner(
+        &mut self,
+        name: &Ident,
+        k: Option<usize>,
+    ) -> Result<String, SessionError> {
         let Some(kind) = LearnerKind::from_name(&name.name) else {
             let names = LearnerKind::ALL.map(LearnerKind::name);
             return Err(SessionError::UnknownLearner {
@@ -94,16 +98,24 @@ impl Session {
                     .unwrap_or_default(),
             });
         };
-        if kind == self.state.learner.kind() {
+        // `k 0` would sum nothing: at least one point.
+        let k = k.map(|k| k.max(1));
+        if kind == self.state.learner.kind() && k == self.state.learner.lwr_k() {
             return Ok(format!(
                 "the running learner is already {}: nothing changed",
                 self.state.learner.kind_name()
             ));
         }
         let started = Instant::now();
-        self.commit(Effect::Learner { learner: kind })?;
+        self.commit(Effect::Learner { learner: kind, k })?;
+        let limit = match self.state.learner.lwr_query_k() {
+            Some(k) if kind == LearnerKind::Lwr => {
+                format!(", its kernel limited to the {k} nearest points")
+            }
+            _ => String::new(),
+        };
         Ok(format!(
-            "the running learner is now {} on {} points (re-derived in {:.1} ms); critique weights steer BC, advice points feed both",
+            "the running learner is now {}{limit} on {} points (re-derived in {:.1} ms); critique weights steer BC, advice points feed both",
             self.state.learner.kind_name(),
             self.state.learner.len(),
             started.elapsed().as_secs_f64() * 1e3

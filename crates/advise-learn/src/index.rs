@@ -20,6 +20,8 @@ use std::sync::OnceLock;
 
 use kiddo::{KdTree, SquaredEuclidean};
 
+use crate::exp;
+
 /// The largest observation dimension the index supports.
 pub const MAX_DIM: usize = 8;
 
@@ -428,6 +430,48 @@ impl<const D: usize> Bulk<D> {
         }
     }
 
+    /// [`Bulk::nearest_n`] among the points within squared distance `r2` only: a sparse
+    /// neighbourhood is not searched beyond it.
+    fn nearest_n_within(
+        &self,
+        q: &[f64; D],
+        n: usize,
+        r2: f64,
+        heap: &mut Vec<(f64, u64)>,
+        ex: &Exact<D>,
+    ) {
+        if !self.nodes.is_empty() && n > 0 {
+            self.nearest_n_within_in(0, q, n, r2, heap, ex);
+        }
+    }
+
+    fn nearest_n_within_in(
+        &self,
+        at: usize,
+        q: &[f64; D],
+        n: usize,
+        r2: f64,
+        heap: &mut Vec<(f64, u64)>,
+        ex: &Exact<D>,
+    ) {
+        let node = &self.nodes[at];
+        if node.end != INNER {
+            for i in node.first_or_right as usize..node.end as usize {
+                let c = (dist2(q, &self.row(i, ex)), u64::from(self.ids[i]));
+                if c.0 <= r2 {
+                    heap_offer(heap, n, c);
+                }
+            }
+            return;
+        }
+        for (d, next) in self.children_nearest_first(at, q) {
+            let bound = if heap.len() < n { r2 } else { heap[0].0 };
+            if d <= bound {
+                self.nearest_n_within_in(next, q, n, r2, heap, ex);
+            }
+        }
+    }
+
     fn nearest_n_in(
         &self,
         at: usize,
@@ -457,6 +501,29 @@ impl<const D: usize> Bulk<D> {
     /// their bits. A leaf's points are first tested coarsely ([`Coarse`]); the few it cannot
     /// rule out are measured exactly.
     fn within(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize), ex: &Exact<D>) {
+        self.within_by_leaf(
+            q,
+            r2,
+            &mut |d2: &[f64], at: &[u32]| {
+                for (d, i) in d2.iter().zip(at) {
+                    f(*d, *i as usize);
+                }
+            },
+            ex,
+        )
+    }
+
+    /// [`Bulk::within`], a leaf at a time: `f(squared distances, leaf positions)` with the points
+    /// of one leaf inside the radius (at least one, at most [`LEAF`]), in the same order. A
+    /// kernel sum computes a leaf's weights in one vectorized loop ([`crate::exp`]) instead of
+    /// one call a point.
+    fn within_by_leaf(
+        &self,
+        q: &[f64; D],
+        r2: f64,
+        f: &mut impl FnMut(&[f64], &[u32]),
+        ex: &Exact<D>,
+    ) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: this processor has AVX2, checked just above.
@@ -465,17 +532,93 @@ impl<const D: usize> Bulk<D> {
         self.within_any(q, r2, f, ex)
     }
 
-    /// [`Bulk::within`] compiled for AVX2: eight `f32` lanes of a leaf's coarse distances and
-    /// four boxes at a time instead of four and two (a third of the query's time, measured).
-    /// Without fused multiply-adds (Rust never contracts them), so the same bits.
+    /// [`Bulk::within_by_leaf`] compiled for AVX2: eight `f32` lanes of a leaf's coarse
+    /// distances and four boxes at a time instead of four and two (a third of the query's time,
+    /// measured), and four lanes of a kernel sum's exponentials. Without fused multiply-adds
+    /// (Rust never contracts them), so the same bits.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn within_avx2(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize), ex: &Exact<D>) {
+    fn within_avx2(
+        &self,
+        q: &[f64; D],
+        r2: f64,
+        f: &mut impl FnMut(&[f64], &[u32]),
+        ex: &Exact<D>,
+    ) {
         self.within_any(q, r2, f, ex)
     }
 
+    /// The Gaussian kernel's sums over the points within `r2` of `q` (the tree keeps action
+    /// sums, `acc.len()` values a row): `acc[c] += exp(-d2 * inv) * sums[c]`, in leaf order, a
+    /// leaf's weights computed in one loop that vectorizes ([`exp::exp_in_place`]). Returns the
+    /// points summed (the rows' last values).
+    fn kernel(&self, q: &[f64; D], r2: f64, inv: f64, acc: &mut [f64], ex: &Exact<D>) -> f64 {
+        // Rows of a fixed width keep the sums in registers: actions of 1 to 4 dimensions.
+        match acc.len() {
+            2 => self.kernel_w::<2>(q, r2, inv, acc, ex),
+            3 => self.kernel_w::<3>(q, r2, inv, acc, ex),
+            4 => self.kernel_w::<4>(q, r2, inv, acc, ex),
+            5 => self.kernel_w::<5>(q, r2, inv, acc, ex),
+            _ => {
+                let mut k = KernelLeaf {
+                    sums: &self.sums,
+                    inv,
+                    acc: acc.to_vec(),
+                    points: 0.0,
+                    weights: [0.0; LEAF],
+                };
+                self.within_dispatch(q, r2, &mut k, ex);
+                acc.copy_from_slice(&k.acc);
+                k.points
+            }
+        }
+    }
+
+    fn kernel_w<const W: usize>(
+        &self,
+        q: &[f64; D],
+        r2: f64,
+        inv: f64,
+        acc: &mut [f64],
+        ex: &Exact<D>,
+    ) -> f64 {
+        let mut k = KernelLeaf {
+            sums: &self.sums,
+            inv,
+            acc: <[f64; W]>::try_from(&*acc).expect("a row of W values"),
+            points: 0.0,
+            weights: [0.0; LEAF],
+        };
+        self.within_dispatch(q, r2, &mut k, ex);
+        acc.copy_from_slice(&k.acc);
+        k.points
+    }
+
+    /// [`Bulk::within_any`] for a visitor of leaves, compiled for AVX2 where the processor has it.
+    fn within_dispatch(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: this processor has AVX2, checked just above.
+            return unsafe { self.within_visit_avx2(q, r2, f, ex) };
+        }
+        self.within_any_visit(q, r2, f, ex)
+    }
+
+    /// [`Bulk::within_dispatch`] compiled for AVX2: a kernel sum's exponentials four lanes at a
+    /// time (the visitor is inlined, so compiled for AVX2 too); the same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn within_visit_avx2(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
+        self.within_any_visit(q, r2, f, ex)
+    }
+
     #[inline(always)]
-    fn within_any(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize), ex: &Exact<D>) {
+    fn within_any(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(&[f64], &[u32]), ex: &Exact<D>) {
+        self.within_any_visit(q, r2, &mut Leaves(f), ex)
+    }
+
+    #[inline(always)]
+    fn within_any_visit(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
         if self.wide.is_empty() {
             return;
         }
@@ -484,6 +627,8 @@ impl<const D: usize> Bulk<D> {
         // siblings, and median splits bound the depth by 32.
         let mut stack = [(0u32, false); 32 * WIDE];
         let mut top = 1;
+        let mut d2s = [0.0f64; LEAF];
+        let mut ats = [0u32; LEAF];
         while top > 0 {
             top -= 1;
             let (at, leaf) = stack[top];
@@ -498,13 +643,18 @@ impl<const D: usize> Bulk<D> {
                 };
                 // A leaf holds 1 to LEAF <= 64 points.
                 maybe &= u64::MAX >> (64 - (end - first));
+                let mut m = 0;
                 while maybe != 0 {
                     let i = first + maybe.trailing_zeros() as usize;
                     let d = dist2(q, &self.row(i, ex));
-                    if d <= r2 {
-                        f(d, i);
-                    }
+                    // Written unconditionally, kept when inside: no branch to mispredict.
+                    d2s[m] = d;
+                    ats[m] = i as u32;
+                    m += usize::from(d <= r2);
                     maybe &= maybe - 1;
+                }
+                if m > 0 {
+                    f.leaf(&d2s[..m], &ats[..m]);
                 }
                 continue;
             }
@@ -523,6 +673,54 @@ impl<const D: usize> Bulk<D> {
                     top += 1;
                 }
             }
+        }
+    }
+}
+
+/// What a radius search does with each leaf's points inside the radius (see
+/// [`Bulk::within_by_leaf`]). A trait rather than a closure so that [`KernelLeaf`]'s
+/// `#[inline(always)]` reaches into the AVX2-compiled search.
+trait VisitLeaf {
+    fn leaf(&mut self, d2: &[f64], at: &[u32]);
+}
+
+/// A closure as a [`VisitLeaf`].
+struct Leaves<'f, F>(&'f mut F);
+
+impl<F: FnMut(&[f64], &[u32])> VisitLeaf for Leaves<'_, F> {
+    #[inline(always)]
+    fn leaf(&mut self, d2: &[f64], at: &[u32]) {
+        (self.0)(d2, at)
+    }
+}
+
+/// A Gaussian kernel sum over the bulk tree's action sums, rows of `acc.len()` values: a leaf's
+/// weights in one loop, then added row by row in leaf order.
+struct KernelLeaf<'a, A> {
+    sums: &'a [f64],
+    inv: f64,
+    acc: A,
+    points: f64,
+    /// A leaf's weights (kept here so that a leaf costs no clearing of a fresh array).
+    weights: [f64; LEAF],
+}
+
+impl<A: AsMut<[f64]>> VisitLeaf for KernelLeaf<'_, A> {
+    #[inline(always)]
+    fn leaf(&mut self, d2: &[f64], at: &[u32]) {
+        let weights = &mut self.weights[..d2.len()];
+        for (x, d) in weights.iter_mut().zip(d2) {
+            *x = -d * self.inv;
+        }
+        exp::exp_in_place(weights);
+        let acc = self.acc.as_mut();
+        let w = acc.len();
+        for (x, &i) in weights.iter().zip(at) {
+            let row = &self.sums[i as usize * w..][..w];
+            for (a, v) in acc.iter_mut().zip(row) {
+                *a += x * v;
+            }
+            self.points += row[w - 1];
         }
     }
 }
@@ -752,6 +950,28 @@ impl Tree {
         out.truncate(n);
     }
 
+    /// The `n` nearest groups within `r2` of `q`, nearest first (ties to the lower group).
+    fn nearest_n_within(
+        &self,
+        plan: &Plan,
+        q: &[f64],
+        n: usize,
+        r2: f64,
+        out: &mut Vec<(f64, u64)>,
+    ) {
+        out.clear();
+        each_tree!(self, t => {
+            let q = q.try_into().expect("dimension checked at construction");
+            plan.bulk(t).nearest_n_within(q, n, r2, out, &plan.exact());
+            if plan.recent > 0 {
+                let bound = if out.len() < n { r2 } else { out[0].0.min(r2) };
+                out.extend(t.recent.within_unsorted::<SquaredEuclidean>(q, bound).into_iter().map(|n| (n.distance, n.item)));
+            }
+        });
+        out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        out.truncate(n);
+    }
+
     fn within(&self, plan: &Plan, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
         out.clear();
         each_tree!(self, t => {
@@ -795,6 +1015,43 @@ impl Tree {
                 }
             }
         })
+    }
+
+    /// The Gaussian kernel's sums over every group within `r2` of `q`: `acc[c] += w * sum[c]`
+    /// for the `act_dim + 1` values of each group's row (its action sum, then its count), with
+    /// `w = exp(-d2 * inv)` ([`crate::exp::exp`]); returns the points summed. In the order
+    /// [`Tree::sums_within`] reports the groups, one leaf's weights computed together.
+    fn kernel_within(&self, plan: &Plan, q: &[f64], r2: f64, inv: f64, acc: &mut [f64]) -> f64 {
+        let Some(act_dim) = plan.idx.act_dim else {
+            return 0.0;
+        };
+        let w = act_dim + 1;
+        let acc = &mut acc[..w];
+        let mut points = 0.0;
+        each_tree!(self, t => {
+            let q = q.try_into().expect("dimension checked at construction");
+            let bulk = plan.bulk(t);
+            points += bulk.kernel(q, r2, inv, acc, &plan.exact());
+            if plan.recent > 0 {
+                let mut stack = [0.0; 16];
+                let mut heap = Vec::new();
+                let row: &mut [f64] = if w <= stack.len() {
+                    &mut stack[..w]
+                } else {
+                    heap.resize(w, 0.0);
+                    &mut heap
+                };
+                for n in t.recent.within_unsorted::<SquaredEuclidean>(q, r2) {
+                    plan.idx.group_sum(n.item as usize, plan.pts, row);
+                    let x = exp::exp(-n.distance * inv);
+                    for (a, v) in acc.iter_mut().zip(row.iter()) {
+                        *a += x * v;
+                    }
+                    points += row[act_dim];
+                }
+            }
+        });
+        points
     }
 
     /// Group `g`'s action sum row (`act_dim + 1` values) in the bulk tree, if the tree holds `g`
@@ -1184,6 +1441,66 @@ impl Index {
         }
     }
 
+    /// The nearest `k` points within squared distance `r2` of scaled query `q`, as groups:
+    /// `f(squared distance, action sum, points)` nearest first (ties to the lower group; a
+    /// group's points are at one distance), `k` points in all at most. When the `k`-th point
+    /// falls inside a group, that group's sum is of its first points only (in the order they
+    /// joined it, as its whole sum is made). An index with action sums; nothing otherwise.
+    /// `found` is a buffer.
+    pub fn nearest_sums(
+        &self,
+        q: &[f64],
+        k: usize,
+        r2: f64,
+        pts: Points,
+        found: &mut Vec<(f64, u64)>,
+        mut f: impl FnMut(f64, &[f64], f64),
+    ) {
+        let Some(act_dim) = self.act_dim else {
+            return;
+        };
+        if self.is_empty() || k == 0 {
+            found.clear();
+            return;
+        }
+        // Every group holds at least one point: the `k` nearest groups hold the `k` nearest
+        // points.
+        self.tree.nearest_n_within(&self.plan(pts), q, k, r2, found);
+        let mut row = vec![0.0; act_dim + 1];
+        let mut left = k;
+        for &(d, g) in found.iter() {
+            if left == 0 {
+                break;
+            }
+            let members = self.group(g);
+            let take = members.len().min(left);
+            row.iter_mut().for_each(|v| *v = 0.0);
+            for &p in &members[..take] {
+                let a = &pts.a[p as usize * act_dim..][..act_dim];
+                for (t, v) in row.iter_mut().zip(a) {
+                    *t += v;
+                }
+            }
+            row[act_dim] = f64::from(take as u32);
+            f(d, &row[..act_dim], row[act_dim]);
+            left -= take;
+        }
+    }
+
+    /// The Gaussian kernel's sums around scaled query `q` (an index with action sums; nothing
+    /// otherwise): for every group within squared distance `r2`, `acc[c] += exp(-d2 * inv) *
+    /// sum[c]` over its row of `act_dim + 1` values (its points' action sum, then their count);
+    /// returns the points summed. The weights are [`crate::exp::exp`]'s, a leaf's computed in one
+    /// vectorized loop; the groups are added in a fixed order (the data's history decides it), so
+    /// the same bits on every run and thread.
+    #[inline]
+    pub fn kernel_within(&self, q: &[f64], r2: f64, inv: f64, pts: Points, acc: &mut [f64]) -> f64 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        self.tree.kernel_within(&self.plan(pts), q, r2, inv, acc)
+    }
+
     /// Scaled observation of group `g` (computed from its first point), in the first `dim`
     /// values.
     #[inline]
@@ -1440,6 +1757,19 @@ mod sums_tests {
                     .collect();
                 want.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
                 assert_eq!(got, want, "after {i} points, copy {copy_max}");
+                // The batched kernel sum: the per-group sum in `sums_within`'s order, to the bit.
+                let inv = rng.random_range(0.5..20.0);
+                let (mut acc, mut points) = (vec![0.0; 3], 0.0);
+                idx.sums_within(&q, r2, pts, |d, sum, n| {
+                    let w = crate::exp::exp(-d * inv);
+                    acc[0] += w * sum[0];
+                    acc[1] += w * sum[1];
+                    acc[2] += w * n;
+                    points += n;
+                });
+                let mut batched = vec![0.0; 3];
+                let got_points = idx.kernel_within(&q, r2, inv, pts, &mut batched);
+                assert_eq!((batched, got_points), (acc, points), "after {i} points");
             }
         }
     }

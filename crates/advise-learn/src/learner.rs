@@ -267,6 +267,9 @@ pub struct Learner {
     /// [`lwr::density_factor`] of the last tuning: 1 unless it tuned on a sample. `lwr` keeps
     /// the tuned bandwidth, which a warm re-tuning starts from.
     lwr_density: f64,
+    /// The teacher's limit on LWR's kernel, its k nearest points (`learner lwr k=N`); `None`:
+    /// the protocol's ([`lwr::default_k`]).
+    lwr_k: Option<usize>,
     seed: u64,
     /// Points added since the index was last brought up to date.
     indexed: usize,
@@ -315,6 +318,7 @@ impl Learner {
             lwr_index: None,
             lwr_unit: LwrParams::default_for(dim),
             lwr_density: 1.0,
+            lwr_k: None,
             ds,
             seed,
             indexed: 0,
@@ -347,6 +351,25 @@ impl Learner {
 
     pub fn set_kind(&mut self, kind: LearnerKind) {
         self.kind = kind;
+    }
+
+    /// The teacher's limit on LWR's kernel: at most its `k` nearest points (`None`: the
+    /// protocol's rule, [`lwr::default_k`]). Takes effect at once (the kernel is not re-tuned).
+    pub fn set_lwr_k(&mut self, k: Option<usize>) {
+        self.lwr_k = k.map(|k| k.max(1));
+        self.lwr_unit.k = self.lwr_query_k();
+    }
+
+    /// The teacher's limit on LWR's kernel (`None`: the protocol's rule).
+    pub fn lwr_k(&self) -> Option<usize> {
+        self.lwr_k
+    }
+
+    /// The most points an LWR query sums: the teacher's limit, else the protocol's for this
+    /// many points and the last tuning; `None`: the whole truncated kernel.
+    pub fn lwr_query_k(&self) -> Option<usize> {
+        self.lwr_k
+            .or_else(|| lwr::default_k(self.ds.len(), self.last_tuning.as_ref()))
     }
 
     pub fn kind_name(&self) -> &'static str {
@@ -764,6 +787,7 @@ impl Learner {
             let sample = tuning.sample;
             self.lwr = tuning.params.clone();
             self.lwr_density = lwr::density_factor(sample, n, dim);
+            self.last_tuning = Some(tuning.clone());
             self.build_lwr_index();
             let scales: Vec<String> = self.lwr.scales.iter().map(|s| format!("{s}")).collect();
             let density = if self.lwr_density == 1.0 {
@@ -799,9 +823,17 @@ impl Learner {
                 .filter(|_| tuning.folds > 0)
                 .map(|c| format!("; {}", c.line("held-out points")))
                 .unwrap_or_default();
-            self.last_tuning = Some(tuning);
+            let limit = match (self.lwr_unit.k, self.lwr_k) {
+                (Some(k), Some(_)) => format!("; the kernel limited to its {k} nearest points"),
+                (Some(k), None) => format!(
+                    "; the kernel limited to its {k} nearest points (beyond the tuning sample of {} points: the tuned kernel's mean held-out neighbours, at least {})",
+                    lwr::TUNE_POINTS,
+                    lwr::MIN_K
+                ),
+                (None, _) => String::new(),
+            };
             format!(
-                "; LWR {how}: bandwidth {}{density}, scales [{}]{coverage}",
+                "; LWR {how}: bandwidth {}{density}, scales [{}]{coverage}{limit}",
                 self.lwr.bandwidth,
                 scales.join(", ")
             )
@@ -857,6 +889,7 @@ impl Learner {
         self.lwr_unit = LwrParams {
             scales: vec![1.0; scale.len()],
             bandwidth: self.lwr.bandwidth * self.lwr_density,
+            k: self.lwr_query_k(),
             ..self.lwr.clone()
         };
         let act_dim = self.ds.domain().act_dim();

@@ -14,6 +14,7 @@
 
 pub mod bc;
 pub mod dataset;
+pub mod exp;
 pub mod index;
 pub mod learner;
 pub mod lwr;

@@ -5,7 +5,9 @@
 //! [`LwrParams::scales`]; `h` is [`LwrParams::bandwidth`]. The kernel is truncated where a weight
 //! would fall below [`LwrParams::tolerance`], so a query is one radius search of the kd-tree. A
 //! query far from all data finds no neighbour: the answer says so (`total_weight == 0`) and falls
-//! back to the nearest point's action rather than silently averaging nothing. [`tune`] chooses the
+//! back to the nearest point's action rather than silently averaging nothing. The weights are
+//! [`crate::exp::exp`]'s (the same bits on every machine, not glibc's), a leaf's computed together;
+//! [`LwrParams::k`] limits the kernel to its k nearest points. [`tune`] chooses the
 //! scales and bandwidth by seeded cross-validation over whole sources (a held-out demonstration
 //! or piece of advice is a new trajectory, as the learner's next execution is) with the
 //! one-standard-error rule, at a cost bounded whatever the data's size.
@@ -19,6 +21,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
 use crate::dataset::{Dataset, Provenance};
+use crate::exp;
 use crate::index::{Index, Points};
 
 /// The regression's parameters.
@@ -31,6 +34,11 @@ pub struct LwrParams {
     pub bandwidth: f64,
     /// Weights below this are cut off (sets the search radius).
     pub tolerance: f64,
+    /// At most this many points in the kernel, the nearest (`None`: every point of the truncated
+    /// kernel). The learner's limit at a fleet's scale (docs/protocol.md, issue 48 point 10):
+    /// tuning leaves it `None`; the learner sets it for its queries.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k: Option<usize>,
 }
 
 impl LwrParams {
@@ -39,6 +47,7 @@ impl LwrParams {
             scales: vec![1.0; dim],
             bandwidth: 0.05,
             tolerance: 1e-3,
+            k: None,
         }
     }
 
@@ -62,6 +71,11 @@ pub struct LwrAnswer {
 pub struct Scratch {
     q: Vec<f64>,
     found: Vec<(f64, u64)>,
+    /// A kernel sum's accumulators: the action's, then the total weight.
+    acc: Vec<f64>,
+    /// A k-limited kernel's exponents (then weights) and its groups' sum rows.
+    xs: Vec<f64>,
+    rows: Vec<f64>,
 }
 
 /// Predict the action for `z` into `a`.
@@ -92,24 +106,73 @@ pub fn query(
         scratch.q.resize(z.len(), 0.0);
         index.scaled(z, &mut scratch.q);
         let inv = 1.0 / (2.0 * params.bandwidth * params.bandwidth);
-        // Counted as the sums store it (a whole f64, exact), converted once.
-        let mut points = 0.0;
-        index.sums_within(&scratch.q, r2, ds.points(), |d2, sum, n| {
-            let w = (-d2 * inv).exp();
-            for (out, v) in a.iter_mut().zip(sum) {
-                *out += w * v;
+        let act_dim = a.len();
+        if let Some(k) = params.k {
+            // The k nearest points of the kernel's support: their weights together, then their
+            // sums added nearest first.
+            let (xs, rows) = (&mut scratch.xs, &mut scratch.rows);
+            xs.clear();
+            rows.clear();
+            index.nearest_sums(
+                &scratch.q,
+                k,
+                r2,
+                ds.points(),
+                &mut scratch.found,
+                |d, sum, n| {
+                    xs.push(-d * inv);
+                    rows.extend_from_slice(sum);
+                    rows.push(n);
+                },
+            );
+            exp::exp_in_place(xs);
+            let mut points = 0.0;
+            for (w, row) in xs.iter().zip(rows.chunks_exact(act_dim + 1)) {
+                for (out, v) in a.iter_mut().zip(row) {
+                    *out += w * v;
+                }
+                total += w * row[act_dim];
+                points += row[act_dim];
             }
-            total += w * n;
-            points += n;
-        });
-        count = points as usize;
+            count = points as usize;
+        } else {
+            scratch.acc.clear();
+            scratch.acc.resize(act_dim + 1, 0.0);
+            // Counted as the sums store it (a whole f64, exact), converted once.
+            let points = index.kernel_within(&scratch.q, r2, inv, ds.points(), &mut scratch.acc);
+            a.copy_from_slice(&scratch.acc[..act_dim]);
+            total = scratch.acc[act_dim];
+            count = points as usize;
+        }
     } else {
         let inv = gather(index, ds.points(), params, z, scratch);
+        if params.k.is_some() {
+            // The groups inside the kernel's support by their distance in its space, nearest
+            // first (ties to the lower group), then points until k.
+            let mut inside: Vec<(f64, u64)> = scratch
+                .found
+                .iter()
+                .filter_map(|&(_, g)| {
+                    let d2 = kernel_d2(index, ds.points(), g, &scratch.q, params);
+                    (d2 <= r2).then_some((d2, g))
+                })
+                .collect();
+            inside.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            scratch.found.clear();
+            scratch.found.extend(inside);
+        }
+        let mut left = params.k.unwrap_or(usize::MAX);
         for &(_, g) in &scratch.found {
+            if left == 0 {
+                break;
+            }
             let Some(w) = group_weight(index, ds.points(), g, &scratch.q, params, r2, inv) else {
                 continue;
             };
-            for &i in index.group(g) {
+            let members = index.group(g);
+            let members = &members[..members.len().min(left)];
+            left -= members.len();
+            for &i in members {
                 for (out, v) in a.iter_mut().zip(ds.a(i as usize)) {
                     *out += w * v;
                 }
@@ -152,6 +215,23 @@ pub fn density_factor(sample: usize, n: usize, dim: usize) -> f64 {
         return 1.0;
     }
     (sample as f64 / n as f64).powf(1.0 / (dim as f64 + 4.0))
+}
+
+/// The fewest points a k-limited kernel sums ([`default_k`]).
+pub const MIN_K: usize = 32;
+
+/// The protocol's limit on the kernel's points for a learner of `n` points tuned as `tuning`
+/// (docs/protocol.md, issue 48 point 10): none up to [`TUNE_POINTS`] points (every study answers
+/// as the tuning makes it); beyond, the mean number of other-source points the chosen kernel
+/// held per scored held-out point ([`Tuning::mean_neighbours`], rounded), at least [`MIN_K`]: at
+/// scale the kernel then averages as many points as cross-validation chose it to, wherever the
+/// data are dense.
+pub fn default_k(n: usize, tuning: Option<&Tuning>) -> Option<usize> {
+    if n <= TUNE_POINTS {
+        return None;
+    }
+    let mean = tuning.map_or(0.0, |t| t.mean_neighbours);
+    Some((mean.round() as usize).max(MIN_K))
 }
 
 /// The `i`-th bandwidth of the tuning grid: the E6 series (1, 1.5, 2.2, 3.3, 4.7, 6.8 per
@@ -670,7 +750,13 @@ fn group_weight(
     r2: f64,
     inv: f64,
 ) -> Option<f64> {
-    let d2: f64 = index
+    let d2 = kernel_d2(index, pts, g, q, params);
+    (d2 <= r2).then(|| exp::exp(-d2 * inv))
+}
+
+/// The squared distance of group `g` from the scaled query `q` in the kernel's space.
+fn kernel_d2(index: &Index, pts: Points, g: u64, q: &[f64], params: &LwrParams) -> f64 {
+    index
         .group_z(g, pts)
         .iter()
         .zip(q)
@@ -679,8 +765,7 @@ fn group_weight(
             let d = (p - q) * s;
             d * d
         })
-        .sum();
-    (d2 <= r2).then(|| (-d2 * inv).exp())
+        .sum()
 }
 
 /// The tuning sample in one contiguous block, in point order: range-scaled observations (as the
@@ -912,6 +997,7 @@ mod tests {
                     scales: vec![0.5, 2.0],
                     bandwidth: 0.01,
                     tolerance: 1e-3,
+                    k: None,
                 },
                 LwrParams {
                     scales: vec![2.0, 1.0],
@@ -950,6 +1036,91 @@ mod tests {
         }
     }
 
+    /// A kernel limited to the k nearest points equals a scan of every point: those within the
+    /// kernel's support, nearest first (ties to the earlier observation, then the earlier
+    /// point), the first k of them weighted by `exp`. Both ways of querying: the learner's index
+    /// in the kernel's space with action sums, and an index in range space with per-dimension
+    /// scales.
+    #[test]
+    fn a_k_limited_kernel_is_the_k_nearest_of_a_scan() {
+        let ds = dataset(20, 50, 12);
+        let range = range_scale(&ds);
+        let mut rng = ChaCha8Rng::seed_from_u64(13);
+        for round in 0..6 {
+            let scales = vec![rng.random_range(0.5..2.0), rng.random_range(0.5..2.0)];
+            let kernel: Vec<f64> = range.iter().zip(&scales).map(|(r, s)| r * s).collect();
+            let mut sums = Index::with_action_sums(kernel.clone(), 1).unwrap();
+            let mut plain = Index::new(range.clone()).unwrap();
+            for i in 0..ds.len() as u32 {
+                sums.add_with_action(i, ds.points());
+                plain.add(i, ds.points());
+            }
+            let bandwidth = [0.02, 0.05, 0.1][round % 3];
+            for q in 0..40 {
+                let k = [1, 2, 5, 32, 200, 5000][q % 6];
+                let z = if q % 2 == 0 {
+                    ds.z((q * 31 + round) % ds.len()).to_vec()
+                } else {
+                    vec![rng.random_range(-0.2..1.2), rng.random_range(-0.2..1.2)]
+                };
+                let unit = LwrParams {
+                    scales: vec![1.0, 1.0],
+                    bandwidth,
+                    tolerance: 1e-3,
+                    k: Some(k),
+                };
+                let scaled = LwrParams {
+                    scales: scales.clone(),
+                    ..unit.clone()
+                };
+                // The scan: each point's distance in the kernel's space, its observation's first
+                // point (the group), its own number.
+                let qk: Vec<f64> = z.iter().zip(&kernel).map(|(v, s)| v * s).collect();
+                let mut first_of: HashMap<Vec<u64>, usize> = HashMap::new();
+                let mut all: Vec<(f64, usize, usize)> = (0..ds.len())
+                    .map(|i| {
+                        let p: Vec<f64> = ds.z(i).iter().zip(&kernel).map(|(v, s)| v * s).collect();
+                        let key = p.iter().map(|v| (v + 0.0).to_bits()).collect();
+                        let first = *first_of.entry(key).or_insert(i);
+                        let d2 = p
+                            .iter()
+                            .zip(&qk)
+                            .map(|(a, b)| (a - b) * (a - b))
+                            .sum::<f64>();
+                        (d2, first, i)
+                    })
+                    .filter(|&(d2, _, _)| d2 <= unit.r2())
+                    .collect();
+                all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+                all.truncate(k);
+                let inv = 1.0 / (2.0 * bandwidth * bandwidth);
+                let (mut num, mut total) = (0.0, 0.0);
+                for &(d2, _, i) in &all {
+                    let w = exp::exp(-d2 * inv);
+                    num += w * ds.a(i)[0];
+                    total += w;
+                }
+                let mut s = Scratch::default();
+                for (index, params) in [(&sums, &unit), (&plain, &scaled)] {
+                    let mut a = [0.0];
+                    let ans = query(index, &ds, params, &z, &mut a, &mut s);
+                    assert_eq!(ans.neighbours, all.len(), "round {round} q {q} k {k}");
+                    if all.is_empty() {
+                        assert_eq!(ans.total_weight, 0.0);
+                        continue;
+                    }
+                    let want = num / total;
+                    assert!(
+                        (a[0] - want).abs() <= 1e-12 * want.abs().max(1.0)
+                            && (ans.total_weight - total).abs() <= 1e-12 * total,
+                        "round {round} q {q} k {k}: {a:?} {want} ({} {total})",
+                        ans.total_weight
+                    );
+                }
+            }
+        }
+    }
+
     /// A warm start tries only the bandwidths beside the last one and keeps its scales; without
     /// one, `tune_from` is `tune`.
     #[test]
@@ -966,6 +1137,7 @@ mod tests {
                 scales: scales.clone(),
                 bandwidth: bandwidth_at(at),
                 tolerance: 1e-3,
+                k: None,
             };
             let warm = tune_report(&ds, &scale, 5, 3, Some(&start));
             assert_eq!(warm.params.scales, scales);

@@ -26,6 +26,8 @@ struct Fitted {
     /// drive into demonstrations.
     def: Option<std::sync::Arc<advise::program::task::TaskDef>>,
     learner: Option<Learner>,
+    /// LWR's kernel limited to its k nearest points (`LWR(k=N)`); `None`: the protocol's rule.
+    lwr_k: Option<usize>,
 }
 
 impl Fitted {
@@ -45,15 +47,17 @@ impl Fitted {
                 .and_then(advise::task::TaskKind::builtin)
                 .and_then(|t| t.def()),
             learner: None,
+            lwr_k: None,
         })
     }
 
     /// Derive from `episodes` as a session's `load demos` does.
     fn derive(&mut self, py: Python<'_>, episodes: Vec<Episode>) -> PyResult<()> {
-        let (domain, kind, seed) = (&self.domain, self.kind, self.seed);
+        let (domain, kind, seed, k) = (&self.domain, self.kind, self.seed, self.lwr_k);
         let learner = py
             .detach(|| {
                 let mut l = Learner::new(domain, kind, seed);
+                l.set_lwr_k(k);
                 l.add_demonstrations_owned(episodes).map(|_| l)
             })
             .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
@@ -222,14 +226,27 @@ macro_rules! learner_class {
         #[pymethods]
         impl $name {
             #[new]
-            #[pyo3(signature = (*, task=None, domain=None, seed=0))]
+            /// `k` (LWR): its kernel limited to the k nearest points (default: no limit up to
+            /// 20,000 points, beyond them the tuned kernel's mean neighbours).
+            #[pyo3(signature = (*, task=None, domain=None, seed=0, k=None))]
             fn new(
                 py: Python<'_>,
                 task: Option<&str>,
                 domain: Option<&str>,
                 seed: u64,
+                k: Option<usize>,
             ) -> PyResult<Self> {
-                Fitted::new(py, $kind, domain, task, seed).map(|f| $name(Shared(RwLock::new(f))))
+                let mut fitted = Fitted::new(py, $kind, domain, task, seed)?;
+                if k.is_some() && $kind != LearnerKind::Lwr {
+                    return Err(simple(
+                        py,
+                        "advise::py::bad_argument",
+                        "`k` limits LWR's kernel; BC has none".into(),
+                        "leave `k` out, or use advise.LWR(k=...)",
+                    ));
+                }
+                fitted.lwr_k = k.map(|k| k.max(1));
+                Ok($name(Shared(RwLock::new(fitted))))
             }
 
             /// fit(observations, actions, episodes=None) -> self

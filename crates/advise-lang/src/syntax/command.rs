@@ -76,7 +76,11 @@ pub enum Command {
     Eval {
         detail: bool,
     },
-    Learner(Ident),
+    /// `learner NAME [k N]`: `k` limits LWR's kernel to its N nearest points.
+    Learner {
+        name: Ident,
+        k: Option<usize>,
+    },
     Why(usize),
     Plot {
         kind: PlotKind,
@@ -128,7 +132,7 @@ impl Command {
             Command::History => Rule::c_history,
             Command::Rederive => Rule::c_rederive,
             Command::Eval { .. } => Rule::c_eval,
-            Command::Learner(_) => Rule::c_learner,
+            Command::Learner { .. } => Rule::c_learner,
             Command::Why(_) => Rule::c_why,
             Command::Plot { kind, .. } => match kind {
                 PlotKind::Path => Rule::c_plot,
@@ -243,7 +247,10 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
         Rule::c_eval => Command::Eval {
             detail: next().is_some(),
         },
-        Rule::c_learner => Command::Learner(b.ident(req(next()))),
+        Rule::c_learner => Command::Learner {
+            name: b.ident(req(next())),
+            k: next().map(|n| b.uint(n)).transpose()?,
+        },
         Rule::c_why => Command::Why(b.uint(req(next()))?),
         Rule::c_plot => plot(&b, req(next()))?,
         Rule::c_save => Command::Save(path(req(next()))),

@@ -470,13 +470,18 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "learner",
         aliases: &[],
-        forms: &[form(
-            Rule::c_learner,
-            &[arg(ArgKind::Learner, "bc|lwr")],
-            "learner lwr",
-        )],
-        signature: "learner bc|lwr",
-        doc: "Switch the running learner: `bc` (1-NN with critique weights) or `lwr` (locally weighted regression); the dataset is shared.",
+        forms: &[Form {
+            rule: Rule::c_learner,
+            sub: None,
+            args: &[arg(ArgKind::Learner, "bc|lwr")],
+            options: &[Opt {
+                word: "k",
+                args: &[arg(Count, "N")],
+            }],
+            example: "learner lwr k 64",
+        }],
+        signature: "learner bc|lwr [k N]",
+        doc: "Switch the running learner: `bc` (1-NN with critique weights) or `lwr` (locally weighted regression); the dataset is shared. `k N` limits LWR's kernel to its N nearest points (without it: no limit up to 20,000 points, beyond them the tuned kernel's mean neighbours, docs/protocol.md).",
         step: Step::Measure,
         example: "learner bc",
     },
