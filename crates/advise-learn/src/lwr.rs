@@ -1003,6 +1003,7 @@ mod tests {
                     scales: vec![2.0, 1.0],
                     bandwidth: 0.47,
                     tolerance: 1e-3,
+                    k: None,
                 },
             ] {
                 for q in 0..60 {
