@@ -20,7 +20,7 @@ const CRATES: &[(&str, &[&str])] = &[
     ),
     (
         "crates/advise-learn/src",
-        &["Policy", "index", "dataset", "bc", "lwr", "learner"],
+        &["Policy", "exp", "index", "dataset", "bc", "lwr", "learner"],
     ),
     ("crates/advise-lsp/src", &["frame", "analysis"]),
     (

@@ -120,7 +120,10 @@ class Operators:
 class _Learner:
     """What BC and LWR share (in these stubs only: the runtime classes are separate)."""
 
-    def __init__(self, *, task: str | None = None, domain: str | None = None, seed: int = 0) -> None: ...
+    def __init__(
+        self, *, task: str | None = None, domain: str | None = None, seed: int = 0, k: int | None = None
+    ) -> None:
+        """`k` (LWR only): its kernel limited to the k nearest points."""
     def fit(
         self, observations: npt.ArrayLike, actions: npt.ArrayLike, episodes: Sequence[int] | None = None
     ) -> Self:
