@@ -58,6 +58,11 @@ pub enum Command {
     /// Run the examples in operator files' doc comments (`/// Example: ...`); with no files, the
     /// standard operators'. Prints `N examples, M failed` and exits non-zero on a failure.
     Test {
+        /// Files of task declarations the operator files build on, checked first (with the
+        /// standard operators by role), as `check --tasks` takes them; their operators' examples
+        /// are run too.
+        #[arg(long = "tasks", value_name = "FILE")]
+        tasks: Vec<PathBuf>,
         /// Operator files (`*.adv`), checked on top of the standard operators.
         files: Vec<PathBuf>,
     },

@@ -47,7 +47,7 @@ fn main() -> ExitCode {
         }
         Some(Command::Check { tasks, files }) => operators::check_files(&tasks, &files),
         Some(Command::Fmt { check, files }) => operators::fmt(&files, check),
-        Some(Command::Test { files }) => operators::test(&files),
+        Some(Command::Test { tasks, files }) => operators::test(&tasks, &files),
         Some(Command::Lsp) => advise::lsp::run_stdio().map(|()| ExitCode::SUCCESS),
         Some(Command::Apply {
             operators,
