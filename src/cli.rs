@@ -58,6 +58,11 @@ pub enum Command {
     /// Run the examples in operator files' doc comments (`/// Example: ...`); with no files, the
     /// standard operators'. Prints `N examples, M failed` and exits non-zero on a failure.
     Test {
+        /// Files of task declarations the operator files build on, checked first (with the
+        /// standard operators by role), as `check --tasks` takes them; their operators' examples
+        /// are run too.
+        #[arg(long = "tasks", value_name = "FILE")]
+        tasks: Vec<PathBuf>,
         /// Operator files (`*.adv`), checked on top of the standard operators.
         files: Vec<PathBuf>,
     },
@@ -127,6 +132,10 @@ pub enum Command {
         /// (the token still guards it) and is warned about.
         #[arg(long, default_value = "127.0.0.1:0", value_name = "ADDR:PORT")]
         listen: std::net::SocketAddr,
+        /// A host name the page may be opened by besides loopback names, IP addresses and this
+        /// machine's own name (a name other machines know it by); repeatable.
+        #[arg(long = "allow-host", value_name = "NAME")]
+        allow_hosts: Vec<String>,
     },
     /// Reproduce one of the paper's studies with automated teachers and print its figures.
     Experiment(ExperimentArgs),
@@ -156,6 +165,10 @@ pub struct ViewArgs {
         requires = "view"
     )]
     pub listen: std::net::SocketAddr,
+    /// With `--view`: a host name the page may be opened by besides loopback names, IP
+    /// addresses and this machine's own name; repeatable.
+    #[arg(long = "allow-host", value_name = "NAME", requires = "view")]
+    pub allow_hosts: Vec<String>,
 }
 
 #[derive(Args)]

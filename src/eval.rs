@@ -61,6 +61,11 @@ pub struct Report {
     pub mean_efficiency_success: Option<f64>,
     /// How many episodes ended each way.
     pub endings: BTreeMap<String, usize>,
+    /// How many episodes each `end when` rule of a declared task ended, by the rule as written:
+    /// with two rules, `endings` alone does not say which fired. Empty for the built-in tasks
+    /// and in reports recorded before it was counted.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub end_rules: BTreeMap<String, usize>,
     /// LWR: how many of all the episodes' steps found data in the kernel (a policy without a
     /// kernel, and reports journalled before it was counted: `None`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -79,7 +84,11 @@ impl Report {
         };
         let successes = outcomes.iter().filter(|o| o.success).count();
         let mut endings = BTreeMap::new();
+        let mut end_rules = BTreeMap::new();
         for o in &outcomes {
+            if let Some(rule) = &o.end_rule {
+                *end_rules.entry(rule.clone()).or_insert(0) += 1;
+            }
             *endings
                 .entry(ending_name(o.ending).to_string())
                 .or_insert(0) += 1;
@@ -102,6 +111,7 @@ impl Report {
             mean_length_success_m: mean(&|o| o.success.then_some(o.length_m)),
             mean_efficiency_success: mean(&|o| o.efficiency.filter(|_| o.success)),
             endings,
+            end_rules,
             outcomes,
             kernel: None,
         }
@@ -141,6 +151,14 @@ impl Report {
             .map(|(k, v)| format!("{k} {v}"))
             .collect();
         s.push_str(&format!("  endings             {}\n", endings.join(", ")));
+        if !self.end_rules.is_empty() {
+            let rules: Vec<String> = self
+                .end_rules
+                .iter()
+                .map(|(rule, n)| format!("`{rule}` {n}"))
+                .collect();
+            s.push_str(&format!("  ended by            {}\n", rules.join(", ")));
+        }
         let stopped = self
             .outcomes
             .iter()

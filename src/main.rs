@@ -27,8 +27,15 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         None => repl(SessionArgs::default(), None),
-        Some(Command::Repl { session, view }) => repl(session, view.view.then_some(view.listen)),
-        Some(Command::Serve { session, listen }) => serve(session, listen),
+        Some(Command::Repl { session, view }) => repl(
+            session,
+            view.view.then_some((view.listen, view.allow_hosts)),
+        ),
+        Some(Command::Serve {
+            session,
+            listen,
+            allow_hosts,
+        }) => serve(session, listen, allow_hosts),
         Some(Command::Run {
             script,
             keep_going,
@@ -40,7 +47,7 @@ fn main() -> ExitCode {
         }
         Some(Command::Check { tasks, files }) => operators::check_files(&tasks, &files),
         Some(Command::Fmt { check, files }) => operators::fmt(&files, check),
-        Some(Command::Test { files }) => operators::test(&files),
+        Some(Command::Test { tasks, files }) => operators::test(&tasks, &files),
         Some(Command::Lsp) => advise::lsp::run_stdio().map(|()| ExitCode::SUCCESS),
         Some(Command::Apply {
             operators,
@@ -100,16 +107,19 @@ fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
 
 /// The main job: the REPL on the simulator with the default demonstrations loaded; with
 /// `--view` (`view` is its address), the web view of the same session beside it.
-fn repl(args: SessionArgs, view: Option<std::net::SocketAddr>) -> miette::Result<ExitCode> {
+fn repl(
+    args: SessionArgs,
+    view: Option<(std::net::SocketAddr, Vec<String>)>,
+) -> miette::Result<ExitCode> {
     let mut session = new_session(&args, args.demos)?;
     start_journal(&mut session, &args)?;
     choose_backend(&mut session, &args)?;
-    let Some(listen) = view else {
+    let Some((listen, allow_hosts)) = view else {
         advise::repl::run(&mut session).into_diagnostic()?;
         return Ok(ExitCode::SUCCESS);
     };
     let hub = web::Hub::new(session);
-    let server = start_view(&hub, listen)?;
+    let server = start_view(&hub, listen, allow_hosts)?;
     hub.with(|s| advise::repl::greet(s));
     let signal = hub.stop_signal();
     let ended = advise::repl::run_on(&mut web::ReplSide(hub.clone()), &signal);
@@ -126,23 +136,31 @@ const VIEW_GRACE: std::time::Duration = std::time::Duration::from_secs(5);
 
 /// `advise serve`: the session with only the web view, until Ctrl-C (the first stops the base,
 /// a second leaves).
-fn serve(args: SessionArgs, listen: std::net::SocketAddr) -> miette::Result<ExitCode> {
+fn serve(
+    args: SessionArgs,
+    listen: std::net::SocketAddr,
+    allow_hosts: Vec<String>,
+) -> miette::Result<ExitCode> {
     let mut session = new_session(&args, args.demos)?;
     start_journal(&mut session, &args)?;
     choose_backend(&mut session, &args)?;
     let hub = web::Hub::new(session);
     advise::repl::install_ctrl_c(&hub.stop_signal());
-    let server = start_view(&hub, listen)?;
+    let server = start_view(&hub, listen, allow_hosts)?;
     hub.with(|s| advise::outln!("advise: {}", s.status()));
     advise::outln!("Ctrl-C stops the base; twice leaves");
     server.wait();
     Ok(ExitCode::SUCCESS)
 }
 
-/// Start the web view on `listen` and print its URL (and a warning when it is reachable from
-/// other machines).
-fn start_view(hub: &web::Hub, listen: std::net::SocketAddr) -> miette::Result<web::Server> {
-    let server = web::start(hub.clone(), listen)?;
+/// Start the web view on `listen` and print its URLs: this machine's (also the one an SSH tunnel
+/// opens, with its local port), and listening beyond loopback, another machine's, with a warning.
+fn start_view(
+    hub: &web::Hub,
+    listen: std::net::SocketAddr,
+    allow_hosts: Vec<String>,
+) -> miette::Result<web::Server> {
+    let server = web::start_allowing(hub.clone(), listen, web::Limits::default(), allow_hosts)?;
     if !web::is_private(&server.addr) {
         advise::errln!(
             "warning: the view listens on {}, reachable from other machines; anyone with the URL can drive the session (and its robot)",
@@ -150,6 +168,15 @@ fn start_view(hub: &web::Hub, listen: std::net::SocketAddr) -> miette::Result<we
         );
     }
     advise::outln!("view: {}", server.url);
+    for url in &server.remote_urls {
+        advise::outln!("view from another machine: {url}");
+    }
+    if web::is_private(&server.addr) {
+        advise::outln!(
+            "(from another machine: `ssh -L 8765:localhost:{} THIS_HOST`, then open the URL with port 8765)",
+            server.addr.port()
+        );
+    }
     hub.with(|s| {
         if let Some(j) = s.journal_path() {
             advise::outln!("journal: {}", j.display());

@@ -201,6 +201,10 @@ pub const MAX_KAPPA: f64 = 1000.0;
 pub struct Session {
     ops: OperatorSet,
     task: TaskKind,
+    /// The task the session was made on (a built-in one): what a journal's header names. A
+    /// declared task is reached by the statements the journal holds first (`tasks FILE` with the
+    /// file's text, `task NAME`), so a resume needs no file but the journal.
+    started_on: TaskKind,
     domain: Domain,
     /// The base `run` and `teleop` drive: the simulator (made afresh per run) unless `backend`
     /// connected another.
@@ -287,6 +291,7 @@ impl Session {
             ops: OperatorSet::standard(),
             domain: task.domain(),
             state: TaskState::new(&task, seed),
+            started_on: task.clone(),
             task,
             backend: Box::new(SimBackend::new(sim.clone(), seed)),
             sim,
@@ -439,6 +444,7 @@ impl Session {
         self.commit(Effect::Define {
             origin: origin.to_string(),
             text: text.to_string(),
+            file: None,
         })?;
         let warnings = std::mem::take(&mut self.warnings)
             .iter()

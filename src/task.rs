@@ -64,6 +64,12 @@ pub trait Task: Send {
     /// Score the final state; `pose` is the true pose where known, else odometry.
     fn score(&self, ending: Ending, pose: Pose) -> Score;
 
+    /// The rule that ended the episode, as written (`end when range < 0.3`), for a task whose
+    /// endings are rules of its own (a declared task); `None` otherwise.
+    fn end_rule(&self) -> Option<String> {
+        None
+    }
+
     /// The ball's position, for tasks that have one (recorded for plots).
     fn ball_xy(&self) -> Option<[f64; 2]> {
         None
@@ -195,6 +201,11 @@ pub struct Outcome {
     /// means.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub non_finite: Option<NonFinite>,
+    /// The `end when` rule of a declared task that ended the run, as written
+    /// (`end when range < 0.3`): with two rules, the ending alone does not say which. Absent
+    /// from outcomes recorded before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end_rule: Option<String>,
 }
 
 impl Outcome {
@@ -425,6 +436,11 @@ impl Recorder {
                 duration_s: state.t_s,
                 final_pose,
                 non_finite,
+                end_rule: if matches!(ending, Ending::Rule | Ending::Rested) {
+                    task.end_rule()
+                } else {
+                    None
+                },
             },
             trace: self.trace,
             true_poses: self.true_poses,

@@ -422,8 +422,12 @@ impl Statements for ReplSide {
 /// A running view.
 pub struct Server {
     pub addr: SocketAddr,
-    /// The page's address, with the token: what to open.
+    /// The page's address, with the token: what to open on this machine (or through an SSH
+    /// tunnel, with the tunnel's local port).
     pub url: String,
+    /// Listening beyond loopback: the page's addresses for another machine (by this machine's
+    /// name, and by its address on the network), with the token.
+    pub remote_urls: Vec<String>,
     thread: std::thread::JoinHandle<()>,
     shutdown: watch::Sender<bool>,
     ended: std::sync::mpsc::Receiver<()>,
@@ -455,6 +459,8 @@ struct App {
     hub: Hub,
     token: Arc<str>,
     port: u16,
+    /// Host names accepted besides loopback and IP literals ([`guard::host_allowed`]).
+    allowed: Arc<[String]>,
     conns: Arc<Conns>,
     shutdown: watch::Receiver<bool>,
 }
@@ -467,6 +473,17 @@ pub fn start(hub: Hub, listen: SocketAddr) -> Result<Server, WebError> {
 
 /// [`start`] with other bounds (tests use small ones).
 pub fn start_with(hub: Hub, listen: SocketAddr, limits: Limits) -> Result<Server, WebError> {
+    start_allowing(hub, listen, limits, Vec::new())
+}
+
+/// [`start_with`], accepting requests that name this server `allow_hosts` (`--allow-host NAME`);
+/// listening beyond loopback, the machine's own name (and `NAME.local`) is accepted too.
+pub fn start_allowing(
+    hub: Hub,
+    listen: SocketAddr,
+    limits: Limits,
+    mut allow_hosts: Vec<String>,
+) -> Result<Server, WebError> {
     let token = guard::new_token().map_err(|e| WebError::Token(e.to_string()))?;
     let failed = |source| WebError::Listen {
         addr: listen,
@@ -481,12 +498,39 @@ pub fn start_with(hub: Hub, listen: SocketAddr, limits: Limits) -> Result<Server
         addr
     };
     let url = format!("http://{shown}/?token={token}");
+    let mut remote_urls = Vec::new();
+    if !addr.ip().is_loopback() {
+        let port = addr.port();
+        if let Some(name) = machine_name() {
+            remote_urls.push(format!("http://{name}:{port}/?token={token}"));
+            allow_hosts.push(format!("{name}.local"));
+            allow_hosts.push(name);
+        }
+        let ip = if addr.ip().is_unspecified() {
+            outward_ip()
+        } else {
+            Some(addr.ip())
+        };
+        if let Some(ip) = ip {
+            remote_urls.push(format!(
+                "http://{}/?token={token}",
+                SocketAddr::new(ip, port)
+            ));
+        }
+        for name in &allow_hosts {
+            let u = format!("http://{name}:{port}/?token={token}");
+            if !name.ends_with(".local") && !remote_urls.contains(&u) {
+                remote_urls.push(u);
+            }
+        }
+    }
     let (shutdown, shutdown_rx) = watch::channel(false);
     let conns = Arc::new(Conns::new(limits));
     let app = App {
         hub,
         token: token.into(),
         port: addr.port(),
+        allowed: allow_hosts.into(),
         conns: conns.clone(),
         shutdown: shutdown_rx,
     };
@@ -510,6 +554,7 @@ pub fn start_with(hub: Hub, listen: SocketAddr, limits: Limits) -> Result<Server
     Ok(Server {
         addr,
         url,
+        remote_urls,
         thread,
         shutdown,
         ended,
@@ -709,6 +754,30 @@ pub fn is_private(addr: &SocketAddr) -> bool {
     addr.ip().is_loopback()
 }
 
+/// This machine's name (Linux's `/proc/sys/kernel/hostname`, else `/etc/hostname`), if it is a
+/// plain host name.
+fn machine_name() -> Option<String> {
+    let read = |p: &str| std::fs::read_to_string(p).ok();
+    let name = read("/proc/sys/kernel/hostname").or_else(|| read("/etc/hostname"))?;
+    let name = name.trim();
+    let plain = !name.is_empty()
+        && name.len() <= 253
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '.');
+    (plain && name != "localhost").then(|| name.to_string())
+}
+
+/// The address other machines reach this one by: the one the kernel would send from toward
+/// another network. A UDP `connect` only chooses the route; nothing is sent.
+fn outward_ip() -> Option<std::net::IpAddr> {
+    let s = std::net::UdpSocket::bind("0.0.0.0:0").ok()?;
+    // TEST-NET-1 (RFC 5737): never a real peer.
+    s.connect("192.0.2.1:9").ok()?;
+    let ip = s.local_addr().ok()?.ip();
+    (!ip.is_unspecified() && !ip.is_loopback()).then_some(ip)
+}
+
 fn router(app: App) -> Router {
     Router::new()
         .route("/", get(page))
@@ -725,7 +794,13 @@ fn router(app: App) -> Router {
 /// Every request passes here first: refused with 403 (and nothing run, the connection closed)
 /// unless [`guard::check`] accepts it; accepted, its connection counts as the page's.
 async fn checked(State(app): State<App>, req: Request, next: Next) -> Response {
-    match guard::check(&app.token, app.port, req.uri().query(), req.headers()) {
+    match guard::check(
+        &app.token,
+        app.port,
+        &app.allowed,
+        req.uri().query(),
+        req.headers(),
+    ) {
         Ok(()) => {
             if let Some(conn) = req.extensions().get::<Conn>() {
                 app.conns.authorize(conn.id);

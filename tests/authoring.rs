@@ -195,3 +195,33 @@ fn a_wrong_example_is_a_diagnostic_at_its_line_with_expected_and_got() {
     assert_eq!(code, 1, "{out}");
     insta::assert_snapshot!(out);
 }
+
+/// `advise test --tasks FILE OPS` checks the task file first (with the standard operators by
+/// role), then runs the examples of its operators and of the operator file's, which are written
+/// for its task; without `--tasks` the task is unknown.
+#[test]
+fn test_takes_task_files_and_runs_their_operators_examples() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/examples/tasks/standoff.adv"),
+        d.join("standoff.adv"),
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("ops.adv"),
+        "/// Edge in: a little more forward speed.\n\
+         /// Example: edge_in(0.1) on {trans: 0.2, rot: 0.1} gives {trans: 0.3, rot: 0.1}\n\
+         operator edge_in(gain = 0.05 in [0, 0.3]) for standoff on action where trans > 0 {\n  trans += gain\n}\n",
+    )
+    .unwrap();
+    let (code, out) = advise(d, &["test", "ops.adv"]);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("advise::check::unknown_domain"), "{out}");
+    let (code, out) = advise(d, &["test", "--tasks", "standoff.adv", "ops.adv"]);
+    assert_eq!(code, 0, "{out}");
+    assert!(out.ends_with("3 examples, 0 failed\n"), "{out}");
+    let (code, out) = advise(d, &["test", "--tasks", "standoff.adv"]);
+    assert_eq!(code, 0, "{out}");
+    assert!(out.ends_with("2 examples, 0 failed\n"), "{out}");
+}

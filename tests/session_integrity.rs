@@ -372,10 +372,14 @@ fn a_declared_task_on_the_rmp_restores_without_its_file_or_its_robot() {
         robot.recv_from(&mut buf).is_err(),
         "a resume sent a datagram to the robot"
     );
-    // The one note says the session is on `sim` now; no line was damaged (the journalled
-    // evaluation of a declared task reads back by the task's name).
+    // The notes say the task file is gone (its journalled text is restored) and the session is
+    // on `sim` now; no line was damaged (the journalled evaluation of a declared task reads back
+    // by the task's name).
     assert!(
-        restored.notes.len() == 1 && restored.notes[0].contains("nothing was driven"),
+        restored.notes.len() == 2
+            && restored.notes[0].contains("cannot be read now")
+            && restored.notes[0].contains("standoff.adv")
+            && restored.notes[1].contains("nothing was driven"),
         "{:?}",
         restored.notes
     );
@@ -633,4 +637,63 @@ fn the_lwr_kernel_limit_is_restored_from_the_journal() {
     run(&mut back, "learner lwr");
     assert_eq!(back.learner().lwr_k(), None);
     assert_eq!(back.learner().lwr_query_k(), None);
+}
+
+/// `advise run --tasks FILE --task NAME` (the task file in another folder than the journal and
+/// the working directory) journals a header `advise resume` reads: the resumed session is on the
+/// declared task with its data; a changed, then a missing, task file is named in a note and the
+/// journalled text is restored.
+#[test]
+fn a_session_started_on_a_declared_task_resumes_from_the_cli() {
+    let home = tempfile::tempdir().unwrap();
+    let work = tempfile::tempdir().unwrap();
+    let elsewhere = tempfile::tempdir().unwrap();
+    let file = elsewhere.path().join("standoff.adv");
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/tasks/standoff.adv"
+    ))
+    .unwrap();
+    std::fs::write(&file, &text).unwrap();
+    std::fs::write(work.path().join("s.adv"), "run goal 2 0\n").unwrap();
+    let out = advise(home.path())
+        .current_dir(work.path())
+        .args(["run", "--tasks"])
+        .arg(&file)
+        .args(["--task", "standoff", "--demos", "2", "s.adv"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let journal = journals(home.path()).pop().unwrap();
+    let header = std::fs::read_to_string(&journal).unwrap();
+    assert!(
+        header.starts_with(r#"{"format":"advise-journal-1","task":"positioning""#),
+        "{}",
+        &header[..200]
+    );
+    let said = resume(home.path(), &journal, "show\n");
+    assert!(
+        said.contains("task standoff") && said.contains("1 executions"),
+        "{said}"
+    );
+    assert!(said.contains("execution 0: run goal 2 0"), "{said}");
+
+    let notes = |home: &Path| resume(home, &journal, "");
+    assert!(!notes(home.path()).contains("standoff.adv"));
+    std::fs::write(&file, format!("{text}// edited\n")).unwrap();
+    let changed = notes(home.path());
+    assert!(
+        changed.contains(&format!("`{}` has changed", file.display())),
+        "{changed}"
+    );
+    std::fs::remove_file(&file).unwrap();
+    let gone = notes(home.path());
+    assert!(
+        gone.contains(&format!("`{}` cannot be read now", file.display())),
+        "{gone}"
+    );
 }

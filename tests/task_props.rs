@@ -58,7 +58,46 @@ fn outcome(success: bool, err: f64, len: f64) -> Outcome {
         duration_s: 1.0,
         final_pose: Pose::default(),
         non_finite: None,
+        end_rule: None,
     }
+}
+
+/// A report counts the `end when` rules that ended its episodes, by their text, in its JSON; a
+/// report or outcome written before the rule was kept (no `end_rule`, no `end_rules`) still reads.
+#[test]
+fn reports_name_the_rules_that_ended_episodes_and_older_reports_still_read() {
+    let ruled = |rule: &str| Outcome {
+        ending: Ending::Rule,
+        end_rule: Some(rule.to_string()),
+        ..outcome(false, 0.5, 1.0)
+    };
+    let report = Report::from_outcomes(
+        TaskKind::Positioning,
+        0,
+        vec![
+            ruled("end when range < 0.3"),
+            ruled("end when t > 10"),
+            ruled("end when t > 10"),
+            outcome(true, 0.1, 1.0),
+        ],
+    );
+    assert_eq!(report.endings["rule"], 3);
+    assert_eq!(report.end_rules["end when t > 10"], 2);
+    assert_eq!(report.end_rules["end when range < 0.3"], 1);
+    assert!(
+        report
+            .render()
+            .contains("ended by            `end when range < 0.3` 1, `end when t > 10` 2")
+    );
+    let mut json = serde_json::to_value(&report).unwrap();
+    assert_eq!(json["outcomes"][0]["end_rule"], "end when range < 0.3");
+    json.as_object_mut().unwrap().remove("end_rules");
+    for o in json["outcomes"].as_array_mut().unwrap() {
+        o.as_object_mut().unwrap().remove("end_rule");
+    }
+    let old: Report = serde_json::from_value(json).unwrap();
+    assert!(old.end_rules.is_empty() && old.outcomes.iter().all(|o| o.end_rule.is_none()));
+    assert!(!old.render().contains("ended by"));
 }
 
 #[test]

@@ -7,7 +7,7 @@ use std::net::TcpStream;
 use std::time::Duration;
 
 use advise::session::{Session, SessionOptions};
-use advise::web::{Hub, Limits, start, start_with};
+use advise::web::{Hub, Limits, start, start_allowing, start_with};
 
 /// One HTTP/1.1 request on 127.0.0.1 (bounded by a 20 s timeout); the status line and the body.
 fn request(port: u16, raw: &str) -> String {
@@ -78,6 +78,62 @@ fn refused_requests_run_nothing_and_the_token_runs_a_statement() {
         page.contains("/api/events"),
         "the page's script is embedded"
     );
+}
+
+/// The page through an SSH tunnel (a loopback name on another port) and by a name given with
+/// `--allow-host` is served; a foreign Host, and an Origin other than the request's own Host, are
+/// still refused. Over loopback only: the Host header is what a browser elsewhere would send.
+#[test]
+fn a_tunnel_and_allowed_host_names_open_the_view_and_foreign_ones_do_not() {
+    let hub = Hub::new(session());
+    let server = start_allowing(
+        hub.clone(),
+        "127.0.0.1:0".parse().unwrap(),
+        Limits::default(),
+        vec!["labpc.example".into()],
+    )
+    .unwrap();
+    assert!(
+        server.remote_urls.is_empty(),
+        "loopback only: {:?}",
+        server.remote_urls
+    );
+    let port = server.addr.port();
+    let token = token_of(&server);
+    let get = |host: &str, origin: Option<&str>| {
+        let origin = origin
+            .map(|o| format!("Origin: {o}\r\n"))
+            .unwrap_or_default();
+        request(
+            port,
+            &format!(
+                "GET /api/state?token={token} HTTP/1.1\r\nHost: {host}\r\n{origin}Connection: close\r\n\r\n"
+            ),
+        )
+    };
+    let here = format!("labpc.example:{port}");
+    for (host, origin) in [
+        ("localhost:9999", None),
+        ("localhost:9999", Some("http://localhost:9999")),
+        ("127.0.0.1:9999", None),
+        ("[::1]:9999", Some("http://[::1]:9999")),
+        (here.as_str(), None),
+        (here.as_str(), Some(format!("http://{here}").as_str())),
+    ] {
+        let res = get(host, origin);
+        assert!(res.starts_with("HTTP/1.1 200"), "{host} {origin:?}: {res}");
+    }
+    let foreign = format!("evil.example:{port}");
+    for (host, origin) in [
+        (foreign.as_str(), None),
+        ("labpc.example.evil.example:9999", None),
+        ("localhost:9999", Some("http://evil.example")),
+        ("localhost:9999", Some("http://localhost:9998")),
+        (here.as_str(), Some("http://localhost:9999")),
+    ] {
+        let res = get(host, origin);
+        assert!(res.starts_with("HTTP/1.1 403"), "{host} {origin:?}: {res}");
+    }
 }
 
 fn session() -> Session {

@@ -101,27 +101,7 @@ pub fn check_files(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitC
     // session's `tasks FILE` gives them, so that an operator file's `slow_down` for the task
     // warns that it shadows one; then the operator files.
     let (task_ids, op_ids) = ids.split_at(tasks.len());
-    let checked = OperatorSet::standard()
-        .merge_in(&map, task_ids)
-        .and_then(|first| {
-            // The tasks the files declare (not the standard ones, whose operators are written).
-            let standard = OperatorSet::standard();
-            let declared: Vec<_> = first
-                .set
-                .tasks()
-                .iter()
-                .filter(|t| standard.tasks().iter().all(|s| s.name() != t.name()))
-                .cloned()
-                .collect();
-            // Every role operator, then the task files again on top: a task file's own operator
-            // of a standard name shadows it there and says so (`shadows_standard`), as an
-            // operator file's does. The second check's warnings are the task files' ones.
-            let set = check::with_role_operators(first.set, &mut map, &declared, false);
-            let again = set.merge_in(&map, task_ids)?;
-            let mut rest = again.set.merge_in(&map, op_ids)?;
-            rest.warnings.splice(0..0, again.warnings);
-            Ok(rest)
-        });
+    let checked = merge_tasks_then_operators(&mut map, task_ids, op_ids);
     match checked {
         Ok(check::Checked { set, warnings }) => {
             let n = warnings.len();
@@ -354,9 +334,17 @@ pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
 
 /// `advise test [FILE...]`: the doc examples of the files' operators (checked on top of the
 /// standard ones), or of the standard operators.
-pub fn test(files: &[PathBuf]) -> miette::Result<ExitCode> {
+pub fn test(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitCode> {
     let mut map = SourceMap::new();
-    let (set, ids) = if files.is_empty() {
+    let (set, ids) = if !tasks.is_empty() {
+        let all: Vec<PathBuf> = tasks.iter().chain(files).cloned().collect();
+        let ids = read_sources(&mut map, &all)?;
+        let (task_ids, op_ids) = ids.split_at(tasks.len());
+        match merge_tasks_then_operators(&mut map, task_ids, op_ids) {
+            Ok(checked) => (checked.set, ids),
+            Err(errors) => return Ok(report_check_errors(&map, errors, ids.len())),
+        }
+    } else if files.is_empty() {
         let ids: Vec<SourceId> = check::STANDARD_SOURCES
             .iter()
             .map(|(n, t)| map.add(*n, *t))
@@ -390,4 +378,34 @@ pub fn test(files: &[PathBuf]) -> miette::Result<ExitCode> {
     } else {
         ExitCode::FAILURE
     })
+}
+
+/// The standard operators, then the task files `task_ids`, each of their tasks with the standard
+/// operators by role (as a session's `tasks FILE` gives them), then the operator files `op_ids`.
+fn merge_tasks_then_operators(
+    map: &mut SourceMap,
+    task_ids: &[SourceId],
+    op_ids: &[SourceId],
+) -> Result<check::Checked, check::CheckErrors> {
+    OperatorSet::standard()
+        .merge_in(map, task_ids)
+        .and_then(|first| {
+            // The tasks the files declare (not the standard ones, whose operators are written).
+            let standard = OperatorSet::standard();
+            let declared: Vec<_> = first
+                .set
+                .tasks()
+                .iter()
+                .filter(|t| standard.tasks().iter().all(|s| s.name() != t.name()))
+                .cloned()
+                .collect();
+            // Every role operator, then the task files again on top: a task file's own operator
+            // of a standard name shadows it there and says so (`shadows_standard`), as an
+            // operator file's does. The second check's warnings are the task files' ones.
+            let set = check::with_role_operators(first.set, map, &declared, false);
+            let again = set.merge_in(map, task_ids)?;
+            let mut rest = again.set.merge_in(map, op_ids)?;
+            rest.warnings.splice(0..0, again.warnings);
+            Ok(rest)
+        })
 }

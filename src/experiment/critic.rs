@@ -611,6 +611,7 @@ mod tests {
                     ..Default::default()
                 },
                 non_finite: None,
+                end_rule: None,
             },
         };
         let rules = CriticRules::default();

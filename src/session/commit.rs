@@ -19,7 +19,7 @@ impl Session {
     pub fn journal_header(&self) -> Header {
         Header {
             format: effect::JOURNAL_FORMAT.into(),
-            task: self.task.clone(),
+            task: self.started_on.clone(),
             seed: self.seed,
             sim: self.sim_params(),
             started_unix_s: std::time::SystemTime::now()
@@ -76,6 +76,15 @@ impl Session {
             if let Err(e) = applied {
                 stop = Some((*line, Err(e)));
                 break;
+            }
+            if let Effect::Define {
+                file: Some(file),
+                text,
+                ..
+            } = &entry.effect
+                && let Some(note) = changed_since(file, text)
+            {
+                notes.push(note);
             }
             restored += 1;
         }
@@ -184,7 +193,7 @@ impl Session {
     /// restored by calling this on each of its effects.
     pub(super) fn apply(&mut self, effect: &Effect) -> Result<(), SessionError> {
         match effect {
-            Effect::Define { origin, text } => {
+            Effect::Define { origin, text, .. } => {
                 let id = self.sources.add(origin.as_str(), text.as_str());
                 let checked = self.ops.merge_in(&self.sources, &[id])?;
                 let before = self.declared_task_names();
@@ -452,5 +461,28 @@ impl Session {
             critique,
         });
         Ok(())
+    }
+}
+
+/// What to say of a file a `tasks FILE` or `operators FILE` entry read, if it no longer holds the
+/// text the journal holds: the restore keeps the journalled text (what the session's data was
+/// made under), and the teacher learns the file moved on.
+fn changed_since(file: &str, journalled: &str) -> Option<String> {
+    // A file of another length has changed; only one of the same length is read to compare.
+    let same_len = std::fs::metadata(file).map(|m| m.len() == journalled.len() as u64);
+    match same_len.and_then(|same| {
+        if same {
+            std::fs::read_to_string(file).map(|now| now == journalled)
+        } else {
+            Ok(false)
+        }
+    }) {
+        Ok(true) => None,
+        Ok(_) => Some(format!(
+            "`{file}` has changed since the session read it: restored with the text the journal holds (a new session reads the file as it is now)"
+        )),
+        Err(e) => Some(format!(
+            "`{file}` cannot be read now ({e}): restored with the text the journal holds"
+        )),
     }
 }

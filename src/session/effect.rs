@@ -26,12 +26,23 @@ use crate::trace::{Chunk, JsonTrace, Pose};
 pub struct Header {
     /// Always [`JOURNAL_FORMAT`].
     pub format: String,
+    /// The built-in task the session was made on; a declared task is reached by the entries.
+    #[serde(deserialize_with = "header_task")]
     pub task: TaskKind,
     pub seed: u64,
     pub sim: SimParams,
     /// When the session started (seconds since the Unix epoch) and which process wrote it.
     pub started_unix_s: u64,
     pub pid: u32,
+}
+
+/// A header's task. Journals written before the header named the task a session was made on
+/// (rather than the one it had reached when its journal started) may name a declared task: its
+/// `tasks FILE` and `task NAME` entries follow, so the restore starts on positioning and reaches
+/// it from them.
+fn header_task<'de, D: serde::Deserializer<'de>>(d: D) -> Result<TaskKind, D::Error> {
+    let name = String::deserialize(d)?;
+    Ok(TaskKind::builtin(&name).unwrap_or(TaskKind::Positioning))
 }
 
 /// The journal's format name; a journal of another format is refused with a diagnostic.
@@ -57,6 +68,11 @@ pub enum Effect {
     Define {
         origin: String,
         text: String,
+        /// For `tasks FILE` and `operators FILE`: the file's absolute path, so a resume can say
+        /// whether the file still holds the text journalled (it restores the journalled text
+        /// either way). Absent in journals written before it was recorded.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        file: Option<String>,
     },
     /// The session switched task (each task keeps its own dataset and executions): its name, a
     /// declared task's resolved against the definitions journalled before it.

@@ -210,6 +210,7 @@ impl Session {
         self.commit(Effect::Define {
             origin: path.to_string(),
             text,
+            file: absolute(path),
         })?;
         let described: Vec<String> = new
             .iter()
@@ -249,6 +250,7 @@ impl Session {
         self.commit(Effect::Define {
             origin: path.to_string(),
             text,
+            file: absolute(path),
         })?;
         self.read_input(path, false);
         let warnings = warnings_text(&self.sources, &std::mem::take(&mut self.warnings));
@@ -750,4 +752,11 @@ impl Progress {
             bar.finish_and_clear();
         }
     }
+}
+
+/// `path` made absolute (without resolving links), for a journal that may be resumed elsewhere.
+fn absolute(path: &str) -> Option<String> {
+    std::path::absolute(path)
+        .ok()
+        .map(|p| p.display().to_string())
 }

@@ -61,9 +61,12 @@ pub(super) fn eval_change(since: &str, before: &Report, now: &Report, detail: bo
 pub(super) fn outcome_line(e: &Execution) -> String {
     let o = &e.outcome;
     let mut s = format!(
-        "{} ({:?}) after {:.1} s, {:.2} m driven, position error {:.2} m",
+        "{} ({:?}{}) after {:.1} s, {:.2} m driven, position error {:.2} m",
         if o.success { "success" } else { "failure" },
         o.ending,
+        o.end_rule
+            .as_ref()
+            .map_or(String::new(), |rule| format!(": `{rule}`")),
         o.duration_s,
         o.length_m,
         o.position_error_m

@@ -32,6 +32,8 @@ pub struct Declared {
     command: (f64, f64),
     /// Seconds each `end when ... for` rule has held.
     held_s: Vec<f64>,
+    /// The `end when` rule that ended the episode (its index in `def.ends`).
+    fired: Option<usize>,
     last: BaseState,
 }
 
@@ -46,6 +48,7 @@ impl Declared {
             prev: vec![0.0; def.slots()],
             action: vec![0.0; def.domain.act_dim()],
             held_s: vec![0.0; def.ends.len()],
+            fired: None,
             def,
             goal: g,
             started: false,
@@ -117,6 +120,7 @@ impl Task for Declared {
         self.command = (0.0, 0.0);
         self.action.iter_mut().for_each(|v| *v = 0.0);
         self.held_s.iter_mut().for_each(|v| *v = 0.0);
+        self.fired = None;
         self.last = *state;
     }
 
@@ -151,17 +155,19 @@ impl Task for Declared {
         self.last = *state;
         let env = self.env(state, state.pose);
         let mut ending = None;
-        for (rule, held) in self.def.ends.iter().zip(self.held_s.iter_mut()) {
+        for (i, (rule, held)) in self.def.ends.iter().zip(self.held_s.iter_mut()).enumerate() {
             match rule {
-                EndRule::When { cond, hold_s } => {
+                EndRule::When { cond, hold_s, .. } => {
                     let holds = cond.eval_task(&env, &self.prev) != 0.0;
                     *held = if holds { *held + dt_s } else { 0.0 };
                     if ending.is_none() && holds {
                         if *hold_s == 0.0 {
                             ending = Some(Ending::Rule);
+                            self.fired = Some(i);
                         } else if *held >= hold_s - 1e-9 {
                             // A small tolerance so that 30 periods of 1/30 s count as one second.
                             ending = Some(Ending::Rested);
+                            self.fired = Some(i);
                         }
                     }
                 }
@@ -173,6 +179,21 @@ impl Task for Declared {
             }
         }
         ending
+    }
+
+    fn end_rule(&self) -> Option<String> {
+        let whens = self
+            .def
+            .ends
+            .iter()
+            .filter(|r| matches!(r, EndRule::When { .. }))
+            .count();
+        match self.def.ends.get(self.fired?)? {
+            // A task's only `end when` rule that must hold `for` a while is what "rested" says
+            // (positioning's): naming it would only repeat it.
+            EndRule::When { text, hold_s, .. } if whens > 1 || *hold_s == 0.0 => Some(text.clone()),
+            _ => None,
+        }
     }
 
     fn score(&self, _ending: Ending, pose: Pose) -> Score {

@@ -4,8 +4,11 @@
 //!
 //! The token is 128 bits from the operating system's random source, in the URL the server prints
 //! (so the page and its event stream, which cannot set headers, carry it in the query). The
-//! `Host` header must name this server's port on `localhost` or an IP literal: a page on another
-//! domain that rebinds its name to 127.0.0.1 (DNS rebinding) sends its own name and is refused.
+//! `Host` header must name this server: a loopback name (`localhost`, `127.0.0.1`, `[::1]`) on
+//! any port (an SSH tunnel forwards another local port to this one), a name the server was told
+//! to allow (`--allow-host NAME`, and the machine's own name when it listens beyond loopback) on
+//! any port, or an IP literal with this server's port. A page on another domain that rebinds its
+//! name to 127.0.0.1 (DNS rebinding) sends its own name and is refused.
 //! An `Origin` header, which browsers send with every cross-origin request and with every
 //! `POST`, must be `http://` and the request's own `Host`; a browser that says the request is
 //! cross-site (`Sec-Fetch-Site`) is refused too.
@@ -52,32 +55,53 @@ fn same(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
-/// Whether `host` (a `Host` header's value) names this server: `localhost` or an IP literal,
-/// with the port it listens on.
-pub fn host_allowed(host: &str, port: u16) -> bool {
-    let Some((name, p)) = host.rsplit_once(':') else {
-        return false;
+/// Whether `host` (a `Host` header's value) names this server: a loopback name or one of
+/// `allowed` on any port, or an IP literal with the port it listens on.
+pub fn host_allowed(host: &str, port: u16, allowed: &[String]) -> bool {
+    // `[::1]:8000`, `[::1]`, `name:8000`, `name` (a port left out is the scheme's: not ours).
+    let (name, p) = match host.strip_prefix('[') {
+        Some(rest) => match rest.split_once(']') {
+            Some((name, "")) => (name, None),
+            Some((name, tail)) => match tail.strip_prefix(':') {
+                Some(p) => (name, Some(p)),
+                None => return false,
+            },
+            None => return false,
+        },
+        None => match host.rsplit_once(':') {
+            Some((name, p)) => (name, Some(p)),
+            None => (host, None),
+        },
     };
-    if p.parse::<u16>() != Ok(port) {
+    let p = match p.map(str::parse::<u16>) {
+        Some(Ok(p)) => Some(p),
+        Some(Err(_)) => return false,
+        None => None,
+    };
+    if name.is_empty() {
         return false;
     }
-    let name = name
-        .strip_prefix('[')
-        .and_then(|n| n.strip_suffix(']'))
-        .unwrap_or(name);
-    name.eq_ignore_ascii_case("localhost") || name.parse::<IpAddr>().is_ok()
+    let ip = name.parse::<IpAddr>().ok();
+    if name.eq_ignore_ascii_case("localhost")
+        || ip.is_some_and(|ip| ip.is_loopback())
+        || allowed.iter().any(|a| a.eq_ignore_ascii_case(name))
+    {
+        return true;
+    }
+    ip.is_some() && p == Some(port)
 }
 
 /// Check one request's token, `Host`, `Origin` and `Sec-Fetch-Site`.
 pub fn check(
     token: &str,
     port: u16,
+    allowed: &[String],
     query: Option<&str>,
     headers: &HeaderMap,
 ) -> Result<(), Refusal> {
     let text = |name| headers.get(name).and_then(|v| v.to_str().ok());
     let host = text(header::HOST).ok_or(Refusal::ForeignHost)?;
-    if !host_allowed(host, port) {
+    if !host_allowed(host, port, allowed) {
         return Err(Refusal::ForeignHost);
     }
     if headers.contains_key(header::ORIGIN) {
@@ -118,28 +142,44 @@ mod tests {
 
     #[test]
     fn hosts_are_this_port_on_localhost_or_an_ip() {
-        assert!(host_allowed("127.0.0.1:8000", 8000));
-        assert!(host_allowed("localhost:8000", 8000));
-        assert!(host_allowed("[::1]:8000", 8000));
-        assert!(!host_allowed("127.0.0.1:8001", 8000));
-        assert!(!host_allowed("evil.example:8000", 8000));
-        assert!(!host_allowed("127.0.0.1", 8000));
+        let none: &[String] = &[];
+        assert!(host_allowed("127.0.0.1:8000", 8000, none));
+        assert!(host_allowed("localhost:8000", 8000, none));
+        assert!(host_allowed("[::1]:8000", 8000, none));
+        // Loopback on another port: an SSH tunnel's local end.
+        assert!(host_allowed("127.0.0.1:8001", 8000, none));
+        assert!(host_allowed("LocalHost:9999", 8000, none));
+        assert!(host_allowed("[::1]:9999", 8000, none));
+        assert!(host_allowed("127.0.0.1", 8000, none));
+        assert!(host_allowed("192.168.1.20:8000", 8000, none));
+        assert!(!host_allowed("192.168.1.20:8001", 8000, none));
+        assert!(!host_allowed("evil.example:8000", 8000, none));
+        assert!(!host_allowed("localhost.evil.example:8000", 8000, none));
+        assert!(!host_allowed("labpc:8000", 8000, none));
+        let lab = &["labpc".to_string()];
+        assert!(host_allowed("labpc:8000", 8000, lab));
+        assert!(host_allowed("LABPC:8000", 8000, lab));
+        assert!(!host_allowed("labpc.evil.example:8000", 8000, lab));
+        for bad in ["", ":8000", "[::1", "[::1]x", "localhost:http", "[]:8000"] {
+            assert!(!host_allowed(bad, 8000, lab), "{bad}");
+        }
     }
 
     #[test]
     fn each_refusal() {
         let ok = [("host", "127.0.0.1:9")];
         let t = "abc";
-        assert_eq!(check(t, 9, Some("token=abc"), &headers(&ok)), Ok(()));
-        assert_eq!(check(t, 9, None, &headers(&ok)), Err(Refusal::NoToken));
+        assert_eq!(check(t, 9, &[], Some("token=abc"), &headers(&ok)), Ok(()));
+        assert_eq!(check(t, 9, &[], None, &headers(&ok)), Err(Refusal::NoToken));
         assert_eq!(
-            check(t, 9, Some("x=1&token=abd"), &headers(&ok)),
+            check(t, 9, &[], Some("x=1&token=abd"), &headers(&ok)),
             Err(Refusal::WrongToken)
         );
         assert_eq!(
             check(
                 t,
                 9,
+                &[],
                 Some("token=abc"),
                 &headers(&[("host", "rebound.example:9")])
             ),
@@ -147,12 +187,12 @@ mod tests {
         );
         let foreign = [("host", "127.0.0.1:9"), ("origin", "http://evil.example")];
         assert_eq!(
-            check(t, 9, Some("token=abc"), &headers(&foreign)),
+            check(t, 9, &[], Some("token=abc"), &headers(&foreign)),
             Err(Refusal::ForeignOrigin)
         );
         let same_origin = [("host", "127.0.0.1:9"), ("origin", "http://127.0.0.1:9")];
         assert_eq!(
-            check(t, 9, Some("token=abc"), &headers(&same_origin)),
+            check(t, 9, &[], Some("token=abc"), &headers(&same_origin)),
             Ok(())
         );
     }

@@ -184,6 +184,35 @@ def test_a_python_journal_is_resumed_by_the_cli(tmp_path, monkeypatch):
     assert timeless(ran["text"]).splitlines()[0] in timeless(out), out
 
 
+def test_a_session_on_a_declared_task_resumes_both_ways(tmp_path):
+    # The task file lives in a folder of its own, apart from the journals and the working folder.
+    folder = tmp_path / "lab"
+    folder.mkdir()
+    task_file = folder / "standoff.adv"
+    shutil.copy(STANDOFF, task_file)
+    statements = ["run goal px=2 py=1", "select 5..25", "critique"]
+    # Python writes it, the CLI resumes it.
+    with advise.Session(task="standoff", tasks=str(task_file), demos=3, journal=str(tmp_path / "py")) as s:
+        for st in statements:
+            s.execute(st)
+        path, status = s.journal_path, s.status
+    out = cli(["resume", path], cwd=tmp_path, home=tmp_path / "h", stdin="quit\n")
+    assert f"resumed {path}: " in out and f"statements restored; {status}\n" in out, out
+    # The CLI writes it, Python resumes it.
+    _, path, header, entries = cli_journal(tmp_path, statements, task_args("standoff", [str(task_file)]))
+    assert header["task"] == "positioning" and entries[1]["effect"] == {"kind": "task", "task": "standoff"}
+    r = advise.Session.resume(path, journal_dir=str(tmp_path / "elsewhere"))
+    assert r.resumed["notes"] == [] and r.resumed["stopped"] is None
+    assert r.status.startswith("task standoff, ") and r.executions == 1
+    r.close()
+    # A changed task file is named; the journalled text is what is restored.
+    task_file.write_text(task_file.read_text() + "// edited\n")
+    r = advise.Session.resume(path, journal_dir=str(tmp_path / "elsewhere"))
+    assert len(r.resumed["notes"]) == 1 and f"`{task_file}` has changed" in r.resumed["notes"][0]
+    assert r.status.startswith("task standoff, ")
+    r.close()
+
+
 def test_a_cli_journal_is_resumed_by_python(tmp_path):
     _, path, _, entries = cli_journal(tmp_path, SCRIPT[:4])
     # The CLI's own resume of a copy says what the state is.

@@ -686,7 +686,14 @@ impl Checker<'_> {
         let mut limit_seen = false;
         for c in &d.clauses {
             match c {
-                Clause::EndWhen { cond, hold, .. } => {
+                Clause::EndWhen { cond, hold, span } => {
+                    let text = self.sources[f]
+                        .text
+                        .get(span.start..span.end)
+                        .unwrap_or("end when")
+                        .split_whitespace()
+                        .collect::<Vec<_>>()
+                        .join(" ");
                     let ir = self.task_expr(
                         f,
                         names,
@@ -701,7 +708,11 @@ impl Checker<'_> {
                         Some(h) => self.seconds(f, h, "the time a condition must hold", false),
                     };
                     if let Some(hold_s) = hold_s {
-                        ends.push(EndRule::When { cond: ir, hold_s });
+                        ends.push(EndRule::When {
+                            cond: ir,
+                            hold_s,
+                            text,
+                        });
                     }
                 }
                 Clause::EndAfter { limit, span } => {

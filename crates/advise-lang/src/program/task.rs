@@ -92,8 +92,9 @@ pub struct Drive {
 /// When a run ends.
 #[derive(Clone, Debug, PartialEq)]
 pub enum EndRule {
-    /// The condition held for `hold_s` seconds (0: at once).
-    When { cond: Ir, hold_s: f64 },
+    /// The condition held for `hold_s` seconds (0: at once). `text` is the rule as written
+    /// (`end when range < 0.3`, spaces collapsed): what an ending it causes is named by.
+    When { cond: Ir, hold_s: f64, text: String },
     /// The time limit.
     After { limit_s: f64 },
 }
