@@ -524,28 +524,7 @@ impl<const D: usize> Bulk<D> {
         f: &mut impl FnMut(&[f64], &[u32]),
         ex: &Exact<D>,
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: this processor has AVX2, checked just above.
-            return unsafe { self.within_avx2(q, r2, f, ex) };
-        }
-        self.within_any(q, r2, f, ex)
-    }
-
-    /// [`Bulk::within_by_leaf`] compiled for AVX2: eight `f32` lanes of a leaf's coarse
-    /// distances and four boxes at a time instead of four and two (a third of the query's time,
-    /// measured), and four lanes of a kernel sum's exponentials. Without fused multiply-adds
-    /// (Rust never contracts them), so the same bits.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn within_avx2(
-        &self,
-        q: &[f64; D],
-        r2: f64,
-        f: &mut impl FnMut(&[f64], &[u32]),
-        ex: &Exact<D>,
-    ) {
-        self.within_any(q, r2, f, ex)
+        self.within_dispatch(q, r2, &mut Leaves(f), ex)
     }
 
     /// The Gaussian kernel's sums over the points within `r2` of `q` (the tree keeps action
@@ -594,7 +573,7 @@ impl<const D: usize> Bulk<D> {
         k.points
     }
 
-    /// [`Bulk::within_any`] for a visitor of leaves, compiled for AVX2 where the processor has it.
+    /// [`Bulk::within_any_visit`] for a visitor of leaves, compiled for AVX2 where the processor has it.
     fn within_dispatch(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
@@ -604,17 +583,15 @@ impl<const D: usize> Bulk<D> {
         self.within_any_visit(q, r2, f, ex)
     }
 
-    /// [`Bulk::within_dispatch`] compiled for AVX2: a kernel sum's exponentials four lanes at a
-    /// time (the visitor is inlined, so compiled for AVX2 too); the same bits.
+    /// [`Bulk::within_dispatch`] compiled for AVX2: eight `f32` lanes of a leaf's coarse
+    /// distances and four boxes at a time instead of four and two (a third of the query's time,
+    /// measured), and a kernel sum's exponentials four lanes at a time (the visitor is inlined,
+    /// so compiled for AVX2 too). Without fused multiply-adds (Rust never contracts them), so
+    /// the same bits.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn within_visit_avx2(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
         self.within_any_visit(q, r2, f, ex)
-    }
-
-    #[inline(always)]
-    fn within_any(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(&[f64], &[u32]), ex: &Exact<D>) {
-        self.within_any_visit(q, r2, &mut Leaves(f), ex)
     }
 
     #[inline(always)]
