@@ -437,17 +437,24 @@ impl Learner {
     /// How many steps of `trace` find data in LWR's kernel, as the learner is now; `None` for a
     /// BC learner (whose policy has no kernel).
     pub fn kernel_coverage(&self, trace: &Trace) -> Option<KernelCoverage> {
+        self.coverage_of((0..trace.len()).map(|t| trace.z(t)))
+    }
+
+    /// How many of the observations `zs` find data in LWR's kernel, as the learner is now;
+    /// `None` for a BC learner. What a run's reply counts, for any rows (Python's `coverage`).
+    pub fn coverage_of<'z>(&self, zs: impl Iterator<Item = &'z [f64]>) -> Option<KernelCoverage> {
         if self.kind != LearnerKind::Lwr || self.ds.is_empty() {
             return None;
         }
         let mut a = vec![0.0; self.ds.domain().act_dim()];
-        let covered = (0..trace.len())
-            .filter(|&t| self.regress(trace.z(t), &mut a).total_weight > 0.0)
-            .count();
-        Some(KernelCoverage {
-            steps: trace.len(),
-            covered,
-        })
+        let (mut steps, mut covered) = (0, 0);
+        for z in zs {
+            steps += 1;
+            if self.regress(z, &mut a).total_weight > 0.0 {
+                covered += 1;
+            }
+        }
+        Some(KernelCoverage { steps, covered })
     }
 
     fn check_dim(&self) -> Result<(), LearnerError> {

@@ -397,12 +397,10 @@ macro_rules! learner_class {
                 d.set_item("sources", t.sources)?;
                 d.set_item("loss", t.loss)?;
                 d.set_item("standard_error", t.se)?;
-                d.set_item("held_out_scored", t.scored)?;
-                d.set_item("held_out_covered", t.covered)?;
-                d.set_item(
-                    "held_out_coverage",
-                    t.covered as f64 / t.scored.max(1) as f64,
-                )?;
+                let held_out = learner.held_out_coverage().unwrap_or_default();
+                d.set_item("held_out_scored", held_out.steps)?;
+                d.set_item("held_out_covered", held_out.covered)?;
+                d.set_item("held_out_coverage", held_out.share())?;
                 d.set_item("mean_neighbours", t.mean_neighbours)?;
                 Ok(Some(d))
             }
@@ -421,21 +419,15 @@ macro_rules! learner_class {
                 let Some(learner) = &fitted.learner else {
                     return Err(not_fitted(py, fitted.kind));
                 };
-                if learner.kind() != LearnerKind::Lwr {
+                let od = fitted.domain.obs_dim();
+                let (z, _) = matrix(py, observations, "observations", Some(od))?;
+                let Some(c) = py.detach(|| learner.coverage_of(z.chunks_exact(od))) else {
                     return Ok(None);
-                }
-                let (od, ad) = (fitted.domain.obs_dim(), fitted.domain.act_dim());
-                let (z, n) = matrix(py, observations, "observations", Some(od))?;
-                let covered = py.detach(|| {
-                    let mut a = vec![0.0; ad];
-                    z.chunks_exact(od)
-                        .filter(|zi| learner.regress(zi, &mut a).total_weight > 0.0)
-                        .count()
-                });
+                };
                 let d = pyo3::types::PyDict::new(py);
-                d.set_item("steps", n)?;
-                d.set_item("covered", covered)?;
-                d.set_item("share", if n == 0 { 1.0 } else { covered as f64 / n as f64 })?;
+                d.set_item("steps", c.steps)?;
+                d.set_item("covered", c.covered)?;
+                d.set_item("share", c.share())?;
                 Ok(Some(d))
             }
 
