@@ -9,7 +9,7 @@
 
 use std::hint::black_box;
 
-use advise::lsp::{analysis, publish};
+use advise_lsp::{analysis, publish};
 use criterion::{Criterion, criterion_group, criterion_main};
 
 const OPERATORS: usize = 1_000;

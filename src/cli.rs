@@ -1,22 +1,22 @@
 //! The command line's arguments: the clap types of every subcommand, over the library's own
-//! types (a task is a [`TaskKind`], a learner a [`LearnerKind`](crate::policy::learner::LearnerKind),
+//! types (a task is a [`TaskKind`], a learner a [`LearnerKind`](advise::policy::learner::LearnerKind),
 //! a study a [`Study`], a platform a [`Platform`]), and the errors that belong to the command line
 //! itself. `src/main.rs` parses these and calls the library; the subcommands that are not a
 //! session are run by [`tools`].
 
 use std::path::{Path, PathBuf};
 
-use clap::builder::PossibleValue;
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use advise::choice::Choice;
+use clap::{Args, Parser, Subcommand};
 use miette::{Diagnostic, miette};
 use thiserror::Error;
 
-use crate::backend::rmp::codec::{Platform, WordOrder};
-use crate::backend::sim::SimParams;
-use crate::eval::EvalPolicy;
-use crate::experiment::study::{Seeds, Study};
-use crate::program::OperatorSet;
-use crate::task::TaskKind;
+use advise::backend::rmp::codec::{Platform, WordOrder};
+use advise::backend::sim::SimParams;
+use advise::eval::EvalPolicy;
+use advise::experiment::study::{Seeds, Study};
+use advise::program::OperatorSet;
+use advise::task::TaskKind;
 
 pub mod operators;
 pub mod tools;
@@ -185,13 +185,14 @@ pub struct Ros2SimArgs {
     pub seed: u64,
     /// Seconds a command is held with no newer one before the simulated base stops itself, as a
     /// real base's controller does (0.05 to 10).
-    #[arg(long, value_name = "SECONDS", default_value_t = crate::backend::ros2::robot::COMMAND_TIMEOUT_S)]
+    #[arg(long, value_name = "SECONDS", default_value_t = advise::backend::ros2::robot::COMMAND_TIMEOUT_S)]
     pub command_timeout: f64,
 }
 
 #[derive(Args)]
 pub struct ExperimentArgs {
     /// Which study.
+    #[arg(value_parser = choice::<Study>())]
     pub study: Study,
     /// Seeds everything: demonstrations, practice starts, simulator noise, LWR tuning.
     #[arg(long, default_value_t = 0, conflicts_with = "seeds")]
@@ -213,14 +214,14 @@ pub struct ExperimentArgs {
     /// `bc` only: which critique rule the rounds use: the paper's, the directional one (the
     /// paper's proposed improvement), or both, each with its own learner from the same
     /// demonstrations and practice starts [default: both].
-    #[arg(long, value_name = "RULE")]
-    pub critique: Option<crate::experiment::bc::Rules>,
+    #[arg(long, value_name = "RULE", value_parser = choice::<advise::experiment::bc::Rules>())]
+    pub critique: Option<advise::experiment::bc::Rules>,
     /// The ablation (docs/ablation.md): revert one choice of the studies' protocol (README,
     /// "The protocol") alone to what it replaced, everything else as the protocol has it:
     /// `ball` (1, bc), `teacher` (2, bc and aopi), `chunks` (3, bc), `support` (4, bc),
     /// `advisor` (5, aopi), `stopping` (6, aopi), `rate` (7, aopi).
-    #[arg(long, value_name = "CHOICE")]
-    pub revert: Option<crate::experiment::ablation::Revert>,
+    #[arg(long, value_name = "CHOICE", value_parser = choice::<advise::experiment::ablation::Revert>())]
+    pub revert: Option<advise::experiment::ablation::Revert>,
     /// `aopi` only: at most N practice goals per arm (1 to 1000; default: the calibrated arm
     /// length), for a quick look at the study's machinery; the protocol's figures use the default.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1000))]
@@ -230,6 +231,7 @@ pub struct ExperimentArgs {
 #[derive(Args)]
 pub struct CalibrateArgs {
     /// Which study's constants.
+    #[arg(value_parser = choice::<Study>())]
     pub study: Study,
     /// Write the calibration (values and record) to this file: `calibration/bc.json` or
     /// `calibration/aopi.json` in a checkout, which the defaults are built from.
@@ -268,10 +270,10 @@ pub struct EmulatorArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Byte order of the feedback words (the driver detects it; the real firmware is little).
-    #[arg(long, default_value = "little")]
+    #[arg(long, default_value = "little", value_parser = word_order())]
     pub word_order: WordOrder,
     /// The platform it reports (balance mode needs an RMP 220).
-    #[arg(long, default_value = "rmp220")]
+    #[arg(long, default_value = "rmp220", value_parser = platform())]
     pub platform: Platform,
     /// Simulator parameters of the base behind it (JSON; omitted fields keep their defaults).
     #[arg(long, value_name = "FILE")]
@@ -386,7 +388,7 @@ pub struct EvalArgs {
     #[arg(long, value_name = "FILE")]
     pub dataset: Option<PathBuf>,
     /// Which policy to derive (or `teacher` to evaluate the teacher itself).
-    #[arg(long, default_value = "bc")]
+    #[arg(long, default_value = "bc", value_parser = choice::<EvalPolicy>())]
     pub policy: EvalPolicy,
     /// LWR's kernel limited to its N nearest points (default: no limit up to 20,000 points,
     /// beyond it the tuned kernel's mean neighbours; docs/protocol.md).
@@ -434,7 +436,7 @@ pub fn parse_args() -> Result<Cli, std::process::ExitCode> {
         ) {
             e.exit()
         }
-        print_report(&crate::diag::SourceMap::new(), &ArgumentError::from(&e));
+        print_report(&advise::diag::SourceMap::new(), &ArgumentError::from(&e));
         std::process::ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2))
     })
 }
@@ -662,11 +664,11 @@ mod tests {
             Err(CliError::BadTopic { .. })
         ));
         // The folded spec is one the backend parser reads, with the topics in place.
-        let spec: crate::backend::BackendSpec = f("ros2:/r1", Some("teleop/cmd_vel"), Some("/o"))
+        let spec: advise::backend::BackendSpec = f("ros2:/r1", Some("teleop/cmd_vel"), Some("/o"))
             .unwrap()
             .parse()
             .unwrap();
-        let Some(r) = spec.get::<crate::backend::ros2::Ros2Spec>() else {
+        let Some(r) = spec.get::<advise::backend::ros2::Ros2Spec>() else {
             panic!("{spec:?}")
         };
         assert_eq!(
@@ -748,7 +750,7 @@ pub fn resolve_task(name: &str, files: &[PathBuf]) -> miette::Result<TaskKind> {
         .map(|n| format!("`{n}`"))
         .collect::<Vec<_>>()
         .join(", ");
-    let help = match crate::diag::suggest::closest(name, names.iter().map(String::as_str)) {
+    let help = match advise::diag::suggest::closest(name, names.iter().map(String::as_str)) {
         Some(s) => format!("did you mean `{s}`?"),
         None if files.is_empty() => format!(
             "the tasks are {listed}; a task declared in a file is named after `--tasks FILE`"
@@ -764,10 +766,10 @@ pub fn resolve_task(name: &str, files: &[PathBuf]) -> miette::Result<TaskKind> {
 
 /// The standard operators with the task files checked on top.
 pub fn load_task_files(files: &[PathBuf]) -> miette::Result<OperatorSet> {
-    let mut map = crate::diag::SourceMap::new();
+    let mut map = advise::diag::SourceMap::new();
     let mut ids = Vec::new();
     for f in files {
-        ids.push(crate::files::read_source(&mut map, f).map_err(|e| map.attach(e))?);
+        ids.push(advise::files::read_source(&mut map, f).map_err(|e| map.attach(e))?);
     }
     let base = OperatorSet::standard();
     match base.merge_in(&map, &ids) {
@@ -780,39 +782,46 @@ pub fn load_task_files(files: &[PathBuf]) -> miette::Result<OperatorSet> {
 // modules know nothing of the command line): one table each, read by clap for parsing, help and
 // completion.
 
-impl ValueEnum for Platform {
-    fn value_variants<'a>() -> &'a [Self] {
-        &[
-            Platform::Rmp220,
-            Platform::Rmp210,
-            Platform::Rmp440,
-            Platform::RmpOmni,
-            Platform::Rmp110,
-        ]
-    }
-
-    fn to_possible_value(&self) -> Option<PossibleValue> {
-        Some(PossibleValue::new(match self {
-            Platform::Rmp220 => "rmp220",
-            Platform::Rmp210 => "rmp210",
-            Platform::Rmp440 => "rmp440",
-            Platform::RmpOmni => "omni",
-            Platform::Rmp110 => "rmp110",
-        }))
-    }
+/// A library [`Choice`]'s words as an argument's possible values: listed in help, with clap's
+/// "did you mean" on a typo, spelled once in the library.
+fn choice<T: Choice>() -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(
+        T::all()
+            .iter()
+            .map(|v| PossibleValue::new(v.name()).help(v.help())),
+    )
+    .try_map(|word| T::parse(&word).ok_or_else(|| format!("`{word}` names nothing")))
 }
 
-impl ValueEnum for WordOrder {
-    fn value_variants<'a>() -> &'a [Self] {
-        &[WordOrder::Little, WordOrder::Big]
-    }
+/// `--platform`'s words.
+fn platform() -> impl clap::builder::TypedValueParser<Value = Platform> {
+    words(&[
+        ("rmp220", Platform::Rmp220),
+        ("rmp210", Platform::Rmp210),
+        ("rmp440", Platform::Rmp440),
+        ("omni", Platform::RmpOmni),
+        ("rmp110", Platform::Rmp110),
+    ])
+}
 
-    fn to_possible_value(&self) -> Option<PossibleValue> {
-        Some(PossibleValue::new(match self {
-            WordOrder::Little => "little",
-            WordOrder::Big => "big",
-        }))
-    }
+/// `--word-order`'s words.
+fn word_order() -> impl clap::builder::TypedValueParser<Value = WordOrder> {
+    words(&[("little", WordOrder::Little), ("big", WordOrder::Big)])
+}
+
+/// An argument that takes one of `table`'s words, for a library type that is not a [`Choice`].
+fn words<T: Copy + Send + Sync + 'static>(
+    table: &'static [(&'static str, T)],
+) -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::{PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(table.iter().map(|(word, _)| *word)).try_map(move |word| {
+        table
+            .iter()
+            .find(|(w, _)| *w == word)
+            .map(|(_, v)| *v)
+            .ok_or_else(|| format!("`{word}` names nothing"))
+    })
 }
 
 /// `A..B` as two indices.
@@ -855,7 +864,7 @@ pub fn parse_seeds(seed: u64, range: Option<&str>) -> miette::Result<Seeds> {
 pub fn sim_params(path: Option<&Path>) -> miette::Result<SimParams> {
     Ok(match path {
         Some(p) => {
-            let mut files = crate::diag::SourceMap::new();
+            let mut files = advise::diag::SourceMap::new();
             SimParams::load(&mut files, p).map_err(|e| files.attach(e))?
         }
         None => SimParams::default(),
@@ -877,11 +886,11 @@ pub fn print_stdout(text: &str) -> miette::Result<()> {
 }
 
 /// Print a diagnostic on stderr, showing a bounded window of its source (never a whole file).
-/// An error that points into a source map brings it along ([`crate::diag::Sourced`]).
-pub fn print_report(sources: &crate::diag::SourceMap, diag: &dyn Diagnostic) {
+/// An error that points into a source map brings it along ([`advise::diag::Sourced`]).
+pub fn print_report(sources: &advise::diag::SourceMap, diag: &dyn Diagnostic) {
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
     errln!(
         "{}",
-        crate::diag::render_with_width(sources, diag, colour, 80)
+        advise::diag::render_with_width(sources, diag, colour, 80)
     );
 }

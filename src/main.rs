@@ -1,18 +1,18 @@
 //! The `advise` command line: a thin layer over the library. It parses the arguments
-//! ([`advise::cli`]), calls one library function per subcommand, and renders errors as miette
+//! ([`advise_cli::cli`]), calls one library function per subcommand, and renders errors as miette
 //! diagnostics. The session subcommands (`repl`, `run`, `resume`) are here; the operator tools
-//! (`check`, `apply`) are in [`advise::cli::operators`], the others in [`advise::cli::tools`].
+//! (`check`, `apply`) are in [`advise_cli::cli::operators`], the others in [`advise_cli::cli::tools`].
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use miette::{IntoDiagnostic, miette};
 
-use advise::cli::{self, CliError, Command, SessionArgs, operators, tools};
+use advise_cli::cli::{self, CliError, Command, SessionArgs, operators, tools};
 use advise::diag::SourceMap;
 use advise::session::{Session, SessionOptions, journal, script};
 use advise::task::TaskKind;
-use advise::web;
+use advise_cli::web;
 
 /// mimalloc, not glibc's malloc: parsing allocates for every token, and a tree built on one of
 /// `advise check`'s parse threads is freed on the checker's, which glibc makes slow (a 50 MB file
@@ -21,6 +21,7 @@ use advise::web;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 fn main() -> ExitCode {
+    advise_cli::terminal::install();
     let cli = match cli::parse_args() {
         Ok(cli) => cli,
         Err(code) => return code,
@@ -48,7 +49,7 @@ fn main() -> ExitCode {
         Some(Command::Check { tasks, files }) => operators::check_files(&tasks, &files),
         Some(Command::Fmt { check, files }) => operators::fmt(&files, check),
         Some(Command::Test { tasks, files }) => operators::test(&tasks, &files),
-        Some(Command::Lsp) => advise::lsp::run_stdio().map(|()| ExitCode::SUCCESS),
+        Some(Command::Lsp) => advise_lsp::run_stdio().map(|()| ExitCode::SUCCESS),
         Some(Command::Apply {
             operators,
             op,
@@ -94,11 +95,11 @@ fn new_session(args: &SessionArgs, demos: usize) -> miette::Result<Session> {
         match origin {
             "--tasks" => match reply.strip_suffix(&switch).filter(|_| !builtin) {
                 Some(checked) => {
-                    advise::errln!("{checked}; the session starts on task {}", args.task)
+                    advise_cli::errln!("{checked}; the session starts on task {}", args.task)
                 }
-                None => advise::errln!("{reply}"),
+                None => advise_cli::errln!("{reply}"),
             },
-            "--demos" => advise::errln!("{reply}"),
+            "--demos" => advise_cli::errln!("{reply}"),
             _ => {}
         }
     })?;
@@ -115,14 +116,14 @@ fn repl(
     start_journal(&mut session, &args)?;
     choose_backend(&mut session, &args)?;
     let Some((listen, allow_hosts)) = view else {
-        advise::repl::run(&mut session).into_diagnostic()?;
+        advise_cli::repl::run(&mut session).into_diagnostic()?;
         return Ok(ExitCode::SUCCESS);
     };
     let hub = web::Hub::new(session);
     let server = start_view(&hub, listen, allow_hosts)?;
-    hub.with(|s| advise::repl::greet(s));
+    hub.with(|s| advise_cli::repl::greet(s));
     let signal = hub.stop_signal();
-    let ended = advise::repl::run_on(&mut web::ReplSide(hub.clone()), &signal);
+    let ended = advise_cli::repl::run_on(&mut web::ReplSide(hub.clone()), &signal);
     // `quit` or end of input: a page's statement under way is finished (journalled) and
     // answered before the process leaves; none starts after.
     hub.close();
@@ -145,10 +146,10 @@ fn serve(
     start_journal(&mut session, &args)?;
     choose_backend(&mut session, &args)?;
     let hub = web::Hub::new(session);
-    advise::repl::install_ctrl_c(&hub.stop_signal());
+    advise_cli::repl::install_ctrl_c(&hub.stop_signal());
     let server = start_view(&hub, listen, allow_hosts)?;
-    hub.with(|s| advise::outln!("advise: {}", s.status()));
-    advise::outln!("Ctrl-C stops the base; twice leaves");
+    hub.with(|s| advise_cli::outln!("advise: {}", s.status()));
+    advise_cli::outln!("Ctrl-C stops the base; twice leaves");
     server.wait();
     Ok(ExitCode::SUCCESS)
 }
@@ -162,24 +163,24 @@ fn start_view(
 ) -> miette::Result<web::Server> {
     let server = web::start_allowing(hub.clone(), listen, web::Limits::default(), allow_hosts)?;
     if !web::is_private(&server.addr) {
-        advise::errln!(
+        advise_cli::errln!(
             "warning: the view listens on {}, reachable from other machines; anyone with the URL can drive the session (and its robot)",
             server.addr
         );
     }
-    advise::outln!("view: {}", server.url);
+    advise_cli::outln!("view: {}", server.url);
     for url in &server.remote_urls {
-        advise::outln!("view from another machine: {url}");
+        advise_cli::outln!("view from another machine: {url}");
     }
     if web::is_private(&server.addr) {
-        advise::outln!(
+        advise_cli::outln!(
             "(from another machine: `ssh -L 8765:localhost:{} THIS_HOST`, then open the URL with port 8765)",
             server.addr.port()
         );
     }
     hub.with(|s| {
         if let Some(j) = s.journal_path() {
-            advise::outln!("journal: {}", j.display());
+            advise_cli::outln!("journal: {}", j.display());
         }
     });
     Ok(server)
@@ -195,7 +196,7 @@ fn choose_backend(session: &mut Session, args: &SessionArgs) -> miette::Result<(
     )?;
     if backend != "sim" {
         let reply = session.execute(&format!("backend {backend}"), "--backend")?;
-        advise::errln!("{reply}");
+        advise_cli::errln!("{reply}");
     }
     Ok(())
 }
@@ -221,11 +222,11 @@ fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Resu
     let mut session = new_session(args, args.demos)?;
     start_journal(&mut session, args)?;
     if let Some(j) = session.journal_path() {
-        advise::errln!("journal: {} (`advise resume` restores it)", j.display());
+        advise_cli::errln!("journal: {} (`advise resume` restores it)", j.display());
     }
     choose_backend(&mut session, args)?;
     // A script that drives a real base is stopped by Ctrl-C like the REPL.
-    advise::repl::install_ctrl_c(&session.stop_signal());
+    advise_cli::repl::install_ctrl_c(&session.stop_signal());
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let failures = script::replay(
         &mut session,
@@ -241,7 +242,7 @@ fn run_script(path: &Path, keep_going: bool, args: &SessionArgs) -> miette::Resu
         source,
     })?;
     if failures > 0 {
-        advise::errln!(
+        advise_cli::errln!(
             "advise: {failures} statement{} of {} failed{}",
             if failures == 1 { "" } else { "s" },
             path.display(),
@@ -275,14 +276,14 @@ fn resume(journal_path: Option<PathBuf>) -> miette::Result<ExitCode> {
         })?,
     };
     let restored = Session::restore(&path, &dir)?;
-    advise::outln!("{}", restored.summary(&path));
+    advise_cli::outln!("{}", restored.summary(&path));
     let mut session = restored.session;
     if let Some(stopped) = &restored.stopped {
         cli::print_report(session.sources(), stopped);
     }
     for note in &restored.notes {
-        advise::outln!("note: {note}");
+        advise_cli::outln!("note: {note}");
     }
-    advise::repl::run(&mut session).into_diagnostic()?;
+    advise_cli::repl::run(&mut session).into_diagnostic()?;
     Ok(ExitCode::SUCCESS)
 }

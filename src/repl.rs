@@ -1,10 +1,10 @@
 //! The terminal REPL: the only code that talks to a terminal. It reads lines with rustyline (with
 //! the [`helper::AdviseHelper`] for completion, hints and multi-line input), hands each statement to
-//! [`crate::session::Session::execute`], and prints the reply or the diagnostic. History is kept
+//! [`advise::session::Session::execute`], and prints the reply or the diagnostic. History is kept
 //! between sessions next to the journals. Ctrl-C stops the robot first and keeps the session: at
 //! the prompt rustyline reads it as a key; while a statement runs (an execution on a real base) it
 //! arrives as SIGINT, and [`install_ctrl_c`]'s handler raises the session's
-//! [`StopSignal`](crate::backend::StopSignal), which commands the base to zero (and, on the
+//! [`StopSignal`](advise::backend::StopSignal), which commands the base to zero (and, on the
 //! RMP, decelerate-to-zero) from the handler thread and ends the execution at its next control step. A
 //! second Ctrl-C in the same statement leaves the program (after stopping the base again).
 //! Ctrl-D or `quit` ends the session.
@@ -62,19 +62,19 @@ use rustyline::error::ReadlineError;
 use rustyline::history::DefaultHistory;
 use rustyline::{CompletionType, Config, Editor};
 
-use crate::backend::StopSignal;
-use crate::session::Session;
-use crate::syntax::command::is_incomplete;
+use advise::backend::StopSignal;
+use advise::session::Session;
+use advise::syntax::command::is_incomplete;
 use helper::{AdviseHelper, Facts};
 
 /// Render a diagnostic whose places are in `sources` for the terminal (colour only when asked),
-/// showing a bounded window of its source ([`crate::diag::render`]).
+/// showing a bounded window of its source ([`advise::diag::render`]).
 pub fn render(
-    sources: &crate::diag::SourceMap,
+    sources: &advise::diag::SourceMap,
     diag: &dyn miette::Diagnostic,
     colour: bool,
 ) -> String {
-    crate::diag::render(sources, diag, colour)
+    advise::diag::render(sources, diag, colour)
 }
 
 /// The signal the process's SIGINT handler raises (one handler per process, so the signal it
@@ -166,7 +166,7 @@ pub fn typed(session: &mut Session, text: &str, origin: &str, colour: bool) -> T
 /// sources).
 pub fn shown(
     session: &Session,
-    result: Result<crate::session::Reply, crate::session::SessionError>,
+    result: Result<advise::session::Reply, advise::session::SessionError>,
     colour: bool,
 ) -> Typed {
     match result {
@@ -201,7 +201,7 @@ pub fn greet(session: &Session) {
             "the starting policy comes from a few teacher demonstrations and is meant to be weak (the paper's baseline): run it, see where it goes wrong, advise it"
         );
     }
-    let example = if session.task() == crate::task::TaskKind::Positioning {
+    let example = if session.task() == advise::task::TaskKind::Positioning {
         "`run goal 2 -1 0`, then `select 40..70`, `advise slow_down`"
     } else {
         "`run start 0`, then `select 40..70`, `advise NAME` (`help` lists the task's operators)"
@@ -219,7 +219,7 @@ pub fn run_on(statements: &mut dyn Statements, signal: &StopSignal) -> rustyline
     let facts = Arc::new(Mutex::new(statements.facts()));
     let mut rl: Editor<AdviseHelper, DefaultHistory> = Editor::with_config(config)?;
     rl.set_helper(Some(AdviseHelper::new(facts.clone())));
-    let history = crate::session::journal::default_dir().join("history.txt");
+    let history = advise::session::journal::default_dir().join("history.txt");
     let _ = rl.load_history(&history);
     let colour = std::io::IsTerminal::is_terminal(&std::io::stdout());
     install_ctrl_c(signal);

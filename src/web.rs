@@ -50,10 +50,10 @@ use serde::Serialize;
 use serde_json::{Value, json};
 use tokio::sync::{Notify, broadcast, watch};
 
-use crate::backend::StopSignal;
+use advise::backend::StopSignal;
 use crate::repl::helper::Facts;
 use crate::repl::{Statements, Typed};
-use crate::session::{Reply, Session};
+use advise::session::{Reply, Session};
 
 /// The largest request body accepted (a statement, an operator definition typed in the page).
 pub const MAX_BODY: usize = 64 * 1024;
@@ -255,7 +255,7 @@ impl Hub {
         text: &str,
         from: &'static str,
         colour: bool,
-        run: impl FnOnce(&mut Session) -> (Result<Reply, crate::session::SessionError>, T),
+        run: impl FnOnce(&mut Session) -> (Result<Reply, advise::session::SessionError>, T),
     ) -> Option<(Typed, T, Logged)> {
         let mut live = self.live();
         if live.closed {

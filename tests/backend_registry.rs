@@ -250,7 +250,7 @@ fn a_registered_kind_is_suggested_completed_and_diagnosed() {
 
     let e = s.execute("backend recordr:1,2", "<test>").unwrap_err();
     assert_eq!(code(&e), "advise::backend::unknown");
-    let shown = advise::repl::render(s.sources(), &e, false);
+    let shown = advise_cli::repl::render(s.sources(), &e, false);
     assert!(shown.contains("did you mean `recorder[:X,Y]`?"), "{shown}");
     assert!(shown.contains("<test>:1:9"), "{shown}");
 

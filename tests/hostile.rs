@@ -376,7 +376,7 @@ fn scripts_are_split_by_brackets_line_by_line() {
     })
     .unwrap();
     let err = s.execute(&st[0].text, "script.adv:1").unwrap_err();
-    let shown = advise::repl::render(s.sources(), &err, false);
+    let shown = advise_cli::repl::render(s.sources(), &err, false);
     assert!(
         shown.contains("advise::parse::unclosed_delimiter"),
         "{shown}"
@@ -534,7 +534,7 @@ fn the_session_says_when_a_definition_shadows_a_standard_operator() {
         out.push_str(&format!("advise> {}\n", st.text));
         match s.execute(&st.text, &format!("<line {}>", st.line)) {
             Ok(r) => out.push_str(&format!("{}\n", r.to_string().trim_end())),
-            Err(e) => out.push_str(&advise::repl::render(s.sources(), &e, false)),
+            Err(e) => out.push_str(&advise_cli::repl::render(s.sources(), &e, false)),
         }
     }
     common::masked_as(&[(&path.display().to_string(), "mine.adv")])

@@ -124,7 +124,7 @@ fn the_session_drives_the_rmp_and_ctrl_c_stops_it_keeping_the_execution() {
     // from this other thread, and the run ends with what it recorded kept.
     let signal = s.stop_signal();
     let (err, raised_at) = disturbed_run(&mut s, &emu, 1, || signal.raise());
-    let text = advise::repl::render(s.sources(), &err, false);
+    let text = advise_cli::repl::render(s.sources(), &err, false);
     assert!(text.contains("advise::session::run_interrupted"), "{text}");
     assert!(text.contains("the base was stopped"), "{text}");
     // The default machine configuration decelerates to zero at 1 m/s^2 from at most 1 m/s; the
@@ -161,7 +161,7 @@ fn backends_that_cannot_be_driven_say_why() {
         let err = s.execute(&format!("backend {spec}"), "<test>").unwrap_err();
         insta::assert_snapshot!(
             format!("backend_{}", spec.replace([':', '.'], "_")),
-            advise::repl::render(s.sources(), &err, false)
+            advise_cli::repl::render(s.sources(), &err, false)
         );
     }
     // Nothing listens on this port: the start-up sequence gives up at the fault-log step, and the
@@ -173,7 +173,7 @@ fn backends_that_cannot_be_driven_say_why() {
     let err = s
         .execute(&format!("backend rmp:127.0.0.1:{port}"), "<test>")
         .unwrap_err();
-    let text = advise::repl::render(s.sources(), &err, false);
+    let text = advise_cli::repl::render(s.sources(), &err, false);
     assert!(
         text.contains("advise::session::backend_unavailable"),
         "{text}"
@@ -438,7 +438,7 @@ fn corrupt_odometry_mid_run_stops_the_rmp_and_keeps_the_execution() {
     s.execute(&format!("backend rmp:{}", emu.addr()), "<test>")
         .unwrap();
     let (err, _) = disturbed_run(&mut s, &emu, 0, || emu.corrupt_odometry(f32::NAN));
-    let text = advise::repl::render(s.sources(), &err, false);
+    let text = advise_cli::repl::render(s.sources(), &err, false);
     assert!(text.contains("advise::backend::bad_odometry"), "{text}");
     assert!(text.contains("its x is NaN"), "{text}");
     assert!(

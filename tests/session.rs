@@ -69,7 +69,7 @@ fn a_session_refuses_simulator_parameters_out_of_range() {
         ..SessionOptions::default()
     };
     let e = Session::new(opts).expect_err("refused");
-    insta::assert_snapshot!(advise::repl::render(
+    insta::assert_snapshot!(advise_cli::repl::render(
         &advise::diag::SourceMap::new(),
         &e,
         false

@@ -25,7 +25,7 @@ fn run(s: &mut Session, lines: &str) {
             panic!(
                 "{}: {}",
                 st.text,
-                advise::repl::render(s.sources(), &e, false)
+                advise_cli::repl::render(s.sources(), &e, false)
             );
         }
     }

@@ -7,7 +7,7 @@ use std::net::TcpStream;
 use std::time::Duration;
 
 use advise::session::{Session, SessionOptions};
-use advise::web::{Hub, Limits, start, start_allowing, start_with};
+use advise_cli::web::{Hub, Limits, start, start_allowing, start_with};
 
 /// One HTTP/1.1 request on 127.0.0.1 (bounded by a 20 s timeout); the status line and the body.
 fn request(port: u16, raw: &str) -> String {
@@ -62,7 +62,7 @@ fn refused_requests_run_nothing_and_the_token_runs_a_statement() {
         assert!(hub.log().is_empty());
         assert_eq!(hub.with(|s| s.status()), before);
     }
-    let big = "#".repeat(advise::web::MAX_BODY + 1);
+    let big = "#".repeat(advise_cli::web::MAX_BODY + 1);
     let res = post(port, &good, &host, None, &big);
     assert!(res.starts_with("HTTP/1.1 413"), "{res}");
     assert!(hub.log().is_empty());
@@ -144,7 +144,7 @@ fn session() -> Session {
     .unwrap()
 }
 
-fn token_of(server: &advise::web::Server) -> String {
+fn token_of(server: &advise_cli::web::Server) -> String {
     server.url.split("token=").nth(1).unwrap().to_string()
 }
 
@@ -302,10 +302,10 @@ fn event_streams_and_states_are_bounded_and_the_repl_keeps_working() {
         server.connections().1 == limits.subscribers
     }));
     let big = format!("// {}", "x".repeat(64 * 1024));
-    for _ in 0..advise::web::LOG_SHOWN + 50 {
+    for _ in 0..advise_cli::web::LOG_SHOWN + 50 {
         hub.execute(&big, "<repl>", "repl", false);
     }
-    let kept = 2 * advise::web::LOG_TEXT_KEPT + 200;
+    let kept = 2 * advise_cli::web::LOG_TEXT_KEPT + 200;
     assert!(
         hub.log()
             .iter()
@@ -341,9 +341,9 @@ fn event_streams_and_states_are_bounded_and_the_repl_keeps_working() {
     let state: serde_json::Value = serde_json::from_str(body(&states[0])).unwrap();
     assert_eq!(
         state["log"].as_array().unwrap().len(),
-        advise::web::LOG_SHOWN
+        advise_cli::web::LOG_SHOWN
     );
-    assert!(body(&states[0]).len() < advise::web::LOG_SHOWN * kept + 200_000);
+    assert!(body(&states[0]).len() < advise_cli::web::LOG_SHOWN * kept + 200_000);
     // The REPL still works.
     assert!(
         hub.execute("run goal 1 0 0", "<repl>", "repl", false)

@@ -17,7 +17,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use advise::session::{Session, SessionOptions};
-use advise::web::{Hub, start};
+use advise_cli::web::{Hub, start};
 use serde_json::Value;
 
 const PACKAGES: [&str; 1] = ["selenium==4.38.0"];

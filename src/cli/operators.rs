@@ -6,9 +6,9 @@ use std::process::ExitCode;
 
 use miette::{IntoDiagnostic, Report, WrapErr, miette};
 
-use crate::check::{self, OperatorSet};
-use crate::diag::{SourceId, SourceMap};
-use crate::trace::{Chunk, Episode, Trace};
+use advise::check::{self, OperatorSet};
+use advise::diag::{SourceId, SourceMap};
+use advise::trace::{Chunk, Episode, Trace};
 
 use super::print_report;
 
@@ -79,14 +79,14 @@ fn read_sources(map: &mut SourceMap, files: &[PathBuf]) -> miette::Result<Vec<So
         };
         return Err(check::CheckError::TooLarge {
             what,
-            size: crate::files::fmt_bytes(size),
-            limit: crate::files::fmt_bytes(check::MAX_CHECK_BYTES as u64),
+            size: advise::files::fmt_bytes(size),
+            limit: advise::files::fmt_bytes(check::MAX_CHECK_BYTES as u64),
         }
         .into());
     }
     files
         .iter()
-        .map(|f| crate::files::read_source(map, f).map_err(|e| Report::from(map.attach(e))))
+        .map(|f| advise::files::read_source(map, f).map_err(|e| Report::from(map.attach(e))))
         .collect()
 }
 
@@ -232,7 +232,7 @@ pub fn apply(
         Ok(checked) => checked.set,
         Err(errors) => return Ok(report_check_errors(&files, errors, ids.len())),
     };
-    let inv = crate::syntax::parse_invocation(op)?;
+    let inv = advise::syntax::parse_invocation(op)?;
     let domain = set.trace_domain(trace_path, domain)?;
     let trace = match episode {
         None => Trace::load(&mut files, &domain, trace_path).map_err(|e| files.attach(e))?,
@@ -254,8 +254,8 @@ pub fn apply(
     let (a, b) = super::parse_range(range)?;
     let chunk = Chunk::new(a, b, trace.len())?;
     let call =
-        crate::check::bind(&mut files, &set, &trace.domain, &inv).map_err(|e| files.attach(e))?;
-    let out = crate::interp::apply(&call, &trace, chunk)?;
+        advise::check::bind(&mut files, &set, &trace.domain, &inv).map_err(|e| files.attach(e))?;
+    let out = advise::interp::apply(&call, &trace, chunk)?;
     let mut stdout = std::io::stdout().lock();
     out.points
         .write_csv(&domain, &mut stdout)
@@ -274,12 +274,12 @@ pub fn apply(
 /// `advise fmt [--check] FILE...`: each operator file rewritten in the canonical layout (session
 /// scripts: trailing blanks and repeated blank lines only). Every file is tried; a file that is
 /// neither an operator file nor a script (every statement one) is reported and left as it was
-/// ([`crate::session::script::format_file`]).
+/// ([`advise::session::script::format_file`]).
 pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
     let mut map = SourceMap::new();
     let (mut changed, mut failed) = (0, 0);
     for path in files {
-        let id = match crate::files::read_source(&mut map, path) {
+        let id = match advise::files::read_source(&mut map, path) {
             Ok(id) => id,
             Err(e) => {
                 print_report(&map, &e);
@@ -288,7 +288,7 @@ pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
             }
         };
         let text = map.text(id);
-        let formatted = match crate::session::script::format_file(map.src(id)) {
+        let formatted = match advise::session::script::format_file(map.src(id)) {
             Ok(f) => f,
             Err(e) => {
                 print_report(&map, &e);
@@ -302,7 +302,7 @@ pub fn fmt(files: &[PathBuf], check: bool) -> miette::Result<ExitCode> {
         if check {
             changed += 1;
             outln!("would reformat {}", path.display());
-        } else if let Err(e) = crate::files::write_bytes(path, formatted.as_bytes()) {
+        } else if let Err(e) = advise::files::write_bytes(path, formatted.as_bytes()) {
             // Refused (read-only, not a regular file, ...): not counted as reformatted.
             print_report(&map, &e);
             failed += 1;
@@ -357,7 +357,7 @@ pub fn test(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitCode> {
             Err(errors) => return Ok(report_check_errors(&map, errors, ids.len())),
         }
     };
-    let outcome = crate::doctest::run(&mut map, &set, &ids);
+    let outcome = advise::doctest::run(&mut map, &set, &ids);
     for f in &outcome.failures {
         print_report(&map, f);
     }

@@ -2,14 +2,14 @@
 //! `ros2-sim`.
 //! Each calls the library and prints what it returns.
 
-use crate::backend::rmp::config::FaultInjection;
-use crate::backend::rmp::{Emulator, EmulatorConfig};
-use crate::backend::ros2::Ros2Spec;
-use crate::backend::{BackendSpec, Connect, StopSignal};
-use crate::eval::{self, EvalOptions, EvalPolicy};
-use crate::experiment::study;
-use crate::task::TaskKind;
-use crate::trace::Episode;
+use advise::backend::rmp::config::FaultInjection;
+use advise::backend::rmp::{Emulator, EmulatorConfig};
+use advise::backend::ros2::Ros2Spec;
+use advise::backend::{BackendSpec, Connect, StopSignal};
+use advise::eval::{self, EvalOptions, EvalPolicy};
+use advise::experiment::study;
+use advise::task::TaskKind;
+use advise::trace::Episode;
 
 use super::{
     CalibrateArgs, CliError, DemoArgs, EmulatorArgs, EvalArgs, ExperimentArgs, ImportArgs,
@@ -27,9 +27,9 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
     }
     let params = sim_params(args.sim_params.as_deref())?;
     let domain = kind.domain();
-    let recorded = crate::task::record_demos(kind.clone(), args.count as usize, args.seed, &params);
+    let recorded = advise::task::record_demos(kind.clone(), args.count as usize, args.seed, &params);
     // A demonstration stopped on a value that is not a number refuses them all: nothing written.
-    crate::task::finite_demos(&kind, &recorded)?;
+    advise::task::finite_demos(&kind, &recorded)?;
     let successes = recorded.iter().filter(|(_, o)| o.success).count();
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let points: usize = episodes.iter().map(|e| e.trace.len()).sum();
@@ -38,8 +38,8 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("json"));
     let inputs = args.tasks.iter().chain(&args.sim_params);
-    crate::files::refuse_overwriting_inputs(&args.out, inputs.map(|p| p.as_path()))?;
-    crate::files::write_atomic(&args.out, |out| {
+    advise::files::refuse_overwriting_inputs(&args.out, inputs.map(|p| p.as_path()))?;
+    advise::files::write_atomic(&args.out, |out| {
         if is_json {
             serde_json::to_writer(out, &Episode::to_json(&domain, &episodes)).map_err(Into::into)
         } else {
@@ -88,15 +88,15 @@ pub fn eval(args: EvalArgs) -> miette::Result<()> {
                 policy: learner.name(),
             })?;
             let domain = kind.domain();
-            let mut files = crate::diag::SourceMap::new();
-            let demos = crate::policy::dataset::load_demonstrations(&mut files, &domain, path)
+            let mut files = advise::diag::SourceMap::new();
+            let demos = advise::policy::dataset::load_demonstrations(&mut files, &domain, path)
                 .map_err(|e| files.attach(e))?;
             let lwr_k = args.lwr_k.map(|k| k as usize);
             let policy = eval::derive_policy_with(learner, &domain, &demos.episodes, lwr_k)?;
             if backend.is_simulator() {
                 eval::evaluate(kind.clone(), policy.as_ref(), &opts)
             } else {
-                let p: &dyn crate::policy::Policy = policy.as_ref();
+                let p: &dyn advise::policy::Policy = policy.as_ref();
                 eval_on_base(kind.clone(), backend.clone(), &opts, limit, || p)?
             }
         }
@@ -187,11 +187,11 @@ pub fn calibrate(args: CalibrateArgs) -> miette::Result<()> {
             }
             .into());
         }
-        crate::files::refuse_overwriting_inputs(path, args.sim_params.as_deref())?;
+        advise::files::refuse_overwriting_inputs(path, args.sim_params.as_deref())?;
     }
-    let out = crate::experiment::calibrate::run(args.study, sim, args.from_bootstrap, true);
+    let out = advise::experiment::calibrate::run(args.study, sim, args.from_bootstrap, true);
     if let Some(path) = &args.write {
-        if let Err(e) = crate::files::write_bytes(path, out.json.as_bytes()) {
+        if let Err(e) = advise::files::write_bytes(path, out.json.as_bytes()) {
             print_stdout(&out.json)?;
             return Err(e.into());
         }
@@ -222,7 +222,7 @@ where
     // Ctrl-C stops the base at once from the signal thread (as in a session), not only at the
     // evaluation's next control step.
     signal.set_base(base.remote_stop());
-    let mut guarded = crate::backend::Interruptible::new(base.as_mut(), signal.clone());
+    let mut guarded = advise::backend::Interruptible::new(base.as_mut(), signal.clone());
     crate::repl::install_ctrl_c(&signal);
     errln!("evaluating {kind} on {spec} in real time; Ctrl-C stops the base");
     match eval::evaluate_on(kind, make, &mut guarded, opts, limit) {
@@ -236,7 +236,7 @@ where
 
 /// `advise import`: bags and CSV logs of a person's driving to a demonstrations file.
 pub fn import(args: ImportArgs) -> miette::Result<()> {
-    use crate::recording::{ImportOptions, write_demonstrations};
+    use advise::recording::{ImportOptions, write_demonstrations};
     let kind = super::resolve_task(&args.task, &args.tasks)?;
     if let Some(dir) = &args.lerobot {
         return import_lerobot(dir, &kind.domain(), &args);
@@ -307,10 +307,10 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
             inputs.extend(entries.flatten().take(10_000).map(|e| e.path()));
         }
     }
-    crate::files::refuse_overwriting_inputs(&args.out, inputs.iter().map(|p| p.as_path()))?;
+    advise::files::refuse_overwriting_inputs(&args.out, inputs.iter().map(|p| p.as_path()))?;
     let mut episodes = Vec::new();
     for log in &args.logs {
-        let mut imported = crate::recording::import_recording(log, &options)?;
+        let mut imported = advise::recording::import_recording(log, &options)?;
         for w in &imported.warnings {
             errln!("warning: {}: {w}", log.display());
         }
@@ -334,13 +334,13 @@ pub fn import(args: ImportArgs) -> miette::Result<()> {
 /// `advise import --lerobot DIR`: a LeRobot v3.0 dataset's episodes to a demonstrations file.
 fn import_lerobot(
     dir: &std::path::Path,
-    domain: &crate::domain::Domain,
+    domain: &advise::domain::Domain,
     args: &ImportArgs,
 ) -> miette::Result<()> {
-    use crate::recording::lerobot_in::{LeRobotReadOptions, read_lerobot};
+    use advise::recording::lerobot_in::{LeRobotReadOptions, read_lerobot};
     let mut inputs: Vec<std::path::PathBuf> = args.tasks.clone();
     inputs.push(dir.join("meta/info.json"));
-    crate::files::refuse_overwriting_inputs(&args.out, inputs.iter().map(|p| p.as_path()))?;
+    advise::files::refuse_overwriting_inputs(&args.out, inputs.iter().map(|p| p.as_path()))?;
     if args.out.starts_with(dir) {
         return Err(miette::miette!(
             code = "advise::import::out_in_dataset",
@@ -354,7 +354,7 @@ fn import_lerobot(
         by_position: args.by_position,
     };
     let read = read_lerobot(dir, domain, &options)?;
-    crate::recording::write_demonstrations(&args.out, domain, &read.episodes)?;
+    advise::recording::write_demonstrations(&args.out, domain, &read.episodes)?;
     let points = read.episode_index.len();
     errln!(
         "read {}: {}; wrote {} demonstration{} ({points} points) to {}; `load demos {}` adds them to a session",
@@ -372,13 +372,13 @@ fn import_lerobot(
 pub fn export(args: super::ExportArgs) -> miette::Result<()> {
     // Before reading anything: an output naming the dataset would replace it.
     for out in args.mcap.iter().chain(&args.lerobot) {
-        crate::files::refuse_overwriting_inputs(out, [args.dataset.as_path()])?;
+        advise::files::refuse_overwriting_inputs(out, [args.dataset.as_path()])?;
     }
-    let mut files = crate::diag::SourceMap::new();
-    let dataset = crate::policy::dataset::Dataset::load(&mut files, &args.dataset)
+    let mut files = advise::diag::SourceMap::new();
+    let dataset = advise::policy::dataset::Dataset::load(&mut files, &args.dataset)
         .map_err(|e| files.attach(e))?;
     if let Some(out) = &args.mcap {
-        use crate::recording::mcap_export::{McapOptions, export_mcap};
+        use advise::recording::mcap_export::{McapOptions, export_mcap};
         // The timeline starts at the file's modification time, when the session saved it (the
         // session's wall clock, as near as a saved dataset tells).
         let saved = std::fs::metadata(&args.dataset)
@@ -388,11 +388,11 @@ pub fn export(args: super::ExportArgs) -> miette::Result<()> {
         let shown = out.display().to_string();
         errln!(
             "{}",
-            crate::recording::mcap_export::describe(&summary, &shown)
+            advise::recording::mcap_export::describe(&summary, &shown)
         );
     }
     if let Some(dir) = &args.lerobot {
-        use crate::recording::lerobot;
+        use advise::recording::lerobot;
         let options = lerobot::LeRobotOptions {
             fps: args.fps.unwrap_or_else(lerobot::default_fps),
             with_executions: args.with_executions,
@@ -427,7 +427,7 @@ pub fn ros2_sim(args: Ros2SimArgs) -> miette::Result<()> {
     }
     let stop = StopSignal::new();
     crate::repl::install_ctrl_c(&stop);
-    let counts = crate::backend::ros2::robot::run_robot(
+    let counts = advise::backend::ros2::robot::run_robot(
         &spec,
         params,
         args.seed,

@@ -1,7 +1,7 @@
 //! The rustyline helper: completion of commands, their sub-words, options and arguments, operator
 //! names and file paths; a hint with the signature of what is being typed; multi-line input while
 //! an operator definition is unfinished. What a command takes it reads from the command table
-//! ([`crate::syntax::command::COMMANDS`]); what it knows of the session (operator names and
+//! ([`advise::syntax::command::COMMANDS`]); what it knows of the session (operator names and
 //! signatures, tasks) from [`Facts`], which the REPL refreshes after every command.
 
 use std::borrow::Cow;
@@ -13,8 +13,8 @@ use rustyline::highlight::Highlighter;
 use rustyline::hint::Hinter;
 use rustyline::validate::Validator;
 
-use crate::policy::learner::LearnerKind;
-use crate::syntax::command::{Arg, ArgKind, COMMANDS, command_spec};
+use advise::policy::learner::LearnerKind;
+use advise::syntax::command::{Arg, ArgKind, COMMANDS, command_spec};
 
 /// What the helper needs to know of the session.
 #[derive(Clone, Debug, Default)]
@@ -265,9 +265,9 @@ fn expect_arg(arg: &Arg, facts: &Facts, out: &mut Expect) {
 }
 
 /// The beginnings of the backend spellings `backend` completes: the backend registry's words
-/// (`crate::backend::registry`), the one place that knows the backends.
+/// (`advise::backend::registry`), the one place that knows the backends.
 fn backend_words() -> Vec<String> {
-    crate::backend::registry::completions("")
+    advise::backend::registry::completions("")
 }
 
 /// Every line is handed on as typed: the REPL asks for the rest of an unfinished statement under

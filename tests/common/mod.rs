@@ -39,7 +39,7 @@ pub fn raw_transcript(session: &mut Session, lines: &str) -> String {
                     out.push('\n');
                 }
             }
-            Err(e) => out.push_str(&advise::repl::render(session.sources(), &e, false)),
+            Err(e) => out.push_str(&advise_cli::repl::render(session.sources(), &e, false)),
         }
     }
     out

@@ -2,29 +2,19 @@
 //! parameters, returning the data `advise experiment STUDY --seed SEED --json` prints (the same
 //! function runs them), so a sweep over seeds can be mapped by any engine (Ray, Dask, a pool).
 
-use clap::ValueEnum;
+use advise::choice::Choice;
 use pyo3::prelude::*;
 
 use crate::error::simple;
 
-/// The names a clap value enum accepts, for a refusal's help.
-fn names<T: ValueEnum>() -> String {
-    T::value_variants()
-        .iter()
-        .filter_map(|v| v.to_possible_value())
-        .map(|v| format!("`{}`", v.get_name()))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
 /// `name` as one of `T`'s values, or an `AdviseError` coded `code` listing them.
-fn parse<T: ValueEnum>(py: Python<'_>, name: &str, what: &str) -> PyResult<T> {
-    T::from_str(name, false).map_err(|_| {
+fn parse<T: Choice>(py: Python<'_>, name: &str, what: &str) -> PyResult<T> {
+    T::parse(name).ok_or_else(|| {
         simple(
             py,
             "advise::py::bad_argument",
             format!("`{name}` is not a {what}"),
-            &format!("the {what}s are {}", names::<T>()),
+            &format!("the {what}s are {}", T::names()),
         )
     })
 }

@@ -6,11 +6,14 @@
 use super::effect::{DemoEpisode, Effect};
 use super::text::short_num;
 use super::{Session, SessionError};
-use std::io::IsTerminal;
 
+#[cfg(feature = "ros2")]
 use crate::backend::ros2::Ros2Backend;
+#[cfg(feature = "ros2")]
 use crate::backend::ros2::record::{Ended, RecordOptions, record_teleop};
-use crate::backend::teleop::{DriveEnd, KEYS_HELP, Key, KeySource, Teleop, TerminalKeys, drive};
+#[cfg(feature = "ros2")]
+use crate::backend::teleop::Key;
+use crate::backend::teleop::{DriveEnd, KEYS_HELP, Teleop, console, drive};
 use crate::geometry::Pose;
 use crate::task::TaskKind;
 use crate::task::episode_seed;
@@ -19,9 +22,26 @@ use crate::task::episode_seed;
 pub const MAX_RECORD_S: f64 = 3600.0;
 pub const DEFAULT_RECORD_S: f64 = 600.0;
 /// No command for this long with the base at rest ends a recording.
+#[cfg(feature = "ros2")]
 pub const RECORD_IDLE_S: f64 = 3.0;
 
 impl Session {
+    /// `record demo` in a build without ROS 2: the base it listens on cannot be connected.
+    #[cfg(not(feature = "ros2"))]
+    pub(super) fn record_demo(
+        &mut self,
+        _topic: Option<&str>,
+        goal: Option<[f64; 3]>,
+        _seconds: Option<f64>,
+        _keep_idle: bool,
+    ) -> Result<String, SessionError> {
+        self.check_recordable(goal.is_some())?;
+        Err(SessionError::RecordNeedsRos2 {
+            backend: self.backend_name(),
+        })
+    }
+
+    #[cfg(feature = "ros2")]
     pub(super) fn record_demo(
         &mut self,
         topic: Option<&str>,
@@ -46,15 +66,13 @@ impl Session {
         self.stop.clear();
         // At a terminal, Enter (or Ctrl-C, a key in raw mode) ends the recording; in a script the
         // time limit, the idle rule or the stop signal do.
-        let mut terminal = if std::io::stdin().is_terminal() {
-            to_terminal(format_args!(
+        let mut terminal = console().and_then(|console| {
+            console.show(format_args!(
                 "recording {}: drive with your teleoperation; Enter ends\r\n",
                 spec.resolve(&opts.teleop_topic)
             ));
-            TerminalKeys::open().ok()
-        } else {
-            None
-        };
+            console.keys().ok()
+        });
         let mut person_ended = || {
             terminal.as_mut().is_some_and(|t| {
                 t.keys(std::time::Duration::ZERO)
@@ -111,13 +129,14 @@ impl Session {
     ) -> Result<String, SessionError> {
         self.check_recordable(goal.is_some())?;
         let (max_s, goal) = checked_limits(goal, seconds)?;
-        if !std::io::stdin().is_terminal() {
+        let Some(console) = console() else {
             return Err(SessionError::TeleopNeedsTerminal);
-        }
+        };
         let params = self.sim_params();
         let mut teleop = Teleop::new(params.max_speed_mps, params.max_rot_radps);
-        let mut keys =
-            TerminalKeys::open().map_err(|error| SessionError::RecordFailed { error })?;
+        let mut keys = console
+            .keys()
+            .map_err(|error| SessionError::RecordFailed { error })?;
         to_terminal(format_args!(
             "teleop on {}: {KEYS_HELP}\r\n",
             self.backend_name()
@@ -137,7 +156,7 @@ impl Session {
         let real_time = self.backend.is_simulator();
         let drive = drive(
             self.backend.as_mut(),
-            &mut keys,
+            keys.as_mut(),
             &mut teleop,
             &self.stop,
             max_s,
@@ -250,9 +269,9 @@ fn checked_limits(
     Ok((max_s, goal))
 }
 
-/// What the teacher reads while driving, on stderr; a closed stderr drops it rather than
-/// panicking as `eprint!` would (issue 47).
+/// What the teacher reads while driving, on the front end's console (none: dropped).
 fn to_terminal(args: std::fmt::Arguments<'_>) {
-    use std::io::Write as _;
-    let _ = std::io::stderr().lock().write_fmt(args);
+    if let Some(console) = console() {
+        console.show(args);
+    }
 }

@@ -34,7 +34,7 @@ use crate::task::positioning::TeacherStyle;
 pub use crate::task::interception::StatelessInterceptionTeacher;
 
 /// One choice of the protocol (README, "The protocol", points 1-7), to revert alone.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Revert {
     /// 1 (bc): the pre-protocol world, a ball up to 1.3 m/s against the teacher's 0.8 m/s cruise.
@@ -133,6 +133,28 @@ impl Revert {
     }
 }
 
+impl crate::choice::Choice for Revert {
+    fn all() -> &'static [Revert] {
+        &Revert::ALL
+    }
+
+    fn name(self) -> &'static str {
+        Revert::name(self)
+    }
+
+    fn help(self) -> &'static str {
+        match self {
+            Revert::Ball => "1 (bc): the pre-protocol world, a ball up to 1.3 m/s against the teacher's 0.8 m/s cruise",
+            Revert::Teacher => "2 (bc, aopi): the stateless interception teacher; a teleoperator whose hand never varies",
+            Revert::Chunks => "3 (bc): fixed 25-point chunks, at most the first two flagged",
+            Revert::Support => "4 (bc): critique without the recorded support (the points nearest now)",
+            Revert::Advisor => "5 (aopi): the advisor on the goal point, rates from commanded speeds",
+            Revert::Stopping => "6 (aopi): stopping and reporting on the test set (its best evaluation)",
+            Revert::Rate => "7 (aopi): positioning demonstrations recorded at 30 Hz",
+        }
+    }
+}
+
 /// Whether `revert` is `choice` (what the studies' code paths ask).
 pub fn reverts(revert: Option<Revert>, choice: Revert) -> bool {
     revert == Some(choice)
@@ -153,9 +175,8 @@ mod tests {
         );
         for (i, c) in Revert::ALL.iter().enumerate() {
             assert_eq!(c.point(), i + 1);
-            // The name clap takes is the same.
-            let v = clap::ValueEnum::to_possible_value(c).unwrap();
-            assert_eq!(v.get_name(), c.name());
+            // The name a front end takes is the same.
+            assert_eq!(<Revert as crate::choice::Choice>::parse(c.name()), Some(*c));
         }
     }
 

@@ -19,8 +19,8 @@ impl Shipped {
     /// The file's text as shipped.
     pub fn text(self) -> &'static str {
         match self {
-            Shipped::Bc => include_str!("../../calibration/bc.json"),
-            Shipped::Aopi => include_str!("../../calibration/aopi.json"),
+            Shipped::Bc => include_str!("../../../../calibration/bc.json"),
+            Shipped::Aopi => include_str!("../../../../calibration/aopi.json"),
         }
     }
 

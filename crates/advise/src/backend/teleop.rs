@@ -5,11 +5,12 @@
 //! and down/`s` step the speed, left/`a` and right/`d` step the turn rate, space stops, `+`/`-`
 //! scale the steps, Enter or `q` ends. Every command is clamped to the base's limits before it is
 //! sent, and the base's own safety rules (its watchdog, zero at the end) still hold. [`drive`]
-//! runs it on a [`Backend`] at the base's rate with keys from a [`KeySource`]: the terminal's
-//! ([`TerminalKeys`], raw mode through crossterm, restored on drop) or a script (tests).
+//! runs it on a [`Backend`] at the base's rate with keys from a [`KeySource`]: a person's, from the
+//! [`Console`] a front end installs (the command line's terminal), or a script (tests).
 //! A key that is not repeated leaves the command held, as a base holds its last `cmd_vel`;
 //! space or Ctrl-C brings it to zero.
 
+use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use super::{Backend, BackendError, StopSignal};
@@ -131,57 +132,30 @@ impl KeySource for ScriptedKeys {
     }
 }
 
-/// The terminal's keys, in raw mode while this lives (restored on drop, on error and on panic's
-/// unwinding alike).
-pub struct TerminalKeys {
-    _raw: RawMode,
+/// The person at the controls, as a front end gives them to a drive: their keys and a place to
+/// show them the drive's state. The command line installs its terminal ([`install_console`]:
+/// raw-mode keys, lines on standard error); a front end without one (Python, a script) has
+/// none, and `teleop` then says it needs a terminal.
+pub trait Console: Send + Sync {
+    /// Whether a person is there to drive (the command line: standard input is a terminal).
+    fn present(&self) -> bool;
+    /// The person's keys, for as long as the source lives (a terminal in raw mode, restored when
+    /// it is dropped, on error and on a panic's unwinding alike).
+    fn keys(&self) -> Result<Box<dyn KeySource>, BackendError>;
+    /// Show the person `text` (a drive's state); text that cannot be shown is dropped.
+    fn show(&self, text: std::fmt::Arguments<'_>);
 }
 
-struct RawMode;
+static CONSOLE: OnceLock<Box<dyn Console>> = OnceLock::new();
 
-impl Drop for RawMode {
-    fn drop(&mut self) {
-        let _ = crossterm::terminal::disable_raw_mode();
-    }
+/// Install the front end's console; the first one installed stays (returns whether this was it).
+pub fn install_console(console: Box<dyn Console>) -> bool {
+    CONSOLE.set(console).is_ok()
 }
 
-impl TerminalKeys {
-    /// Raw mode on the terminal; an error when there is none.
-    pub fn open() -> Result<TerminalKeys, BackendError> {
-        crossterm::terminal::enable_raw_mode()?;
-        Ok(TerminalKeys { _raw: RawMode })
-    }
-}
-
-impl KeySource for TerminalKeys {
-    fn keys(&mut self, wait: Duration) -> Result<Vec<Key>, BackendError> {
-        use crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
-        let mut out = Vec::new();
-        let mut wait = wait;
-        // Bounded: a held key's repeats cannot keep the control loop from its next step.
-        while out.len() < 64 && event::poll(wait)? {
-            wait = Duration::ZERO;
-            if let Event::Key(k) = event::read()?
-                && k.kind != KeyEventKind::Release
-            {
-                let key = match k.code {
-                    KeyCode::Up => Some(Key::Faster),
-                    KeyCode::Down => Some(Key::Slower),
-                    KeyCode::Left => Some(Key::Left),
-                    KeyCode::Right => Some(Key::Right),
-                    KeyCode::Enter | KeyCode::Esc => Some(Key::End),
-                    // Raw mode turns Ctrl-C into a key: it ends the drive at once.
-                    KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => {
-                        Some(Key::End)
-                    }
-                    KeyCode::Char(c) => Key::from_char(c),
-                    _ => None,
-                };
-                out.extend(key);
-            }
-        }
-        Ok(out)
-    }
+/// The console, when a front end installed one and a person is there.
+pub fn console() -> Option<&'static dyn Console> {
+    CONSOLE.get().map(|c| c.as_ref()).filter(|c| c.present())
 }
 
 /// Why a drive ended.

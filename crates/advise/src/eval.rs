@@ -9,14 +9,13 @@
 //! demonstrations for the command line. This module prints nothing but the progress bar.
 
 use std::collections::BTreeMap;
-use std::io::IsTerminal;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use miette::Diagnostic;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::progress::{self, Unit};
 use crate::backend::sim::SimParams;
 use crate::backend::{Backend, BackendError};
 use crate::domain::Domain;
@@ -223,16 +222,12 @@ where
     F: Fn() -> C + Sync,
 {
     let starts = kind.test_set();
-    let bar = if opts.progress && std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(starts.len() as u64);
-        if let Ok(style) = ProgressStyle::with_template("{msg} {bar:40} {pos}/{len} [{elapsed}]") {
-            bar.set_style(style);
-        }
-        bar.set_message(format!("evaluating {kind}"));
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = progress::bar(
+        opts.progress,
+        starts.len() as u64,
+        Unit::Items,
+        &format!("evaluating {kind}"),
+    );
     let outcomes: Vec<Outcome> = starts
         .par_iter()
         .enumerate()
@@ -248,7 +243,7 @@ where
             exec.outcome
         })
         .collect();
-    bar.finish_and_clear();
+    bar.finish();
     Report::from_outcomes(kind, opts.seed, outcomes)
 }
 
@@ -289,16 +284,12 @@ where
 {
     let mut starts = kind.test_set();
     starts.truncate(limit.unwrap_or(usize::MAX));
-    let bar = if opts.progress && std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(starts.len() as u64);
-        if let Ok(style) = ProgressStyle::with_template("{msg} {bar:40} {pos}/{len} [{elapsed}]") {
-            bar.set_style(style);
-        }
-        bar.set_message(format!("evaluating {kind} on {}", backend.name()));
-        bar
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = progress::bar(
+        opts.progress,
+        starts.len() as u64,
+        Unit::Items,
+        &format!("evaluating {kind} on {}", backend.name()),
+    );
     let mut outcomes = Vec::with_capacity(starts.len());
     for (i, start) in starts.iter().enumerate() {
         let mut c = make();
@@ -308,7 +299,7 @@ where
             Ok(exec) => outcomes.push(exec.outcome),
             Err(interrupted) => {
                 outcomes.push(interrupted.execution.outcome);
-                bar.finish_and_clear();
+                bar.finish();
                 return Err(Box::new(EvalInterrupted {
                     report: Report::from_outcomes(kind, opts.seed, outcomes),
                     planned: starts.len(),
@@ -318,7 +309,7 @@ where
         }
         bar.inc(1);
     }
-    bar.finish_and_clear();
+    bar.finish();
     Ok(Report::from_outcomes(kind, opts.seed, outcomes))
 }
 
@@ -359,8 +350,8 @@ impl EvalPolicy {
     }
 }
 
-impl clap::ValueEnum for EvalPolicy {
-    fn value_variants<'a>() -> &'a [Self] {
+impl crate::choice::Choice for EvalPolicy {
+    fn all() -> &'static [EvalPolicy] {
         &[
             EvalPolicy::Learned(LearnerKind::Bc),
             EvalPolicy::Learned(LearnerKind::Lwr),
@@ -368,15 +359,14 @@ impl clap::ValueEnum for EvalPolicy {
         ]
     }
 
-    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+    fn name(self) -> &'static str {
+        EvalPolicy::name(self)
+    }
+
+    fn help(self) -> &'static str {
         match self {
-            EvalPolicy::Learned(kind) => {
-                Some(clap::builder::PossibleValue::new(kind.name()).help(kind.summary()))
-            }
-            EvalPolicy::Teacher => Some(
-                clap::builder::PossibleValue::new("teacher")
-                    .help("The task's own teacher (needs no dataset)"),
-            ),
+            EvalPolicy::Learned(kind) => kind.summary(),
+            EvalPolicy::Teacher => "The task's own teacher (needs no dataset)",
         }
     }
 }

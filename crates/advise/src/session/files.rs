@@ -710,11 +710,11 @@ fn topics_only_for_a_bag(
     Ok(())
 }
 
-/// A progress bar for a large demonstrations file read in a stream, drawn on standard error when
-/// it is a terminal (never into a reply or a pipe), from the first report on.
+/// A progress bar for a large demonstrations file read in a stream ([`crate::progress`]: drawn
+/// where the front end draws, never into a reply), from the first report on.
 #[derive(Default)]
 struct Progress {
-    bar: Option<indicatif::ProgressBar>,
+    bar: Option<Box<dyn crate::progress::Bar>>,
     /// Counted in rows (a Parquet file), not bytes.
     rows: bool,
 }
@@ -728,28 +728,16 @@ impl Progress {
     }
 
     fn show(&mut self, done: u64, total: u64) {
-        use std::io::IsTerminal;
-        let bar = self.bar.get_or_insert_with(|| {
-            if !std::io::stderr().is_terminal() {
-                return indicatif::ProgressBar::hidden();
-            }
-            let bar = indicatif::ProgressBar::new(total);
-            let template = if self.rows {
-                "reading demonstrations {bar:40} {human_pos}/{human_len} rows ({eta} left)"
-            } else {
-                "reading demonstrations {bar:40} {bytes}/{total_bytes} ({eta} left)"
-            };
-            if let Ok(style) = indicatif::ProgressStyle::with_template(template) {
-                bar.set_style(style);
-            }
-            bar
-        });
-        bar.set_position(done);
+        use crate::progress::{Unit, bar};
+        let unit = if self.rows { Unit::Rows } else { Unit::Bytes };
+        self.bar
+            .get_or_insert_with(|| bar(true, total, unit, "reading demonstrations"))
+            .set_position(done);
     }
 
     fn done(self) {
         if let Some(bar) = self.bar {
-            bar.finish_and_clear();
+            bar.finish();
         }
     }
 }

@@ -44,6 +44,65 @@ pub trait BackendKind: Send + Sync {
     fn parse(&self, spec: &str) -> Result<Box<dyn Spec>, BackendSpecError>;
 }
 
+/// A kind of base this build leaves out (its cargo feature is off, as in the Python package):
+/// it still claims its specs, so `ros2` is refused for what it is, not as an unknown word.
+#[derive(Clone, Copy, Debug)]
+pub struct Absent {
+    name: &'static str,
+    syntax: &'static str,
+    feature: &'static str,
+}
+
+impl Absent {
+    /// The Segway RMP driver (the `rmp` feature).
+    pub const RMP: Absent = Absent {
+        name: "rmp",
+        syntax: "rmp:HOST:PORT",
+        feature: "rmp",
+    };
+    /// The ROS 2 driver (the `ros2` feature).
+    pub const ROS2: Absent = Absent {
+        name: "ros2",
+        syntax: "ros2[:NAMESPACE]",
+        feature: "ros2",
+    };
+}
+
+/// A spec of a kind this build leaves out.
+#[derive(Debug, thiserror::Error, miette::Diagnostic)]
+#[error("this build of advise has no `{kind}` backend")]
+#[diagnostic(
+    code(advise::backend::not_built),
+    help(
+        "it was built without the `{feature}` feature (the Python package leaves out ROS 2); drive this base from the `advise` command line, which has every backend"
+    )
+)]
+pub struct NotBuilt {
+    pub kind: &'static str,
+    pub feature: &'static str,
+}
+
+impl BackendKind for Absent {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn syntax(&self) -> &'static str {
+        self.syntax
+    }
+
+    fn about(&self) -> &'static str {
+        "not in this build"
+    }
+
+    fn parse(&self, _spec: &str) -> Result<Box<dyn Spec>, BackendSpecError> {
+        Err(BackendSpecError::of(NotBuilt {
+            kind: self.name,
+            feature: self.feature,
+        }))
+    }
+}
+
 /// The kinds of base one session (or command line) accepts.
 #[derive(Clone)]
 pub struct Registry {

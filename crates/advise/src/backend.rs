@@ -20,7 +20,13 @@ use crate::trace::Pose;
 
 pub mod interrupt;
 pub mod registry;
+#[cfg(feature = "rmp")]
 pub mod rmp;
+#[cfg(feature = "ros2")]
+pub mod ros2;
+/// Built without the `ros2` feature: the message types alone (bags and MCAP files hold them).
+#[cfg(not(feature = "ros2"))]
+#[path = "backend/ros2/absent.rs"]
 pub mod ros2;
 pub mod sim;
 pub mod spec;
@@ -35,8 +41,14 @@ pub use spec::{BackendSpec, BackendSpecError, Connect, Spec};
 pub fn kinds() -> Vec<Arc<dyn BackendKind>> {
     vec![
         Arc::new(sim::SimKind),
+        #[cfg(feature = "rmp")]
         Arc::new(rmp::RmpKind),
+        #[cfg(not(feature = "rmp"))]
+        Arc::new(registry::Absent::RMP),
+        #[cfg(feature = "ros2")]
         Arc::new(ros2::Ros2Kind),
+        #[cfg(not(feature = "ros2"))]
+        Arc::new(registry::Absent::ROS2),
     ]
 }
 
@@ -173,11 +185,13 @@ pub enum BackendError {
         help("zero was sent instead; the policy produced a NaN or infinite action")
     )]
     InvalidCommand { speed_mps: f64, rot_radps: f64 },
+    #[cfg(feature = "rmp")]
     #[error(transparent)]
     #[diagnostic(transparent)]
     RmpConfig(#[from] rmp::config::RmpConfigError),
     /// A ROS 2 setting read at connect time (`ROS_DOMAIN_ID`, `ROS_AUTOMATIC_DISCOVERY_RANGE`,
     /// `ROS_STATIC_PEERS`).
+    #[cfg(feature = "ros2")]
     #[error(transparent)]
     #[diagnostic(transparent)]
     Ros2Spec(#[from] ros2::spec::Ros2SpecError),

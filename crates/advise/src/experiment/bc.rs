@@ -67,7 +67,7 @@ pub struct PaperBc {
 }
 
 /// Which critique rules the study runs (`advise experiment bc --critique`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Rules {
     /// The paper's rule only.
@@ -86,6 +86,28 @@ impl Rules {
             Rules::Paper => &[CritiqueRule::Paper],
             Rules::Directional => &[CritiqueRule::Directional],
             Rules::Both => &[CritiqueRule::Paper, CritiqueRule::Directional],
+        }
+    }
+}
+
+impl crate::choice::Choice for Rules {
+    fn all() -> &'static [Rules] {
+        &[Rules::Paper, Rules::Directional, Rules::Both]
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Rules::Paper => "paper",
+            Rules::Directional => "directional",
+            Rules::Both => "both",
+        }
+    }
+
+    fn help(self) -> &'static str {
+        match self {
+            Rules::Paper => "The paper's rule only",
+            Rules::Directional => "The directional rule only (the paper's proposed improvement)",
+            Rules::Both => "Both, each with its own learner, from the same demonstrations and practice starts",
         }
     }
 }

@@ -10,10 +10,8 @@
 //! This module computes and summarises; it prints nothing except the progress bar (only on a
 //! terminal, only when asked) and writes files only when asked to plot.
 
-use std::io::IsTerminal;
 use std::path::Path;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use miette::Diagnostic;
 use rayon::prelude::*;
 use thiserror::Error;
@@ -81,26 +79,16 @@ pub fn ensure_dir(dir: &Path) -> Result<(), ExperimentError> {
     })
 }
 
-/// A progress bar on stderr, drawn only when asked and stderr is a terminal.
+/// A study's progress bar ([`crate::progress`]), drawn only when asked and a front end draws.
 pub struct Progress {
-    bar: ProgressBar,
+    bar: Box<dyn crate::progress::Bar>,
 }
 
 impl Progress {
     pub fn new(show: bool, len: u64, message: &str) -> Progress {
-        let bar = if show && std::io::stderr().is_terminal() {
-            let bar = ProgressBar::new(len);
-            if let Ok(style) =
-                ProgressStyle::with_template("{msg:28} {bar:40} {pos}/{len} [{elapsed}]")
-            {
-                bar.set_style(style);
-            }
-            bar.set_message(message.to_string());
-            bar
-        } else {
-            ProgressBar::hidden()
-        };
-        Progress { bar }
+        Progress {
+            bar: crate::progress::bar(show, len, crate::progress::Unit::Items, message),
+        }
     }
 
     pub fn inc(&self, n: u64) {
@@ -108,11 +96,11 @@ impl Progress {
     }
 
     pub fn set_message(&self, message: &str) {
-        self.bar.set_message(message.to_string());
+        self.bar.set_message(message);
     }
 
     pub fn finish(&self) {
-        self.bar.finish_and_clear();
+        self.bar.finish();
     }
 }
 
