@@ -24,6 +24,7 @@ pub mod error;
 mod names;
 mod standard;
 mod task;
+mod task_scope;
 mod trace_domain;
 
 use std::collections::HashMap;

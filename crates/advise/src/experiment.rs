@@ -28,6 +28,7 @@ pub mod calibrate;
 pub mod critic;
 pub mod pilot;
 pub mod plot;
+pub mod protocol;
 pub mod study;
 pub mod summary;
 

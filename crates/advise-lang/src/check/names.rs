@@ -48,7 +48,7 @@ pub(super) enum Scope<'a> {
         params: &'a [Param],
     },
     /// A clause of a task declaration: the task's named values that clause may read.
-    Task(&'a super::task::TaskScope<'a>),
+    Task(&'a super::task_scope::TaskScope<'a>),
 }
 
 /// A domain with its dimensions indexed by name, so that resolving a name does not scan them.

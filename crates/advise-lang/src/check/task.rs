@@ -8,6 +8,7 @@ use std::collections::HashMap;
 mod finite;
 
 use super::names::{RESERVED, Scope, Ty};
+use super::task_scope::{Kind, TaskScope};
 use super::*;
 use crate::domain::Space;
 use crate::program::ir::{Func, Ir};
@@ -15,47 +16,6 @@ use crate::program::task::{
     Axis, BASE, DrawDef, Drive, EndRule, GoalParam, MAX_GOAL_ABS, MAX_GOAL_PARAMS, MAX_TEST_GOALS,
     MAX_TIME_LIMIT_S, ShapeKind, TaskDef, TeacherDef, TeacherTarget,
 };
-
-/// What kind of value a task name is; each clause may read some kinds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Kind {
-    Base,
-    Goal,
-    Action,
-    /// A `let` or an observation.
-    Value,
-    Score,
-    /// In a teacher: an observation.
-    TeacherObs,
-    /// In a teacher: one of its `let`s.
-    TeacherLocal,
-}
-
-impl Kind {
-    fn word(self) -> &'static str {
-        match self {
-            Kind::Base => "the robot's state",
-            Kind::Goal => "a goal parameter",
-            Kind::Action => "an action",
-            Kind::Value => "a value",
-            Kind::Score => "a score",
-            Kind::TeacherObs => "an observation",
-            Kind::TeacherLocal => "a teacher's value",
-        }
-    }
-}
-
-/// The names an expression of a task may use, and where it is.
-pub(super) struct TaskScope<'a> {
-    pub(super) task: &'a str,
-    pub(super) names: &'a HashMap<String, (usize, Kind)>,
-    pub(super) allowed: &'a [Kind],
-    /// Where the expression is, for messages: "an observation's definition".
-    pub(super) context: &'a str,
-    pub(super) prev_ok: bool,
-    /// The task's names a teacher cannot see (so a use of one is explained, not "unknown").
-    pub(super) hidden: Option<&'a HashMap<String, (usize, Kind)>>,
-}
 
 const DEFAULT_TEST_GOALS: usize = 25;
 

@@ -10,6 +10,7 @@
 //! ([`completions`]). The grammar takes any spec as one word and leaves it to this module.
 
 use std::fmt;
+use std::str::FromStr;
 use std::sync::Arc;
 
 use super::spec::{BackendSpec, BackendSpecError, Spec};
@@ -42,6 +43,15 @@ pub trait BackendKind: Send + Sync {
     /// Read a spec this kind claims (trimmed); a mistake is the kind's own coded diagnostic
     /// ([`BackendSpecError::of`]).
     fn parse(&self, spec: &str) -> Result<Box<dyn Spec>, BackendSpecError>;
+}
+
+/// Read by the standard kinds ([`Registry::standard`]), as `--backend` is.
+impl FromStr for BackendSpec {
+    type Err = BackendSpecError;
+
+    fn from_str(s: &str) -> Result<BackendSpec, BackendSpecError> {
+        Registry::standard().parse(s)
+    }
 }
 
 /// A kind of base this build leaves out (its cargo feature is off, as in the Python package):

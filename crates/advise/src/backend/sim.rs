@@ -28,14 +28,15 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::backend::registry::BackendKind;
-use crate::backend::spec::{BackendSpecError, Connect, Spec};
 use crate::backend::{Backend, BackendError, Base, BaseState};
 use crate::diag::{Loc, SourceMap, Sourced, Src, locate};
 use crate::geometry::{Pose, integrate_arc, lag_fraction, limit_speed, wheel_speeds};
 
 /// Angle wrapping lives in [`crate::geometry`]; kept here under its old path.
 pub use crate::geometry::wrap_angle;
+pub use kind::{SimKind, SimSpec};
+
+mod kind;
 
 /// Every parameter of the simulated base. The paper gives only the control rate (30 Hz); the rest
 /// are ours, chosen to resemble a Segway RMP 200 driven indoors at walking pace.
@@ -550,51 +551,6 @@ impl Base for SimBackend {
 
     fn begin(&mut self, seed: u64) {
         *self = SimBackend::new(self.base.params.clone(), seed);
-    }
-}
-
-/// The registry's `sim` kind: the in-process simulator.
-pub struct SimKind;
-
-impl BackendKind for SimKind {
-    fn name(&self) -> &'static str {
-        "sim"
-    }
-
-    fn syntax(&self) -> &'static str {
-        "sim"
-    }
-
-    fn about(&self) -> &'static str {
-        "the simulator"
-    }
-
-    fn claims(&self, spec: &str) -> bool {
-        spec == "sim"
-    }
-
-    fn parse(&self, _spec: &str) -> Result<Box<dyn Spec>, BackendSpecError> {
-        Ok(Box::new(SimSpec))
-    }
-}
-
-/// `sim`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct SimSpec;
-
-impl std::fmt::Display for SimSpec {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("sim")
-    }
-}
-
-impl Spec for SimSpec {
-    fn connect(&self, with: &Connect<'_>) -> Result<Box<dyn Base>, BackendError> {
-        Ok(Box::new(SimBackend::new(with.sim.clone(), with.seed)))
-    }
-
-    fn is_simulator(&self) -> bool {
-        true
     }
 }
 

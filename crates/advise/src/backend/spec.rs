@@ -9,13 +9,11 @@
 
 use std::any::Any;
 use std::fmt;
-use std::str::FromStr;
 use std::sync::Arc;
 
 use miette::Diagnostic;
 use thiserror::Error;
 
-use super::registry::Registry;
 use super::sim::SimParams;
 use super::{BackendError, Base};
 use crate::diag::Loc;
@@ -90,15 +88,6 @@ impl Eq for BackendSpec {}
 impl fmt::Display for BackendSpec {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         self.spec.fmt(f)
-    }
-}
-
-/// Read by the standard kinds ([`Registry::standard`]), as `--backend` is.
-impl FromStr for BackendSpec {
-    type Err = BackendSpecError;
-
-    fn from_str(s: &str) -> Result<BackendSpec, BackendSpecError> {
-        Registry::standard().parse(s)
     }
 }
 

@@ -22,76 +22,17 @@
 //! seeds, the other choices. A choice reverted in a study it does not affect is refused by the
 //! command line ([`Revert::affects`]).
 
-use serde::{Deserialize, Serialize};
-
+pub use super::protocol::{Revert, reverts};
 use crate::experiment::aopi::AopiParams;
 use crate::experiment::bc::BcParams;
-use crate::experiment::study::Study;
+use crate::experiment::protocol::Study;
 use crate::task::InterceptionRules;
 use crate::task::human::HandRanges;
 use crate::task::positioning::TeacherStyle;
 
 pub use crate::task::interception::StatelessInterceptionTeacher;
 
-/// One choice of the protocol (README, "The protocol", points 1-7), to revert alone.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Revert {
-    /// 1 (bc): the pre-protocol world, a ball up to 1.3 m/s against the teacher's 0.8 m/s cruise.
-    Ball,
-    /// 2 (bc, aopi): the stateless interception teacher; a teleoperator whose hand never varies.
-    Teacher,
-    /// 3 (bc): fixed 25-point chunks, at most the first two flagged.
-    Chunks,
-    /// 4 (bc): critique without the recorded support (the points nearest now).
-    Support,
-    /// 5 (aopi): the advisor on the goal point, rates from commanded speeds.
-    Advisor,
-    /// 6 (aopi): stopping and reporting on the test set (its best evaluation).
-    Stopping,
-    /// 7 (aopi): positioning demonstrations recorded at 30 Hz.
-    Rate,
-}
-
 impl Revert {
-    /// Every choice, in the protocol's order.
-    pub const ALL: [Revert; 7] = [
-        Revert::Ball,
-        Revert::Teacher,
-        Revert::Chunks,
-        Revert::Support,
-        Revert::Advisor,
-        Revert::Stopping,
-        Revert::Rate,
-    ];
-
-    /// The choice's number in the protocol's table.
-    pub fn point(self) -> usize {
-        Revert::ALL.iter().position(|&c| c == self).unwrap_or(0) + 1
-    }
-
-    /// The name `--revert` takes.
-    pub fn name(self) -> &'static str {
-        match self {
-            Revert::Ball => "ball",
-            Revert::Teacher => "teacher",
-            Revert::Chunks => "chunks",
-            Revert::Support => "support",
-            Revert::Advisor => "advisor",
-            Revert::Stopping => "stopping",
-            Revert::Rate => "rate",
-        }
-    }
-
-    /// Whether reverting this choice changes anything in `study`.
-    pub fn affects(self, study: Study) -> bool {
-        match self {
-            Revert::Ball | Revert::Chunks | Revert::Support => study == Study::Bc,
-            Revert::Advisor | Revert::Stopping | Revert::Rate => study == Study::Aopi,
-            Revert::Teacher => true,
-        }
-    }
-
     /// The BC study's parameters with this choice reverted (unchanged for a choice that does
     /// not affect it). The code paths that are not data (the stateless teacher, the fixed chunks,
     /// critique without support) read `params.revert`.
@@ -131,33 +72,6 @@ impl Revert {
             ..params
         }
     }
-}
-
-impl crate::choice::Choice for Revert {
-    fn all() -> &'static [Revert] {
-        &Revert::ALL
-    }
-
-    fn name(self) -> &'static str {
-        Revert::name(self)
-    }
-
-    fn help(self) -> &'static str {
-        match self {
-            Revert::Ball => "1 (bc): the pre-protocol world, a ball up to 1.3 m/s against the teacher's 0.8 m/s cruise",
-            Revert::Teacher => "2 (bc, aopi): the stateless interception teacher; a teleoperator whose hand never varies",
-            Revert::Chunks => "3 (bc): fixed 25-point chunks, at most the first two flagged",
-            Revert::Support => "4 (bc): critique without the recorded support (the points nearest now)",
-            Revert::Advisor => "5 (aopi): the advisor on the goal point, rates from commanded speeds",
-            Revert::Stopping => "6 (aopi): stopping and reporting on the test set (its best evaluation)",
-            Revert::Rate => "7 (aopi): positioning demonstrations recorded at 30 Hz",
-        }
-    }
-}
-
-/// Whether `revert` is `choice` (what the studies' code paths ask).
-pub fn reverts(revert: Option<Revert>, choice: Revert) -> bool {
-    revert == Some(choice)
 }
 
 #[cfg(test)]

@@ -37,7 +37,7 @@ use serde::{Deserialize, Serialize};
 use crate::backend::sim::SimParams;
 use crate::check::{self, OperatorSet};
 use crate::eval::Report;
-use crate::experiment::ablation::{Revert, reverts};
+use crate::experiment::protocol::{Revert, reverts};
 use crate::experiment::advisor::{self, AdvisorRules};
 use crate::experiment::pilot::PilotStyle;
 use crate::experiment::{Progress, eval_seed, evaluate_starts, pct, practice_seed};

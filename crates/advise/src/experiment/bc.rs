@@ -32,7 +32,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::backend::sim::SimParams;
 use crate::eval::Report;
-use crate::experiment::ablation::{Revert, reverts};
+use crate::experiment::protocol::{Revert, reverts};
 use crate::experiment::critic::{self, CriticRules};
 use crate::experiment::{Progress, eval_seed, evaluate_starts_in, opt_m, pct, practice_seed};
 use crate::policy::Policy;

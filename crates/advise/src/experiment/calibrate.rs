@@ -28,7 +28,7 @@ use crate::backend::sim::SimParams;
 use crate::experiment::aopi::{self, AopiParams};
 use crate::experiment::bc::{self, BcParams};
 use crate::experiment::pilot::PilotStyle;
-use crate::experiment::study::Study;
+use crate::experiment::protocol::Study;
 use crate::experiment::{Progress, evaluate_starts_in};
 use crate::policy::Policy;
 use crate::policy::dataset::Dataset;

@@ -8,38 +8,10 @@ use serde::Serialize;
 
 use rayon::prelude::*;
 
-use super::ablation::Revert;
+pub use super::protocol::Study;
+use super::protocol::Revert;
 use super::{ExperimentError, Progress, aopi, bc, ensure_dir, plot, summary};
 use crate::backend::sim::SimParams;
-
-/// Which of the paper's studies.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Study {
-    /// Binary Critiquing on ball interception (Table 1, Figure 5).
-    Bc,
-    /// Advice-Operator Policy Improvement on spatial positioning (Figures 8, 9, 11).
-    Aopi,
-}
-
-impl crate::choice::Choice for Study {
-    fn all() -> &'static [Study] {
-        &[Study::Bc, Study::Aopi]
-    }
-
-    fn name(self) -> &'static str {
-        match self {
-            Study::Bc => "bc",
-            Study::Aopi => "aopi",
-        }
-    }
-
-    fn help(self) -> &'static str {
-        match self {
-            Study::Bc => "Binary Critiquing on ball interception (Table 1, Figure 5)",
-            Study::Aopi => "Advice-Operator Policy Improvement on spatial positioning (Figures 8, 9, 11)",
-        }
-    }
-}
 
 /// Which seeds to run.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -115,9 +115,7 @@ fn messages(n: usize) -> String {
     }
 }
 
-/// The largest MCAP file read (a bag splits its recording into files of a set size; an hour of a
-/// base at 50 Hz is about 15 MB).
-pub const MAX_BAG_FILE_BYTES: u64 = 4 * 1024 * 1024 * 1024;
+use super::mcap_read::MAX_BAG_FILE_BYTES;
 
 /// Whether `path` names a bag rather than a CSV log: a directory, or a `.mcap` or `.db3` file.
 pub fn is_bag(path: &Path) -> bool {

@@ -26,6 +26,10 @@ use mcap::records::{Record, op};
 use super::ImportError;
 use crate::files::fmt_bytes;
 
+/// The largest MCAP file read (a bag splits its recording into files of a set size; an hour of a
+/// base at 50 Hz is about 15 MB).
+pub const MAX_BAG_FILE_BYTES: u64 = 4 * 1024 * 1024 * 1024;
+
 /// How far chunks may expand: per chunk, by ratio, and over a whole bag.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Bounds {
@@ -41,7 +45,7 @@ pub struct Bounds {
     /// cost much, and a short chunk's header dominates its compressed size.
     pub ratio_free_bytes: u64,
     /// The most all the chunks of a bag may decompress to together: what `advise` reads of an
-    /// uncompressed bag file ([`super::bag::MAX_BAG_FILE_BYTES`]).
+    /// uncompressed bag file ([`MAX_BAG_FILE_BYTES`]).
     pub total_bytes: u64,
 }
 
@@ -51,7 +55,7 @@ impl Bounds {
         chunk_bytes: 64 * 1024 * 1024,
         ratio: 1000,
         ratio_free_bytes: 64 * 1024,
-        total_bytes: super::bag::MAX_BAG_FILE_BYTES,
+        total_bytes: MAX_BAG_FILE_BYTES,
     };
 }
 

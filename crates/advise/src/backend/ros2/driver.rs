@@ -755,3 +755,18 @@ impl Drop for Ros2Backend {
         }
     }
 }
+/// A ROS 2 spec connects this driver (here, beside the driver, so that the spec's reading does
+/// not reach for the driver: issue 50).
+impl crate::backend::spec::Spec for Ros2Spec {
+    /// Join the domain and wait (the spec's `wait`) for the base's odometry.
+    fn connect(
+        &self,
+        with: &crate::backend::spec::Connect<'_>,
+    ) -> Result<Box<dyn Base>, BackendError> {
+        Ok(Box::new(Ros2Backend::connect(
+            self,
+            super::Ros2Config::for_sim(with.sim),
+        )?))
+    }
+}
+

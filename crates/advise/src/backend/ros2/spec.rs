@@ -19,11 +19,8 @@ use std::fmt;
 use miette::Diagnostic;
 use thiserror::Error;
 
-use super::Ros2Config;
-use super::driver::Ros2Backend;
 use crate::backend::registry::BackendKind;
-use crate::backend::spec::{BackendSpecError, Connect, Spec};
-use crate::backend::{BackendError, Base};
+use crate::backend::spec::{BackendSpecError, Spec};
 use crate::diag::suggest::hint;
 
 /// The registry's ROS 2 kind.
@@ -53,16 +50,6 @@ impl BackendKind for Ros2Kind {
             Ok(s) => Ok(Box::new(s)),
             Err(e) => Err(BackendSpecError::of(e)),
         }
-    }
-}
-
-impl Spec for Ros2Spec {
-    /// Join the domain and wait (the spec's `wait`) for the base's odometry.
-    fn connect(&self, with: &Connect<'_>) -> Result<Box<dyn Base>, BackendError> {
-        Ok(Box::new(Ros2Backend::connect(
-            self,
-            Ros2Config::for_sim(with.sim),
-        )?))
     }
 }
 
