@@ -408,7 +408,7 @@ pub struct EvalArgs {
     #[arg(
         long,
         default_value = "sim",
-        value_name = "sim|rmp:HOST:PORT|ros2[:NS]"
+        value_name = backend_syntaxes()
     )]
     pub backend: String,
     /// A ROS 2 base's command topic (as `?cmd=` in the spec): `--cmd-topic teleop/cmd_vel`.
@@ -702,7 +702,7 @@ pub struct SessionArgs {
     #[arg(
         long,
         default_value = "sim",
-        value_name = "sim|rmp:HOST:PORT|ros2[:NS]"
+        value_name = backend_syntaxes()
     )]
     pub backend: String,
     /// A ROS 2 base's command topic (as `?cmd=` in the spec): `--cmd-topic teleop/cmd_vel`.
@@ -781,6 +781,13 @@ pub fn load_task_files(files: &[PathBuf]) -> miette::Result<OperatorSet> {
 // The command line's spelling of library types that have no `clap` derive of their own (their
 // modules know nothing of the command line): one table each, read by clap for parsing, help and
 // completion.
+
+/// `--backend`'s value name: the registry's spellings (`sim|rmp:HOST:PORT|ros2[:NAMESPACE]`),
+/// so a new kind of base shows here without an edit.
+fn backend_syntaxes() -> &'static str {
+    static SYNTAXES: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    SYNTAXES.get_or_init(|| advise::backend::Registry::standard().syntaxes())
+}
 
 /// A library [`Choice`]'s words as an argument's possible values: listed in help, with clap's
 /// "did you mean" on a typo, spelled once in the library.

@@ -121,6 +121,7 @@ fn facts_of(session: &Session) -> Facts {
         operators: session.operator_signatures(),
         // The paper's tasks and those loaded with `tasks FILE`: refreshed after every statement.
         tasks: session.task_names(),
+        backends: session.backends().completions(""),
     }
 }
 

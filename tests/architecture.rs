@@ -246,6 +246,25 @@ fn code_only(text: &str) -> String {
                 prev = ' ';
                 continue;
             }
+            // A char literal (`'{'`, `'\''`), not a lifetime (`'a`): left out.
+            if c == '\'' {
+                let ahead: Vec<char> = chars.clone().take(3).collect();
+                if ahead.first() == Some(&'\\') {
+                    let mut skipped = 0;
+                    for d in chars.by_ref() {
+                        skipped += 1;
+                        if d == '\'' && skipped > 2 {
+                            break;
+                        }
+                    }
+                    continue;
+                }
+                if ahead.get(1) == Some(&'\'') {
+                    chars.next();
+                    chars.next();
+                    continue;
+                }
+            }
             out.push(c);
         }
         out.push('\n');
@@ -520,4 +539,121 @@ fn the_file_graph_finds_a_circle_through_groups_and_super() {
     std::fs::write(src.join("m/c.rs"), "use crate::m::self;\nuse super::Q;\n").unwrap();
     let (_, edges) = file_graph(src);
     assert!(circles(&edges).is_empty());
+}
+
+/// Every function of more than `limit` lines in `code` (comments and strings stripped, so a brace
+/// in either does not count): its name, its first line (1-based) and its length.
+fn long_functions(code: &str, limit: usize) -> Vec<(String, usize, usize)> {
+    let lines: Vec<&str> = code.lines().collect();
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < lines.len() {
+        let t = lines[i].trim_start();
+        let t = t
+            .strip_prefix("pub(crate) ")
+            .or_else(|| t.strip_prefix("pub(super) "))
+            .or_else(|| t.strip_prefix("pub "))
+            .unwrap_or(t);
+        let t = t.strip_prefix("const ").unwrap_or(t);
+        let Some(rest) = t.strip_prefix("fn ") else {
+            i += 1;
+            continue;
+        };
+        let name: String = rest
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        // The body: from the first `{` after the signature to its match (a declaration without
+        // a body, `fn f();`, ends at its `;`).
+        let mut depth = 0usize;
+        let mut opened = false;
+        let mut end = i;
+        'scan: for (k, line) in lines.iter().enumerate().skip(i) {
+            for c in line.chars() {
+                match c {
+                    ';' if !opened && depth == 0 => {
+                        end = k;
+                        break 'scan;
+                    }
+                    '{' => {
+                        depth += 1;
+                        opened = true;
+                    }
+                    '}' => {
+                        depth = depth.saturating_sub(1);
+                        if opened && depth == 0 {
+                            end = k;
+                            break 'scan;
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let len = end + 1 - i;
+        if opened && len > limit {
+            out.push((name, i + 1, len));
+        }
+        // Functions inside this one are counted as part of it.
+        i = end.max(i) + 1;
+    }
+    out
+}
+
+/// The most functions over 150 lines the crates may hold, each with its reason.
+const LONG_FUNCTIONS_ALLOWED: usize = 3;
+
+#[test]
+fn few_functions_are_long_and_each_says_why() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut long = Vec::new();
+    let mut unexplained = Vec::new();
+    for dir in SOURCES {
+        let mut files = Vec::new();
+        rust_files(&root.join(dir), &mut files);
+        files.sort();
+        for file in files {
+            let text = std::fs::read_to_string(&file).unwrap();
+            let raw: Vec<&str> = text.lines().collect();
+            let shown = file.strip_prefix(root).unwrap().display().to_string();
+            for (name, line, len) in long_functions(&code_only(&text), 150) {
+                long.push(format!("{shown}:{line}: `{name}`, {len} lines"));
+                // Its doc comment (the lines above, through attributes) gives the reason.
+                let doc: Vec<&str> = raw[..line - 1]
+                    .iter()
+                    .rev()
+                    .take_while(|l| {
+                        let l = l.trim_start();
+                        l.starts_with("///") || l.starts_with("#[")
+                    })
+                    .copied()
+                    .collect();
+                if !doc.iter().any(|l| l.contains("Over 150 lines because")) {
+                    unexplained.push(format!("{shown}:{line}: `{name}`"));
+                }
+            }
+        }
+    }
+    eprintln!("functions over 150 lines:\n{}", long.join("\n"));
+    assert!(
+        unexplained.is_empty(),
+        "functions over 150 lines without \"Over 150 lines because ...\" in their doc:\n{}",
+        unexplained.join("\n")
+    );
+    assert!(
+        long.len() <= LONG_FUNCTIONS_ALLOWED,
+        "{} functions over 150 lines (at most {LONG_FUNCTIONS_ALLOWED}): split some\n{}",
+        long.len(),
+        long.join("\n")
+    );
+}
+
+#[test]
+fn the_length_scan_counts_bodies_not_braces_in_strings() {
+    let body = "    x();\n".repeat(160);
+    let text = format!(
+        "/// Over 150 lines because a test says so.\nfn long() {{\n    let s = \"}}}}\"; // }}\n    let c = ('}}', '\\'', '\\u{{7d}}');\n{body}}}\nfn short<'a>(x: &'a str) {{}}\nfn decl();\n"
+    );
+    let found = long_functions(&code_only(&text), 150);
+    assert_eq!(found, [("long".to_string(), 2, 164)]);
 }

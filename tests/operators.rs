@@ -277,7 +277,13 @@ fn advice_re_synthesizes_exactly_and_survives_json() {
     let back: AppliedAdvice = serde_json::from_str(&json).unwrap();
     assert_eq!(back, out.advice);
     let again = interp::apply(
-        &check::rebind(&mut SourceMap::new(), &set, &back).unwrap(),
+        &check::bind(
+            &mut SourceMap::new(),
+            &set,
+            &back.domain,
+            &advise::syntax::parse_invocation(&back.invocation()).unwrap(),
+        )
+        .unwrap(),
         &tr,
         back.chunk,
     )

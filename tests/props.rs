@@ -169,7 +169,7 @@ proptest! {
         let json = serde_json::to_string(&out.advice).unwrap();
         let back: interp::AppliedAdvice = serde_json::from_str(&json).unwrap();
         prop_assert_eq!(&back, &out.advice, "{}", json);
-        let again = check::rebind(&mut SourceMap::new(), &set, &back).unwrap();
+        let again = check::bind(&mut SourceMap::new(), &set, &back.domain, &advise::syntax::parse_invocation(&back.invocation()).unwrap()).unwrap();
         prop_assert_eq!(interp::apply(&again, &tr, back.chunk).unwrap(), out);
     }
 }

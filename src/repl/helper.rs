@@ -23,6 +23,9 @@ pub struct Facts {
     pub operators: Vec<(String, String)>,
     /// The task names the session knows.
     pub tasks: Vec<String>,
+    /// The words `backend ` completes: the session's registry's (its kinds, a test's fake base
+    /// among them).
+    pub backends: Vec<String>,
 }
 
 /// The REPL's rustyline helper.
@@ -255,19 +258,13 @@ fn expect_arg(arg: &Arg, facts: &Facts, out: &mut Expect) {
             out.words.extend(ops);
         }
         ArgKind::Task => out.words.extend(facts.tasks.iter().cloned()),
-        ArgKind::Backend => out.words.extend(backend_words()),
+        ArgKind::Backend => out.words.extend(facts.backends.iter().cloned()),
         ArgKind::Learner => out
             .words
             .extend(LearnerKind::ALL.iter().map(|k| k.name().to_string())),
         ArgKind::Range => out.range = true,
         ArgKind::Number | ArgKind::Count | ArgKind::RosTopic => {}
     }
-}
-
-/// The beginnings of the backend spellings `backend` completes: the backend registry's words
-/// (`advise::backend::registry`), the one place that knows the backends.
-fn backend_words() -> Vec<String> {
-    advise::backend::registry::completions("")
 }
 
 /// Every line is handed on as typed: the REPL asks for the rest of an unfinished statement under
@@ -288,6 +285,7 @@ mod tests {
                 ("stop".into(), "stop".into()),
             ],
             tasks: vec!["positioning".into(), "interception".into()],
+            backends: advise::backend::Registry::standard().completions(""),
         };
         AdviseHelper::new(Arc::new(Mutex::new(facts)))
     }

@@ -38,7 +38,7 @@ use crate::domain::Domain;
 pub use crate::program::{Call, OperatorSet, Param};
 use crate::program::{DefinitionHash, OpBody, Operator, Stage};
 use crate::syntax::{self, ast::*};
-pub use bind::{bind, rebind};
+pub use bind::bind;
 use compose::{Known, Step};
 use decls::domain_difference;
 pub use error::{CheckError, CheckErrors, CheckWarning, ParseOrCheckError};

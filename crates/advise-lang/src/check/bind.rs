@@ -9,9 +9,9 @@ use std::sync::Arc;
 use super::error::CheckError;
 use super::hint;
 use crate::diag::{Loc, SourceId, SourceMap};
-use crate::program::{AppliedAdvice, Call, Frame, OpBody, Operator, OperatorSet, Param};
+use crate::program::{Call, Frame, OpBody, Operator, OperatorSet, Param};
 use crate::syntax::ast::{Ident, Span};
-use crate::syntax::{self, InvArg, Invocation};
+use crate::syntax::Invocation;
 
 /// The parameters of an operator being called, and the source its call is written in.
 pub(crate) struct Binder<'a> {
@@ -167,61 +167,6 @@ pub fn bind(
     bind_to(set.op(index), inv, at)
 }
 
-/// The call that recorded advice was made with, on the operator of that name in `set`, provided
-/// it is still the operator the advice was given with (same definition hash; for a record older
-/// than hashes, the same definition text). Nothing is parsed: the values are the record's.
-pub fn rebind(
-    sources: &mut SourceMap,
-    set: &OperatorSet,
-    advice: &AppliedAdvice,
-) -> Result<Call, CheckError> {
-    // The invocation the record stands for, with spans for diagnostics, built rather than parsed.
-    let mut text = advice.operator.clone();
-    let name = Ident {
-        name: advice.operator.clone(),
-        span: Span::new(0, text.len()),
-    };
-    let mut args = Vec::with_capacity(advice.params.len());
-    for (i, p) in advice.params.iter().enumerate() {
-        text.push_str(if i == 0 { "(" } else { ", " });
-        let start = text.len();
-        text.push_str(&p.name);
-        let name = Ident {
-            name: p.name.clone(),
-            span: Span::new(start, text.len()),
-        };
-        text.push_str(" = ");
-        text.push_str(&syntax::print::number(p.value));
-        args.push(InvArg {
-            name: Some(name),
-            value: p.value,
-            span: Span::new(start, text.len()),
-        });
-    }
-    if !args.is_empty() {
-        text.push(')');
-    }
-    let inv = Invocation { text, name, args };
-    let op = match set.find(&advice.domain, &advice.operator) {
-        Some(i) => set.op(i),
-        None => return bind(sources, set, &advice.domain, &inv),
-    };
-    let same = match advice.hash {
-        Some(h) => h == op.hash(),
-        None => advice.definition == op.definition(),
-    };
-    if !same {
-        return Err(CheckError::RedefinedOperator {
-            name: advice.operator.clone(),
-            domain: advice.domain.clone(),
-            definition: advice.definition.clone(),
-            origin: op.origin().into(),
-        });
-    }
-    let at = sources.add("advice", inv.text.as_str());
-    bind_to(op, &inv, at)
-}
-
 fn bind_to(op: &Arc<Operator>, inv: &Invocation, at: SourceId) -> Result<Call, CheckError> {
     let b = Binder {
         operator: op.name(),
@@ -289,7 +234,6 @@ mod tests {
     use super::*;
     use crate::check::Source;
     use crate::syntax::parse_invocation;
-    use crate::trace::Chunk;
     use miette::Diagnostic;
 
     fn set_with(text: &str) -> OperatorSet {
@@ -368,46 +312,6 @@ mod tests {
             matches!(&e, CheckError::UnknownOperator { help, .. } if help == "`push` is an operator for the `positioning` domain; there are no operators for `nowhere`"),
             "{e:?}"
         );
-    }
-
-    #[test]
-    fn recorded_advice_binds_again_only_to_the_same_definition() {
-        let first =
-            set_with("operator boost(v = 0.5 in [0, 1]) for positioning on action { trans = v }");
-        let inv = parse_invocation("boost(0.25)").unwrap();
-        let record = bind(&mut SourceMap::new(), &first, "positioning", &inv)
-            .unwrap()
-            .applied_to(Chunk { start: 1, end: 4 });
-        let again = rebind(&mut SourceMap::new(), &first, &record).unwrap();
-        assert_eq!(again.params(), &[0.25]);
-        assert_eq!(again.operator().hash(), record.hash.unwrap());
-
-        // The same name, another body: refused, whatever the parameters.
-        let second = set_with(
-            "operator boost(v = 0.5 in [0, 1]) for positioning on action { trans = v / 2 }",
-        );
-        let e = rebind(&mut SourceMap::new(), &second, &record).unwrap_err();
-        assert_eq!(code(&e), "advise::check::redefined_operator");
-
-        // A record from before hashes: its definition text decides.
-        let old = AppliedAdvice {
-            hash: None,
-            ..record.clone()
-        };
-        assert!(rebind(&mut SourceMap::new(), &first, &old).is_ok());
-        assert_eq!(
-            code(&rebind(&mut SourceMap::new(), &second, &old).unwrap_err()),
-            "advise::check::redefined_operator"
-        );
-
-        // Values are bound again, not trusted: a record edited out of range is refused.
-        let mut edited = record.clone();
-        edited.params[0].value = 3.0;
-        let mut map = SourceMap::new();
-        let e = rebind(&mut map, &first, &edited).unwrap_err();
-        assert_eq!(code(&e), "advise::check::parameter_out_of_range");
-        let shown = crate::diag::render(&map, &e, false);
-        assert!(shown.contains("boost(v = 3)"), "{shown}");
     }
 
     #[test]

@@ -384,19 +384,6 @@ pub enum CheckError {
         #[label("parameter {} of {count}", limit + 1)]
         span: Loc,
     },
-    #[error("`{name}` for `{domain}` has changed since this advice was given")]
-    #[diagnostic(
-        code(advise::check::redefined_operator),
-        help(
-            "the advice was given with `{definition}`; advise again to use the `{name}` defined in {origin}"
-        )
-    )]
-    RedefinedOperator {
-        name: String,
-        domain: String,
-        definition: String,
-        origin: String,
-    },
     #[error("stopped after {shown} errors; there may be more")]
     #[diagnostic(
         code(advise::check::too_many_errors),

@@ -214,11 +214,6 @@ impl Registry {
     }
 }
 
-/// What the REPL completes after `backend ` for `prefix`: the standard kinds' words, sorted.
-pub fn completions(prefix: &str) -> Vec<String> {
-    Registry::standard().completions(prefix)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -271,8 +266,8 @@ mod tests {
 
     #[test]
     fn completion_offers_every_kind() {
-        assert_eq!(completions(""), ["rmp:", "ros2", "ros2:", "sim"]);
-        assert_eq!(completions("r"), ["rmp:", "ros2", "ros2:"]);
-        assert_eq!(completions("x"), Vec::<String>::new());
+        assert_eq!(Registry::standard().completions(""), ["rmp:", "ros2", "ros2:", "sim"]);
+        assert_eq!(Registry::standard().completions("r"), ["rmp:", "ros2", "ros2:"]);
+        assert_eq!(Registry::standard().completions("x"), Vec::<String>::new());
     }
 }
