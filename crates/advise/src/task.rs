@@ -291,78 +291,185 @@ pub fn run_episode(
     controller: &mut dyn Controller,
     episode_seed: u64,
 ) -> Result<Execution, Interrupted> {
-    let domain = task.domain().clone();
-    let dt_s = backend.period_s();
-    let mut rec = Recorder {
-        trace: Trace::new(&domain),
-        true_poses: backend.true_pose().map(|_| Vec::new()),
-        ball: None,
-    };
-    let mut state = match backend.reset(task.start()) {
-        Ok(s) => s,
-        Err(error) => return Err(rec.interrupted(task, backend, BaseState::default(), error)),
-    };
-    task.begin(&state);
-    rec.ball = task.ball_xy().map(|_| Vec::new());
+    let mut ep = Stepper::begin(backend, task)?;
     controller.begin(episode_seed);
-    let mut z = vec![0.0; domain.obs_dim()];
-    let mut a = vec![0.0; domain.act_dim()];
-    let mut stopped = None;
-    let ending = loop {
-        if rec.trace.len() >= MAX_EPISODE_STEPS {
-            break Ending::TimeLimit;
-        }
-        task.observe(&state, &mut z);
-        // Never act on a value that is not a number: the controller would be queried with it and
-        // the base commanded on what it answered.
-        if let Some(i) = z.iter().position(|v| !v.is_finite()) {
-            let name = domain.observe.get(i).map_or("?", |d| d.name.as_str());
-            stopped = Some(NonFinite::new(
-                ValueKind::Observation,
-                name,
-                rec.trace.len(),
-                state.t_s,
-                z[i],
-            ));
-            break Ending::NonFinite;
-        }
+    let mut a = vec![0.0; task.domain().act_dim()];
+    while !ep.is_over() {
         a.iter_mut().for_each(|v| *v = 0.0);
-        controller.act(&z, &mut a);
-        for (v, dim) in a.iter_mut().zip(&domain.act) {
-            if !v.is_finite() {
-                *v = 0.0;
-            }
-            if let Some(l) = dim.limits {
+        controller.act(ep.observation(), &mut a);
+        if let Err(error) = ep.step(backend, task, &a) {
+            return Err(ep.interrupt(backend, task, error));
+        }
+    }
+    ep.finish(backend, task)
+}
+
+/// One episode, a step at a time: the loop of [`run_episode`], which drives it with a
+/// controller, and of anything that acts step by step itself (Python's `SimEnv`, a person taking
+/// over). It owns what the episode records, not the base or the task: each call is given them,
+/// so a holder of both (an environment) keeps the stepper beside them.
+///
+/// Each step, in order: the action (a value that is not a number made 0, each clamped to the
+/// domain's limits), [`Task::command`], the point recorded, the base commanded and stepped,
+/// [`Task::advance`]; then, unless the task ended the episode, the time limit
+/// ([`MAX_EPISODE_STEPS`]) and the next observation, which ends it if any value is not a number
+/// (never acted on).
+pub struct Stepper {
+    rec: Recorder,
+    act: Vec<Option<crate::domain::Limits>>,
+    dt_s: f64,
+    state: BaseState,
+    z: Vec<f64>,
+    a: Vec<f64>,
+    ending: Option<Ending>,
+    /// The observation that was not a number, if one ended the episode.
+    stopped: Option<NonFinite>,
+}
+
+impl Stepper {
+    /// Reset the base to the task's start, begin the task, and observe.
+    pub fn begin(backend: &mut dyn Backend, task: &mut dyn Task) -> Result<Stepper, Interrupted> {
+        let domain = task.domain().clone();
+        let rec = Recorder {
+            trace: Trace::new(&domain),
+            true_poses: backend.true_pose().map(|_| Vec::new()),
+            ball: None,
+        };
+        let mut ep = Stepper {
+            rec,
+            act: domain.act.iter().map(|d| d.limits).collect(),
+            dt_s: backend.period_s(),
+            state: BaseState::default(),
+            z: vec![0.0; domain.obs_dim()],
+            a: vec![0.0; domain.act_dim()],
+            ending: None,
+            stopped: None,
+        };
+        ep.state = match backend.reset(task.start()) {
+            Ok(s) => s,
+            Err(error) => return Err(ep.interrupt(backend, task, error)),
+        };
+        task.begin(&ep.state);
+        ep.rec.ball = task.ball_xy().map(|_| Vec::new());
+        ep.observe(task);
+        Ok(ep)
+    }
+
+    /// What the task observes now: the observation the next action answers.
+    pub fn observation(&self) -> &[f64] {
+        &self.z
+    }
+
+    /// The base's state now.
+    pub fn state(&self) -> &BaseState {
+        &self.state
+    }
+
+    /// Steps taken.
+    pub fn steps(&self) -> usize {
+        self.rec.trace.len()
+    }
+
+    /// How the episode ended, once it has.
+    pub fn ending(&self) -> Option<Ending> {
+        self.ending
+    }
+
+    /// Whether the episode is over (no more steps are taken).
+    pub fn is_over(&self) -> bool {
+        self.ending.is_some()
+    }
+
+    /// One step with `action`. A backend error leaves the episode to [`Stepper::interrupt`].
+    /// A step after the end does nothing.
+    pub fn step(
+        &mut self,
+        backend: &mut dyn Backend,
+        task: &mut dyn Task,
+        action: &[f64],
+    ) -> Result<Option<Ending>, BackendError> {
+        if self.ending.is_some() {
+            return Ok(self.ending);
+        }
+        for ((v, given), limits) in self.a.iter_mut().zip(action).zip(&self.act) {
+            *v = if given.is_finite() { *given } else { 0.0 };
+            if let Some(l) = limits {
                 *v = l.clamp(*v);
             }
         }
-        let (speed_mps, rot_radps) = task.command(&state, &a);
-        rec.push(&state, &z, &a, backend.true_pose(), task.ball_xy());
-        if let Err(error) = backend.command(speed_mps, rot_radps) {
-            return Err(rec.interrupted(task, backend, state, error));
+        let (speed_mps, rot_radps) = task.command(&self.state, &self.a);
+        self.rec.push(
+            &self.state,
+            &self.z,
+            &self.a,
+            backend.true_pose(),
+            task.ball_xy(),
+        );
+        backend.command(speed_mps, rot_radps)?;
+        self.state = backend.step()?;
+        self.ending = task.advance(self.dt_s, &self.state, backend.true_pose());
+        if self.ending.is_none() && self.rec.trace.len() >= MAX_EPISODE_STEPS {
+            self.ending = Some(Ending::TimeLimit);
         }
-        state = match backend.step() {
-            Ok(s) => s,
-            Err(error) => return Err(rec.interrupted(task, backend, state, error)),
-        };
-        if let Some(end) = task.advance(dt_s, &state, backend.true_pose()) {
-            break end;
+        if self.ending.is_none() {
+            self.observe(task);
+        } else {
+            // The last observation, for a caller that shows it (an environment's final one);
+            // nothing acts on it.
+            task.observe(&self.state, &mut self.z);
         }
-    };
-    // The episode is over; a failure to stop is still worth reporting.
-    if let Err(error) = backend.stop() {
-        let mut i = rec.interrupted(task, backend, state, error);
-        i.execution.outcome.non_finite = stopped.or(i.execution.outcome.non_finite);
-        return Err(i);
+        Ok(self.ending)
     }
-    let mut exec = rec.finish(task, backend, &state, ending);
-    if stopped.is_some() {
-        // The observation came first; a score that is not a number either is held as 0 all the
-        // same (`finish` did that).
-        exec.outcome.non_finite = stopped;
-        exec.outcome.success = false;
+
+    /// The task's observation of the base now; a value that is not a number ends the episode.
+    fn observe(&mut self, task: &dyn Task) {
+        task.observe(&self.state, &mut self.z);
+        if let Some(i) = self.z.iter().position(|v| !v.is_finite()) {
+            let name = task.domain().observe.get(i).map_or("?", |d| d.name.as_str());
+            self.stopped = Some(NonFinite::new(
+                ValueKind::Observation,
+                name,
+                self.rec.trace.len(),
+                self.state.t_s,
+                self.z[i],
+            ));
+            self.ending = Some(Ending::NonFinite);
+        }
     }
-    Ok(exec)
+
+    /// The episode as an execution, the base stopped. A failure to stop is still reported, with
+    /// the execution so far.
+    pub fn finish(
+        self,
+        backend: &mut dyn Backend,
+        task: &dyn Task,
+    ) -> Result<Execution, Interrupted> {
+        let ending = self.ending.unwrap_or(Ending::Interrupted);
+        let stopped = self.stopped;
+        if let Err(error) = backend.stop() {
+            let mut i = self.rec.interrupted(task, backend, self.state, error);
+            i.execution.outcome.non_finite = stopped.or(i.execution.outcome.non_finite);
+            return Err(i);
+        }
+        let mut exec = self.rec.finish(task, backend, &self.state, ending);
+        if stopped.is_some() {
+            // The observation came first; a score that is not a number either is held as 0 all
+            // the same (`finish` did that).
+            exec.outcome.non_finite = stopped;
+            exec.outcome.success = false;
+        }
+        Ok(exec)
+    }
+
+    /// The episode cut short by `error` (the base stopped, best effort): the execution so far.
+    pub fn interrupt(
+        self,
+        backend: &mut dyn Backend,
+        task: &dyn Task,
+        error: BackendError,
+    ) -> Interrupted {
+        self.rec.interrupted(task, backend, self.state, error)
+    }
 }
 
 struct Recorder {
