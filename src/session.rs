@@ -554,7 +554,11 @@ impl Session {
     /// The task called `name`: one of the paper's, or one declared by a file loaded with
     /// `tasks FILE` (or `operators FILE`), by the one resolver ([`crate::task::resolve`]).
     pub(crate) fn resolve_task(&self, name: &str) -> Result<TaskKind, SessionError> {
-        Ok(crate::task::resolve(name, &self.ops, crate::task::Front::Session)?)
+        Ok(crate::task::resolve(
+            name,
+            &self.ops,
+            crate::task::Front::Session,
+        )?)
     }
 
     /// Every task the session knows: the paper's two, then the declared ones.

@@ -113,11 +113,7 @@ pub fn task_files(py: Python<'_>, tasks: Option<&Bound<'_, PyAny>>) -> PyResult<
 /// operator set the files make (the standard operators, the files', and each declared task's
 /// standard operators by role): the library's one resolver, as `advise --tasks FILE --task NAME`
 /// resolves it. Every mistake in the files is raised, each with its place.
-pub fn task_in(
-    py: Python<'_>,
-    name: &str,
-    files: &[PathBuf],
-) -> PyResult<(TaskKind, OperatorSet)> {
+pub fn task_in(py: Python<'_>, name: &str, files: &[PathBuf]) -> PyResult<(TaskKind, OperatorSet)> {
     let mut map = SourceMap::new();
     advise::task::resolve_in_files(&mut map, name, files, Front::Python)
         .map_err(|e| raise(py, Diagnostic::all_of(&map, &e, "error")))
