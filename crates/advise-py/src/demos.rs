@@ -15,7 +15,7 @@ use pyo3::prelude::*;
 
 use crate::arrays::to_numpy;
 use crate::diag::Diagnostic;
-use crate::error::{raise, simple};
+use crate::error::{from_diag, raise, simple};
 use crate::ops::domain_in;
 
 /// What `load_demos` returns: observations, actions, each row's episode index, episode names.
@@ -69,7 +69,7 @@ pub fn load_demos<'py>(
         path,
         &options,
     )
-    .map_err(|e| crate::error::from_diag(py, &files, &e))?;
+    .map_err(|e| from_diag(py, &files, &e))?;
     let (mut z, mut a, mut index, mut names) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for (i, e) in read.episodes.iter().enumerate() {
         z.extend_from_slice(&e.trace.z);
