@@ -15,7 +15,6 @@ use advise::backend::rmp::codec::{Platform, WordOrder};
 use advise::backend::sim::SimParams;
 use advise::eval::EvalPolicy;
 use advise::experiment::study::{Seeds, Study};
-use advise::program::OperatorSet;
 use advise::task::TaskKind;
 
 pub mod operators;
@@ -521,9 +520,6 @@ pub enum CliError {
         )
     )]
     NoDataset { policy: &'static str },
-    #[error("unknown task `{name}`")]
-    #[diagnostic(code(advise::cli::unknown_task), help("{help}"))]
-    UnknownTask { name: String, help: String },
     #[error("the task `{task}` has no teacher to demonstrate it")]
     #[diagnostic(
         code(advise::cli::no_teacher),
@@ -729,53 +725,13 @@ impl Default for SessionArgs {
 }
 
 /// The task `name`: one of the paper's, or one declared in `files` (checked on top of the
-/// standard operators, every mistake reported).
+/// standard operators, every mistake reported), by the library's one resolver
+/// ([`advise::task::resolve_in_files`]); its errors bring the files along.
 pub fn resolve_task(name: &str, files: &[PathBuf]) -> miette::Result<TaskKind> {
-    if files.is_empty()
-        && let Some(t) = TaskKind::builtin(name)
-    {
-        return Ok(t);
-    }
-    let set = load_task_files(files)?;
-    if let Some(t) = TaskKind::builtin(name) {
-        return Ok(t);
-    }
-    if let Some(def) = set.task(name) {
-        return Ok(TaskKind::Declared(def.clone()));
-    }
-    let mut names: Vec<String> = vec!["positioning".into(), "interception".into()];
-    names.extend(set.tasks().iter().map(|t| t.name().to_string()));
-    let listed = names
-        .iter()
-        .map(|n| format!("`{n}`"))
-        .collect::<Vec<_>>()
-        .join(", ");
-    let help = match advise::diag::suggest::closest(name, names.iter().map(String::as_str)) {
-        Some(s) => format!("did you mean `{s}`?"),
-        None if files.is_empty() => format!(
-            "the tasks are {listed}; a task declared in a file is named after `--tasks FILE`"
-        ),
-        None => format!("the tasks are {listed}"),
-    };
-    Err(CliError::UnknownTask {
-        name: name.into(),
-        help,
-    }
-    .into())
-}
-
-/// The standard operators with the task files checked on top.
-pub fn load_task_files(files: &[PathBuf]) -> miette::Result<OperatorSet> {
     let mut map = advise::diag::SourceMap::new();
-    let mut ids = Vec::new();
-    for f in files {
-        ids.push(advise::files::read_source(&mut map, f).map_err(|e| map.attach(e))?);
-    }
-    let base = OperatorSet::standard();
-    match base.merge_in(&map, &ids) {
-        Ok(c) => Ok(c.set),
-        Err(e) => Err(map.attach(e).into()),
-    }
+    advise::task::resolve_in_files(&mut map, name, files, advise::task::Front::CommandLine)
+        .map(|(kind, _)| kind)
+        .map_err(|e| map.attach(e).into())
 }
 
 // The command line's spelling of library types that have no `clap` derive of their own (their
@@ -869,13 +825,8 @@ pub fn parse_seeds(seed: u64, range: Option<&str>) -> miette::Result<Seeds> {
 
 /// `--sim-params FILE`, or the defaults.
 pub fn sim_params(path: Option<&Path>) -> miette::Result<SimParams> {
-    Ok(match path {
-        Some(p) => {
-            let mut files = advise::diag::SourceMap::new();
-            SimParams::load(&mut files, p).map_err(|e| files.attach(e))?
-        }
-        None => SimParams::default(),
-    })
+    let mut files = advise::diag::SourceMap::new();
+    advise::experiment::sim_params(&mut files, path).map_err(|e| files.attach(e).into())
 }
 
 /// Print to stdout; a closed pipe (`advise eval --json | head`) is not an error.

@@ -48,14 +48,15 @@ class Diagnostic:
 
 def check(path_or_text: str) -> list[Diagnostic]:
     """Check an operator file or text on top of the standard operators; the warnings, or
-    AdviseError with every error."""
+    AdviseError with every error. A one-line string ending in ``.adv`` or holding a path
+    separator (and no ``{`` or ``=``) is a path: no such file is ``advise::py::no_such_file``."""
 
 def load_demos(
     path: str,
     *,
     task: str | None = None,
     domain: str | None = None,
-    tasks: Sequence[str] | None = None,
+    tasks: str | os.PathLike[str] | Sequence[str | os.PathLike[str]] | None = None,
     cmd_topic: str | None = None,
     odom_topic: str | None = None,
     keep_idle: bool = False,
@@ -96,12 +97,17 @@ def test(path_or_text: str | None = None) -> list[TestResult]:
     operators), or of the standard operators, as ``advise test`` does."""
 
 class Operators:
-    """The standard advice operators plus those of ``files`` (paths or operator text)."""
+    """The standard advice operators plus those of ``tasks`` (task files) and ``files`` (paths or
+    operator text), each declared task with the standard operators by role (``advise check
+    --tasks``)."""
 
-    def __init__(self, *files: str) -> None: ...
+    def __init__(
+        self, *files: str, tasks: str | os.PathLike[str] | Sequence[str | os.PathLike[str]] | None = None
+    ) -> None: ...
     @property
     def warnings(self) -> list[Diagnostic]: ...
     def domains(self) -> list[str]: ...
+    def tasks(self) -> list[str]: ...
     def names(self, domain: str) -> list[str]: ...
     def apply(
         self,
@@ -121,9 +127,16 @@ class _Learner:
     """What BC and LWR share (in these stubs only: the runtime classes are separate)."""
 
     def __init__(
-        self, *, task: str | None = None, domain: str | None = None, seed: int = 0, k: int | None = None
+        self,
+        *,
+        task: str | None = None,
+        domain: str | None = None,
+        tasks: str | os.PathLike[str] | Sequence[str | os.PathLike[str]] | None = None,
+        seed: int = 0,
+        k: int | None = None,
     ) -> None:
-        """`k` (LWR only): its kernel limited to the k nearest points."""
+        """``task`` (built in, or declared in ``tasks`` files) or ``domain``; ``k`` (LWR only): its
+        kernel limited to the k nearest points."""
     def fit(
         self, observations: npt.ArrayLike, actions: npt.ArrayLike, episodes: Sequence[int] | None = None
     ) -> Self:
@@ -319,7 +332,7 @@ def advise_demos(
     operator: str,
     params: Mapping[str, float | bool],
     task: str = "positioning",
-    tasks: Sequence[str] | None = None,
+    tasks: str | os.PathLike[str] | Sequence[str | os.PathLike[str]] | None = None,
     operators: Sequence[str] = (),
     cmd_topic: str | None = None,
     odom_topic: str | None = None,

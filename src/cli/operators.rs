@@ -381,31 +381,15 @@ pub fn test(tasks: &[PathBuf], files: &[PathBuf]) -> miette::Result<ExitCode> {
 }
 
 /// The standard operators, then the task files `task_ids`, each of their tasks with the standard
-/// operators by role (as a session's `tasks FILE` gives them), then the operator files `op_ids`.
+/// operators by role (as a session's `tasks FILE` gives them: [`OperatorSet::merge_declaring`]),
+/// then the operator files `op_ids`. The task files' warnings come first.
 fn merge_tasks_then_operators(
     map: &mut SourceMap,
     task_ids: &[SourceId],
     op_ids: &[SourceId],
 ) -> Result<check::Checked, check::CheckErrors> {
-    OperatorSet::standard()
-        .merge_in(map, task_ids)
-        .and_then(|first| {
-            // The tasks the files declare (not the standard ones, whose operators are written).
-            let standard = OperatorSet::standard();
-            let declared: Vec<_> = first
-                .set
-                .tasks()
-                .iter()
-                .filter(|t| standard.tasks().iter().all(|s| s.name() != t.name()))
-                .cloned()
-                .collect();
-            // Every role operator, then the task files again on top: a task file's own operator
-            // of a standard name shadows it there and says so (`shadows_standard`), as an
-            // operator file's does. The second check's warnings are the task files' ones.
-            let set = check::with_role_operators(first.set, map, &declared, false);
-            let again = set.merge_in(map, task_ids)?;
-            let mut rest = again.set.merge_in(map, op_ids)?;
-            rest.warnings.splice(0..0, again.warnings);
-            Ok(rest)
-        })
+    let tasks = OperatorSet::standard().merge_declaring(map, task_ids)?;
+    let mut rest = tasks.set.merge_in(map, op_ids)?;
+    rest.warnings.splice(0..0, tasks.warnings);
+    Ok(rest)
 }

@@ -47,7 +47,7 @@ def test_bad_actions_and_tasks_raise_coded_errors():
     assert e.value.code == "advise::py::shape"
     with pytest.raises(advise.AdviseError) as e:
         advise.SimEnv("docking")
-    assert e.value.code == "advise::py::unknown_task"
+    assert e.value.code == "advise::task::unknown_task"
 
 
 @pytest.mark.parametrize("task, env_id", [("interception", "advise/Interception-v0")])

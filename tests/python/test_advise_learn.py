@@ -94,7 +94,7 @@ def test_bad_inputs_raise_coded_errors(session):
     assert e.value.code == "advise::py::not_finite"
     with pytest.raises(advise.AdviseError) as e:
         advise.LWR(task="docking")
-    assert e.value.code == "advise::py::unknown_task"
+    assert e.value.code == "advise::task::unknown_task"
     with pytest.raises(advise.AdviseError) as e:
         advise.BC(task="positioning").fit_file(str(d / "missing.csv"))
     assert e.value.code.startswith("advise::file::")

@@ -225,7 +225,7 @@ def test_a_declared_tasks_dataset_reads_and_advises_with_its_task_file(tmp_path)
         subprocess.run([ADVISE, *args], cwd=tmp_path, check=True, capture_output=True, timeout=120)
     with pytest.raises(advise.AdviseError) as e:
         advise.load_lerobot(str(tmp_path / "lr"), "standoff")
-    assert e.value.code == "advise::py::unknown_task"
+    assert e.value.code == "advise::task::unknown_task"
     data = advise.load_lerobot(str(tmp_path / "lr"), "standoff", tasks=[tasks])
     z, a, ep, _ = advise.load_demos(str(tmp_path / "s.json"), task="standoff", tasks=[tasks])
     assert data["domain"] == "standoff"

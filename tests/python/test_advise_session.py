@@ -52,7 +52,7 @@ def test_a_failing_statement_raises_its_code():
     assert e.value.code.startswith("advise::")
     with pytest.raises(advise.AdviseError) as e:
         advise.Session(task="docking")
-    assert e.value.code == "advise::py::unknown_task"
+    assert e.value.code == "advise::task::unknown_task"
 
 
 # --- Journals, executions as arrays and declared tasks (the CLI's `advise run`, `advise resume`,
@@ -367,7 +367,7 @@ def error_of(call):
 def test_what_a_session_refuses(tmp_path):
     d = error_of(lambda: advise.Session(task="standof", tasks=[STANDOFF]))
     assert (d.code, d.message, d.help) == (
-        "advise::cli::unknown_task", "unknown task `standof`", "did you mean `standoff`?"
+        "advise::task::unknown_task", "unknown task `standof`", "did you mean `standoff`?"
     )
     missing = str(tmp_path / "missing.adv")
     d = error_of(lambda: advise.Session(task="standoff", tasks=[missing]))
@@ -381,7 +381,7 @@ def test_what_a_session_refuses(tmp_path):
     )
     assert (d.span.file, d.span.line, d.span.column) == (str(bad), 2, 3)
     d = error_of(lambda: advise.Session(task="docking"))
-    assert (d.code, d.message) == ("advise::py::unknown_task", "there is no built-in task `docking`")
+    assert (d.code, d.message) == ("advise::task::unknown_task", "unknown task `docking`")
     d = error_of(lambda: advise.Session(task="standoff", tasks=3))
     assert (d.code, d.message) == ("advise::py::tasks", "`tasks` is 3, not a task file or a list of them")
     d = error_of(lambda: advise.Session(journal=42))

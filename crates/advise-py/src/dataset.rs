@@ -4,7 +4,6 @@
 
 use std::path::Path;
 
-use advise::check::OperatorSet;
 use advise::diag::SourceMap;
 use advise::policy::dataset::{Dataset, Provenance};
 use advise::recording::ImportOptions;
@@ -13,7 +12,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use crate::arrays::{set_dim_names, str_array, to_numpy};
-use crate::demos::task_kind;
+use crate::demos::{task_files, task_in};
 use crate::error::{from_diag, simple};
 use crate::ops::{apply_on_chunk, merge};
 
@@ -111,7 +110,7 @@ pub fn advise_demos<'py>(
     operator: &str,
     params: &Bound<'py, PyDict>,
     task: &str,
-    tasks: Option<Vec<String>>,
+    tasks: Option<&Bound<'py, PyAny>>,
     operators: Vec<String>,
     cmd_topic: Option<String>,
     odom_topic: Option<String>,
@@ -122,10 +121,9 @@ pub fn advise_demos<'py>(
     }
     advise::files::refuse_overwriting_inputs(Path::new(out), inputs.iter().map(|p| p.as_path()))
         .map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
-    let mut task_files = tasks.clone().unwrap_or_default();
-    task_files.extend(operators);
-    let kind = task_kind(py, task, tasks)?;
-    let (set, _warnings) = merge(py, &OperatorSet::standard(), &task_files)?;
+    let files = task_files(py, tasks)?;
+    let (kind, set) = task_in(py, task, &files)?;
+    let (set, _warnings) = merge(py, &set, &operators)?;
     let domain = kind.domain();
     let options = ImportOptions {
         cmd_topic,

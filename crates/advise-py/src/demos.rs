@@ -1,10 +1,15 @@
 //! `advise.load_demos`: a demonstrations file as numpy arrays, read as `load demos FILE` reads it.
 
-use advise::check::{CheckErrors, OperatorSet};
-use advise::diag::{SourceMap, Sourced};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use advise::check::OperatorSet;
+use advise::diag::SourceMap;
+use advise::domain::Domain;
+use advise::program::task::TaskDef;
 use advise::recording::ImportOptions;
 use advise::session::read_demos_file;
-use advise::task::TaskKind;
+use advise::task::{Front, TaskKind};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
 
@@ -29,9 +34,10 @@ type Loaded<'py> = (
 /// ROS 2 bag (a rosbag2 folder or an `.mcap` file) or CSV log of a base's drive, made into
 /// demonstrations as `advise import` makes them (`cmd_topic`/`odom_topic` name a bag's topics;
 /// idle points are trimmed unless `keep_idle`). The domain is `domain`'s or `task`'s (default
-/// positioning); `tasks` are task files (`advise --tasks FILE`) declaring `task`. Returns the
-/// observations and actions of every point (episode after episode), each point's episode index,
-/// and the episodes' names. Raises AdviseError with the file's diagnostic when it cannot be read.
+/// positioning); `tasks` is a task file or a list of them (`advise --tasks FILE`) declaring
+/// `task`. Returns the observations and actions of every point (episode after episode), each
+/// point's episode index, and the episodes' names. Raises AdviseError with the file's diagnostic
+/// when it cannot be read.
 #[pyfunction]
 #[pyo3(signature = (path, *, task=None, domain=None, tasks=None, cmd_topic=None, odom_topic=None, keep_idle=false))]
 #[allow(clippy::too_many_arguments)] // Python's keyword arguments, each with its default.
@@ -40,29 +46,14 @@ pub fn load_demos<'py>(
     path: &str,
     task: Option<&str>,
     domain: Option<&str>,
-    tasks: Option<Vec<String>>,
+    tasks: Option<&Bound<'py, PyAny>>,
     cmd_topic: Option<String>,
     odom_topic: Option<String>,
     keep_idle: bool,
 ) -> PyResult<Loaded<'py>> {
-    let (domain, def) = match (domain, task, tasks) {
-        (Some(d), None, None) => (
-            domain_in(py, &OperatorSet::standard(), Some(d), None)?,
-            None,
-        ),
-        (None, task, files) => {
-            let kind = task_kind(py, task.unwrap_or("positioning"), files)?;
-            (kind.domain(), kind.def())
-        }
-        _ => {
-            return Err(simple(
-                py,
-                "advise::py::domain_or_task",
-                "give `domain=` alone, or `task=` (with `tasks=` for a declared task)".into(),
-                "`domain=\"positioning\"`, `task=\"interception\"` or `task=\"dock\", tasks=[\"dock.adv\"]`",
-            ));
-        }
-    };
+    let files = task_files(py, tasks)?;
+    let named = Named::new(py, domain, task, &files, Some("positioning"))?;
+    let domain = named.domain;
     let options = ImportOptions {
         cmd_topic,
         odom_topic,
@@ -72,9 +63,9 @@ pub fn load_demos<'py>(
     let mut files = SourceMap::new();
     let read = read_demos_file(
         &mut files,
-        &OperatorSet::standard(),
+        &named.set,
         &domain,
-        def.as_ref(),
+        named.def.as_ref(),
         path,
         &options,
     )
@@ -95,31 +86,101 @@ pub fn load_demos<'py>(
     ))
 }
 
-/// The task `name`: a built-in one, or one declared in the task files `files` (checked as
-/// `advise --tasks FILE` checks them).
-pub fn task_kind(py: Python<'_>, name: &str, files: Option<Vec<String>>) -> PyResult<TaskKind> {
-    match files {
-        Some(files) => {
-            let files: Vec<std::path::PathBuf> = files.into_iter().map(Into::into).collect();
-            advise::cli::resolve_task(name, &files).map_err(|r| tasks_error(py, &r))
-        }
-        None => TaskKind::builtin(name).ok_or_else(|| {
-            simple(
-                py,
-                "advise::py::unknown_task",
-                format!("there is no built-in task `{name}`"),
-                "the built-in tasks are `positioning` and `interception`; a declared task needs \
-                 its file: `tasks=[\"FILE.adv\"]`",
-            )
-        }),
+/// `tasks=`: a task file (a str or an `os.PathLike`) or a list of them, as `Session`,
+/// `make_env`, the learners, `Operators` and `load_demos` all take it; None is none.
+pub fn task_files(py: Python<'_>, tasks: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<PathBuf>> {
+    let Some(t) = tasks.filter(|t| !t.is_none()) else {
+        return Ok(Vec::new());
+    };
+    if let Ok(one) = t.extract::<PathBuf>() {
+        return Ok(vec![one]);
     }
+    t.extract::<Vec<PathBuf>>().map_err(|_| {
+        simple(
+            py,
+            "advise::py::tasks",
+            format!(
+                "`tasks` is {}, not a task file or a list of them",
+                t.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+            ),
+            "pass the path of a file declaring the task (`tasks=\"dock.adv\"`) or a list of \
+             paths (`tasks=[\"dock.adv\", \"more.adv\"]`)",
+        )
+    })
 }
 
-/// The refusal of task files or a task name: a check's errors each with its place (as
-/// `advise.check` gives them), anything else as it is.
-fn tasks_error(py: Python<'_>, r: &miette::Report) -> PyErr {
-    match r.downcast_ref::<Sourced<CheckErrors>>() {
-        Some(s) => raise(py, Diagnostic::all_of(&s.sources, &s.error, "error")),
-        None => from_diag(py, &SourceMap::new(), r.as_ref()),
+/// The task `name` among the built-in ones and those the task files `files` declare, with the
+/// operator set the files make (the standard operators, the files', and each declared task's
+/// standard operators by role): the library's one resolver, as `advise --tasks FILE --task NAME`
+/// resolves it. Every mistake in the files is raised, each with its place.
+pub fn task_in(py: Python<'_>, name: &str, files: &[PathBuf]) -> PyResult<(TaskKind, OperatorSet)> {
+    let mut map = SourceMap::new();
+    advise::task::resolve_in_files(&mut map, name, files, Front::Python)
+        .map_err(|e| raise(py, Diagnostic::all_of(&map, &e, "error")))
+}
+
+/// The task `name`, built in or declared in the task files `files` ([`task_in`]).
+pub fn task_kind(py: Python<'_>, name: &str, files: Option<Vec<String>>) -> PyResult<TaskKind> {
+    let files: Vec<PathBuf> = files.into_iter().flatten().map(PathBuf::from).collect();
+    task_in(py, name, &files).map(|(kind, _)| kind)
+}
+
+/// What `domain=`, `task=` and `tasks=` name together: a domain (of the standard operators or
+/// the task files) or a task (built in or declared in the task files; `default` when neither
+/// is given), and the operator set of the task files.
+pub struct Named {
+    pub domain: Domain,
+    /// The task's definition, when a task was named: how a recording of a base's drive becomes
+    /// demonstrations.
+    pub def: Option<Arc<TaskDef>>,
+    pub set: OperatorSet,
+}
+
+impl Named {
+    pub fn new(
+        py: Python<'_>,
+        domain: Option<&str>,
+        task: Option<&str>,
+        files: &[PathBuf],
+        default: Option<&str>,
+    ) -> PyResult<Named> {
+        let task = if domain.is_none() {
+            task.or(default)
+        } else {
+            task
+        };
+        match (domain, task) {
+            (Some(d), None) => {
+                let set = if files.is_empty() {
+                    OperatorSet::standard()
+                } else {
+                    let mut map = SourceMap::new();
+                    advise::task::load_task_files(&mut map, files)
+                        .map_err(|e| raise(py, Diagnostic::all_of(&map, &e, "error")))?
+                        .set
+                };
+                let domain = domain_in(py, &set, Some(d), None)?;
+                Ok(Named {
+                    domain,
+                    def: None,
+                    set,
+                })
+            }
+            (None, Some(t)) => {
+                let (kind, set) = task_in(py, t, files)?;
+                Ok(Named {
+                    domain: kind.domain(),
+                    def: kind.def(),
+                    set,
+                })
+            }
+            _ => Err(simple(
+                py,
+                "advise::py::domain_or_task",
+                "give exactly one of `domain=` and `task=`".into(),
+                "`domain=\"positioning\"`, `task=\"interception\"` or `task=\"dock\", \
+                 tasks=\"dock.adv\"` (a task declared in a file)",
+            )),
+        }
     }
 }

@@ -15,16 +15,19 @@ use pyo3::prelude::*;
 
 use crate::arrays::{matrix, to_numpy};
 use crate::error::{from_diag, simple};
-use crate::ops::{domain_in, trace_of};
+use crate::ops::trace_of;
 
 /// What BC and LWR share: the domain and, once fitted, the learner.
 struct Fitted {
     kind: LearnerKind,
     domain: Domain,
     seed: u64,
-    /// The built-in task's definition (`task=`): how `fit_file` makes a recording of a base's
-    /// drive into demonstrations.
+    /// The task's definition (`task=`): how `fit_file` makes a recording of a base's drive into
+    /// demonstrations.
     def: Option<std::sync::Arc<advise::program::task::TaskDef>>,
+    /// The standard operators with the task files (`tasks=`): what `fit_file` tells a file of
+    /// another task by.
+    set: OperatorSet,
     learner: Option<Learner>,
     /// LWR's kernel limited to its k nearest points (`LWR(k=N)`); `None`: the protocol's rule.
     lwr_k: Option<usize>,
@@ -36,16 +39,17 @@ impl Fitted {
         kind: LearnerKind,
         domain: Option<&str>,
         task: Option<&str>,
+        tasks: Option<&Bound<'_, PyAny>>,
         seed: u64,
     ) -> PyResult<Fitted> {
-        let domain = domain_in(py, &OperatorSet::standard(), domain, task)?;
+        let files = crate::demos::task_files(py, tasks)?;
+        let named = crate::demos::Named::new(py, domain, task, &files, None)?;
         Ok(Fitted {
             kind,
-            domain,
+            domain: named.domain,
             seed,
-            def: task
-                .and_then(advise::task::TaskKind::builtin)
-                .and_then(|t| t.def()),
+            def: named.def,
+            set: named.set,
             learner: None,
             lwr_k: None,
         })
@@ -128,7 +132,7 @@ impl Fitted {
         let mut files = SourceMap::new();
         let read = advise::session::read_demos_file(
             &mut files,
-            &OperatorSet::standard(),
+            &self.set,
             &self.domain,
             self.def.as_ref(),
             path,
@@ -226,17 +230,20 @@ macro_rules! learner_class {
         #[pymethods]
         impl $name {
             #[new]
-            /// `k` (LWR): its kernel limited to the k nearest points (default: no limit up to
-            /// 20,000 points, beyond them the tuned kernel's mean neighbours).
-            #[pyo3(signature = (*, task=None, domain=None, seed=0, k=None))]
+            /// `task` (built in, or declared in `tasks`: a task file or a list of them, as
+            /// `advise.Session` takes them) or `domain` says what the observations and actions
+            /// are. `k` (LWR): its kernel limited to the k nearest points (default: no limit up
+            /// to 20,000 points, beyond them the tuned kernel's mean neighbours).
+            #[pyo3(signature = (*, task=None, domain=None, tasks=None, seed=0, k=None))]
             fn new(
                 py: Python<'_>,
                 task: Option<&str>,
                 domain: Option<&str>,
+                tasks: Option<&Bound<'_, PyAny>>,
                 seed: u64,
                 k: Option<usize>,
             ) -> PyResult<Self> {
-                let mut fitted = Fitted::new(py, $kind, domain, task, seed)?;
+                let mut fitted = Fitted::new(py, $kind, domain, task, tasks, seed)?;
                 if k.is_some() && $kind != LearnerKind::Lwr {
                     return Err(simple(
                         py,

@@ -15,7 +15,8 @@ use crate::diag::Diagnostic;
 use crate::error::{from_diag, raise, simple};
 
 /// `path_or_text` as a source of `map`: an existing file is read (with the files' rules: regular,
-/// capped, UTF-8), anything else is operator text named `<text>`.
+/// capped, UTF-8); text that looks like a path ([`looks_like_path`]) but names no file is refused
+/// with `advise::py::no_such_file`; anything else is operator text named `<text>`.
 pub(crate) fn source(
     py: Python<'_>,
     map: &mut SourceMap,
@@ -24,13 +25,54 @@ pub(crate) fn source(
     let path = Path::new(path_or_text);
     if !path_or_text.contains('\n') && path.exists() {
         advise::files::read_source(map, path).map_err(|e| from_diag(py, map, &e))
+    } else if looks_like_path(path_or_text) {
+        Err(no_such_file(py, path_or_text))
     } else {
         Ok(map.add("<text>", path_or_text))
     }
 }
 
-/// Check `sources` on top of the standard operators; the warnings, or an `AdviseError` with
-/// every error.
+/// Whether `s` is meant as a file's path rather than operator text: one line, no `{` (every
+/// operator and domain written on one line has a block or a `=`) and no `=`, and either ending in
+/// `.adv` or holding a path separator.
+fn looks_like_path(s: &str) -> bool {
+    let s = s.trim();
+    !s.is_empty()
+        && !s.contains(['\n', '{', '='])
+        && (s.ends_with(".adv") || s.contains('/') || s.contains(std::path::MAIN_SEPARATOR))
+}
+
+/// `advise::py::no_such_file`: `path` names no file, said with where a relative path is read from.
+fn no_such_file(py: Python<'_>, path: &str) -> PyErr {
+    let here = std::env::current_dir()
+        .map(|d| d.display().to_string())
+        .unwrap_or_else(|_| "the working directory".into());
+    let standard = advise::check::STANDARD_SOURCES
+        .iter()
+        .any(|(name, _)| Path::new(path).ends_with(name));
+    let help = if standard {
+        format!(
+            "a relative path is read from the working directory, {here}; the standard operators \
+             (`{path}`) are built in and always checked under yours: `advise.Operators()` holds \
+             them, `advise.check(\"my_ops.adv\")` checks a file of your own on top of them"
+        )
+    } else {
+        format!(
+            "a relative path is read from the working directory, {here}: give the file's full \
+             path, or pass the operator text itself (several lines, or one with its `{{ ... }}`)"
+        )
+    };
+    simple(
+        py,
+        "advise::py::no_such_file",
+        format!("there is no file `{path}`"),
+        &help,
+    )
+}
+
+/// Check `sources` (files or texts) on top of `base`, every task they declare given the standard
+/// operators by role as a session's `tasks FILE` gives them
+/// ([`OperatorSet::merge_declaring`]); the warnings, or an `AdviseError` with every error.
 pub(crate) fn merge(
     py: Python<'_>,
     base: &OperatorSet,
@@ -41,7 +83,7 @@ pub(crate) fn merge(
         .iter()
         .map(|s| source(py, &mut map, s))
         .collect::<PyResult<Vec<_>>>()?;
-    match base.merge_in(&map, &ids) {
+    match base.merge_declaring(&mut map, &ids) {
         Ok(Checked { set, warnings }) => {
             let w = warnings
                 .iter()
@@ -78,10 +120,22 @@ pub struct Operators {
 
 #[pymethods]
 impl Operators {
+    /// `Operators(*files, tasks=None)`: the standard operators, then `tasks` (a task file or a
+    /// list of them) and `files` (operator files or texts), each task they declare with the
+    /// standard operators by role, as `advise check --tasks TASKS FILES` checks them.
     #[new]
-    #[pyo3(signature = (*files))]
-    fn new(py: Python<'_>, files: Vec<String>) -> PyResult<Operators> {
-        let (set, warnings) = merge(py, &OperatorSet::standard(), &files)?;
+    #[pyo3(signature = (*files, tasks=None))]
+    fn new(
+        py: Python<'_>,
+        files: Vec<String>,
+        tasks: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Operators> {
+        let mut sources: Vec<String> = crate::demos::task_files(py, tasks)?
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect();
+        sources.extend(files);
+        let (set, warnings) = merge(py, &OperatorSet::standard(), &sources)?;
         Ok(Operators { set, warnings })
     }
 
@@ -94,6 +148,11 @@ impl Operators {
     /// The names of the domains the set declares.
     fn domains(&self) -> Vec<String> {
         self.set.domains().iter().map(|d| d.name.clone()).collect()
+    }
+
+    /// The names of the tasks the set knows: the built-in two, then those its files declare.
+    fn tasks(&self) -> Vec<String> {
+        advise::task::task_names(&self.set)
     }
 
     /// The names of the operators of `domain`.
@@ -157,48 +216,34 @@ impl Operators {
     }
 }
 
-/// The domain named `domain`, or that of the task `task`, in `set` (exactly one of them given).
+/// The domain named `domain`, or that of the task `task`, in `set` (exactly one of them given);
+/// a task by the library's one resolver ([`advise::task::resolve`]).
 pub fn domain_in(
     py: Python<'_>,
     set: &OperatorSet,
     domain: Option<&str>,
     task: Option<&str>,
 ) -> PyResult<Domain> {
-    let name = match (domain, task) {
-        (Some(d), None) => d.to_string(),
-        (None, Some(t)) => match advise::task::TaskKind::builtin(t) {
-            Some(kind) => kind.domain().name,
-            None if set.tasks().iter().any(|x| x.name() == t) => t.to_string(),
-            None => {
-                let mut names = vec!["positioning", "interception"];
-                names.extend(set.tasks().iter().map(|t| t.name()));
-                names.dedup();
-                return Err(simple(
-                    py,
-                    "advise::py::unknown_task",
-                    format!("there is no task `{t}`"),
-                    &format!("the tasks are: {}", names.join(", ")),
-                ));
-            }
-        },
-        _ => {
-            return Err(simple(
+    match (domain, task) {
+        (Some(name), None) => set.domain(name).cloned().ok_or_else(|| {
+            let names: Vec<&str> = set.domains().iter().map(|d| d.name.as_str()).collect();
+            simple(
                 py,
-                "advise::py::domain_or_task",
-                "give exactly one of `domain=` and `task=`".into(),
-                "`domain=\"positioning\"` or `task=\"interception\"`",
-            ));
-        }
-    };
-    set.domain(&name).cloned().ok_or_else(|| {
-        let names: Vec<&str> = set.domains().iter().map(|d| d.name.as_str()).collect();
-        simple(
+                "advise::py::unknown_domain",
+                format!("there is no domain `{name}`"),
+                &format!("the domains are: {}", names.join(", ")),
+            )
+        }),
+        (None, Some(t)) => advise::task::resolve(t, set, advise::task::Front::Python)
+            .map(|kind| kind.domain())
+            .map_err(|e| from_diag(py, &SourceMap::new(), &e)),
+        _ => Err(simple(
             py,
-            "advise::py::unknown_domain",
-            format!("there is no domain `{name}`"),
-            &format!("the domains are: {}", names.join(", ")),
-        )
-    })
+            "advise::py::domain_or_task",
+            "give exactly one of `domain=` and `task=`".into(),
+            "`domain=\"positioning\"` or `task=\"interception\"`",
+        )),
+    }
 }
 
 /// A trace of `domain` from arrays of observations and actions (and times: by default the point

@@ -71,7 +71,7 @@ impl Session {
     ) -> PyResult<Session> {
         // A bad `journal` is refused before any demonstration is recorded.
         let journal_dir = journal_dir(py, journal)?;
-        let tasks = task_files(py, tasks)?;
+        let tasks = crate::demos::task_files(py, tasks)?;
         let mut inner = start(py, task, tasks, seed, demos)?;
         match journal_dir {
             Some(dir) => {
@@ -496,28 +496,6 @@ fn closed(py: Python<'_>) -> PyErr {
     )
 }
 
-/// `tasks=`: a task file, or a list of them (as `advise.make_env` takes them).
-fn task_files(py: Python<'_>, tasks: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<String>>> {
-    let Some(t) = tasks.filter(|t| !t.is_none()) else {
-        return Ok(None);
-    };
-    if let Ok(one) = t.extract::<String>() {
-        return Ok(Some(vec![one]));
-    }
-    t.extract::<Vec<String>>().map(Some).map_err(|_| {
-        simple(
-            py,
-            "advise::py::tasks",
-            format!(
-                "`tasks` is {}, not a task file or a list of them",
-                t.repr().map_or_else(|_| "?".into(), |r| r.to_string())
-            ),
-            "pass the path of a file declaring the task (`tasks=\"dock.adv\"`) or a list of \
-             paths (`tasks=[\"dock.adv\", \"more.adv\"]`)",
-        )
-    })
-}
-
 /// `journal=`: None or False keeps none, True the CLI's directory, a path that directory.
 fn journal_dir(py: Python<'_>, journal: Option<&Bound<'_, PyAny>>) -> PyResult<Option<PathBuf>> {
     let Some(j) = journal.filter(|j| !j.is_none()) else {
@@ -546,12 +524,11 @@ fn journal_dir(py: Python<'_>, journal: Option<&Bound<'_, PyAny>>) -> PyResult<O
 fn start(
     py: Python<'_>,
     task: &str,
-    tasks: Option<Vec<String>>,
+    files: Vec<PathBuf>,
     seed: u64,
     demos: usize,
 ) -> PyResult<Inner> {
-    let files: Vec<PathBuf> = tasks.iter().flatten().map(PathBuf::from).collect();
-    crate::demos::task_kind(py, task, tasks)?;
+    crate::demos::task_in(py, task, &files)?;
     let opts = SessionOptions::starting_on(task, seed, demos);
     let mut inner = Inner::new(opts).map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
     inner

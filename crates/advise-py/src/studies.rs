@@ -87,8 +87,9 @@ pub fn study<'py>(
         }
         _ => {}
     }
-    let sim = advise::cli::sim_params(sim_params.as_deref())
-        .map_err(|r| crate::error::from_diag(py, &advise::diag::SourceMap::new(), r.as_ref()))?;
+    let mut files = advise::diag::SourceMap::new();
+    let sim = advise::experiment::sim_params(&mut files, sim_params.as_deref())
+        .map_err(|e| crate::error::from_diag(py, &files, &e))?;
     let out = py
         .detach(|| {
             s::run(

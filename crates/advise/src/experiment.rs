@@ -36,6 +36,18 @@ pub mod summary;
 const EVAL_SALT: u64 = 0x7E57_0000_0000_0001;
 const PRACTICE_SALT: u64 = 0x9AC7_0000_0000_0002;
 
+/// The simulator of an experiment: the parameters file `path` (read into `map`, where its
+/// diagnostics point), or the defaults. `--sim-params FILE` and the Python studies' `sim_params=`.
+pub fn sim_params(
+    map: &mut crate::diag::SourceMap,
+    path: Option<&Path>,
+) -> Result<SimParams, crate::backend::sim::SimError> {
+    match path {
+        Some(p) => SimParams::load(map, p),
+        None => Ok(SimParams::default()),
+    }
+}
+
 /// The simulator seed of test episode `i` of an experiment seeded with `seed`. Every policy of an
 /// experiment (initial, final, teacher, each arm) meets the same noise on the same test start, so
 /// their differences are the policies' own.

@@ -34,7 +34,6 @@ use std::path::{Path, PathBuf};
 use crate::backend::sim::{SimBackend, SimParams};
 use crate::backend::{BackendSpecError, Base, Connect, Registry, StopSignal};
 use crate::check::OperatorSet;
-use crate::diag::did_you_mean;
 use crate::domain::Domain;
 use crate::eval::Report;
 use crate::policy::dataset::{CritiqueRule, Provenance};
@@ -553,46 +552,18 @@ impl Session {
     }
 
     /// The task called `name`: one of the paper's, or one declared by a file loaded with
-    /// `tasks FILE` (or `operators FILE`).
+    /// `tasks FILE` (or `operators FILE`), by the one resolver ([`crate::task::resolve`]).
     pub(crate) fn resolve_task(&self, name: &str) -> Result<TaskKind, SessionError> {
-        if let Some(t) = TaskKind::builtin(name) {
-            return Ok(t);
-        }
-        if name != "positioning"
-            && let Some(def) = self.ops.task(name)
-        {
-            return Ok(TaskKind::Declared(def.clone()));
-        }
-        let names = self.task_names();
-        let help = match did_you_mean(name, names.iter().map(String::as_str)) {
-            Some(h) => h,
-            None if self.ops.domain(name).is_some() => format!(
-                "`{name}` is a domain without task clauses (goal, observations' definitions, drives, success and end rules): see `operators/README.md`, Tasks"
-            ),
-            None => format!(
-                "the tasks are {}; load a file of task declarations with `tasks FILE`",
-                names
-                    .iter()
-                    .map(|n| format!("`{n}`"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-        };
-        Err(SessionError::UnknownTask {
-            name: name.to_string(),
-            help,
-        })
+        Ok(crate::task::resolve(
+            name,
+            &self.ops,
+            crate::task::Front::Session,
+        )?)
     }
 
     /// Every task the session knows: the paper's two, then the declared ones.
     pub fn task_names(&self) -> Vec<String> {
-        let mut names = vec!["positioning".to_string(), "interception".to_string()];
-        for t in self.ops.tasks() {
-            if !names.iter().any(|n| n == t.name()) {
-                names.push(t.name().to_string());
-            }
-        }
-        names
+        crate::task::task_names(&self.ops)
     }
 
     /// The names of the tasks the operator set declares (positioning's and the files'): what a

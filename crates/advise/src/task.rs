@@ -31,10 +31,14 @@ pub mod declared;
 pub mod human;
 pub mod interception;
 pub mod positioning;
+pub mod resolve;
 
 pub use declared::{Declared, DeclaredTeacher};
 pub use interception::{BallStart, Interception, InterceptionRules, InterceptionTeacher};
 pub use positioning::PositioningTeacher;
+pub use resolve::{
+    Front, TaskFilesError, UnknownTask, load_task_files, resolve, resolve_in_files, task_names,
+};
 
 /// One episode of a task: its world, its observation and its scoring.
 ///

@@ -169,6 +169,58 @@ pub fn with_role_operators(
     set
 }
 
+impl OperatorSet {
+    /// `ids` checked on top of this set, every task they declare (that this set does not) given
+    /// the standard operators by role ([`with_role_operators`]), then `ids` checked again over
+    /// them, so that a task's own operator of a standard name shadows it and says so
+    /// (`shadows_standard`, after the first check's warnings). The one way task files are taken in:
+    /// a session's `tasks FILE`, `advise check --tasks`, the command line's `--tasks` and the
+    /// Python package all come here. The role texts join `map` under [`role_source_name`].
+    pub fn merge_declaring(
+        &self,
+        map: &mut SourceMap,
+        ids: &[SourceId],
+    ) -> Result<Checked, CheckErrors> {
+        let first = self.merge_in(map, ids)?;
+        let new: Vec<_> = first
+            .set
+            .tasks()
+            .iter()
+            .filter(|t| self.tasks().iter().all(|b| b.name() != t.name()))
+            .cloned()
+            .collect();
+        if new.is_empty() {
+            return Ok(first);
+        }
+        let under = with_role_operators(first.set.clone(), map, &new, false);
+        match under.merge_in(map, ids) {
+            // The first check's warnings, and those only the second gives (a standard operator
+            // by role shadowed): some checks (a task's finiteness) are not made again for a
+            // domain the set already holds, and the rest would come twice.
+            Ok(again) => {
+                let mut warnings = first.warnings;
+                let seen: Vec<String> = warnings.iter().map(|w| format!("{w:?}")).collect();
+                warnings.extend(
+                    again
+                        .warnings
+                        .into_iter()
+                        .filter(|w| !seen.contains(&format!("{w:?}"))),
+                );
+                Ok(Checked {
+                    set: again.set,
+                    warnings,
+                })
+            }
+            // They checked a moment ago on a set without them: leave out the role operators the
+            // task has its own of rather than lose the files.
+            Err(_) => Ok(Checked {
+                set: with_role_operators(first.set, map, &new, true),
+                warnings: first.warnings,
+            }),
+        }
+    }
+}
+
 /// The name of the source that holds `task`'s standard operators by role: an operator from it is
 /// standard, so a task's operator defined later under the same name warns that it shadows it.
 pub fn role_source_name(task: &str) -> String {

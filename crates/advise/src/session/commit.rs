@@ -195,11 +195,10 @@ impl Session {
         match effect {
             Effect::Define { origin, text, .. } => {
                 let id = self.sources.add(origin.as_str(), text.as_str());
-                let checked = self.ops.merge_in(&self.sources, &[id])?;
-                let before = self.declared_task_names();
+                // A task it declares gets the standard operators by role.
+                let checked = self.ops.merge_declaring(&mut self.sources, &[id])?;
                 self.ops = checked.set;
                 self.warnings = checked.warnings;
-                self.add_role_operators(&before, id);
             }
             Effect::Task { task } => {
                 let task = self.resolve_task(task)?;
@@ -387,35 +386,6 @@ impl Session {
         drop((z, a));
         self.state.learner.add_demonstrations_owned(episodes)?;
         Ok(())
-    }
-
-    /// The standard operators written against roles for each task declared since `before`
-    /// ([`crate::check::with_role_operators`]); the task's own operators shadow them and say so:
-    /// the file `id` that declared the tasks is checked again on top of them, as
-    /// `advise check --tasks` does, and its `shadows_standard` warnings join the reply's.
-    fn add_role_operators(&mut self, before: &[String], id: crate::diag::SourceId) {
-        let new: Vec<_> = self
-            .ops
-            .tasks()
-            .iter()
-            .filter(|t| !before.iter().any(|b| b == t.name()))
-            .cloned()
-            .collect();
-        if new.is_empty() {
-            return;
-        }
-        let mut map = crate::diag::SourceMap::new();
-        let ops = std::mem::take(&mut self.ops);
-        let under = crate::check::with_role_operators(ops.clone(), &mut map, &new, false);
-        match under.merge_in(&self.sources, &[id]) {
-            Ok(again) => {
-                self.ops = again.set;
-                self.warnings.extend(again.warnings);
-            }
-            // It checked a moment ago on a set without them; leave the role operators out where
-            // the task has its own rather than lose the file.
-            Err(_) => self.ops = crate::check::with_role_operators(ops, &mut map, &new, true),
-        }
     }
 
     /// Work on `learner`'s dataset from now on, with no executions or history (`open` then

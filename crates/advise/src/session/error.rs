@@ -91,9 +91,9 @@ pub enum SessionError {
     #[error(transparent)]
     #[diagnostic(transparent)]
     DemosStopped(#[from] task::DemosStopped),
-    #[error("unknown task `{name}`")]
-    #[diagnostic(code(advise::session::unknown_task), help("{help}"))]
-    UnknownTask { name: String, help: String },
+    #[error(transparent)]
+    #[diagnostic(transparent)]
+    UnknownTask(#[from] task::UnknownTask),
     #[error("{path} was recorded for the task `{found}`, not `{task}`")]
     #[diagnostic(
         code(advise::session::demos_of_another_task),
