@@ -169,15 +169,17 @@ impl Diagnostic {
     }
 }
 
-/// The file, line and column (1-based, in characters) of a span of `map` (global offsets).
+/// The file, line and column (1-based, in characters) of a span of `map` (global offsets), by
+/// the language's one line index.
 fn locate(map: &SourceMap, span: &miette::SourceSpan) -> Option<Span> {
+    use advise::diag::{Encoding, LineIndex};
     let (name, text, at) = map.local(span.offset())?;
-    let before = text.get(..at)?;
-    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    text.get(..at)?;
+    let pos = LineIndex::new(text).line_col(text, at, Encoding::Utf32);
     Some(Span {
         file: name.to_string(),
-        line: before.matches('\n').count() + 1,
-        column: before[line_start..].chars().count() + 1,
+        line: pos.line + 1,
+        column: pos.col + 1,
         start: at,
         end: (at + span.len()).min(text.len()),
     })

@@ -11,7 +11,6 @@ use advise::domain::Domain;
 use advise::policy::Policy as _;
 use advise::policy::dataset::{CritiqueRule, Provenance as Prov};
 use advise::policy::learner::Learner;
-use advise::session::MAX_KAPPA;
 use advise::trace::{Chunk, Trace};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
@@ -176,17 +175,8 @@ pub fn critique(
             ));
         }
     };
-    if !(args.kappa.is_finite() && args.kappa > 0.0 && args.kappa <= MAX_KAPPA) {
-        return Err(simple(
-            py,
-            "advise::session::bad_kappa",
-            format!(
-                "kappa must be a positive number up to {MAX_KAPPA}, not {}",
-                args.kappa
-            ),
-            "the paper's kappa is a small positive constant, e.g. `kappa=0.5`",
-        ));
-    }
+    advise::session::check_kappa(args.kappa)
+        .map_err(|e| crate::error::from_diag(py, &advise::diag::SourceMap::new(), &e))?;
     let actions = match args.actions {
         Some(a) => a.clone(),
         None => {

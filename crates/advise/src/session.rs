@@ -45,6 +45,7 @@ use crate::trace::{Chunk, Pose, Trace};
 use effect::{Effect, Entry};
 use journal::Journal;
 
+pub use advice::check_kappa;
 pub use error::SessionError;
 pub use reply::{Advised, Defined, Evaluated, Ran, Reply, Since};
 use undo::Edit;

@@ -221,8 +221,9 @@ fn guard_of(definition: &str) -> Option<String> {
     )
 }
 
-/// A critique's kappa: positive and at most [`MAX_KAPPA`] (a typed one and a journalled one).
-pub(super) fn check_kappa(kappa: f64) -> Result<(), SessionError> {
+/// A critique's kappa: positive and at most [`MAX_KAPPA`] (a typed one, a journalled one and
+/// Python's `critique`).
+pub fn check_kappa(kappa: f64) -> Result<(), SessionError> {
     if kappa.is_finite() && kappa > 0.0 && kappa <= MAX_KAPPA {
         Ok(())
     } else {
