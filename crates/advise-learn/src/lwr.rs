@@ -366,7 +366,40 @@ pub fn tune_report(
     let n = ds.len();
     let dim = range_scale.len();
     let mut params = LwrParams::default_for(dim);
-    let untuned = |params: LwrParams| Tuning {
+    let k = k.clamp(2, 255);
+    let Some(mut index) = Index::new(range_scale.to_vec()) else {
+        return untuned(params, n);
+    };
+    if n < 2 * k {
+        return untuned(params, n);
+    }
+    let folds = Folds::build(ds, k, seed, &mut index);
+    let mut scorer = Scorer::new(ds, &index, &folds, dim);
+    let mut loss = |p: &LwrParams| scorer.loss(p);
+    let chosen = match start.filter(|s| s.scales.len() == dim) {
+        Some(start) => warm_start(&mut params, start, &mut loss),
+        None => full_search(&mut params, &mut loss),
+    };
+    params.bandwidth = chosen.0;
+    let scored = folds.queries.len();
+    Tuning {
+        params,
+        sample: folds.sampled,
+        folds: folds.count,
+        sources: folds.sources,
+        loss: chosen.1.loss,
+        se: chosen.1.se,
+        scored,
+        covered: chosen.1.covered,
+        mean_neighbours: chosen.1.neighbours as f64 / scored.max(1) as f64,
+        evaluations: scorer.evaluations,
+    }
+}
+
+/// The report of a tuning that did not happen (no index, or too few points for the folds):
+/// `params` as they are, with no loss.
+fn untuned(params: LwrParams, n: usize) -> Tuning {
+    Tuning {
         params,
         sample: n,
         folds: 0,
@@ -377,70 +410,135 @@ pub fn tune_report(
         covered: 0,
         mean_neighbours: 0.0,
         evaluations: 0,
-    };
-    let k = k.clamp(2, 255);
-    let Some(mut index) = Index::new(range_scale.to_vec()) else {
-        return untuned(params);
-    };
-    if n < 2 * k {
-        return untuned(params);
     }
-    let sample = tuning_sample(ds, seed);
-    let sampled = sample.iter().map(Vec::len).sum::<usize>();
-    let sources = sample.len();
-    let (fold, members) = assign_folds(&sample, k, seed);
-    let folds = members.len();
-    for s in &sample {
-        for &i in s {
-            index.add(i, ds.points());
+}
+
+/// A tuning's folds: the sample's points (added to the index), each point's fold, and the
+/// held-out points a loss evaluation scores.
+struct Folds {
+    /// Each point's fold (`u8::MAX` outside the sample).
+    fold: Vec<u8>,
+    /// Folds, sources and points of the sample.
+    count: usize,
+    sources: usize,
+    sampled: usize,
+    /// The scored points and their folds: evenly along each fold's points in order.
+    queries: Vec<(usize, u8)>,
+}
+
+impl Folds {
+    /// Sample `ds` ([`tuning_sample`]), cut the sample into folds of sources
+    /// ([`assign_folds`]), add its points to `index`, and choose each fold's scored points.
+    fn build(ds: &Dataset, k: usize, seed: u64, index: &mut Index) -> Folds {
+        let sample = tuning_sample(ds, seed);
+        let sampled = sample.iter().map(Vec::len).sum::<usize>();
+        let sources = sample.len();
+        let (fold, members) = assign_folds(&sample, k, seed);
+        let count = members.len();
+        for s in &sample {
+            for &i in s {
+                index.add(i, ds.points());
+            }
+        }
+        drop(sample);
+        // Each fold's scored points: evenly along its points in order.
+        let per_fold = (TUNE_QUERIES / count).max(1);
+        let queries: Vec<(usize, u8)> = members
+            .iter()
+            .enumerate()
+            .flat_map(|(f, pts)| {
+                let take = per_fold.min(pts.len());
+                (0..take).map(move |j| (pts[j * pts.len() / take] as usize, f as u8))
+            })
+            .collect();
+        Folds {
+            fold,
+            count,
+            sources,
+            sampled,
+            queries,
         }
     }
-    drop(sample);
-    // Each fold's scored points: evenly along its points in order.
-    let per_fold = (TUNE_QUERIES / folds).max(1);
-    let queries: Vec<(usize, u8)> = members
-        .iter()
-        .enumerate()
-        .flat_map(|(f, pts)| {
-            let take = per_fold.min(pts.len());
-            (0..take).map(move |j| (pts[j * pts.len() / take] as usize, f as u8))
-        })
-        .collect();
-    drop(members);
-    let act_dim = ds.domain().act_dim();
-    let mut act_range = vec![1.0; act_dim];
+}
+
+/// Each action dimension's range over `ds` (1 where it is flat): the loss's unit per dimension.
+fn action_ranges(ds: &Dataset) -> Vec<f64> {
+    let n = ds.len();
+    let mut act_range = vec![1.0; ds.domain().act_dim()];
     for (j, r) in act_range.iter_mut().enumerate() {
         let (lo, hi) = (0..n).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), i| {
             (lo.min(ds.a(i)[j]), hi.max(ds.a(i)[j]))
         });
         *r = if hi - lo > 1e-12 { hi - lo } else { 1.0 };
     }
-    let cv = CrossValidation {
-        ds,
-        index: &index,
-        fold: &fold,
-    };
-    let flat = Flat::new(ds, &index, &fold);
-    let mut evaluations = 0;
-    // The share of the other folds' points the last evaluation's kernels held, and its
-    // bandwidth: when the next kernel is expected to hold more than an eighth of them, a scan of
-    // the contiguous sample beats the tree's radius search (wide kernels: a query would visit
-    // most leaves anyway).
-    let mut last: Option<(f64, f64)> = None;
-    let others = (sampled as f64 * (folds - 1) as f64 / folds as f64).max(1.0);
-    let mut loss = |p: &LwrParams| -> Eval {
-        evaluations += 1;
-        let expected = last.map_or(0.0, |(share, h): (f64, f64)| {
+    act_range
+}
+
+/// The cross-validated loss of parameter sets over one tuning's folds, counting its
+/// evaluations.
+struct Scorer<'a> {
+    ds: &'a Dataset,
+    cv: CrossValidation<'a>,
+    flat: Flat,
+    queries: &'a [(usize, u8)],
+    folds: usize,
+    act_range: Vec<f64>,
+    /// Observation dimensions (the kernel's volume grows as the bandwidth to this power).
+    dim: usize,
+    /// The other folds' points a held-out point is answered from, on average (at least 1).
+    others: f64,
+    /// The share of the other folds' points the last evaluation's kernels held, and its
+    /// bandwidth: when the next kernel is expected to hold more than an eighth of them, a scan of
+    /// the contiguous sample beats the tree's radius search (wide kernels: a query would visit
+    /// most leaves anyway).
+    last: Option<(f64, f64)>,
+    evaluations: usize,
+}
+
+impl<'a> Scorer<'a> {
+    fn new(ds: &'a Dataset, index: &'a Index, folds: &'a Folds, dim: usize) -> Scorer<'a> {
+        let act_range = action_ranges(ds);
+        let cv = CrossValidation {
+            ds,
+            index,
+            fold: &folds.fold,
+        };
+        let flat = Flat::new(ds, index, &folds.fold);
+        let count = folds.count;
+        let others = (folds.sampled as f64 * (count - 1) as f64 / count as f64).max(1.0);
+        Scorer {
+            ds,
+            cv,
+            flat,
+            queries: &folds.queries,
+            folds: count,
+            act_range,
+            dim,
+            others,
+            last: None,
+            evaluations: 0,
+        }
+    }
+
+    /// The loss of `p`: each scored point answered from the other folds (in parallel, summed in
+    /// order), its squared action error in units of the action's range.
+    fn loss(&mut self, p: &LwrParams) -> Eval {
+        self.evaluations += 1;
+        let dim = self.dim;
+        let expected = self.last.map_or(0.0, |(share, h): (f64, f64)| {
             share * (p.bandwidth / h).powi(dim as i32)
         });
         let scan = expected > 0.125;
-        let errors: Vec<(f64, usize)> = queries
+        let (ds, cv, flat, act_range) = (self.ds, &self.cv, &self.flat, &self.act_range);
+        let act_dim = act_range.len();
+        let errors: Vec<(f64, usize)> = self
+            .queries
             .par_iter()
             .map_init(
                 || (Scratch::default(), vec![0.0; act_dim]),
                 |(scratch, a), &(i, f)| {
                     let neighbours = if scan {
-                        flat.query(&cv, p, ds.z(i), f, a, scratch)
+                        flat.query(cv, p, ds.z(i), f, a, scratch)
                     } else {
                         cv.query(p, ds.z(i), f, a, scratch)
                     };
@@ -454,8 +552,8 @@ pub fn tune_report(
                 },
             )
             .collect();
-        let mut per_fold = vec![(0.0, 0usize); folds];
-        for (&(_, f), &(e, _)) in queries.iter().zip(&errors) {
+        let mut per_fold = vec![(0.0, 0usize); self.folds];
+        for (&(_, f), &(e, _)) in self.queries.iter().zip(&errors) {
             per_fold[f as usize].0 += e;
             per_fold[f as usize].1 += 1;
         }
@@ -466,60 +564,61 @@ pub fn tune_report(
             .map(|(s, c)| s / *c as f64)
             .collect();
         let neighbours: usize = errors.iter().map(|e| e.1).sum();
-        last = Some((neighbours as f64 / total / others, p.bandwidth));
+        self.last = Some((neighbours as f64 / total / self.others, p.bandwidth));
         Eval {
             loss: errors.iter().map(|e| e.0).sum::<f64>() / total,
             se: standard_error(&means),
             covered: errors.iter().filter(|e| e.1 > 0).count(),
             neighbours,
         }
-    };
-    let at = |params: &LwrParams, h: f64| LwrParams {
-        bandwidth: h,
-        ..params.clone()
-    };
-    let chosen = if let Some(start) = start.filter(|s| s.scales.len() == dim) {
-        params.scales = start.scales.clone();
-        params.tolerance = start.tolerance;
-        let i = grid_index(start.bandwidth);
-        let tried: Vec<(f64, Eval)> = (i.saturating_sub(1)..=(i + 1).min(MAX_GRID - 1))
-            .map(|j| (bandwidth_at(j), loss(&at(&params, bandwidth_at(j)))))
-            .collect();
-        widest_within_one_se(&tried)
-    } else {
-        let mut chosen = scan_bandwidths(&params, &mut loss);
-        params.bandwidth = chosen.0;
-        let mut changed = false;
-        for d in 0..dim {
-            for m in [0.5, 2.0] {
-                let mut cand = params.clone();
-                cand.scales[d] *= m;
-                let e = loss(&cand);
-                if e.loss < chosen.1.loss - chosen.1.se {
-                    chosen = (cand.bandwidth, e);
-                    params = cand;
-                    changed = true;
-                }
+    }
+}
+
+/// [`tune_from`]'s warm start: `start`'s scales and tolerance into `params`, then its bandwidth
+/// and one grid step each side, the widest within one standard error of their best.
+fn warm_start(
+    params: &mut LwrParams,
+    start: &LwrParams,
+    loss: &mut impl FnMut(&LwrParams) -> Eval,
+) -> (f64, Eval) {
+    params.scales = start.scales.clone();
+    params.tolerance = start.tolerance;
+    let i = grid_index(start.bandwidth);
+    let tried: Vec<(f64, Eval)> = (i.saturating_sub(1)..=(i + 1).min(MAX_GRID - 1))
+        .map(|j| {
+            let at = LwrParams {
+                bandwidth: bandwidth_at(j),
+                ..params.clone()
+            };
+            (bandwidth_at(j), loss(&at))
+        })
+        .collect();
+    widest_within_one_se(&tried)
+}
+
+/// [`tune`]'s full search: the grid scan, then one pass over the scales (each dimension's
+/// multiplier halved and doubled, kept when it lowers the loss by more than one standard error),
+/// then the grid scan again if a scale changed. Leaves the chosen scales in `params`.
+fn full_search(params: &mut LwrParams, loss: &mut impl FnMut(&LwrParams) -> Eval) -> (f64, Eval) {
+    let mut chosen = scan_bandwidths(params, loss);
+    params.bandwidth = chosen.0;
+    let mut changed = false;
+    for d in 0..params.scales.len() {
+        for m in [0.5, 2.0] {
+            let mut cand = params.clone();
+            cand.scales[d] *= m;
+            let e = loss(&cand);
+            if e.loss < chosen.1.loss - chosen.1.se {
+                chosen = (cand.bandwidth, e);
+                *params = cand;
+                changed = true;
             }
         }
-        if changed {
-            chosen = scan_bandwidths(&params, &mut loss);
-        }
-        chosen
-    };
-    params.bandwidth = chosen.0;
-    Tuning {
-        params,
-        sample: sampled,
-        folds,
-        sources,
-        loss: chosen.1.loss,
-        se: chosen.1.se,
-        scored: queries.len(),
-        covered: chosen.1.covered,
-        mean_neighbours: chosen.1.neighbours as f64 / queries.len().max(1) as f64,
-        evaluations,
     }
+    if changed {
+        chosen = scan_bandwidths(params, loss);
+    }
+    chosen
 }
 
 /// The standard error of the mean of `means` (0 with fewer than two).

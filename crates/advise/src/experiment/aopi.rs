@@ -37,9 +37,9 @@ use serde::{Deserialize, Serialize};
 use crate::backend::sim::SimParams;
 use crate::check::{self, OperatorSet};
 use crate::eval::Report;
-use crate::experiment::protocol::{Revert, reverts};
 use crate::experiment::advisor::{self, AdvisorRules};
 use crate::experiment::pilot::PilotStyle;
+use crate::experiment::protocol::{Revert, reverts};
 use crate::experiment::{Progress, eval_seed, evaluate_starts, pct, practice_seed};
 use crate::interp;
 use crate::policy::Policy;
@@ -263,8 +263,6 @@ pub fn run(seed: u64, params: &AopiParams, progress: bool) -> AopiResult {
 /// Run the A-OPI study with `test` standing in for the test set (to tune the advisor on held-out
 /// practice goals without ever looking at the real test set).
 pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) -> AopiResult {
-    let kind = TaskKind::Positioning;
-    let sim = &params.sim;
     let bar = Progress::new(
         progress,
         1 + 3 * params.max_practice as u64,
@@ -273,24 +271,9 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
     let (ds, _) = seed_dataset(params, seed);
     let seed_demo_points = ds.len();
     let baseline_learner = Learner::with_dataset(ds.clone(), LearnerKind::Lwr, seed);
-    let eseed = eval_seed(seed);
-    let evaluate = |learner: &Learner| -> Report {
-        let counter = CoverageCounter::new(learner);
-        let policy: &dyn Policy = &counter;
-        let mut report = evaluate_starts(kind.clone(), test, || policy, sim, eseed);
-        report.kernel = counter.coverage();
-        report
-    };
-    // The validation goals: drawn like the practice goals, from a stream of their own (never
-    // the test set, never an arm's practice goal); only the stopping rule reads them.
-    let validation = kind.practice_set(seed ^ VALIDATION_SALT, params.test_goals.max(1));
-    let vseed = eval_seed(seed ^ VALIDATION_SALT);
-    let validate = |learner: &Learner| -> Report {
-        let policy: &dyn Policy = learner.policy();
-        evaluate_starts(kind.clone(), &validation, || policy, sim, vseed)
-    };
-    let base_report = evaluate(&baseline_learner);
-    let base_val = validate(&baseline_learner);
+    let judge = Judge::new(seed, params, test);
+    let base_report = judge.test(&baseline_learner);
+    let base_val = judge.validate(&baseline_learner);
     let mut base_point = arm_point(0, params.seed_demos, seed_demo_points, &base_report);
     base_point.validation_success_rate = Some(base_val.success_rate);
     let baseline = ArmFigures {
@@ -299,110 +282,27 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
     };
     bar.inc(1);
 
-    let goals: Vec<Start> = kind
+    let goals: Vec<Start> = TaskKind::Positioning
         .practice_set(seed, params.seed_demos + params.max_practice)
         .split_off(params.seed_demos);
-    let ops = OperatorSet::standard();
-    let arm = |mode: Mode| {
-        let mut learner = Learner::with_retune(ds.clone(), LearnerKind::Lwr, seed, params.retune);
-        let mut tally = Tally::default();
-        let mut executions = params.seed_demos;
-        // The halted policy: the one of the last improvement on the validation goals, with its
-        // test-set report; and, beside it, the best test-set evaluation.
-        let mut halted = (base_report.clone(), base_point.clone(), 0, tally.clone());
-        let mut best_val = if params.stops_on_test() {
-            base_report.clone()
-        } else {
-            base_val.clone()
-        };
-        let mut best_test = (base_report.clone(), base_point.clone());
-        let mut curve = vec![base_point.clone()];
-        let mut since_best = 0;
-        let mut run = 0;
-        for (i, goal) in goals.iter().enumerate() {
-            run = i + 1;
-            let exec = {
-                let mut policy: &dyn Policy = learner.policy();
-                let controller: &mut dyn Controller = &mut policy;
-                run_sim(goal, controller, sim, practice_seed(seed, i as u64))
-            };
-            bar.inc(1);
-            if advisor::is_poor(&exec.outcome, &params.advisor) {
-                let teleop = match mode {
-                    Mode::Advised => false,
-                    Mode::Hybrid => i < params.hybrid_teleop,
-                    Mode::Teleop => true,
-                };
-                if teleop {
-                    // The person's own run of this goal, in the style drawn for it (the same in
-                    // every arm), on its own simulator noise.
-                    let mut teacher = params.teacher.teacher(
-                        seed,
-                        (params.seed_demos + i) as u64,
-                        sim.period_s(),
-                    );
-                    let demo = run_sim(
-                        goal,
-                        &mut teacher,
-                        sim,
-                        practice_seed(seed, (1 << 32) + i as u64),
-                    );
-                    let episode = Episode {
-                        name: format!("teleop-{i}"),
-                        trace: recorded_at(&demo.trace, params.record_every()),
-                    };
-                    if learner.add_demonstrations(&[episode]).is_ok() {
-                        tally.teleop_demos += 1;
-                        executions += 1;
-                    }
-                } else if advise_run(&mut learner, &exec, params, &ops, &mut tally) {
-                    tally.advised_executions += 1;
-                    executions += 1;
-                }
-            }
-            if run % params.eval_every.max(1) == 0 || run == goals.len() {
-                let report = evaluate(&learner);
-                let val = validate(&learner);
-                let mut point = arm_point(run, executions, learner.len(), &report);
-                point.validation_success_rate = Some(val.success_rate);
-                curve.push(point.clone());
-                if better(&report, &best_test.0) {
-                    best_test = (report.clone(), point.clone());
-                }
-                // The stopping rule reads the validation goals; with choice 6 reverted for the
-                // ablation, the test set, as before the protocol.
-                let stop_on = if params.stops_on_test() {
-                    &report
-                } else {
-                    &val
-                };
-                if better(stop_on, &best_val) {
-                    best_val = stop_on.clone();
-                    halted = (report, point, run, tally.clone());
-                    since_best = 0;
-                } else {
-                    since_best += 1;
-                    if since_best >= params.patience.max(1) {
-                        break;
-                    }
-                }
-            }
-        }
-        // Bars of arms that stopped early jump to their share.
-        bar.inc((goals.len() - run) as u64);
-        let (report, point, practice_final, tally) = halted;
-        ArmFigures {
-            curve,
-            best: Selected::of(&best_test.0, &best_test.1),
-            ..figures(&report, &point, practice_final, run, tally)
-        }
+    let setting = ArmSetting {
+        seed,
+        params,
+        ds: &ds,
+        goals,
+        ops: OperatorSet::standard(),
+        judge: &judge,
+        base_report,
+        base_val,
+        base_point,
+        bar: &bar,
     };
     // The arms share nothing but their inputs: run them side by side (each also spreads its
     // evaluations over the cores), so a seed's serial stretches (practice runs, advice) overlap.
     bar.set_message("a-opi: the three arms");
     let (advised, (hybrid, teleop)) = rayon::join(
-        || arm(Mode::Advised),
-        || rayon::join(|| arm(Mode::Hybrid), || arm(Mode::Teleop)),
+        || setting.run(Mode::Advised),
+        || rayon::join(|| setting.run(Mode::Hybrid), || setting.run(Mode::Teleop)),
     );
     bar.finish();
     AopiResult {
@@ -417,6 +317,238 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
         },
         seed_demo_points,
         paper: PAPER,
+    }
+}
+
+/// The study's two evaluations of a policy: on the test set (with its kernel's coverage), and on
+/// the validation goals, which only the stopping rule reads.
+struct Judge<'a> {
+    sim: &'a SimParams,
+    test: &'a [Start],
+    eseed: u64,
+    /// Drawn like the practice goals, from a stream of their own (never the test set, never an
+    /// arm's practice goal).
+    validation: Vec<Start>,
+    vseed: u64,
+}
+
+impl<'a> Judge<'a> {
+    fn new(seed: u64, params: &'a AopiParams, test: &'a [Start]) -> Judge<'a> {
+        let validation =
+            TaskKind::Positioning.practice_set(seed ^ VALIDATION_SALT, params.test_goals.max(1));
+        Judge {
+            sim: &params.sim,
+            test,
+            eseed: eval_seed(seed),
+            validation,
+            vseed: eval_seed(seed ^ VALIDATION_SALT),
+        }
+    }
+
+    /// `learner`'s policy on the test set, with the share of steps its kernel held data.
+    fn test(&self, learner: &Learner) -> Report {
+        let counter = CoverageCounter::new(learner);
+        let policy: &dyn Policy = &counter;
+        let mut report = evaluate_starts(
+            TaskKind::Positioning,
+            self.test,
+            || policy,
+            self.sim,
+            self.eseed,
+        );
+        report.kernel = counter.coverage();
+        report
+    }
+
+    /// `learner`'s policy on the validation goals.
+    fn validate(&self, learner: &Learner) -> Report {
+        let policy: &dyn Policy = learner.policy();
+        evaluate_starts(
+            TaskKind::Positioning,
+            &self.validation,
+            || policy,
+            self.sim,
+            self.vseed,
+        )
+    }
+}
+
+/// What the three improvement arms start from and share: the study's inputs, the seed dataset,
+/// the practice goals, and the baseline's evaluations.
+struct ArmSetting<'a> {
+    seed: u64,
+    params: &'a AopiParams,
+    ds: &'a Dataset,
+    goals: Vec<Start>,
+    ops: OperatorSet,
+    judge: &'a Judge<'a>,
+    base_report: Report,
+    base_val: Report,
+    base_point: ArmPoint,
+    bar: &'a Progress,
+}
+
+impl ArmSetting<'_> {
+    /// One arm: its policy runs the practice goals in order, a poor run is improved the arm's
+    /// way, and every `eval_every` goals the policy is evaluated, until the stopping rule halts
+    /// the arm or the goals run out.
+    fn run(&self, mode: Mode) -> ArmFigures {
+        let (params, sim, seed) = (self.params, &self.params.sim, self.seed);
+        let mut learner =
+            Learner::with_retune(self.ds.clone(), LearnerKind::Lwr, seed, params.retune);
+        let mut tally = Tally::default();
+        let mut executions = params.seed_demos;
+        let mut history = History::new(params, &self.base_report, &self.base_val, &self.base_point);
+        let mut run = 0;
+        for (i, goal) in self.goals.iter().enumerate() {
+            run = i + 1;
+            let exec = {
+                let mut policy: &dyn Policy = learner.policy();
+                let controller: &mut dyn Controller = &mut policy;
+                run_sim(goal, controller, sim, practice_seed(seed, i as u64))
+            };
+            self.bar.inc(1);
+            if advisor::is_poor(&exec.outcome, &params.advisor)
+                && self.improve(mode, i, goal, &exec, &mut learner, &mut tally)
+            {
+                executions += 1;
+            }
+            if run % params.eval_every.max(1) == 0 || run == self.goals.len() {
+                let report = self.judge.test(&learner);
+                let val = self.judge.validate(&learner);
+                let mut point = arm_point(run, executions, learner.len(), &report);
+                point.validation_success_rate = Some(val.success_rate);
+                if history.record(params, report, val, point, run, &tally) {
+                    break;
+                }
+            }
+        }
+        // Bars of arms that stopped early jump to their share.
+        self.bar.inc((self.goals.len() - run) as u64);
+        history.figures(run)
+    }
+
+    /// The arm's improvement on `exec`, a poor run of practice goal `i`: a teleoperated
+    /// demonstration of the goal (the teleoperation arm, and the hybrid arm's first
+    /// `hybrid_teleop` goals) or the advisor's advice. Whether an execution joined the dataset.
+    fn improve(
+        &self,
+        mode: Mode,
+        i: usize,
+        goal: &Start,
+        exec: &Execution,
+        learner: &mut Learner,
+        tally: &mut Tally,
+    ) -> bool {
+        let teleop = match mode {
+            Mode::Advised => false,
+            Mode::Hybrid => i < self.params.hybrid_teleop,
+            Mode::Teleop => true,
+        };
+        if teleop {
+            if learner
+                .add_demonstrations(&[self.teleop_demo(i, goal)])
+                .is_ok()
+            {
+                tally.teleop_demos += 1;
+                return true;
+            }
+        } else if advise_run(learner, exec, self.params, &self.ops, tally) {
+            tally.advised_executions += 1;
+            return true;
+        }
+        false
+    }
+
+    /// The person's own run of practice goal `i`, in the style drawn for it (the same in every
+    /// arm), on its own simulator noise, recorded as a demonstration.
+    fn teleop_demo(&self, i: usize, goal: &Start) -> Episode {
+        let (params, sim, seed) = (self.params, &self.params.sim, self.seed);
+        let mut teacher =
+            params
+                .teacher
+                .teacher(seed, (params.seed_demos + i) as u64, sim.period_s());
+        let demo = run_sim(
+            goal,
+            &mut teacher,
+            sim,
+            practice_seed(seed, (1 << 32) + i as u64),
+        );
+        Episode {
+            name: format!("teleop-{i}"),
+            trace: recorded_at(&demo.trace, params.record_every()),
+        }
+    }
+}
+
+/// An arm's evaluations so far: its curve; the halted policy (the one of the last improvement on
+/// the validation goals, with its test-set report, practice goals and tally); the best test-set
+/// evaluation beside it; and the evaluations since the last improvement.
+struct History {
+    curve: Vec<ArmPoint>,
+    halted: (Report, ArmPoint, usize, Tally),
+    best_val: Report,
+    best_test: (Report, ArmPoint),
+    since_best: usize,
+}
+
+impl History {
+    /// The history of an arm that starts from the baseline.
+    fn new(params: &AopiParams, report: &Report, val: &Report, point: &ArmPoint) -> History {
+        History {
+            curve: vec![point.clone()],
+            halted: (report.clone(), point.clone(), 0, Tally::default()),
+            best_val: if params.stops_on_test() {
+                report.clone()
+            } else {
+                val.clone()
+            },
+            best_test: (report.clone(), point.clone()),
+            since_best: 0,
+        }
+    }
+
+    /// Record the evaluation after `run` practice goals (`report` on the test set, `val` on the
+    /// validation goals): whether the arm stops.
+    fn record(
+        &mut self,
+        params: &AopiParams,
+        report: Report,
+        val: Report,
+        point: ArmPoint,
+        run: usize,
+        tally: &Tally,
+    ) -> bool {
+        self.curve.push(point.clone());
+        if better(&report, &self.best_test.0) {
+            self.best_test = (report.clone(), point.clone());
+        }
+        // The stopping rule reads the validation goals; with choice 6 reverted for the
+        // ablation, the test set, as before the protocol.
+        let stop_on = if params.stops_on_test() {
+            &report
+        } else {
+            &val
+        };
+        if better(stop_on, &self.best_val) {
+            self.best_val = stop_on.clone();
+            self.halted = (report, point, run, tally.clone());
+            self.since_best = 0;
+            false
+        } else {
+            self.since_best += 1;
+            self.since_best >= params.patience.max(1)
+        }
+    }
+
+    /// The arm's figures: the halted policy's, after `run` practice goals in all.
+    fn figures(self, run: usize) -> ArmFigures {
+        let (report, point, practice_final, tally) = self.halted;
+        ArmFigures {
+            curve: self.curve,
+            best: Selected::of(&self.best_test.0, &self.best_test.1),
+            ..figures(&report, &point, practice_final, run, tally)
+        }
     }
 }
 

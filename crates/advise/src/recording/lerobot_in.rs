@@ -20,8 +20,9 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
 use miette::Diagnostic;
-use parquet::file::reader::FileReader;
-use parquet::record::Field;
+use parquet::file::reader::{FileReader, SerializedFileReader};
+use parquet::record::{Field, Row};
+use parquet::schema::types::Type;
 use serde_json::Value;
 use thiserror::Error;
 
@@ -483,18 +484,49 @@ fn read_frames(
 /// [`read_frames`] of a reader whose footer was checked.
 fn read_frames_of(
     path: &Path,
-    reader: &parquet::file::reader::SerializedFileReader<std::fs::File>,
+    reader: &SerializedFileReader<std::fs::File>,
     state: &Mapping,
     action: &Mapping,
     out: &mut Vec<Frame>,
 ) -> Result<(), LeRobotInError> {
-    use parquet::schema::types::Type;
     let bad = |reason: String| LeRobotInError::Parquet {
         path: path.to_path_buf(),
         reason,
     };
-    // A scalar column stored as a list would be read whole into one row (a 1e8-value
-    // `frame_index` list): refused before any row is built.
+    refuse_list_scalars(path, reader)?;
+    let rows = usize::try_from(reader.metadata().file_metadata().num_rows()).unwrap_or(0);
+    if out.len().saturating_add(rows) > MAX_FRAMES {
+        return Err(LeRobotInError::TooLarge {
+            path: path.to_path_buf(),
+            what: format!("{} frames", out.len().saturating_add(rows)),
+            limit: MAX_FRAMES,
+        });
+    }
+    refuse_long_lists(path, reader, state, action)?;
+    let iter = reader
+        .get_row_iter(Some(projection(path, reader)?))
+        .map_err(|e| bad(e.to_string()))?;
+    for (row, r) in iter.enumerate().take(MAX_FRAMES + 1 - out.len()) {
+        let r = r.map_err(|e| bad(e.to_string()))?;
+        out.push(frame_of(path, row, &r, state, action)?);
+        if out.len() > MAX_FRAMES {
+            return Err(LeRobotInError::TooLarge {
+                path: path.to_path_buf(),
+                what: "more frames".into(),
+                limit: MAX_FRAMES,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Refuse a scalar column (`episode_index`, `frame_index`, `timestamp`) stored as a list: it
+/// would be read whole into one row (a 1e8-value `frame_index` list), so it is refused before
+/// any row is built.
+fn refuse_list_scalars(
+    path: &Path,
+    reader: &SerializedFileReader<std::fs::File>,
+) -> Result<(), LeRobotInError> {
     for c in reader.metadata().file_metadata().schema_descr().columns() {
         let column = c.path().parts().first().map_or("", String::as_str);
         let want = match column {
@@ -512,17 +544,18 @@ fn read_frames_of(
             });
         }
     }
-    let rows = usize::try_from(reader.metadata().file_metadata().num_rows()).unwrap_or(0);
-    if out.len().saturating_add(rows) > MAX_FRAMES {
-        return Err(LeRobotInError::TooLarge {
-            path: path.to_path_buf(),
-            what: format!("{} frames", out.len().saturating_add(rows)),
-            limit: MAX_FRAMES,
-        });
-    }
-    // Before any row is built: a list longer than its width would be read whole (a 4 KB file
-    // can hold a list of 100M zeros), so each row group's count of list values is held to
-    // rows * width (+ rows, for empty or null lists).
+    Ok(())
+}
+
+/// Refuse, before any row is built, a row group whose list columns hold more values than
+/// rows * width (+ rows, for empty or null lists): a list longer than its width would be read
+/// whole (a 4 KB file can hold a list of 100M zeros).
+fn refuse_long_lists(
+    path: &Path,
+    reader: &SerializedFileReader<std::fs::File>,
+    state: &Mapping,
+    action: &Mapping,
+) -> Result<(), LeRobotInError> {
     for group in reader.metadata().row_groups() {
         let rows = group.num_rows().max(0);
         for c in group.columns() {
@@ -545,13 +578,23 @@ fn read_frames_of(
             }
         }
     }
-    const WANTED: [&str; 5] = [
-        "observation.state",
-        "action",
-        "episode_index",
-        "frame_index",
-        "timestamp",
-    ];
+    Ok(())
+}
+
+/// The columns a frame is read from; all but `timestamp` are required.
+const WANTED: [&str; 5] = [
+    "observation.state",
+    "action",
+    "episode_index",
+    "frame_index",
+    "timestamp",
+];
+
+/// The file's schema cut to the [`WANTED`] columns, refusing a file without a required one.
+fn projection(
+    path: &Path,
+    reader: &SerializedFileReader<std::fs::File>,
+) -> Result<Type, LeRobotInError> {
     let schema = reader.metadata().file_metadata().schema();
     let fields: Vec<_> = schema
         .get_fields()
@@ -567,82 +610,82 @@ fn read_frames_of(
             });
         }
     }
-    let projection = Type::group_type_builder(schema.name())
+    Type::group_type_builder(schema.name())
         .with_fields(fields)
         .build()
-        .map_err(|e| bad(e.to_string()))?;
-    let iter = reader
-        .get_row_iter(Some(projection))
-        .map_err(|e| bad(e.to_string()))?;
-    for (row, r) in iter.enumerate().take(MAX_FRAMES + 1 - out.len()) {
-        let r = r.map_err(|e| bad(e.to_string()))?;
-        let mut frame = Frame {
-            episode: 0,
-            frame: 0,
-            t: None,
-            z: Vec::new(),
-            a: Vec::new(),
-        };
-        let wrong = |column: &str, found: &Field, want: String| LeRobotInError::ColumnType {
+        .map_err(|e| LeRobotInError::Parquet {
             path: path.to_path_buf(),
-            row,
-            column: column.to_string(),
-            found: kind_of(found),
-            want,
-        };
-        for (name, field) in r.get_column_iter() {
-            match name.as_str() {
-                "episode_index" | "frame_index" => {
-                    let v = as_int(field).ok_or_else(|| wrong(name, field, "an integer".into()))?;
-                    if name == "episode_index" {
-                        frame.episode = v;
-                    } else {
-                        frame.frame = v;
-                    }
-                }
-                "timestamp" => {
-                    frame.t =
-                        Some(as_float(field).ok_or_else(|| wrong(name, field, "a float".into()))?);
-                }
-                key => {
-                    let (m, into) = if key == "action" {
-                        (action, &mut frame.a)
-                    } else {
-                        (state, &mut frame.z)
-                    };
-                    let want = || format!("a list of {} floats", m.width);
-                    let values: Vec<f64> = match field {
-                        Field::ListInternal(l) if l.elements().len() == m.width => l
-                            .elements()
-                            .iter()
-                            .map(as_float)
-                            .collect::<Option<_>>()
-                            .ok_or_else(|| wrong(key, field, want()))?,
-                        Field::ListInternal(l) => {
-                            return Err(LeRobotInError::ColumnType {
-                                path: path.to_path_buf(),
-                                row,
-                                column: key.to_string(),
-                                found: format!("a list of {} values", l.elements().len()),
-                                want: want(),
-                            });
-                        }
-                        _ => return Err(wrong(key, field, want())),
-                    };
-                    *into = m.at.iter().map(|&k| values[k]).collect();
+            reason: e.to_string(),
+        })
+}
+
+/// Row `row` of the file at `path` as a frame: its indices, time, and the mapped values of
+/// its lists, each column of the type and width it should have.
+fn frame_of(
+    path: &Path,
+    row: usize,
+    r: &Row,
+    state: &Mapping,
+    action: &Mapping,
+) -> Result<Frame, LeRobotInError> {
+    let mut frame = Frame {
+        episode: 0,
+        frame: 0,
+        t: None,
+        z: Vec::new(),
+        a: Vec::new(),
+    };
+    let wrong = |column: &str, found: &Field, want: String| LeRobotInError::ColumnType {
+        path: path.to_path_buf(),
+        row,
+        column: column.to_string(),
+        found: kind_of(found),
+        want,
+    };
+    for (name, field) in r.get_column_iter() {
+        match name.as_str() {
+            "episode_index" | "frame_index" => {
+                let v = as_int(field).ok_or_else(|| wrong(name, field, "an integer".into()))?;
+                if name == "episode_index" {
+                    frame.episode = v;
+                } else {
+                    frame.frame = v;
                 }
             }
-        }
-        out.push(frame);
-        if out.len() > MAX_FRAMES {
-            return Err(LeRobotInError::TooLarge {
-                path: path.to_path_buf(),
-                what: "more frames".into(),
-                limit: MAX_FRAMES,
-            });
+            "timestamp" => {
+                frame.t =
+                    Some(as_float(field).ok_or_else(|| wrong(name, field, "a float".into()))?);
+            }
+            key => {
+                let (m, into) = if key == "action" {
+                    (action, &mut frame.a)
+                } else {
+                    (state, &mut frame.z)
+                };
+                let want = || format!("a list of {} floats", m.width);
+                let values: Vec<f64> = match field {
+                    Field::ListInternal(l) if l.elements().len() == m.width => l
+                        .elements()
+                        .iter()
+                        .map(as_float)
+                        .collect::<Option<_>>()
+                        .ok_or_else(|| wrong(key, field, want()))?,
+                    Field::ListInternal(l) => {
+                        return Err(LeRobotInError::ColumnType {
+                            path: path.to_path_buf(),
+                            row,
+                            column: key.to_string(),
+                            found: format!("a list of {} values", l.elements().len()),
+                            want: want(),
+                        });
+                    }
+                    _ => return Err(wrong(key, field, want())),
+                };
+                *into = m.at.iter().map(|&k| values[k]).collect();
+            }
         }
     }
-    Ok(())
+    Ok(frame)
 }
 
 /// A frame's time: its `timestamp`, else `frame_index / fps`.
@@ -657,34 +700,7 @@ pub fn read_lerobot(
     options: &LeRobotReadOptions,
 ) -> Result<LeRobotRead, LeRobotInError> {
     let info_path = dir.join("meta/info.json");
-    if !info_path.is_file() {
-        return Err(LeRobotInError::Missing {
-            path: info_path,
-            what: "the dataset's description".into(),
-        });
-    }
-    let text = crate::files::read_text_limited(&info_path, MAX_INFO_BYTES)?;
-    let info_err = |what: String| LeRobotInError::Info {
-        path: info_path.clone(),
-        what,
-    };
-    let info: Value =
-        serde_json::from_str(&text).map_err(|e| info_err(format!("not JSON: {e}")))?;
-    let version = info
-        .get("codebase_version")
-        .and_then(Value::as_str)
-        .ok_or_else(|| info_err("no `codebase_version`".into()))?;
-    if version != super::lerobot::CODEBASE_VERSION {
-        return Err(LeRobotInError::Version {
-            path: dir.to_path_buf(),
-            version: version.to_string(),
-        });
-    }
-    let fps = info
-        .get("fps")
-        .and_then(Value::as_f64)
-        .filter(|f| f.is_finite() && *f > 0.0)
-        .ok_or_else(|| info_err("`fps` is not a positive number".into()))?;
+    let (info, fps) = read_info(dir, &info_path)?;
     let features = info.get("features");
     let feature = |key: &str| features.and_then(|f| f.get(key));
     let state = mapping(
@@ -715,10 +731,79 @@ pub fn read_lerobot(
             path: dir.join("data"),
         });
     }
-    // Check the values where they were read, before grouping them: the demonstration rules
-    // `load demos` holds (and the bag import), so an import never writes what it refuses.
+    check_frames(&frames, &rows_of, fps, domain)?;
+    let mut by_episode: BTreeMap<i64, Vec<Frame>> = BTreeMap::new();
+    for f in frames {
+        by_episode.entry(f.episode).or_default().push(f);
+    }
+    let mut read = LeRobotRead {
+        episodes: Vec::with_capacity(by_episode.len()),
+        episode_ids: by_episode.keys().copied().collect(),
+        episode_index: Vec::new(),
+        frame_index: Vec::new(),
+        fps,
+        mapping: vec![state.described, action.described],
+    };
+    for (e, fs) in by_episode {
+        let trace = episode_trace(domain, e, &fs, fps)?;
+        for f in &fs {
+            read.episode_index.push(e);
+            read.frame_index.push(f.frame);
+        }
+        read.episodes.push(Episode {
+            name: format!("episode {e}"),
+            trace,
+        });
+    }
+    Ok(read)
+}
+
+/// The dataset's `meta/info.json` (at `info_path`, in `dir`), of the version this reader
+/// knows, and its frames per second.
+fn read_info(dir: &Path, info_path: &Path) -> Result<(Value, f64), LeRobotInError> {
+    if !info_path.is_file() {
+        return Err(LeRobotInError::Missing {
+            path: info_path.to_path_buf(),
+            what: "the dataset's description".into(),
+        });
+    }
+    let text = crate::files::read_text_limited(info_path, MAX_INFO_BYTES)?;
+    let info_err = |what: String| LeRobotInError::Info {
+        path: info_path.to_path_buf(),
+        what,
+    };
+    let info: Value =
+        serde_json::from_str(&text).map_err(|e| info_err(format!("not JSON: {e}")))?;
+    let version = info
+        .get("codebase_version")
+        .and_then(Value::as_str)
+        .ok_or_else(|| info_err("no `codebase_version`".into()))?;
+    if version != super::lerobot::CODEBASE_VERSION {
+        return Err(LeRobotInError::Version {
+            path: dir.to_path_buf(),
+            version: version.to_string(),
+        });
+    }
+    let fps = info
+        .get("fps")
+        .and_then(Value::as_f64)
+        .filter(|f| f.is_finite() && *f > 0.0)
+        .ok_or_else(|| info_err("`fps` is not a positive number".into()))?;
+    Ok((info, fps))
+}
+
+/// Check the values where they were read (`rows_of`: each file's range of `frames`), before
+/// grouping them: finite times and values, frame indices and times increasing within an
+/// episode. The demonstration rules `load demos` holds (and the bag import), so an import never
+/// writes what it refuses.
+fn check_frames(
+    frames: &[Frame],
+    rows_of: &[(PathBuf, std::ops::Range<usize>)],
+    fps: f64,
+    domain: &Domain,
+) -> Result<(), LeRobotInError> {
     let mut last_frame: HashMap<i64, (i64, f64)> = HashMap::new();
-    for (path, range) in &rows_of {
+    for (path, range) in rows_of {
         for (row, f) in frames[range.clone()].iter().enumerate() {
             let t = frame_time(f, fps);
             if !t.is_finite() {
@@ -771,42 +856,28 @@ pub fn read_lerobot(
             }
         }
     }
-    let mut by_episode: BTreeMap<i64, Vec<Frame>> = BTreeMap::new();
-    for f in frames {
-        by_episode.entry(f.episode).or_default().push(f);
+    Ok(())
+}
+
+/// Episode `e`'s frames `fs` (checked by [`check_frames`]) as a trace of `domain`, refused if
+/// an action is outside its limits.
+fn episode_trace(domain: &Domain, e: i64, fs: &[Frame], fps: f64) -> Result<Trace, LeRobotInError> {
+    let mut trace = Trace::new(domain);
+    for f in fs {
+        // Finite and increasing within the episode: checked above.
+        trace.push(frame_time(f, fps), &f.z, &f.a, None);
     }
-    let mut read = LeRobotRead {
-        episodes: Vec::with_capacity(by_episode.len()),
-        episode_ids: by_episode.keys().copied().collect(),
-        episode_index: Vec::new(),
-        frame_index: Vec::new(),
-        fps,
-        mapping: vec![state.described, action.described],
-    };
-    for (e, fs) in by_episode {
-        let mut trace = Trace::new(domain);
-        for f in &fs {
-            // Finite and increasing within the episode: checked above.
-            trace.push(frame_time(f, fps), &f.z, &f.a, None);
-            read.episode_index.push(e);
-            read.frame_index.push(f.frame);
-        }
-        if let Some((i, _, k, v, ValueFault::OutsideLimits(l))) =
-            crate::trace::demo_fault(domain, &trace)
-        {
-            return Err(LeRobotInError::OutsideLimits {
-                episode: e,
-                frame: fs[i].frame,
-                dim: domain.act[k].name.clone(),
-                value: crate::number::fmt_num(v),
-                lo: crate::number::fmt_num(l.lo),
-                hi: crate::number::fmt_num(l.hi),
-            });
-        }
-        read.episodes.push(Episode {
-            name: format!("episode {e}"),
-            trace,
+    if let Some((i, _, k, v, ValueFault::OutsideLimits(l))) =
+        crate::trace::demo_fault(domain, &trace)
+    {
+        return Err(LeRobotInError::OutsideLimits {
+            episode: e,
+            frame: fs[i].frame,
+            dim: domain.act[k].name.clone(),
+            value: crate::number::fmt_num(v),
+            lo: crate::number::fmt_num(l.lo),
+            hi: crate::number::fmt_num(l.hi),
         });
     }
-    Ok(read)
+    Ok(trace)
 }
