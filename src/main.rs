@@ -8,10 +8,10 @@ use std::process::ExitCode;
 
 use miette::{IntoDiagnostic, miette};
 
-use advise_cli::cli::{self, CliError, Command, SessionArgs, operators, tools};
 use advise::diag::SourceMap;
 use advise::session::{Session, SessionOptions, journal, script};
 use advise::task::TaskKind;
+use advise_cli::cli::{self, CliError, Command, SessionArgs, operators, tools};
 use advise_cli::web;
 
 /// mimalloc, not glibc's malloc: parsing allocates for every token, and a tree built on one of

@@ -50,9 +50,9 @@ use serde::Serialize;
 use serde_json::{Value, json};
 use tokio::sync::{Notify, broadcast, watch};
 
-use advise::backend::StopSignal;
 use crate::repl::helper::Facts;
 use crate::repl::{Statements, Typed};
+use advise::backend::StopSignal;
 use advise::session::{Reply, Session};
 
 /// The largest request body accepted (a statement, an operator definition typed in the page).

@@ -349,7 +349,10 @@ fn paths_in(code: &str) -> Vec<Vec<String>> {
             );
         }
     }
-    out.retain(|p| p.first().is_some_and(|f| f == "crate" || f == "super" || f == "self"));
+    out.retain(|p| {
+        p.first()
+            .is_some_and(|f| f == "crate" || f == "super" || f == "self")
+    });
     out
 }
 
@@ -527,7 +530,11 @@ fn the_file_graph_finds_a_circle_through_groups_and_super() {
         "use super::{b::{X, Y}, other};\n// crate::m::c in a comment\n",
     )
     .unwrap();
-    std::fs::write(src.join("m/b.rs"), "fn f() { crate::m::c::g(\"crate::m::a\") }\n").unwrap();
+    std::fs::write(
+        src.join("m/b.rs"),
+        "fn f() { crate::m::c::g(\"crate::m::a\") }\n",
+    )
+    .unwrap();
     std::fs::write(src.join("m/c.rs"), "use crate::m::{self, a::Z};\n").unwrap();
     let (names, edges) = file_graph(src);
     let found: Vec<Vec<String>> = circles(&edges)

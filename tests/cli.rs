@@ -210,7 +210,7 @@ fn apply_takes_one_episode_of_a_demonstrations_file_and_run_counts_failures() {
     assert_eq!(out.lines().count(), 4, "{out}");
     let (code, _, err) = episode("2");
     assert_ne!(code, 0);
-    assert!(err.contains("advise_cli::cli::no_such_episode"), "{err}");
+    assert!(err.contains("advise::cli::no_such_episode"), "{err}");
 
     let script = dir.path().join("s.adv");
     std::fs::write(&script, "select 0..1\nrun goal 2 -1 0\nwhy 100000\n").unwrap();

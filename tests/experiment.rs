@@ -370,7 +370,7 @@ fn bad_seed_ranges_are_diagnostics() {
         ),
         (
             &["experiment", "aopi", "--critique", "paper"][..],
-            "advise_cli::cli::critique_without_bc",
+            "advise::cli::critique_without_bc",
         ),
         (
             &["experiment", "bc", "--critique", "sideways"][..],
@@ -378,7 +378,7 @@ fn bad_seed_ranges_are_diagnostics() {
         ),
         (
             &["experiment", "aopi", "--revert", "chunks"][..],
-            "advise_cli::cli::revert_not_in_study",
+            "advise::cli::revert_not_in_study",
         ),
         (
             &["experiment", "bc", "--revert", "advisor"][..],
@@ -414,7 +414,7 @@ fn calibrating_into_a_missing_folder_is_refused_at_once() {
         .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("advise_cli::cli::no_folder"), "{err}");
+    assert!(err.contains("advise::cli::no_folder"), "{err}");
     assert!(err.contains("no-such-folder"), "{err}");
     assert!(out.stdout.is_empty(), "nothing ran, nothing printed");
     assert!(!target.exists());

@@ -23,7 +23,10 @@ use common::{Invocation, masked, run_all};
 fn run(s: &mut Session, lines: &str) {
     for line in lines.lines() {
         if let Err(e) = s.execute(line, "<test>") {
-            panic!("{line}: {}", advise_cli::repl::render(s.sources(), &e, false));
+            panic!(
+                "{line}: {}",
+                advise_cli::repl::render(s.sources(), &e, false)
+            );
         }
     }
 }
@@ -380,7 +383,7 @@ fn a_journal_in_use_is_locked_and_a_dead_owners_lock_does_not_block() {
     assert!(text.contains("resumed"), "{text}");
 }
 
-/// clap's refusals keep clap's words and usage under an `advise_cli::cli::` code (exit 2, as clap
+/// clap's refusals keep clap's words and usage under an `advise::cli::` code (exit 2, as clap
 /// exits); `--help` and `--version` still print and exit 0; an ADVISE_HOME where no journal can
 /// be created is `advise::journal::create` with the path and what to do.
 #[test]

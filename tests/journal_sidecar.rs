@@ -18,7 +18,10 @@ use common::{Invocation, masked, run_all};
 fn run(s: &mut Session, lines: &str) {
     for line in lines.lines() {
         if let Err(e) = s.execute(line, "<test>") {
-            panic!("{line}: {}", advise_cli::repl::render(s.sources(), &e, false));
+            panic!(
+                "{line}: {}",
+                advise_cli::repl::render(s.sources(), &e, false)
+            );
         }
     }
 }

@@ -27,7 +27,8 @@ pub fn demo(args: DemoArgs) -> miette::Result<()> {
     }
     let params = sim_params(args.sim_params.as_deref())?;
     let domain = kind.domain();
-    let recorded = advise::task::record_demos(kind.clone(), args.count as usize, args.seed, &params);
+    let recorded =
+        advise::task::record_demos(kind.clone(), args.count as usize, args.seed, &params);
     // A demonstration stopped on a value that is not a number refuses them all: nothing written.
     advise::task::finite_demos(&kind, &recorded)?;
     let successes = recorded.iter().filter(|(_, o)| o.success).count();

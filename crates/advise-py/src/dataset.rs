@@ -12,8 +12,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use crate::arrays::{set_dim_names, str_array, to_numpy};
-use crate::demos::{task_files, task_in};
 use crate::error::{from_diag, simple};
+use crate::named::{task_files, task_in};
 use crate::ops::{apply_on_chunk, merge};
 
 /// The points of `ds` with their provenance and weights, as a dict of numpy arrays (see the

@@ -56,7 +56,7 @@ impl SimEnv {
     #[new]
     #[pyo3(signature = (task, tasks=None))]
     fn new(py: Python<'_>, task: &str, tasks: Option<Vec<String>>) -> PyResult<SimEnv> {
-        let kind = crate::demos::task_kind(py, task, tasks)?;
+        let kind = crate::named::task_kind(py, task, tasks)?;
         Ok(SimEnv {
             domain: kind.domain(),
             kind,

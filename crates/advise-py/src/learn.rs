@@ -42,8 +42,8 @@ impl Fitted {
         tasks: Option<&Bound<'_, PyAny>>,
         seed: u64,
     ) -> PyResult<Fitted> {
-        let files = crate::demos::task_files(py, tasks)?;
-        let named = crate::demos::Named::new(py, domain, task, &files, None)?;
+        let files = crate::named::task_files(py, tasks)?;
+        let named = crate::named::Named::new(py, domain, task, &files, None)?;
         Ok(Fitted {
             kind,
             domain: named.domain,

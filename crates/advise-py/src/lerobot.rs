@@ -17,7 +17,8 @@ use pyo3::types::PyDict;
 
 use crate::arrays::{set_dim_names, to_numpy};
 use crate::error::{from_diag, simple};
-use crate::ops::{apply_on_chunk, domain_in, merge};
+use crate::named::domain_in;
+use crate::ops::{apply_on_chunk, merge};
 
 /// The dataset in `path` as demonstrations of `task`'s domain (an `AdviseError` with the
 /// `advise::lerobot::*` diagnostic if it cannot be).

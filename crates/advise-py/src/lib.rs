@@ -17,6 +17,7 @@ mod error;
 mod explain;
 mod learn;
 mod lerobot;
+mod named;
 mod ops;
 mod session;
 mod studies;

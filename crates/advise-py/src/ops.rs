@@ -130,7 +130,7 @@ impl Operators {
         files: Vec<String>,
         tasks: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Operators> {
-        let mut sources: Vec<String> = crate::demos::task_files(py, tasks)?
+        let mut sources: Vec<String> = crate::named::task_files(py, tasks)?
             .iter()
             .map(|p| p.display().to_string())
             .collect();
@@ -212,37 +212,7 @@ impl Operators {
         domain: Option<&str>,
         task: Option<&str>,
     ) -> PyResult<Domain> {
-        domain_in(py, &self.set, domain, task)
-    }
-}
-
-/// The domain named `domain`, or that of the task `task`, in `set` (exactly one of them given);
-/// a task by the library's one resolver ([`advise::task::resolve`]).
-pub fn domain_in(
-    py: Python<'_>,
-    set: &OperatorSet,
-    domain: Option<&str>,
-    task: Option<&str>,
-) -> PyResult<Domain> {
-    match (domain, task) {
-        (Some(name), None) => set.domain(name).cloned().ok_or_else(|| {
-            let names: Vec<&str> = set.domains().iter().map(|d| d.name.as_str()).collect();
-            simple(
-                py,
-                "advise::py::unknown_domain",
-                format!("there is no domain `{name}`"),
-                &format!("the domains are: {}", names.join(", ")),
-            )
-        }),
-        (None, Some(t)) => advise::task::resolve(t, set, advise::task::Front::Python)
-            .map(|kind| kind.domain())
-            .map_err(|e| from_diag(py, &SourceMap::new(), &e)),
-        _ => Err(simple(
-            py,
-            "advise::py::domain_or_task",
-            "give exactly one of `domain=` and `task=`".into(),
-            "`domain=\"positioning\"` or `task=\"interception\"`",
-        )),
+        crate::named::domain_in(py, &self.set, domain, task)
     }
 }
 

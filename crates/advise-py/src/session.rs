@@ -71,7 +71,7 @@ impl Session {
     ) -> PyResult<Session> {
         // A bad `journal` is refused before any demonstration is recorded.
         let journal_dir = journal_dir(py, journal)?;
-        let tasks = crate::demos::task_files(py, tasks)?;
+        let tasks = crate::named::task_files(py, tasks)?;
         let mut inner = start(py, task, tasks, seed, demos)?;
         match journal_dir {
             Some(dir) => {
@@ -528,7 +528,7 @@ fn start(
     seed: u64,
     demos: usize,
 ) -> PyResult<Inner> {
-    crate::demos::task_in(py, task, &files)?;
+    crate::named::task_in(py, task, &files)?;
     let opts = SessionOptions::starting_on(task, seed, demos);
     let mut inner = Inner::new(opts).map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
     inner

@@ -15,12 +15,12 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::progress::{self, Unit};
 use crate::backend::sim::SimParams;
 use crate::backend::{Backend, BackendError};
 use crate::domain::Domain;
 use crate::policy::Policy;
 use crate::policy::learner::{KernelCoverage, Learner, LearnerKind};
+use crate::progress::{self, Unit};
 use crate::task::{Controller, Ending, Outcome, TaskKind, episode_seed, run_episode, run_sim};
 use crate::trace::Episode;
 

@@ -429,7 +429,11 @@ impl Stepper {
     fn observe(&mut self, task: &dyn Task) {
         task.observe(&self.state, &mut self.z);
         if let Some(i) = self.z.iter().position(|v| !v.is_finite()) {
-            let name = task.domain().observe.get(i).map_or("?", |d| d.name.as_str());
+            let name = task
+                .domain()
+                .observe
+                .get(i)
+                .map_or("?", |d| d.name.as_str());
             self.stopped = Some(NonFinite::new(
                 ValueKind::Observation,
                 name,

@@ -10,8 +10,8 @@ use super::error::CheckError;
 use super::hint;
 use crate::diag::{Loc, SourceId, SourceMap};
 use crate::program::{Call, Frame, OpBody, Operator, OperatorSet, Param};
-use crate::syntax::ast::{Ident, Span};
 use crate::syntax::Invocation;
+use crate::syntax::ast::{Ident, Span};
 
 /// The parameters of an operator being called, and the source its call is written in.
 pub(crate) struct Binder<'a> {

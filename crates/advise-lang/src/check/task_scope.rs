@@ -45,4 +45,3 @@ pub(super) struct TaskScope<'a> {
     /// The task's names a teacher cannot see (so a use of one is explained, not "unknown").
     pub(super) hidden: Option<&'a HashMap<String, (usize, Kind)>>,
 }
-

@@ -266,8 +266,14 @@ mod tests {
 
     #[test]
     fn completion_offers_every_kind() {
-        assert_eq!(Registry::standard().completions(""), ["rmp:", "ros2", "ros2:", "sim"]);
-        assert_eq!(Registry::standard().completions("r"), ["rmp:", "ros2", "ros2:"]);
+        assert_eq!(
+            Registry::standard().completions(""),
+            ["rmp:", "ros2", "ros2:", "sim"]
+        );
+        assert_eq!(
+            Registry::standard().completions("r"),
+            ["rmp:", "ros2", "ros2:"]
+        );
         assert_eq!(Registry::standard().completions("x"), Vec::<String>::new());
     }
 }

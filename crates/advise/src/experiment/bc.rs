@@ -32,8 +32,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::backend::sim::SimParams;
 use crate::eval::Report;
-use crate::experiment::protocol::{Revert, reverts};
 use crate::experiment::critic::{self, CriticRules};
+use crate::experiment::protocol::{Revert, reverts};
 use crate::experiment::{Progress, eval_seed, evaluate_starts_in, opt_m, pct, practice_seed};
 use crate::policy::Policy;
 use crate::policy::dataset::{CritiqueRule, Dataset};
@@ -107,7 +107,9 @@ impl crate::choice::Choice for Rules {
         match self {
             Rules::Paper => "The paper's rule only",
             Rules::Directional => "The directional rule only (the paper's proposed improvement)",
-            Rules::Both => "Both, each with its own learner, from the same demonstrations and practice starts",
+            Rules::Both => {
+                "Both, each with its own learner, from the same demonstrations and practice starts"
+            }
         }
     }
 }

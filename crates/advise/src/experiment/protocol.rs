@@ -29,7 +29,9 @@ impl crate::choice::Choice for Study {
     fn help(self) -> &'static str {
         match self {
             Study::Bc => "Binary Critiquing on ball interception (Table 1, Figure 5)",
-            Study::Aopi => "Advice-Operator Policy Improvement on spatial positioning (Figures 8, 9, 11)",
+            Study::Aopi => {
+                "Advice-Operator Policy Improvement on spatial positioning (Figures 8, 9, 11)"
+            }
         }
     }
 }
@@ -105,12 +107,22 @@ impl crate::choice::Choice for Revert {
 
     fn help(self) -> &'static str {
         match self {
-            Revert::Ball => "1 (bc): the pre-protocol world, a ball up to 1.3 m/s against the teacher's 0.8 m/s cruise",
-            Revert::Teacher => "2 (bc, aopi): the stateless interception teacher; a teleoperator whose hand never varies",
+            Revert::Ball => {
+                "1 (bc): the pre-protocol world, a ball up to 1.3 m/s against the teacher's 0.8 m/s cruise"
+            }
+            Revert::Teacher => {
+                "2 (bc, aopi): the stateless interception teacher; a teleoperator whose hand never varies"
+            }
             Revert::Chunks => "3 (bc): fixed 25-point chunks, at most the first two flagged",
-            Revert::Support => "4 (bc): critique without the recorded support (the points nearest now)",
-            Revert::Advisor => "5 (aopi): the advisor on the goal point, rates from commanded speeds",
-            Revert::Stopping => "6 (aopi): stopping and reporting on the test set (its best evaluation)",
+            Revert::Support => {
+                "4 (bc): critique without the recorded support (the points nearest now)"
+            }
+            Revert::Advisor => {
+                "5 (aopi): the advisor on the goal point, rates from commanded speeds"
+            }
+            Revert::Stopping => {
+                "6 (aopi): stopping and reporting on the test set (its best evaluation)"
+            }
             Revert::Rate => "7 (aopi): positioning demonstrations recorded at 30 Hz",
         }
     }

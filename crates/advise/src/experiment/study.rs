@@ -8,8 +8,8 @@ use serde::Serialize;
 
 use rayon::prelude::*;
 
-pub use super::protocol::Study;
 use super::protocol::Revert;
+pub use super::protocol::Study;
 use super::{ExperimentError, Progress, aopi, bc, ensure_dir, plot, summary};
 use crate::backend::sim::SimParams;
 

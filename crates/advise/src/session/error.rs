@@ -220,7 +220,9 @@ pub enum SessionError {
     #[error("kappa must be a positive number up to {MAX_KAPPA}, not {kappa}")]
     #[diagnostic(
         code(advise::session::bad_kappa),
-        help("the paper's kappa is a small positive constant, e.g. 0.5 (`critique 0.5` at the prompt, `kappa=0.5` in Python)")
+        help(
+            "the paper's kappa is a small positive constant, e.g. 0.5 (`critique 0.5` at the prompt, `kappa=0.5` in Python)"
+        )
     )]
     BadKappa { kappa: String },
     #[error("the {task} dataset is empty: there is no policy to run")]

@@ -769,4 +769,3 @@ impl crate::backend::spec::Spec for Ros2Spec {
         )?))
     }
 }
-

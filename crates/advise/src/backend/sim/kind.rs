@@ -51,4 +51,3 @@ impl Spec for SimSpec {
         true
     }
 }
-
