@@ -25,6 +25,9 @@ pub use terminal::{ascii, strip};
 /// Path plots mark and number every this many points.
 pub const INDEX_EVERY: usize = 20;
 
+/// The length of a heading arrow (the goal's, the robot's at the end), m.
+pub const HEADING_ARROW_M: f64 = 0.3;
+
 const SIZE: (u32, u32) = (900, 640);
 const LEGEND_W: u32 = 230;
 const PATH: RGBColor = RGBColor(40, 90, 200);
@@ -128,7 +131,8 @@ impl PlotView<'_> {
     }
 }
 
-/// Data bounds of the path plot: the path, the goal, the ball and the arena.
+/// Data bounds of the path plot: the path, the goal (with its heading arrow), the robot's final
+/// heading arrow, what the task draws, the ball and the arena.
 fn bounds(views: &[&PlotView<'_>]) -> (f64, f64, f64, f64) {
     let mut xs = Vec::new();
     let mut ys = Vec::new();
@@ -137,11 +141,19 @@ fn bounds(views: &[&PlotView<'_>]) -> (f64, f64, f64, f64) {
             xs.push(p.x_m);
             ys.push(p.y_m);
         }
+        if let Some(p) = v.path.last() {
+            xs.push(p.x_m + HEADING_ARROW_M * p.theta_rad.cos());
+            ys.push(p.y_m + HEADING_ARROW_M * p.theta_rad.sin());
+        }
         for d in v.drawn.iter().filter(|d| d.is_finite()) {
             let (x, y) = d.at();
             let r = d.radius();
             xs.extend([x - r, x + r]);
             ys.extend([y - r, y + r]);
+            if let Some(h) = d.heading().filter(|h| h.is_finite()) {
+                xs.push(x + HEADING_ARROW_M * h.cos());
+                ys.push(y + HEADING_ARROW_M * h.sin());
+            }
         }
         for b in v.ball.unwrap_or(&[]) {
             xs.push(b[0]);
