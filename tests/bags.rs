@@ -137,7 +137,7 @@ fn a_messy_bag_is_imported_with_every_repair_counted() {
     );
     assert!(ok, "{text}");
     assert!(
-        text.contains("loaded 1 demonstrations (68 points) from mcap-zstd-messy.mcap"),
+        text.contains("loaded 1 demonstration (68 points) from mcap-zstd-messy.mcap"),
         "{text}"
     );
     assert!(text.contains("warning: dropped 3 of 82 commands sent before the first odometry"));
@@ -201,7 +201,7 @@ fn a_robots_namespace_and_a_pause_in_the_driving() {
     let points: usize = got.iter().map(|e| e.trace.len()).sum();
     assert!(
         text.contains(&format!(
-            "loaded 1 demonstrations ({points} points) from rosbags-namespaced"
+            "loaded 1 demonstration ({points} points) from rosbags-namespaced"
         )),
         "{text}"
     );
@@ -275,7 +275,7 @@ wrote 1 demonstration (61 points) to d.json; `load demos d.json` adds them to a 
     let (ok, text) = advise(&["run", "--demos", "0", "--no-journal", "s.adv"], d);
     assert!(ok, "{text}");
     assert!(
-        text.contains("loaded 1 demonstrations (61 points) from mcap-zstd-idle.mcap"),
+        text.contains("loaded 1 demonstration (61 points) from mcap-zstd-idle.mcap"),
         "{text}"
     );
     assert!(

@@ -120,8 +120,13 @@ impl Session {
             Some(i) => from_dataset.split_at(i),
             None => (from_dataset.as_str(), ""),
         };
+        let demonstrations = if count == 1 {
+            "1 demonstration".to_string()
+        } else {
+            format!("{count} demonstrations")
+        };
         Ok(format!(
-            "loaded {count} demonstrations ({points} points) from {path}{said}; the {} policy now has {} points ({} ms){warned}",
+            "loaded {demonstrations} ({points} points) from {path}{said}; the {} policy now has {} points ({} ms){warned}",
             self.state.learner.kind_name(),
             self.state.learner.len(),
             started.elapsed().as_millis()
