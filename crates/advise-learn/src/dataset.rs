@@ -70,8 +70,8 @@ pub struct DemoRecord {
 
 /// When a demonstration's points were recorded, relative to its first point: what
 /// [`DemoRecord`] keeps (`period_s` or `times_s`), found from a trace's times by
-/// [`DemoTimes::of`]. A trace whose times do not advance (older files, which kept none, are read
-/// with every time 0) has none.
+/// [`DemoTimes::of`]. A trace whose times do not advance, or are its points' numbers (0, 1, 2, ...
+/// s: how a file without times is read, older saved datasets among them), has none.
 #[derive(Clone, Debug, PartialEq)]
 pub enum DemoTimes {
     /// Evenly spaced, this far apart, s.
@@ -82,12 +82,14 @@ pub enum DemoTimes {
 
 impl DemoTimes {
     /// The times of a trace's points `t`: a period when every point is within a microsecond of
-    /// an even spacing, else each time; `None` when they do not advance or are not finite.
+    /// an even spacing, else each time; `None` when they do not advance, are not finite, or are
+    /// the points' numbers ([`DemoTimes::trace_times`] of none).
     pub fn of(t: &[f64]) -> Option<DemoTimes> {
         let (&first, &last) = (t.first()?, t.last()?);
         let span = last - first;
         let steady = t.windows(2).all(|w| w[1] >= w[0]);
-        if t.len() < 2 || !span.is_finite() || span <= 0.0 || !steady {
+        let numbered = t.iter().enumerate().all(|(k, &v)| v == k as f64);
+        if t.len() < 2 || !span.is_finite() || span <= 0.0 || !steady || numbered {
             return None;
         }
         let period = span / (t.len() - 1) as f64;
@@ -146,10 +148,11 @@ impl DemoTimes {
         }
     }
 
-    /// `n` points' times, from 0, for a trace: every time 0 (no times) when `times` is `None`.
+    /// `n` points' times, from 0, for a trace: without times, the points' numbers (0, 1, 2, ...
+    /// s), which [`DemoTimes::of`] reads back as none.
     pub fn trace_times(times: Option<&DemoTimes>, n: usize) -> Vec<f64> {
         (0..n)
-            .map(|k| times.map_or(0.0, |t| t.time_s(k)))
+            .map(|k| times.map_or(k as f64, |t| t.time_s(k)))
             .collect()
     }
 }

@@ -207,8 +207,8 @@ impl Dataset {
     /// `NAME advice 7 (slow_down on 40..70)`). Critique weights are not carried (a
     /// demonstration's points weigh 1); executions are not training data and are left out. Point
     /// times are a demonstration's recorded times, an advice's those of the execution points it
-    /// was synthesized from, from 0; all 0 where the dataset has none (a file written before
-    /// datasets kept times).
+    /// was synthesized from, from 0; the points' numbers where the dataset has none (a file
+    /// written before datasets kept times), which [`DemoTimes::of`] reads as none.
     pub fn to_episodes(&self, name: &str) -> Vec<Episode> {
         let mut order: Vec<(Provenance, Vec<usize>)> = Vec::new();
         let mut slot: HashMap<(bool, u32), usize> = HashMap::new();
@@ -265,11 +265,12 @@ impl Dataset {
                 let times = self.demos.iter().find(|d| d.id == demo).and_then(|d| d.times());
                 points
                     .iter()
-                    .map(|&i| match (self.provenance(i), &times) {
+                    .enumerate()
+                    .map(|(k, &i)| match (self.provenance(i), &times) {
                         (Provenance::Demonstration { index, .. }, Some(t)) => {
                             t.time_s(index as usize)
                         }
-                        _ => 0.0,
+                        _ => k as f64,
                     })
                     .collect()
             }
@@ -291,7 +292,7 @@ impl Dataset {
                         let first = t.first().copied().unwrap_or(0.0);
                         t.iter().map(|v| v - first).collect()
                     }
-                    _ => vec![0.0; points.len()],
+                    _ => (0..points.len()).map(|k| k as f64).collect(),
                 }
             }
         }
@@ -463,8 +464,8 @@ fn saved_csv(
             });
         }
         if let Some(e) = episodes.last_mut() {
-            // A saved CSV dataset keeps no times: every time 0 says so.
-            e.trace.push(0.0, &z, &a, None);
+            // A saved CSV dataset keeps no times: the points' numbers say so (`DemoTimes::of`).
+            e.trace.push(e.trace.len() as f64, &z, &a, None);
         }
     }
     if episodes.is_empty() {
