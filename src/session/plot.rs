@@ -131,9 +131,10 @@ impl PlotView<'_> {
     }
 }
 
-/// Data bounds of the path plot: the path, the goal (with its heading arrow), the robot's final
-/// heading arrow, what the task draws, the ball and the arena.
-fn bounds(views: &[&PlotView<'_>]) -> (f64, f64, f64, f64) {
+/// Data bounds of the path plot: the path, the goal, what the task draws, the ball and the arena;
+/// with `arrows` (the SVG draws them, the terminal does not) the goal's heading arrow and the
+/// robot's at the end too.
+fn bounds(views: &[&PlotView<'_>], arrows: bool) -> (f64, f64, f64, f64) {
     let mut xs = Vec::new();
     let mut ys = Vec::new();
     for v in views {
@@ -141,7 +142,7 @@ fn bounds(views: &[&PlotView<'_>]) -> (f64, f64, f64, f64) {
             xs.push(p.x_m);
             ys.push(p.y_m);
         }
-        if let Some(p) = v.path.last() {
+        if let Some(p) = v.path.last().filter(|_| arrows) {
             xs.push(p.x_m + HEADING_ARROW_M * p.theta_rad.cos());
             ys.push(p.y_m + HEADING_ARROW_M * p.theta_rad.sin());
         }
@@ -150,7 +151,7 @@ fn bounds(views: &[&PlotView<'_>]) -> (f64, f64, f64, f64) {
             let r = d.radius();
             xs.extend([x - r, x + r]);
             ys.extend([y - r, y + r]);
-            if let Some(h) = d.heading().filter(|h| h.is_finite()) {
+            if let Some(h) = d.heading().filter(|h| arrows && h.is_finite()) {
                 xs.push(x + HEADING_ARROW_M * h.cos());
                 ys.push(y + HEADING_ARROW_M * h.sin());
             }
@@ -548,5 +549,33 @@ mod tests {
             svg_actions(&v, &fifo),
             Err(PlotError::File(crate::files::FileError::NotRegular { .. }))
         ));
+    }
+
+    /// Issue 49: the goal's heading arrow and the robot's final one are inside the plot's bounds
+    /// (a goal at the path's edge pointing away used to fall out), and the SVG draws the final
+    /// heading and names the rule that ended the run.
+    #[test]
+    fn the_headings_are_inside_and_the_ending_names_its_rule() {
+        let (d, t) = (Domain::positioning(), trace(30));
+        // Ends at (2.9, 0) facing up; the goal at (3.5, 1) faces +x.
+        let mut path = line(30);
+        path.last_mut().unwrap().theta_rad = std::f64::consts::FRAC_PI_2;
+        let mut v = view(&d, &t, &path);
+        v.outcome = Some("failure (Rule: `end when post < 0.25`) after 3.0 s".into());
+        let (x0, x1, y0, y1) = bounds(&[&v], true);
+        assert!(x1 >= 3.5 + HEADING_ARROW_M && x0 < 0.0, "{x0}..{x1}");
+        assert!(y1 >= 1.0 && y0 < 0.0, "{y0}..{y1}");
+        // The terminal draws no arrows: its bounds are the marks'.
+        let (_, tx1, _, _) = bounds(&[&v], false);
+        assert!(tx1 < x1);
+        let svg = render_paths(&[&v], &["path".to_string()], "run").unwrap();
+        // The legend's entries and the outcome's note, wrapped in the legend's panel.
+        let text: String = texts(&svg).into_iter().map(|(_, t)| t + " ").collect();
+        assert!(text.contains("end, and the heading there"), "{text}");
+        assert!(
+            text.contains("(Rule: `end when post &lt; 0.25`)")
+                || text.contains("(Rule: `end when post < 0.25`)"),
+            "{text}"
+        );
     }
 }

@@ -144,7 +144,7 @@ pub(super) fn render_paths(
             .map_err(drawing)?
             .plotting_area()
             .dim_in_pixel();
-        let (x0, x1, y0, y1) = equal_scale(bounds(views), pw, ph);
+        let (x0, x1, y0, y1) = equal_scale(bounds(views, true), pw, ph);
         let mut chart = build((x0, x1, y0, y1)).map_err(drawing)?;
         let span = (x1 - x0).max(y1 - y0);
         chart
