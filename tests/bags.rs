@@ -445,7 +445,9 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
     let mut j = 0;
     for (n, demo) in ds.demos().iter().enumerate() {
         let start = episodes[n][0].as_u64().unwrap();
-        let period = demo.period_s.expect("a teacher's demonstration keeps its period");
+        let period = demo
+            .period_s
+            .expect("a teacher's demonstration keeps its period");
         assert!((period - 1.0 / 15.0).abs() < 1e-9, "{period}");
         assert!(
             marks[n].ends_with(&format!("(commands only, {period:.3} s apart)")),
@@ -454,7 +456,11 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
         );
         for k in 0..demo.points as usize {
             let want = start + (k as f64 * period * 1e9).round() as u64;
-            assert_eq!(cmd[j][0].as_u64(), Some(want), "demonstration {n} point {k}");
+            assert_eq!(
+                cmd[j][0].as_u64(),
+                Some(want),
+                "demonstration {n} point {k}"
+            );
             j += 1;
         }
     }
@@ -658,10 +664,9 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
             info["features"]["action"]["names"],
             serde_json::json!(["trans", "rot"])
         );
-        let stats: serde_json::Value = serde_json::from_slice(
-            &std::fs::read(d.join(part).join("meta/stats.json")).unwrap(),
-        )
-        .unwrap();
+        let stats: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(part).join("meta/stats.json")).unwrap())
+                .unwrap();
         let read = read_lerobot(&py, &d.join(part));
         let data = &read["data"];
         assert_eq!(

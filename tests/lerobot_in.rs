@@ -25,7 +25,10 @@ fn exported(d: &Path) {
     .unwrap();
     let (ok, text) = advise(&["run", "--demos", "3", "--no-journal", "s.adv"], d);
     assert!(ok, "{text}");
-    let (ok, text) = advise(&["export", "s.json", "--lerobot", "parts", "--fps", "10"], d);
+    let (ok, text) = advise(
+        &["export", "s.json", "--lerobot", "parts", "--fps", "10"],
+        d,
+    );
     assert!(ok, "{text}");
     // One dataset per rate (issue 49): the demonstrations at their 15 Hz in `parts/15fps`, the
     // advice on a 30 Hz execution in `parts/30fps`. The tests read the demonstrations' as `lr`.
@@ -82,7 +85,10 @@ fn an_exported_dataset_imports_as_the_same_points() {
             k += 1;
         }
     }
-    assert_eq!(k, ds.demos().iter().map(|d| d.points as usize).sum::<usize>());
+    assert_eq!(
+        k,
+        ds.demos().iter().map(|d| d.points as usize).sum::<usize>()
+    );
 
     // The CLI writes them as demonstrations `load demos` reads.
     let (ok, text) = advise(

@@ -65,7 +65,11 @@ fn legend(
             Mark::Arrow(c) => {
                 area.draw(&Circle::new((x0 + 4, y), 4, c.filled()))
                     .map_err(drawing)?;
-                for (a, b) in [((x0 + 4, y), (x1, y)), ((x1 - 6, y - 5), (x1, y)), ((x1 - 6, y + 5), (x1, y))] {
+                for (a, b) in [
+                    ((x0 + 4, y), (x1, y)),
+                    ((x1 - 6, y - 5), (x1, y)),
+                    ((x1 - 6, y + 5), (x1, y)),
+                ] {
                     area.draw(&PathElement::new(vec![a, b], c.stroke_width(3)))
                         .map_err(drawing)?;
                 }
@@ -255,10 +259,7 @@ pub(super) fn render_paths(
             if let Some(last) = v.path.last().filter(|p| p.theta_rad.is_finite()) {
                 let (x, y) = xy(last);
                 let h = last.theta_rad;
-                let tip = (
-                    x + HEADING_ARROW_M * h.cos(),
-                    y + HEADING_ARROW_M * h.sin(),
-                );
+                let tip = (x + HEADING_ARROW_M * h.cos(), y + HEADING_ARROW_M * h.sin());
                 chart
                     .draw_series(std::iter::once(Circle::new((x, y), 4, color.filled())))
                     .map_err(drawing)?;

@@ -262,7 +262,11 @@ impl Dataset {
     fn episode_times(&self, p: Provenance, points: &[usize]) -> Vec<f64> {
         match p {
             Provenance::Demonstration { demo, .. } => {
-                let times = self.demos.iter().find(|d| d.id == demo).and_then(|d| d.times());
+                let times = self
+                    .demos
+                    .iter()
+                    .find(|d| d.id == demo)
+                    .and_then(|d| d.times());
                 points
                     .iter()
                     .enumerate()
