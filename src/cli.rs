@@ -363,8 +363,9 @@ pub struct ExportArgs {
     /// demonstration and each piece of advice an episode.
     #[arg(long, value_name = "DIR")]
     pub lerobot: Option<PathBuf>,
-    /// The LeRobot dataset's frames per second (a dataset keeps no times); default: the
-    /// simulator's control rate.
+    /// The frames per second of demonstrations without times (a dataset saved before datasets
+    /// kept them); every other source is written at its own rate, one dataset per rate. Default:
+    /// the simulator's control rate.
     #[arg(long, value_name = "HZ", requires = "lerobot")]
     pub fps: Option<u32>,
     /// Export each execution as a LeRobot episode too (`advise.source` = `execution`,

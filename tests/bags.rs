@@ -137,7 +137,7 @@ fn a_messy_bag_is_imported_with_every_repair_counted() {
     );
     assert!(ok, "{text}");
     assert!(
-        text.contains("loaded 1 demonstrations (68 points) from mcap-zstd-messy.mcap"),
+        text.contains("loaded 1 demonstration (68 points) from mcap-zstd-messy.mcap"),
         "{text}"
     );
     assert!(text.contains("warning: dropped 3 of 82 commands sent before the first odometry"));
@@ -201,7 +201,7 @@ fn a_robots_namespace_and_a_pause_in_the_driving() {
     let points: usize = got.iter().map(|e| e.trace.len()).sum();
     assert!(
         text.contains(&format!(
-            "loaded 1 demonstrations ({points} points) from rosbags-namespaced"
+            "loaded 1 demonstration ({points} points) from rosbags-namespaced"
         )),
         "{text}"
     );
@@ -275,7 +275,7 @@ wrote 1 demonstration (61 points) to d.json; `load demos d.json` adds them to a 
     let (ok, text) = advise(&["run", "--demos", "0", "--no-journal", "s.adv"], d);
     assert!(ok, "{text}");
     assert!(
-        text.contains("loaded 1 demonstrations (61 points) from mcap-zstd-idle.mcap"),
+        text.contains("loaded 1 demonstration (61 points) from mcap-zstd-idle.mcap"),
         "{text}"
     );
     assert!(
@@ -440,6 +440,30 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
         }
     }
     assert_eq!(j, demo_points);
+    // Each demonstration's commands at its recorded times (issue 49: the positioning teacher's
+    // 15 Hz, not the simulator's 30 Hz), from its `/advise/episode` mark.
+    let mut j = 0;
+    for (n, demo) in ds.demos().iter().enumerate() {
+        let start = episodes[n][0].as_u64().unwrap();
+        let period = demo
+            .period_s
+            .expect("a teacher's demonstration keeps its period");
+        assert!((period - 1.0 / 15.0).abs() < 1e-9, "{period}");
+        assert!(
+            marks[n].ends_with(&format!("(commands only, {period:.3} s apart)")),
+            "{}",
+            marks[n]
+        );
+        for k in 0..demo.points as usize {
+            let want = start + (k as f64 * period * 1e9).round() as u64;
+            assert_eq!(
+                cmd[j][0].as_u64(),
+                Some(want),
+                "demonstration {n} point {k}"
+            );
+            j += 1;
+        }
+    }
     let mut k = 0;
     for (n, rec) in ds.executions().iter().enumerate() {
         let start = episodes[3 + n][0].as_u64().unwrap();
@@ -554,6 +578,21 @@ fn the_mcap_export_reads_back_in_both_readers_as_the_datasets_executions() {
             demo_points + k
         )]
     );
+
+    // A dataset saved before datasets kept times opens as before: its demonstrations at the
+    // task's period (the simulator's 1/30 s).
+    let mut old: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+    for demo in old["demos"].as_array_mut().unwrap() {
+        demo.as_object_mut().unwrap().remove("period_s");
+    }
+    std::fs::write(d.join("old.json"), old.to_string()).unwrap();
+    let (ok, text) = advise(&["export", "old.json", "--mcap", "old.mcap"], d);
+    assert!(ok, "{text}");
+    let read = read_mcap("old.mcap");
+    let cmd = read["topics"]["/cmd_vel"].as_array().unwrap();
+    let gap = cmd[1][0].as_u64().unwrap() - cmd[0][0].as_u64().unwrap();
+    assert_eq!(gap, (1e9_f64 / 30.0).round() as u64);
 }
 
 /// A LeRobot export as `tests/python/read_lerobot.py` reads it, the way LeRobot's loader does.
@@ -578,8 +617,19 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
     assert!(ok, "{text}");
     let (ok, text) = advise(&["export", "s.json", "--lerobot", "lr", "--fps", "10"], d);
     assert!(ok, "{text}");
+    // One dataset per rate (issue 49): the teacher's demonstrations were recorded at 15 Hz, the
+    // advice on a 30 Hz execution; `--fps` is only for sources without times.
     assert!(
-        text.contains("in 4 episodes (3 demonstrations, 1 advice)"),
+        text.contains("recorded at 15 fps and 30 fps: one dataset per rate under lr"),
+        "{text}"
+    );
+    assert!(
+        text.contains("wrote lr/15fps: a LeRobot v3.0 dataset of")
+            && text.contains("in 3 episodes (3 demonstrations, 0 advice)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("wrote lr/30fps: a LeRobot v3.0 dataset of 15 frames at 30 fps"),
         "{text}"
     );
     // An export never writes into a directory that holds something.
@@ -589,34 +639,8 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
         "{text}"
     );
 
-    let info: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(d.join("lr/meta/info.json")).unwrap()).unwrap();
-    assert_eq!(info["codebase_version"], "v3.0");
-    assert_eq!(info["fps"], 10);
-    assert_eq!(
-        info["features"]["action"]["names"],
-        serde_json::json!(["trans", "rot"])
-    );
-    let stats: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(d.join("lr/meta/stats.json")).unwrap()).unwrap();
-
-    let read = read_lerobot(&py, &d.join("lr"));
-    let data = &read["data"];
-    assert_eq!(
-        data["schema"]["observation.state"],
-        "fixed_size_list<item: float>[3]"
-    );
-    assert_eq!(data["schema"]["action"], "fixed_size_list<item: float>[2]");
-    assert_eq!(data["schema"]["index"], "int64");
-    assert_eq!(data["schema"]["advise.weight"], "float");
-
     let mut files = advise::diag::SourceMap::new();
     let ds = advise::policy::dataset::Dataset::load(&mut files, &d.join("s.json")).unwrap();
-    let rows = data["rows"].as_array().unwrap();
-    assert_eq!(rows.len(), ds.len());
-    assert_eq!(stats["action"]["count"], serde_json::json!([ds.len()]));
-    let episodes = read["episodes"]["rows"].as_array().unwrap();
-    assert_eq!(episodes.len(), 4);
     let f32s = |v: &serde_json::Value| -> Vec<f32> {
         v.as_array()
             .unwrap()
@@ -627,55 +651,99 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
     // Every dataset point is one frame, once: match them by provenance order within episodes.
     let mut seen = vec![false; ds.len()];
     let mut reweighted = 0;
-    for (e, ep) in episodes.iter().enumerate() {
-        let (from, to) = (
-            ep["dataset_from_index"].as_u64().unwrap() as usize,
-            ep["dataset_to_index"].as_u64().unwrap() as usize,
+    for (part, fps, source, count) in [
+        ("lr/15fps", 15, "demonstration", 3),
+        ("lr/30fps", 30, "advice", 1),
+    ] {
+        let info: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(part).join("meta/info.json")).unwrap())
+                .unwrap();
+        assert_eq!(info["codebase_version"], "v3.0");
+        assert_eq!(info["fps"], fps);
+        assert_eq!(
+            info["features"]["action"]["names"],
+            serde_json::json!(["trans", "rot"])
         );
-        assert_eq!(ep["length"].as_u64(), Some((to - from) as u64));
-        let source = if e < 3 { "demonstration" } else { "advice" };
-        assert_eq!(ep["advise.source"], source);
-        for (f, row) in rows[from..to].iter().enumerate() {
-            assert_eq!(row["episode_index"].as_u64(), Some(e as u64));
-            assert_eq!(row["frame_index"].as_u64(), Some(f as u64));
-            assert_eq!(row["advise.source"], source);
-            let i = (0..ds.len())
-                .find(|&i| {
-                    !seen[i]
-                        && ds.z(i).iter().map(|&x| x as f32).collect::<Vec<_>>()
-                            == f32s(&row["observation.state"])
-                        && ds.a(i).iter().map(|&x| x as f32).collect::<Vec<_>>()
-                            == f32s(&row["action"])
-                })
-                .unwrap_or_else(|| panic!("frame {from}+{f} is no dataset point: {row}"));
-            seen[i] = true;
-            assert_eq!(
-                row["advise.weight"].as_f64().map(|w| w as f32),
-                Some(ds.m(i) as f32)
+        let stats: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(part).join("meta/stats.json")).unwrap())
+                .unwrap();
+        let read = read_lerobot(&py, &d.join(part));
+        let data = &read["data"];
+        assert_eq!(
+            data["schema"]["observation.state"],
+            "fixed_size_list<item: float>[3]"
+        );
+        assert_eq!(data["schema"]["action"], "fixed_size_list<item: float>[2]");
+        assert_eq!(data["schema"]["index"], "int64");
+        assert_eq!(data["schema"]["advise.weight"], "float");
+        let rows = data["rows"].as_array().unwrap();
+        assert_eq!(stats["action"]["count"], serde_json::json!([rows.len()]));
+        let episodes = read["episodes"]["rows"].as_array().unwrap();
+        assert_eq!(episodes.len(), count);
+        for (e, ep) in episodes.iter().enumerate() {
+            let (from, to) = (
+                ep["dataset_from_index"].as_u64().unwrap() as usize,
+                ep["dataset_to_index"].as_u64().unwrap() as usize,
             );
-            reweighted += (ds.m(i) > 1.0) as usize;
-            assert!((row["timestamp"].as_f64().unwrap() - f as f64 / 10.0).abs() < 1e-6);
+            assert_eq!(ep["length"].as_u64(), Some((to - from) as u64));
+            assert_eq!(ep["advise.source"], source);
+            for (f, row) in rows[from..to].iter().enumerate() {
+                assert_eq!(row["episode_index"].as_u64(), Some(e as u64));
+                assert_eq!(row["frame_index"].as_u64(), Some(f as u64));
+                assert_eq!(row["advise.source"], source);
+                let i = (0..ds.len())
+                    .find(|&i| {
+                        !seen[i]
+                            && ds.z(i).iter().map(|&x| x as f32).collect::<Vec<_>>()
+                                == f32s(&row["observation.state"])
+                            && ds.a(i).iter().map(|&x| x as f32).collect::<Vec<_>>()
+                                == f32s(&row["action"])
+                    })
+                    .unwrap_or_else(|| panic!("frame {from}+{f} is no dataset point: {row}"));
+                seen[i] = true;
+                assert_eq!(
+                    row["advise.weight"].as_f64().map(|w| w as f32),
+                    Some(ds.m(i) as f32)
+                );
+                reweighted += (ds.m(i) > 1.0) as usize;
+                // At the source's own rate: a 15 Hz demonstration plays in real time.
+                assert!(
+                    (row["timestamp"].as_f64().unwrap() - f as f64 / f64::from(fps)).abs() < 1e-6
+                );
+            }
         }
+        if source == "advice" {
+            assert_eq!(episodes[0]["advise.name"], "speed_up(rate = 0.2)");
+        }
+        assert_eq!(
+            read["tasks"]["rows"][0]["task"],
+            "drive the base to the goal pose"
+        );
+        // LeRobot's loader reads each frame's task text through tasks.parquet's index (issue
+        // 35: it read `0`).
+        let loader = read["loader_task"].as_array().unwrap();
+        assert_eq!(loader.len(), rows.len());
+        assert!(
+            loader
+                .iter()
+                .all(|t| t == "drive the base to the goal pose"),
+            "{:?}",
+            &loader[..3]
+        );
     }
     assert!(seen.iter().all(|&s| s));
     assert!(reweighted > 0, "the critique's weights are carried");
-    assert_eq!(episodes[3]["advise.name"], "speed_up(rate = 0.2)");
-    assert_eq!(
-        read["tasks"]["rows"][0]["task"],
-        "drive the base to the goal pose"
-    );
-    // LeRobot's loader reads each frame's task text through tasks.parquet's index (issue 35: it
-    // read `0`).
-    let loader = read["loader_task"].as_array().unwrap();
-    assert_eq!(loader.len(), ds.len());
-    assert!(
-        loader
-            .iter()
-            .all(|t| t == "drive the base to the goal pose"),
-        "{:?}",
-        &loader[..3]
-    );
-    assert!(d.join("session_lr/meta/info.json").exists());
+    // A dataset saved before datasets kept times: its demonstrations at `--fps`.
+    let mut old: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("s.json")).unwrap()).unwrap();
+    for demo in old["demos"].as_array_mut().unwrap() {
+        demo.as_object_mut().unwrap().remove("period_s");
+    }
+    std::fs::write(d.join("old.json"), old.to_string()).unwrap();
+    let (ok, text) = advise(&["export", "old.json", "--lerobot", "lo", "--fps", "10"], d);
+    assert!(ok, "{text}");
+    assert!(text.contains("recorded at 10 fps and 30 fps"), "{text}");
+    assert!(d.join("session_lr/15fps/meta/info.json").exists());
 
     // `--with-executions`: the session's execution is a fifth episode, marked `execution`, its
     // frames the execution's points with weight 0.
@@ -692,18 +760,19 @@ fn the_lerobot_export_reads_back_in_pyarrow_as_the_datasets_points() {
         d,
     );
     assert!(ok, "{text}");
+    // The execution is at the simulator's 30 Hz, with the advice on it.
     assert!(
-        text.contains("in 5 episodes (3 demonstrations, 1 advice, 1 executions)"),
+        text.contains("in 2 episodes (0 demonstrations, 1 advice, 1 executions)"),
         "{text}"
     );
-    let read = read_lerobot(&py, &d.join("lx"));
+    let read = read_lerobot(&py, &d.join("lx/30fps"));
     let rows = read["data"]["rows"].as_array().unwrap();
     let episodes = read["episodes"]["rows"].as_array().unwrap();
-    assert_eq!(episodes.len(), 5);
-    assert_eq!(episodes[4]["advise.source"], "execution");
-    assert_eq!(episodes[4]["advise.name"], "execution 0");
+    assert_eq!(episodes.len(), 2);
+    assert_eq!(episodes[1]["advise.source"], "execution");
+    assert_eq!(episodes[1]["advise.name"], "execution 0");
     let exec = ds.execution(ds.executions()[0].id).unwrap();
-    let from = episodes[4]["dataset_from_index"].as_u64().unwrap() as usize;
+    let from = episodes[1]["dataset_from_index"].as_u64().unwrap() as usize;
     assert_eq!(rows.len(), from + exec.len());
     for (f, row) in rows[from..].iter().enumerate() {
         assert_eq!(row["advise.source"], "execution");

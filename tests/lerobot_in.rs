@@ -16,7 +16,7 @@ fn advise(args: &[&str], dir: &Path) -> (bool, String) {
 }
 
 /// A session's dataset (3 demonstrations and one piece of advice) saved as `s.json` and exported
-/// as the LeRobot dataset `lr` in `d`.
+/// as LeRobot datasets, one per rate: the demonstrations' (15 fps) is `lr` in `d`.
 fn exported(d: &Path) {
     std::fs::write(
         d.join("s.adv"),
@@ -25,8 +25,15 @@ fn exported(d: &Path) {
     .unwrap();
     let (ok, text) = advise(&["run", "--demos", "3", "--no-journal", "s.adv"], d);
     assert!(ok, "{text}");
-    let (ok, text) = advise(&["export", "s.json", "--lerobot", "lr", "--fps", "10"], d);
+    let (ok, text) = advise(
+        &["export", "s.json", "--lerobot", "parts", "--fps", "10"],
+        d,
+    );
     assert!(ok, "{text}");
+    // One dataset per rate (issue 49): the demonstrations at their 15 Hz in `parts/15fps`, the
+    // advice on a 30 Hz execution in `parts/30fps`. The tests read the demonstrations' as `lr`.
+    std::fs::rename(d.join("parts/15fps"), d.join("lr")).unwrap();
+    assert!(d.join("parts/30fps/meta/info.json").exists());
 }
 
 #[test]
@@ -38,9 +45,9 @@ fn an_exported_dataset_imports_as_the_same_points() {
     let ds = advise::policy::dataset::Dataset::load(&mut files, &d.join("s.json")).unwrap();
     let domain = Domain::positioning();
     let read = read_lerobot(&d.join("lr"), &domain, &LeRobotReadOptions::default()).unwrap();
-    // The export's episodes: each demonstration, then the advice.
-    assert_eq!(read.episodes.len(), 4);
-    assert_eq!(read.fps, 10.0);
+    // The export's episodes: each demonstration, at its recorded rate.
+    assert_eq!(read.episodes.len(), 3);
+    assert_eq!(read.fps, 15.0);
     let f32s = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<_>>();
     let mut k = 0;
     for (e, episode) in read.episodes.iter().enumerate() {
@@ -72,13 +79,16 @@ fn an_exported_dataset_imports_as_the_same_points() {
                 f32s(ds.a(i)),
                 "episode {e} frame {f}"
             );
-            assert_eq!(episode.trace.t[f] as f32, f as f32 / 10.0);
+            assert_eq!(episode.trace.t[f] as f32, f as f32 / 15.0);
             assert_eq!(read.episode_index[k], e as i64);
             assert_eq!(read.frame_index[k], f as i64);
             k += 1;
         }
     }
-    assert_eq!(k, ds.len());
+    assert_eq!(
+        k,
+        ds.demos().iter().map(|d| d.points as usize).sum::<usize>()
+    );
 
     // The CLI writes them as demonstrations `load demos` reads.
     let (ok, text) = advise(
@@ -94,9 +104,9 @@ fn an_exported_dataset_imports_as_the_same_points() {
         d,
     );
     assert!(ok, "{text}");
-    insta::assert_snapshot!(text, @"read lr: `observation.state` by name: `dist2`, `bearing`, `dheading`, `action` by name: `trans`, `rot`; wrote 4 demonstrations (360 points) to d.csv; `load demos d.csv` adds them to a session");
+    insta::assert_snapshot!(text, @"read lr: `observation.state` by name: `dist2`, `bearing`, `dheading`, `action` by name: `trans`, `rot`; wrote 3 demonstrations (345 points) to d.csv; `load demos d.csv` adds them to a session");
     let loaded = Episode::load_all(&mut files, &domain, &d.join("d.csv")).unwrap();
-    assert_eq!(loaded.len(), 4);
+    assert_eq!(loaded.len(), 3);
     for (a, b) in loaded.iter().zip(&read.episodes) {
         assert_eq!(a.trace.len(), b.trace.len());
         assert_eq!(f32s(&a.trace.z), f32s(&b.trace.z));

@@ -477,14 +477,14 @@ fn the_standoff_figures_are_what_its_commands_print() {
     ));
 }
 
-/// Timings (`0.2 ms`) vary from run to run: masked on both sides.
+/// Timings (`0.2 ms`, `40 µs`) vary from run to run: masked on both sides.
 fn mask_timings(line: &str) -> String {
     let words: Vec<&str> = line.split(' ').collect();
     let mut out = Vec::new();
     for (i, w) in words.iter().enumerate() {
         let next_is_ms = words
             .get(i + 1)
-            .is_some_and(|n| n.trim_end_matches([',', ';']) == "ms");
+            .is_some_and(|n| matches!(n.trim_end_matches([',', ';', ')']), "ms" | "µs"));
         if next_is_ms && w.parse::<f64>().is_ok() {
             out.push("<t>");
         } else {

@@ -398,10 +398,10 @@ pub fn export(args: super::ExportArgs) -> miette::Result<()> {
             fps: args.fps.unwrap_or_else(lerobot::default_fps),
             with_executions: args.with_executions,
         };
-        let summary = lerobot::export_lerobot_with(&dataset, dir, &options)?;
+        let parts = lerobot::export_lerobot_with(&dataset, dir, &options)?;
         errln!(
             "{}",
-            lerobot::describe(&summary, &dir.display().to_string())
+            lerobot::describe_parts(&parts, &dir.display().to_string())
         );
     }
     Ok(())

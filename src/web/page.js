@@ -66,24 +66,37 @@ async function refresh() {
 
 // ---- the execution: path and actions ----
 
-/** The shown execution's world-to-screen map for the path plot, at equal scale. */
+/** The length of a heading arrow (the goal's, the robot's at the end), m. */
+const ARROW_M = 0.4;
+/** Room kept on every side of the path plot for the names drawn beside marks, px. */
+const LABEL_ROOM = 36;
+
+/** The shown execution's world-to-screen map for the path plot, at equal scale: everything drawn
+ *  (the path, the goal and its heading, the robot's final heading, the task's drawings, the ball,
+ *  the arena) inside, with room around for their names. */
 function pathFrame(ex, w, h) {
   const xs = [], ys = [];
   const add = (x, y) => { if (isFinite(x) && isFinite(y)) { xs.push(x); ys.push(y); } };
   ex.path.forEach(([x, y]) => add(x, y));
+  if (ex.path.length && isFinite(ex.final_heading)) {
+    const [x, y] = ex.path[ex.path.length - 1];
+    add(x + ARROW_M * Math.cos(ex.final_heading), y + ARROW_M * Math.sin(ex.final_heading));
+  }
   if (overlay) overlay.path.forEach(([x, y]) => add(x, y));
   (ex.ball || []).forEach(([x, y]) => add(x, y));
   for (const d of ex.drawn) {
     const r = d.shape === "circle" ? d.values[2] : 0;
     add(d.values[0] - r, d.values[1] - r);
     add(d.values[0] + r, d.values[1] + r);
+    if (d.shape === "pose") add(d.values[0] + ARROW_M * Math.cos(d.values[2]), d.values[1] + ARROW_M * Math.sin(d.values[2]));
   }
   if (ex.arena) { add(-ex.arena.half_m, -ex.arena.half_m); add(ex.arena.half_m, ex.arena.half_m); }
   if (!xs.length) { add(-1, -1); add(1, 1); }
   let [x0, x1, y0, y1] = [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
   const px = Math.max((x1 - x0) * 0.06, 0.25), py = Math.max((y1 - y0) * 0.06, 0.25);
   [x0, x1, y0, y1] = [x0 - px, x1 + px, y0 - py, y1 + py];
-  const k = Math.min(w / (x1 - x0), h / (y1 - y0));
+  const m = Math.min(LABEL_ROOM, w / 6, h / 6);
+  const k = Math.min((w - 2 * m) / (x1 - x0), (h - 2 * m) / (y1 - y0));
   const ox = (w - k * (x1 - x0)) / 2, oy = (h - k * (y1 - y0)) / 2;
   return { k, x: (x) => ox + k * (x - x0), y: (y) => h - oy - k * (y - y0), wx: (sx) => x0 + (sx - ox) / k, wy: (sy) => y0 + (h - oy - sy) / k, x0, x1, y0, y1 };
 }
@@ -119,11 +132,14 @@ function drawPath(ex) {
     else el(svg, "circle", { cx: f.x(x), cy: f.y(y), r: 6, fill: c, "fill-opacity": 0.25, stroke: c });
     if (d.shape === "pose") {
       const th = d.values[2];
-      el(svg, "line", { x1: f.x(x), y1: f.y(y), x2: f.x(x + 0.4 * Math.cos(th)), y2: f.y(y + 0.4 * Math.sin(th)), stroke: c, "stroke-width": 2.5 });
+      el(svg, "line", { x1: f.x(x), y1: f.y(y), x2: f.x(x + ARROW_M * Math.cos(th)), y2: f.y(y + ARROW_M * Math.sin(th)), stroke: c, "stroke-width": 2.5 });
     }
-    // A circle is named at its top, so it does not cover a point drawn at its centre.
-    const ly = d.shape === "circle" ? f.y(y + d.values[2]) - 4 : f.y(y) - 8;
-    el(svg, "text", { x: f.x(x) + 8, y: ly, fill: c }, d.name);
+    // A circle is named at its top, so it does not cover a point drawn at its centre. A name
+    // that would run past the right edge goes left of its mark; one above the top, below it.
+    let ly = d.shape === "circle" ? f.y(y + d.values[2]) - 4 : f.y(y) - 8;
+    if (ly < 12) ly = d.shape === "circle" ? f.y(y - d.values[2]) + 14 : f.y(y) + 18;
+    const right = f.x(x) + 8 + 7 * d.name.length > vb.width;
+    el(svg, "text", { x: right ? f.x(x) - 8 : f.x(x) + 8, y: ly, fill: c, "text-anchor": right ? "end" : "start" }, d.name);
   }
   if (ex.ball && ex.ball.length) {
     polyline(svg, ex.ball.map(([x, y]) => [f.x(x), f.y(y)]), { stroke: COLOURS.ball, "stroke-dasharray": "5 3", "stroke-width": 1.5 });
@@ -147,8 +163,16 @@ function drawPath(ex) {
     el(svg, "circle", { cx: screen[0][0], cy: screen[0][1], r: 5, fill: "#fff", stroke: COLOURS.path, "stroke-width": 2 });
     const [lx, ly] = screen[screen.length - 1];
     el(svg, "rect", { x: lx - 4, y: ly - 4, width: 8, height: 8, fill: COLOURS.path });
+    // The robot's heading at the end, an arrow as long as the goal's.
+    if (isFinite(ex.final_heading)) {
+      const [wx, wy] = ex.path[ex.path.length - 1], th = ex.final_heading;
+      const tx = f.x(wx + ARROW_M * Math.cos(th)), ty = f.y(wy + ARROW_M * Math.sin(th));
+      const head = (a) => [tx - 9 * Math.cos(a), ty + 9 * Math.sin(a)];
+      el(svg, "line", { class: "final-heading", x1: lx, y1: ly, x2: tx, y2: ty, stroke: COLOURS.path, "stroke-width": 2.5 });
+      polyline(svg, [head(th + 0.5), [tx, ty], head(th - 0.5)], { stroke: COLOURS.path, "stroke-width": 2.5 });
+    }
   }
-  const items = [["path", COLOURS.path], ["selection", COLOURS.sel], ["critiqued", COLOURS.flagged], ["advised", COLOURS.advised]];
+  const items = [["path, end heading", COLOURS.path], ["selection", COLOURS.sel], ["critiqued", COLOURS.flagged], ["advised", COLOURS.advised]];
   if (overlay && overlay.index !== ex.index) items.push([`execution ${overlay.index}`, "#888"]);
   legend(svg, vb.width - 150, 16, items);
 }

@@ -56,7 +56,7 @@ pub fn masked(dir: Option<&Path>) -> insta::Settings {
 /// (a temporary path as the name the snapshot shows, say).
 pub fn masked_as(literals: &[(&str, &str)]) -> insta::Settings {
     let mut settings = insta::Settings::clone_current();
-    settings.add_filter(r"\b\d+(?:\.\d+)? ms\b", "<t>");
+    settings.add_filter(r"\b\d+(?:\.\d+)? (?:ms|µs)\b", "<t>");
     for (text, replacement) in literals {
         settings.add_filter(&escape(text), *replacement);
     }

@@ -1,6 +1,9 @@
 """The simulator as Gymnasium environments: registered on import, passing gymnasium's own
 checker, seeded (the same seed gives the same episode)."""
 
+import os
+import shutil
+
 import gymnasium
 import numpy as np
 import pytest
@@ -122,3 +125,57 @@ def test_a_bad_task_file_or_name_raises_its_diagnostics(tmp_path):
     with pytest.raises(advise.AdviseError) as e:
         advise.make_env(tasks=STANDOFF, task="standof")
     assert "standoff" in str(e.value)
+
+
+DOCK = os.path.join(os.path.dirname(__file__), "..", "common", "dock_io.adv")
+
+
+def _checked_without_warnings(env):
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env, skip_render_check=True)
+    assert [str(w.message) for w in caught] == []
+
+
+def test_spaces_are_the_declared_ranges_and_the_checker_says_nothing(tmp_path):
+    # Issue 49: a declared task's observation ranges and action limits, not Box(-inf, inf).
+    dock = tmp_path / "dock.adv"
+    shutil.copy(DOCK, dock)
+    env = advise.make_env(tasks=str(dock), task="dock")
+    assert np.array_equal(env.observation_space.low, [0, -np.pi, 0, -np.pi, -0.1])
+    assert np.array_equal(env.observation_space.high, [10, np.pi, 10, np.pi, 0.1])
+    # trans in [-0.3, 0.6] is not a box Gymnasium's checker accepts: actions are normalized,
+    # -1 and 1 the declared limits.
+    assert env.normalize_actions
+    assert np.array_equal(env.action_space.low, [-1, -1])
+    assert np.array_equal(env.action_space.high, [1, 1])
+    assert np.array_equal(env.action_limits[0], [-0.3, -1])
+    assert np.array_equal(env.action_limits[1], [0.6, 1])
+    assert np.allclose(env.task_action([-1, 0]), [-0.3, 0])
+    assert np.allclose(env.task_action([1, 1]), [0.6, 1])
+    _checked_without_warnings(env)
+    # Positioning's limits are accepted as they are: actions in the task's units.
+    pos = gymnasium.make("advise/Positioning-v0").unwrapped
+    assert not pos.normalize_actions
+    assert np.array_equal(pos.action_space.low, [-1, -1])
+    assert np.array_equal(pos.observation_space.high, [100, np.pi, np.pi])
+    _checked_without_warnings(pos)
+    # Either way on request.
+    raw = advise.make_env(tasks=str(dock), task="dock", normalize_actions=False)
+    assert np.array_equal(raw.action_space.low, [-0.3, -1])
+
+
+def test_a_successful_docking_ends_with_reward_one_and_names_its_rule(tmp_path):
+    dock = tmp_path / "dock.adv"
+    shutil.copy(DOCK, dock)
+    env = advise.make_env(tasks=str(dock), task="dock", normalize_actions=False)
+    env.reset(seed=1, options={"start": 0})
+    # Standing still ends the run by the resting rule, which names itself.
+    for _ in range(100):
+        obs, reward, terminated, truncated, info = env.step(np.zeros(2))
+        if terminated or truncated:
+            break
+    assert terminated and not info["success"] and reward == 0.0
+    assert info["end_rule"].startswith("end when abs(trans) < 0.01"), info

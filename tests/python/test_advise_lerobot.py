@@ -22,7 +22,8 @@ DATA = "data/chunk-000/file-000.parquet"
 
 @pytest.fixture(scope="module")
 def lerobot(tmp_path_factory):
-    """A LeRobot dataset exported by advise: 3 demonstrations and one advice, at 10 fps."""
+    """A LeRobot dataset exported by advise: 3 demonstrations at their recorded 15 fps (the
+    advice on a 30 Hz execution goes to a dataset of its own: one dataset per rate)."""
     d = tmp_path_factory.mktemp("lerobot")
     (d / "s.adv").write_text("run start 0\nselect 5..20\nadvise speed_up(0.2)\nsave s.json\n")
     for args in (
@@ -30,7 +31,8 @@ def lerobot(tmp_path_factory):
         ["export", "s.json", "--lerobot", "lr", "--fps", "10"],
     ):
         subprocess.run([ADVISE, *args], cwd=d, check=True, capture_output=True, timeout=120)
-    return d / "lr"
+    assert (d / "lr" / "30fps" / "meta" / "info.json").exists()
+    return d / "lr" / "15fps"
 
 
 def frames(d):
@@ -52,7 +54,7 @@ def test_load_lerobot_reads_the_frames_pyarrow_reads(lerobot):
     np.testing.assert_array_equal(data["episode_index"], t["episode_index"].to_numpy())
     np.testing.assert_array_equal(data["frame_index"], t["frame_index"].to_numpy())
     assert data["episode_index"].dtype == np.int64
-    assert data["fps"] == 10.0
+    assert data["fps"] == 15.0
     assert data["observation_names"] == ["dist2", "bearing", "dheading"]
     assert data["mapping"][1] == "`action` by name: `trans`, `rot`"
 

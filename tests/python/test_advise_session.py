@@ -37,11 +37,11 @@ def test_replies_match_the_cli_transcript(tmp_path):
         cwd=tmp_path, check=True, capture_output=True, text=True, timeout=120,
     ).stdout
     # Timings (`ready in 0.1 ms`) differ from run to run.
-    out = re.sub(r"ready in [0-9.]+ ms", "ready in _ ms", out)
+    out = re.sub(r"ready in [0-9.]+ (?:ms|µs)", "ready in _ ms", out)
     s = advise.Session(demos=3)
     for st in statements:
         reply = s.execute(st)
-        first = re.sub(r"ready in [0-9.]+ ms", "ready in _ ms", reply["text"].splitlines()[0])
+        first = re.sub(r"ready in [0-9.]+ (?:ms|µs)", "ready in _ ms", reply["text"].splitlines()[0])
         assert first in out, (first, out)
 
 
@@ -87,7 +87,7 @@ def cli(args, cwd, home=None, stdin=None):
 
 def timeless(text):
     """`text` without what varies from run to run (`ready in 0.1 ms`)."""
-    return re.sub(r"ready in [0-9.]+ ms", "ready in _ ms", text)
+    return re.sub(r"ready in [0-9.]+ (?:ms|µs)", "ready in _ ms", text)
 
 
 def journal_of(home):

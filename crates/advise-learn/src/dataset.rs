@@ -57,6 +57,111 @@ pub struct DemoRecord {
     pub id: DemoId,
     pub name: String,
     pub points: u32,
+    /// The time between points, s, for a demonstration recorded at a steady rate (a teacher's
+    /// in the simulator: 1/15 s for positioning). Absent in files written before datasets kept
+    /// times, and when `times_s` holds the times instead.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period_s: Option<f64>,
+    /// Each point's time since the first, s, for a demonstration whose points are not evenly
+    /// spaced (a recording's log times). Absent with `period_s`, and in older files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub times_s: Option<Vec<f64>>,
+}
+
+/// When a demonstration's points were recorded, relative to its first point: what
+/// [`DemoRecord`] keeps (`period_s` or `times_s`), found from a trace's times by
+/// [`DemoTimes::of`]. A trace whose times do not advance, or are its points' numbers (0, 1, 2, ...
+/// s: how a file without times is read, older saved datasets among them), has none.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DemoTimes {
+    /// Evenly spaced, this far apart, s.
+    Period(f64),
+    /// Each point's time since the first, s (non-decreasing, the first 0).
+    Each(Vec<f64>),
+}
+
+impl DemoTimes {
+    /// The times of a trace's points `t`: a period when every point is within a microsecond of
+    /// an even spacing, else each time; `None` when they do not advance, are not finite, or are
+    /// the points' numbers ([`DemoTimes::trace_times`] of none).
+    pub fn of(t: &[f64]) -> Option<DemoTimes> {
+        let (&first, &last) = (t.first()?, t.last()?);
+        let span = last - first;
+        let steady = t.windows(2).all(|w| w[1] >= w[0]);
+        let numbered = t.iter().enumerate().all(|(k, &v)| v == k as f64);
+        if t.len() < 2 || !span.is_finite() || span <= 0.0 || !steady || numbered {
+            return None;
+        }
+        let period = span / (t.len() - 1) as f64;
+        let even = t
+            .iter()
+            .enumerate()
+            .all(|(k, &v)| (v - first - k as f64 * period).abs() <= 1e-6);
+        Some(if even {
+            DemoTimes::Period(period)
+        } else {
+            DemoTimes::Each(t.iter().map(|v| v - first).collect())
+        })
+    }
+
+    /// Point `k`'s time since the first, s.
+    pub fn time_s(&self, k: usize) -> f64 {
+        match self {
+            DemoTimes::Period(p) => k as f64 * p,
+            DemoTimes::Each(t) => t.get(k).or(t.last()).copied().unwrap_or(0.0),
+        }
+    }
+
+    /// The rate, Hz: the period's, or for uneven times that of the median spacing (a
+    /// recording's jitter does not move it).
+    pub fn rate_hz(&self) -> f64 {
+        match self {
+            DemoTimes::Period(p) => 1.0 / p,
+            DemoTimes::Each(t) => {
+                let mut gaps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+                gaps.sort_unstable_by(f64::total_cmp);
+                let median = gaps.get(gaps.len() / 2).copied().unwrap_or(0.0);
+                if median > 0.0 {
+                    1.0 / median
+                } else {
+                    (t.len().saturating_sub(1)) as f64 / t.last().copied().unwrap_or(1.0)
+                }
+            }
+        }
+    }
+
+    /// `(period_s, times_s)` as a [`DemoRecord`] keeps them.
+    pub fn fields(times: Option<DemoTimes>) -> (Option<f64>, Option<Vec<f64>>) {
+        match times {
+            Some(DemoTimes::Period(p)) => (Some(p), None),
+            Some(DemoTimes::Each(t)) => (None, Some(t)),
+            None => (None, None),
+        }
+    }
+
+    /// The times kept as `(period_s, times_s)`, if any.
+    pub fn from_fields(period_s: Option<f64>, times_s: Option<&Vec<f64>>) -> Option<DemoTimes> {
+        match (period_s, times_s) {
+            (Some(p), _) => Some(DemoTimes::Period(p)),
+            (None, Some(t)) => Some(DemoTimes::Each(t.clone())),
+            (None, None) => None,
+        }
+    }
+
+    /// `n` points' times, from 0, for a trace: without times, the points' numbers (0, 1, 2, ...
+    /// s), which [`DemoTimes::of`] reads back as none.
+    pub fn trace_times(times: Option<&DemoTimes>, n: usize) -> Vec<f64> {
+        (0..n)
+            .map(|k| times.map_or(k as f64, |t| t.time_s(k)))
+            .collect()
+    }
+}
+
+impl DemoRecord {
+    /// When its points were recorded, if the dataset knows ([`DemoTimes`]).
+    pub fn times(&self) -> Option<DemoTimes> {
+        DemoTimes::from_fields(self.period_s, self.times_s.as_ref())
+    }
 }
 
 /// An execution that advice or critique was given on, kept whole so advice can be re-synthesized.
@@ -518,10 +623,13 @@ impl Dataset {
                 },
             );
         }
+        let (period_s, times_s) = DemoTimes::fields(DemoTimes::of(&trace.t));
         self.demos.push(DemoRecord {
             id,
             name: name.to_string(),
             points: trace.len() as u32,
+            period_s,
+            times_s,
         });
         Ok(id)
     }

@@ -80,6 +80,18 @@ impl SimEnv {
             .collect()
     }
 
+    /// Each observation's declared (low, high) range; unbounded where the task declares none.
+    fn observation_limits(&self) -> Vec<(f64, f64)> {
+        self.domain
+            .observe
+            .iter()
+            .map(|d| {
+                d.limits
+                    .map_or((f64::NEG_INFINITY, f64::INFINITY), |l| (l.lo, l.hi))
+            })
+            .collect()
+    }
+
     /// The control period, seconds.
     #[getter]
     fn period_s(&self) -> f64 {
@@ -160,6 +172,12 @@ impl SimEnv {
             let success = score.success && end != Ending::NonFinite;
             reward = if success { 1.0 } else { 0.0 };
             info.set_item("ending", format!("{end:?}"))?;
+            // Which `end when` rule ended it, as a run's reply names it.
+            if matches!(end, Ending::Rule | Ending::Rested)
+                && let Some(rule) = ep.task.end_rule()
+            {
+                info.set_item("end_rule", rule)?;
+            }
             info.set_item("success", success)?;
             info.set_item("position_error_m", score.position_error_m)?;
         }

@@ -109,6 +109,12 @@ impl Checker<'_> {
         if found == want || found == Ty::Err {
             return true;
         }
+        // A comparison where a number belongs (`let near = gr < 0.2`): the number it meant is
+        // chosen by the condition.
+        let help = help.or((found == Ty::Bool && want == Ty::Num).then_some(
+            "a comparison is a condition, not a number: to choose a number by it, write \
+             `if(CONDITION, THEN, ELSE)`, e.g. `if(d < 0.2, 1, 0)`",
+        ));
         self.err(
             f,
             e.span,

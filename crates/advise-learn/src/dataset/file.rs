@@ -206,7 +206,9 @@ impl Dataset {
     /// points, becomes one episode named after where it came from (`NAME demo 3 (teacher-0)`,
     /// `NAME advice 7 (slow_down on 40..70)`). Critique weights are not carried (a
     /// demonstration's points weigh 1); executions are not training data and are left out. Point
-    /// times are their index in the episode, in seconds, as the dataset keeps no times.
+    /// times are a demonstration's recorded times, an advice's those of the execution points it
+    /// was synthesized from, from 0; the points' numbers where the dataset has none (a file
+    /// written before datasets kept times), which [`DemoTimes::of`] reads as none.
     pub fn to_episodes(&self, name: &str) -> Vec<Episode> {
         let mut order: Vec<(Provenance, Vec<usize>)> = Vec::new();
         let mut slot: HashMap<(bool, u32), usize> = HashMap::new();
@@ -243,13 +245,61 @@ impl Dataset {
                         )
                     }
                 };
+                let times = self.episode_times(p, &points);
                 let mut trace = Trace::new(&self.domain);
                 for (k, &i) in points.iter().enumerate() {
-                    trace.push(k as f64, self.z(i), self.a(i), None);
+                    trace.push(times[k], self.z(i), self.a(i), None);
                 }
                 Episode { name: label, trace }
             })
             .collect()
+    }
+}
+
+impl Dataset {
+    /// The times, from 0, of the points `points` (in order) of the demonstration or advice that
+    /// `p` names: see [`Dataset::to_episodes`].
+    fn episode_times(&self, p: Provenance, points: &[usize]) -> Vec<f64> {
+        match p {
+            Provenance::Demonstration { demo, .. } => {
+                let times = self
+                    .demos
+                    .iter()
+                    .find(|d| d.id == demo)
+                    .and_then(|d| d.times());
+                points
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &i)| match (self.provenance(i), &times) {
+                        (Provenance::Demonstration { index, .. }, Some(t)) => {
+                            t.time_s(index as usize)
+                        }
+                        _ => k as f64,
+                    })
+                    .collect()
+            }
+            Provenance::Advice { advice, .. } => {
+                let exec = self
+                    .advice
+                    .iter()
+                    .find(|r| r.id == advice)
+                    .and_then(|r| self.executions.iter().find(|e| e.id == r.execution));
+                let at = |i: usize| match (self.provenance(i), exec) {
+                    (Provenance::Advice { source, .. }, Some(e)) => {
+                        e.points.get(source as usize).map(|p| p.t)
+                    }
+                    _ => None,
+                };
+                let t: Option<Vec<f64>> = points.iter().map(|&i| at(i)).collect();
+                match t {
+                    Some(t) if t.iter().all(|v| v.is_finite()) => {
+                        let first = t.first().copied().unwrap_or(0.0);
+                        t.iter().map(|v| v - first).collect()
+                    }
+                    _ => (0..points.len()).map(|k| k as f64).collect(),
+                }
+            }
+        }
     }
 }
 
@@ -418,6 +468,7 @@ fn saved_csv(
             });
         }
         if let Some(e) = episodes.last_mut() {
+            // A saved CSV dataset keeps no times: the points' numbers say so (`DemoTimes::of`).
             e.trace.push(e.trace.len() as f64, &z, &a, None);
         }
     }
@@ -721,8 +772,53 @@ fn validate_points(
                 ),
             });
         }
+        validate_times(i, d)?;
     }
     Ok(())
+}
+
+/// A demonstration's times, when it keeps them: a positive, finite period, or one finite time per
+/// point from 0, never decreasing; not both.
+fn validate_times(i: usize, d: &DemoRecord) -> Result<(), DatasetError> {
+    let bad = |field: &str, what: String| {
+        Err(DatasetError::Record {
+            at: format!("demos[{i}].{field}"),
+            what,
+        })
+    };
+    match (d.period_s, &d.times_s) {
+        (Some(_), Some(_)) => bad(
+            "times_s",
+            "a demonstration keeps `period_s` or `times_s`, not both".into(),
+        ),
+        (Some(p), None) if !(p.is_finite() && p > 0.0) => bad(
+            "period_s",
+            format!("the time between points must be a positive number of seconds, not {p}"),
+        ),
+        (None, Some(t)) if t.len() != d.points as usize => bad(
+            "times_s",
+            format!("{} times for {} points", t.len(), d.points),
+        ),
+        (None, Some(t)) if t.first().is_some_and(|&f| f != 0.0) => bad(
+            "times_s",
+            "the times are from the first point's: the first is 0".into(),
+        ),
+        (None, Some(t)) => match t
+            .windows(2)
+            .position(|w| !(w[1].is_finite() && w[1] >= w[0]))
+        {
+            Some(k) => bad(
+                &format!("times_s[{}]", k + 1),
+                format!(
+                    "{} after {}: times are finite and never decrease",
+                    t[k + 1],
+                    t[k]
+                ),
+            ),
+            None => Ok(()),
+        },
+        _ => Ok(()),
+    }
 }
 
 /// The JSON file of a dataset.

@@ -15,7 +15,7 @@
 //!   its frames are);
 //! - `data/chunk-000/file-000.parquet`: the frames: `observation.state` and `action` (fixed-size
 //!   lists of float32, the domain's dimensions in order, named in `info.json`), `timestamp`
-//!   (`frame_index / fps`: a dataset keeps no times), `frame_index`, `episode_index`, `index`,
+//!   (`frame_index / fps`, as LeRobot's loader checks), `frame_index`, `episode_index`, `index`,
 //!   `task_index`, `advise.source`, `advise.weight`.
 //!
 //! Tables are written with parquet's column writer (snappy), the schema pyarrow reads carried as
@@ -23,6 +23,15 @@
 //! fixed-size lists read back as plain lists), into a temporary sibling directory that is renamed into place once whole ([`crate::files::write_dir_atomic`]), so a
 //! killed export leaves nothing half-written; a directory that exists and is not empty is refused
 //! rather than mixed into.
+//!
+//! A LeRobot dataset has one `fps`; advise's sources each keep their own rate (a positioning
+//! teacher's demonstrations 15 Hz, the executions and the advice on them the simulator's 30 Hz).
+//! [`export_lerobot_with`] therefore writes one dataset per rate: `DIR` itself when every episode
+//! has the same rate, else `DIR/15fps`, `DIR/30fps`, ... An episode's rate is its recorded
+//! times' (a demonstration's as the dataset keeps them, an advice's and an execution's those of
+//! the execution's points), rounded to whole frames per second; one without times (a file saved
+//! before datasets kept them) is at [`LeRobotOptions::fps`]. Frames are not resampled: a frame
+//! is a point the teacher or an operator gave.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -37,7 +46,7 @@ use parquet::schema::types::Type;
 use serde_json::{Value, json};
 use thiserror::Error;
 
-use crate::policy::dataset::{Dataset, Provenance};
+use crate::policy::dataset::{Dataset, DemoTimes, Provenance};
 
 /// The LeRobot dataset format this export writes (its `meta/info.json` `codebase_version`).
 pub const CODEBASE_VERSION: &str = "v3.0";
@@ -72,7 +81,8 @@ pub struct LeRobotSummary {
 /// How to export.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LeRobotOptions {
-    /// Frames per second (a dataset keeps no times).
+    /// Frames per second of an episode without times (from a dataset saved before datasets kept
+    /// them); every other episode is at its own rate.
     pub fps: u32,
     /// Each execution an episode too (`advise.source` = `execution`, `advise.weight` 0).
     pub with_executions: bool,
@@ -103,6 +113,33 @@ pub fn describe(s: &LeRobotSummary, dir: &str) -> String {
     )
 }
 
+/// What a user is told of an export to `dir` of one dataset per rate (see the module's docs).
+pub fn describe_parts(parts: &[(PathBuf, LeRobotSummary)], dir: &str) -> String {
+    match parts {
+        [(_, s)] => describe(s, dir),
+        _ => {
+            let each: Vec<String> = parts
+                .iter()
+                .map(|(p, s)| describe(s, &p.display().to_string()))
+                .collect();
+            format!(
+                "a LeRobot dataset has one frame rate and these sources were recorded at {}: one dataset per rate under {dir}\n{}",
+                parts
+                    .iter()
+                    .map(|(_, s)| format!("{} fps", s.fps))
+                    .collect::<Vec<_>>()
+                    .join(" and "),
+                each.join("\n")
+            )
+        }
+    }
+}
+
+/// The frames per second of times `t` (rounded, 1 to 1000), if they advance.
+fn fps_of(t: &[f64]) -> Option<u32> {
+    DemoTimes::of(t).map(|d| d.rate_hz().round().clamp(1.0, 1000.0) as u32)
+}
+
 /// The task a domain's episodes are labelled with.
 fn task_text(domain: &str) -> String {
     match domain {
@@ -123,6 +160,8 @@ struct EpisodePoints {
     frame_sources: Vec<&'static str>,
     /// The BC weight of a trace's frames (an execution's 0: not a training point).
     trace_weight: f64,
+    /// Its frames per second, from its recorded times; `None` when it has none.
+    fps: Option<u32>,
 }
 
 /// The dataset's executions as episodes, numbered in the order the session ran them.
@@ -137,6 +176,7 @@ fn execution_episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
                 source: "execution",
                 name: format!("execution {n}"),
                 points: Vec::new(),
+                fps: fps_of(&trace.t),
                 trace: Some(trace),
                 frame_sources: Vec::new(),
                 trace_weight: 0.0,
@@ -156,6 +196,9 @@ fn episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
             trace: None,
             frame_sources: Vec::new(),
             trace_weight: 0.0,
+            fps: d
+                .times()
+                .map(|t| t.rate_hz().round().clamp(1.0, 1000.0) as u32),
         })
         .collect();
     let mut advice: Vec<EpisodePoints> = dataset
@@ -168,6 +211,11 @@ fn episodes(dataset: &Dataset) -> Vec<EpisodePoints> {
             trace: None,
             frame_sources: Vec::new(),
             trace_weight: 0.0,
+            // Synthesized on the execution's points, at its rate.
+            fps: dataset
+                .execution(a.execution)
+                .ok()
+                .and_then(|t| fps_of(&t.t)),
         })
         .collect();
     // (episode, index within it) of each point, to order the frames.
@@ -529,12 +577,13 @@ fn stats(values: &[f64], width: usize) -> Value {
     json!({"min": min, "max": max, "mean": mean, "std": std, "count": [n]})
 }
 
-/// Write `dataset` to the new directory `dir` as a LeRobot dataset at `fps` frames per second.
+/// Write `dataset` to the new directory `dir` as LeRobot datasets, one per rate (`fps` for
+/// sources without times): see the module's docs.
 pub fn export_lerobot(
     dataset: &Dataset,
     dir: &Path,
     fps: u32,
-) -> Result<LeRobotSummary, LeRobotError> {
+) -> Result<Vec<(PathBuf, LeRobotSummary)>, LeRobotError> {
     let options = LeRobotOptions {
         fps,
         with_executions: false,
@@ -542,17 +591,46 @@ pub fn export_lerobot(
     export_lerobot_with(dataset, dir, &options)
 }
 
-/// [`export_lerobot`] with its options.
+/// [`export_lerobot`] with its options: the datasets written, each its directory and summary.
 pub fn export_lerobot_with(
     dataset: &Dataset,
     dir: &Path,
     options: &LeRobotOptions,
-) -> Result<LeRobotSummary, LeRobotError> {
+) -> Result<Vec<(PathBuf, LeRobotSummary)>, LeRobotError> {
     let mut eps = episodes(dataset);
     if options.with_executions {
         eps.extend(execution_episodes(dataset));
     }
-    write_lerobot(dataset, eps, dir, options.fps, Value::Null)
+    let mut by_rate: std::collections::BTreeMap<u32, Vec<EpisodePoints>> = Default::default();
+    for e in eps {
+        by_rate
+            .entry(e.fps.unwrap_or(options.fps).max(1))
+            .or_default()
+            .push(e);
+    }
+    if by_rate.len() <= 1 {
+        let (fps, eps) = by_rate
+            .into_iter()
+            .next()
+            .unwrap_or((options.fps.max(1), Vec::new()));
+        let s = write_lerobot(dataset, eps, dir, fps, Value::Null)?;
+        return Ok(vec![(dir.to_path_buf(), s)]);
+    }
+    if std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_some()) {
+        return Err(LeRobotError::Exists {
+            path: dir.to_path_buf(),
+        });
+    }
+    let mut parts = Vec::new();
+    crate::files::write_dir_atomic(dir, |tmp| {
+        for (fps, eps) in by_rate {
+            let name = format!("{fps}fps");
+            let s = write_lerobot(dataset, eps, &tmp.join(&name), fps, Value::Null)?;
+            parts.push((dir.join(name), s));
+        }
+        Ok::<(), LeRobotError>(())
+    })?;
+    Ok(parts)
 }
 
 /// Write `trace`, one corrected episode of `domain` named `name`, as a new LeRobot dataset in
@@ -575,6 +653,7 @@ pub fn export_corrected_episode(
         trace: Some(trace),
         frame_sources: sources,
         trace_weight: 1.0,
+        fps: Some(fps),
     };
     write_lerobot(&Dataset::new(domain), vec![episode], dir, fps, provenance)
 }

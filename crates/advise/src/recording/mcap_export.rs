@@ -4,8 +4,9 @@
 //!
 //! One timeline, in wall-clock time from [`McapOptions::start_unix_ns`] (the session's start, or
 //! the saved dataset's time), with a second between episodes: first each demonstration (its
-//! commands only, at the task's rate: a dataset keeps neither a demonstration's poses nor its
-//! times), then each execution at its own times. Commands are `geometry_msgs/msg/Twist` on
+//! commands only, at its recorded times: a dataset keeps a demonstration's times but not its
+//! poses; a file written before datasets kept times at the task's rate), then each execution at
+//! its own times. Commands are `geometry_msgs/msg/Twist` on
 //! `/cmd_vel`; an execution's poses are `nav_msgs/msg/Odometry` on `/odom` (frame `odom`, child
 //! `base_link`) and the same pose as `tf2_msgs/msg/TFMessage` on `/tf` (`odom` -> `base_link`), so
 //! a 3D view follows the base; `/tf_static` holds `map` -> `odom` (identity) once at the start, a
@@ -23,7 +24,7 @@ use byteorder::LittleEndian;
 use serde::Serialize;
 
 use crate::backend::ros2::msg::{Odometry, TfMessage, Time, TransformStamped, Twist};
-use crate::policy::dataset::{Dataset, Provenance};
+use crate::policy::dataset::{Dataset, DemoTimes, Provenance};
 use miette::Diagnostic;
 use thiserror::Error;
 
@@ -76,7 +77,8 @@ MSG: geometry_msgs/Quaternion\nfloat64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 
 pub struct McapOptions {
     /// The wall-clock time of the timeline's start, ns since the Unix epoch.
     pub start_unix_ns: u64,
-    /// The time between a demonstration's points, s (the task's control period).
+    /// The time between a demonstration's points, s, for one the dataset keeps no times of (a
+    /// file written before it kept them): the task's control period.
     pub period_s: f64,
 }
 
@@ -275,21 +277,33 @@ fn write_demonstrations(
             continue;
         };
         pts.sort_unstable();
+        // Its own times where the dataset keeps them; the task's period for an older file's.
+        let times = demo.times();
+        let spacing = match &times {
+            Some(DemoTimes::Period(p)) => format!("{:.3} s apart", p),
+            Some(DemoTimes::Each(_)) => "at their recorded times".to_string(),
+            None => format!("{:.3} s apart", period_ns as f64 * 1e-9),
+        };
         out.text(
             out.episode,
             next,
             format!(
-                "demonstration `{}`: {} points (commands only, {:.3} s apart)",
+                "demonstration `{}`: {} points (commands only, {spacing})",
                 demo.name,
                 pts.len(),
-                period_ns as f64 * 1e-9
             ),
         )?;
-        for (k, &(_, i)) in pts.iter().enumerate() {
-            out.write(out.cmd, next + k as u64 * period_ns, &command(dataset.a(i)))?;
+        let at = |index: u32| match &times {
+            Some(t) => secs_to_ns(t.time_s(index as usize)),
+            None => u64::from(index).saturating_mul(period_ns),
+        };
+        let mut last = 0;
+        for &(index, i) in &pts {
+            last = at(index);
+            out.write(out.cmd, next + last, &command(dataset.a(i)))?;
         }
         out.summary.demonstrations += 1;
-        next += (pts.len().saturating_sub(1)) as u64 * period_ns + GAP_NS;
+        next += last + GAP_NS;
     }
     Ok(next)
 }

@@ -368,10 +368,15 @@ impl Session {
         let mut first = 0;
         for span in spans {
             let n = span.points as usize;
+            let times = crate::policy::dataset::DemoTimes::from_fields(
+                span.period_s,
+                span.times_s.as_ref().filter(|t| t.len() == n),
+            );
+            let t = crate::policy::dataset::DemoTimes::trace_times(times.as_ref(), n);
             let mut trace = Trace::new(&self.domain);
             for i in first..first + n {
                 trace.push(
-                    (i - first) as f64,
+                    t[i - first],
                     &z[i * od..(i + 1) * od],
                     &a[i * ad..(i + 1) * ad],
                     None,

@@ -156,6 +156,13 @@ pub struct DemoEpisode {
 pub struct DemoSpan {
     pub name: String,
     pub points: u64,
+    /// When its points were recorded (the sidecar holds points only): the time between them,
+    /// s, or each point's time from the first ([`crate::policy::dataset::DemoTimes`]). Absent in
+    /// journals written before datasets kept times, and for a file without times.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period_s: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub times_s: Option<Vec<f64>>,
 }
 
 /// An execution as journalled.

@@ -120,8 +120,13 @@ impl Session {
             Some(i) => from_dataset.split_at(i),
             None => (from_dataset.as_str(), ""),
         };
+        let demonstrations = if count == 1 {
+            "1 demonstration".to_string()
+        } else {
+            format!("{count} demonstrations")
+        };
         Ok(format!(
-            "loaded {count} demonstrations ({points} points) from {path}{said}; the {} policy now has {} points ({} ms){warned}",
+            "loaded {demonstrations} ({points} points) from {path}{said}; the {} policy now has {} points ({} ms){warned}",
             self.state.learner.kind_name(),
             self.state.learner.len(),
             started.elapsed().as_millis()
@@ -139,9 +144,15 @@ impl Session {
         let before = self.state.learner.len();
         let spans: Vec<DemoSpan> = episodes
             .iter()
-            .map(|e| DemoSpan {
-                name: e.name.clone(),
-                points: e.trace.len() as u64,
+            .map(|e| {
+                let times = crate::policy::dataset::DemoTimes::of(&e.trace.t);
+                let (period_s, times_s) = crate::policy::dataset::DemoTimes::fields(times);
+                DemoSpan {
+                    name: e.name.clone(),
+                    points: e.trace.len() as u64,
+                    period_s,
+                    times_s,
+                }
             })
             .collect();
         self.state.learner.add_demonstrations_owned(episodes)?;
@@ -474,9 +485,10 @@ impl Session {
     pub(super) fn export_lerobot(&self, dir: &str) -> Result<String, SessionError> {
         self.check_output(dir, false)?;
         use crate::recording::lerobot;
+        // The task's rate for demonstrations without times; every other source at its own.
         let fps = self.sim_params().rate_hz.round().clamp(1.0, 1000.0) as u32;
-        let s = lerobot::export_lerobot(self.state.learner.dataset(), Path::new(dir), fps)?;
-        Ok(lerobot::describe(&s, dir))
+        let parts = lerobot::export_lerobot(self.state.learner.dataset(), Path::new(dir), fps)?;
+        Ok(lerobot::describe_parts(&parts, dir))
     }
 
     pub(super) fn export_advice(&self, path: &str) -> Result<String, SessionError> {

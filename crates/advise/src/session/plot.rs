@@ -25,6 +25,9 @@ pub use terminal::{ascii, strip};
 /// Path plots mark and number every this many points.
 pub const INDEX_EVERY: usize = 20;
 
+/// The length of a heading arrow (the goal's, the robot's at the end), m.
+pub const HEADING_ARROW_M: f64 = 0.3;
+
 const SIZE: (u32, u32) = (900, 640);
 const LEGEND_W: u32 = 230;
 const PATH: RGBColor = RGBColor(40, 90, 200);
@@ -128,8 +131,10 @@ impl PlotView<'_> {
     }
 }
 
-/// Data bounds of the path plot: the path, the goal, the ball and the arena.
-fn bounds(views: &[&PlotView<'_>]) -> (f64, f64, f64, f64) {
+/// Data bounds of the path plot: the path, the goal, what the task draws, the ball and the arena;
+/// with `arrows` (the SVG draws them, the terminal does not) the goal's heading arrow and the
+/// robot's at the end too.
+fn bounds(views: &[&PlotView<'_>], arrows: bool) -> (f64, f64, f64, f64) {
     let mut xs = Vec::new();
     let mut ys = Vec::new();
     for v in views {
@@ -137,11 +142,19 @@ fn bounds(views: &[&PlotView<'_>]) -> (f64, f64, f64, f64) {
             xs.push(p.x_m);
             ys.push(p.y_m);
         }
+        if let Some(p) = v.path.last().filter(|_| arrows) {
+            xs.push(p.x_m + HEADING_ARROW_M * p.theta_rad.cos());
+            ys.push(p.y_m + HEADING_ARROW_M * p.theta_rad.sin());
+        }
         for d in v.drawn.iter().filter(|d| d.is_finite()) {
             let (x, y) = d.at();
             let r = d.radius();
             xs.extend([x - r, x + r]);
             ys.extend([y - r, y + r]);
+            if let Some(h) = d.heading().filter(|h| arrows && h.is_finite()) {
+                xs.push(x + HEADING_ARROW_M * h.cos());
+                ys.push(y + HEADING_ARROW_M * h.sin());
+            }
         }
         for b in v.ball.unwrap_or(&[]) {
             xs.push(b[0]);
@@ -536,5 +549,33 @@ mod tests {
             svg_actions(&v, &fifo),
             Err(PlotError::File(crate::files::FileError::NotRegular { .. }))
         ));
+    }
+
+    /// Issue 49: the goal's heading arrow and the robot's final one are inside the plot's bounds
+    /// (a goal at the path's edge pointing away used to fall out), and the SVG draws the final
+    /// heading and names the rule that ended the run.
+    #[test]
+    fn the_headings_are_inside_and_the_ending_names_its_rule() {
+        let (d, t) = (Domain::positioning(), trace(30));
+        // Ends at (2.9, 0) facing up; the goal at (3.5, 1) faces +x.
+        let mut path = line(30);
+        path.last_mut().unwrap().theta_rad = std::f64::consts::FRAC_PI_2;
+        let mut v = view(&d, &t, &path);
+        v.outcome = Some("failure (Rule: `end when post < 0.25`) after 3.0 s".into());
+        let (x0, x1, y0, y1) = bounds(&[&v], true);
+        assert!(x1 >= 3.5 + HEADING_ARROW_M && x0 < 0.0, "{x0}..{x1}");
+        assert!(y1 >= 1.0 && y0 < 0.0, "{y0}..{y1}");
+        // The terminal draws no arrows: its bounds are the marks'.
+        let (_, tx1, _, _) = bounds(&[&v], false);
+        assert!(tx1 < x1);
+        let svg = render_paths(&[&v], &["path".to_string()], "run").unwrap();
+        // The legend's entries and the outcome's note, wrapped in the legend's panel.
+        let text: String = texts(&svg).into_iter().map(|(_, t)| t + " ").collect();
+        assert!(text.contains("end, and the heading there"), "{text}");
+        assert!(
+            text.contains("(Rule: `end when post &lt; 0.25`)")
+                || text.contains("(Rule: `end when post < 0.25`)"),
+            "{text}"
+        );
     }
 }

@@ -180,8 +180,9 @@ impl fmt::Display for Reply {
                 }
                 write!(
                     f,
-                    "; the policy has {} points, ready in {:.1} ms",
-                    a.dataset, a.ready_ms
+                    "; the policy has {} points, ready in {}",
+                    a.dataset,
+                    super::text::fmt_ms(a.ready_ms)
                 )
             }
             Reply::Critiqued { summary, .. } => f.write_str(summary),

@@ -43,7 +43,7 @@ pub(super) fn eval_change(since: &str, before: &Report, now: &Report, detail: bo
         if changed.is_empty() {
             out.push_str("  no test changed outcome\n");
         } else {
-            let _ = writeln!(out, "  {} tests changed outcome:", changed.len());
+            let _ = writeln!(out, "  {} changed outcome:", tests(changed.len()));
             for c in changed {
                 let _ = writeln!(out, "{c}");
             }
@@ -51,11 +51,34 @@ pub(super) fn eval_change(since: &str, before: &Report, now: &Report, detail: bo
     } else if !changed.is_empty() {
         let _ = writeln!(
             out,
-            "  {} tests changed outcome (`eval --detail` lists them)",
-            changed.len()
+            "  {} changed outcome (`eval --detail` lists them)",
+            tests(changed.len())
         );
     }
     out
+}
+
+/// `1 test`, `2 tests`.
+fn tests(n: usize) -> String {
+    if n == 1 {
+        "1 test".into()
+    } else {
+        format!("{n} tests")
+    }
+}
+
+/// A duration for a person: microseconds below a millisecond (`40 µs`, never `0.0 ms`), a
+/// decimal below 10 ms (`3.2 ms`), whole milliseconds above.
+pub(super) fn fmt_ms(ms: f64) -> String {
+    if !ms.is_finite() || ms < 0.0 {
+        "an unknown time".into()
+    } else if ms < 1.0 {
+        format!("{} µs", (ms * 1000.0).round().max(1.0))
+    } else if ms < 10.0 {
+        format!("{ms:.1} ms")
+    } else {
+        format!("{ms:.0} ms")
+    }
 }
 
 pub(super) fn outcome_line(e: &Execution) -> String {

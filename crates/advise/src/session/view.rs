@@ -110,6 +110,10 @@ impl Session {
             "points": rec.trace.len(),
             "t": rec.trace.t,
             "path": view.path.iter().map(|p| [p.x_m, p.y_m]).collect::<Vec<_>>(),
+            // Which way the robot faced at the end, to compare with the goal's heading.
+            "final_heading": view.path.last().map(|p| p.theta_rad).filter(|h| h.is_finite()),
+            // The `end when` rule that ended the run (a declared task's), as written.
+            "end_rule": rec.execution.as_ref().and_then(|e| e.outcome.end_rule.clone()),
             "drawn": view
                 .drawn
                 .iter()

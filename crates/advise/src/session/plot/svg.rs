@@ -21,6 +21,8 @@ enum Mark {
     Cross(RGBColor),
     Square(RGBColor),
     Ring(RGBColor),
+    /// A dot with an arrow out of it (the robot's final pose).
+    Arrow(RGBColor),
 }
 
 /// The characters of a legend entry's label per line: what the panel holds right of the mark at
@@ -60,6 +62,18 @@ fn legend(
                 ))
                 .map_err(drawing)?,
             Mark::Ring(_) => {}
+            Mark::Arrow(c) => {
+                area.draw(&Circle::new((x0 + 4, y), 4, c.filled()))
+                    .map_err(drawing)?;
+                for (a, b) in [
+                    ((x0 + 4, y), (x1, y)),
+                    ((x1 - 6, y - 5), (x1, y)),
+                    ((x1 - 6, y + 5), (x1, y)),
+                ] {
+                    area.draw(&PathElement::new(vec![a, b], c.stroke_width(3)))
+                        .map_err(drawing)?;
+                }
+            }
         }
         if let Mark::Ring(c) = *mark {
             area.draw(&Circle::new(((x0 + x1) / 2, y), 7, c.stroke_width(1)))
@@ -134,7 +148,7 @@ pub(super) fn render_paths(
             .map_err(drawing)?
             .plotting_area()
             .dim_in_pixel();
-        let (x0, x1, y0, y1) = equal_scale(bounds(views), pw, ph);
+        let (x0, x1, y0, y1) = equal_scale(bounds(views, true), pw, ph);
         let mut chart = build((x0, x1, y0, y1)).map_err(drawing)?;
         let span = (x1 - x0).max(y1 - y0);
         chart
@@ -241,6 +255,29 @@ pub(super) fn render_paths(
                     .draw_series(std::iter::once(Circle::new(xy(first), 5, BLACK.filled())))
                     .map_err(drawing)?;
             }
+            // Where the robot ended and which way it faced, to compare with the goal's heading.
+            if let Some(last) = v.path.last().filter(|p| p.theta_rad.is_finite()) {
+                let (x, y) = xy(last);
+                let h = last.theta_rad;
+                let tip = (x + HEADING_ARROW_M * h.cos(), y + HEADING_ARROW_M * h.sin());
+                chart
+                    .draw_series(std::iter::once(Circle::new((x, y), 4, color.filled())))
+                    .map_err(drawing)?;
+                chart
+                    .draw_series(LineSeries::new([(x, y), tip], color.stroke_width(3)))
+                    .map_err(drawing)?;
+                // An open head at the tip: two short strokes back at 150 degrees.
+                let head = HEADING_ARROW_M * 0.35;
+                for side in [-1.0, 1.0] {
+                    let a = h + side * 2.6;
+                    chart
+                        .draw_series(LineSeries::new(
+                            [tip, (tip.0 + head * a.cos(), tip.1 + head * a.sin())],
+                            color.stroke_width(3),
+                        ))
+                        .map_err(drawing)?;
+                }
+            }
             // The capture distance around where the robot ended: the ball inside it was caught.
             if let (Some(a), Some(last)) = (v.arena, v.path.last()) {
                 let px_per_m = f64::from(pw) / (x1 - x0);
@@ -265,6 +302,7 @@ pub(super) fn render_paths(
         let drawn_entries = draw_shapes(&mut chart, views)?;
         number_points(&mut chart, views, &colors)?;
         entries.push((Mark::Dot(BLACK), "start".into()));
+        entries.push((Mark::Arrow(PATH), "end, and the heading there".into()));
         entries.push((
             Mark::Dot(PATH),
             format!("every {INDEX_EVERY}th point (numbered where there is room)"),
@@ -327,7 +365,7 @@ fn draw_shapes(
             }
         }
         if let Some(h) = d.heading() {
-            let arrow = 0.3;
+            let arrow = HEADING_ARROW_M;
             chart
                 .draw_series(LineSeries::new(
                     [(x, y), (x + arrow * h.cos(), y + arrow * h.sin())],

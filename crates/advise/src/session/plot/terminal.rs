@@ -11,7 +11,7 @@ use super::*;
 /// character is about twice as tall as it is wide).
 pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
     let (width, height) = (width.max(8), height.max(4));
-    let (x0, x1, y0, y1) = equal_scale(bounds(&[view]), width as u32, (height * 2) as u32);
+    let (x0, x1, y0, y1) = equal_scale(bounds(&[view], false), width as u32, (height * 2) as u32);
     let mut grid = vec![vec![' '; width]; height];
     let cell = |x: f64, y: f64| -> (usize, usize) {
         let c = ((x - x0) / (x1 - x0) * (width - 1) as f64).round().max(0.0) as usize;
