@@ -1,18 +1,17 @@
 //! `advise._advise.SimEnv`: one simulated episode of a task, stepped from Python; the Gymnasium
 //! environments of `advise/gym.py` wrap it.
 //!
-//! A step is one iteration of [`advise::task::run_episode`]'s loop, in its order: the action
-//! clamped to the domain's limits, [`Task::command`], the base commanded and stepped,
-//! [`Task::advance`], then the next observation. Episode `index` of `seed` starts from the task's
+//! A step is one step of the library's [`Stepper`], the loop of [`advise::task::run_episode`]:
+//! the same order, clamping, time limit and ending, so an episode stepped from Python is the
+//! episode `advise demo` records. Episode `index` of `seed` starts from the task's
 //! practice start `index` of `seed` on a simulator seeded with `episode_seed(seed, index)`: the
 //! episode `advise demo --seed SEED` records as `demo-INDEX`.
 
 use std::sync::{Mutex, MutexGuard, TryLockError};
 
-use advise::backend::Backend;
 use advise::backend::sim::{SimBackend, SimParams};
 use advise::domain::Domain;
-use advise::task::{Ending, MAX_EPISODE_STEPS, Task, TaskKind, episode_seed};
+use advise::task::{Ending, Stepper, Task, TaskKind, episode_seed};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -44,9 +43,8 @@ type Transition<'py> = (
 struct Episode {
     backend: SimBackend,
     task: Box<dyn Task>,
-    state: advise::backend::BaseState,
-    steps: usize,
-    over: bool,
+    /// The library's stepper, the loop of `run_episode`; `None` once the episode is over.
+    stepper: Option<Stepper>,
 }
 
 #[pymethods]
@@ -111,19 +109,17 @@ impl SimEnv {
             .map_err(|e| crate::error::from_diag(py, &advise::diag::SourceMap::new(), &e))?;
         let mut backend = SimBackend::new(self.params.clone(), episode_seed(seed, index));
         let mut task = start.task();
-        let state = backend
-            .reset(task.start())
-            .map_err(|e| crate::error::from_diag(py, &advise::diag::SourceMap::new(), &e))?;
-        task.begin(&state);
-        let ep = Episode {
+        let stepper = Stepper::begin(&mut backend, task.as_mut()).map_err(|i| {
+            crate::error::from_diag(py, &advise::diag::SourceMap::new(), &i.error)
+        })?;
+        let z = stepper.observation().to_vec();
+        // An observation that is not a number ends the episode before anything acts on it.
+        let stepper = (!stepper.is_over()).then_some(stepper);
+        *self.episode(py)? = Some(Episode {
             backend,
             task,
-            state,
-            steps: 0,
-            over: false,
-        };
-        let z = observe(&self.domain, &ep);
-        *self.episode(py)? = Some(ep);
+            stepper,
+        });
         Ok(z.into_pyarray(py))
     }
 
@@ -133,10 +129,14 @@ impl SimEnv {
     fn step<'py>(&self, py: Python<'py>, action: &Bound<'py, PyAny>) -> PyResult<Transition<'py>> {
         let np = py.import("numpy")?;
         let row = np.call_method1("reshape", (action, (1, -1)))?;
-        let (mut a, _) = matrix(py, &row, "action", Some(self.domain.act_dim()))?;
-        let domain = &self.domain;
+        let (a, _) = matrix(py, &row, "action", Some(self.domain.act_dim()))?;
         let mut episode = self.episode(py)?;
-        let Some(ep) = episode.as_mut().filter(|e| !e.over) else {
+        let Some(Episode {
+            backend,
+            task,
+            stepper: Some(stepper),
+        }) = episode.as_mut()
+        else {
             return Err(simple(
                 py,
                 "advise::py::not_reset",
@@ -144,44 +144,33 @@ impl SimEnv {
                 "call `reset()` first",
             ));
         };
-        for (v, dim) in a.iter_mut().zip(&domain.act) {
-            if let Some(l) = dim.limits {
-                *v = l.clamp(*v);
-            }
-        }
-        let (speed, rot) = ep.task.command(&ep.state, &a);
-        let dt = ep.backend.period_s();
-        let stepped = ep
-            .backend
-            .command(speed, rot)
-            .and_then(|()| ep.backend.step());
-        ep.state = stepped.map_err(|e| crate::error::from_diag(py, &Default::default(), &e))?;
-        ep.steps += 1;
-        let truth = ep.backend.true_pose();
-        let mut ending = ep.task.advance(dt, &ep.state, truth);
-        let z = observe(domain, ep);
-        if ending.is_none() && z.iter().any(|v| !v.is_finite()) {
-            ending = Some(Ending::NonFinite);
-        }
-        let truncated = ending == Some(Ending::TimeLimit)
-            || (ending.is_none() && ep.steps >= MAX_EPISODE_STEPS);
+        let ending = stepper
+            .step(backend, task.as_mut(), &a)
+            .map_err(|e| crate::error::from_diag(py, &Default::default(), &e))?;
+        let z = stepper.observation().to_vec();
         let info = PyDict::new(py);
         let mut reward = 0.0;
-        if let Some(end) = ending {
-            let score = ep.task.score(end, truth.unwrap_or(ep.state.pose));
-            let success = score.success && end != Ending::NonFinite;
-            reward = if success { 1.0 } else { 0.0 };
-            info.set_item("ending", format!("{end:?}"))?;
+        let truncated = ending == Some(Ending::TimeLimit);
+        if ending.is_some()
+            && let Some(ep) = episode.as_mut()
+            && let Some(stepper) = ep.stepper.take()
+        {
+            // The episode as `run_episode` ends one: the base stopped, the score and the rule.
+            let outcome = match stepper.finish(&mut ep.backend, ep.task.as_ref()) {
+                Ok(exec) => exec.outcome,
+                Err(i) => {
+                    return Err(crate::error::from_diag(py, &Default::default(), &i.error));
+                }
+            };
+            reward = if outcome.success { 1.0 } else { 0.0 };
+            info.set_item("ending", format!("{:?}", outcome.ending))?;
             // Which `end when` rule ended it, as a run's reply names it.
-            if matches!(end, Ending::Rule | Ending::Rested)
-                && let Some(rule) = ep.task.end_rule()
-            {
-                info.set_item("end_rule", rule)?;
+            if let Some(rule) = &outcome.end_rule {
+                info.set_item("end_rule", rule.clone())?;
             }
-            info.set_item("success", success)?;
-            info.set_item("position_error_m", score.position_error_m)?;
+            info.set_item("success", outcome.success)?;
+            info.set_item("position_error_m", outcome.position_error_m)?;
         }
-        ep.over = ending.is_some() || truncated;
         Ok((
             z.into_pyarray(py),
             reward,
@@ -208,11 +197,4 @@ impl SimEnv {
             )),
         }
     }
-}
-
-/// The task's observation of the episode's current state.
-fn observe(domain: &Domain, ep: &Episode) -> Vec<f64> {
-    let mut z = vec![0.0; domain.obs_dim()];
-    ep.task.observe(&ep.state, &mut z);
-    z
 }
