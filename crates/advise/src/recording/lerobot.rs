@@ -660,9 +660,6 @@ pub fn export_corrected_episode(
 
 /// Write the episodes `eps` (of `dataset`'s points, or traces) to `dir`; `provenance`, unless
 /// null, goes in `info.json`'s `advise.provenance`.
-///
-/// Over 150 lines because it lays out the dataset's files in sequence (the frames' parquet, the
-/// episodes' table, `info.json`, the statistics), each block reading the same episode table.
 fn write_lerobot(
     dataset: &Dataset,
     eps: Vec<EpisodePoints>,
@@ -676,85 +673,167 @@ fn write_lerobot(
             path: dir.to_path_buf(),
         });
     }
-    let fail = |path: &Path| {
-        let path = path.to_path_buf();
-        move |reason: String| LeRobotError::Write {
-            path: path.clone(),
-            reason,
-        }
-    };
     let domain = dataset.domain();
     let (zd, ad) = (domain.observe.len(), domain.act.len());
-    let frames: usize = eps
-        .iter()
-        .map(|e| e.trace.as_ref().map_or(e.points.len(), |t| t.len()))
-        .sum();
-    let mut state = Vec::with_capacity(frames * zd);
-    let mut action = Vec::with_capacity(frames * ad);
-    let (mut timestamp, mut frame_index, mut episode_index, mut index) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let (mut source, mut weight) = (Vec::new(), Vec::new());
-    let mut rows = Vec::new();
-    for (e, ep) in eps.iter().enumerate() {
-        let from = index.len() as i64;
-        let length = ep.trace.as_ref().map_or(ep.points.len(), |t| t.len());
-        for f in 0..length {
-            match &ep.trace {
-                Some(t) => {
-                    state.extend_from_slice(t.z(f));
-                    action.extend_from_slice(t.a(f));
-                    weight.push(ep.trace_weight);
-                }
-                None => {
-                    let i = ep.points[f];
-                    state.extend_from_slice(dataset.z(i));
-                    action.extend_from_slice(dataset.a(i));
-                    weight.push(dataset.m(i));
-                }
-            }
-            timestamp.push(f as f64 / f64::from(fps.max(1)));
-            frame_index.push(f as i64);
-            episode_index.push(e as i64);
-            index.push(index.len() as i64);
-            source.push(ep.frame_sources.get(f).copied().unwrap_or(ep.source));
-        }
-        rows.push((e as i64, length as i64, from, index.len() as i64));
-    }
-    let f32s = |v: &[f64]| v.iter().map(|&x| x as f32).collect::<Vec<f32>>();
+    let frames = Frames::of(dataset, &eps, fps);
+    let task = task_text(&domain.name);
 
     let data_path = dir.join("data/chunk-000/file-000.parquet");
-    let data = vec![
+    let data = frames_table(&frames, zd, ad);
+    let episodes_path = dir.join("meta/episodes/chunk-000/file-000.parquet");
+    let episodes = episodes_table(&frames.episodes, &eps, &task);
+    let tasks_path = dir.join("meta/tasks.parquet");
+    let tasks = vec![
+        Column::new("task_index", Values::I64(vec![0])),
+        Column::new("task", Values::Str(vec![task])),
+    ];
+    let info = info_json(domain, &eps, frames.count, fps, provenance);
+    let statistics = stats_json(&frames, zd, ad);
+
+    let files: Vec<(PathBuf, Vec<u8>)> = vec![
+        (
+            data_path.clone(),
+            parquet_bytes(&data).map_err(fail(&data_path))?,
+        ),
+        (
+            episodes_path.clone(),
+            parquet_bytes(&episodes).map_err(fail(&episodes_path))?,
+        ),
+        (
+            tasks_path.clone(),
+            parquet_bytes_with(&tasks, vec![pandas_tasks_metadata()]).map_err(fail(&tasks_path))?,
+        ),
+        (dir.join("meta/info.json"), pretty(&info)),
+        (dir.join("meta/stats.json"), pretty(&statistics)),
+    ];
+    write_files(dir, &files)?;
+    let count = |source: &str| eps.iter().filter(|e| e.source == source).count();
+    Ok(LeRobotSummary {
+        frames: frames.count,
+        demonstration_episodes: count("demonstration"),
+        advice_episodes: count("advice"),
+        execution_episodes: count("execution"),
+        fps,
+    })
+}
+
+/// The error of a file at `path` that could not be written, from its reason.
+fn fail(path: &Path) -> impl Fn(String) -> LeRobotError {
+    let path = path.to_path_buf();
+    move |reason: String| LeRobotError::Write {
+        path: path.clone(),
+        reason,
+    }
+}
+
+/// Every frame of an export, column by column (each dimension's values row after row), and
+/// where each episode's frames lie.
+struct Frames {
+    count: usize,
+    state: Vec<f64>,
+    action: Vec<f64>,
+    timestamp: Vec<f64>,
+    frame_index: Vec<i64>,
+    episode_index: Vec<i64>,
+    index: Vec<i64>,
+    source: Vec<&'static str>,
+    weight: Vec<f64>,
+    /// Per episode: its index, its length, and its first frame's `index` and one past its last.
+    episodes: Vec<(i64, i64, i64, i64)>,
+}
+
+impl Frames {
+    /// The frames of `eps` in order, each episode's timestamps from 0 at `fps`.
+    fn of(dataset: &Dataset, eps: &[EpisodePoints], fps: u32) -> Frames {
+        let (zd, ad) = (dataset.domain().observe.len(), dataset.domain().act.len());
+        let count: usize = eps
+            .iter()
+            .map(|e| e.trace.as_ref().map_or(e.points.len(), |t| t.len()))
+            .sum();
+        let mut f = Frames {
+            count,
+            state: Vec::with_capacity(count * zd),
+            action: Vec::with_capacity(count * ad),
+            timestamp: Vec::new(),
+            frame_index: Vec::new(),
+            episode_index: Vec::new(),
+            index: Vec::new(),
+            source: Vec::new(),
+            weight: Vec::new(),
+            episodes: Vec::new(),
+        };
+        for (e, ep) in eps.iter().enumerate() {
+            let from = f.index.len() as i64;
+            let length = ep.trace.as_ref().map_or(ep.points.len(), |t| t.len());
+            for k in 0..length {
+                match &ep.trace {
+                    Some(t) => {
+                        f.state.extend_from_slice(t.z(k));
+                        f.action.extend_from_slice(t.a(k));
+                        f.weight.push(ep.trace_weight);
+                    }
+                    None => {
+                        let i = ep.points[k];
+                        f.state.extend_from_slice(dataset.z(i));
+                        f.action.extend_from_slice(dataset.a(i));
+                        f.weight.push(dataset.m(i));
+                    }
+                }
+                f.timestamp.push(k as f64 / f64::from(fps.max(1)));
+                f.frame_index.push(k as i64);
+                f.episode_index.push(e as i64);
+                f.index.push(f.index.len() as i64);
+                f.source
+                    .push(ep.frame_sources.get(k).copied().unwrap_or(ep.source));
+            }
+            f.episodes
+                .push((e as i64, length as i64, from, f.index.len() as i64));
+        }
+        f
+    }
+}
+
+/// Values as float32, as the tables store them.
+fn f32s(v: &[f64]) -> Vec<f32> {
+    v.iter().map(|&x| x as f32).collect()
+}
+
+/// The frames' table (`data/chunk-000/file-000.parquet`): states of `zd` values, actions of
+/// `ad`.
+fn frames_table(f: &Frames, zd: usize, ad: usize) -> Vec<Column> {
+    vec![
         Column {
             shape: Shape::Fixed(zd),
-            ..Column::new("observation.state", Values::F32(f32s(&state)))
+            ..Column::new("observation.state", Values::F32(f32s(&f.state)))
         },
         Column {
             shape: Shape::Fixed(ad),
-            ..Column::new("action", Values::F32(f32s(&action)))
+            ..Column::new("action", Values::F32(f32s(&f.action)))
         },
-        Column::new("timestamp", Values::F32(f32s(&timestamp))),
-        Column::new("frame_index", Values::I64(frame_index.clone())),
-        Column::new("episode_index", Values::I64(episode_index.clone())),
-        Column::new("index", Values::I64(index.clone())),
-        Column::new("task_index", Values::I64(vec![0; frames])),
+        Column::new("timestamp", Values::F32(f32s(&f.timestamp))),
+        Column::new("frame_index", Values::I64(f.frame_index.clone())),
+        Column::new("episode_index", Values::I64(f.episode_index.clone())),
+        Column::new("index", Values::I64(f.index.clone())),
+        Column::new("task_index", Values::I64(vec![0; f.count])),
         Column::new(
             "advise.source",
-            Values::Str(source.iter().map(|s| s.to_string()).collect()),
+            Values::Str(f.source.iter().map(|s| s.to_string()).collect()),
         ),
-        Column::new("advise.weight", Values::F32(f32s(&weight))),
-    ];
+        Column::new("advise.weight", Values::F32(f32s(&f.weight))),
+    ]
+}
 
-    let episodes_path = dir.join("meta/episodes/chunk-000/file-000.parquet");
+/// The episodes' table (`meta/episodes/chunk-000/file-000.parquet`): a row per episode of
+/// `eps` (`rows` as [`Frames::episodes`]), each of the one task `task`, its frames all in the
+/// one data file.
+fn episodes_table(rows: &[(i64, i64, i64, i64)], eps: &[EpisodePoints], task: &str) -> Vec<Column> {
     let col = |f: fn(&(i64, i64, i64, i64)) -> i64| Values::I64(rows.iter().map(f).collect());
     let zeros = || Values::I64(vec![0; rows.len()]);
-    let episodes_table = vec![
+    vec![
         Column::new("episode_index", col(|r| r.0)),
         Column {
             shape: Shape::List(vec![1; rows.len()]),
-            ..Column::new(
-                "tasks",
-                Values::Str(vec![task_text(&domain.name); rows.len()]),
-            )
+            ..Column::new("tasks", Values::Str(vec![task.to_string(); rows.len()]))
         },
         Column::new("length", col(|r| r.1)),
         Column::new("data/chunk_index", zeros()),
@@ -771,14 +850,19 @@ fn write_lerobot(
             "advise.name",
             Values::Str(eps.iter().map(|e| e.name.clone()).collect()),
         ),
-    ];
+    ]
+}
 
-    let tasks_path = dir.join("meta/tasks.parquet");
-    let tasks_table = vec![
-        Column::new("task_index", Values::I64(vec![0])),
-        Column::new("task", Values::Str(vec![task_text(&domain.name)])),
-    ];
-
+/// `meta/info.json` of `frames` frames in the episodes `eps` of `domain` at `fps`; `provenance`,
+/// unless null, in `advise.provenance`.
+fn info_json(
+    domain: &crate::domain::Domain,
+    eps: &[EpisodePoints],
+    frames: usize,
+    fps: u32,
+    provenance: Value,
+) -> Value {
+    let (zd, ad) = (domain.observe.len(), domain.act.len());
     let names = |dims: &[crate::domain::Dim]| -> Vec<String> {
         dims.iter().map(|d| d.name.clone()).collect()
     };
@@ -815,39 +899,30 @@ fn write_lerobot(
     if !provenance.is_null() {
         info["advise"]["provenance"] = provenance;
     }
-    let as_f64 = |v: &[i64]| v.iter().map(|&x| x as f64).collect::<Vec<_>>();
-    let stats_json = json!({
-        "observation.state": stats(&state, zd),
-        "action": stats(&action, ad),
-        "timestamp": stats(&timestamp, 1),
-        "frame_index": stats(&as_f64(&frame_index), 1),
-        "episode_index": stats(&as_f64(&episode_index), 1),
-        "index": stats(&as_f64(&index), 1),
-        "task_index": stats(&vec![0.0; frames], 1),
-        "advise.weight": stats(&weight, 1),
-    });
+    info
+}
 
-    let files: Vec<(PathBuf, Vec<u8>)> = vec![
-        (
-            data_path.clone(),
-            parquet_bytes(&data).map_err(fail(&data_path))?,
-        ),
-        (
-            episodes_path.clone(),
-            parquet_bytes(&episodes_table).map_err(fail(&episodes_path))?,
-        ),
-        (
-            tasks_path.clone(),
-            parquet_bytes_with(&tasks_table, vec![pandas_tasks_metadata()])
-                .map_err(fail(&tasks_path))?,
-        ),
-        (dir.join("meta/info.json"), pretty(&info)),
-        (dir.join("meta/stats.json"), pretty(&stats_json)),
-    ];
+/// `meta/stats.json`: [`stats`] of each numeric feature of the frames.
+fn stats_json(f: &Frames, zd: usize, ad: usize) -> Value {
+    let as_f64 = |v: &[i64]| v.iter().map(|&x| x as f64).collect::<Vec<_>>();
+    json!({
+        "observation.state": stats(&f.state, zd),
+        "action": stats(&f.action, ad),
+        "timestamp": stats(&f.timestamp, 1),
+        "frame_index": stats(&as_f64(&f.frame_index), 1),
+        "episode_index": stats(&as_f64(&f.episode_index), 1),
+        "index": stats(&as_f64(&f.index), 1),
+        "task_index": stats(&vec![0.0; f.count], 1),
+        "advise.weight": stats(&f.weight, 1),
+    })
+}
+
+/// Write `files` (paths under `dir`, and their bytes) as the new directory `dir`.
+fn write_files(dir: &Path, files: &[(PathBuf, Vec<u8>)]) -> Result<(), LeRobotError> {
     // Written whole into a temporary sibling and renamed into place: a killed export leaves no
     // half-written directory for the next one to refuse.
     crate::files::write_dir_atomic(dir, |tmp| {
-        for (path, bytes) in &files {
+        for (path, bytes) in files {
             let path = tmp.join(path.strip_prefix(dir).unwrap_or(path));
             if let Some(parent) = path.parent() {
                 std::fs::create_dir_all(parent).map_err(|e| fail(parent)(e.to_string()))?;
@@ -855,14 +930,6 @@ fn write_lerobot(
             crate::files::write_atomic(&path, |w| w.write_all(bytes))?;
         }
         Ok::<(), LeRobotError>(())
-    })?;
-    let count = |source: &str| eps.iter().filter(|e| e.source == source).count();
-    Ok(LeRobotSummary {
-        frames,
-        demonstration_episodes: count("demonstration"),
-        advice_episodes: count("advice"),
-        execution_episodes: count("execution"),
-        fps,
     })
 }
 

@@ -122,9 +122,6 @@ fn chunk_label(kind: &str, chunks: &[Chunk]) -> String {
 }
 
 /// The path plot: one execution with its marks, or several overlaid (`colors` one per view).
-///
-/// Over 150 lines because it draws the plot's layers in their stacking order (marks, path, index
-/// dots, goal and ball), one block each, on the one shared frame.
 pub(super) fn render_paths(
     views: &[&PlotView<'_>],
     names: &[String],
@@ -137,67 +134,16 @@ pub(super) fn render_paths(
         root.fill(&WHITE).map_err(drawing)?;
         let root = root.titled(title, ("sans-serif", 20)).map_err(drawing)?;
         let (main, side) = root.split_horizontally(SIZE.0 - LEGEND_W);
-        let build = |r: (f64, f64, f64, f64)| {
-            ChartBuilder::on(&main)
-                .margin(12)
-                .x_label_area_size(40)
-                .y_label_area_size(56)
-                .build_cartesian_2d(r.0..r.1, r.2..r.3)
-        };
-        let (pw, ph) = build((0.0, 1.0, 0.0, 1.0))
-            .map_err(drawing)?
-            .plotting_area()
-            .dim_in_pixel();
-        let (x0, x1, y0, y1) = equal_scale(bounds(views, true), pw, ph);
-        let mut chart = build((x0, x1, y0, y1)).map_err(drawing)?;
-        let span = (x1 - x0).max(y1 - y0);
-        chart
-            .configure_mesh()
-            .x_desc("x (m)")
-            .y_desc("y (m)")
-            .label_style(("sans-serif", 13))
-            .axis_desc_style(("sans-serif", 14))
-            .x_label_formatter(&|v| tick(*v, span))
-            .y_label_formatter(&|v| tick(*v, span))
-            .light_line_style(WHITE.mix(0.0))
-            .draw()
-            .map_err(drawing)?;
-        let mut entries: Vec<(Mark, String)> = Vec::new();
+        let (mut chart, px_per_m) = path_chart(&main, views)?;
+        let mut entries = draw_arena(&mut chart, views)?;
         let mut notes: Vec<String> = Vec::new();
-        let xy = |p: &Pose| (p.x_m, p.y_m);
-        if let Some(a) = views.iter().find_map(|v| v.arena) {
-            let h = a.half_m;
-            chart
-                .draw_series(std::iter::once(Rectangle::new(
-                    [(-h, -h), (h, h)],
-                    ARENA.stroke_width(2),
-                )))
-                .map_err(drawing)?;
-            entries.push((Mark::Square(ARENA), format!("arena edge (±{h} m)")));
-            entries.push((
-                Mark::Ring(PATH),
-                format!("capture distance ({} m)", a.capture_m),
-            ));
-        }
         let single = views.len() == 1;
         for (k, v) in views.iter().enumerate() {
             let color = colors[k % colors.len()];
-            let segment = |c: &Chunk| -> Vec<(f64, f64)> {
-                let end = c.end.min(v.path.len());
-                v.path[c.start.min(end)..end].iter().map(xy).collect()
-            };
+            // Under the path: the selection as a wide band, then advised, then critiqued on top
+            // of everything so a critique is never hidden.
             if single {
-                // Under the path: the selection as a wide band, then advised, then critiqued
-                // on top of everything so a critique is never hidden.
-                if let Some(sel) = v.selection {
-                    chart
-                        .draw_series(LineSeries::new(
-                            segment(&sel),
-                            SELECTED.mix(0.5).stroke_width(12),
-                        ))
-                        .map_err(drawing)?;
-                    entries.push((Mark::Band(SELECTED, 0.5), format!("selected {sel}")));
-                }
+                entries.extend(draw_selection(&mut chart, v)?);
             }
             chart
                 .draw_series(LineSeries::new(
@@ -206,81 +152,14 @@ pub(super) fn render_paths(
                 ))
                 .map_err(drawing)?;
             if let Some(ball) = v.ball {
-                chart
-                    .draw_series(LineSeries::new(
-                        ball.iter().map(|b| (b[0], b[1])),
-                        BALL.stroke_width(2),
-                    ))
-                    .map_err(drawing)?;
-                // The ball's index marks, at the robot's stride: where the ball was at point N.
-                chart
-                    .draw_series(
-                        ball.iter()
-                            .step_by(INDEX_EVERY)
-                            .map(|b| Circle::new((b[0], b[1]), 2, BALL.filled())),
-                    )
-                    .map_err(drawing)?;
-                if let Some(b) = ball.last() {
-                    chart
-                        .draw_series(std::iter::once(Circle::new((b[0], b[1]), 4, BALL.filled())))
-                        .map_err(drawing)?;
-                }
+                draw_ball(&mut chart, ball)?;
             }
             if single {
-                for (chunks, c, kind) in [
-                    (&v.advised, ADVISED, "advised"),
-                    (&v.flagged, CRITIQUED, "critiqued"),
-                ] {
-                    for ch in chunks.iter() {
-                        chart
-                            .draw_series(LineSeries::new(segment(ch), c.stroke_width(5)))
-                            .map_err(drawing)?;
-                    }
-                    if !chunks.is_empty() {
-                        entries.push((Mark::Line(c, 5), chunk_label(kind, chunks)));
-                    }
-                }
+                entries.extend(draw_chunks(&mut chart, v)?);
             }
-            // Index marks: a dot every INDEX_EVERY points, numbered below (after every layer).
-            chart
-                .draw_series(
-                    v.path
-                        .iter()
-                        .step_by(INDEX_EVERY)
-                        .map(|p| Circle::new(xy(p), 3, color.filled())),
-                )
-                .map_err(drawing)?;
-            if let Some(first) = v.path.first() {
-                chart
-                    .draw_series(std::iter::once(Circle::new(xy(first), 5, BLACK.filled())))
-                    .map_err(drawing)?;
-            }
-            // Where the robot ended and which way it faced, to compare with the goal's heading.
-            if let Some(last) = v.path.last().filter(|p| p.theta_rad.is_finite()) {
-                let (x, y) = xy(last);
-                let h = last.theta_rad;
-                let tip = (x + HEADING_ARROW_M * h.cos(), y + HEADING_ARROW_M * h.sin());
-                chart
-                    .draw_series(std::iter::once(Circle::new((x, y), 4, color.filled())))
-                    .map_err(drawing)?;
-                chart
-                    .draw_series(LineSeries::new([(x, y), tip], color.stroke_width(3)))
-                    .map_err(drawing)?;
-                // An open head at the tip: two short strokes back at 150 degrees.
-                let head = HEADING_ARROW_M * 0.35;
-                for side in [-1.0, 1.0] {
-                    let a = h + side * 2.6;
-                    chart
-                        .draw_series(LineSeries::new(
-                            [tip, (tip.0 + head * a.cos(), tip.1 + head * a.sin())],
-                            color.stroke_width(3),
-                        ))
-                        .map_err(drawing)?;
-                }
-            }
+            draw_marks(&mut chart, v, color)?;
             // The capture distance around where the robot ended: the ball inside it was caught.
             if let (Some(a), Some(last)) = (v.arena, v.path.last()) {
-                let px_per_m = f64::from(pw) / (x1 - x0);
                 let r = (a.capture_m * px_per_m).round().max(2.0) as u32;
                 chart
                     .draw_series(std::iter::once(Circle::new(
@@ -326,6 +205,185 @@ type PathChart<'a, 'b> = ChartContext<
     SVGBackend<'b>,
     Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
 >;
+
+/// A pose's position, as the chart places it.
+fn xy(p: &Pose) -> (f64, f64) {
+    (p.x_m, p.y_m)
+}
+
+/// The chart on `main` holding every view's path (and arrows) at equal scale, its axes drawn,
+/// and its pixels per metre.
+fn path_chart<'a, 'b>(
+    main: &'a DrawingArea<SVGBackend<'b>, Shift>,
+    views: &[&PlotView<'_>],
+) -> Result<(PathChart<'a, 'b>, f64), String> {
+    let build = |r: (f64, f64, f64, f64)| {
+        ChartBuilder::on(main)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(56)
+            .build_cartesian_2d(r.0..r.1, r.2..r.3)
+    };
+    let (pw, ph) = build((0.0, 1.0, 0.0, 1.0))
+        .map_err(drawing)?
+        .plotting_area()
+        .dim_in_pixel();
+    let (x0, x1, y0, y1) = equal_scale(bounds(views, true), pw, ph);
+    let mut chart = build((x0, x1, y0, y1)).map_err(drawing)?;
+    let span = (x1 - x0).max(y1 - y0);
+    chart
+        .configure_mesh()
+        .x_desc("x (m)")
+        .y_desc("y (m)")
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 14))
+        .x_label_formatter(&|v| tick(*v, span))
+        .y_label_formatter(&|v| tick(*v, span))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(drawing)?;
+    Ok((chart, f64::from(pw) / (x1 - x0)))
+}
+
+/// Draw the first view's arena, if any (its edge); returns its legend entries, the edge's and
+/// the capture distance's.
+fn draw_arena(
+    chart: &mut PathChart<'_, '_>,
+    views: &[&PlotView<'_>],
+) -> Result<Vec<(Mark, String)>, String> {
+    let mut entries: Vec<(Mark, String)> = Vec::new();
+    if let Some(a) = views.iter().find_map(|v| v.arena) {
+        let h = a.half_m;
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(-h, -h), (h, h)],
+                ARENA.stroke_width(2),
+            )))
+            .map_err(drawing)?;
+        entries.push((Mark::Square(ARENA), format!("arena edge (±{h} m)")));
+        entries.push((
+            Mark::Ring(PATH),
+            format!("capture distance ({} m)", a.capture_m),
+        ));
+    }
+    Ok(entries)
+}
+
+/// The positions of `v`'s path in chunk `c` (clipped to the path).
+fn segment(v: &PlotView<'_>, c: &Chunk) -> Vec<(f64, f64)> {
+    let end = c.end.min(v.path.len());
+    v.path[c.start.min(end)..end].iter().map(xy).collect()
+}
+
+/// Draw `v`'s selection, if any, as a wide band; returns its legend entry.
+fn draw_selection(
+    chart: &mut PathChart<'_, '_>,
+    v: &PlotView<'_>,
+) -> Result<Option<(Mark, String)>, String> {
+    let Some(sel) = v.selection else {
+        return Ok(None);
+    };
+    chart
+        .draw_series(LineSeries::new(
+            segment(v, &sel),
+            SELECTED.mix(0.5).stroke_width(12),
+        ))
+        .map_err(drawing)?;
+    Ok(Some((Mark::Band(SELECTED, 0.5), format!("selected {sel}"))))
+}
+
+/// Draw the ball's path with its index marks, and where it ended.
+fn draw_ball(chart: &mut PathChart<'_, '_>, ball: &[[f64; 2]]) -> Result<(), String> {
+    chart
+        .draw_series(LineSeries::new(
+            ball.iter().map(|b| (b[0], b[1])),
+            BALL.stroke_width(2),
+        ))
+        .map_err(drawing)?;
+    // The ball's index marks, at the robot's stride: where the ball was at point N.
+    chart
+        .draw_series(
+            ball.iter()
+                .step_by(INDEX_EVERY)
+                .map(|b| Circle::new((b[0], b[1]), 2, BALL.filled())),
+        )
+        .map_err(drawing)?;
+    if let Some(b) = ball.last() {
+        chart
+            .draw_series(std::iter::once(Circle::new((b[0], b[1]), 4, BALL.filled())))
+            .map_err(drawing)?;
+    }
+    Ok(())
+}
+
+/// Draw `v`'s advised chunks, then its critiqued ones over them; returns a legend entry for
+/// each kind present.
+fn draw_chunks(
+    chart: &mut PathChart<'_, '_>,
+    v: &PlotView<'_>,
+) -> Result<Vec<(Mark, String)>, String> {
+    let mut entries: Vec<(Mark, String)> = Vec::new();
+    for (chunks, c, kind) in [
+        (&v.advised, ADVISED, "advised"),
+        (&v.flagged, CRITIQUED, "critiqued"),
+    ] {
+        for ch in chunks.iter() {
+            chart
+                .draw_series(LineSeries::new(segment(v, ch), c.stroke_width(5)))
+                .map_err(drawing)?;
+        }
+        if !chunks.is_empty() {
+            entries.push((Mark::Line(c, 5), chunk_label(kind, chunks)));
+        }
+    }
+    Ok(entries)
+}
+
+/// Draw `v`'s marks: a dot every [`INDEX_EVERY`] points (numbered by [`number_points`] after
+/// every layer), its start, and where it ended with the heading there.
+fn draw_marks(
+    chart: &mut PathChart<'_, '_>,
+    v: &PlotView<'_>,
+    color: RGBColor,
+) -> Result<(), String> {
+    chart
+        .draw_series(
+            v.path
+                .iter()
+                .step_by(INDEX_EVERY)
+                .map(|p| Circle::new(xy(p), 3, color.filled())),
+        )
+        .map_err(drawing)?;
+    if let Some(first) = v.path.first() {
+        chart
+            .draw_series(std::iter::once(Circle::new(xy(first), 5, BLACK.filled())))
+            .map_err(drawing)?;
+    }
+    // Where the robot ended and which way it faced, to compare with the goal's heading.
+    if let Some(last) = v.path.last().filter(|p| p.theta_rad.is_finite()) {
+        let (x, y) = xy(last);
+        let h = last.theta_rad;
+        let tip = (x + HEADING_ARROW_M * h.cos(), y + HEADING_ARROW_M * h.sin());
+        chart
+            .draw_series(std::iter::once(Circle::new((x, y), 4, color.filled())))
+            .map_err(drawing)?;
+        chart
+            .draw_series(LineSeries::new([(x, y), tip], color.stroke_width(3)))
+            .map_err(drawing)?;
+        // An open head at the tip: two short strokes back at 150 degrees.
+        let head = HEADING_ARROW_M * 0.35;
+        for side in [-1.0, 1.0] {
+            let a = h + side * 2.6;
+            chart
+                .draw_series(LineSeries::new(
+                    [tip, (tip.0 + head * a.cos(), tip.1 + head * a.sin())],
+                    color.stroke_width(3),
+                ))
+                .map_err(drawing)?;
+        }
+    }
+    Ok(())
+}
 
 /// Draw what the task draws for each view's goal (its `draw` clauses): the goal in black, other
 /// shapes in grey; a pose as a cross with a heading arrow, a point as a cross, a circle as a ring.
