@@ -219,7 +219,7 @@ fn every_broken_frame_ends_in_a_coded_diagnostic_and_exit_code_1() {
     for (name, code, run) in runs {
         assert_eq!(run.code, Some(1), "{name}: {}", run.stderr);
         assert!(
-            run.stderr.contains(&format!("advise_lsp::{code}")),
+            run.stderr.contains(&format!("advise::lsp::{code}")),
             "{name}: {}",
             run.stderr
         );
@@ -238,7 +238,7 @@ fn a_huge_content_length_is_refused_at_once_with_its_diagnostic() {
     let run = lsp(b"Content-Length: 3000000000\r\n\r\n", true);
     assert_eq!(run.code, Some(1));
     insta::assert_snapshot!(run.stderr, @r"
-    advise_lsp::message_too_large
+    advise::lsp::message_too_large
 
       × message 1 would be 3000000000 bytes, more than the 67108864 bytes `advise
       │ lsp` accepts
@@ -264,7 +264,7 @@ fn bad_bodies_are_answered_and_the_session_goes_on() {
     assert_eq!(run.code, Some(0), "{}", run.stderr);
     for code in ["bad_json", "bad_utf8", "not_a_message"] {
         assert!(
-            run.stderr.contains(&format!("advise_lsp::{code}")),
+            run.stderr.contains(&format!("advise::lsp::{code}")),
             "{}",
             run.stderr
         );
@@ -312,7 +312,7 @@ fn a_document_over_the_limit_gets_a_diagnostic_not_an_abort() {
     assert_eq!(published.len(), 1);
     let diagnostics = published[0]["params"]["diagnostics"].as_array().unwrap();
     assert_eq!(diagnostics.len(), 1);
-    assert_eq!(diagnostics[0]["code"], "advise_lsp::document_too_large");
+    assert_eq!(diagnostics[0]["code"], "advise::lsp::document_too_large");
     assert!(run.max_rss_kib < 512 * 1024, "peak {} KiB", run.max_rss_kib);
 }
 
