@@ -109,9 +109,8 @@ impl SimEnv {
             .map_err(|e| crate::error::from_diag(py, &advise::diag::SourceMap::new(), &e))?;
         let mut backend = SimBackend::new(self.params.clone(), episode_seed(seed, index));
         let mut task = start.task();
-        let stepper = Stepper::begin(&mut backend, task.as_mut()).map_err(|i| {
-            crate::error::from_diag(py, &advise::diag::SourceMap::new(), &i.error)
-        })?;
+        let stepper = Stepper::begin(&mut backend, task.as_mut())
+            .map_err(|i| crate::error::from_diag(py, &advise::diag::SourceMap::new(), &i.error))?;
         let z = stepper.observation().to_vec();
         // An observation that is not a number ends the episode before anything acts on it.
         let stepper = (!stepper.is_over()).then_some(stepper);
