@@ -215,6 +215,11 @@ pub struct ExperimentArgs {
     /// demonstrations and practice starts [default: both].
     #[arg(long, value_name = "RULE", value_parser = choice::<advise::experiment::bc::Rules>())]
     pub critique: Option<advise::experiment::bc::Rules>,
+    /// `bc` only: whose demonstrations: the paper's hand-written deterministic controller (the
+    /// main arm), the human-like teacher (the second arm), or both, each with its own learners
+    /// and oracles from the same starts [default: both; an ablation runs the controller's].
+    #[arg(long, value_name = "ARM", value_parser = choice::<advise::experiment::bc::Teachers>())]
+    pub teacher: Option<advise::experiment::bc::Teachers>,
     /// The ablation (docs/ablation.md): revert one choice of the studies' protocol (README,
     /// "The protocol") alone to what it replaced, everything else as the protocol has it:
     /// `ball` (1, bc), `teacher` (2, bc and aopi), `chunks` (3, bc), `support` (4, bc),
@@ -560,6 +565,12 @@ pub enum CliError {
         help("use it with `advise experiment bc`, or leave it out")
     )]
     CritiqueWithoutBc { study: String },
+    #[error("`--teacher` chooses the BC study's teacher arms; the `{study}` study has none")]
+    #[diagnostic(
+        code(advise::cli::teacher_without_bc),
+        help("use it with `advise experiment bc`, or leave it out")
+    )]
+    TeacherWithoutBc { study: String },
     #[error("`--practice` caps the A-OPI study's arms; the `bc` study has no arms")]
     #[diagnostic(
         code(advise::cli::practice_without_aopi),

@@ -136,6 +136,16 @@ pub fn experiment(args: ExperimentArgs) -> miette::Result<()> {
         }
         (study::Study::Aopi, None) => Default::default(),
     };
+    let teachers = match (args.study, args.teacher) {
+        (study::Study::Bc, arms) => arms.unwrap_or_default(),
+        (study::Study::Aopi, Some(_)) => {
+            return Err(CliError::TeacherWithoutBc {
+                study: "aopi".into(),
+            }
+            .into());
+        }
+        (study::Study::Aopi, None) => Default::default(),
+    };
     if let Some(choice) = args.revert
         && !choice.affects(args.study)
     {
@@ -158,7 +168,7 @@ pub fn experiment(args: ExperimentArgs) -> miette::Result<()> {
         args.study,
         &seeds,
         sim,
-        critique,
+        study::BcChoices { critique, teachers },
         args.revert,
         args.practice.map(|n| n as usize),
         args.plot.as_deref(),

@@ -96,7 +96,10 @@ pub fn study<'py>(
                 which,
                 &s::Seeds::One(seed),
                 sim,
-                rules,
+                s::BcChoices {
+                    critique: rules,
+                    teachers: Default::default(),
+                },
                 revert,
                 practice,
                 None,

@@ -18,6 +18,7 @@ use thiserror::Error;
 
 use crate::backend::sim::SimParams;
 use crate::eval::{ControllerBox, Report};
+use crate::trace;
 use crate::task::{InterceptionRules, Outcome, Start, TaskKind, episode_seed, run_sim_in};
 
 pub mod ablation;
@@ -45,6 +46,22 @@ pub fn sim_params(
     match path {
         Some(p) => SimParams::load(map, p),
         None => Ok(SimParams::default()),
+    }
+}
+
+/// The largest chunk either study's automated teacher flags or advises, points: the middle of
+/// the paper's "typical sizes in this work are 20-30 points" (the second protocol, S4).
+pub const CHUNK_POINTS: usize = 25;
+
+/// The one chunk rule of both studies' automated teachers (the second protocol, S4,
+/// docs/protocol.md): a chunk begins where the flaw begins, where the run began to "go wrong",
+/// and holds at most [`CHUNK_POINTS`] points, fewer when the flawed `stretch` ends sooner. What
+/// follows is left to the next execution, which shows it again if the correction did not reach
+/// it.
+pub fn chunk_rule(stretch: trace::Chunk) -> trace::Chunk {
+    trace::Chunk {
+        start: stretch.start,
+        end: stretch.end.min(stretch.start.saturating_add(CHUNK_POINTS)),
     }
 }
 

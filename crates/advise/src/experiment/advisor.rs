@@ -75,7 +75,8 @@ pub struct AdvisorRules {
     pub position_tol_m: f64,
     /// A final heading error above this is poor, rad.
     pub heading_tol_rad: f64,
-    /// Largest chunk advised, points.
+    /// Largest chunk advised, points: the one chunk rule's [`crate::experiment::CHUNK_POINTS`]
+    /// (the second protocol, S4).
     pub chunk_len: usize,
     /// At most this many chunks of the approach are advised on one execution (rule 2).
     pub approach_chunks: usize,
@@ -97,7 +98,7 @@ impl Default for AdvisorRules {
         AdvisorRules {
             position_tol_m: 0.5,
             heading_tol_rad: 0.5,
-            chunk_len: 25,
+            chunk_len: crate::experiment::CHUNK_POINTS,
             approach_chunks: 6,
             min_chunk: 8,
             pre_protocol: false,

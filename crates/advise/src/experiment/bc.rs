@@ -40,10 +40,10 @@ use crate::policy::dataset::{CritiqueRule, Dataset};
 use crate::policy::learner::{Learner, LearnerKind};
 use crate::task::interception::{StatelessInterceptionTeacher, practice_starts_in};
 use crate::task::{
-    Controller, InterceptionRules, InterceptionTeacher, Outcome, Start, TaskKind, record_demos_in,
-    run_sim_in,
+    Controller, Execution, InterceptionRules, InterceptionTeacher, Outcome, Start, TaskKind,
+    record_demos_in, run_sim_in,
 };
-use crate::trace::Episode;
+use crate::trace::{Chunk, Episode};
 
 /// The paper's Table 1.
 pub const PAPER: PaperBc = PaperBc {
@@ -114,6 +114,65 @@ impl crate::choice::Choice for Rules {
     }
 }
 
+/// Which BC teachers the study runs (`advise experiment bc --teacher`; the second protocol, S1
+/// and S2): the paper's hand-written controller (the main arm), the human-like hand (the second
+/// arm), or both, each with its own demonstrations, learners and oracles, from the same starts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Teachers {
+    /// The paper's hand-written deterministic controller only.
+    Controller,
+    /// The human-like teacher (the first protocol's) only.
+    Hand,
+    /// Both: the controller's arm reported first, the hand's under `hand`.
+    #[default]
+    Both,
+}
+
+impl crate::choice::Choice for Teachers {
+    fn all() -> &'static [Teachers] {
+        &[Teachers::Controller, Teachers::Hand, Teachers::Both]
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Teachers::Controller => "controller",
+            Teachers::Hand => "hand",
+            Teachers::Both => "both",
+        }
+    }
+
+    fn help(self) -> &'static str {
+        match self {
+            Teachers::Controller => {
+                "The paper's hand-written deterministic controller only (the main arm)"
+            }
+            Teachers::Hand => "The human-like teacher only (the second arm)",
+            Teachers::Both => "Both arms, from the same starts, each with its own learners",
+        }
+    }
+}
+
+/// Which teacher an arm's demonstrations and teacher runs came from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TeacherKind {
+    /// The paper's hand-written deterministic controller (S1).
+    #[default]
+    Controller,
+    /// The human-like teacher (S2).
+    Hand,
+}
+
+impl TeacherKind {
+    pub fn label(self) -> &'static str {
+        match self {
+            TeacherKind::Controller => "hand-written controller",
+            TeacherKind::Hand => "human-like hand",
+        }
+    }
+}
+
 /// The study's configuration. The defaults are the paper's protocol.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BcParams {
@@ -138,9 +197,12 @@ pub struct BcParams {
     #[serde(default)]
     pub critique: Rules,
     /// The protocol's choice reverted for the ablation (`--revert`), if any
-    /// ([`crate::experiment::ablation`]).
+    /// ([`crate::experiment::ablation`]). An ablation runs the main arm only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub revert: Option<Revert>,
+    /// Which teachers' arms run (default both).
+    #[serde(default)]
+    pub teachers: Teachers,
 }
 
 impl Default for BcParams {
@@ -157,6 +219,7 @@ impl Default for BcParams {
             sim: SimParams::default(),
             critique: Rules::default(),
             revert: None,
+            teachers: Teachers::default(),
         }
     }
 }
@@ -226,7 +289,40 @@ pub struct BcResult {
     /// The directional rule's rounds, when both rules ran.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub directional: Option<BcRuleResult>,
+    /// Whose demonstrations these are (the arm).
+    #[serde(default)]
+    pub teacher_kind: TeacherKind,
+    /// Critique's ceiling on this arm's demonstrations (the second protocol, S6).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub oracles: Option<BcOracles>,
+    /// The human-like teacher's arm, when both arms ran (this result is then the controller's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hand: Option<Box<BcResult>>,
     pub paper: PaperBc,
+}
+
+/// What re-weighting an arm's demonstrations could at best do (the second protocol, S6): 1-NN
+/// learners under the paper's rule, never critiqued, on the same test starts.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BcOracles {
+    /// On the teacher's demonstrations that intercepted the ball only.
+    pub successful_demos: BcOracle,
+    /// On every demonstration without the points the critic flags in it (every flawed stretch
+    /// of a demonstration the critic judges poor removed whole: the limit of perfect critique).
+    pub perfect_critique: BcOracle,
+}
+
+/// One oracle's data and, when it had any, its test-set figures (lengths over the starts where
+/// it, the initial policy and the teacher all succeeded).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BcOracle {
+    /// Demonstrations that kept at least one point.
+    pub demos: usize,
+    pub points: usize,
+    /// `None` when no point was left (the oracle cannot act).
+    pub figures: Option<BcFigures>,
+    /// The test starts its length is measured over.
+    pub paired_runs: usize,
 }
 
 /// One critique rule's rounds beside the paper's: its final policy, curve and critiques, and the
@@ -263,8 +359,45 @@ pub fn run(seed: u64, params: &BcParams, progress: bool) -> BcResult {
 }
 
 /// Run the BC study with `test` standing in for the test set (to tune the critic on held-out
-/// practice starts without ever looking at the real test set).
+/// practice starts without ever looking at the real test set): the arms `params.teachers`
+/// names (an ablation, `params.revert`, runs the main arm only), each from the same starts.
 pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> BcResult {
+    let arm = |kind: TeacherKind| {
+        let teacher = match kind {
+            TeacherKind::Controller => params.teacher.controller(),
+            TeacherKind::Hand => params.teacher.human_like(),
+        };
+        let p = BcParams {
+            teacher,
+            ..params.clone()
+        };
+        run_arm(seed, &p, test, progress, kind)
+    };
+    let teachers = if params.revert.is_some() {
+        Teachers::Controller
+    } else {
+        params.teachers
+    };
+    match teachers {
+        Teachers::Controller => arm(TeacherKind::Controller),
+        Teachers::Hand => arm(TeacherKind::Hand),
+        Teachers::Both => {
+            let mut main = arm(TeacherKind::Controller);
+            main.hand = Some(Box::new(arm(TeacherKind::Hand)));
+            main
+        }
+    }
+}
+
+/// One arm of the study: `params.teacher` demonstrates, the learners are critiqued, and the
+/// oracles (S6) run beside them.
+fn run_arm(
+    seed: u64,
+    params: &BcParams,
+    test: &[Start],
+    progress: bool,
+    teacher_kind: TeacherKind,
+) -> BcResult {
     let kind = TaskKind::Interception;
     let sim = &params.sim;
     let eval_every = params.eval_every.max(1);
@@ -285,6 +418,7 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
     let (demo_starts, practice) = starts.split_at(params.demos);
     let recorded = record_teacher(demo_starts, params, seed);
     let demo_successes = recorded.iter().filter(|(_, o)| o.success).count();
+    let oracle_data = oracle_datasets(&recorded, &params.critic);
     let episodes: Vec<Episode> = recorded.into_iter().map(|(e, _)| e).collect();
     let mut ds = Dataset::new(&kind.domain());
     for e in &episodes {
@@ -314,6 +448,16 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         eseed,
     );
     let initial = evaluate(&learners[0]);
+    bar.set_message("bc: oracles");
+    let oracle_reports: Vec<(usize, usize, Option<Report>)> = oracle_data
+        .into_iter()
+        .map(|(demos, ds)| {
+            let points = ds.len();
+            let report = (points > 0)
+                .then(|| evaluate(&Learner::with_dataset(ds, LearnerKind::Bc, seed)));
+            (demos, points, report)
+        })
+        .collect();
     bar.inc(1);
 
     let mut results: Vec<Rounds> = rules
@@ -373,6 +517,18 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
     });
     let first = results.remove(0);
     let paired = paired_with(&first.last);
+    let mut oracles = oracle_reports.into_iter().map(|(demos, points, report)| {
+        let own = report.as_ref().map(&paired_with).unwrap_or_default();
+        BcOracle {
+            demos,
+            points,
+            figures: report.as_ref().map(|r| figures(&own, r)),
+            paired_runs: own.len(),
+        }
+    });
+    let (Some(successful_demos), Some(perfect_critique)) = (oracles.next(), oracles.next()) else {
+        unreachable!("oracle_datasets makes two datasets")
+    };
     BcResult {
         experiment: "bc".into(),
         seed,
@@ -387,8 +543,63 @@ pub fn run_on(seed: u64, params: &BcParams, test: &[Start], progress: bool) -> B
         critiques: first.summary,
         rule: rules[0],
         directional,
+        teacher_kind,
+        oracles: Some(BcOracles {
+            successful_demos,
+            perfect_critique,
+        }),
+        hand: None,
         paper: PAPER,
     }
+}
+
+/// The oracles' datasets (S6), each with the number of demonstrations that kept a point:
+/// the successful demonstrations only, and every demonstration without the points the critic
+/// flags in it (each flawed stretch of a demonstration it judges poor, removed whole).
+fn oracle_datasets(recorded: &[(Episode, Outcome)], rules: &CriticRules) -> [(usize, Dataset); 2] {
+    let domain = TaskKind::Interception.domain();
+    let mut successful = Dataset::new(&domain);
+    let mut n_successful = 0;
+    let mut critiqued = Dataset::new(&domain);
+    let mut n_critiqued = 0;
+    for (e, outcome) in recorded {
+        if outcome.success {
+            // Recorded in the task's own domain: this cannot fail.
+            let _ = successful.add_demonstration(&e.name, &e.trace);
+            n_successful += 1;
+        }
+        let exec = Execution {
+            trace: e.trace.clone(),
+            true_poses: None,
+            ball: None,
+            outcome: outcome.clone(),
+        };
+        let mut flagged = vec![false; e.trace.len()];
+        for f in critic::critique_execution(&exec, rules) {
+            for t in f.stretch.range() {
+                if let Some(x) = flagged.get_mut(t) {
+                    *x = true;
+                }
+            }
+        }
+        let mut kept_any = false;
+        let mut t = 0;
+        while t < flagged.len() {
+            if flagged[t] {
+                t += 1;
+                continue;
+            }
+            let start = t;
+            while t < flagged.len() && !flagged[t] {
+                t += 1;
+            }
+            let piece = e.trace.slice(Chunk { start, end: t });
+            let _ = critiqued.add_demonstration(&format!("{}/{start}", e.name), &piece);
+            kept_any = true;
+        }
+        n_critiqued += usize::from(kept_any);
+    }
+    [(n_successful, successful), (n_critiqued, critiqued)]
 }
 
 /// The critique rounds under `rule` on `learner`: each practice start run, judged by the critic,
@@ -527,8 +738,14 @@ impl BcResult {
     pub fn render(&self) -> String {
         let p = &self.params;
         let mut s = format!(
-            "BC study (ball interception), seed {}: {} demonstrations ({} points), {} critique rounds, test set of {} starts\n\n",
-            self.seed, p.demos, self.demo_points, p.rounds, self.learner_initial.episodes
+            "BC study (ball interception), seed {}, teacher: {}: {} demonstrations ({} points, {} intercepted), {} critique rounds, test set of {} starts\n\n",
+            self.seed,
+            self.teacher_kind.label(),
+            p.demos,
+            self.demo_points,
+            self.demo_successes,
+            p.rounds,
+            self.learner_initial.episodes
         );
         let _ = writeln!(
             s,
@@ -593,6 +810,10 @@ impl BcResult {
                 opt_m(d.teacher_length_m)
             );
         }
+        if let Some(o) = &self.oracles {
+            render_oracles(&mut s, o);
+        }
+        let _ = writeln!(s, "  {}", endings_line("teacher", &self.teacher.endings, p.world.time_limit_s));
         s.push('\n');
         // The paper's rule goes unnamed; another rule's blocks say which.
         let named = |rule: CritiqueRule| match rule {
@@ -610,8 +831,55 @@ impl BcResult {
         if let Some(d) = &self.directional {
             render_critic(&mut s, &named(d.rule), &d.critiques);
         }
+        if let Some(h) = &self.hand {
+            s.push('\n');
+            s.push_str(&h.render());
+        }
         s
     }
+}
+
+/// Critique's ceiling (S6) under Table 1.
+fn render_oracles(s: &mut String, o: &BcOracles) {
+    let _ = writeln!(
+        s,
+        "  critique's ceiling (1-NN, no critique; lengths over the starts where it, initial π and the teacher succeeded):"
+    );
+    for (name, oracle) in [
+        ("successful demonstrations", &o.successful_demos),
+        ("perfect critique", &o.perfect_critique),
+    ] {
+        match &oracle.figures {
+            Some(f) => {
+                let _ = writeln!(
+                    s,
+                    "  {:<29} {:>8} {:>11}   ({} demonstrations, {} points; {} paired starts)",
+                    name,
+                    pct(f.success_rate),
+                    opt_m(f.mean_length_m),
+                    oracle.demos,
+                    oracle.points,
+                    oracle.paired_runs
+                );
+            }
+            None => {
+                let _ = writeln!(s, "  {name:<29} no data left: not evaluated");
+            }
+        }
+    }
+}
+
+/// How a policy's test episodes ended, the paper's endings first and the safety limit apart.
+pub(crate) fn endings_line(who: &str, endings: &BTreeMap<String, usize>, limit_s: f64) -> String {
+    let get = |k: &str| endings.get(k).copied().unwrap_or(0);
+    format!(
+        "{who}'s endings: captured {}, ball out {}, robot out {}; at the {:.0} s safety limit {} (not an ending the paper has)",
+        get("captured"),
+        get("ball_out"),
+        get("robot_out"),
+        limit_s,
+        get("time_limit")
+    )
 }
 
 fn render_curve(s: &mut String, label: &str, curve: &[BcCurvePoint], teacher: f64) {

@@ -377,18 +377,8 @@ fn bc_params() -> Vec<Param<BcPair>> {
             get: |p| p.0.capture_m,
             set: |p, v| p.0.capture_m = v,
         },
-        Param {
-            name: "teacher.hand.reaction_s (upper)",
-            grid: vec![0.3, 0.45, 0.6, 0.8],
-            get: |p| p.1.hand.reaction_s[1],
-            set: |p, v| p.1.hand.reaction_s[1] = v,
-        },
-        Param {
-            name: "teacher.hand.hesitate_per_s (upper)",
-            grid: vec![0.0, 0.2, 0.4, 0.8],
-            get: |p| p.1.hand.hesitate_per_s[1],
-            set: |p, v| p.1.hand.hesitate_per_s[1] = v,
-        },
+        // The hand's two constants left the fit with the second protocol (S7): the main arm's
+        // teacher is the paper's hand-written controller, which has no hand.
     ]
 }
 
@@ -450,12 +440,12 @@ fn calibrate_bc(sim: &SimParams, from_bootstrap: bool, progress: bool) -> BcFile
     let start: BcPair = if from_bootstrap {
         (
             InterceptionRules::bootstrap(),
-            InterceptionTeacher::bootstrap(sim.period_s()),
+            InterceptionTeacher::bootstrap(sim.period_s()).controller(),
         )
     } else {
         (
             InterceptionRules::default(),
-            InterceptionTeacher::new(sim.period_s()),
+            InterceptionTeacher::new(sim.period_s()).controller(),
         )
     };
     // The figures, then whether the physical constraints hold (1) or not (0): a candidate that

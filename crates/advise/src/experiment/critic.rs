@@ -25,16 +25,18 @@
 //!      [`CriticRules::loop_break_points`] points, or a turn the other way, ends a turn;
 //!    - **wasted turning**: the robot turned (more than [`LOOP_TURN_RAD`] a point) while the
 //!      distance to the ball did not close.
-//! 3. The chunks are the stretches of labelled points, as the paper's teacher chose them
-//!    ("from a single point to all points in the trajectory"): a chunk begins where the run began
-//!    to go wrong and ends where the flaw ends. Stretches separated by at most
+//! 3. The flaws are found on the stretches of labelled points: a stretch begins where the run
+//!    began to go wrong and ends where the flaw ends. Stretches separated by at most
 //!    [`CriticRules::merge_gap`] points are one chunk (a person does not split a flaw at a
 //!    twitch). A stretch is flagged when it is a flaw a person sees: a loop of any length, or a
 //!    stretch of at least [`CriticRules::min_points`] points that lost more than
 //!    [`CriticRules::away_m`] of distance (moving away) or turned more than
 //!    [`CriticRules::turn_rad`] while closing less than [`CriticRules::min_efficiency`] of the
-//!    distance it drove (wasted turning). Any number of chunks, of any length, are flagged; each
-//!    is named by its worst flaw (loop, then moving away, then wasted turning).
+//!    distance it drove (wasted turning). Each flawed stretch is flagged by the one chunk rule of
+//!    both studies (the second protocol, S4: [`crate::experiment::chunk_rule`]): the chunk
+//!    begins where the stretch begins and holds at most 25 points (the paper's "typical sizes in
+//!    this work are 20-30 points"); any number of chunks, one a stretch, each named by its
+//!    stretch's worst flaw (loop, then moving away, then wasted turning).
 //! 4. A straight approach closes the distance about as fast as it drives and turns little, so it
 //!    is never flagged.
 //!
@@ -125,7 +127,11 @@ impl Flaw {
 /// One flagged chunk and the reason.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Flag {
+    /// What is flagged: the start of the flawed stretch, by the one chunk rule
+    /// ([`crate::experiment::chunk_rule`]).
     pub chunk: Chunk,
+    /// The whole flawed stretch the flaw was found on (what perfect critique would remove).
+    pub stretch: Chunk,
     pub flaw: Flaw,
 }
 
@@ -224,7 +230,11 @@ pub fn critique(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
             None
         };
         if let Some(flaw) = flaw {
-            flags.push(Flag { chunk, flaw });
+            flags.push(Flag {
+                chunk: crate::experiment::chunk_rule(chunk),
+                stretch: chunk,
+                flaw,
+            });
         }
     }
     flags
@@ -329,7 +339,11 @@ pub fn critique_fixed(trace: &Trace, rules: &CriticRules) -> Vec<Flag> {
             None
         };
         if let Some(flaw) = flaw {
-            flags.push(Flag { chunk, flaw });
+            flags.push(Flag {
+                chunk,
+                stretch: chunk,
+                flaw,
+            });
             if flags.len() == FIXED_MAX_FLAGS {
                 break;
             }
@@ -467,12 +481,18 @@ mod tests {
     fn a_looping_trace_is_flagged() {
         let (t, loop_pts) = looping_trace();
         let flags = critique(&t, &CriticRules::default());
-        // One chunk: the whole loop, from where the turn began to where it ended; none in the
-        // straight approaches before and after.
+        // One flaw: the whole loop, from where the turn began to where it ended; none in the
+        // straight approaches before and after. The chunk flagged is its first 25 points (the
+        // one chunk rule).
+        assert!(loop_pts > 25);
         assert_eq!(
             flags,
             [Flag {
                 chunk: Chunk {
+                    start: 40,
+                    end: 40 + 25
+                },
+                stretch: Chunk {
                     start: 40,
                     end: 40 + loop_pts
                 },
@@ -541,11 +561,17 @@ mod tests {
             push(&mut t, true);
         }
         let flags = critique(&t, &CriticRules::default());
-        let chunks: Vec<(usize, usize)> =
-            flags.iter().map(|f| (f.chunk.start, f.chunk.end)).collect();
+        let stretches: Vec<(usize, usize)> = flags
+            .iter()
+            .map(|f| (f.stretch.start, f.stretch.end))
+            .collect();
         // Each stretch from where the distance stopped closing to where it closed again (the
         // last point of each has no next distance to judge by, or closes).
-        assert_eq!(chunks, [(10, 21), (62, 91)], "{flags:?}");
+        assert_eq!(stretches, [(10, 21), (62, 91)], "{flags:?}");
+        // Each flagged chunk: the stretch's first 25 points at most.
+        let chunks: Vec<(usize, usize)> =
+            flags.iter().map(|f| (f.chunk.start, f.chunk.end)).collect();
+        assert_eq!(chunks, [(10, 21), (62, 87)], "{flags:?}");
         assert!(flags.iter().all(|f| f.flaw == Flaw::MovingAway));
     }
 

@@ -31,8 +31,15 @@ pub struct StudyOutput {
     pub plots: Vec<PathBuf>,
 }
 
+/// The BC study's own options (`advise experiment bc --critique RULE --teacher ARM`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BcChoices {
+    pub critique: bc::Rules,
+    pub teachers: bc::Teachers,
+}
+
 /// Run `study` for `seeds` on the simulator with `sim` (the BC study under the critique rules
-/// `critique`; with the protocol's choice `revert` reverted, for the ablation; the A-OPI arms
+/// and with the teachers' arms of `bc_choices`; with the protocol's choice `revert` reverted, for the ablation; the A-OPI arms
 /// capped at `practice` practice goals when given), plotting each run into `plot_dir` (created
 /// if needed, before anything runs) when given.
 // Each argument is one of `advise experiment`'s options, as the command line and the Python
@@ -42,7 +49,7 @@ pub fn run(
     study: Study,
     seeds: &Seeds,
     sim: SimParams,
-    critique: bc::Rules,
+    bc_choices: BcChoices,
     revert: Option<Revert>,
     practice: Option<usize>,
     plot_dir: Option<&Path>,
@@ -55,7 +62,8 @@ pub fn run(
         Study::Bc => {
             let params = bc::BcParams {
                 sim,
-                critique,
+                critique: bc_choices.critique,
+                teachers: bc_choices.teachers,
                 ..bc::BcParams::default()
             };
             let params = match revert {

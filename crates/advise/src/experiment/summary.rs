@@ -13,12 +13,13 @@
 //! bootstrap 95% interval over the seeds ([`Interval`]). A-OPI's figures are the halted
 //! policies'. Nothing here runs a study.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use serde::{Deserialize, Serialize};
 
 use crate::experiment::aopi::{AopiResult, ArmFigures};
-use crate::experiment::bc::{BcResult, BcRuleResult};
+use crate::experiment::bc::{BcFigures, BcOracles, BcResult, BcRuleResult, TeacherKind};
 use crate::experiment::{mean_sd, pct};
 use crate::policy::dataset::CritiqueRule;
 
@@ -181,7 +182,36 @@ pub struct BcSummary {
     /// The directional rule's final policy across the seeds, when both rules ran.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub directional: Option<BcRuleSummary>,
+    /// Whose demonstrations (the arm).
+    #[serde(default)]
+    pub teacher_kind: TeacherKind,
+    /// Critique's ceiling across the seeds (the second protocol, S6), when the runs carry it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub oracles: Option<BcOracleSummary>,
+    /// How the test episodes ended, per policy (`teacher`, `initial`, `final`), ending by ending
+    /// (`captured`, `ball_out`, `robot_out`, `time_limit`): the count in the test set.
+    #[serde(default)]
+    pub endings: BTreeMap<String, BTreeMap<String, Spread>>,
+    /// The human-like teacher's arm across the same seeds, when both arms ran (its `runs` are
+    /// inside each run's `hand`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hand: Option<Box<BcSummary>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub runs: Vec<BcResult>,
+}
+
+/// The oracles across seeds: success over every seed; length over the seeds where the oracle had
+/// paired runs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BcOracleSummary {
+    pub successful_demos_success: Spread,
+    pub successful_demos_length_m: Spread,
+    pub successful_demos_points: Spread,
+    pub perfect_critique_success: Spread,
+    pub perfect_critique_length_m: Spread,
+    pub perfect_critique_points: Spread,
+    /// The share of the demonstrations' points the critic flags (what perfect critique removes).
+    pub perfect_critique_removed_share: Spread,
 }
 
 /// One more critique rule across seeds: its final policy, the lengths over its own paired runs,
@@ -250,6 +280,80 @@ pub const BC_CLAIMS: [&str; 3] = [
 ];
 
 pub fn bc(runs: Vec<BcResult>) -> BcSummary {
+    let hand_runs: Vec<BcResult> = runs
+        .iter()
+        .filter_map(|r| r.hand.as_deref().cloned())
+        .collect();
+    let hand = (!hand_runs.is_empty() && hand_runs.len() == runs.len()).then(|| {
+        let mut h = bc(hand_runs);
+        h.runs.clear();
+        Box::new(h)
+    });
+    let mut summary = bc_arm(runs);
+    summary.hand = hand;
+    summary
+}
+
+fn oracle_summary(runs: &[BcResult]) -> Option<BcOracleSummary> {
+    let all: Vec<(&BcResult, &BcOracles)> = runs
+        .iter()
+        .filter_map(|r| r.oracles.as_ref().map(|o| (r, o)))
+        .collect();
+    if all.is_empty() || all.len() != runs.len() {
+        return None;
+    }
+    let spread = |f: &dyn Fn(&BcResult, &BcOracles) -> Option<f64>| {
+        Spread::of(&all.iter().filter_map(|(r, o)| f(r, o)).collect::<Vec<_>>())
+    };
+    // An oracle with no data catches nothing.
+    let success = |o: &crate::experiment::bc::BcOracle| {
+        Some(o.figures.as_ref().map_or(0.0, |f| f.success_rate))
+    };
+    let length = |o: &crate::experiment::bc::BcOracle| {
+        o.figures.as_ref().and_then(|f| f.mean_length_m)
+    };
+    Some(BcOracleSummary {
+        successful_demos_success: spread(&|_, o| success(&o.successful_demos)),
+        successful_demos_length_m: spread(&|_, o| length(&o.successful_demos)),
+        successful_demos_points: spread(&|_, o| Some(o.successful_demos.points as f64)),
+        perfect_critique_success: spread(&|_, o| success(&o.perfect_critique)),
+        perfect_critique_length_m: spread(&|_, o| length(&o.perfect_critique)),
+        perfect_critique_points: spread(&|_, o| Some(o.perfect_critique.points as f64)),
+        perfect_critique_removed_share: spread(&|r, o| {
+            (r.demo_points > 0).then(|| {
+                1.0 - o.perfect_critique.points as f64 / r.demo_points as f64
+            })
+        }),
+    })
+}
+
+/// Each policy's endings across seeds (see [`BcSummary::endings`]).
+fn endings_summary(runs: &[BcResult]) -> BTreeMap<String, BTreeMap<String, Spread>> {
+    let policies: [(&str, fn(&BcResult) -> &BcFigures); 3] = [
+        ("teacher", |r| &r.teacher),
+        ("initial", |r| &r.learner_initial),
+        ("final", |r| &r.learner_final),
+    ];
+    policies
+        .iter()
+        .map(|(name, of)| {
+            let each = ["captured", "ball_out", "robot_out", "time_limit"]
+                .iter()
+                .map(|k| {
+                    let v: Vec<f64> = runs
+                        .iter()
+                        .map(|r| of(r).endings.get(*k).copied().unwrap_or(0) as f64)
+                        .collect();
+                    (k.to_string(), Spread::of(&v))
+                })
+                .collect();
+            (name.to_string(), each)
+        })
+        .collect()
+}
+
+/// One arm's Table 1 across seeds.
+fn bc_arm(runs: Vec<BcResult>) -> BcSummary {
     let seeds: Vec<u64> = runs.iter().map(|r| r.seed).collect();
     let spread = |f: &dyn Fn(&BcResult) -> Option<f64>| {
         Spread::of(&runs.iter().filter_map(f).collect::<Vec<_>>())
@@ -287,6 +391,10 @@ pub fn bc(runs: Vec<BcResult>) -> BcSummary {
         experiment: "bc".into(),
         rule: runs.first().map_or(CritiqueRule::Paper, |r| r.rule),
         directional,
+        teacher_kind: runs.first().map_or_else(TeacherKind::default, |r| r.teacher_kind),
+        oracles: oracle_summary(&runs),
+        endings: endings_summary(&runs),
+        hand: None,
         learner_initial_success: spread(&|r| Some(r.learner_initial.success_rate)),
         learner_initial_length_m: spread(&|r| r.learner_initial.mean_length_m),
         learner_final_success: spread(&|r| Some(r.learner_final.success_rate)),
@@ -316,8 +424,9 @@ impl BcSummary {
     pub fn render(&self) -> String {
         let p = crate::experiment::bc::PAPER;
         let mut s = format!(
-            "BC study (ball interception), seeds {:?}: mean ± sd across seeds\n\n",
-            self.seeds
+            "BC study (ball interception), seeds {:?}, teacher: {}: mean ± sd across seeds\n\n",
+            self.seeds,
+            self.teacher_kind.label()
         );
         let _ = writeln!(
             s,
@@ -386,11 +495,51 @@ impl BcSummary {
                 num(d.teacher_length_m, 2)
             );
         }
+        if let Some(o) = &self.oracles {
+            let _ = writeln!(
+                s,
+                "  critique's ceiling (1-NN, no critique; lengths over each oracle's own paired runs):"
+            );
+            row(
+                &mut s,
+                "successful demonstrations",
+                o.successful_demos_success,
+                o.successful_demos_length_m,
+                None,
+            );
+            row(
+                &mut s,
+                "perfect critique",
+                o.perfect_critique_success,
+                o.perfect_critique_length_m,
+                None,
+            );
+            let _ = writeln!(
+                s,
+                "  perfect critique removes {} of the demonstrations' points",
+                rate(o.perfect_critique_removed_share)
+            );
+        }
+        for (who, e) in &self.endings {
+            let get = |k: &str| e.get(k).map_or(0.0, |v| v.mean);
+            let _ = writeln!(
+                s,
+                "  {who}'s endings per test set (mean): captured {:.1}, ball out {:.1}, robot out {:.1}; safety limit {:.1}",
+                get("captured"),
+                get("ball_out"),
+                get("robot_out"),
+                get("time_limit")
+            );
+        }
         s.push('\n');
         self.shape.render(&mut s, "");
         if let Some(d) = &self.directional {
             d.shape
                 .render(&mut s, " with the directional rule's final π");
+        }
+        if let Some(h) = &self.hand {
+            s.push('\n');
+            s.push_str(&h.render());
         }
         s
     }

@@ -63,12 +63,13 @@ pub struct InterceptionRules {
 
 impl InterceptionRules {
     /// The values `advise calibrate bc --from-bootstrap` starts from: the first guesses, before
-    /// any calibration (an 8 m arena, a 0.3 m capture, the ball 1-3 m away at up to 0.8 m/s).
+    /// any calibration (an 8 m arena, a 0.3 m capture, the ball 1-3 m away at up to 0.8 m/s),
+    /// and the safety limit [`SAFETY_LIMIT_S`] (the second protocol's S3; it was 20 s).
     pub fn bootstrap() -> InterceptionRules {
         InterceptionRules {
             arena_half_m: 4.0,
             capture_m: 0.3,
-            time_limit_s: 20.0,
+            time_limit_s: SAFETY_LIMIT_S,
             ball_dist_m: (1.0, 3.0),
             ball_speed_mps: (0.0, 0.8),
             ball_decel_mps2: 0.05,
@@ -80,7 +81,8 @@ impl InterceptionRules {
     /// The world the calibration chose before the protocol (issue 33, choice 1), when nothing
     /// kept the ball interceptable: the ball 1-2 m away at up to 1.3 m/s (faster than the
     /// teacher's 0.8 m/s cruise), a 9 m arena, a 0.4 m capture (`calibration/bc.json` at
-    /// `8c9cd11^`). Only the ablation plays it (`advise experiment bc --revert ball`).
+    /// `8c9cd11^`), with the second protocol's safety limit. Only the ablation plays it
+    /// (`advise experiment bc --revert ball`).
     pub fn pre_protocol() -> InterceptionRules {
         InterceptionRules {
             arena_half_m: 4.5,
@@ -368,6 +370,18 @@ pub struct InterceptionTeacher {
     pub hand: HandRanges,
 }
 
+/// The hand-written controller's turn onset (second protocol, S1): the middle of the human-like
+/// teacher's range, 1.0-2.1 rad.
+pub const CONTROLLER_TURN_ONSET_RAD: f64 = 1.55;
+
+/// The safety limit on a BC episode (second protocol, S3), s. The ball rolls at most as fast as
+/// the teacher's cruise (choice 1: 0.8 m/s) against 0.05 m/s^2 of friction, so it is still
+/// within 16 s (12 s at the 0.6 m/s the first calibration chose, 14 s at the second's 0.7); after
+/// that the scene is still, and a run that has not caught a still ball in the next 44 s (six
+/// turns of the teacher's tightest circle, 2 pi / 0.9 = 7 s each) is in a steady orbit. Episodes that reach it are reported apart (`time_limit`); the paper's episodes end
+/// only at an interception or the ball out of bounds.
+pub const SAFETY_LIMIT_S: f64 = 60.0;
+
 /// Salt of the interception teacher's style draws.
 const STYLE_SALT: u64 = 0xBA11_0000_0000_0008;
 
@@ -398,6 +412,48 @@ impl InterceptionTeacher {
                 hesitate_per_s: [0.0, 0.2],
                 hesitate_s: [0.2, 0.6],
             },
+        }
+    }
+
+    /// The paper's hand-written controller (second protocol, S1, docs/protocol.md): this
+    /// teacher's intention with one value for each constant a person would vary (the gain scale
+    /// 1, the turn onset at [`CONTROLLER_TURN_ONSET_RAD`]) and no hand (no reaction lag, no
+    /// tremor, no hesitation). Its [`driver`](Self::driver) is a deterministic function of what
+    /// it has seen: the same start and noise give the same demonstration.
+    pub fn controller(&self) -> InterceptionTeacher {
+        InterceptionTeacher {
+            gain: [1.0; 2],
+            turn_onset_rad: [CONTROLLER_TURN_ONSET_RAD; 2],
+            hand: HandRanges {
+                reaction_s: [0.0; 2],
+                tremor: [0.0; 2],
+                hesitate_per_s: [0.0; 2],
+                hesitate_s: [0.0; 2],
+            },
+            ..self.clone()
+        }
+    }
+
+    /// Whether this teacher is a deterministic controller (no style ranges, no hand).
+    pub fn is_controller(&self) -> bool {
+        *self == self.controller()
+    }
+
+    /// The human-like teacher of the first protocol (choice 2; BC's second arm under the second
+    /// protocol, S2): this teacher's intention with a style drawn per episode from the ranges the
+    /// first protocol calibrated (`calibration/bc.json` before the second protocol), carried
+    /// over, not re-fitted.
+    pub fn human_like(&self) -> InterceptionTeacher {
+        InterceptionTeacher {
+            gain: [0.7, 1.3],
+            turn_onset_rad: [1.0, 2.1],
+            hand: HandRanges {
+                reaction_s: [0.15, 0.6],
+                tremor: [0.0, 0.05],
+                hesitate_per_s: [0.0, 0.4],
+                hesitate_s: [0.2, 0.6],
+            },
+            ..self.clone()
         }
     }
 
