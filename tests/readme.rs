@@ -133,60 +133,114 @@ fn measured(name: &str) -> Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
-/// Table 1 and its claims in the README are the committed 20-seed measurement's.
+/// Table 1 (both teachers' arms and critique's ceilings), its claims and endings in the README
+/// are the committed 20-seed measurement's (the second protocol).
 #[test]
 fn the_bc_tables_are_the_measured_json() {
     let d = measured("bc-seeds-0-20.json");
-    let dir = &d["directional"];
-    for (label, figures, policy, paper) in [
-        (
-            "learner, initial policy",
-            &d,
-            "learner_initial",
-            "56%, 2.73",
-        ),
+    let h = &d["hand"];
+    assert_eq!(d["teacher_kind"], "controller");
+    assert_eq!(h["teacher_kind"], "hand");
+    let cells = |v: &Value, policy: &str| {
+        format!(
+            "{} | {}",
+            pct_sd(&v[format!("{policy}_success").as_str()]),
+            m_sd(&v[format!("{policy}_length_m").as_str()])
+        )
+    };
+    for (label, sub, policy, paper) in [
+        ("learner, initial policy", None, "learner_initial", "56%, 2.73"),
         (
             "learner, final policy (paper's rule)",
-            &d,
+            None,
             "learner_final",
             "70%, 1.96",
         ),
         (
             "learner, final policy (directional rule)",
-            dir,
+            Some("directional"),
             "learner_final",
             "-",
         ),
-        ("teacher", &d, "teacher", "62%, 2.87"),
+        ("teacher", None, "teacher", "62%, 2.87"),
+        (
+            "ceiling: 1-NN on the successful demonstrations",
+            Some("oracles"),
+            "successful_demos",
+            "-",
+        ),
+        (
+            "ceiling: 1-NN after perfect critique",
+            Some("oracles"),
+            "perfect_critique",
+            "-",
+        ),
     ] {
+        let (c, hh) = match sub {
+            Some(k) => (&d[k], &h[k]),
+            None => (&d, h),
+        };
         quoted(&format!(
             "| {label} | {} | {} | {paper} |",
-            pct_sd(&figures[format!("{policy}_success").as_str()]),
-            m_sd(&figures[format!("{policy}_length_m").as_str()])
+            cells(c, policy),
+            cells(hh, policy)
         ));
     }
-    let paper = d["shape"]["claims"].as_array().unwrap();
-    let directional = dir["shape"]["claims"].as_array().unwrap();
-    for (p, q) in paper.iter().zip(directional) {
-        let name = p["claim"].as_str().unwrap();
-        assert_eq!(name, q["claim"].as_str().unwrap());
-        let unit = if name.contains("length") { " m" } else { "" };
-        let (ps, pd) = claim_cells(p, unit);
-        let (qs, qd) = claim_cells(q, unit);
-        quoted(&format!("| {name} | {ps} | {pd} | {qs} | {qd} |"));
+    for arm in [&d, h] {
+        let dir = &arm["directional"];
+        let paper = arm["shape"]["claims"].as_array().unwrap();
+        let directional = dir["shape"]["claims"].as_array().unwrap();
+        for (p, q) in paper.iter().zip(directional) {
+            let name = p["claim"].as_str().unwrap();
+            assert_eq!(name, q["claim"].as_str().unwrap());
+            let unit = if name.contains("length") { " m" } else { "" };
+            let (ps, pd) = claim_cells(p, unit);
+            let (qs, qd) = claim_cells(q, unit);
+            quoted(&format!("| {name} | {ps} | {pd} | {qs} | {qd} |"));
+        }
+        quoted(&format!(
+            "| all three | {} | | {} | |",
+            all_held(&arm["shape"]),
+            all_held(&dir["shape"])
+        ));
     }
-    quoted(&format!(
-        "| all three | {} | | {} | |",
-        all_held(&d["shape"]),
-        all_held(&dir["shape"])
-    ));
-    // The demonstrations' size, in the section's first line.
+    for (arm, v) in [("controller", &d), ("hand", h)] {
+        for who in ["teacher", "initial", "final"] {
+            let e = &v["endings"][who];
+            quoted(&format!(
+                "| {arm}: {who} | {:.1} | {:.1} | {:.1} | {:.1} |",
+                f(&e["captured"], "mean"),
+                f(&e["ball_out"], "mean"),
+                f(&e["robot_out"], "mean"),
+                f(&e["time_limit"], "mean")
+            ));
+        }
+    }
+    // The demonstrations' size, in the section's first lines.
     let runs = d["runs"].as_array().unwrap();
-    let points: Vec<f64> = runs.iter().map(|r| f(r, "demo_points")).collect();
-    let mean = points.iter().sum::<f64>() / points.len() as f64;
+    let mean = |of: &dyn Fn(&Value) -> f64| runs.iter().map(of).sum::<f64>() / runs.len() as f64;
     quoted(&format!(
-        "100 human-like teacher demonstrations ({} points)",
-        thousands(mean)
+        "100 demonstrations, {} points)",
+        thousands(mean(&|r| f(r, "demo_points")))
+    ));
+    quoted(&format!(
+        "(S2; {} points)",
+        thousands(mean(&|r| f(&r["hand"], "demo_points")))
+    ));
+    // The orbit explanation's figures.
+    quoted(&format!(
+        "{:.1} of its 100 test runs still orbit at\n60 s",
+        f(&d["endings"]["teacher"]["time_limit"], "mean")
+    ));
+    let failed_points = mean(&|r| f(r, "demo_points"))
+        - f(&d["oracles"]["successful_demos_points"], "mean");
+    quoted(&format!(
+        "hold {},000 of",
+        (failed_points / 1000.0).round()
+    ));
+    quoted(&format!(
+        "critic flags ({:.0}% of the points)",
+        f(&d["oracles"]["perfect_critique_removed_share"], "mean") * 100.0
     ));
 }
 
@@ -260,7 +314,7 @@ fn the_calibration_figures_are_the_shipped_files() {
     let cal = &bc["calibration"];
     let c = &cal["constraints"];
     quoted(&format!(
-        "BC: the ideal interceptor catches {:.1}% of the 600 practice starts (floor {:.0}%); the ball's top\nspeed is {:.2} of the teacher's cruise ({} against {} m/s)",
+        "BC (the second protocol, with the hand-written controller): the ideal interceptor catches {:.1}% of the 600 practice starts (floor {:.0}%); the ball's top\nspeed is {:.2} of the teacher's cruise ({} against {} m/s)",
         f(c, "ideal_interceptor_success") * 100.0,
         f(c, "ideal_interceptor_floor") * 100.0,
         f(c, "ball_teacher_speed_ratio"),
@@ -276,15 +330,13 @@ fn the_calibration_figures_are_the_shipped_files() {
         f(w, "arena_half_m") * 2.0,
         w["capture_m"],
     ));
-    let h = &bc["teacher"]["hand"];
-    quoted(&format!(
-        "of up to {} s and up to {} pauses a second",
-        h["reaction_s"][1], h["hesitate_per_s"][1]
-    ));
+    // The second protocol's main arm has no hand (S1, S7).
+    assert_eq!(bc["teacher"]["hand"]["reaction_s"][1], 0.0);
+    assert_eq!(bc["teacher"]["gain"][1], 1.0);
     let t = cal["targets"].as_array().unwrap();
     let after = |i: usize| f(&t[i], "after");
     quoted(&format!(
-        "the teacher makes {:.1}% / {:.2} m (paper\n62% / 2.87 m) and the initial learner {:.1}% / {:.2} m (paper 56% / 2.73 m); loss {:.1}",
+        "the teacher makes {:.1}% / {:.2} m (paper\n62% / 2.87 m) and the initial learner {:.1}% / {:.2} m (paper 56% / 2.73 m); loss {:.1} (the first",
         after(0) * 100.0,
         after(1),
         after(2) * 100.0,
