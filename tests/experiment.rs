@@ -1,7 +1,7 @@
 //! Reduced runs of both experiments: the JSON carries what the issue lists, with sane values.
 
 use advise::experiment::aopi::{self, AopiParams};
-use advise::experiment::bc::{self, BcParams};
+use advise::experiment::bc::{self, BcParams, BcResult};
 use serde_json::Value;
 
 fn rate(v: &Value, path: &str) -> f64 {
@@ -85,12 +85,70 @@ fn reduced_bc_study_reports_table_1() {
     assert!(text.contains("learner final π (directional)"), "{text}");
     assert!(text.contains("Figure 5 (directional rule)"), "{text}");
 
+    // The second protocol: the hand-written controller's arm first, the human-like hand's under
+    // `hand`, each with critique's ceilings and endings that name the safety limit apart.
+    assert_eq!(v["teacher_kind"], "controller");
+    let h = &v["hand"];
+    assert_eq!(h["teacher_kind"], "hand");
+    assert!(h["hand"].is_null());
+    for arm in [&v, h] {
+        for oracle in ["successful_demos", "perfect_critique"] {
+            let o = &arm["oracles"][oracle];
+            let points = o["points"].as_u64().unwrap();
+            assert!(points <= arm["demo_points"].as_u64().unwrap());
+            assert_eq!(o["figures"].is_object(), points > 0, "{oracle}");
+        }
+        // Only successful demonstrations: their count is the teacher's successes.
+        assert_eq!(
+            arm["oracles"]["successful_demos"]["demos"],
+            arm["demo_successes"]
+        );
+    }
+    assert!(text.contains("teacher: hand-written controller"), "{text}");
+    assert!(text.contains("teacher: human-like hand"), "{text}");
+    assert!(text.contains("critique's ceiling"), "{text}");
+    assert!(text.contains("at the 60 s safety limit"), "{text}");
+    // The controller demonstrates the same way every time: one arm alone is the same arm.
+    let controller_only = bc::run(
+        3,
+        &BcParams {
+            teachers: bc::Teachers::Controller,
+            ..params.clone()
+        },
+        false,
+    );
+    assert!(controller_only.hand.is_none());
+    assert_eq!(
+        BcResult {
+            hand: None,
+            ..result.clone()
+        },
+        BcResult {
+            params: result.params.clone(),
+            ..controller_only
+        }
+    );
+    let hand_only = bc::run(
+        3,
+        &BcParams {
+            teachers: bc::Teachers::Hand,
+            ..params.clone()
+        },
+        false,
+    );
+    assert_eq!(hand_only.teacher_kind, bc::TeacherKind::Hand);
+    assert_eq!(
+        hand_only.learner_final,
+        result.hand.as_ref().unwrap().learner_final
+    );
+
     // The paper's rule alone gives the paper's figures unchanged: the directional rounds run on a
     // learner of their own.
     let paper_only = bc::run(
         3,
         &BcParams {
             critique: bc::Rules::Paper,
+            teachers: bc::Teachers::Controller,
             ..params.clone()
         },
         false,
@@ -107,6 +165,7 @@ fn reduced_bc_study_reports_table_1() {
         3,
         &BcParams {
             critique: bc::Rules::Directional,
+            teachers: bc::Teachers::Controller,
             ..params.clone()
         },
         false,
@@ -371,6 +430,14 @@ fn bad_seed_ranges_are_diagnostics() {
         (
             &["experiment", "aopi", "--critique", "paper"][..],
             "advise::cli::critique_without_bc",
+        ),
+        (
+            &["experiment", "aopi", "--teacher", "hand"][..],
+            "advise::cli::teacher_without_bc",
+        ),
+        (
+            &["experiment", "bc", "--teacher", "robot"][..],
+            "possible values: controller, hand, both",
         ),
         (
             &["experiment", "bc", "--critique", "sideways"][..],

@@ -149,7 +149,12 @@ fn the_bc_tables_are_the_measured_json() {
         )
     };
     for (label, sub, policy, paper) in [
-        ("learner, initial policy", None, "learner_initial", "56%, 2.73"),
+        (
+            "learner, initial policy",
+            None,
+            "learner_initial",
+            "56%, 2.73",
+        ),
         (
             "learner, final policy (paper's rule)",
             None,
@@ -232,12 +237,9 @@ fn the_bc_tables_are_the_measured_json() {
         "{:.1} of its 100 test runs still orbit at\n60 s",
         f(&d["endings"]["teacher"]["time_limit"], "mean")
     ));
-    let failed_points = mean(&|r| f(r, "demo_points"))
-        - f(&d["oracles"]["successful_demos_points"], "mean");
-    quoted(&format!(
-        "hold {},000 of",
-        (failed_points / 1000.0).round()
-    ));
+    let failed_points =
+        mean(&|r| f(r, "demo_points")) - f(&d["oracles"]["successful_demos_points"], "mean");
+    quoted(&format!("hold {},000 of", (failed_points / 1000.0).round()));
     quoted(&format!(
         "critic flags ({:.0}% of the points)",
         f(&d["oracles"]["perfect_critique_removed_share"], "mean") * 100.0

@@ -371,6 +371,7 @@ def study(
     *,
     revert: str | None = None,
     critique: str | None = None,
+    teacher: str | None = None,
     sim_params: str | None = None,
     practice: int | None = None,
 ) -> dict[str, Any]:

@@ -15,9 +15,11 @@ from ._advise import study
 
 
 def bc(seed: int, *, revert: str | None = None, critique: str | None = None,
-       sim_params: str | None = None) -> dict[str, Any]:
-    """The Binary Critiquing study (Table 1, Figure 5) for ``seed``: ``advise experiment bc``."""
-    return study("bc", seed, revert=revert, critique=critique, sim_params=sim_params)
+       teacher: str | None = None, sim_params: str | None = None) -> dict[str, Any]:
+    """The Binary Critiquing study (Table 1, Figure 5) for ``seed``: ``advise experiment bc``
+    (``teacher``: ``"controller"``, ``"hand"`` or ``"both"``, ``--teacher``)."""
+    return study("bc", seed, revert=revert, critique=critique, teacher=teacher,
+                 sim_params=sim_params)
 
 
 def aopi(seed: int, *, revert: str | None = None,

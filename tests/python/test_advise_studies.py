@@ -17,7 +17,8 @@ def cli(*args):
 
 
 def test_the_bc_study_is_the_command_lines():
-    assert advise.studies.bc(2, critique="paper") == cli("bc", "--seed", "2", "--critique", "paper")
+    assert advise.studies.bc(2, critique="paper", teacher="hand") == cli(
+        "bc", "--seed", "2", "--critique", "paper", "--teacher", "hand")
 
 
 # The A-OPI study's arms are capped at 10 practice goals (`--practice`): a whole seed takes
@@ -40,7 +41,9 @@ def test_bad_arguments_raise_coded_errors():
                  lambda: advise.study("aopi", 0, critique="paper"),
                  lambda: advise.study("bc", 0, practice=10),
                  lambda: advise.studies.aopi(0, practice=0),
-                 lambda: advise.studies.bc(0, critique="sideways")):
+                 lambda: advise.studies.bc(0, critique="sideways"),
+                 lambda: advise.study("aopi", 0, teacher="hand"),
+                 lambda: advise.studies.bc(0, teacher="robot")):
         with pytest.raises(advise.AdviseError) as e:
             call()
         assert e.value.code == "advise::py::bad_argument"

@@ -19,25 +19,27 @@ fn parse<T: Choice>(py: Python<'_>, name: &str, what: &str) -> PyResult<T> {
     })
 }
 
-/// study(study, seed, *, revert=None, critique=None, sim_params=None, practice=None) -> dict
+/// study(study, seed, *, revert=None, critique=None, teacher=None, sim_params=None, practice=None) -> dict
 ///
 /// Run one seed of `study` (`"bc"` or `"aopi"`) on the simulator and return the data that
 /// `advise experiment STUDY --seed SEED --json` prints, as Python objects. `revert` puts one of
 /// the protocol's choices back (`--revert`), `critique` picks the BC study's rules
-/// (`--critique`), `sim_params` is a simulator parameters file (`--sim-params`), `practice` caps
+/// (`--critique`), `teacher` its teachers' arms (`"controller"`, `"hand"` or `"both"`,
+/// `--teacher`), `sim_params` is a simulator parameters file (`--sim-params`), `practice` caps
 /// the A-OPI arms' practice goals (`--practice`, 1 to 1000). Runs without the GIL.
 #[pyfunction]
-#[pyo3(signature = (study, seed, *, revert=None, critique=None, sim_params=None, practice=None))]
+#[pyo3(signature = (study, seed, *, revert=None, critique=None, teacher=None, sim_params=None, practice=None))]
 pub fn study<'py>(
     py: Python<'py>,
     study: &str,
     seed: u64,
     revert: Option<&str>,
     critique: Option<&str>,
+    teacher: Option<&str>,
     sim_params: Option<std::path::PathBuf>,
     practice: Option<usize>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    use advise::experiment::{ablation::Revert, bc::Rules, study as s};
+    use advise::experiment::{ablation::Revert, bc::Rules, bc::Teachers, study as s};
     let which: s::Study = parse(py, study, "study")?;
     let revert: Option<Revert> = revert
         .map(|r| parse(py, r, "protocol choice to revert"))
@@ -67,6 +69,18 @@ pub fn study<'py>(
             ));
         }
         (s::Study::Aopi, None) => Rules::default(),
+    };
+    let teachers: Teachers = match (which, teacher) {
+        (s::Study::Bc, Some(t)) => parse(py, t, "teacher arm")?,
+        (s::Study::Aopi, Some(_)) => {
+            return Err(simple(
+                py,
+                "advise::py::bad_argument",
+                "`teacher` is the BC study's".into(),
+                "leave it out for the A-OPI study",
+            ));
+        }
+        (_, None) => Teachers::default(),
     };
     match (which, practice) {
         (s::Study::Bc, Some(_)) => {
@@ -98,7 +112,7 @@ pub fn study<'py>(
                 sim,
                 s::BcChoices {
                     critique: rules,
-                    teachers: Default::default(),
+                    teachers,
                 },
                 revert,
                 practice,

@@ -18,8 +18,8 @@ use thiserror::Error;
 
 use crate::backend::sim::SimParams;
 use crate::eval::{ControllerBox, Report};
-use crate::trace;
 use crate::task::{InterceptionRules, Outcome, Start, TaskKind, episode_seed, run_sim_in};
+use crate::trace;
 
 pub mod ablation;
 pub mod advisor;

@@ -453,8 +453,8 @@ fn run_arm(
         .into_iter()
         .map(|(demos, ds)| {
             let points = ds.len();
-            let report = (points > 0)
-                .then(|| evaluate(&Learner::with_dataset(ds, LearnerKind::Bc, seed)));
+            let report =
+                (points > 0).then(|| evaluate(&Learner::with_dataset(ds, LearnerKind::Bc, seed)));
             (demos, points, report)
         })
         .collect();
@@ -813,7 +813,11 @@ impl BcResult {
         if let Some(o) = &self.oracles {
             render_oracles(&mut s, o);
         }
-        let _ = writeln!(s, "  {}", endings_line("teacher", &self.teacher.endings, p.world.time_limit_s));
+        let _ = writeln!(
+            s,
+            "  {}",
+            endings_line("teacher", &self.teacher.endings, p.world.time_limit_s)
+        );
         s.push('\n');
         // The paper's rule goes unnamed; another rule's blocks say which.
         let named = |rule: CritiqueRule| match rule {

@@ -309,9 +309,8 @@ fn oracle_summary(runs: &[BcResult]) -> Option<BcOracleSummary> {
     let success = |o: &crate::experiment::bc::BcOracle| {
         Some(o.figures.as_ref().map_or(0.0, |f| f.success_rate))
     };
-    let length = |o: &crate::experiment::bc::BcOracle| {
-        o.figures.as_ref().and_then(|f| f.mean_length_m)
-    };
+    let length =
+        |o: &crate::experiment::bc::BcOracle| o.figures.as_ref().and_then(|f| f.mean_length_m);
     Some(BcOracleSummary {
         successful_demos_success: spread(&|_, o| success(&o.successful_demos)),
         successful_demos_length_m: spread(&|_, o| length(&o.successful_demos)),
@@ -320,9 +319,8 @@ fn oracle_summary(runs: &[BcResult]) -> Option<BcOracleSummary> {
         perfect_critique_length_m: spread(&|_, o| length(&o.perfect_critique)),
         perfect_critique_points: spread(&|_, o| Some(o.perfect_critique.points as f64)),
         perfect_critique_removed_share: spread(&|r, o| {
-            (r.demo_points > 0).then(|| {
-                1.0 - o.perfect_critique.points as f64 / r.demo_points as f64
-            })
+            (r.demo_points > 0)
+                .then(|| 1.0 - o.perfect_critique.points as f64 / r.demo_points as f64)
         }),
     })
 }
@@ -391,7 +389,9 @@ fn bc_arm(runs: Vec<BcResult>) -> BcSummary {
         experiment: "bc".into(),
         rule: runs.first().map_or(CritiqueRule::Paper, |r| r.rule),
         directional,
-        teacher_kind: runs.first().map_or_else(TeacherKind::default, |r| r.teacher_kind),
+        teacher_kind: runs
+            .first()
+            .map_or_else(TeacherKind::default, |r| r.teacher_kind),
         oracles: oracle_summary(&runs),
         endings: endings_summary(&runs),
         hand: None,
