@@ -307,7 +307,8 @@ fn plots_are_written() {
         false,
     );
     let more = advise::experiment::plot::aopi(&a, dir.path()).unwrap();
-    assert_eq!(files.len() + more.len(), 5);
+    // BC: one figure per teacher's arm; A-OPI: three.
+    assert_eq!(files.len() + more.len(), 6);
     for f in files.iter().chain(&more) {
         let text = std::fs::read_to_string(f).unwrap();
         assert!(text.starts_with("<svg"), "{}", f.display());
@@ -320,6 +321,14 @@ fn plots_are_written() {
         figure5.contains("learner, paper&apos;s rule") || figure5.contains("learner, paper's rule")
     );
     assert!(figure5.contains("learner, directional rule"), "{figure5}");
+    assert!(figure5.contains("hand-written controller"), "{figure5}");
+    // Critique's ceilings, drawn where the oracle had data.
+    let o = b.oracles.as_ref().unwrap();
+    assert_eq!(
+        figure5.contains("ceiling: successful demonstrations"),
+        o.successful_demos.figures.is_some()
+    );
+    assert!(read("bc-seed1-hand-success.svg").contains("human-like hand"));
     // Value labels on the bars, the paper's value beside ours.
     let success = read("aopi-seed1-success.svg");
     let ours = format!("{:.0}%", 100.0 * a.arms.advised.success_rate);

@@ -22,7 +22,14 @@ fn err(path: &Path) -> impl Fn(&dyn std::fmt::Display) -> ExperimentError + '_ {
 pub fn bc(result: &BcResult, dir: &Path) -> Result<Vec<PathBuf>, ExperimentError> {
     let path = dir.join(format!("bc-seed{}-success.svg", result.seed));
     bc_success(result, &path)?;
-    Ok(vec![path])
+    let mut written = vec![path];
+    // The second arm (the human-like hand) in a file of its own.
+    if let Some(h) = &result.hand {
+        let path = dir.join(format!("bc-seed{}-hand-success.svg", h.seed));
+        bc_success(h, &path)?;
+        written.push(path);
+    }
+    Ok(written)
 }
 
 fn bc_success(result: &BcResult, path: &Path) -> Result<(), ExperimentError> {
@@ -36,7 +43,8 @@ fn bc_success(result: &BcResult, path: &Path) -> Result<(), ExperimentError> {
         let mut chart = ChartBuilder::on(&root)
             .caption(
                 format!(
-                    "BC: test-set success against critique rounds (seed {})",
+                    "BC, {}: test-set success against critique rounds (seed {})",
+                    result.teacher_kind.label(),
                     result.seed
                 ),
                 ("sans-serif", 18),
@@ -85,6 +93,36 @@ fn bc_success(result: &BcResult, path: &Path) -> Result<(), ExperimentError> {
             .map_err(|x| e(&x))?
             .label("teacher")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK));
+        // Critique's ceiling (the second protocol, S6): what re-weighting these demonstrations
+        // could at best do.
+        if let Some(o) = &result.oracles {
+            let ceilings = [
+                (
+                    "ceiling: successful demonstrations",
+                    &o.successful_demos,
+                    RGBColor(44, 160, 44),
+                ),
+                (
+                    "ceiling: perfect critique",
+                    &o.perfect_critique,
+                    RGBColor(148, 103, 189),
+                ),
+            ];
+            for (name, oracle, colour) in ceilings {
+                let Some(f) = &oracle.figures else { continue };
+                let y = 100.0 * f.success_rate;
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        vec![(0.0, y), (rounds, y)],
+                        3,
+                        3,
+                        colour.stroke_width(2),
+                    ))
+                    .map_err(|x| e(&x))?
+                    .label(name)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour));
+            }
+        }
         chart
             .configure_series_labels()
             .background_style(WHITE.mix(0.8))
