@@ -765,7 +765,7 @@ impl Checker<'_> {
             );
             let hold_s = match hold {
                 None => Some(0.0),
-                Some(h) => self.seconds(f, h, "the time a flaw must hold", false),
+                Some(h) => self.seconds(f, h, "a flaw's `for` time", false),
             };
             if let Some(hold_s) = hold_s {
                 flaws.push(FlawDef {
@@ -843,7 +843,26 @@ impl Checker<'_> {
             Ty::Num,
             Some("a look-back sums or compares a number, such as `total(turned, 3)`"),
         );
-        let Some(seconds) = self.seconds(f, seconds, "the stretch a look-back covers", true) else {
+        if !is_constant(seconds) {
+            self.err(
+                f,
+                seconds.span,
+                CheckError::TaskWrongMeaning {
+                    what: format!(
+                        "how far `{}` looks back is a constant number of seconds",
+                        kind.word()
+                    ),
+                    help: format!(
+                        "write a number such as `{}(range, 1)`; {}",
+                        kind.word(),
+                        kind.signature()
+                    ),
+                    span: self.at(f, seconds.span),
+                },
+            );
+            return bad;
+        }
+        let Some(seconds) = self.seconds(f, seconds, "a look-back's stretch", true) else {
             return bad;
         };
         if !ok {
@@ -1399,6 +1418,17 @@ impl Checker<'_> {
             });
         }
         out
+    }
+}
+
+/// Whether `e` is built of numbers, `pi` and arithmetic alone (what a look-back's seconds are).
+fn is_constant(e: &Expr) -> bool {
+    match &e.kind {
+        ExprKind::Num(_) => true,
+        ExprKind::Var(v) => v == "pi",
+        ExprKind::Unary(_, a) => is_constant(a),
+        ExprKind::Binary(_, a, b) => is_constant(a) && is_constant(b),
+        ExprKind::At { .. } | ExprKind::Call { .. } => false,
     }
 }
 

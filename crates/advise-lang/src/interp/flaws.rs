@@ -170,3 +170,84 @@ fn fill_windows(def: &TaskDef, trace: &Trace, envs: &mut [f64], width: usize) {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check::{OperatorSet, Source};
+    use crate::geometry::Pose;
+
+    /// A task on a line: the robot drives along x toward `px`; `gap` is what is left.
+    const LINE: &str = r#"
+domain line {
+  observe gap "m" in [-10, 10] = px - x
+  act trans "m/s" in [-1, 1] drives speed
+  goal px "m" in [1, 3]
+  score error = abs(gap)
+  success when error < 0.1
+  end after 30
+  flaw backing when trans < 0 for 0.2
+  flaw receding when change(gap, 0.5) > 0.2
+  flaw busy when total(abs(trans), 1) > 25
+}
+"#;
+
+    fn def() -> std::sync::Arc<TaskDef> {
+        let set = OperatorSet::standard()
+            .merge(&[Source::new("line.adv", LINE)])
+            .unwrap_or_else(|e| panic!("{}", crate::check::render_all(&e)));
+        set.task("line").expect("a task").clone()
+    }
+
+    /// 10 Hz: forward at 1 m/s for 2 s, back at 1 m/s for 1 s, then forward again for 1 s.
+    fn trace(def: &TaskDef) -> Trace {
+        let mut tr = Trace::new(&def.domain);
+        let mut x = 0.0;
+        for k in 0..40 {
+            let speed: f64 = if (20..30).contains(&k) { -1.0 } else { 1.0 };
+            tr.push(k as f64 * 0.1, &[2.0 - x], &[speed], Some(Pose::new(x, 0.0, 0.0)));
+            x += 0.1 * speed;
+        }
+        tr
+    }
+
+    #[test]
+    fn stretches_where_each_flaw_held() {
+        let d = def();
+        let held = find(&d, &[2.0], &trace(&d)).unwrap();
+        let of = |name: &str| -> Vec<(usize, usize)> {
+            held.iter()
+                .filter(|h| d.flaws[h.flaw].name == name)
+                .map(|h| (h.chunk.start, h.chunk.end))
+                .collect()
+        };
+        // Backing: exactly the ten points driven backwards.
+        assert_eq!(of("backing"), vec![(20, 30)]);
+        // Receding: the gap now minus the gap five points (0.5 s) before is above 0.2 m from
+        // point 24 (0.4 - 0.1) to point 31 (0.9 - 0.6); at 32 the forward drive has undone it
+        // (0.8 - 0.7).
+        assert_eq!(of("receding"), vec![(24, 32)]);
+        // Busy: a total of |trans| over 1 s is at most 10 (ten points of 1): never above 25.
+        assert_eq!(of("busy"), vec![]);
+    }
+
+    #[test]
+    fn a_flaw_that_did_not_hold_long_enough_is_not_one() {
+        let d = def();
+        let mut tr = trace(&d);
+        // One point backwards only (0.1 s < 0.2 s).
+        for k in 21..30 {
+            tr.a_mut(k)[0] = 1.0;
+        }
+        let held = find(&d, &[2.0], &tr).unwrap();
+        assert!(held.iter().all(|h| d.flaws[h.flaw].name != "backing"), "{held:?}");
+    }
+
+    #[test]
+    fn a_trace_without_poses_is_refused() {
+        let d = def();
+        let mut tr = trace(&d);
+        tr.pose = None;
+        assert_eq!(find(&d, &[2.0], &tr), Err(Unreadable::NoPoses));
+    }
+}
