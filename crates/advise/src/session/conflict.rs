@@ -6,12 +6,16 @@
 //! treats as one are silently averaged: neither is followed. The session says so when the second
 //! is given, naming the first, and `history --conflicts` lists every such pair still in force.
 //!
-//! **The rule.** A new point *meets* an earlier point when the earlier one lies within one
-//! kernel bandwidth of it in the space the learner measures distance in
+//! **The rule.** The learner's neighbourhood of a new point is the data within one kernel
+//! bandwidth of it in the space the learner measures distance in
 //! ([`crate::policy::learner::Learner::neighbourhood`]: weight at least `exp(-1/2)` ≈ 0.61 of a
-//! point at the same observation; a BC learner uses the same radius in range-scaled units). It
-//! *contradicts* it when, in some action dimension (observation dimension, for advice on
-//! observations), the two differ by more than [`CONTRADICTION_SHARE`] of that dimension's range
+//! point at the same observation; a BC learner uses the same radius in range-scaled units). What
+//! an earlier source *recommends* there is the kernel-weighted mean of its points in that
+//! neighbourhood: each earlier piece of advice alone, the demonstrations together (teleoperated
+//! demonstrations differ among themselves by a person's style; what they recommend is what the
+//! learner made of them, not any one of them). The new point *contradicts* a source when, in
+//! some action dimension (observation dimension, for advice on observations), it differs from
+//! the source's recommendation by more than [`CONTRADICTION_SHARE`] of that dimension's range
 //! (its declared limits; the data's spread when it has none). A quarter of the range because the
 //! paper's operators at their largest standard rate ("much more", 0.5) move a speed by half of
 //! itself, at most a quarter of a symmetric range: refining a recommendation stays under it, and
@@ -61,8 +65,10 @@ pub enum Earlier {
         /// Whether it is undone now (listed by `history --conflicts`, not live).
         undone: bool,
     },
-    Demonstration {
-        name: String,
+    /// The demonstrations near the new points, their recommendation taken together.
+    Demonstrations {
+        /// The one that weighed most there.
+        heaviest: String,
     },
 }
 
@@ -130,9 +136,9 @@ impl Conflict {
                     "; to keep it and drop advice #{number} instead, `undo` back past #{number} (`history` lists the order), then give this advice again: `select {chunk} in {execution}`, `advise {}`",
                     self.invocation
                 )),
-                Earlier::Demonstration { name } => h.push_str(&format!(
-                    "; the demonstration `{name}` stays: if it is the one that is wrong, advise its stretch instead"
-                )),
+                Earlier::Demonstrations { .. } => h.push_str(
+                    "; demonstrations stay: if this advice is what you mean, give it on more of the stretch (or more strongly) so it outweighs them",
+                ),
             }
         }
         h.push_str(". `history --conflicts` lists the conflicts still in force");
@@ -181,16 +187,19 @@ impl fmt::Display for Earlier {
                 }
                 Ok(())
             }
-            Earlier::Demonstration { name } => write!(f, "the demonstration `{name}`"),
+            Earlier::Demonstrations { heaviest } => {
+                write!(f, "the demonstrations (most weight there: `{heaviest}`)")
+            }
         }
     }
 }
 
-/// The source a data point came from, as the key conflicts are counted by.
+/// The source a data point came from, as recommendations are gathered: each piece of advice
+/// alone, the demonstrations together.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Source {
     Advice(u32),
-    Demo(u32),
+    Demos,
 }
 
 /// What advice `syn` (number `number`, on `execution`) contradicts in `learner`'s data as it is
@@ -213,46 +222,68 @@ pub(super) fn find(
         .map(|d| span_of(learner, space, dims, d))
         .collect();
     let checked = n.min(MAX_CHECKED_POINTS);
-    // Per earlier source: how many new points contradict it, and in which dimensions.
+    // Per earlier source: how many new points contradict its recommendation, and in which
+    // dimensions.
     let mut tally: BTreeMap<Source, (usize, Vec<bool>)> = BTreeMap::new();
+    // The kernel weight each demonstration carried near the new points (to name the heaviest).
+    let mut demo_weight: BTreeMap<u32, f64> = BTreeMap::new();
     let mut hits = Vec::new();
-    let mut seen: Vec<Source> = Vec::new();
+    // Per source near one new point: kernel weight and weighted sum of its values.
+    let mut near: BTreeMap<Source, (f64, Vec<f64>)> = BTreeMap::new();
     for c in 0..checked {
         let j = c * n / checked;
         let (z, mine) = (syn.points.z(j), values(&syn.points, space, j));
         learner.neighbourhood(z, &mut hits);
-        seen.clear();
-        for &(p, _) in hits.iter().take(MAX_NEIGHBOURS) {
+        near.clear();
+        for &(p, d2) in hits.iter().take(MAX_NEIGHBOURS) {
+            let w = (-0.5 * d2).exp();
             let theirs = match space {
                 Space::Action => ds.a(p),
                 Space::Observation => ds.z(p),
             };
+            let source = match ds.provenance(p) {
+                Provenance::Advice { advice, .. } => Source::Advice(advice),
+                Provenance::Demonstration { demo, .. } => {
+                    *demo_weight.entry(demo).or_insert(0.0) += w;
+                    Source::Demos
+                }
+            };
+            let (sw, sum) = near
+                .entry(source)
+                .or_insert_with(|| (0.0, vec![0.0; dims.len()]));
+            *sw += w;
+            for (s, v) in sum.iter_mut().zip(theirs) {
+                *s += w * v;
+            }
+        }
+        for (source, (sw, sum)) in &near {
+            if *sw <= 0.0 {
+                continue;
+            }
             let apart: Vec<bool> = mine
                 .iter()
-                .zip(theirs)
+                .zip(sum)
                 .zip(&spans)
-                .map(|((m, t), s)| *s > 0.0 && (m - t).abs() > CONTRADICTION_SHARE * s)
+                .map(|((m, t), span)| *span > 0.0 && (m - t / sw).abs() > CONTRADICTION_SHARE * span)
                 .collect();
             if !apart.contains(&true) {
                 continue;
             }
-            let source = match ds.provenance(p) {
-                Provenance::Advice { advice, .. } => Source::Advice(advice),
-                Provenance::Demonstration { demo, .. } => Source::Demo(demo),
-            };
             let entry = tally
-                .entry(source)
+                .entry(*source)
                 .or_insert_with(|| (0, vec![false; dims.len()]));
+            entry.0 += 1;
             for (d, a) in entry.1.iter_mut().zip(&apart) {
                 *d |= *a;
-            }
-            if !seen.contains(&source) {
-                seen.push(source);
-                entry.0 += 1;
             }
         }
     }
     let least = MIN_CONFLICTING_POINTS.max((MIN_CONFLICTING_SHARE * checked as f64).ceil() as usize);
+    let heaviest = demo_weight
+        .iter()
+        .max_by(|a, b| a.1.partial_cmp(b.1).unwrap_or(std::cmp::Ordering::Equal))
+        .and_then(|(id, _)| ds.demos().iter().find(|d| d.id == *id))
+        .map(|d| d.name.clone());
     let against: Vec<Against> = tally
         .into_iter()
         .filter(|(_, (count, _))| *count >= least)
@@ -273,12 +304,8 @@ pub(super) fn find(
                     }),
                     _ => None,
                 })?,
-                Source::Demo(id) => Earlier::Demonstration {
-                    name: ds
-                        .demos()
-                        .iter()
-                        .find(|d| d.id == id)
-                        .map_or_else(|| format!("#{id}"), |d| d.name.clone()),
+                Source::Demos => Earlier::Demonstrations {
+                    heaviest: heaviest.clone().unwrap_or_default(),
                 },
             };
             Some(Against {

@@ -144,6 +144,8 @@ pub struct Suggestions {
     pub more_flawed: usize,
     pub trial: Trial,
     pub suggestions: Vec<Suggestion>,
+    /// Flawed chunks none of whose re-run candidates did better than the run without advice.
+    pub no_better: Vec<Chunk>,
     /// Candidates tried in all.
     pub candidates: usize,
     /// Candidates the budget left without a re-run.
@@ -183,6 +185,15 @@ impl Session {
         };
         let total = cands.len();
         let suggestions = rank(i, &flawed.0, cands, &trial);
+        let no_better = match trial {
+            Trial::Simulated { .. } => flawed
+                .0
+                .iter()
+                .map(|f| f.chunk)
+                .filter(|c| !suggestions.iter().any(|s| s.chunk == *c))
+                .collect(),
+            Trial::NotRun { .. } => Vec::new(),
+        };
         let s = Suggestions {
             execution: i,
             label: rec.label.clone(),
@@ -190,6 +201,7 @@ impl Session {
             more_flawed: flawed.1,
             trial,
             suggestions,
+            no_better,
             candidates: total,
             not_rerun,
             budget_s: self.suggest_budget_s,
@@ -330,17 +342,17 @@ impl Session {
     fn rerun_start(&self, rec: &HeldExecution) -> Result<(Start, u64), String> {
         if !self.backend.is_simulator() {
             return Err(format!(
-                "on a real base ({}): candidates without a re-run; `backend sim` to see their effects in the simulator",
+                "on a real base, {}: nothing is driven for a suggestion; `backend sim` shows their effects in the simulator",
                 self.backend.name()
             ));
         }
         let Some(number) = rec.run_number else {
-            return Err("the execution is not a run of this session: candidates without a re-run".into());
+            return Err("the execution is not a run of this session".into());
         };
         let start = match (&self.task, rec.goal, &rec.goal_values) {
             (TaskKind::Positioning, Some(g), _) => Start::Goal(g),
             (TaskKind::Declared(d), _, Some(v)) => Start::Declared(d.clone(), v.clone()),
-            _ => return Err("the run's start is not kept: candidates without a re-run".into()),
+            _ => return Err("the run's start is not kept".into()),
         };
         Ok((start, episode_seed(self.seed, 1_000_000 + number)))
     }
@@ -431,7 +443,11 @@ fn rank(
     cands: Vec<Candidate>,
     trial: &Trial,
 ) -> Vec<Suggestion> {
-    let simulated = matches!(trial, Trial::Simulated { .. });
+    let before = match trial {
+        Trial::Simulated { before, .. } => Some(before.rank()),
+        Trial::NotRun { .. } => None,
+    };
+    let simulated = before.is_some();
     let mut kept: Vec<Candidate> = Vec::new();
     let mut by_chunk: Vec<Vec<Candidate>> = (0..flawed.len()).map(|_| Vec::new()).collect();
     for c in cands {
@@ -441,7 +457,8 @@ fn rank(
     }
     for mut v in by_chunk {
         if simulated {
-            v.retain(|c| c.after.is_some());
+            // Only what the re-run showed to help: better than the run without it.
+            v.retain(|c| c.after.is_some_and(|m| Some(m.rank()) < before));
             v.sort_by(|a, b| {
                 let (x, y) = (a.after.map(|m| m.rank()), b.after.map(|m| m.rank()));
                 x.partial_cmp(&y).unwrap_or(std::cmp::Ordering::Equal)
@@ -543,11 +560,14 @@ impl fmt::Display for Suggestions {
         match &self.trial {
             Trial::Simulated { before, .. } => writeln!(
                 f,
-                "re-run of the same start with the same noise, the advice given to a copy of the learner (before: {before}):"
+                "the same start re-run with the same noise on a copy of the learner as it is now, without advice ({before}) and with each candidate; the ones that did better, best first:"
             )?,
-            Trial::NotRun { why } => writeln!(f, "not re-run {why}:")?,
+            Trial::NotRun { why } => writeln!(
+                f,
+                "candidates without a re-run ({why}); for each chunk the first {PER_CHUNK} operators that change it, at \"more\" (`preview` shows what each adds):"
+            )?,
         }
-        if self.suggestions.is_empty() {
+        if self.suggestions.is_empty() && self.no_better.is_empty() {
             writeln!(
                 f,
                 "  no operator of the task changes these chunks (their guards skip every point)"
@@ -569,6 +589,13 @@ impl fmt::Display for Suggestions {
                 write!(f, "\n       {}", compare(before, after))?;
             }
             f.write_str("\n")?;
+        }
+        for c in &self.no_better {
+            writeln!(
+                f,
+                "  on {c} no candidate did better in the re-run: look at it yourself (`select {c} in {}`, `preview OP`)",
+                self.execution
+            )?;
         }
         if self.not_rerun > 0 {
             writeln!(
