@@ -122,6 +122,41 @@ pub struct Suggestion {
     pub points: usize,
     /// The re-run with it (`None`: not re-run).
     pub after: Option<Measure>,
+    /// What it would add, as `preview` shows it (the web view draws it on hover).
+    pub preview: Points,
+}
+
+/// A suggestion's synthesized points beside the executed ones they came from, in the operator's
+/// space: what `preview` would show.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Points {
+    pub space: String,
+    pub dims: Vec<String>,
+    /// The executed point each synthesized point came from.
+    pub source_index: Vec<usize>,
+    pub before: Vec<Vec<f64>>,
+    pub after: Vec<Vec<f64>>,
+}
+
+impl Points {
+    fn of(trace: &crate::trace::Trace, syn: &Synthesized, dims: &[crate::domain::Dim]) -> Points {
+        let (before, after) = syn
+            .source_index
+            .iter()
+            .enumerate()
+            .map(|(j, &src)| {
+                let (b, a) = super::advice::before_after(trace, syn, j, src);
+                (b.to_vec(), a.to_vec())
+            })
+            .unzip();
+        Points {
+            space: syn.advice.space.to_string(),
+            dims: dims.iter().map(|d| d.name.clone()).collect(),
+            source_index: syn.source_index.clone(),
+            before,
+            after,
+        }
+    }
 }
 
 /// Whether and how candidates were tried.
@@ -184,7 +219,7 @@ impl Session {
             Err(why) => (Trial::NotRun { why }, 0),
         };
         let total = cands.len();
-        let suggestions = rank(i, &flawed.0, cands, &trial);
+        let suggestions = rank(i, &flawed.0, cands, &trial, &rec.trace, &self.domain);
         let no_better = match trial {
             Trial::Simulated { .. } => flawed
                 .0
@@ -442,6 +477,8 @@ fn rank(
     flawed: &[Flawed],
     cands: Vec<Candidate>,
     trial: &Trial,
+    trace: &crate::trace::Trace,
+    domain: &crate::domain::Domain,
 ) -> Vec<Suggestion> {
     let before = match trial {
         Trial::Simulated { before, .. } => Some(before.rank()),
@@ -484,6 +521,7 @@ fn rank(
             chunk: flawed[c.chunk].chunk,
             flaws: flawed[c.chunk].flaws.clone(),
             points: c.syn.points.len(),
+            preview: Points::of(trace, &c.syn, domain.dims(c.syn.advice.space)),
             invocation: c.invocation,
             operator: c.operator,
             rate: c.rate,
