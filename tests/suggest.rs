@@ -179,3 +179,31 @@ fn without_a_rerun_the_candidates_are_listed_and_it_says_so() {
     );
     masked(Some(dir.path())).bind(|| insta::assert_snapshot!(t));
 }
+
+/// The README's Suggestions section quotes these tests' transcripts (abridged with `...`): each
+/// line it shows is a line of the snapshot the tests above check against what the session says.
+#[test]
+fn the_readme_quotes_what_suggest_prints() {
+    let readme = include_str!("../README.md");
+    let start = readme
+        .find("### Suggestions: `suggest`")
+        .expect("the README's Suggestions section");
+    let section = &readme[start..];
+    let section = &section[..section[4..].find("\n### ").map_or(section.len(), |e| e + 4)];
+    let snapshots = [
+        include_str!("snapshots/suggest__suggest_on_positioning.snap"),
+        include_str!(
+            "snapshots/suggest__contradicting_advice_on_the_same_chunk_names_the_earlier_advice.snap"
+        ),
+    ];
+    let blocks: Vec<&str> = section.split("```").skip(1).step_by(2).collect();
+    assert_eq!(blocks.len(), 2, "two transcripts");
+    for (block, snap) in blocks.iter().zip(snapshots) {
+        for line in block.lines().filter(|l| !l.trim().is_empty() && l.trim() != "...") {
+            assert!(
+                snap.lines().any(|s| s == line),
+                "the README quotes a line the session does not print:\n{line}"
+            );
+        }
+    }
+}

@@ -185,6 +185,8 @@ pub struct Suggestions {
     pub candidates: usize,
     /// Candidates the budget left without a re-run.
     pub not_rerun: usize,
+    /// Whether the time budget (rather than [`MAX_RERUNS`]) left them.
+    pub out_of_time: bool,
     pub budget_s: f64,
 }
 
@@ -214,9 +216,9 @@ impl Session {
         let flawed = self.flawed(i, &rec)?;
         let mut cands = self.candidates(&rec, &flawed);
         let start = self.rerun_start(&rec);
-        let (trial, not_rerun) = match start {
+        let (trial, not_rerun, out_of_time) = match start {
             Ok((start, seed)) => self.try_candidates(&rec, &start, seed, &mut cands),
-            Err(why) => (Trial::NotRun { why }, 0),
+            Err(why) => (Trial::NotRun { why }, 0, false),
         };
         let total = cands.len();
         let suggestions = rank(i, &flawed.0, cands, &trial, &rec.trace, &self.domain);
@@ -239,6 +241,7 @@ impl Session {
             no_better,
             candidates: total,
             not_rerun,
+            out_of_time,
             budget_s: self.suggest_budget_s,
         };
         self.state.suggested = Some(s.clone());
@@ -399,7 +402,7 @@ impl Session {
         start: &Start,
         seed: u64,
         cands: &mut [Candidate],
-    ) -> (Trial, usize) {
+    ) -> (Trial, usize, bool) {
         let began = Instant::now();
         let runs = cands.len().min(MAX_RERUNS);
         let bar = crate::progress::bar(
@@ -416,7 +419,7 @@ impl Session {
         };
         let before = Measure::of(&run(&self.state.learner.copy()));
         bar.inc(1);
-        let mut left = 0;
+        let (mut left, mut out_of_time) = (0, false);
         // In turn across the chunks: the first candidate of each chunk, then the second...
         let mut order: Vec<(usize, usize)> = Vec::with_capacity(cands.len());
         let mut seen_in_chunk = std::collections::HashMap::new();
@@ -428,7 +431,12 @@ impl Session {
         order.sort_unstable();
         for (tried, (_, j)) in order.into_iter().enumerate() {
             let c = &mut cands[j];
-            if tried >= MAX_RERUNS || began.elapsed().as_secs_f64() > self.suggest_budget_s {
+            if tried >= MAX_RERUNS {
+                left += 1;
+                continue;
+            }
+            if began.elapsed().as_secs_f64() > self.suggest_budget_s {
+                out_of_time = true;
                 left += 1;
                 continue;
             }
@@ -442,7 +450,7 @@ impl Session {
             bar.inc(1);
         }
         bar.finish();
-        (Trial::Simulated { before, seed }, left)
+        (Trial::Simulated { before, seed }, left, out_of_time)
     }
 }
 
@@ -636,13 +644,15 @@ impl fmt::Display for Suggestions {
             )?;
         }
         if self.not_rerun > 0 {
+            let spent = if self.out_of_time {
+                format!("the budget of {} s was spent", self.budget_s)
+            } else {
+                format!("at most {MAX_RERUNS} re-runs")
+            };
             writeln!(
                 f,
-                "({} of {} candidates not re-run: the budget of {} s or {} re-runs was spent)",
-                self.not_rerun,
-                self.candidates,
-                self.budget_s,
-                MAX_RERUNS
+                "({} of {} candidates not re-run: {spent})",
+                self.not_rerun, self.candidates
             )?;
         }
         if !self.suggestions.is_empty() {
