@@ -49,6 +49,9 @@ pub fn find(def: &TaskDef, goal: &[f64], trace: &Trace) -> Result<Vec<Held>, Unr
     let Some(poses) = trace.pose.as_deref() else {
         return Err(Unreadable::NoPoses);
     };
+    if poses.len() != n || trace.t.len() != n {
+        return Err(Unreadable::WrongShape);
+    }
     let slots = def.slots();
     let width = slots + def.windows.len();
     // Every point's environment, task slots then window slots, row after row.
@@ -60,13 +63,13 @@ pub fn find(def: &TaskDef, goal: &[f64], trace: &Trace) -> Result<Vec<Held>, Unr
     for k in 0..n {
         let (done, rest) = envs.split_at_mut(k * width);
         let env = &mut rest[..width];
-        let p = poses[k.min(poses.len().saturating_sub(1))];
+        let p = poses[k];
         env[def::X] = p.x_m;
         env[def::Y] = p.y_m;
         env[def::THETA] = p.theta_rad;
         env[def::T] = trace.t[k];
         if k > 0 {
-            let q = poses[(k - 1).min(poses.len() - 1)];
+            let q = poses[k - 1];
             let dt = trace.t[k] - trace.t[k - 1];
             if dt > 0.0 {
                 let (dx, dy) = (p.x_m - q.x_m, p.y_m - q.y_m);

@@ -34,6 +34,9 @@ use std::fmt;
 
 use serde::Serialize;
 
+use std::fmt::Write as _;
+
+use super::Session;
 use super::undo::Edit;
 use crate::domain::{Dim, Space};
 use crate::interp::Synthesized;
@@ -330,7 +333,48 @@ pub(super) fn find(
     })
 }
 
-fn values(points: &crate::trace::Trace, space: Space, j: usize) -> &[f64] {
+impl Session {
+    /// `history --conflicts`: each piece of advice in force that contradicted earlier advice or
+    /// demonstrations when it was given ([`super::conflict`]), with what it contradicted (advice
+    /// taken back since is marked undone).
+    pub(super) fn history_conflicts(&self) -> String {
+        let st = &self.state;
+        let live = |n: usize| {
+            st.undo
+                .iter()
+                .any(|e| matches!(e, Edit::Advice { number, .. } if *number == n))
+        };
+        let mut out = String::new();
+        for c in st.conflicts.iter().filter(|c| live(c.number)) {
+            let _ = writeln!(
+                out,
+                "  #{} advise {} on {} of execution {} contradicts:",
+                c.number, c.invocation, c.chunk, c.execution
+            );
+            for a in &c.against {
+                let mut earlier = a.earlier.clone();
+                if let Earlier::Advice { number, undone, .. } = &mut earlier {
+                    *undone = !live(*number);
+                }
+                let _ = writeln!(
+                    out,
+                    "      {earlier}: {} of {} points apart in {}",
+                    a.points,
+                    c.checked,
+                    a.dims.join(", ")
+                );
+            }
+        }
+        if out.is_empty() {
+            return "no conflicting advice: no advice in force recommends clearly different actions than earlier advice or demonstrations where the learner treats the observations as one".into();
+        }
+        out.push_str("(`undo` takes back the last advice; `history` lists the order)\n");
+        out
+    }
+}
+fn values(points
+
+: &crate::trace::Trace, space: Space, j: usize) -> &[f64] {
     match space {
         Space::Action => points.a(j),
         Space::Observation => points.z(j),

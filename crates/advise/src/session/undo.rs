@@ -171,46 +171,6 @@ impl Session {
     }
 }
 
-impl Session {
-    /// `history --conflicts`: each piece of advice in force that contradicted earlier advice or
-    /// demonstrations when it was given ([`super::conflict`]), with what it contradicted (advice
-    /// taken back since is marked undone).
-    pub(super) fn history_conflicts(&self) -> String {
-        let st = &self.state;
-        let live = |n: usize| {
-            st.undo
-                .iter()
-                .any(|e| matches!(e, Edit::Advice { number, .. } if *number == n))
-        };
-        let mut out = String::new();
-        for c in st.conflicts.iter().filter(|c| live(c.number)) {
-            let _ = writeln!(
-                out,
-                "  #{} advise {} on {} of execution {} contradicts:",
-                c.number, c.invocation, c.chunk, c.execution
-            );
-            for a in &c.against {
-                let mut earlier = a.earlier.clone();
-                if let super::conflict::Earlier::Advice { number, undone, .. } = &mut earlier {
-                    *undone = !live(*number);
-                }
-                let _ = writeln!(
-                    out,
-                    "      {earlier}: {} of {} points apart in {}",
-                    a.points,
-                    c.checked,
-                    a.dims.join(", ")
-                );
-            }
-        }
-        if out.is_empty() {
-            return "no conflicting advice: no advice in force recommends clearly different actions than earlier advice or demonstrations where the learner treats the observations as one".into();
-        }
-        out.push_str("(`undo` takes back the last advice; `history` lists the order)\n");
-        out
-    }
-}
-
 pub(super) fn remove_chunk(chunks: &mut Vec<Chunk>, chunk: Chunk) {
     if let Some(pos) = chunks.iter().rposition(|c| *c == chunk) {
         chunks.remove(pos);
