@@ -412,6 +412,7 @@ impl Session {
             &self.state.learner,
             &self.state.undo,
             &syn,
+            &rec.trace,
             execution,
             number,
         );

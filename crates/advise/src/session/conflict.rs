@@ -16,7 +16,11 @@
 //! learner made of them, not any one of them). The new point *contradicts* a source when, in
 //! some action dimension (observation dimension, for advice on observations), it differs from
 //! the source's recommendation by more than [`CONTRADICTION_SHARE`] of that dimension's range
-//! (its declared limits; the data's spread when it has none). A quarter of the range because the
+//! (its declared limits; the data's spread when it has none) *and* the advice pulled it away
+//! from that recommendation: at least [`PULLED_AWAY_SHARE`] of the range further from it than
+//! the executed action was. Advice that moves an action toward what a source recommends agrees
+//! with it, however far apart they still are (the demonstrations near a run's start drive off at
+//! speed while the learner is still at rest; `creep` there is no conflict with them). A quarter of the range because the
 //! paper's operators at their largest standard rate ("much more", 0.5) move a speed by half of
 //! itself, at most a quarter of a symmetric range: refining a recommendation stays under it, and
 //! only advice that pulls the other way (or a much larger step) crosses it. The new advice
@@ -46,6 +50,9 @@ use crate::trace::Chunk;
 
 /// Two recommendations differ clearly when they are this share of the dimension's range apart.
 pub const CONTRADICTION_SHARE: f64 = 0.25;
+/// ... and when the advice pulled the point at least this share of the range further from the
+/// source's recommendation than the executed action was.
+pub const PULLED_AWAY_SHARE: f64 = 0.125;
 /// Advice conflicts with a source when this share of its points contradict it ...
 pub const MIN_CONFLICTING_SHARE: f64 = 0.2;
 /// ... and at least this many.
@@ -211,6 +218,7 @@ pub(super) fn find(
     learner: &Learner,
     edits: &[Edit],
     syn: &Synthesized,
+    executed: &crate::trace::Trace,
     execution: usize,
     number: usize,
 ) -> Option<Conflict> {
@@ -236,6 +244,14 @@ pub(super) fn find(
     for c in 0..checked {
         let j = c * n / checked;
         let (z, mine) = (syn.points.z(j), values(&syn.points, space, j));
+        let Some(was) = syn
+            .source_index
+            .get(j)
+            .filter(|&&src| src < executed.len())
+            .map(|&src| values(executed, space, src))
+        else {
+            continue;
+        };
         learner.neighbourhood(z, &mut hits);
         near.clear();
         for &(p, d2) in hits.iter().take(MAX_NEIGHBOURS) {
@@ -263,11 +279,14 @@ pub(super) fn find(
             if *sw <= 0.0 {
                 continue;
             }
-            let apart: Vec<bool> = mine
-                .iter()
-                .zip(sum)
-                .zip(&spans)
-                .map(|((m, t), span)| *span > 0.0 && (m - t / sw).abs() > CONTRADICTION_SHARE * span)
+            let apart: Vec<bool> = (0..dims.len())
+                .map(|d| {
+                    let (theirs, span) = (sum[d] / sw, spans[d]);
+                    let (now, before) = ((mine[d] - theirs).abs(), (was[d] - theirs).abs());
+                    span > 0.0
+                        && now > CONTRADICTION_SHARE * span
+                        && now - before > PULLED_AWAY_SHARE * span
+                })
                 .collect();
             if !apart.contains(&true) {
                 continue;
