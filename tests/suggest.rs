@@ -72,7 +72,10 @@ fn an_accepted_suggestion_does_what_its_rerun_showed() {
     let recorded = s.executions()[0].execution.clone().unwrap().outcome;
     assert_eq!(before.error, recorded.position_error_m);
     assert_eq!(before.length_m, recorded.length_m);
-    assert!(matches!(s.execute("accept 1", "<t>").unwrap(), Reply::Advised(_)));
+    assert!(matches!(
+        s.execute("accept 1", "<t>").unwrap(),
+        Reply::Advised(_)
+    ));
     let rec = &s.executions()[0];
     assert_eq!(rec.advised, vec![first.chunk]);
     // Re-run the same start with the same noise on the advised learner, as `suggest` did on
@@ -102,7 +105,11 @@ fn accept_is_journalled_as_select_and_advise_and_restores() {
     let statements: Vec<String> = text
         .lines()
         .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-        .filter_map(|v| v.get("statement").and_then(|s| s.as_str()).map(String::from))
+        .filter_map(|v| {
+            v.get("statement")
+                .and_then(|s| s.as_str())
+                .map(String::from)
+        })
         .filter(|s| !s.is_empty())
         .collect();
     let select = format!("select {} in 0", a.chunk);
@@ -112,7 +119,10 @@ fn accept_is_journalled_as_select_and_advise_and_restores() {
         [select.clone(), advise.clone()],
         "{statements:?}"
     );
-    assert!(!text.contains("suggest"), "suggest changes nothing and is not journalled");
+    assert!(
+        !text.contains("suggest"),
+        "suggest changes nothing and is not journalled"
+    );
     let (len, actions, advised) = (
         live.learner().len(),
         live.learner().dataset().points().a.to_vec(),
@@ -199,7 +209,10 @@ fn the_readme_quotes_what_suggest_prints() {
     let blocks: Vec<&str> = section.split("```").skip(1).step_by(2).collect();
     assert_eq!(blocks.len(), 2, "two transcripts");
     for (block, snap) in blocks.iter().zip(snapshots) {
-        for line in block.lines().filter(|l| !l.trim().is_empty() && l.trim() != "...") {
+        for line in block
+            .lines()
+            .filter(|l| !l.trim().is_empty() && l.trim() != "...")
+        {
             assert!(
                 snap.lines().any(|s| s == line),
                 "the README quotes a line the session does not print:\n{line}"

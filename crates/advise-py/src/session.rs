@@ -625,7 +625,10 @@ fn reply_dict<'py>(py: Python<'py>, reply: &Reply) -> PyResult<Bound<'py, PyDict
             d.set_item("added", a.added)?;
             d.set_item("skipped", a.skipped)?;
             d.set_item("dataset", a.dataset)?;
-            d.set_item("conflict", json_value(py, serde_json::to_string(&a.conflict))?)?;
+            d.set_item(
+                "conflict",
+                json_value(py, serde_json::to_string(&a.conflict))?,
+            )?;
             "advised"
         }
         Reply::Critiqued {

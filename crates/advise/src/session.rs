@@ -25,8 +25,8 @@ mod record;
 mod reply;
 mod run;
 pub mod script;
-pub mod suggest;
 pub mod sidecar;
+pub mod suggest;
 mod text;
 mod undo;
 pub mod view;
@@ -332,7 +332,11 @@ impl Session {
     /// 0 re-runs only the baseline). What a front end or a test sets; the default is
     /// [`suggest::DEFAULT_BUDGET_S`].
     pub fn set_suggest_budget(&mut self, seconds: f64) {
-        self.suggest_budget_s = if seconds.is_finite() { seconds.max(0.0) } else { suggest::DEFAULT_BUDGET_S };
+        self.suggest_budget_s = if seconds.is_finite() {
+            seconds.max(0.0)
+        } else {
+            suggest::DEFAULT_BUDGET_S
+        };
     }
 
     /// The last `suggest` of the current task, as data (front ends list and preview it).

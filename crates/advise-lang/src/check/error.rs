@@ -536,7 +536,9 @@ pub enum CheckError {
     #[error("the flaw `{name}` is declared twice in the task")]
     #[diagnostic(
         code(advise::check::flaw_twice),
-        help("each flaw has its own name, which `suggest` shows; rename one or join the conditions with `or`")
+        help(
+            "each flaw has its own name, which `suggest` shows; rename one or join the conditions with `or`"
+        )
     )]
     FlawTwice {
         name: String,

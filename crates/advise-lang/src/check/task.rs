@@ -13,8 +13,9 @@ use super::*;
 use crate::domain::Space;
 use crate::program::ir::{Func, Ir};
 use crate::program::task::{
-    Axis, BASE, DrawDef, Drive, EndRule, FlawDef, GoalParam, MAX_GOAL_ABS, MAX_GOAL_PARAMS, MAX_TEST_GOALS,
-    MAX_TIME_LIMIT_S, ShapeKind, TaskDef, TeacherDef, TeacherTarget, Window, WindowKind,
+    Axis, BASE, DrawDef, Drive, EndRule, FlawDef, GoalParam, MAX_GOAL_ABS, MAX_GOAL_PARAMS,
+    MAX_TEST_GOALS, MAX_TIME_LIMIT_S, ShapeKind, TaskDef, TeacherDef, TeacherTarget, Window,
+    WindowKind,
 };
 
 const DEFAULT_TEST_GOALS: usize = 25;

@@ -208,7 +208,12 @@ domain line {
         let mut x = 0.0;
         for k in 0..40 {
             let speed: f64 = if (20..30).contains(&k) { -1.0 } else { 1.0 };
-            tr.push(k as f64 * 0.1, &[2.0 - x], &[speed], Some(Pose::new(x, 0.0, 0.0)));
+            tr.push(
+                k as f64 * 0.1,
+                &[2.0 - x],
+                &[speed],
+                Some(Pose::new(x, 0.0, 0.0)),
+            );
             x += 0.1 * speed;
         }
         tr
@@ -243,7 +248,10 @@ domain line {
             tr.a_mut(k)[0] = 1.0;
         }
         let held = find(&d, &[2.0], &tr).unwrap();
-        assert!(held.iter().all(|h| d.flaws[h.flaw].name != "backing"), "{held:?}");
+        assert!(
+            held.iter().all(|h| d.flaws[h.flaw].name != "backing"),
+            "{held:?}"
+        );
     }
 
     #[test]

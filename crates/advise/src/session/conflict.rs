@@ -131,10 +131,7 @@ impl Conflict {
     }
 
     fn help(&self) -> String {
-        let mut h = format!(
-            "`undo` takes back advice #{} (the last edit)",
-            self.number
-        );
+        let mut h = format!("`undo` takes back advice #{} (the last edit)", self.number);
         for a in &self.against {
             match &a.earlier {
                 Earlier::Advice {
@@ -300,7 +297,8 @@ pub(super) fn find(
             }
         }
     }
-    let least = MIN_CONFLICTING_POINTS.max((MIN_CONFLICTING_SHARE * checked as f64).ceil() as usize);
+    let least =
+        MIN_CONFLICTING_POINTS.max((MIN_CONFLICTING_SHARE * checked as f64).ceil() as usize);
     let heaviest = demo_weight
         .iter()
         .max_by(|a, b| a.1.partial_cmp(b.1).unwrap_or(std::cmp::Ordering::Equal))
@@ -391,9 +389,7 @@ impl Session {
         out
     }
 }
-fn values(points
-
-: &crate::trace::Trace, space: Space, j: usize) -> &[f64] {
+fn values(points: &crate::trace::Trace, space: Space, j: usize) -> &[f64] {
     match space {
         Space::Action => points.a(j),
         Space::Observation => points.z(j),

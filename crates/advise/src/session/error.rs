@@ -143,7 +143,9 @@ pub enum SessionError {
     #[error("there is no suggestion to accept: {why}")]
     #[diagnostic(
         code(advise::session::no_suggestions),
-        help("`suggest` (or `suggest N` for execution N) lists suggestions; `accept K` applies the K-th")
+        help(
+            "`suggest` (or `suggest N` for execution N) lists suggestions; `accept K` applies the K-th"
+        )
     )]
     NoSuggestions { why: &'static str },
     #[error("there is no suggestion {k}: the last `suggest` made {count}")]

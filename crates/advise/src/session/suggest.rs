@@ -284,11 +284,7 @@ impl Session {
     }
 
     /// The flawed chunks of execution `i` (at most [`MAX_CHUNKS`]) and how many more there were.
-    fn flawed(
-        &self,
-        i: usize,
-        rec: &HeldExecution,
-    ) -> Result<(Vec<Flawed>, usize), SessionError> {
+    fn flawed(&self, i: usize, rec: &HeldExecution) -> Result<(Vec<Flawed>, usize), SessionError> {
         let def = self
             .task
             .def()
@@ -561,7 +557,10 @@ fn compare(before: &Measure, after: &Measure) -> String {
     } else {
         format!("{} -> {}", word(before.success), word(after.success))
     };
-    out.push_str(&format!(", error {:.2} -> {:.2}", before.error, after.error));
+    out.push_str(&format!(
+        ", error {:.2} -> {:.2}",
+        before.error, after.error
+    ));
     if let (Some(b), Some(a)) = (before.heading_error, after.heading_error) {
         out.push_str(&format!(", heading {b:.2} -> {a:.2} rad"));
     }
