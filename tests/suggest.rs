@@ -220,3 +220,26 @@ fn the_readme_quotes_what_suggest_prints() {
         }
     }
 }
+
+/// What the web view reads: the last `suggest` beside the run, each suggestion with the points
+/// its hover draws (the same as `preview` of it would give).
+#[test]
+fn the_web_view_state_carries_the_suggestions_and_their_previews() {
+    let mut s = on_positioning();
+    s.execute("run start 2", "<t>").unwrap();
+    s.execute("suggest", "<t>").unwrap();
+    let view = s.view_json(None);
+    let sug = &view["suggestions"];
+    assert_eq!(sug["execution"], 0);
+    let first = &sug["suggestions"][0];
+    let (a, b) = (
+        first["chunk"]["start"].as_u64().unwrap(),
+        first["chunk"]["end"].as_u64().unwrap(),
+    );
+    // The preview of the same advice on the same chunk gives the same points.
+    s.execute(&format!("select {a}..{b} in 0"), "<t>").unwrap();
+    let inv = first["invocation"].as_str().unwrap();
+    let (_, data) = s.execute_previewing(&format!("preview {inv}"), "<t>");
+    assert_eq!(first["preview"]["after"], data["after"]);
+    assert_eq!(first["preview"]["source_index"], data["source_index"]);
+}
