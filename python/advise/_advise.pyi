@@ -290,6 +290,10 @@ class Session:
         is ``resumed``."""
     def execute(self, statement: str) -> dict[str, Any]:
         """Run one statement; the reply as a dict with ``kind``, ``text`` and its fields."""
+    def suggest(
+        self, execution: int | None = None, budget_s: float | None = None
+    ) -> dict[str, Any]:
+        """``suggest [N]`` as data: flawed chunks, candidate advice ranked by a re-run."""
     @property
     def journal_path(self) -> str | None:
         """The journal this session writes, or None."""

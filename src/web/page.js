@@ -12,6 +12,7 @@ let S = null; // the last state read
 let viewed = null; // the execution the page shows (null: the session's current one)
 let drag = null; // {a, b}: the point indices of a drag in progress
 let preview = null; // the last preview's data
+let hovered = null; // the suggestion under the pointer
 let previewTimer = null;
 let overlay = null; // {index, path}: another execution drawn under the shown one (`plot compare`)
 
@@ -156,6 +157,7 @@ function drawPath(ex) {
   const stretch = (c, colour, width, opacity) => polyline(svg, screen.slice(c[0], c[1]), { stroke: colour, "stroke-width": width, "stroke-opacity": opacity, "stroke-linecap": "round" });
   const sel = drag ? [Math.min(drag.a, drag.b), Math.max(drag.a, drag.b) + 1] : ex.selection;
   if (sel) stretch(sel, COLOURS.sel, 12, 0.6);
+  if (hovered && hovered.execution === ex.index) stretch([hovered.chunk.start, hovered.chunk.end], COLOURS.after, 12, 0.6);
   ex.flagged.forEach((c) => stretch(c, COLOURS.flagged, 6, 0.7));
   ex.advised.forEach((c) => stretch(c, COLOURS.advised, 6, 0.7));
   polyline(svg, screen, { stroke: COLOURS.path, "stroke-width": 1.8 });
@@ -415,6 +417,36 @@ function drawSide() {
   }));
   drawCurve();
   drawLog();
+  drawSuggestions();
+}
+
+/** The last `suggest` of the shown execution: hover previews one (its chunk on the path, its
+ * points on the actions, its re-run in words), a click accepts it (`accept K`). */
+function drawSuggestions() {
+  const sug = S.suggestions, list = $("suggestions");
+  const mine = sug && S.shown && sug.execution === S.shown.index ? sug : null;
+  $("suggest").disabled = !S.shown;
+  if (!mine) { list.replaceChildren(); return; }
+  const fmt = (m) => `${m.success ? "succeeded" : "failed"}, error ${m.error.toFixed(2)}${m.heading_error == null ? "" : `, heading ${m.heading_error.toFixed(2)} rad`}, length ${m.length_m.toFixed(2)} m`;
+  const before = mine.trial.kind === "simulated" ? mine.trial.before : null;
+  list.replaceChildren(...mine.suggestions.map((s) => {
+    const li = document.createElement("li");
+    li.value = s.number;
+    li.className = "suggestion";
+    li.textContent = `${s.chunk.start}..${s.chunk.end} ${s.invocation} [${s.flaws.join(", ")}]`;
+    const effect = before && s.after ? `re-run: ${fmt(before)} → ${fmt(s.after)}` : "not re-run";
+    li.title = `accept ${s.number}: select ${s.chunk.start}..${s.chunk.end} in ${s.execution}, advise ${s.invocation}; ${effect}`;
+    li.onmouseenter = () => {
+      hovered = s;
+      preview = { execution: s.execution, invocation: s.invocation, space: s.preview.space, dims: s.preview.dims, source_index: s.preview.source_index, before: s.preview.before, after: s.preview.after };
+      $("sugtext").textContent = `${s.invocation} on ${s.chunk.start}..${s.chunk.end}: ${effect}`;
+      drawPath(S.shown); drawActions(S.shown);
+    };
+    li.onmouseleave = () => { hovered = null; preview = null; drawPath(S.shown); drawActions(S.shown); };
+    li.onclick = () => { hovered = null; dropPreview(); run(`accept ${s.number}`); };
+    return li;
+  }));
+  if (mine.trial.kind !== "simulated") $("sugtext").textContent = `candidates without a re-run (${mine.trial.why})`;
 }
 
 function drawCurve() {
@@ -476,6 +508,7 @@ $("error").onclick = () => showError("");
 $("undo").onclick = () => run("undo");
 $("redo").onclick = () => run("redo");
 $("eval").onclick = () => run("eval");
+$("suggest").onclick = () => { if (S.shown) run(`suggest ${S.shown.index}`); };
 $("op").onchange = () => { drawParams(); schedulePreview(); };
 $("exec").onchange = () => { viewed = +$("exec").value; preview = null; run(`show ${viewed}`); };
 $("overlay").onchange = async () => {

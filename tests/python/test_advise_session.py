@@ -579,3 +579,29 @@ def test_ctrl_c_stops_a_run_on_a_real_base_and_keeps_the_execution():
     finally:
         emu.terminate()
         emu.wait(timeout=10)
+
+
+def test_suggest_returns_structured_suggestions_that_accept_gives():
+    s = advise.Session(demos=9)
+    s.execute("run start 2")
+    sug = s.suggest(budget_s=600)
+    assert sug["execution"] == 0
+    assert sug["trial"]["kind"] == "simulated"
+    assert sug["flawed"] and all(f["flaws"] for f in sug["flawed"])
+    first = sug["suggestions"][0]
+    assert first["number"] == 1
+    assert first["after"]["error"] < sug["trial"]["before"]["error"] or first["after"]["success"]
+    assert first["invocation"] in sug["text"]
+    reply = s.execute("accept 1")
+    assert reply["kind"] == "advised"
+    assert reply["invocation"] == first["invocation"]
+    assert reply["chunk"] == (first["chunk"]["start"], first["chunk"]["end"])
+    assert reply["conflict"] is None
+
+
+def test_suggest_on_a_task_without_flaws_raises_its_code():
+    s = advise.Session(task="interception", demos=3)
+    s.execute("run start 0")
+    with pytest.raises(advise.AdviseError) as e:
+        s.suggest()
+    assert e.value.code == "advise::session::no_flaws"

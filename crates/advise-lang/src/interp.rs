@@ -18,6 +18,7 @@
 //!   it sees the current stage's input, outside it the executed trace.
 //! - The synthesized points keep the executed time stamp and pose of the point they came from.
 
+pub mod flaws;
 mod run;
 
 use miette::Diagnostic;

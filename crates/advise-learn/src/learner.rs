@@ -870,6 +870,64 @@ impl Learner {
         self.indexed = self.ds.len();
     }
 
+    /// A copy that answers as this learner does: the same dataset, scaling, kernel and tuning,
+    /// its indexes built afresh (an index is a cache of the dataset). What `suggest` advises to
+    /// see an effect without touching the session's learner; never tuned, so it costs a copy of
+    /// the dataset and an index build, not a cross-validation.
+    pub fn copy(&self) -> Learner {
+        let mut l = Learner {
+            kind: self.kind,
+            ds: self.ds.clone(),
+            index: Index::new(self.index.scale().to_vec()).unwrap_or_else(|| {
+                Index::new(vec![1.0; self.ds.domain().obs_dim().clamp(1, MAX_DIM)])
+                    .expect("1..=MAX_DIM is supported")
+            }),
+            lwr: self.lwr.clone(),
+            lwr_index: None,
+            lwr_unit: self.lwr_unit.clone(),
+            lwr_density: self.lwr_density,
+            lwr_k: self.lwr_k,
+            seed: self.seed,
+            indexed: 0,
+            retune: self.retune,
+            tuning: self.tuning,
+            last_tuning: self.last_tuning.clone(),
+        };
+        if self.lwr_index.is_some() {
+            l.build_lwr_index();
+        }
+        l.ensure_derived();
+        l
+    }
+
+    /// The data points in the learner's neighbourhood of observation `z`: within one kernel
+    /// bandwidth in the space LWR measures (weight at least `exp(-1/2)` of a point at `z`; for a
+    /// BC learner, the same radius in range-scaled units), each with its squared distance in
+    /// bandwidths. Points added since the index was last brought up to date are not seen.
+    pub fn neighbourhood(&self, z: &[f64], out: &mut Vec<(usize, f64)>) {
+        out.clear();
+        let idx = self.lwr_index.as_ref().unwrap_or(&self.index);
+        let dim = self.ds.domain().obs_dim();
+        if idx.is_empty() || dim == 0 || dim > MAX_DIM || z.len() != dim {
+            return;
+        }
+        let bw = self.lwr_unit.bandwidth;
+        if !(bw.is_finite() && bw > 0.0) {
+            return;
+        }
+        let mut q = [0.0; MAX_DIM];
+        idx.scaled(z, &mut q[..dim]);
+        let mut hits = Vec::new();
+        idx.within(&q[..dim], bw * bw, &mut hits, self.ds.points());
+        for (d2, g) in hits {
+            for &p in idx.group(g) {
+                if (p as usize) < self.indexed {
+                    out.push((p as usize, d2 / (bw * bw)));
+                }
+            }
+        }
+    }
+
     /// Rebuild the index under the current scaling and parameters (after points were removed).
     fn reindex(&mut self) {
         if let Some(idx) = Index::new(self.index.scale().to_vec()) {

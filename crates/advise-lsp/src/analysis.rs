@@ -394,6 +394,8 @@ fn domain_node<'f>(d: &'f DomainDecl, offset: usize) -> Option<Node<'f>> {
             Clause::EndWhen { cond, hold, .. } => expr_node(cond, offset, &in_domain)
                 .or_else(|| hold.as_ref().and_then(|h| expr_node(h, offset, &in_domain))),
             Clause::EndAfter { limit, .. } => expr_node(limit, offset, &in_domain),
+            Clause::Flaw { cond, hold, .. } => expr_node(cond, offset, &in_domain)
+                .or_else(|| hold.as_ref().and_then(|h| expr_node(h, offset, &in_domain))),
             Clause::Draw(ds) => ds
                 .iter()
                 .flat_map(|d| &d.args)
@@ -692,6 +694,9 @@ pub const KEYWORDS: &[&str] = &[
     "when",
     "end",
     "after",
+    "flaw",
+    "total",
+    "change",
     "score",
     "recorded",
     "draw",

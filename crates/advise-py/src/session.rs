@@ -155,6 +155,43 @@ impl Session {
         self.run(py, statement, "<python>")
     }
 
+    /// suggest(execution=None, budget_s=None) -> dict
+    ///
+    /// `suggest [N]` as data: the chunks of execution `execution` (the latest by default) where
+    /// the task's `flaw` clauses hold, and candidate advice for each, ranked by what a re-run of
+    /// the same start with the same noise on a copy of the learner showed (on the simulator):
+    /// `execution`, `label`, `flawed` (each `chunk` and `held` as {start, end} and `flaws`),
+    /// `trial` (`{"kind": "simulated", "before": {...}, "seed": ...}` or
+    /// `{"kind": "not_run", "why": ...}`), `suggestions` (each `number`, `execution`, `chunk`,
+    /// `flaws`, `invocation`, `operator`, `rate`, `points`, and `after`: success, error,
+    /// heading_error, length_m, steps, or None when not re-run), `no_better`, `candidates`,
+    /// `not_rerun`, `budget_s`; and `text`, what the REPL prints. `budget_s` bounds the time
+    /// spent re-running (30 s by default). `execute("accept K")` gives suggestion K, journalled
+    /// as `select` + `advise`. A task without flaws raises AdviseError `advise::session::no_flaws`.
+    #[pyo3(signature = (execution=None, budget_s=None))]
+    fn suggest<'py>(
+        &self,
+        py: Python<'py>,
+        execution: Option<usize>,
+        budget_s: Option<f64>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        if let Some(b) = budget_s {
+            self.with(py, |i| {
+                i.set_suggest_budget(b);
+                Ok(())
+            })?;
+        }
+        let statement = match execution {
+            Some(n) => format!("suggest {n}"),
+            None => "suggest".to_string(),
+        };
+        let reply = self.run(py, &statement, "<python>")?;
+        let data = self.with(py, |i| Ok(serde_json::to_string(&i.suggestions())))?;
+        let d = json_value(py, data)?.cast_into::<PyDict>()?;
+        d.set_item("text", reply.get_item("text")?)?;
+        Ok(d)
+    }
+
     /// The journal this session writes (a path), or None when it keeps none.
     #[getter]
     fn journal_path(&self, py: Python<'_>) -> PyResult<Option<String>> {
@@ -588,6 +625,10 @@ fn reply_dict<'py>(py: Python<'py>, reply: &Reply) -> PyResult<Bound<'py, PyDict
             d.set_item("added", a.added)?;
             d.set_item("skipped", a.skipped)?;
             d.set_item("dataset", a.dataset)?;
+            d.set_item(
+                "conflict",
+                json_value(py, serde_json::to_string(&a.conflict))?,
+            )?;
             "advised"
         }
         Reply::Critiqued {
@@ -596,6 +637,10 @@ fn reply_dict<'py>(py: Python<'py>, reply: &Reply) -> PyResult<Bound<'py, PyDict
             d.set_item("execution", *execution)?;
             d.set_item("chunk", (chunk.start, chunk.end))?;
             "critiqued"
+        }
+        Reply::Suggested(sug) => {
+            d.set_item("suggestions", json_value(py, serde_json::to_string(&sug))?)?;
+            "suggested"
         }
         Reply::Evaluated(e) => {
             d.set_item("report", json_value(py, serde_json::to_string(&e.report))?)?;

@@ -12,6 +12,7 @@
 
 mod advice;
 mod commit;
+pub mod conflict;
 pub mod effect;
 mod error;
 mod files;
@@ -25,6 +26,7 @@ mod reply;
 mod run;
 pub mod script;
 pub mod sidecar;
+pub mod suggest;
 mod text;
 mod undo;
 pub mod view;
@@ -69,6 +71,9 @@ pub struct HeldExecution {
     pub support: Option<Vec<Option<Provenance>>>,
     /// The learner's id for this execution (advice and critiques refer to it).
     pub id: learner::ExecutionId,
+    /// The session's number of the run that made it (its simulator seed is
+    /// `episode_seed(seed, 1_000_000 + number)`): what `suggest` re-runs; `None` for a file.
+    pub run_number: Option<u64>,
     /// Chunks critiqued and advised, for plots.
     pub flagged: Vec<Chunk>,
     pub advised: Vec<Chunk>,
@@ -142,6 +147,11 @@ struct TaskState {
     redo: Vec<Edit>,
     /// The number the next advice or critique gets.
     next_edit: usize,
+    /// What each piece of advice contradicted when it was added ([`conflict`]), by its number.
+    conflicts: Vec<conflict::Conflict>,
+    /// The last `suggest` on this task: what `accept K` takes (not journalled: it changes
+    /// nothing).
+    suggested: Option<suggest::Suggestions>,
     /// The last evaluation, to report what changed since.
     last_eval: Option<Report>,
     /// The evaluation before it: what `eval --detail` compares the last one with while the policy
@@ -164,6 +174,8 @@ impl TaskState {
             undo: Vec::new(),
             redo: Vec::new(),
             next_edit: 1,
+            conflicts: Vec::new(),
+            suggested: None,
             last_eval: None,
             prev_eval: None,
         }
@@ -243,6 +255,8 @@ pub struct Session {
     inputs: Vec<(std::path::PathBuf, bool)>,
     /// When the session began, on the wall clock (an MCAP export's timeline starts there).
     started: std::time::SystemTime,
+    /// How long `suggest` may spend re-running candidates, s.
+    suggest_budget_s: f64,
 }
 
 impl std::fmt::Debug for Session {
@@ -310,7 +324,24 @@ impl Session {
             sources: crate::diag::SourceMap::new(),
             inputs: Vec::new(),
             started: std::time::SystemTime::now(),
+            suggest_budget_s: suggest::DEFAULT_BUDGET_S,
         }
+    }
+
+    /// How long `suggest` may spend re-running candidates on the simulator (s; at least 0:
+    /// 0 re-runs only the baseline). What a front end or a test sets; the default is
+    /// [`suggest::DEFAULT_BUDGET_S`].
+    pub fn set_suggest_budget(&mut self, seconds: f64) {
+        self.suggest_budget_s = if seconds.is_finite() {
+            seconds.max(0.0)
+        } else {
+            suggest::DEFAULT_BUDGET_S
+        };
+    }
+
+    /// The last `suggest` of the current task, as data (front ends list and preview it).
+    pub fn suggestions(&self) -> Option<&suggest::Suggestions> {
+        self.state.suggested.as_ref()
     }
 
     pub fn journal_path(&self) -> Option<&Path> {
@@ -496,9 +527,12 @@ impl Session {
             }
             Command::Advise(inv) => self.advise(&inv),
             Command::Preview(inv) => self.preview(&inv).map(Reply::Message),
+            Command::Suggest(n) => self.suggest(n),
+            Command::Accept(k) => self.accept(k),
             Command::Undo => self.undo().map(Reply::Message),
             Command::Redo => self.redo().map(Reply::Message),
-            Command::History => Ok(Reply::Message(self.history())),
+            Command::History { conflicts: false } => Ok(Reply::Message(self.history())),
+            Command::History { conflicts: true } => Ok(Reply::Message(self.history_conflicts())),
             Command::Rederive => self.rederive().map(Reply::Message),
             Command::Eval { detail } => self.eval(detail),
             Command::Learner { name, k } => self.set_learner(&name, k).map(Reply::Message),

@@ -533,6 +533,27 @@ pub enum CheckError {
         #[label("declared again here")]
         span: Loc,
     },
+    #[error("the flaw `{name}` is declared twice in the task")]
+    #[diagnostic(
+        code(advise::check::flaw_twice),
+        help(
+            "each flaw has its own name, which `suggest` shows; rename one or join the conditions with `or`"
+        )
+    )]
+    FlawTwice {
+        name: String,
+        #[label("declared again here")]
+        span: Loc,
+    },
+    #[error("`{func}` looks back over a stretch of the run, which {context} cannot")]
+    #[diagnostic(code(advise::check::window_not_here), help("{help}"))]
+    WindowNotHere {
+        func: String,
+        context: String,
+        help: String,
+        #[label("not available here")]
+        span: Loc,
+    },
     #[error("a task has one `{clause}` clause")]
     #[diagnostic(code(advise::check::task_clause_twice), help("merge the two into one"))]
     TaskClauseTwice {

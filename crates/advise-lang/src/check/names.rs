@@ -7,6 +7,7 @@ use std::ops::Deref;
 use super::*;
 use crate::domain::Space;
 use crate::program::ir::{Func, Ir};
+use crate::program::task::WindowKind;
 
 pub(super) const RESERVED: [(&str, &str); 3] = [
     ("k", "the index of the point in the chunk"),
@@ -219,6 +220,15 @@ impl Checker<'_> {
             {
                 let Scope::Task(ts) = scope else { return bad };
                 self.task_prev(f, ts, args, e.span)
+            }
+            ExprKind::Call { func, args }
+                if matches!(scope, Scope::Task(_)) && WindowKind::named(&func.name).is_some() =>
+            {
+                let Scope::Task(ts) = scope else { return bad };
+                let Some(kind) = WindowKind::named(&func.name) else {
+                    return bad;
+                };
+                self.task_window(f, ts, kind, args, e.span)
             }
             ExprKind::Call { func, args } => {
                 let resolved: Vec<(Ir, Ty)> = args

@@ -13,8 +13,9 @@ use super::*;
 use crate::domain::Space;
 use crate::program::ir::{Func, Ir};
 use crate::program::task::{
-    Axis, BASE, DrawDef, Drive, EndRule, GoalParam, MAX_GOAL_ABS, MAX_GOAL_PARAMS, MAX_TEST_GOALS,
-    MAX_TIME_LIMIT_S, ShapeKind, TaskDef, TeacherDef, TeacherTarget,
+    Axis, BASE, DrawDef, Drive, EndRule, FlawDef, GoalParam, MAX_GOAL_ABS, MAX_GOAL_PARAMS,
+    MAX_TEST_GOALS, MAX_TIME_LIMIT_S, ShapeKind, TaskDef, TeacherDef, TeacherTarget, Window,
+    WindowKind,
 };
 
 const DEFAULT_TEST_GOALS: usize = 25;
@@ -224,6 +225,7 @@ impl Checker<'_> {
         let computed = self.task_values(f, &names, &values);
         let (speed, turn) = self.task_drives(f, d, task, &action_dims);
         let ends = self.task_ends(f, d, &names);
+        let (flaws, windows) = self.task_flaws(f, d, &names);
         let scores = self.task_scores(f, d, &names, &score_decls);
         let success = self.task_success(f, d, &names);
 
@@ -256,6 +258,8 @@ impl Checker<'_> {
             speed,
             turn,
             ends,
+            flaws,
+            windows,
             score: scores.score,
             error: scores.error?,
             heading_error: scores.heading_error,
@@ -338,6 +342,7 @@ impl Checker<'_> {
             context,
             prev_ok: true,
             hidden: None,
+            windows: None,
         };
         let (ir, ty) = self.resolve(f, Scope::Task(&ts), e, "");
         self.expect(f, e, ty, want, help);
@@ -703,6 +708,177 @@ impl Checker<'_> {
         ends
     }
 
+    /// `flaw NAME when COND [for SECONDS]`, any number, each name once: conditions over what end
+    /// rules read, and the look-backs (`total`, `change`) only a flaw may use.
+    fn task_flaws(
+        &mut self,
+        f: usize,
+        d: &DomainDecl,
+        names: &TaskNames<'_>,
+    ) -> (Vec<FlawDef>, Vec<Window>) {
+        let windows = std::cell::RefCell::new(Vec::new());
+        let mut flaws: Vec<FlawDef> = Vec::new();
+        for c in &d.clauses {
+            let Clause::Flaw {
+                name,
+                cond,
+                hold,
+                span,
+            } = c
+            else {
+                continue;
+            };
+            if flaws.iter().any(|x| x.name == name.name) {
+                self.err(
+                    f,
+                    name.span,
+                    CheckError::FlawTwice {
+                        name: name.name.clone(),
+                        span: self.at(f, name.span),
+                    },
+                );
+                continue;
+            }
+            let text = self.sources[f]
+                .text
+                .get(span.start..span.end)
+                .unwrap_or("flaw")
+                .split_whitespace()
+                .collect::<Vec<_>>()
+                .join(" ");
+            let context = format!("the flaw `{}`", name.name);
+            let ts = TaskScope {
+                task: names.task,
+                names: &names.kinds,
+                allowed: RULE_READS,
+                context: &context,
+                prev_ok: true,
+                hidden: None,
+                windows: Some((&windows, names.slots.len())),
+            };
+            let (ir, ty) = self.resolve(f, Scope::Task(&ts), cond, "");
+            self.expect(
+                f,
+                cond,
+                ty,
+                Ty::Bool,
+                Some("a flaw is a condition such as `closing < 0`, true where the run goes wrong"),
+            );
+            let hold_s = match hold {
+                None => Some(0.0),
+                Some(h) => self.seconds(f, h, "a flaw's `for` time", false),
+            };
+            if let Some(hold_s) = hold_s {
+                flaws.push(FlawDef {
+                    name: name.name.clone(),
+                    cond: ir,
+                    hold_s,
+                    text,
+                });
+            }
+        }
+        (flaws, windows.into_inner())
+    }
+
+    /// `total(VALUE, SECONDS)` or `change(VALUE, SECONDS)` in a flaw: the look-back's slot.
+    pub(super) fn task_window(
+        &mut self,
+        f: usize,
+        ts: &TaskScope<'_>,
+        kind: WindowKind,
+        args: &[Expr],
+        span: Span,
+    ) -> (Ir, Ty) {
+        let bad = (Ir::Num(f64::NAN), Ty::Err);
+        let Some((windows, first_slot)) = ts.windows else {
+            let help = if ts.context.contains("look-back") {
+                "a look-back's value is read at each point; look back over a `let` instead, or write a second flaw".to_string()
+            } else {
+                format!(
+                    "only a `flaw` condition looks back over the run, e.g. `flaw loop when abs(total(turned, 4)) > pi`; {} reads this step{}",
+                    ts.context,
+                    if ts.prev_ok { " and `prev(NAME)`" } else { "" }
+                )
+            };
+            self.err(
+                f,
+                span,
+                CheckError::WindowNotHere {
+                    func: kind.word().into(),
+                    context: ts.context.into(),
+                    help,
+                    span: self.at(f, span),
+                },
+            );
+            return bad;
+        };
+        let [value, seconds] = args else {
+            self.err(
+                f,
+                span,
+                CheckError::WrongArity {
+                    func: kind.word().into(),
+                    expected: 2,
+                    found: args.len(),
+                    signature: kind.signature().into(),
+                    span: self.at(f, span),
+                },
+            );
+            return bad;
+        };
+        let context = format!("a look-back's value in {}", ts.context);
+        let inner = TaskScope {
+            task: ts.task,
+            names: ts.names,
+            allowed: ts.allowed,
+            context: &context,
+            prev_ok: ts.prev_ok,
+            hidden: ts.hidden,
+            windows: None,
+        };
+        let (ir, ty) = self.resolve(f, Scope::Task(&inner), value, "");
+        let ok = self.expect(
+            f,
+            value,
+            ty,
+            Ty::Num,
+            Some("a look-back sums or compares a number, such as `total(turned, 3)`"),
+        );
+        if !is_constant(seconds) {
+            self.err(
+                f,
+                seconds.span,
+                CheckError::TaskWrongMeaning {
+                    what: format!(
+                        "how far `{}` looks back is a constant number of seconds",
+                        kind.word()
+                    ),
+                    help: format!(
+                        "write a number such as `{}(range, 1)`; {}",
+                        kind.word(),
+                        kind.signature()
+                    ),
+                    span: self.at(f, seconds.span),
+                },
+            );
+            return bad;
+        }
+        let Some(seconds) = self.seconds(f, seconds, "a look-back's stretch", true) else {
+            return bad;
+        };
+        if !ok {
+            return bad;
+        }
+        let mut w = windows.borrow_mut();
+        let slot = first_slot + w.len();
+        w.push(Window {
+            kind,
+            value: ir,
+            seconds,
+        });
+        (Ir::Slot(slot), Ty::Num)
+    }
+
     /// The scores, in order: each may read the ones before it. A task without `error` is
     /// reported.
     fn task_scores(
@@ -975,6 +1151,7 @@ impl Checker<'_> {
                     context: "`recorded` (the pose a recording ends at)",
                     prev_ok: false,
                     hidden: None,
+                    windows: None,
                 };
                 let (ir, ty) = self.resolve(f, Scope::Task(&ts), &b.value, "");
                 self.expect(f, &b.value, ty, Ty::Num, None);
@@ -1065,6 +1242,7 @@ impl Checker<'_> {
                     context: "`draw` (a picture is drawn from the goal alone)",
                     prev_ok: false,
                     hidden: None,
+                    windows: None,
                 };
                 let args = dr
                     .args
@@ -1172,6 +1350,7 @@ impl Checker<'_> {
                     context: "the teacher",
                     prev_ok: false,
                     hidden: Some(outer),
+                    windows: None,
                 };
                 let (ir, ty) = self.resolve(f, Scope::Task(&ts), &b.value, "");
                 self.expect(f, &b.value, ty, Ty::Num, None);
@@ -1240,6 +1419,17 @@ impl Checker<'_> {
             });
         }
         out
+    }
+}
+
+/// Whether `e` is built of numbers, `pi` and arithmetic alone (what a look-back's seconds are).
+fn is_constant(e: &Expr) -> bool {
+    match &e.kind {
+        ExprKind::Num(_) => true,
+        ExprKind::Var(v) => v == "pi",
+        ExprKind::Unary(_, a) => is_constant(a),
+        ExprKind::Binary(_, a, b) => is_constant(a) && is_constant(b),
+        ExprKind::At { .. } | ExprKind::Call { .. } => false,
     }
 }
 

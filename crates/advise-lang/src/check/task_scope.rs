@@ -3,7 +3,10 @@
 //! ([`super::names`]) and the task checker ([`super::task`]) both read it without reading each
 //! other (issue 50).
 
+use std::cell::RefCell;
 use std::collections::HashMap;
+
+use crate::program::task::Window;
 
 /// What kind of value a task name is; each clause may read some kinds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,4 +47,7 @@ pub(super) struct TaskScope<'a> {
     pub(super) prev_ok: bool,
     /// The task's names a teacher cannot see (so a use of one is explained, not "unknown").
     pub(super) hidden: Option<&'a HashMap<String, (usize, Kind)>>,
+    /// In a flaw's condition: the look-backs (`total`, `change`) found so far, and the slot of
+    /// the first (the task's slot count). Elsewhere `None`: only flaws look back.
+    pub(super) windows: Option<(&'a RefCell<Vec<Window>>, usize)>,
 }

@@ -99,6 +99,70 @@ pub enum EndRule {
     After { limit_s: f64 },
 }
 
+/// A look back over a stretch of a run, in a flaw's condition: `total(EXPR, SECONDS)` or
+/// `change(EXPR, SECONDS)`. Its value at a point is kept in a slot after the task's own
+/// ([`TaskDef::window_slot`]), filled by `interp::flaws` from the points before it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Window {
+    pub kind: WindowKind,
+    /// What is summed or compared, evaluated at each point like a `let` (it may read `prev`).
+    pub value: Ir,
+    /// How far back it looks, s (positive, at most [`MAX_TIME_LIMIT_S`]).
+    pub seconds: f64,
+}
+
+/// How a [`Window`] looks back.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WindowKind {
+    /// `total(e, s)`: the sum of `e` over the points of the last `s` seconds, this one included
+    /// (a turn accumulated over a stretch: `total(turned, 3)`).
+    Total,
+    /// `change(e, s)`: `e` now minus `e` at the earliest point of the last `s` seconds (since
+    /// the start, early in a run): a distance that stops closing, `change(dist, 1) > 0`.
+    Change,
+}
+
+impl WindowKind {
+    pub const ALL: [WindowKind; 2] = [WindowKind::Total, WindowKind::Change];
+
+    pub fn word(self) -> &'static str {
+        match self {
+            WindowKind::Total => "total",
+            WindowKind::Change => "change",
+        }
+    }
+
+    pub fn named(word: &str) -> Option<WindowKind> {
+        WindowKind::ALL.into_iter().find(|k| k.word() == word)
+    }
+
+    /// How it is written, with what it means.
+    pub fn signature(self) -> &'static str {
+        match self {
+            WindowKind::Total => {
+                "total(VALUE, SECONDS): the sum of VALUE over the points of the last SECONDS s, this one included"
+            }
+            WindowKind::Change => {
+                "change(VALUE, SECONDS): VALUE now minus VALUE SECONDS s ago (at the run's start, early on)"
+            }
+        }
+    }
+}
+
+/// `flaw NAME when COND [for SECONDS]`: what a poor run looks like at a point. A flaw *holds*
+/// over a stretch of an execution where `cond` was true at every point for at least `hold_s`
+/// seconds; the stretch is the chunk `suggest` proposes advice on.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FlawDef {
+    pub name: String,
+    /// Reads the task's slots, the windows' slots and `prev`; at a point, the action slots hold
+    /// the action taken there.
+    pub cond: Ir,
+    pub hold_s: f64,
+    /// The clause as written, spaces collapsed (`flaw loop when abs(total(turned, 4)) > pi`).
+    pub text: String,
+}
+
 /// Where a teacher statement writes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum TeacherTarget {
@@ -229,6 +293,10 @@ pub struct TaskDef {
     pub speed: Option<Drive>,
     pub turn: Option<Drive>,
     pub ends: Vec<EndRule>,
+    /// `flaw` clauses, in declaration order.
+    pub flaws: Vec<FlawDef>,
+    /// The look-backs the flaws read, each in the slot [`TaskDef::window_slot`] gives.
+    pub windows: Vec<Window>,
     /// `score` values in order: `(slot, value)`.
     pub score: Vec<(usize, Ir)>,
     /// Slots of the `error` and `heading_error` scores.
@@ -262,5 +330,10 @@ impl TaskDef {
     /// How many slots the environment has.
     pub fn slots(&self) -> usize {
         self.slot_names.len()
+    }
+
+    /// The slot a flaw reads window `i` from: after the task's own slots.
+    pub fn window_slot(&self, i: usize) -> usize {
+        self.slots() + i
     }
 }

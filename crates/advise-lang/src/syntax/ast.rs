@@ -119,6 +119,13 @@ pub enum Clause {
     },
     /// `end after SECONDS`
     EndAfter { limit: Expr, span: Span },
+    /// `flaw NAME when COND [for SECONDS]`: what a poor run looks like, for `suggest`.
+    Flaw {
+        name: Ident,
+        cond: Expr,
+        hold: Option<Expr>,
+        span: Span,
+    },
     /// `score error = ..., heading_error = ...`
     Score(Vec<Binding>),
     /// `recorded x_g = x, ...`
@@ -143,6 +150,7 @@ impl Clause {
             Clause::Let(_) => "let",
             Clause::Success { .. } => "success",
             Clause::EndWhen { .. } | Clause::EndAfter { .. } => "end",
+            Clause::Flaw { .. } => "flaw",
             Clause::Score(_) => "score",
             Clause::Recorded(_) => "recorded",
             Clause::Draw(_) => "draw",
@@ -505,6 +513,17 @@ impl EraseSpans for Clause {
             }
             Clause::EndAfter { limit, span } => {
                 limit.erase_spans();
+                span.erase_spans();
+            }
+            Clause::Flaw {
+                name,
+                cond,
+                hold,
+                span,
+            } => {
+                name.erase_spans();
+                cond.erase_spans();
+                hold.erase_spans();
                 span.erase_spans();
             }
             Clause::Test { span, .. } => span.erase_spans(),

@@ -133,6 +133,7 @@ impl Builder {
                     clauses.push(Clause::Success { cond, span });
                 }
                 Rule::end_rule => clauses.push(self.end_rule(part)?),
+                Rule::flaw_rule => clauses.push(self.flaw_rule(part)?),
                 Rule::test_set => {
                     let span = self.span(&part);
                     let mut nums = part.into_inner().filter(|e| e.as_rule() == Rule::number);
@@ -248,6 +249,26 @@ impl Builder {
                 hold: exprs.next(),
                 span,
             }
+        })
+    }
+
+    fn flaw_rule(&self, p: Pair<'_, Rule>) -> Result<Clause, ParseError> {
+        let span = self.span(&p);
+        let mut name = None;
+        let mut exprs = Vec::new();
+        for x in p.into_inner() {
+            match x.as_rule() {
+                Rule::name => name = Some(self.ident(x)),
+                Rule::expr => exprs.push(self.expr(x, 0)?),
+                _ => {}
+            }
+        }
+        let mut exprs = exprs.into_iter();
+        Ok(Clause::Flaw {
+            name: name.expect("a flaw has a name"),
+            cond: exprs.next().expect("a flaw has a condition"),
+            hold: exprs.next(),
+            span,
         })
     }
 

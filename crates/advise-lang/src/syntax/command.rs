@@ -69,9 +69,16 @@ pub enum Command {
     },
     Advise(Invocation),
     Preview(Invocation),
+    /// `suggest [N]`: flawed chunks of execution N (the latest) with candidate advice.
+    Suggest(Option<usize>),
+    /// `accept K`: suggestion K of the last `suggest`, applied as `select` + `advise`.
+    Accept(usize),
     Undo,
     Redo,
-    History,
+    /// `history [--conflicts]`.
+    History {
+        conflicts: bool,
+    },
     Rederive,
     Eval {
         detail: bool,
@@ -129,7 +136,9 @@ impl Command {
             Command::Preview(_) => Rule::c_preview,
             Command::Undo => Rule::c_undo,
             Command::Redo => Rule::c_redo,
-            Command::History => Rule::c_history,
+            Command::Suggest(_) => Rule::c_suggest,
+            Command::Accept(_) => Rule::c_accept,
+            Command::History { .. } => Rule::c_history,
             Command::Rederive => Rule::c_rederive,
             Command::Eval { .. } => Rule::c_eval,
             Command::Learner { .. } => Rule::c_learner,
@@ -242,7 +251,11 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
         Rule::c_preview => Command::Preview(b.invocation(req(next()))?),
         Rule::c_undo => Command::Undo,
         Rule::c_redo => Command::Redo,
-        Rule::c_history => Command::History,
+        Rule::c_suggest => Command::Suggest(next().map(|n| b.uint(n)).transpose()?),
+        Rule::c_accept => Command::Accept(b.uint(req(next()))?),
+        Rule::c_history => Command::History {
+            conflicts: next().is_some(),
+        },
         Rule::c_rederive => Command::Rederive,
         Rule::c_eval => Command::Eval {
             detail: next().is_some(),

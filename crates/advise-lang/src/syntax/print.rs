@@ -146,6 +146,15 @@ impl Display for Clause {
                 }
             }
             Clause::EndAfter { limit, .. } => write!(f, "end after {limit}"),
+            Clause::Flaw {
+                name, cond, hold, ..
+            } => {
+                write!(f, "flaw {} when {cond}", name.name)?;
+                match hold {
+                    Some(h) => write!(f, " for {h}"),
+                    None => Ok(()),
+                }
+            }
             Clause::Test { count, seed, .. } => {
                 write!(f, "test {}", number(*count))?;
                 match seed {

@@ -98,6 +98,13 @@ impl Session {
             source_index: syn.source_index,
             applied: syn.advice,
         })?;
+        let number = self.state.next_edit - 1;
+        let conflict = self
+            .state
+            .conflicts
+            .iter()
+            .find(|c| c.number == number)
+            .cloned();
         Ok(Reply::Advised(Advised {
             execution: i,
             chunk,
@@ -106,6 +113,7 @@ impl Session {
             skipped,
             dataset: self.state.learner.len(),
             ready_ms: started.elapsed().as_secs_f64() * 1e3,
+            conflict,
         }))
     }
 

@@ -279,6 +279,7 @@ impl Session {
                     execution,
                     support,
                     id,
+                    run_number: entry.run.as_ref().map(|r| r.number),
                     flagged: Vec::new(),
                     advised: Vec::new(),
                 });
@@ -407,8 +408,18 @@ impl Session {
         number: usize,
     ) -> Result<(), SessionError> {
         let rec = self.numbered(execution)?;
+        let conflict = super::conflict::find(
+            &self.state.learner,
+            &self.state.undo,
+            &syn,
+            &rec.trace,
+            execution,
+            number,
+        );
         let id = self.state.learner.add_advice(rec.id, &syn)?;
         let st = &mut self.state;
+        st.conflicts.retain(|c| c.number != number);
+        st.conflicts.extend(conflict);
         st.executions[execution].advised.push(syn.advice.chunk);
         st.undo.push(Edit::Advice {
             number,

@@ -120,6 +120,40 @@ pub enum SessionError {
         help("run the policy first (`run goal 2 -1 0` or `run start 0`), or `load trace FILE`")
     )]
     NoExecution,
+    #[error("task {task} declares no flaws, so `suggest` has nothing to look for")]
+    #[diagnostic(
+        code(advise::session::no_flaws),
+        help(
+            "a task declared in the language says what a poor run looks like with `flaw NAME when CONDITION [for SECONDS]` (see `operators/positioning.adv` and the README's Suggestions); the interception task is not declared in the language yet: select and critique its chunks yourself"
+        )
+    )]
+    NoFlaws { task: TaskKind },
+    #[error("execution {n} ({label}) has {why}, so its flaws cannot be looked for")]
+    #[diagnostic(
+        code(advise::session::flaws_unreadable),
+        help(
+            "`suggest` rebuilds the task's values from the run's poses and goal: suggest on a run of this session (`run start N`, `run goal ...`)"
+        )
+    )]
+    FlawsUnreadable {
+        n: usize,
+        label: String,
+        why: &'static str,
+    },
+    #[error("there is no suggestion to accept: {why}")]
+    #[diagnostic(
+        code(advise::session::no_suggestions),
+        help(
+            "`suggest` (or `suggest N` for execution N) lists suggestions; `accept K` applies the K-th"
+        )
+    )]
+    NoSuggestions { why: &'static str },
+    #[error("there is no suggestion {k}: the last `suggest` made {count}")]
+    #[diagnostic(
+        code(advise::session::no_such_suggestion),
+        help("suggestions are numbered from 1 in the order `suggest` listed them")
+    )]
+    NoSuchSuggestion { k: usize, count: usize },
     #[error("there is no execution {n}: this task has {count}")]
     #[diagnostic(
         code(advise::session::no_such_execution),

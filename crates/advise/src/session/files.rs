@@ -376,6 +376,7 @@ impl Session {
                 execution: None,
                 support: None,
                 id: rec.id,
+                run_number: None,
                 flagged: Vec::new(),
                 advised: Vec::new(),
             });

@@ -36,6 +36,8 @@ pub enum Reply {
     },
     /// `eval`: the policy on the task's test set, and what changed since the last `eval`.
     Evaluated(Evaluated),
+    /// `suggest`: flawed chunks with candidate advice and their simulated effects.
+    Suggested(Box<super::suggest::Suggestions>),
     /// `quit`: the session ends.
     Quit,
     /// Any other command's answer, in words (help, history, show, why, preview, files, task and
@@ -87,6 +89,9 @@ pub struct Advised {
     pub dataset: usize,
     /// From the command to the policy ready to run again, in milliseconds.
     pub ready_ms: f64,
+    /// What it contradicts in earlier advice or demonstrations (the warning
+    /// `advise::session::conflicting_advice`), if anything.
+    pub conflict: Option<super::conflict::Conflict>,
 }
 
 /// What an evaluation is compared with.
@@ -183,7 +188,12 @@ impl fmt::Display for Reply {
                     "; the policy has {} points, ready in {}",
                     a.dataset,
                     super::text::fmt_ms(a.ready_ms)
-                )
+                )?;
+                if let Some(c) = &a.conflict {
+                    let shown = crate::diag::render(&crate::diag::SourceMap::new(), c, false);
+                    write!(f, "\n\n{}", shown.trim_end())?;
+                }
+                Ok(())
             }
             Reply::Critiqued { summary, .. } => f.write_str(summary),
             Reply::Evaluated(e) => {
@@ -209,6 +219,7 @@ impl fmt::Display for Reply {
                 }
                 Ok(())
             }
+            Reply::Suggested(s) => write!(f, "{s}"),
             Reply::Message(text) => f.write_str(text),
         }
     }

@@ -75,6 +75,7 @@ impl Session {
             "history": history,
             "operators": operators,
             "tasks": self.task_names(),
+            "suggestions": serde_json::to_value(&st.suggested).unwrap_or(Value::Null),
         })
     }
 

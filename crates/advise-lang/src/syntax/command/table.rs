@@ -396,6 +396,24 @@ pub const COMMANDS: &[CommandSpec] = &[
         example: "preview slow_down(rate = 0.3)",
     },
     CommandSpec {
+        name: "suggest",
+        aliases: &[],
+        forms: &[form(Rule::c_suggest, &[optional(Count, "N")], "suggest 0")],
+        signature: "suggest [N]",
+        doc: "Find the chunks of the latest execution (or execution N) where the task's `flaw` clauses hold, each with candidate advice (operators at a little, more, much more) and, on the simulator, what a re-run of the same start with the same noise shows with it, ranked. Nothing is added: `accept K` applies one.",
+        step: Step::Correct,
+        example: "suggest 0",
+    },
+    CommandSpec {
+        name: "accept",
+        aliases: &[],
+        forms: &[form(Rule::c_accept, &[arg(Count, "K")], "accept 1")],
+        signature: "accept K",
+        doc: "Apply suggestion K of the last `suggest`: `select` its chunk, then `advise` its operator (journalled as those two).",
+        step: Step::Correct,
+        example: "accept 1",
+    },
+    CommandSpec {
         name: "critique",
         aliases: &[],
         forms: &[Form {
@@ -434,9 +452,18 @@ pub const COMMANDS: &[CommandSpec] = &[
     CommandSpec {
         name: "history",
         aliases: &[],
-        forms: &[bare(Rule::c_history, "history")],
-        signature: "history",
-        doc: "List the advice and critiques given so far.",
+        forms: &[Form {
+            rule: Rule::c_history,
+            sub: None,
+            args: &[],
+            options: &[Opt {
+                word: "--conflicts",
+                args: &[],
+            }],
+            example: "history --conflicts",
+        }],
+        signature: "history [--conflicts]",
+        doc: "List the advice and critiques given so far; `--conflicts` lists only the advice that contradicts earlier advice or demonstrations where the learner treats the observations as one.",
         step: Step::TakeBack,
         example: "history",
     },
