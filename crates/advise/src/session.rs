@@ -23,6 +23,7 @@ pub mod plot;
 mod record;
 mod reply;
 mod run;
+mod takeover;
 pub mod script;
 pub mod sidecar;
 mod text;
@@ -48,6 +49,7 @@ use journal::Journal;
 pub use advice::check_kappa;
 pub use error::SessionError;
 pub use reply::{Advised, Defined, Evaluated, Ran, Reply, Since};
+pub use takeover::{Either, LiveTakeover, RunInfo, TookOver};
 use undo::Edit;
 
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met
@@ -72,6 +74,9 @@ pub struct HeldExecution {
     /// Chunks critiqued and advised, for plots.
     pub flagged: Vec<Chunk>,
     pub advised: Vec<Chunk>,
+    /// The windows of steps the teacher drove (a takeover); every other step was the
+    /// learner's.
+    pub teacher: Vec<Chunk>,
 }
 
 /// Options for a new session.
@@ -243,6 +248,9 @@ pub struct Session {
     inputs: Vec<(std::path::PathBuf, bool)>,
     /// When the session began, on the wall clock (an MCAP export's timeline starts there).
     started: std::time::SystemTime,
+    /// The live takeover a front end installed (a person's keys, a web page's pad, a ROS 2
+    /// topic), asked at the start of each run.
+    live_takeover: Option<Box<dyn takeover::LiveTakeover>>,
 }
 
 impl std::fmt::Debug for Session {
@@ -310,6 +318,7 @@ impl Session {
             sources: crate::diag::SourceMap::new(),
             inputs: Vec::new(),
             started: std::time::SystemTime::now(),
+            live_takeover: None,
         }
     }
 
@@ -480,8 +489,8 @@ impl Session {
             }
             Command::LoadTrace(path) => self.load_trace(&path).map(Reply::Message),
             Command::Operators(path) => self.load_operators(&path).map(Reply::Message),
-            Command::RunGoal(values) => self.run_goal(&values),
-            Command::RunStart(n) => self.run_start(n),
+            Command::RunGoal { goal, takeover } => self.run_goal(&goal, takeover),
+            Command::RunStart { start, takeover } => self.run_start(start, takeover),
             Command::Show(n) => self.show(n).map(Reply::Message),
             Command::Select {
                 range, execution, ..

@@ -246,6 +246,9 @@ impl Session {
                     ),
                     None => None,
                 };
+                if let Some(run) = &entry.run {
+                    super::takeover::check_windows(&run.teacher, trace.len())?;
+                }
                 let id = self.state.learner.try_add_execution(&trace)?;
                 // The dataset keeps the goal too, so that `open` gives the run back with it.
                 let goal = entry
@@ -281,6 +284,11 @@ impl Session {
                     id,
                     flagged: Vec::new(),
                     advised: Vec::new(),
+                    teacher: entry
+                        .run
+                        .as_ref()
+                        .map(|r| r.teacher.clone())
+                        .unwrap_or_default(),
                 });
                 st.current = Some(st.executions.len() - 1);
                 st.selection = None;
@@ -304,6 +312,27 @@ impl Session {
                 };
                 let number = self.state.take_number();
                 self.add_advice(*execution, Box::new(syn), number)?;
+                self.state.redo.clear();
+            }
+            Effect::Takeover {
+                execution,
+                steps,
+                every,
+                name,
+                points,
+            } => {
+                let trace = Trace::from_json(&self.domain, points)?;
+                let number = self.state.take_number();
+                self.add_takeover(
+                    super::takeover::Taken {
+                        execution: *execution,
+                        steps: *steps,
+                        every: *every,
+                        name: name.clone(),
+                        trace,
+                    },
+                    number,
+                )?;
                 self.state.redo.clear();
             }
             Effect::Critique {

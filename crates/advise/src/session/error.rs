@@ -293,6 +293,25 @@ pub enum SessionError {
         #[diagnostic_source]
         error: BackendError,
     },
+    #[error("the task `{task}` has no teacher to take over a run")]
+    #[diagnostic(
+        code(advise::session::takeover_no_teacher),
+        help(
+            "`takeover A..B` lets the task's own teacher drive (a declared task names one with `teacher {{ ... }}`); a person takes over a run live from the terminal's keys, the web view's pad or a ROS 2 topic (`ros2?takeover=/TOPIC`)"
+        )
+    )]
+    TakeoverNoTeacher { task: TaskKind },
+    #[error("`takeover {window}` is not a window of a run")]
+    #[diagnostic(
+        code(advise::session::bad_takeover),
+        help(
+            "the teacher drives from A to B seconds into the run: A before B, B at most {max_s} s (`takeover 2..4`)"
+        )
+    )]
+    BadTakeover {
+        window: String,
+        max_s: String,
+    },
     /// A run that stopped on a value of the task that is not a number: like an interrupted
     /// one, what was recorded before it is kept as an execution.
     #[error(
