@@ -349,7 +349,7 @@ pub const COMMANDS: &[CommandSpec] = &[
                 example: "run start 3",
             },
         ],
-        signature: "run goal V... | run start N  [takeover A..B]",
+        signature: "run goal V... | run start N",
         doc: "Run the current policy to a goal, its values in the task's order or by name (`run goal 2 -1 0.5`, `run goal px=2 py=1`), or from the N-th practice start, and record it; the reply names the goal. With `takeover A..B` the task's teacher drives from A to B seconds into the run, and what it drove joins the data as a demonstration linked to the run (`why` names it, `undo` takes it back).",
         step: Step::Run,
         example: "run goal 2 -1 0",
