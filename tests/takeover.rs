@@ -189,3 +189,80 @@ fn a_takeover_on_the_rmp_is_resumed_without_driving_it_again() {
     assert_eq!(saved(&mut s, &dir.path().join("b.json")), expected);
     assert!(text(&mut s, "history").contains("#1 takeover of execution 0"));
 }
+
+/// Poll the emulator every 5 ms for at most `for_s` until `done`; whether it happened.
+fn wait_for(
+    emu: &advise::backend::rmp::EmulatorHandle,
+    for_s: f64,
+    done: impl Fn(&advise::backend::rmp::EmulatorHandle) -> bool,
+) -> bool {
+    let t0 = std::time::Instant::now();
+    while t0.elapsed().as_secs_f64() < for_s {
+        if done(emu) {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    done(emu)
+}
+
+/// The live takeover in the real REPL on the RMP emulator: while `run` drives the base, Tab takes
+/// over holding the learner's command, the person's keys set the base's speed, Tab hands back
+/// and the learner drives again; Ctrl-C (a key in the run's raw mode) stops the base and
+/// ends the run; the window the person drove is kept as a takeover `history` lists.
+#[cfg(unix)]
+#[test]
+fn a_person_takes_over_a_run_on_the_rmp_from_the_terminal() -> Result<(), rexpect::error::Error> {
+    let emu = emulator();
+    let home = tempfile::tempdir().unwrap();
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_advise"));
+    cmd.args(["repl", "--no-journal", "--backend"])
+        .arg(format!("rmp:{}", emu.addr()))
+        .env("ADVISE_HOME", home.path())
+        .env("NO_COLOR", "1")
+        .env("TERM", "xterm");
+    let mut p = rexpect::session::spawn_command(cmd, Some(60_000))?;
+    p.exp_string("advise> ")?;
+    p.send_line("run goal 3 1 0")?;
+    p.exp_string("Tab takes over")?;
+    let moving = |e: &advise::backend::rmp::EmulatorHandle| e.snapshot().speed_mps > 0.2;
+    assert!(wait_for(&emu, 30.0, moving), "{:?}", emu.snapshot());
+    p.send("\t")?;
+    p.flush()?;
+    p.exp_string("you drive")?;
+    // Held at the learner's command: still moving a moment after the takeover.
+    std::thread::sleep(Duration::from_millis(200));
+    assert!(emu.snapshot().speed_mps > 0.1, "{:?}", emu.snapshot());
+    // Space zeroes the held command, two steps of speed make it 0.2 m/s: the base settles there,
+    // whatever the learner would have done.
+    p.send(" ww")?;
+    p.flush()?;
+    let held = |e: &advise::backend::rmp::EmulatorHandle| (e.snapshot().speed_mps - 0.2).abs() < 0.03;
+    assert!(
+        wait_for(&emu, 10.0, held),
+        "the person's command did not drive the base: {:?}",
+        emu.snapshot()
+    );
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(held(&emu), "{:?}", emu.snapshot());
+    p.send("\t")?;
+    p.flush()?;
+    p.exp_string("handed back to the learner")?;
+    std::thread::sleep(Duration::from_millis(300));
+    p.send_control('c')?;
+    p.exp_string("^C: stopping the base")?;
+    let (_, said) = p.exp_regex(r"the teacher drove steps \d+\.\.\d+ \([^)]*\), kept as takeover #1 \(\d+ points\)")?;
+    assert!(said.contains("takeover #1"), "{said}");
+    p.exp_string("advise> ")?;
+    assert!(
+        wait_for(&emu, 3.0, |e| e.snapshot().speed_mps.abs() < 0.01),
+        "still moving after Ctrl-C: {:?}",
+        emu.snapshot()
+    );
+    p.send_line("history")?;
+    p.exp_string("#1 takeover of execution 0 (run goal 3 1 0 (interrupted))")?;
+    p.exp_string("advise> ")?;
+    p.send_line("quit")?;
+    p.exp_eof()?;
+    Ok(())
+}

@@ -277,7 +277,7 @@ pub enum SessionError {
     /// The one failure that changes the session: what the base recorded before it failed is kept
     /// as an execution, as on a real robot it cannot be had again.
     #[error(
-        "execution {index} ({label}) was interrupted after {steps} steps; what was recorded is kept"
+        "execution {index} ({label}) was interrupted after {steps} steps; what was recorded is kept{took_over}"
     )]
     #[diagnostic(
         code(advise::session::run_interrupted),
@@ -289,6 +289,8 @@ pub enum SessionError {
         index: usize,
         label: String,
         steps: usize,
+        /// What the teacher drove before it, as the run's reply says it (empty: nothing).
+        took_over: String,
         #[source]
         #[diagnostic_source]
         error: BackendError,
@@ -315,7 +317,7 @@ pub enum SessionError {
     /// A run that stopped on a value of the task that is not a number: like an interrupted
     /// one, what was recorded before it is kept as an execution.
     #[error(
-        "execution {index} ({label}) stopped after {steps} steps on a value that is not a number; what was recorded is kept"
+        "execution {index} ({label}) stopped after {steps} steps on a value that is not a number; what was recorded is kept{took_over}"
     )]
     #[diagnostic(
         code(advise::session::run_stopped),
@@ -327,6 +329,8 @@ pub enum SessionError {
         index: usize,
         label: String,
         steps: usize,
+        /// What the teacher drove before it (empty: nothing).
+        took_over: String,
         #[source]
         #[diagnostic_source]
         reason: task::NonFinite,

@@ -161,11 +161,21 @@ impl Session {
         // What the teacher drove is kept, even of a run that failed.
         let takeovers = self.keep_takeovers(index, &teacher)?;
         let takeover_missed = window.filter(|_| takeovers.is_empty()).map(|w| w.to_string());
+        let took_over: String = takeovers
+            .iter()
+            .map(|t| {
+                format!(
+                    "; the teacher drove steps {} ({:.2} s to {:.2} s), kept as takeover #{} ({} points)",
+                    t.steps, t.from_s, t.to_s, t.number, t.points
+                )
+            })
+            .collect();
         if let Some(error) = failure {
             return Err(SessionError::RunInterrupted {
                 index,
                 label,
                 steps: n,
+                took_over,
                 error,
             });
         }
@@ -174,6 +184,7 @@ impl Session {
                 index,
                 label,
                 steps: n,
+                took_over,
                 reason,
             });
         }

@@ -13,7 +13,8 @@ use super::undo::Edit;
 use super::{Session, SessionError};
 use crate::policy::dataset::TakeoverLink;
 use crate::syntax::command::TakeoverSeconds;
-use crate::task::takeover::{Moment, Never, Takeover, Window};
+use crate::backend::teleop::{Commands, KEYS_HELP_RUN, KeyCommands, console};
+use crate::task::takeover::{Never, Person, Takeover, Window};
 use crate::task::{TaskKind, recorded_at};
 use crate::trace::{Chunk, Trace};
 
@@ -39,11 +40,11 @@ pub struct TookOver {
     pub number: usize,
 }
 
-/// Makes the live takeover of each run (a person at the terminal, the web view's pad, a ROS 2
-/// topic): what a front end installs with [`Session::set_live_takeover`]. It is asked once per
-/// run, with the task and the base's limits; `None` leaves the learner driving.
+/// Makes the live takeover of each run (a web page's pad, a Python caller's commands): what a
+/// front end installs with [`Session::set_live_takeover`]. It is asked once per run; `None`
+/// leaves the learner driving (but for the terminal's keys and the base's own takeover topic).
 pub trait LiveTakeover: Send {
-    fn for_run(&mut self, run: &RunInfo) -> Option<Box<dyn Takeover>>;
+    fn for_run(&mut self, run: &RunInfo) -> Option<Box<dyn Commands>>;
 }
 
 /// What a live takeover knows of the run it is made for.
@@ -56,13 +57,19 @@ pub struct RunInfo {
     pub period_s: f64,
 }
 
-/// Any number of takeovers, the first that drives a step driving it: a person's keys and a ROS
-/// 2 topic may both be live in one run.
-pub struct Either(pub Vec<Box<dyn Takeover>>);
+/// Several people's commands, the first who drives a step driving it (a terminal's keys and a
+/// ROS 2 topic may both be live in one run).
+struct Either(Vec<Box<dyn Commands>>);
 
-impl Takeover for Either {
-    fn drive(&mut self, at: &Moment<'_>, a: &mut [f64]) -> bool {
-        self.0.iter_mut().any(|t| t.drive(at, a))
+impl Commands for Either {
+    fn command(&mut self, now: (f64, f64)) -> Option<(f64, f64)> {
+        // Every source is asked each step (a key source drains its keys), the first answer kept.
+        let mut out = None;
+        for c in &mut self.0 {
+            let got = c.command(now);
+            out = out.or(got);
+        }
+        out
     }
 }
 
@@ -100,17 +107,47 @@ impl Session {
                 w.from_s, w.to_s, period_s, teacher, seed,
             )));
         }
+        let Some(axes) = speed_axes(&self.task) else {
+            // The actions are not speed commands (interception's are changes of speed): a
+            // person's commands cannot be given to this task's runs.
+            return Ok(Box::new(Never));
+        };
         let info = RunInfo {
             task: self.task.clone(),
             max_speed_mps: self.sim.max_speed_mps,
             max_rot_radps: self.sim.max_rot_radps,
             period_s,
         };
-        Ok(self
-            .live_takeover
-            .as_mut()
-            .and_then(|l| l.for_run(&info))
-            .unwrap_or_else(|| Box::new(Never)))
+        let mut sources: Vec<Box<dyn Commands>> = Vec::new();
+        if let Some(c) = self.live_takeover.as_mut().and_then(|l| l.for_run(&info)) {
+            sources.push(c);
+        }
+        if let Some(c) = self.backend.takeover_commands() {
+            sources.push(c);
+        }
+        // A person at the terminal can take over a robot's run (the simulator's runs are over
+        // before a key could be pressed, and its runs stay free of the terminal's raw mode).
+        if !self.backend.is_simulator()
+            && let Some(console) = console()
+            && let Ok(keys) = console.keys()
+        {
+            console.show(format_args!("{KEYS_HELP_RUN}\r\n"));
+            sources.push(Box::new(KeyCommands::new(
+                keys,
+                info.max_speed_mps,
+                info.max_rot_radps,
+                self.stop.clone(),
+                Some(console),
+            )));
+        }
+        if sources.is_empty() {
+            return Ok(Box::new(Never));
+        }
+        Ok(Box::new(Person {
+            commands: Box::new(Either(sources)),
+            axes,
+            max: (info.max_speed_mps, info.max_rot_radps),
+        }))
     }
 
     /// Keep each window the teacher drove of execution `execution` as a demonstration linked to
@@ -190,6 +227,19 @@ impl Session {
                 _ => None,
             })
             .unwrap_or_else(|| format!("takeover (dataset id {id})"))
+    }
+}
+
+/// The indices of the actions that are a task's speed and turn commands, when both are commands
+/// as given (positioning's, a declared task's without `integrate`): what a person's commands
+/// take over.
+pub(crate) fn speed_axes(task: &TaskKind) -> Option<(usize, usize)> {
+    let def = task.def()?;
+    match (&def.speed, &def.turn) {
+        (Some(s), Some(t)) if s.integrate.is_none() && t.integrate.is_none() => {
+            Some((s.action, t.action))
+        }
+        _ => None,
     }
 }
 

@@ -19,6 +19,7 @@
 //! No IO, nothing printed.
 
 use super::{Controller, Execution, Interrupted, Stepper, Task};
+use crate::backend::teleop::Commands;
 use crate::backend::{Backend, BaseState};
 use crate::trace::Chunk;
 
@@ -125,6 +126,35 @@ impl Takeover for Window {
             self.teacher.begin(self.seed);
         }
         self.teacher.act(at.observation, a);
+        true
+    }
+}
+
+/// A person takes over: each step, the teleoperation `commands` (a terminal's keys, a ROS 2
+/// topic, a web page's pad) say whether the person drives and with what speed command, which
+/// becomes the task's action on its speed and turn axes (`axes`: their indices among the
+/// actions; the other actions are zero), clamped to the base's limits (`max`) before the
+/// domain's clamp.
+pub struct Person {
+    pub commands: Box<dyn Commands>,
+    pub axes: (usize, usize),
+    pub max: (f64, f64),
+}
+
+impl Takeover for Person {
+    fn drive(&mut self, at: &Moment<'_>, a: &mut [f64]) -> bool {
+        let (si, ti) = self.axes;
+        let get = |i: usize| at.last_action.get(i).copied().unwrap_or(0.0);
+        let Some((v, w)) = self.commands.command((get(si), get(ti))) else {
+            return false;
+        };
+        let clamp = |x: f64, max: f64| if x.is_finite() { x.clamp(-max, max) } else { 0.0 };
+        if let Some(slot) = a.get_mut(si) {
+            *slot = clamp(v, self.max.0.abs());
+        }
+        if let Some(slot) = a.get_mut(ti) {
+            *slot = clamp(w, self.max.1.abs());
+        }
         true
     }
 }
