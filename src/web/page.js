@@ -496,6 +496,37 @@ $("stop").onclick = async () => {
   showError(res.ok ? "" : `Stop: HTTP ${res.status}`);
   if (res.ok) $("status").textContent = (await res.json()).reply;
 };
+/** The hold-to-drive pad: while held, where the pointer is (up: forward, left: turn left, as
+ * fractions of the base's limits) is posted every 100 ms; the server hands back to the learner
+ * on release or when the posts stop. */
+(function pad() {
+  const p = $("pad");
+  let held = null, timer = null;
+  const send = (body) => fetch(api("/api/takeover"), { method: "POST", body: JSON.stringify(body) }).catch(() => {});
+  const at = (e) => {
+    const r = p.getBoundingClientRect();
+    const clamp = (v) => Math.max(-1, Math.min(1, v));
+    return { speed: clamp(-((e.clientY - r.top) / r.height * 2 - 1)), turn: clamp(-((e.clientX - r.left) / r.width * 2 - 1)) };
+  };
+  const release = () => {
+    if (!held) return;
+    held = null;
+    clearInterval(timer);
+    p.classList.remove("held");
+    send({ release: true });
+  };
+  p.addEventListener("pointerdown", (e) => {
+    p.setPointerCapture(e.pointerId);
+    held = at(e);
+    p.classList.add("held");
+    send(held);
+    timer = setInterval(() => held && send(held), 100);
+  });
+  p.addEventListener("pointermove", (e) => { if (held) held = at(e); });
+  p.addEventListener("pointerup", release);
+  p.addEventListener("pointercancel", release);
+  window.addEventListener("blur", release);
+})();
 selecting($("path"));
 selecting($("actions"));
 new EventSource(api("/api/events")).addEventListener("statement", refresh);
