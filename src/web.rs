@@ -166,7 +166,7 @@ struct Inner {
     live: Mutex<Live>,
     stop: StopSignal,
     /// The hold-to-drive pad: the session's live takeover, held outside its lock.
-    pad: pad::Pad,
+    pad: advise::session::Hold,
     events: broadcast::Sender<Arc<str>>,
 }
 
@@ -179,7 +179,7 @@ pub struct Hub {
 impl Hub {
     pub fn new(mut session: Session) -> Hub {
         let stop = session.stop_signal();
-        let pad = pad::Pad::default();
+        let pad = pad::pad();
         session.set_live_takeover(Some(Box::new(pad.clone())));
         let (events, _) = broadcast::channel(256);
         Hub {
@@ -201,7 +201,7 @@ impl Hub {
     }
 
     /// The page's hold-to-drive pad.
-    pub fn pad(&self) -> &pad::Pad {
+    pub fn pad(&self) -> &advise::session::Hold {
         &self.inner.pad
     }
 
@@ -940,7 +940,7 @@ async fn takeover(State(app): State<App>, body: String) -> Response {
             return (StatusCode::BAD_REQUEST, format!("not a pad's post: {e}")).into_response();
         }
     };
-    match app.hub.inner.pad.post(&post) {
+    match pad::post(&app.hub.inner.pad, &post) {
         Ok(()) => json_response(&json!({"ok": true})),
         Err(why) => (StatusCode::BAD_REQUEST, why).into_response(),
     }

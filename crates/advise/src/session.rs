@@ -49,7 +49,7 @@ use journal::Journal;
 pub use advice::check_kappa;
 pub use error::SessionError;
 pub use reply::{Advised, Defined, Evaluated, Ran, Reply, Since};
-pub use takeover::{LiveTakeover, RunInfo, TookOver};
+pub use takeover::{Both, Hold, LiveTakeover, RunInfo, TookOver};
 use undo::Edit;
 
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met

@@ -47,6 +47,85 @@ pub trait LiveTakeover: Send {
     fn for_run(&mut self, run: &RunInfo) -> Option<Box<dyn Commands>>;
 }
 
+/// A person's command held from another thread (a web page's pad, a Python caller): while it
+/// is refreshed within its timeout a robot's run is theirs; released, or not refreshed (a closed
+/// tab, a stopped script), the learner drives again. Cheap to clone; install one clone on the
+/// session ([`Session::set_live_takeover`]) and hold with another, which needs no lock of the
+/// session's (a run holds it for as long as it drives).
+#[derive(Clone)]
+pub struct Hold {
+    held: std::sync::Arc<std::sync::Mutex<Option<(f64, f64, std::time::Instant)>>>,
+    timeout: std::time::Duration,
+}
+
+impl Hold {
+    /// A hold that hands back after `timeout` without a refresh.
+    pub fn new(timeout: std::time::Duration) -> Hold {
+        Hold {
+            held: Default::default(),
+            timeout,
+        }
+    }
+
+    fn slot(&self) -> std::sync::MutexGuard<'_, Option<(f64, f64, std::time::Instant)>> {
+        self.held.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Hold `speed` and `turn`, each a fraction of the base's limit from -1 to 1 (refused
+    /// otherwise, with what was wrong).
+    pub fn hold(&self, speed: f64, turn: f64) -> Result<(), String> {
+        let fraction = |v: f64| v.is_finite() && (-1.0..=1.0).contains(&v);
+        if !(fraction(speed) && fraction(turn)) {
+            return Err(format!(
+                "speed and turn are fractions of the base's limits, from -1 to 1 (got {speed} and {turn})"
+            ));
+        }
+        *self.slot() = Some((speed, turn, std::time::Instant::now()));
+        Ok(())
+    }
+
+    /// Let go: the learner drives from the next step.
+    pub fn release(&self) {
+        *self.slot() = None;
+    }
+
+    /// The fractions held now, if held and refreshed within the timeout.
+    pub fn now(&self) -> Option<(f64, f64)> {
+        let mut slot = self.slot();
+        match *slot {
+            Some((s, t, at)) if at.elapsed() <= self.timeout => Some((s, t)),
+            _ => {
+                *slot = None;
+                None
+            }
+        }
+    }
+}
+
+impl LiveTakeover for Hold {
+    fn for_run(&mut self, run: &RunInfo) -> Option<Box<dyn Commands>> {
+        // A hold from before the run does not take it over at its first step.
+        self.release();
+        Some(Box::new(HeldCommands {
+            hold: self.clone(),
+            max: (run.max_speed_mps, run.max_rot_radps),
+        }))
+    }
+}
+
+struct HeldCommands {
+    hold: Hold,
+    max: (f64, f64),
+}
+
+impl Commands for HeldCommands {
+    fn command(&mut self, _now: (f64, f64)) -> Option<(f64, f64)> {
+        self.hold
+            .now()
+            .map(|(s, t)| (s * self.max.0.abs(), t * self.max.1.abs()))
+    }
+}
+
 /// What a live takeover knows of the run it is made for.
 #[derive(Clone, Debug)]
 pub struct RunInfo {
@@ -55,6 +134,20 @@ pub struct RunInfo {
     pub max_speed_mps: f64,
     pub max_rot_radps: f64,
     pub period_s: f64,
+}
+
+/// Several live takeovers, each asked per run (a web page's pad and a Python caller's hold may
+/// both be installed).
+pub struct Both(pub Box<dyn LiveTakeover>, pub Box<dyn LiveTakeover>);
+
+impl LiveTakeover for Both {
+    fn for_run(&mut self, run: &RunInfo) -> Option<Box<dyn Commands>> {
+        let all: Vec<Box<dyn Commands>> = [self.0.for_run(run), self.1.for_run(run)]
+            .into_iter()
+            .flatten()
+            .collect();
+        (!all.is_empty()).then(|| Box::new(Either(all)) as Box<dyn Commands>)
+    }
 }
 
 /// Several people's commands, the first who drives a step driving it (a terminal's keys and a
