@@ -237,7 +237,8 @@ fn a_person_takes_over_a_run_on_the_rmp_from_the_terminal() -> Result<(), rexpec
     // whatever the learner would have done.
     p.send(" ww")?;
     p.flush()?;
-    let held = |e: &advise::backend::rmp::EmulatorHandle| (e.snapshot().speed_mps - 0.2).abs() < 0.03;
+    let held =
+        |e: &advise::backend::rmp::EmulatorHandle| (e.snapshot().speed_mps - 0.2).abs() < 0.03;
     assert!(
         wait_for(&emu, 10.0, held),
         "the person's command did not drive the base: {:?}",
@@ -251,7 +252,9 @@ fn a_person_takes_over_a_run_on_the_rmp_from_the_terminal() -> Result<(), rexpec
     std::thread::sleep(Duration::from_millis(300));
     p.send_control('c')?;
     p.exp_string("^C: stopping the base")?;
-    let (_, said) = p.exp_regex(r"the teacher drove steps \d+\.\.\d+ \([^)]*\), kept as takeover #1 \(\d+ points\)")?;
+    let (_, said) = p.exp_regex(
+        r"the teacher drove steps \d+\.\.\d+ \([^)]*\), kept as takeover #1 \(\d+ points\)",
+    )?;
     assert!(said.contains("takeover #1"), "{said}");
     p.exp_string("advise> ")?;
     assert!(

@@ -463,9 +463,14 @@ fn the_pad_takes_over_a_robots_run_while_it_is_held() {
     })
     .unwrap();
     let hub = Hub::new(session);
-    hub.execute(&format!("backend rmp:{}", emu.addr()), "<test>", "test", false)
-        .shown
-        .unwrap();
+    hub.execute(
+        &format!("backend rmp:{}", emu.addr()),
+        "<test>",
+        "test",
+        false,
+    )
+    .shown
+    .unwrap();
     let server = start(hub.clone(), "127.0.0.1:0".parse().unwrap()).unwrap();
     let port = server.addr.port();
     let token = token_of(&server);
@@ -509,7 +514,11 @@ fn the_pad_takes_over_a_robots_run_while_it_is_held() {
                 && (emu.snapshot().speed_mps - 0.2).abs() < 0.03;
             std::thread::sleep(Duration::from_millis(100));
         }
-        assert!(settled, "the pad did not drive the base: {:?}", emu.snapshot());
+        assert!(
+            settled,
+            "the pad did not drive the base: {:?}",
+            emu.snapshot()
+        );
         // Let go by going silent (a closed tab): the learner drives again, then stop the run.
         std::thread::sleep(Duration::from_millis(1000));
         hub.stop();
@@ -519,11 +528,16 @@ fn the_pad_takes_over_a_robots_run_while_it_is_held() {
         Ok(t) | Err(t) => t,
     };
     assert!(shown.contains("the teacher drove steps"), "{shown}");
-    let history = hub.execute("history", "<test>", "test", false).shown.unwrap();
+    let history = hub
+        .execute("history", "<test>", "test", false)
+        .shown
+        .unwrap();
     assert!(history.contains("#1 takeover of execution 0"), "{history}");
     let state = hub.with(|s| s.view_json(None));
     assert!(
-        state["shown"]["teacher"].as_array().is_some_and(|w| w.len() == 1),
+        state["shown"]["teacher"]
+            .as_array()
+            .is_some_and(|w| w.len() == 1),
         "the web view marks the window: {}",
         state["shown"]["teacher"]
     );

@@ -644,9 +644,12 @@ impl Dataset {
         trace: &Trace,
         link: TakeoverLink,
     ) -> Result<DemoId, DatasetError> {
-        check_takeover(&link, self.execution_len(link.execution)?, trace.len(), || {
-            "takeover".into()
-        })?;
+        check_takeover(
+            &link,
+            self.execution_len(link.execution)?,
+            trace.len(),
+            || "takeover".into(),
+        )?;
         self.add_demonstration_linked(name, trace, Some(link))
     }
 
@@ -1112,7 +1115,9 @@ fn check_takeover(
     points: usize,
     at: impl Fn() -> String,
 ) -> Result<(), DatasetError> {
-    check_chunk(link.steps, link.execution, len, || format!("{}.steps", at()))?;
+    check_chunk(link.steps, link.execution, len, || {
+        format!("{}.steps", at())
+    })?;
     if link.every == 0 || link.steps.is_empty() || link.points() != points {
         return Err(DatasetError::Record {
             at: at(),

@@ -212,12 +212,16 @@ impl KeyCommands {
         self.active = true;
         self.teleop.ended = false;
         let (v, w) = now;
-        let finite = |x: f64, max: f64| if x.is_finite() { x.clamp(-max, max) } else { 0.0 };
+        let finite = |x: f64, max: f64| {
+            if x.is_finite() {
+                x.clamp(-max, max)
+            } else {
+                0.0
+            }
+        };
         self.teleop.speed_mps = finite(v, self.teleop.max_speed_mps);
         self.teleop.rot_radps = finite(w, self.teleop.max_rot_radps);
-        self.show(format_args!(
-            "\r\nyou drive: {KEYS_HELP_RUN}\r\n"
-        ));
+        self.show(format_args!("\r\nyou drive: {KEYS_HELP_RUN}\r\n"));
     }
 }
 

@@ -310,10 +310,7 @@ pub enum SessionError {
             "the teacher drives from A to B seconds into the run: A before B, B at most {max_s} s (`takeover 2..4`)"
         )
     )]
-    BadTakeover {
-        window: String,
-        max_s: String,
-    },
+    BadTakeover { window: String, max_s: String },
     /// A run that stopped on a value of the task that is not a number: like an interrupted
     /// one, what was recorded before it is kept as an execution.
     #[error(

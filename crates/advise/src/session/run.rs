@@ -160,7 +160,9 @@ impl Session {
         let index = self.state.executions.len() - 1;
         // What the teacher drove is kept, even of a run that failed.
         let takeovers = self.keep_takeovers(index, &teacher)?;
-        let takeover_missed = window.filter(|_| takeovers.is_empty()).map(|w| w.to_string());
+        let takeover_missed = window
+            .filter(|_| takeovers.is_empty())
+            .map(|w| w.to_string());
         let took_over: String = takeovers
             .iter()
             .map(|t| {

@@ -148,7 +148,13 @@ impl Takeover for Person {
         let Some((v, w)) = self.commands.command((get(si), get(ti))) else {
             return false;
         };
-        let clamp = |x: f64, max: f64| if x.is_finite() { x.clamp(-max, max) } else { 0.0 };
+        let clamp = |x: f64, max: f64| {
+            if x.is_finite() {
+                x.clamp(-max, max)
+            } else {
+                0.0
+            }
+        };
         if let Some(slot) = a.get_mut(si) {
             *slot = clamp(v, self.max.0.abs());
         }
@@ -356,13 +362,9 @@ mod tests {
         assert!(plain.teacher.is_empty());
         let mut base = SimBackend::new(SimParams::default(), 3);
         let start = Start::Goal(Pose::new(4.0, 0.0, 0.0));
-        let e = crate::task::run_episode(
-            &mut base,
-            start.task().as_mut(),
-            &mut Constant(0.2, 0.0),
-            3,
-        )
-        .unwrap();
+        let e =
+            crate::task::run_episode(&mut base, start.task().as_mut(), &mut Constant(0.2, 0.0), 3)
+                .unwrap();
         assert_eq!(e.trace, plain.result.unwrap().trace, "the same loop");
     }
 
@@ -376,7 +378,10 @@ mod tests {
                 end: 120
             }
         );
-        assert_eq!(seconds_to_steps(f64::NAN, 4.0, p), Chunk { start: 0, end: 120 });
+        assert_eq!(
+            seconds_to_steps(f64::NAN, 4.0, p),
+            Chunk { start: 0, end: 120 }
+        );
         assert_eq!(seconds_to_steps(3.0, 1.0, p), Chunk { start: 90, end: 90 });
     }
 }

@@ -501,7 +501,10 @@ mod tests {
     fn a_takeover_topic_is_read_and_written_back() {
         let r = ros2("ros2:/robot1?takeover=joy/cmd_vel&takeover_timeout=0.25");
         assert_eq!(r.takeover.as_deref(), Some("joy/cmd_vel"));
-        assert_eq!(r.resolve(r.takeover.as_deref().unwrap()), "/robot1/joy/cmd_vel");
+        assert_eq!(
+            r.resolve(r.takeover.as_deref().unwrap()),
+            "/robot1/joy/cmd_vel"
+        );
         assert_eq!(r.takeover_timeout_ms, 250);
         assert_eq!(
             r.to_string(),
