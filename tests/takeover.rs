@@ -103,6 +103,17 @@ fn a_saved_dataset_keeps_the_link_and_open_gives_the_takeover_back() {
     let dir = tempfile::tempdir().unwrap();
     let mut s = positioning(9);
     run(&mut s, "run goal 2 -1 0.5 takeover 2..4");
+    // The plots mark the window the teacher drove.
+    for kind in ["", "actions "] {
+        let svg = dir.path().join(format!("{}p.svg", kind.trim()));
+        run(&mut s, &format!("plot {kind}{}", svg.display()));
+        let text = std::fs::read_to_string(&svg).unwrap();
+        // The legend wraps its label: the kind on one line, the steps on the next.
+        assert!(
+            text.contains("the teacher drove") && text.contains("60..120"),
+            "{kind}plot"
+        );
+    }
     let file = dir.path().join("d.json");
     let bytes = saved(&mut s, &file);
     let json: serde_json::Value = serde_json::from_slice(&bytes).unwrap();

@@ -435,7 +435,7 @@ impl Session {
             edits.push(super::undo::Edit::Takeover {
                 number: 0,
                 id: d.id,
-                taken: Box::new(super::takeover::Taken {
+                taken: Box::new(super::undo::Taken {
                     execution,
                     steps: link.steps,
                     every: link.every,

@@ -9,7 +9,7 @@
 
 use super::effect::Effect;
 use super::text::short_num;
-use super::undo::Edit;
+use super::undo::{Edit, Taken};
 use super::{Session, SessionError};
 use crate::backend::teleop::{Commands, KEYS_HELP_RUN, KeyCommands, console};
 use crate::policy::dataset::TakeoverLink;
@@ -17,16 +17,6 @@ use crate::syntax::command::TakeoverSeconds;
 use crate::task::takeover::{Never, Person, Takeover, Window};
 use crate::task::{TaskKind, recorded_at};
 use crate::trace::{Chunk, Trace};
-
-/// A takeover's demonstration: the points the teacher drove, and where in which execution.
-#[derive(Clone, Debug)]
-pub(crate) struct Taken {
-    pub execution: usize,
-    pub steps: Chunk,
-    pub every: u32,
-    pub name: String,
-    pub trace: Trace,
-}
 
 /// What a run's reply says of one takeover window.
 #[derive(Clone, Debug, PartialEq)]
@@ -305,6 +295,31 @@ impl Session {
             id,
             taken: Box::new(taken),
         });
+        Ok(())
+    }
+
+    /// Apply a journalled [`Effect::Takeover`]: its points, as a live takeover adds them.
+    pub(super) fn apply_takeover(
+        &mut self,
+        execution: usize,
+        steps: Chunk,
+        every: u32,
+        name: &str,
+        points: &crate::trace::JsonTrace,
+    ) -> Result<(), SessionError> {
+        let trace = Trace::from_json(&self.domain, points)?;
+        let number = self.state.take_number();
+        self.add_takeover(
+            Taken {
+                execution,
+                steps,
+                every,
+                name: name.to_string(),
+                trace,
+            },
+            number,
+        )?;
+        self.state.redo.clear();
         Ok(())
     }
 

@@ -4,12 +4,21 @@
 use std::fmt::Write as _;
 
 use super::effect::Effect;
-use super::takeover::Taken;
 use super::{HeldExecution, Session, SessionError};
 use crate::interp::Synthesized;
 use crate::policy::dataset::Critique;
 use crate::policy::learner;
 use crate::trace::Chunk;
+
+/// A takeover's demonstration: the points the teacher drove, and where in which execution.
+#[derive(Clone, Debug)]
+pub(crate) struct Taken {
+    pub execution: usize,
+    pub steps: Chunk,
+    pub every: u32,
+    pub name: String,
+    pub trace: crate::trace::Trace,
+}
 
 /// An edit that `undo` can take back, holding everything `redo` needs to put it back exactly.
 #[derive(Clone, Debug)]
