@@ -174,14 +174,26 @@ fn a_takeover_on_the_rmp_is_resumed_without_driving_it_again() {
     let addr = emu.addr();
     let mut live = positioning(9);
     let journal = live.start_journal(dir.path()).unwrap();
-    let replies = run(
-        &mut live,
-        &format!("backend rmp:{addr}\nrun goal 0.6 0 0 takeover 0.5..1"),
+    run(&mut live, &format!("backend rmp:{addr}"));
+    // Stopped (as Ctrl-C does) two seconds in, after the window: an interrupted run keeps what
+    // the teacher drove and says so.
+    let stop = live.stop_signal();
+    let err = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            std::thread::sleep(Duration::from_secs(2));
+            stop.raise();
+        });
+        live.execute("run goal 3 1 0 takeover 0.5..1", "<test>")
+    })
+    .unwrap_err();
+    let said = err.to_string();
+    assert!(
+        said.contains("was interrupted")
+            && said.contains(
+                "the teacher drove steps 15..30 (0.50 s to 1.00 s), kept as takeover #1 (8 points)"
+            ),
+        "{said}"
     );
-    let Reply::Ran(ran) = &replies[1] else {
-        panic!("{:?}", replies[1])
-    };
-    assert_eq!(ran.takeovers.len(), 1, "{ran:?}");
     let expected = saved(&mut live, &dir.path().join("a.json"));
     drop(live);
     drop(emu);

@@ -14,8 +14,8 @@ use super::{Session, SessionError};
 use crate::backend::teleop::{Commands, KEYS_HELP_RUN, KeyCommands, console};
 use crate::policy::dataset::TakeoverLink;
 use crate::syntax::command::TakeoverSeconds;
-use crate::task::takeover::{Never, Person, Takeover, Window};
-use crate::task::{TaskKind, recorded_at};
+use crate::task::TaskKind;
+use crate::task::takeover::{Never, Person, Takeover, Window, window_trace};
 use crate::trace::{Chunk, Trace};
 
 /// What a run's reply says of one takeover window.
@@ -244,19 +244,7 @@ impl Session {
         let period_s = self.backend.period_s();
         let mut out = Vec::new();
         for &steps in windows {
-            let trace = {
-                let held = self.numbered(execution)?;
-                let mut part = Trace::with_dims(
-                    &held.trace.domain,
-                    held.trace.obs_dim(),
-                    held.trace.act_dim(),
-                );
-                for k in steps.range() {
-                    let pose = held.trace.pose.as_ref().and_then(|p| p.get(k).copied());
-                    part.push(held.trace.t[k], held.trace.z(k), held.trace.a(k), pose);
-                }
-                recorded_at(&part, every)
-            };
+            let trace = window_trace(&self.numbered(execution)?.trace, steps, every);
             let name = format!("takeover of execution {execution}, steps {steps}");
             let points = trace.len();
             self.commit(Effect::Takeover {

@@ -21,7 +21,7 @@
 use super::{Controller, Execution, Interrupted, Stepper, Task};
 use crate::backend::teleop::Commands;
 use crate::backend::{Backend, BaseState};
-use crate::trace::Chunk;
+use crate::trace::{Chunk, Trace};
 
 /// Who drove a step of a run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -177,6 +177,18 @@ impl Driven {
     pub fn driver(&self, k: usize) -> Driver {
         driver_at(&self.teacher, k)
     }
+}
+
+/// The points of `trace` the teacher drove in `steps`, kept every `every`-th from the first (a
+/// task's demonstration rate, [`super::TaskKind::record_every`]): a takeover's demonstration,
+/// what a session adds with its link to the run and a study may add as it likes.
+pub fn window_trace(trace: &Trace, steps: Chunk, every: usize) -> Trace {
+    let mut part = Trace::with_dims(&trace.domain, trace.obs_dim(), trace.act_dim());
+    for k in steps.range().filter(|&k| k < trace.len()) {
+        let pose = trace.pose.as_ref().and_then(|p| p.get(k).copied());
+        part.push(trace.t[k], trace.z(k), trace.a(k), pose);
+    }
+    super::recorded_at(&part, every)
 }
 
 /// Who drove step `k`, given the windows the teacher drove.
