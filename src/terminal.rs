@@ -74,9 +74,10 @@ impl KeySource for TerminalKeys {
                     KeyCode::Left => Some(Key::Left),
                     KeyCode::Right => Some(Key::Right),
                     KeyCode::Enter | KeyCode::Esc => Some(Key::End),
-                    // Raw mode turns Ctrl-C into a key: it ends the drive at once.
+                    KeyCode::Tab => Some(Key::Toggle),
+                    // Raw mode turns Ctrl-C into a key: it ends a drive at once, and stops a run.
                     KeyCode::Char('c') if k.modifiers.contains(KeyModifiers::CONTROL) => {
-                        Some(Key::End)
+                        Some(Key::Interrupt)
                     }
                     KeyCode::Char(c) => Key::from_char(c),
                     _ => None,

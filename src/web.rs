@@ -32,6 +32,7 @@
 //! from the log.
 
 pub mod guard;
+pub mod pad;
 
 use std::collections::BTreeMap;
 use std::net::SocketAddr;
@@ -164,6 +165,8 @@ struct Live {
 struct Inner {
     live: Mutex<Live>,
     stop: StopSignal,
+    /// The hold-to-drive pad: the session's live takeover, held outside its lock.
+    pad: advise::session::Hold,
     events: broadcast::Sender<Arc<str>>,
 }
 
@@ -174,8 +177,10 @@ pub struct Hub {
 }
 
 impl Hub {
-    pub fn new(session: Session) -> Hub {
+    pub fn new(mut session: Session) -> Hub {
         let stop = session.stop_signal();
+        let pad = pad::pad();
+        session.set_live_takeover(Some(Box::new(pad.clone())));
         let (events, _) = broadcast::channel(256);
         Hub {
             inner: Arc::new(Inner {
@@ -189,9 +194,15 @@ impl Hub {
                     closed: false,
                 }),
                 stop,
+                pad,
                 events,
             }),
         }
+    }
+
+    /// The page's hold-to-drive pad.
+    pub fn pad(&self) -> &advise::session::Hold {
+        &self.inner.pad
     }
 
     fn live(&self) -> MutexGuard<'_, Live> {
@@ -785,6 +796,7 @@ fn router(app: App) -> Router {
         .route("/api/statement", post(statement))
         .route("/api/preview", post(preview))
         .route("/api/stop", post(stop))
+        .route("/api/takeover", post(takeover))
         .route("/api/events", get(events))
         .layer(DefaultBodyLimit::max(MAX_BODY))
         .layer(middleware::from_fn_with_state(app.clone(), checked))
@@ -915,6 +927,22 @@ async fn stop(State(app): State<App>) -> Response {
     match tokio::task::spawn_blocking(move || hub.stop()).await {
         Ok(text) => json_response(&json!({"ok": true, "reply": text})),
         Err(_) => StatusCode::INTERNAL_SERVER_ERROR.into_response(),
+    }
+}
+
+/// The hold-to-drive pad (`{"speed": S, "turn": T}` as fractions of the base's limits while
+/// held, `{"release": true}` when let go): answered at once, without the session's lock, which
+/// a running run holds.
+async fn takeover(State(app): State<App>, body: String) -> Response {
+    let post: pad::Post = match serde_json::from_str(&body) {
+        Ok(p) => p,
+        Err(e) => {
+            return (StatusCode::BAD_REQUEST, format!("not a pad's post: {e}")).into_response();
+        }
+    };
+    match pad::post(&app.hub.inner.pad, &post) {
+        Ok(()) => json_response(&json!({"ok": true})),
+        Err(why) => (StatusCode::BAD_REQUEST, why).into_response(),
     }
 }
 

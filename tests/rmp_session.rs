@@ -289,9 +289,9 @@ fn eval_runs_the_test_set_on_the_rmp() {
     assert!(stderr.contains("advise::backend::rmp_address"), "{stderr}");
 }
 
-/// The REPL itself through a pseudo-terminal: Ctrl-C typed while `run` drives the RMP reaches the
-/// process as SIGINT (the terminal is in cooked mode while a statement runs), stops the base, and
-/// keeps the session and the execution; Ctrl-C at the prompt stops the base and keeps the REPL.
+/// The REPL itself through a pseudo-terminal: Ctrl-C typed while `run` drives the RMP (a key: the
+/// terminal is in raw mode for a live takeover while a robot's run drives, issue 53) stops the
+/// base, and keeps the session and the execution; Ctrl-C at the prompt stops the base and keeps the REPL.
 #[cfg(unix)]
 #[test]
 fn ctrl_c_in_the_repl_stops_the_rmp_and_keeps_the_session() -> Result<(), rexpect::error::Error> {

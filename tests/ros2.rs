@@ -783,3 +783,83 @@ fn discovery_without_multicast_connects_every_time() {
         "{spec}"
     );
 }
+
+/// `ros2?takeover=/teleop/cmd_vel` (issue 53): a person's Twist commands on the takeover topic
+/// (the Cyclone peer playing a joystick: 0.15 m/s turning 0.4 rad/s for 1.5 s at 20 Hz, then
+/// silence) take over the run while they keep coming; the robot receives the person's command
+/// then, the learner's again after the timeout, zero at the end, and the session keeps the
+/// window as a takeover demonstration linked to the run.
+#[test]
+fn twist_commands_on_the_takeover_topic_take_over_a_run_while_they_keep_coming() {
+    if !isolated_with_peer(
+        "twist_commands_on_the_takeover_topic_take_over_a_run_while_they_keep_coming",
+    ) {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut peer = Peer::start(
+        dir.path(),
+        &[
+            "--teleop",
+            "0.15,0.4,1.5",
+            "--teleop-delay",
+            "6",
+            "--teleop-topic",
+            "/teleop/cmd_vel",
+            "--lifetime",
+            "90",
+        ],
+    );
+    let mut s = advise::session::Session::new(advise::session::SessionOptions {
+        default_demos: 9,
+        ..Default::default()
+    })
+    .unwrap();
+    let connected = s
+        .execute("backend ros2?takeover=/teleop/cmd_vel&wait=20", "<test>")
+        .unwrap()
+        .to_string();
+    assert!(
+        connected.contains("Twist commands on /teleop/cmd_vel take over a run"),
+        "{connected}"
+    );
+    let stop = s.stop_signal();
+    let reply = std::thread::scope(|scope| {
+        scope.spawn(|| {
+            // The person's script is over and the learner drove again for a while: stop the run.
+            peer.expect_line("done", Duration::from_secs(60));
+            std::thread::sleep(Duration::from_millis(1500));
+            stop.raise();
+        });
+        s.execute("run goal 3 1 0", "<test>")
+    });
+    let said = match reply {
+        Ok(r) => r.to_string(),
+        Err(e) => e.to_string(),
+    };
+    assert!(said.contains("the teacher drove"), "{said}");
+    let history = s.execute("history", "<test>").unwrap().to_string();
+    assert!(history.contains("#1 takeover of execution 0"), "{history}");
+    let commands = peer.commands();
+    // The person's command reached the robot through the driver (clamped as any command)...
+    let person = commands
+        .iter()
+        .filter(|c| (c.1 - 0.15).abs() < 1e-9 && (c.2 - 0.4).abs() < 1e-9)
+        .count();
+    assert!(person > 20, "{person} of {} commands", commands.len());
+    // ...and the learner's came back after it: a command after the person's last that is not it.
+    let last_person = commands
+        .iter()
+        .rposition(|c| (c.1 - 0.15).abs() < 1e-9 && (c.2 - 0.4).abs() < 1e-9)
+        .unwrap();
+    assert!(
+        commands[last_person + 1..]
+            .iter()
+            .any(|c| c.1 != 0.0 && (c.1 - 0.15).abs() > 1e-3),
+        "the learner never drove again"
+    );
+    assert_last_is_zero(&peer);
+    let window: usize = s.learner().dataset().demos().last().unwrap().points as usize;
+    // 1.5 s at 30 Hz kept at 15 Hz, give or take the link's timing and the 0.5 s timeout.
+    assert!((15..=40).contains(&window), "{window} points");
+}

@@ -438,3 +438,107 @@ fn end_of_input_waits_for_the_pages_statement_journals_and_answers_it() {
     assert!(journalled, "the page's statement is in the journal");
     drain.join().unwrap();
 }
+
+/// The hold-to-drive pad (issue 53) on the RMP emulator: while a page posts the pad held at 0.2
+/// of the speed limit, the run is the person's and the base settles at 0.2 m/s (the page's
+/// posts answered while the run holds the session); when the posts stop the learner drives
+/// again; the window is kept as a takeover; a pad's post without the token is refused and a
+/// value off the pad is a 400.
+#[test]
+fn the_pad_takes_over_a_robots_run_while_it_is_held() {
+    use advise::backend::rmp::{Emulator, EmulatorConfig};
+    let emu = Emulator::bind_sim(
+        "127.0.0.1:0".parse().unwrap(),
+        EmulatorConfig {
+            init_s: 0.05,
+            ..EmulatorConfig::default()
+        },
+        advise::backend::sim::SimParams::default(),
+        0,
+    )
+    .unwrap();
+    let session = Session::new(SessionOptions {
+        default_demos: 9,
+        ..SessionOptions::default()
+    })
+    .unwrap();
+    let hub = Hub::new(session);
+    hub.execute(
+        &format!("backend rmp:{}", emu.addr()),
+        "<test>",
+        "test",
+        false,
+    )
+    .shown
+    .unwrap();
+    let server = start(hub.clone(), "127.0.0.1:0".parse().unwrap()).unwrap();
+    let port = server.addr.port();
+    let token = token_of(&server);
+    let pad = |query: &str, body: &str| {
+        request(
+            port,
+            &format!(
+                "POST /api/takeover{query} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+                body.len()
+            ),
+        )
+    };
+    let good = format!("?token={token}");
+    assert!(pad("", r#"{"speed":0.2}"#).starts_with("HTTP/1.1 403"));
+    assert!(pad(&good, r#"{"speed":2}"#).starts_with("HTTP/1.1 400"));
+    assert!(pad(&good, r#"{"sped":0.2}"#).starts_with("HTTP/1.1 400"));
+    let wait_for = |for_s: f64, done: &dyn Fn() -> bool| {
+        let t0 = std::time::Instant::now();
+        while t0.elapsed().as_secs_f64() < for_s {
+            if done() {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        done()
+    };
+    let said = std::thread::scope(|scope| {
+        let run = scope.spawn(|| hub.execute("run goal 3 1 0", "<test>", "test", false));
+        assert!(
+            wait_for(30.0, &|| emu.snapshot().speed_mps > 0.2),
+            "{:?}",
+            emu.snapshot()
+        );
+        // Held for 2 s, posted every 100 ms as the page does.
+        let t0 = std::time::Instant::now();
+        let mut settled = false;
+        while t0.elapsed() < Duration::from_secs(2) {
+            let res = pad(&good, r#"{"speed":0.2,"turn":0}"#);
+            assert!(res.starts_with("HTTP/1.1 200"), "{res}");
+            settled |= t0.elapsed() > Duration::from_millis(1500)
+                && (emu.snapshot().speed_mps - 0.2).abs() < 0.03;
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        assert!(
+            settled,
+            "the pad did not drive the base: {:?}",
+            emu.snapshot()
+        );
+        // Let go by going silent (a closed tab): the learner drives again, then stop the run.
+        std::thread::sleep(Duration::from_millis(1000));
+        hub.stop();
+        run.join().unwrap()
+    });
+    let shown = match said.shown {
+        Ok(t) | Err(t) => t,
+    };
+    assert!(shown.contains("the teacher drove steps"), "{shown}");
+    let history = hub
+        .execute("history", "<test>", "test", false)
+        .shown
+        .unwrap();
+    assert!(history.contains("#1 takeover of execution 0"), "{history}");
+    let state = hub.with(|s| s.view_json(None));
+    assert!(
+        state["shown"]["teacher"]
+            .as_array()
+            .is_some_and(|w| w.len() == 1),
+        "the web view marks the window: {}",
+        state["shown"]["teacher"]
+    );
+}

@@ -294,6 +294,11 @@ class Session:
         self, execution: int | None = None, budget_s: float | None = None
     ) -> dict[str, Any]:
         """``suggest [N]`` as data: flawed chunks, candidate advice ranked by a re-run."""
+    def take_over(self, speed: float, turn: float) -> None:
+        """Take over the robot's run another thread is executing: fractions of the base's
+        limits (-1 to 1), given again at least every 0.3 s; the window is kept as a takeover."""
+    def hand_back(self) -> None:
+        """Let go of ``take_over``: the learner drives from the run's next step."""
     @property
     def journal_path(self) -> str | None:
         """The journal this session writes, or None."""
@@ -311,7 +316,8 @@ class Session:
         """Execution ``index`` (negative from the end) as arrays: ``observations``, ``actions``,
         ``t``, ``pose``, ``true_pose``, ``ball``, ``support`` (list[Provenance | None]),
         ``support_points`` (int64, -1 for none), ``outcome``, ``label``, ``goal``,
-        ``goal_values``, ``flagged``, ``advised``, ``observation_names``, ``action_names``."""
+        ``goal_values``, ``flagged``, ``advised``, ``teacher`` (the windows a takeover drove),
+        ``observation_names``, ``action_names``."""
     def close(self) -> None:
         """End the session, closing and unlocking its journal."""
     def __enter__(self) -> Self: ...

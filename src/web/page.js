@@ -6,7 +6,7 @@ const token = new URLSearchParams(location.search).get("token");
 const api = (p, q = "") => p + "?token=" + encodeURIComponent(token) + q;
 const $ = (id) => document.getElementById(id);
 const NS = "http://www.w3.org/2000/svg";
-const COLOURS = { path: "#1f4e9c", flagged: "#d62728", advised: "#2ca02c", sel: "#ffbf00", after: "#ff7f0e", ball: "#e377c2", goal: "#2ca02c", drawn: "#7f7f7f" };
+const COLOURS = { path: "#1f4e9c", flagged: "#d62728", advised: "#2ca02c", teacher: "#f09600", sel: "#ffbf00", after: "#ff7f0e", ball: "#e377c2", goal: "#2ca02c", drawn: "#7f7f7f" };
 
 let S = null; // the last state read
 let viewed = null; // the execution the page shows (null: the session's current one)
@@ -158,6 +158,7 @@ function drawPath(ex) {
   const sel = drag ? [Math.min(drag.a, drag.b), Math.max(drag.a, drag.b) + 1] : ex.selection;
   if (sel) stretch(sel, COLOURS.sel, 12, 0.6);
   if (hovered && hovered.execution === ex.index) stretch([hovered.chunk.start, hovered.chunk.end], COLOURS.after, 12, 0.6);
+  (ex.teacher || []).forEach((c) => stretch(c, COLOURS.teacher, 8, 0.6));
   ex.flagged.forEach((c) => stretch(c, COLOURS.flagged, 6, 0.7));
   ex.advised.forEach((c) => stretch(c, COLOURS.advised, 6, 0.7));
   polyline(svg, screen, { stroke: COLOURS.path, "stroke-width": 1.8 });
@@ -175,6 +176,7 @@ function drawPath(ex) {
     }
   }
   const items = [["path, end heading", COLOURS.path], ["selection", COLOURS.sel], ["critiqued", COLOURS.flagged], ["advised", COLOURS.advised]];
+  if ((ex.teacher || []).length) items.push(["the teacher drove", COLOURS.teacher]);
   if (overlay && overlay.index !== ex.index) items.push([`execution ${overlay.index}`, "#888"]);
   legend(svg, vb.width - 150, 16, items);
 }
@@ -206,6 +208,7 @@ function drawActions(ex) {
     const x0 = tf.x(ex.t[c[0]]), x1 = tf.x(ex.t[Math.min(c[1], ex.t.length) - 1]);
     el(svg, "rect", { x: x0, y: 0, width: Math.max(x1 - x0, 2), height: strip * n, fill: colour, "fill-opacity": opacity });
   };
+  (ex.teacher || []).forEach((c) => band(c, COLOURS.teacher, 0.2));
   ex.flagged.forEach((c) => band(c, COLOURS.flagged, 0.15));
   ex.advised.forEach((c) => band(c, COLOURS.advised, 0.15));
   if (sel) band(sel, COLOURS.sel, 0.35);
@@ -526,6 +529,37 @@ $("stop").onclick = async () => {
   showError(res.ok ? "" : `Stop: HTTP ${res.status}`);
   if (res.ok) $("status").textContent = (await res.json()).reply;
 };
+/** The hold-to-drive pad: while held, where the pointer is (up: forward, left: turn left, as
+ * fractions of the base's limits) is posted every 100 ms; the server hands back to the learner
+ * on release or when the posts stop. */
+(function pad() {
+  const p = $("pad");
+  let held = null, timer = null;
+  const send = (body) => fetch(api("/api/takeover"), { method: "POST", body: JSON.stringify(body) }).catch(() => {});
+  const at = (e) => {
+    const r = p.getBoundingClientRect();
+    const clamp = (v) => Math.max(-1, Math.min(1, v));
+    return { speed: clamp(-((e.clientY - r.top) / r.height * 2 - 1)), turn: clamp(-((e.clientX - r.left) / r.width * 2 - 1)) };
+  };
+  const release = () => {
+    if (!held) return;
+    held = null;
+    clearInterval(timer);
+    p.classList.remove("held");
+    send({ release: true });
+  };
+  p.addEventListener("pointerdown", (e) => {
+    p.setPointerCapture(e.pointerId);
+    held = at(e);
+    p.classList.add("held");
+    send(held);
+    timer = setInterval(() => held && send(held), 100);
+  });
+  p.addEventListener("pointermove", (e) => { if (held) held = at(e); });
+  p.addEventListener("pointerup", release);
+  p.addEventListener("pointercancel", release);
+  window.addEventListener("blur", release);
+})();
 selecting($("path"));
 selecting($("actions"));
 new EventSource(api("/api/events")).addEventListener("statement", refresh);

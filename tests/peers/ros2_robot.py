@@ -8,7 +8,9 @@ As a robot it integrates the newest command (a unicycle, no lag) into odometry p
 and appends every command it receives to `--log` (`t_s v w`, one line each, flushed). With
 `--teleop` it also plays a person at a keyboard: after `--teleop-delay` seconds it publishes a
 scripted sequence of commands on cmd_vel (and drives by them), then zero, then prints `done`
-(as TwistStamped in frame `base_link` with `--cmd-type stamped`).
+(as TwistStamped in frame `base_link` with `--cmd-type stamped`). With `--teleop-topic TOPIC`
+the person publishes the script as Twist on that topic instead, at 20 Hz, and then falls silent
+(a joystick's deadman released), while the robot drives by what `cmd_vel` says.
 Everything is bounded by `--lifetime` seconds.
 """
 
@@ -130,6 +132,8 @@ def main():
     ap.add_argument("--teleop", default=None,
                     help="script `v,w,seconds;v,w,seconds;...` published on cmd_vel")
     ap.add_argument("--teleop-delay", type=float, default=3.0)
+    ap.add_argument("--teleop-topic", default=None,
+                    help="publish the teleoperation there (Twist, 20 Hz), then fall silent")
     ap.add_argument("--lifetime", type=float, default=60.0)
     args = ap.parse_args()
 
@@ -147,6 +151,10 @@ def main():
     reader = DataReader(dp, cmd_topic, qos=cmd_qos)
     odom_writer = DataWriter(dp, odom_topic, qos=odom_qos)
     teleop_writer = DataWriter(dp, cmd_topic, qos=reliable) if args.teleop else None
+    if args.teleop and args.teleop_topic:
+        teleop_topic = Topic(dp, topic_name(args.namespace, args.teleop_topic.lstrip("/")), Twist)
+        teleop_writer = DataWriter(dp, teleop_topic, qos=reliable)
+    next_teleop = 0.0
 
     script = []
     if args.teleop:
@@ -173,7 +181,7 @@ def main():
             if not isinstance(sample, Twist):
                 continue
             log.write(f"{now - t0:.4f} {sample.linear.x!r} {sample.angular.z!r} {frame}\n")
-            if args.teleop is None:
+            if args.teleop is None or args.teleop_topic:
                 v, w = sample.linear.x, sample.angular.z
             if (sample.linear.x != 0.0 or sample.angular.z != 0.0) and first_motion is None:
                 first_motion = now
@@ -186,12 +194,19 @@ def main():
                         cmd = (sv, sw)
                         break
                     elapsed -= ss
+                in_script = cmd is not None
                 if cmd is None:
                     cmd = (0.0, 0.0)
                     if elapsed > 1.0 and not done:
                         print("done", flush=True)
                         done = True
-                if args.cmd_type == "stamped":
+                if args.teleop_topic:
+                    # A person on a joystick: commands at 20 Hz while the script lasts, then none.
+                    if in_script and now >= next_teleop:
+                        teleop_writer.write(twist(*cmd))
+                        log.write(f"# teleop {now - t0:.4f} {cmd[0]!r} {cmd[1]!r}\n")
+                        next_teleop = now + 0.05
+                elif args.cmd_type == "stamped":
                     # Jazzy's teleop_twist_keyboard with stamped:=true.
                     wall = time.time()
                     teleop_writer.write(TwistStamped(
@@ -200,7 +215,8 @@ def main():
                         twist=twist(*cmd)))
                 else:
                     teleop_writer.write(twist(*cmd))
-                v, w = cmd
+                if not args.teleop_topic:
+                    v, w = cmd
         dt = now - last
         last = now
         th_mid = th + 0.5 * w * dt

@@ -605,3 +605,32 @@ def test_suggest_on_a_task_without_flaws_raises_its_code():
     with pytest.raises(advise.AdviseError) as e:
         s.suggest()
     assert e.value.code == "advise::session::no_flaws"
+def test_a_takeover_from_python_is_a_linked_demonstration_and_resumes(tmp_path):
+    """Issue 53: `run ... takeover A..B` from Python; the reply lists the window, the execution
+    marks it, `why` names the takeover, and a resumed session has it back without driving."""
+    s = advise.Session(demos=9, journal=str(tmp_path))
+    r = s.execute("run goal 2 -1 0.5 takeover 2..4")
+    assert r["kind"] == "ran"
+    assert r["takeovers"] == [
+        {"steps": (60, 120), "from_s": 2.0, "to_s": 4.0, "points": 30, "number": 1}
+    ]
+    assert "the teacher drove from 2.00 s to 4.00 s" in r["text"]
+    e = s.execution(-1)
+    assert e["teacher"] == [(60, 120)]
+    assert "from takeover #1" in s.execute("why 64")["text"]
+    n = len(s)
+    path = s.journal_path
+    s.close()
+    back = advise.Session.resume(path, journal_dir=str(tmp_path))
+    assert len(back) == n
+    assert back.execution(-1)["teacher"] == [(60, 120)]
+    assert "#1 takeover of execution 0" in back.execute("history")["text"]
+    assert back.execute("undo")["text"].startswith("undid: #1 takeover")
+    assert len(back) == n - 30
+    # Holding the pad needs a robot's run to act on; values off the pad are refused at once.
+    back.take_over(0.5, 0.0)
+    back.hand_back()
+    with pytest.raises(advise.AdviseError) as err:
+        back.take_over(2.0, 0.0)
+    assert err.value.code == "advise::py::takeover"
+    back.close()

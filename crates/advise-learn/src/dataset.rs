@@ -66,6 +66,33 @@ pub struct DemoRecord {
     /// spaced (a recording's log times). Absent with `period_s`, and in older files.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub times_s: Option<Vec<f64>>,
+    /// For a demonstration a teacher gave by taking over a run: which execution and which of its
+    /// steps. Absent for every other demonstration, and in files written before takeovers.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub takeover: Option<TakeoverLink>,
+}
+
+/// Where a demonstration given by taking over a run came from: the teacher drove steps
+/// `steps` of execution `execution`, and the demonstration keeps every `every`-th of them from
+/// the first (its point `k` is the execution's step `steps.start + k * every`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TakeoverLink {
+    pub execution: ExecutionId,
+    pub steps: Chunk,
+    pub every: u32,
+}
+
+impl TakeoverLink {
+    /// The execution step demonstration point `k` was recorded at.
+    pub fn step(&self, k: u32) -> u64 {
+        self.steps.start as u64 + u64::from(k) * u64::from(self.every.max(1))
+    }
+
+    /// How many points a demonstration of these steps holds.
+    pub fn points(&self) -> usize {
+        self.steps.len().div_ceil(self.every.max(1) as usize)
+    }
 }
 
 /// When a demonstration's points were recorded, relative to its first point: what
@@ -605,6 +632,46 @@ impl Dataset {
 
     /// Add a demonstration; its points are appended in order.
     pub fn add_demonstration(&mut self, name: &str, trace: &Trace) -> Result<DemoId, DatasetError> {
+        self.add_demonstration_linked(name, trace, None)
+    }
+
+    /// Add the demonstration a teacher gave by taking over execution `link.execution` (its steps
+    /// `link.steps`, every `link.every`-th kept): refused unless the execution is held, the steps
+    /// are within it and the trace holds as many points as the link says.
+    pub fn add_takeover(
+        &mut self,
+        name: &str,
+        trace: &Trace,
+        link: TakeoverLink,
+    ) -> Result<DemoId, DatasetError> {
+        check_takeover(
+            &link,
+            self.execution_len(link.execution)?,
+            trace.len(),
+            || "takeover".into(),
+        )?;
+        self.add_demonstration_linked(name, trace, Some(link))
+    }
+
+    /// Remove demonstration `id` and exactly its points (a takeover's, undone).
+    pub fn remove_demonstration(&mut self, id: DemoId) -> Result<DemoRecord, DatasetError> {
+        let pos = self
+            .demos
+            .iter()
+            .position(|r| r.id == id)
+            .ok_or(DatasetError::UnknownDemonstration(id))?;
+        let record = self.demos.remove(pos);
+        self.remove_points_of(id, false);
+        self.recompute_weights();
+        Ok(record)
+    }
+
+    fn add_demonstration_linked(
+        &mut self,
+        name: &str,
+        trace: &Trace,
+        takeover: Option<TakeoverLink>,
+    ) -> Result<DemoId, DatasetError> {
         self.check(trace)?;
         check_finite(trace, || format!("demonstration `{name}`"))?;
         for i in 0..trace.len() {
@@ -630,6 +697,7 @@ impl Dataset {
             points: trace.len() as u32,
             period_s,
             times_s,
+            takeover,
         });
         Ok(id)
     }
@@ -1034,6 +1102,31 @@ fn check_chunk(
         return Err(DatasetError::Record {
             at: at(),
             what: format!("the chunk {chunk} is not within execution {execution} ({len} points)"),
+        });
+    }
+    Ok(())
+}
+
+/// What a takeover records of itself: steps within its execution (of `len` points), a step of at
+/// least 1, and as many points as those steps keep.
+fn check_takeover(
+    link: &TakeoverLink,
+    len: usize,
+    points: usize,
+    at: impl Fn() -> String,
+) -> Result<(), DatasetError> {
+    check_chunk(link.steps, link.execution, len, || {
+        format!("{}.steps", at())
+    })?;
+    if link.every == 0 || link.steps.is_empty() || link.points() != points {
+        return Err(DatasetError::Record {
+            at: at(),
+            what: format!(
+                "steps {} kept every {} make {} points, not {points}",
+                link.steps,
+                link.every,
+                link.points()
+            ),
         });
     }
     Ok(())

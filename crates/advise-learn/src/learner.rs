@@ -16,7 +16,9 @@ use thiserror::Error;
 
 use crate::Policy;
 use crate::bc;
-use crate::dataset::{Critique, CritiqueRule, Dataset, DatasetError, Provenance, SavedFormat};
+use crate::dataset::{
+    Critique, CritiqueRule, Dataset, DatasetError, Provenance, SavedFormat, TakeoverLink,
+};
 use crate::index::{Index, MAX_DIM};
 use crate::lwr::{self, LwrAnswer, LwrParams};
 use advise_lang::domain::Domain;
@@ -544,6 +546,27 @@ impl Learner {
         Ok(id)
     }
 
+    /// Add the demonstration a teacher gave by taking over a run ([`Dataset::add_takeover`]);
+    /// the policy is updated incrementally, as advice is (a `rederive` re-tunes).
+    pub fn add_takeover(
+        &mut self,
+        name: &str,
+        trace: &Trace,
+        link: TakeoverLink,
+    ) -> Result<DemoId, LearnerError> {
+        self.check_dim()?;
+        let id = self.ds.add_takeover(name, trace, link)?;
+        self.ensure_derived();
+        Ok(id)
+    }
+
+    /// Remove a demonstration and its points (an undone takeover).
+    pub fn remove_demonstration(&mut self, id: DemoId) -> Result<(), LearnerError> {
+        self.ds.remove_demonstration(id)?;
+        self.reindex();
+        Ok(())
+    }
+
     pub fn remove_advice(&mut self, id: AdviceId) -> Result<(), LearnerError> {
         self.ds.remove_advice(id)?;
         self.reindex();
@@ -1004,6 +1027,17 @@ impl Learner {
         z: &[f64],
         advice_name: &dyn Fn(AdviceId) -> String,
     ) -> Result<String, LearnerError> {
+        self.why_named(z, advice_name, &|id| format!("takeover (dataset id {id})"))
+    }
+
+    /// [`Learner::why`], with `takeover_name` naming a demonstration given by taking over a run
+    /// as the teacher knows it (the session's history number).
+    pub fn why_named(
+        &self,
+        z: &[f64],
+        advice_name: &dyn Fn(AdviceId) -> String,
+        takeover_name: &dyn Fn(DemoId) -> String,
+    ) -> Result<String, LearnerError> {
         if self.ds.is_empty() {
             return Err(LearnerError::Empty);
         }
@@ -1020,7 +1054,7 @@ impl Learner {
                 s.m,
                 s.weighted,
                 fmt_named(&self.ds.domain().act, self.ds.a(s.point)),
-                self.describe(s.point, advice_name)
+                self.describe_named(s.point, advice_name, takeover_name)
             );
             let (incs, _) = self.ds.directional(s.point);
             if !incs.is_empty() {
@@ -1062,15 +1096,34 @@ impl Learner {
 
     /// Where point `i` came from, in words.
     pub fn describe(&self, i: usize, advice_name: &dyn Fn(AdviceId) -> String) -> String {
+        self.describe_named(i, advice_name, &|id| format!("takeover (dataset id {id})"))
+    }
+
+    /// [`Learner::describe`], with `takeover_name` naming a takeover's demonstration.
+    pub fn describe_named(
+        &self,
+        i: usize,
+        advice_name: &dyn Fn(AdviceId) -> String,
+        takeover_name: &dyn Fn(DemoId) -> String,
+    ) -> String {
         match self.ds.provenance(i) {
             Provenance::Demonstration { demo, index } => {
-                let name = self
-                    .ds
-                    .demos()
-                    .iter()
-                    .find(|d| d.id == demo)
-                    .map_or("?", |d| d.name.as_str());
-                format!("demonstration {demo} ({name}), point {index}")
+                let record = self.ds.demos().iter().find(|d| d.id == demo);
+                match record.and_then(|d| d.takeover) {
+                    Some(link) => format!(
+                        "{}: the teacher took over execution {} for steps {}, from execution point {} (demonstration point {index})",
+                        takeover_name(demo),
+                        self.ds
+                            .execution_number(link.execution)
+                            .map_or_else(|| "?".to_string(), |n| n.to_string()),
+                        link.steps,
+                        link.step(index)
+                    ),
+                    None => {
+                        let name = record.map_or("?", |d| d.name.as_str());
+                        format!("demonstration {demo} ({name}), point {index}")
+                    }
+                }
             }
             Provenance::Advice {
                 advice,

@@ -10,12 +10,12 @@ use std::sync::{Mutex, MutexGuard, TryLockError};
 use std::time::Duration;
 
 use advise::diag::SourceMap;
-use advise::session::{HeldExecution, Reply};
+use advise::session::{HeldExecution, Hold, Reply};
 use advise::session::{Session as Inner, SessionOptions, journal};
 use advise::trace::Pose;
 use numpy::{IntoPyArray, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict};
+use pyo3::types::{PyBool, PyDict, PyList};
 
 use crate::arrays::{set_dim_names, to_numpy};
 use crate::diag::Diagnostic;
@@ -44,6 +44,20 @@ pub struct Session {
     /// handle, and is refused (`advise::py::forked`) rather than let write into the parent's
     /// journal.
     pid: u32,
+    /// `take_over`'s command: the session's live takeover, held without the session's lock
+    /// (a run holds it while it drives).
+    hold: Hold,
+}
+
+/// A Python caller's hold hands back after this long without a `take_over` (a script that
+/// stopped calling it).
+const HOLD_TIMEOUT: Duration = Duration::from_millis(300);
+
+/// The session's live takeover: `take_over` holds it.
+fn held(inner: &mut Inner) -> Hold {
+    let hold = Hold::new(HOLD_TIMEOUT);
+    inner.set_live_takeover(Some(Box::new(hold.clone())));
+    hold
 }
 
 /// What `advise resume` prints when it restores a journal, kept for `Session.resumed`.
@@ -73,6 +87,7 @@ impl Session {
         let journal_dir = journal_dir(py, journal)?;
         let tasks = crate::named::task_files(py, tasks)?;
         let mut inner = start(py, task, tasks, seed, demos)?;
+        let hold = held(&mut inner);
         match journal_dir {
             Some(dir) => {
                 inner
@@ -85,6 +100,7 @@ impl Session {
             inner: Mutex::new(Some(inner)),
             resumed: None,
             pid: std::process::id(),
+            hold,
         };
         if backend != "sim" {
             s.run(py, &format!("backend {backend}"), "--backend")?;
@@ -125,7 +141,8 @@ impl Session {
         let restored =
             Inner::restore(&path, &dir).map_err(|e| from_diag(py, &SourceMap::new(), &e))?;
         let text = restored.summary(&path);
-        let inner = restored.session;
+        let mut inner = restored.session;
+        let hold = held(&mut inner);
         let stopped = restored
             .stopped
             .as_ref()
@@ -141,6 +158,7 @@ impl Session {
             inner: Mutex::new(Some(inner)),
             resumed: Some(resumed),
             pid: std::process::id(),
+            hold,
         })
     }
 
@@ -190,6 +208,33 @@ impl Session {
         let d = json_value(py, data)?.cast_into::<PyDict>()?;
         d.set_item("text", reply.get_item("text")?)?;
         Ok(d)
+    }
+
+    /// take_over(speed, turn)
+    ///
+    /// Take over the run another thread is executing on a robot (`rmp:...`, `ros2`), as the web
+    /// view's pad does: `speed` and `turn` are fractions of the base's limits, from -1 to 1, and
+    /// must be given again at least every 0.3 s (a caller that stops hands back, as a released
+    /// joystick does); `hand_back()` hands back at once. What the person drove is kept as a
+    /// takeover demonstration linked to the run (the run's reply lists it in `takeovers`). A
+    /// simulated run is over before another thread could call it. Never waits for the session:
+    /// callable while `execute` runs. Values off the pad raise AdviseError.
+    fn take_over(&self, py: Python<'_>, speed: f64, turn: f64) -> PyResult<()> {
+        self.hold.hold(speed, turn).map_err(|why| {
+            simple(
+                py,
+                "advise::py::takeover",
+                why,
+                "take_over(0.5, 0.0) drives at half the speed limit, straight on",
+            )
+        })
+    }
+
+    /// hand_back()
+    ///
+    /// Let go of `take_over`: the learner drives the run from its next step.
+    fn hand_back(&self) {
+        self.hold.release();
     }
 
     /// The journal this session writes (a path), or None when it keeps none.
@@ -519,6 +564,8 @@ fn execution_dict<'py>(
     };
     d.set_item("flagged", chunks(&rec.flagged))?;
     d.set_item("advised", chunks(&rec.advised))?;
+    // The windows the teacher drove (a takeover); every other step was the learner's.
+    d.set_item("teacher", chunks(&rec.teacher))?;
     set_dim_names(&d, domain)?;
     Ok(d)
 }
@@ -611,6 +658,17 @@ fn reply_dict<'py>(py: Python<'py>, reply: &Reply) -> PyResult<Bound<'py, PyDict
             d.set_item("execution", r.index)?;
             d.set_item("points", r.points)?;
             d.set_item("outcome", r.outcome.clone())?;
+            let takeovers = PyList::empty(py);
+            for t in &r.takeovers {
+                let w = PyDict::new(py);
+                w.set_item("steps", (t.steps.start, t.steps.end))?;
+                w.set_item("from_s", t.from_s)?;
+                w.set_item("to_s", t.to_s)?;
+                w.set_item("points", t.points)?;
+                w.set_item("number", t.number)?;
+                takeovers.append(w)?;
+            }
+            d.set_item("takeovers", takeovers)?;
             "ran"
         }
         Reply::Selected { execution, chunk } => {

@@ -126,6 +126,12 @@ pub trait Base: Backend + Send + std::any::Any {
     /// Be ready for a new drive seeded with `seed`: the simulator starts afresh from it (a run
     /// is reproducible from the session's seed and run count); a robot keeps its link.
     fn begin(&mut self, _seed: u64) {}
+
+    /// A person's commands that take over a run on this base while they keep coming (a ROS 2
+    /// base's `takeover=/TOPIC`), made afresh for each run; none by default.
+    fn takeover_commands(&mut self) -> Option<Box<dyn teleop::Commands>> {
+        None
+    }
 }
 
 impl dyn Base {

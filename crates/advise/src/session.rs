@@ -27,6 +27,7 @@ mod run;
 pub mod script;
 pub mod sidecar;
 pub mod suggest;
+mod takeover;
 mod text;
 mod undo;
 pub mod view;
@@ -50,6 +51,7 @@ use journal::Journal;
 pub use advice::check_kappa;
 pub use error::SessionError;
 pub use reply::{Advised, Defined, Evaluated, Ran, Reply, Since};
+pub use takeover::{Both, Hold, LiveTakeover, RunInfo, TookOver};
 use undo::Edit;
 
 /// Default kappa of `critique` (the paper leaves it open; 1.0 doubles the weight of a point met
@@ -77,6 +79,9 @@ pub struct HeldExecution {
     /// Chunks critiqued and advised, for plots.
     pub flagged: Vec<Chunk>,
     pub advised: Vec<Chunk>,
+    /// The windows of steps the teacher drove (a takeover); every other step was the
+    /// learner's.
+    pub teacher: Vec<Chunk>,
 }
 
 /// Options for a new session.
@@ -257,6 +262,9 @@ pub struct Session {
     started: std::time::SystemTime,
     /// How long `suggest` may spend re-running candidates, s.
     suggest_budget_s: f64,
+    /// The live takeover a front end installed (a person's keys, a web page's pad, a ROS 2
+    /// topic), asked at the start of each run.
+    live_takeover: Option<Box<dyn takeover::LiveTakeover>>,
 }
 
 impl std::fmt::Debug for Session {
@@ -325,6 +333,7 @@ impl Session {
             inputs: Vec::new(),
             started: std::time::SystemTime::now(),
             suggest_budget_s: suggest::DEFAULT_BUDGET_S,
+            live_takeover: None,
         }
     }
 
@@ -511,8 +520,8 @@ impl Session {
             }
             Command::LoadTrace(path) => self.load_trace(&path).map(Reply::Message),
             Command::Operators(path) => self.load_operators(&path).map(Reply::Message),
-            Command::RunGoal(values) => self.run_goal(&values),
-            Command::RunStart(n) => self.run_start(n),
+            Command::RunGoal { goal, takeover } => self.run_goal(&goal, takeover),
+            Command::RunStart { start, takeover } => self.run_start(start, takeover),
             Command::Show(n) => self.show(n).map(Reply::Message),
             Command::Select {
                 range, execution, ..

@@ -32,6 +32,7 @@ pub mod human;
 pub mod interception;
 pub mod positioning;
 pub mod resolve;
+pub mod takeover;
 
 pub use declared::{Declared, DeclaredTeacher};
 pub use interception::{BallStart, Interception, InterceptionRules, InterceptionTeacher};
@@ -367,6 +368,12 @@ impl Stepper {
     /// The base's state now.
     pub fn state(&self) -> &BaseState {
         &self.state
+    }
+
+    /// The action of the last step, as executed (made finite and clamped); zero before the
+    /// first.
+    pub fn action(&self) -> &[f64] {
+        &self.a
     }
 
     /// Steps taken.

@@ -32,6 +32,22 @@ pub enum PlotKind {
     Compare { before: usize, after: usize },
 }
 
+/// `takeover A..B` of a run: the task's teacher drives from `from_s` to `to_s` seconds into it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TakeoverSeconds {
+    pub from_s: f64,
+    pub to_s: f64,
+    /// Where `A..B` was written.
+    pub span: Span,
+}
+
+impl std::fmt::Display for TakeoverSeconds {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let n = |v: f64| crate::number::fmt_num(v);
+        write!(f, "{}..{}", n(self.from_s), n(self.to_s))
+    }
+}
+
 /// A session command, as the teacher wrote it.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Command {
@@ -49,8 +65,15 @@ pub enum Command {
     Operators(String),
     /// `run goal V...`: the goal's values, each in the task's order or named (`px=2`); which
     /// names and how many the task takes is the session's business.
-    RunGoal(Vec<InvArg>),
-    RunStart(usize),
+    RunGoal {
+        goal: Vec<InvArg>,
+        takeover: Option<TakeoverSeconds>,
+    },
+    /// `run start N [takeover A..B]`.
+    RunStart {
+        start: usize,
+        takeover: Option<TakeoverSeconds>,
+    },
     /// `show` (the selected execution) or `show N`.
     Show(Option<usize>),
     /// `select A..B` (of the latest execution) or `select A..B in N`; `A..end`, `A..` and
@@ -128,7 +151,7 @@ impl Command {
             Command::LoadTrace(_) => Rule::c_load_trace,
             Command::Operators(_) => Rule::c_operators,
             Command::RunGoal { .. } => Rule::c_run_goal,
-            Command::RunStart(_) => Rule::c_run_start,
+            Command::RunStart { .. } => Rule::c_run_start,
             Command::Show(_) => Rule::c_show,
             Command::Select { .. } => Rule::c_select,
             Command::Critique { .. } => Rule::c_critique,
@@ -218,13 +241,20 @@ fn statement(id: SourceId, src: &str) -> Result<Statement, ParseError> {
         Rule::c_load_trace => Command::LoadTrace(path(req(next()))),
         Rule::c_operators => Command::Operators(path(req(next()))),
         Rule::c_run_goal => {
-            let mut values = Vec::new();
+            let (mut goal, mut takeover) = (Vec::new(), None);
             while let Some(a) = next() {
-                values.push(b.inv_arg(a, |s| s)?);
+                if a.as_rule() == Rule::run_takeover {
+                    takeover = Some(takeover_seconds(&b, a)?);
+                } else {
+                    goal.push(b.inv_arg(a, |s| s)?);
+                }
             }
-            Command::RunGoal(values)
+            Command::RunGoal { goal, takeover }
         }
-        Rule::c_run_start => Command::RunStart(b.uint(req(next()))?),
+        Rule::c_run_start => Command::RunStart {
+            start: b.uint(req(next()))?,
+            takeover: next().map(|t| takeover_seconds(&b, t)).transpose()?,
+        },
         Rule::c_show => Command::Show(next().map(|n| b.uint(n)).transpose()?),
         Rule::c_select => {
             let range = req(next());
@@ -339,6 +369,16 @@ fn record_or_teleop<'i>(
             keep_idle,
         }
     })
+}
+
+/// `takeover A..B`, from its rule.
+fn takeover_seconds(b: &Builder, p: Pair<'_, Rule>) -> Result<TakeoverSeconds, ParseError> {
+    let range = req(p.into_inner().find(|q| q.as_rule() == Rule::seconds_range));
+    let span = b.span(&range);
+    let mut ends = range.into_inner().filter(|q| q.as_rule() == Rule::seconds);
+    let mut secs = || -> Result<f64, ParseError> { b.signed(req(ends.next())) };
+    let (from_s, to_s) = (secs()?, secs()?);
+    Ok(TakeoverSeconds { from_s, to_s, span })
 }
 
 /// `plot FILE`, `plot actions FILE` or `plot compare FILE A B`, from the part after `plot`.
@@ -591,7 +631,7 @@ mod tests {
     #[test]
     fn commands_parse() {
         let goal = |line: &str| match cmd(line) {
-            Command::RunGoal(values) => values
+            Command::RunGoal { goal: values, .. } => values
                 .iter()
                 .map(|a| (a.name.as_ref().map(|n| n.name.clone()), a.value))
                 .collect::<Vec<_>>(),

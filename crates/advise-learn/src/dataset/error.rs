@@ -11,6 +11,9 @@ pub enum DatasetError {
     #[error("no advice with id {0}")]
     #[diagnostic(code(advise::dataset::unknown_advice))]
     UnknownAdvice(AdviceId),
+    #[error("no demonstration with id {0}")]
+    #[diagnostic(code(advise::dataset::unknown_demonstration))]
+    UnknownDemonstration(DemoId),
     #[error("no critique with id {0}")]
     #[diagnostic(code(advise::dataset::unknown_critique))]
     UnknownCritique(CritiqueId),

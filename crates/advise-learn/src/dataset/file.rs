@@ -544,6 +544,13 @@ fn validate(file: &DatasetFile) -> Result<(), DatasetError> {
         let len = exec_len(format!("critiques[{i}].execution"), rec.execution)?;
         validate_critique(domain, i, rec, len)?;
     }
+    for (i, d) in file.demos.iter().enumerate() {
+        if let Some(link) = &d.takeover {
+            let at = || format!("demos[{i}].takeover");
+            let len = exec_len(format!("{}.execution", at()), link.execution)?;
+            check_takeover(link, len, d.points as usize, at)?;
+        }
+    }
     validate_points(file, advice_points)
 }
 

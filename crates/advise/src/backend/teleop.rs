@@ -27,6 +27,10 @@ pub enum Key {
     ScaleUp,
     ScaleDown,
     End,
+    /// Tab: take over a run, or hand it back (nothing in `teleop`).
+    Toggle,
+    /// Ctrl-C in raw mode: stop (ends a drive as `End` does; stops a run).
+    Interrupt,
 }
 
 impl Key {
@@ -87,10 +91,11 @@ impl Teleop {
             Key::Stop => (self.speed_mps, self.rot_radps) = (0.0, 0.0),
             Key::ScaleUp => self.step_fraction = (self.step_fraction * 2.0).min(0.5),
             Key::ScaleDown => self.step_fraction = (self.step_fraction / 2.0).max(0.05),
-            Key::End => {
+            Key::End | Key::Interrupt => {
                 self.ended = true;
                 (self.speed_mps, self.rot_radps) = (0.0, 0.0);
             }
+            Key::Toggle => {}
         }
         // Round away the sum's float noise (0.1 + 0.2 ...) so a command reads as typed.
         let tidy = |v: f64, max: f64| ((v * 1e9).round() / 1e9).clamp(-max, max);
@@ -156,6 +161,108 @@ pub fn install_console(console: Box<dyn Console>) -> bool {
 /// The console, when a front end installed one and a person is there.
 pub fn console() -> Option<&'static dyn Console> {
     CONSOLE.get().map(|c| c.as_ref()).filter(|c| c.present())
+}
+
+/// A person's speed commands as they arrive during a run (a terminal's keys, a ROS 2 teleop
+/// topic, a web page's pad): what a live takeover drives with. Asked once per control step.
+pub trait Commands {
+    /// The command `(m/s, rad/s)` the person holds now, or `None` while they are not driving.
+    /// `now` is the command the base was given at the last step (where a person who takes over
+    /// starts from, so the command does not jump).
+    fn command(&mut self, now: (f64, f64)) -> Option<(f64, f64)>;
+}
+
+/// The keys during a run: Tab takes over holding the command the base was given, and space
+/// takes over and stops; while taken over the keys of `teleop` drive, and Tab, Enter or `q` hand
+/// back. Ctrl-C (a key in raw mode) raises `stop`, which ends the run and stops the base. Keys
+/// before a takeover mean nothing else, so typing ahead does not drive the robot.
+pub struct KeyCommands {
+    keys: Box<dyn KeySource>,
+    teleop: Teleop,
+    active: bool,
+    stop: StopSignal,
+    /// Where the person reads what their keys did.
+    console: Option<&'static dyn Console>,
+}
+
+impl KeyCommands {
+    pub fn new(
+        keys: Box<dyn KeySource>,
+        max_speed_mps: f64,
+        max_rot_radps: f64,
+        stop: StopSignal,
+        console: Option<&'static dyn Console>,
+    ) -> KeyCommands {
+        KeyCommands {
+            keys,
+            teleop: Teleop::new(max_speed_mps, max_rot_radps),
+            active: false,
+            stop,
+            console,
+        }
+    }
+
+    fn show(&self, text: std::fmt::Arguments<'_>) {
+        if let Some(c) = self.console {
+            c.show(text);
+        }
+    }
+
+    fn take_over(&mut self, now: (f64, f64)) {
+        self.active = true;
+        self.teleop.ended = false;
+        let (v, w) = now;
+        let finite = |x: f64, max: f64| {
+            if x.is_finite() {
+                x.clamp(-max, max)
+            } else {
+                0.0
+            }
+        };
+        self.teleop.speed_mps = finite(v, self.teleop.max_speed_mps);
+        self.teleop.rot_radps = finite(w, self.teleop.max_rot_radps);
+        self.show(format_args!("\r\nyou drive: {KEYS_HELP_RUN}\r\n"));
+    }
+}
+
+/// The keys' meaning during a run, for the prompt.
+pub const KEYS_HELP_RUN: &str = "Tab takes over (space: takes over and stops), then up/w down/s left/a right/d drive, space stops, +/- scale; Tab, Enter or q hands back; Ctrl-C stops the run";
+
+impl Commands for KeyCommands {
+    fn command(&mut self, now: (f64, f64)) -> Option<(f64, f64)> {
+        let keys = match self.keys.keys(Duration::ZERO) {
+            Ok(k) => k,
+            Err(_) => {
+                // The person's terminal is gone: nobody can take over or stop from it.
+                self.active = false;
+                Vec::new()
+            }
+        };
+        for k in keys {
+            match k {
+                Key::Interrupt => {
+                    self.active = false;
+                    self.stop.raise();
+                    self.show(format_args!(
+                        "\r\n^C: stopping the base (zero commanded)\r\n"
+                    ));
+                }
+                Key::Toggle | Key::End if self.active => {
+                    self.active = false;
+                    self.show(format_args!("\r\nhanded back to the learner\r\n"));
+                }
+                Key::Toggle => self.take_over(now),
+                Key::Stop if !self.active => {
+                    self.take_over(now);
+                    self.teleop.key(Key::Stop);
+                }
+                k if self.active && k != Key::End => self.teleop.key(k),
+                _ => {}
+            }
+        }
+        self.active
+            .then_some((self.teleop.speed_mps, self.teleop.rot_radps))
+    }
 }
 
 /// Why a drive ended.

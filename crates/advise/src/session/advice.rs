@@ -211,7 +211,8 @@ impl Session {
                 })
                 .unwrap_or_else(|| format!("advice (dataset id {id})"))
         };
-        out.push_str(&self.state.learner.why(&z, &name)?);
+        let takeover = |id| self.takeover_name(id);
+        out.push_str(&self.state.learner.why_named(&z, &name, &takeover)?);
         Ok(out)
     }
 }

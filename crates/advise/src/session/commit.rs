@@ -229,63 +229,7 @@ impl Session {
                     source: std::io::Error::other("a sidecar line is applied by a restore"),
                 });
             }
-            Effect::Execution(entry) => {
-                let trace = Trace::from_json(&self.domain, &entry.trace)?;
-                if let Some(g) = &entry.goal {
-                    super::run::check_goal(g.x_m, g.y_m, g.theta_rad)?;
-                }
-                if let Some(values) = &entry.goal_values {
-                    super::run::check_goal_values(&self.task, values)?;
-                }
-                // Everything is checked before anything changes.
-                let runs = match &entry.run {
-                    Some(run) => Some(
-                        run.number
-                            .checked_add(1)
-                            .ok_or(SessionError::RunNumber { number: run.number })?,
-                    ),
-                    None => None,
-                };
-                let id = self.state.learner.try_add_execution(&trace)?;
-                // The dataset keeps the goal too, so that `open` gives the run back with it.
-                let goal = entry
-                    .goal
-                    .map(|g| vec![g.x_m, g.y_m, g.theta_rad])
-                    .or_else(|| entry.goal_values.clone());
-                if let Some(goal) = goal {
-                    self.state.learner.set_execution_goal(id, goal)?;
-                }
-                let (execution, support) = match &entry.run {
-                    Some(run) => {
-                        self.state.runs = runs.unwrap_or(self.state.runs);
-                        (
-                            Some(Execution {
-                                trace: trace.clone(),
-                                true_poses: run.true_poses.clone(),
-                                ball: run.ball.clone(),
-                                outcome: run.outcome.clone(),
-                            }),
-                            Some(run.support.clone()),
-                        )
-                    }
-                    None => (None, None),
-                };
-                let st = &mut self.state;
-                st.executions.push(HeldExecution {
-                    label: entry.label.clone(),
-                    trace,
-                    goal: entry.goal,
-                    goal_values: entry.goal_values.clone(),
-                    execution,
-                    support,
-                    id,
-                    run_number: entry.run.as_ref().map(|r| r.number),
-                    flagged: Vec::new(),
-                    advised: Vec::new(),
-                });
-                st.current = Some(st.executions.len() - 1);
-                st.selection = None;
-            }
+            Effect::Execution(entry) => self.apply_execution(entry)?,
             Effect::Select { execution, chunk } => {
                 let rec = self.numbered(*execution)?;
                 let chunk = Chunk::new(chunk.start, chunk.end, rec.trace.len())?;
@@ -307,6 +251,13 @@ impl Session {
                 self.add_advice(*execution, Box::new(syn), number)?;
                 self.state.redo.clear();
             }
+            Effect::Takeover {
+                execution,
+                steps,
+                every,
+                name,
+                points,
+            } => self.apply_takeover(*execution, *steps, *every, name, points)?,
             Effect::Critique {
                 execution,
                 critique,
@@ -339,6 +290,75 @@ impl Session {
                 self.adopt_opened(learner, path)?;
             }
         }
+        Ok(())
+    }
+
+    /// Hold an execution as journalled (a run's, with what it measured, or a loaded trace's),
+    /// checked whole before anything changes.
+    fn apply_execution(&mut self, entry: &effect::ExecutionEntry) -> Result<(), SessionError> {
+        let trace = Trace::from_json(&self.domain, &entry.trace)?;
+        if let Some(g) = &entry.goal {
+            super::run::check_goal(g.x_m, g.y_m, g.theta_rad)?;
+        }
+        if let Some(values) = &entry.goal_values {
+            super::run::check_goal_values(&self.task, values)?;
+        }
+        // Everything is checked before anything changes.
+        let runs = match &entry.run {
+            Some(run) => Some(
+                run.number
+                    .checked_add(1)
+                    .ok_or(SessionError::RunNumber { number: run.number })?,
+            ),
+            None => None,
+        };
+        if let Some(run) = &entry.run {
+            super::takeover::check_windows(&run.teacher, trace.len())?;
+        }
+        let id = self.state.learner.try_add_execution(&trace)?;
+        // The dataset keeps the goal too, so that `open` gives the run back with it.
+        let goal = entry
+            .goal
+            .map(|g| vec![g.x_m, g.y_m, g.theta_rad])
+            .or_else(|| entry.goal_values.clone());
+        if let Some(goal) = goal {
+            self.state.learner.set_execution_goal(id, goal)?;
+        }
+        let (execution, support) = match &entry.run {
+            Some(run) => {
+                self.state.runs = runs.unwrap_or(self.state.runs);
+                (
+                    Some(Execution {
+                        trace: trace.clone(),
+                        true_poses: run.true_poses.clone(),
+                        ball: run.ball.clone(),
+                        outcome: run.outcome.clone(),
+                    }),
+                    Some(run.support.clone()),
+                )
+            }
+            None => (None, None),
+        };
+        let st = &mut self.state;
+        st.executions.push(HeldExecution {
+            label: entry.label.clone(),
+            trace,
+            goal: entry.goal,
+            goal_values: entry.goal_values.clone(),
+            execution,
+            support,
+            id,
+            run_number: entry.run.as_ref().map(|r| r.number),
+            flagged: Vec::new(),
+            advised: Vec::new(),
+            teacher: entry
+                .run
+                .as_ref()
+                .map(|r| r.teacher.clone())
+                .unwrap_or_default(),
+        });
+        st.current = Some(st.executions.len() - 1);
+        st.selection = None;
         Ok(())
     }
 

@@ -111,6 +111,17 @@ pub enum Effect {
         points: JsonTrace,
         source_index: Vec<usize>,
     },
+    /// The teacher took over execution `execution` for its steps `steps`: what it drove joins
+    /// the data as a demonstration linked to the run, its points kept every `every`-th step
+    /// from the first (the task's demonstration rate), named `name`. Restoring it adds the
+    /// points; nothing is driven again.
+    Takeover {
+        execution: usize,
+        steps: Chunk,
+        every: u32,
+        name: String,
+        points: JsonTrace,
+    },
     /// A critique of execution `execution`: the weight increments it made, by provenance, under
     /// its rule (`directional` is absent in journals written before `critique --directional`).
     Critique {
@@ -196,6 +207,11 @@ pub struct RunEntry {
     /// For each step, the data point that recommended the action (BC 1-NN): what a critique
     /// penalises.
     pub support: Vec<Option<Provenance>>,
+    /// The windows of steps the teacher drove (a takeover); every other step was the
+    /// learner's. Absent when the learner drove the whole run, and in journals written before
+    /// takeovers.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub teacher: Vec<Chunk>,
 }
 
 #[cfg(test)]

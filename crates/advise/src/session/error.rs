@@ -311,7 +311,7 @@ pub enum SessionError {
     /// The one failure that changes the session: what the base recorded before it failed is kept
     /// as an execution, as on a real robot it cannot be had again.
     #[error(
-        "execution {index} ({label}) was interrupted after {steps} steps; what was recorded is kept"
+        "execution {index} ({label}) was interrupted after {steps} steps; what was recorded is kept{took_over}"
     )]
     #[diagnostic(
         code(advise::session::run_interrupted),
@@ -323,14 +323,32 @@ pub enum SessionError {
         index: usize,
         label: String,
         steps: usize,
+        /// What the teacher drove before it, as the run's reply says it (empty: nothing).
+        took_over: String,
         #[source]
         #[diagnostic_source]
         error: BackendError,
     },
+    #[error("the task `{task}` has no teacher to take over a run")]
+    #[diagnostic(
+        code(advise::session::takeover_no_teacher),
+        help(
+            "`takeover A..B` lets the task's own teacher drive (a declared task names one with `teacher {{ ... }}`); a person takes over a run live from the terminal's keys, the web view's pad or a ROS 2 topic (`ros2?takeover=/TOPIC`)"
+        )
+    )]
+    TakeoverNoTeacher { task: TaskKind },
+    #[error("`takeover {window}` is not a window of a run")]
+    #[diagnostic(
+        code(advise::session::bad_takeover),
+        help(
+            "the teacher drives from A to B seconds into the run: A before B, B at most {max_s} s (`takeover 2..4`)"
+        )
+    )]
+    BadTakeover { window: String, max_s: String },
     /// A run that stopped on a value of the task that is not a number: like an interrupted
     /// one, what was recorded before it is kept as an execution.
     #[error(
-        "execution {index} ({label}) stopped after {steps} steps on a value that is not a number; what was recorded is kept"
+        "execution {index} ({label}) stopped after {steps} steps on a value that is not a number; what was recorded is kept{took_over}"
     )]
     #[diagnostic(
         code(advise::session::run_stopped),
@@ -342,6 +360,8 @@ pub enum SessionError {
         index: usize,
         label: String,
         steps: usize,
+        /// What the teacher drove before it (empty: nothing).
+        took_over: String,
         #[source]
         #[diagnostic_source]
         reason: task::NonFinite,

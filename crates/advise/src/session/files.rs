@@ -379,6 +379,7 @@ impl Session {
                 run_number: None,
                 flagged: Vec::new(),
                 advised: Vec::new(),
+                teacher: Vec::new(),
             });
         }
         let index_of = |id| ds.execution_number(id).unwrap_or(usize::MAX);
@@ -408,6 +409,40 @@ impl Session {
                 id: r.id,
                 execution,
                 critique: r.critique.clone(),
+            });
+        }
+        // A takeover's demonstration is an edit too (`undo` takes it back), when its run is here.
+        for d in ds.demos() {
+            let Some(link) = d.takeover else { continue };
+            let execution = index_of(link.execution);
+            let Some(held) = executions.get_mut(execution) else {
+                continue;
+            };
+            held.teacher.push(link.steps);
+            let mut trace = crate::trace::Trace::new(ds.domain());
+            let times = crate::policy::dataset::DemoTimes::trace_times(
+                d.times().as_ref(),
+                d.points as usize,
+            );
+            for k in 0..d.points {
+                let p = crate::policy::dataset::Provenance::Demonstration {
+                    demo: d.id,
+                    index: k,
+                };
+                if let Some(i) = ds.position(p) {
+                    trace.push(times[k as usize], ds.z(i), ds.a(i), None);
+                }
+            }
+            edits.push(super::undo::Edit::Takeover {
+                number: 0,
+                id: d.id,
+                taken: Box::new(super::undo::Taken {
+                    execution,
+                    steps: link.steps,
+                    every: link.every,
+                    name: d.name.clone(),
+                    trace,
+                }),
             });
         }
         edits.sort_by_key(|e| e.id());

@@ -36,6 +36,8 @@ const BALL: RGBColor = RGBColor(230, 140, 0);
 const SELECTED: RGBColor = RGBColor(190, 60, 190);
 const ADVISED: RGBColor = RGBColor(40, 170, 60);
 const CRITIQUED: RGBColor = RGBColor(215, 40, 40);
+/// The steps the teacher drove (a takeover).
+const TEACHER: RGBColor = RGBColor(240, 150, 0);
 const ARENA: RGBColor = RGBColor(120, 120, 120);
 /// What a task draws besides its goal (the goal is black).
 const DRAWN: RGBColor = RGBColor(110, 110, 110);
@@ -67,6 +69,8 @@ pub struct PlotView<'a> {
     pub selection: Option<Chunk>,
     pub flagged: Vec<Chunk>,
     pub advised: Vec<Chunk>,
+    /// The windows the teacher drove (a takeover).
+    pub teacher: Vec<Chunk>,
 }
 
 /// One curve of the actions plot.
@@ -318,6 +322,7 @@ mod tests {
             selection: Some(Chunk { start: 2, end: 9 }),
             flagged: vec![Chunk { start: 12, end: 15 }],
             advised: vec![Chunk { start: 20, end: 25 }],
+            teacher: vec![],
         }
     }
 

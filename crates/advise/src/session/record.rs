@@ -76,7 +76,7 @@ impl Session {
         let mut person_ended = || {
             terminal.as_mut().is_some_and(|t| {
                 t.keys(std::time::Duration::ZERO)
-                    .is_ok_and(|keys| keys.contains(&Key::End))
+                    .is_ok_and(|keys| keys.iter().any(|k| matches!(k, Key::End | Key::Interrupt)))
             })
         };
         let rec = record_teleop(&spec, &opts, &self.stop, &mut person_ended);

@@ -73,6 +73,10 @@ pub struct Ran {
     pub worth_a_look: Option<(Chunk, &'static str)>,
     /// LWR: how many of the run's steps found data in the kernel (`None` for BC).
     pub kernel: Option<KernelCoverage>,
+    /// The windows the teacher took over, each kept as a demonstration.
+    pub takeovers: Vec<super::TookOver>,
+    /// A `takeover A..B` window the run ended before.
+    pub takeover_missed: Option<String>,
 }
 
 /// Advice given.
@@ -153,6 +157,19 @@ impl fmt::Display for Reply {
                     write!(f, " (goal {goal})")?;
                 }
                 write!(f, ": {} points; {}", r.points, r.outcome)?;
+                for t in &r.takeovers {
+                    write!(
+                        f,
+                        "\nthe teacher drove from {:.2} s to {:.2} s (steps {}); its {} points joined the data as takeover #{} (`why`, `history`, `undo`)",
+                        t.from_s, t.to_s, t.steps, t.points, t.number
+                    )?;
+                }
+                if let Some(w) = &r.takeover_missed {
+                    write!(
+                        f,
+                        "\nthe run ended before the takeover window {w} s: the learner drove all of it"
+                    )?;
+                }
                 if let Some((chunk, what)) = r.worth_a_look {
                     write!(
                         f,

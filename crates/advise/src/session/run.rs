@@ -13,7 +13,7 @@ use crate::diag::did_you_mean;
 use crate::program::task::Drawn;
 use crate::program::task::GoalParam;
 use crate::syntax::InvArg;
-use crate::syntax::command::PlotKind;
+use crate::syntax::command::{PlotKind, TakeoverSeconds};
 use crate::task;
 use crate::task::{Start, TaskKind, episode_seed};
 use crate::trace::Pose;
@@ -26,7 +26,11 @@ impl Session {
     /// `run goal V...`: the task's goal, its values in the declared order or by name. A
     /// positioning goal is any pose a run can reach ([`check_goal`]); a declared task's goal stays
     /// within its declared ranges.
-    pub(super) fn run_goal(&mut self, args: &[InvArg]) -> Result<Reply, SessionError> {
+    pub(super) fn run_goal(
+        &mut self,
+        args: &[InvArg],
+        takeover: Option<TakeoverSeconds>,
+    ) -> Result<Reply, SessionError> {
         let Some(def) = self.task.def() else {
             return Err(SessionError::GoalForWrongTask {
                 task: self.task.clone(),
@@ -53,16 +57,20 @@ impl Session {
                 .collect::<Vec<_>>()
                 .join(" ")
         );
-        self.run(start, label, goal)
+        self.run(start, label, goal, takeover)
     }
 
-    pub(super) fn run_start(&mut self, n: usize) -> Result<Reply, SessionError> {
+    pub(super) fn run_start(
+        &mut self,
+        n: usize,
+        takeover: Option<TakeoverSeconds>,
+    ) -> Result<Reply, SessionError> {
         let start = self.task.practice_start(self.seed, n as u64)?;
         let goal = match start {
             Start::Goal(g) => Some(g),
             Start::Ball(_) | Start::Declared(..) => None,
         };
-        self.run(start, format!("run start {n}"), goal)
+        self.run(start, format!("run start {n}"), goal, takeover)
     }
 
     pub(super) fn run(
@@ -70,13 +78,17 @@ impl Session {
         start: Start,
         label: String,
         goal: Option<Pose>,
+        window: Option<TakeoverSeconds>,
     ) -> Result<Reply, SessionError> {
         if self.state.learner.is_empty() {
             return Err(SessionError::EmptyPolicy {
                 task: self.task.clone(),
             });
         }
-        self.state.learner.prepare();
+        let label = match window {
+            Some(w) => format!("{label} takeover {w}"),
+            None => label,
+        };
         // A declared task's goal is kept for its pictures; positioning's is `goal`.
         let goal_values = match &start {
             Start::Declared(_, values) => Some(values.clone()),
@@ -84,16 +96,27 @@ impl Session {
         };
         let number = self.state.runs;
         let seed = episode_seed(self.seed, 1_000_000 + number);
+        // Checked before anything moves; the teacher's own randomness has a seed of its own.
+        let mut takeover = self.takeover_for(window, episode_seed(seed, 1))?;
+        self.state.learner.prepare();
         // One control loop for every base: the simulator starts afresh from the run's seed (as
         // `run_sim` does), a robot is the connected one. Ctrl-C reaches the loop through `stop`.
         self.backend.begin(seed);
         self.stop.clear();
         let mut guarded = Interruptible::new(self.backend.as_mut(), self.stop.clone());
-        let result = {
+        let driven = {
             let mut controller = self.state.learner.policy();
             let mut task = start.task();
-            task::run_episode(&mut guarded, task.as_mut(), &mut controller, seed)
+            task::takeover::run_episode_with(
+                &mut guarded,
+                task.as_mut(),
+                &mut controller,
+                takeover.as_mut(),
+                seed,
+            )
         };
+        drop(takeover);
+        let (result, teacher) = (driven.result, driven.teacher);
         let (exec, failure) = match result {
             Ok(exec) => (exec, None),
             Err(interrupted) => {
@@ -131,14 +154,30 @@ impl Session {
                 true_poses: exec.true_poses,
                 ball: exec.ball,
                 support,
+                teacher: teacher.clone(),
             }),
         })))?;
         let index = self.state.executions.len() - 1;
+        // What the teacher drove is kept, even of a run that failed.
+        let takeovers = self.keep_takeovers(index, &teacher)?;
+        let takeover_missed = window
+            .filter(|_| takeovers.is_empty())
+            .map(|w| w.to_string());
+        let took_over: String = takeovers
+            .iter()
+            .map(|t| {
+                format!(
+                    "; the teacher drove steps {} ({:.2} s to {:.2} s), kept as takeover #{} ({} points)",
+                    t.steps, t.from_s, t.to_s, t.number, t.points
+                )
+            })
+            .collect();
         if let Some(error) = failure {
             return Err(SessionError::RunInterrupted {
                 index,
                 label,
                 steps: n,
+                took_over,
                 error,
             });
         }
@@ -147,6 +186,7 @@ impl Session {
                 index,
                 label,
                 steps: n,
+                took_over,
                 reason,
             });
         }
@@ -158,6 +198,8 @@ impl Session {
             outcome: summary,
             worth_a_look: hint,
             kernel,
+            takeovers,
+            takeover_missed,
         }))
     }
 
@@ -225,6 +267,7 @@ impl Session {
                 .filter(|_| self.state.current == Some(i)),
             flagged: rec.flagged.clone(),
             advised: rec.advised.clone(),
+            teacher: rec.teacher.clone(),
         }
     }
 

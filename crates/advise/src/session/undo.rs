@@ -10,6 +10,16 @@ use crate::policy::dataset::Critique;
 use crate::policy::learner;
 use crate::trace::Chunk;
 
+/// A takeover's demonstration: the points the teacher drove, and where in which execution.
+#[derive(Clone, Debug)]
+pub(crate) struct Taken {
+    pub execution: usize,
+    pub steps: Chunk,
+    pub every: u32,
+    pub name: String,
+    pub trace: crate::trace::Trace,
+}
+
 /// An edit that `undo` can take back, holding everything `redo` needs to put it back exactly.
 #[derive(Clone, Debug)]
 pub(super) enum Edit {
@@ -29,12 +39,21 @@ pub(super) enum Edit {
         /// The critique as made: redo makes these increments again.
         critique: Critique,
     },
+    /// A demonstration the teacher gave by taking over a run.
+    Takeover {
+        number: usize,
+        id: learner::DemoId,
+        /// Its points and where they came from: redo adds these again.
+        taken: Box<Taken>,
+    },
 }
 
 impl Edit {
     pub(super) fn number(&self) -> usize {
         match self {
-            Edit::Advice { number, .. } | Edit::Critique { number, .. } => *number,
+            Edit::Advice { number, .. }
+            | Edit::Critique { number, .. }
+            | Edit::Takeover { number, .. } => *number,
         }
     }
 
@@ -42,14 +61,16 @@ impl Edit {
     /// they were made).
     pub(super) fn id(&self) -> u32 {
         match self {
-            Edit::Advice { id, .. } | Edit::Critique { id, .. } => *id,
+            Edit::Advice { id, .. } | Edit::Critique { id, .. } | Edit::Takeover { id, .. } => *id,
         }
     }
 
     /// Give the edit the number `history` shows (an opened file's edits are numbered afresh).
     pub(super) fn renumber(&mut self, n: usize) {
         match self {
-            Edit::Advice { number, .. } | Edit::Critique { number, .. } => *number = n,
+            Edit::Advice { number, .. }
+            | Edit::Critique { number, .. }
+            | Edit::Takeover { number, .. } => *number = n,
         }
     }
 
@@ -79,6 +100,16 @@ impl Edit {
                 } else {
                     ""
                 }
+            ),
+            Edit::Takeover { taken, .. } => format!(
+                "#{} takeover of execution {} ({}): the teacher drove steps {}, {} points",
+                self.number(),
+                taken.execution,
+                executions
+                    .get(taken.execution)
+                    .map_or("?", |e| e.label.as_str()),
+                taken.steps,
+                taken.trace.len()
             ),
         }
     }
@@ -114,6 +145,7 @@ impl Session {
                 .learner
                 .remove_critique(*id)
                 .map(|()| remove_chunk(&mut st.executions[*execution].flagged, critique.chunk)),
+            Edit::Takeover { id, .. } => st.learner.remove_demonstration(*id),
         };
         match result {
             Ok(()) => {
@@ -148,6 +180,7 @@ impl Session {
                 critique,
                 ..
             } => self.add_critique(execution, critique, number),
+            Edit::Takeover { taken, .. } => self.add_takeover(*taken, number),
         };
         if result.is_err() {
             self.state.redo.push(edit);

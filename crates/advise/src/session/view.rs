@@ -127,6 +127,8 @@ impl Session {
             "selection": view.selection.map(chunk),
             "flagged": view.flagged.iter().copied().map(chunk).collect::<Vec<_>>(),
             "advised": view.advised.iter().copied().map(chunk).collect::<Vec<_>>(),
+            // The windows the teacher drove (a takeover).
+            "teacher": view.teacher.iter().copied().map(chunk).collect::<Vec<_>>(),
         })
     }
 

@@ -235,6 +235,11 @@ const POSE: &[Arg] = &[arg(Number, "X"), arg(Number, "Y"), arg(Number, "THETA")]
 /// A goal's values, in the task's order or named: `2 -1 0.5`, `px=2 py=1`.
 const GOAL: &[Arg] = &[arg(Number, "V...")];
 const SECONDS: &[Arg] = &[arg(Number, "S")];
+/// `takeover A..B`: the teacher drives from A to B seconds into a run.
+const TAKEOVER: &[Opt] = &[Opt {
+    word: "takeover",
+    args: &[arg(ArgKind::Range, "A..B")],
+}];
 
 /// Every command, in the order hints try them and `help` lists them within a step. A command is
 /// this entry, its rules in `grammar/session.pest` (`command`), its [`super::Command`] variant
@@ -329,16 +334,23 @@ pub const COMMANDS: &[CommandSpec] = &[
         name: "run",
         aliases: &[],
         forms: &[
-            sub(Rule::c_run_goal, "goal", GOAL, "run goal 2 -1 0.5"),
-            sub(
-                Rule::c_run_start,
-                "start",
-                &[arg(Count, "N")],
-                "run start 3",
-            ),
+            Form {
+                rule: Rule::c_run_goal,
+                sub: Some("goal"),
+                args: GOAL,
+                options: TAKEOVER,
+                example: "run goal 2 -1 0.5 takeover 2..4",
+            },
+            Form {
+                rule: Rule::c_run_start,
+                sub: Some("start"),
+                args: &[arg(Count, "N")],
+                options: TAKEOVER,
+                example: "run start 3",
+            },
         ],
         signature: "run goal V... | run start N",
-        doc: "Run the current policy to a goal, its values in the task's order or by name (`run goal 2 -1 0.5`, `run goal px=2 py=1`), or from the N-th practice start, and record it; the reply names the goal.",
+        doc: "Run the current policy to a goal, its values in the task's order or by name (`run goal 2 -1 0.5`, `run goal px=2 py=1`), or from the N-th practice start, and record it; the reply names the goal. With `takeover A..B` the task's teacher drives from A to B seconds into the run, and what it drove joins the data as a demonstration linked to the run (`why` names it, `undo` takes it back).",
         step: Step::Run,
         example: "run goal 2 -1 0",
     },

@@ -273,6 +273,8 @@ pub struct Ros2Backend {
     command_type: (&'static str, &'static str),
     /// When the run last found the base's command reader.
     reader_seen: Instant,
+    /// `takeover=TOPIC`: the person's commands that take over a run.
+    takeover: Option<Arc<Mutex<Subscription<Twist>>>>,
     // Last: the node outlives the threads that use its publisher and subscription.
     _node: Ros2Node,
 }
@@ -359,8 +361,16 @@ impl Ros2Backend {
             domain_id: node.domain_id,
             command_type: TWIST_TYPE,
             reader_seen: now,
+            takeover: None,
             _node: node,
         };
+        if let Some(topic) = &spec.takeover {
+            let sub: Subscription<Twist> =
+                backend
+                    ._node
+                    .subscription(&spec.resolve(topic), TWIST_TYPE, odometry_qos())?;
+            backend.takeover = Some(Arc::new(Mutex::new(sub)));
+        }
         let wait = Duration::from_millis(spec.wait_ms);
         // How long the first odometry took: the base discovering our subscription.
         let odometry_after = loop {
@@ -545,8 +555,15 @@ impl Ros2Backend {
 
     /// One line for the user: topics, domain and frames.
     pub fn topics(&self) -> String {
+        let takeover = match &self.spec.takeover {
+            Some(t) => format!(
+                "; Twist commands on {} take over a run while they keep coming",
+                self.spec.resolve(t)
+            ),
+            None => String::new(),
+        };
         format!(
-            "{} commands on {}, odometry from {} (frame {}, child {}), domain {}",
+            "{} commands on {}, odometry from {} (frame {}, child {}), domain {}{takeover}",
             self.command_type.1,
             self.spec.cmd(),
             self.spec.odom(),
@@ -740,6 +757,57 @@ impl Base for Ros2Backend {
         match self.stop() {
             Ok(()) => format!("{} stopped (zero commanded for half a second)", self.name()),
             Err(e) => format!("{} was told to stop but: {e}", self.name()),
+        }
+    }
+
+    fn takeover_commands(&mut self) -> Option<Box<dyn crate::backend::teleop::Commands>> {
+        let sub = self.takeover.clone()?;
+        let mut topic = TopicTakeover {
+            sub,
+            held: None,
+            timeout: Duration::from_millis(self.spec.takeover_timeout_ms),
+        };
+        // Commands from before the run are not a person taking it over.
+        topic.drain();
+        Some(Box::new(topic))
+    }
+}
+
+/// A person's `Twist` commands on the takeover topic: they drive while they keep coming, and a
+/// pause longer than the timeout hands back.
+struct TopicTakeover {
+    sub: Arc<Mutex<Subscription<Twist>>>,
+    /// The newest command and when it came.
+    held: Option<(Instant, (f64, f64))>,
+    timeout: Duration,
+}
+
+impl TopicTakeover {
+    /// The newest command waiting, if any (bounded: a flood cannot hold up the control loop).
+    fn drain(&mut self) -> Option<Twist> {
+        let sub = self.sub.lock().unwrap_or_else(|e| e.into_inner());
+        let mut last = None;
+        for _ in 0..1000 {
+            match sub.take() {
+                Ok(Some((m, _))) => last = Some(m),
+                Ok(None) | Err(_) => break,
+            }
+        }
+        last
+    }
+}
+
+impl crate::backend::teleop::Commands for TopicTakeover {
+    fn command(&mut self, _now: (f64, f64)) -> Option<(f64, f64)> {
+        if let Some(t) = self.drain() {
+            self.held = Some((Instant::now(), (t.linear.x, t.angular.z)));
+        }
+        match self.held {
+            Some((at, c)) if at.elapsed() <= self.timeout => Some(c),
+            _ => {
+                self.held = None;
+                None
+            }
         }
     }
 }

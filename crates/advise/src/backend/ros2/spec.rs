@@ -9,7 +9,9 @@
 //! reader, as discovery reports it), `discovery=localhost|subnet|off` (else
 //! `ROS_AUTOMATIC_DISCOVERY_RANGE`, else `subnet`: [`DiscoveryRange`]) and `peers=HOST;HOST` (else
 //! `ROS_STATIC_PEERS`; only this host's addresses are reachable, see
-//! [`Ros2SpecError::Ros2StaticPeers`]). Example: `ros2:/robot1?cmd=/teleop/cmd_vel&odom_timeout=0.5&stamped`.
+//! [`Ros2SpecError::Ros2StaticPeers`]), and `takeover=TOPIC` (`geometry_msgs/Twist` commands on
+//! that topic take over a run while they keep coming; `takeover_timeout=SECONDS` without one
+//! hands back, 0.5 s). Example: `ros2:/robot1?cmd=/teleop/cmd_vel&odom_timeout=0.5&stamped`.
 //!
 //! This module owns [`Ros2Kind`] (the registry's ROS 2 entry), [`Ros2Spec`] and its diagnostics.
 //! It sends nothing: connecting is the driver's ([`super::driver::Ros2Backend::connect`]).
@@ -75,6 +77,11 @@ pub struct Ros2Spec {
     pub discovery: Option<DiscoveryRange>,
     /// `peers=HOST;HOST`; `None` means `ROS_STATIC_PEERS`.
     pub peers: Option<Vec<String>>,
+    /// `takeover=TOPIC`: a person's `Twist` commands there take over a run while they keep
+    /// coming (relative to the namespace unless it begins with `/`).
+    pub takeover: Option<String>,
+    /// `takeover_timeout=SECONDS`: no command for this long hands back to the learner, ms.
+    pub takeover_timeout_ms: u64,
 }
 
 /// How far discovery looks, as ROS 2's `ROS_AUTOMATIC_DISCOVERY_RANGE` says, in what RustDDS 0.15
@@ -143,6 +150,8 @@ impl Default for Ros2Spec {
             stamped: None,
             discovery: None,
             peers: None,
+            takeover: None,
+            takeover_timeout_ms: 500,
         }
     }
 }
@@ -312,7 +321,7 @@ pub enum Ros2SpecError {
 }
 
 /// The options a `ros2` spec takes after `?`.
-const ROS2_OPTIONS: [&str; 8] = [
+const ROS2_OPTIONS: [&str; 10] = [
     "cmd",
     "odom",
     "domain",
@@ -321,6 +330,8 @@ const ROS2_OPTIONS: [&str; 8] = [
     "stamped",
     "discovery",
     "peers",
+    "takeover",
+    "takeover_timeout",
 ];
 
 fn parse_ros2(spec: &str, rest: &str) -> Result<Ros2Spec, Ros2SpecError> {
@@ -365,6 +376,14 @@ fn parse_ros2(spec: &str, rest: &str) -> Result<Ros2Spec, Ros2SpecError> {
                 } else {
                     out.odom_topic = value.to_string();
                 }
+            }
+            "takeover" => {
+                check_ros_name(value).map_err(|why| name_err(value, why))?;
+                out.takeover = Some(value.to_string());
+            }
+            "takeover_timeout" => {
+                out.takeover_timeout_ms =
+                    seconds(value).ok_or_else(|| bad_value("seconds, up to 3600"))?
             }
             "domain" => {
                 out.domain_id = Some(
@@ -452,6 +471,15 @@ impl fmt::Display for Ros2Spec {
         if let Some(p) = &r.peers {
             options.push(format!("peers={}", p.join(";")));
         }
+        if let Some(t) = &r.takeover {
+            options.push(format!("takeover={t}"));
+        }
+        if r.takeover_timeout_ms != d.takeover_timeout_ms {
+            options.push(format!(
+                "takeover_timeout={}",
+                r.takeover_timeout_ms as f64 / 1000.0
+            ));
+        }
         if !options.is_empty() {
             write!(f, "?{}", options.join("&"))?;
         }
@@ -467,6 +495,30 @@ mod tests {
     fn ros2(spec: &str) -> Ros2Spec {
         let s: BackendSpec = spec.parse().unwrap();
         s.get::<Ros2Spec>().unwrap().clone()
+    }
+
+    #[test]
+    fn a_takeover_topic_is_read_and_written_back() {
+        let r = ros2("ros2:/robot1?takeover=joy/cmd_vel&takeover_timeout=0.25");
+        assert_eq!(r.takeover.as_deref(), Some("joy/cmd_vel"));
+        assert_eq!(
+            r.resolve(r.takeover.as_deref().unwrap()),
+            "/robot1/joy/cmd_vel"
+        );
+        assert_eq!(r.takeover_timeout_ms, 250);
+        assert_eq!(
+            r.to_string(),
+            "ros2:/robot1?takeover=joy/cmd_vel&takeover_timeout=0.25"
+        );
+        assert_eq!(ros2("ros2").takeover, None);
+        assert!(matches!(
+            error("ros2?takeover=a b"),
+            Ros2SpecError::Ros2Name { .. }
+        ));
+        assert!(matches!(
+            error("ros2?takeover_timeout=0"),
+            Ros2SpecError::Ros2Value { .. }
+        ));
     }
 
     fn error(spec: &str) -> Ros2SpecError {

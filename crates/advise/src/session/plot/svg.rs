@@ -324,6 +324,7 @@ fn draw_chunks(
 ) -> Result<Vec<(Mark, String)>, String> {
     let mut entries: Vec<(Mark, String)> = Vec::new();
     for (chunks, c, kind) in [
+        (&v.teacher, TEACHER, "the teacher drove"),
         (&v.advised, ADVISED, "advised"),
         (&v.flagged, CRITIQUED, "critiqued"),
     ] {
@@ -606,6 +607,9 @@ pub(super) fn render_actions(view: &PlotView<'_>) -> Result<String, String> {
                     .map_err(drawing)?;
             }
             chart
+                .draw_series(view.teacher.iter().map(|c| band(c, TEACHER, 0.25)))
+                .map_err(drawing)?;
+            chart
                 .draw_series(view.advised.iter().map(|c| band(c, ADVISED, 0.25)))
                 .map_err(drawing)?;
             chart
@@ -624,6 +628,12 @@ pub(super) fn render_actions(view: &PlotView<'_>) -> Result<String, String> {
         let mut entries = vec![(Mark::Line(PATH, 2), "action".to_string())];
         if let Some(sel) = view.selection {
             entries.push((Mark::Band(SELECTED, 0.25), format!("selected {sel}")));
+        }
+        if !view.teacher.is_empty() {
+            entries.push((
+                Mark::Band(TEACHER, 0.25),
+                chunk_label("the teacher drove", &view.teacher),
+            ));
         }
         if !view.advised.is_empty() {
             entries.push((

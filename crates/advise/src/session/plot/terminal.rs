@@ -44,11 +44,13 @@ pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
             'x'
         } else if PlotView::in_any(&view.advised, i) {
             '+'
+        } else if PlotView::in_any(&view.teacher, i) {
+            'T'
         } else {
             '.'
         };
         // Marks outrank plain path where points overlap.
-        if matches!(grid[r][c], ' ' | '.' | 'o' | ':') || mark == '#' {
+        if matches!(grid[r][c], ' ' | '.' | 'o' | ':' | 'T') || mark == '#' {
             grid[r][c] = mark;
         }
     }
@@ -104,6 +106,9 @@ pub fn ascii(view: &PlotView<'_>, width: usize, height: usize) -> String {
         .collect();
     if !others.is_empty() {
         let _ = writeln!(out, " {}", others.join("  "));
+    }
+    if !view.teacher.is_empty() {
+        let _ = writeln!(out, " T the teacher drove (takeover)");
     }
     out
 }
@@ -165,12 +170,19 @@ pub fn strip(view: &PlotView<'_>, width: usize) -> String {
                 'x'
             } else if any(&view.advised) {
                 '+'
+            } else if any(&view.teacher) {
+                'T'
             } else {
                 ' '
             }
         })
         .collect();
-    let _ = writeln!(out, "|{marks}| # selected  x critiqued  + advised");
+    let teacher = if view.teacher.is_empty() {
+        ""
+    } else {
+        "  T the teacher drove"
+    };
+    let _ = writeln!(out, "|{marks}| # selected  x critiqued  + advised{teacher}");
     // A ruler: the index of the first point of every 16th column.
     let mut ruler = vec![' '; cols + 8];
     for c in (0..cols).step_by(16) {
