@@ -325,9 +325,12 @@ fn oracle_summary(runs: &[BcResult]) -> Option<BcOracleSummary> {
     })
 }
 
+/// Which of a run's policies.
+type FiguresOf = fn(&BcResult) -> &BcFigures;
+
 /// Each policy's endings across seeds (see [`BcSummary::endings`]).
 fn endings_summary(runs: &[BcResult]) -> BTreeMap<String, BTreeMap<String, Spread>> {
-    let policies: [(&str, fn(&BcResult) -> &BcFigures); 3] = [
+    let policies: [(&str, FiguresOf); 3] = [
         ("teacher", |r| &r.teacher),
         ("initial", |r| &r.learner_initial),
         ("final", |r| &r.learner_final),
