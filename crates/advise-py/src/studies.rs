@@ -27,6 +27,8 @@ fn parse<T: Choice>(py: Python<'_>, name: &str, what: &str) -> PyResult<T> {
 /// (`--critique`), `teacher` its teachers' arms (`"controller"`, `"hand"` or `"both"`,
 /// `--teacher`), `sim_params` is a simulator parameters file (`--sim-params`), `practice` caps
 /// the A-OPI arms' practice goals (`--practice`, 1 to 1000). Runs without the GIL.
+// Each argument is one of `advise experiment`'s options, as Python's keywords.
+#[allow(clippy::too_many_arguments)]
 #[pyfunction]
 #[pyo3(signature = (study, seed, *, revert=None, critique=None, teacher=None, sim_params=None, practice=None))]
 pub fn study<'py>(
