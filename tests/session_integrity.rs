@@ -6,18 +6,16 @@
 //! Sockets bind 127.0.0.1 only; every wait and every trial loop is bounded.
 
 use std::io::Write;
-use std::net::{SocketAddr, UdpSocket};
+use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use advise::backend::rmp::{Emulator, EmulatorConfig};
-use advise::backend::sim::SimParams;
 use advise::policy::dataset::Provenance;
 use advise::session::{Session, SessionOptions, script};
 
 mod common;
-use common::positioning;
+use common::{emulator, positioning, restore_hearing_nothing};
 
 fn run(s: &mut Session, lines: &str) {
     for st in script::statements(lines) {
@@ -281,20 +279,6 @@ fn redo_puts_back_the_points_undo_took_even_after_a_redefinition() {
     assert!(points(&s)[20..].iter().all(|(_, a)| a[0] == 0.1));
 }
 
-/// An RMP emulator on the loopback address, quick to initialise.
-fn emulator() -> advise::backend::rmp::EmulatorHandle {
-    Emulator::bind_sim(
-        "127.0.0.1:0".parse::<SocketAddr>().unwrap(),
-        EmulatorConfig {
-            init_s: 0.05,
-            ..EmulatorConfig::default()
-        },
-        SimParams::default(),
-        0,
-    )
-    .unwrap()
-}
-
 #[test]
 fn a_resume_after_an_rmp_session_never_connects_or_drives() {
     let dir = tempfile::tempdir().unwrap();
@@ -310,16 +294,7 @@ fn a_resume_after_an_rmp_session_never_connects_or_drives() {
     drop(live);
     drop(emu);
     // Whatever answers on the robot's address now hears nothing from a resume.
-    let robot = UdpSocket::bind(addr).unwrap();
-    robot
-        .set_read_timeout(Some(Duration::from_millis(300)))
-        .unwrap();
-    let restored = Session::restore(&journal, dir.path()).unwrap();
-    let mut buf = [0u8; 64];
-    assert!(
-        robot.recv_from(&mut buf).is_err(),
-        "a resume sent a datagram to the robot"
-    );
+    let restored = restore_hearing_nothing(&journal, dir.path(), addr);
     assert!(
         restored
             .notes

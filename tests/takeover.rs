@@ -4,16 +4,13 @@
 //!
 //! Sockets bind 127.0.0.1 only; every wait and every loop is bounded.
 
-use std::net::{SocketAddr, UdpSocket};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use advise::backend::rmp::{Emulator, EmulatorConfig};
-use advise::backend::sim::SimParams;
 use advise::session::{Reply, Session, script};
 
 mod common;
-use common::positioning;
+use common::{emulator, positioning, restore_hearing_nothing};
 
 fn run(s: &mut Session, lines: &str) -> Vec<Reply> {
     script::statements(lines)
@@ -153,20 +150,6 @@ fn a_saved_dataset_keeps_the_link_and_open_gives_the_takeover_back() {
     assert!(shown.contains("demos[9].takeover"), "{shown}");
 }
 
-/// An RMP emulator on the loopback address, quick to initialise.
-fn emulator() -> advise::backend::rmp::EmulatorHandle {
-    Emulator::bind_sim(
-        "127.0.0.1:0".parse::<SocketAddr>().unwrap(),
-        EmulatorConfig {
-            init_s: 0.05,
-            ..EmulatorConfig::default()
-        },
-        SimParams::default(),
-        0,
-    )
-    .unwrap()
-}
-
 #[test]
 fn a_takeover_on_the_rmp_is_resumed_without_driving_it_again() {
     let dir = tempfile::tempdir().unwrap();
@@ -198,16 +181,7 @@ fn a_takeover_on_the_rmp_is_resumed_without_driving_it_again() {
     drop(live);
     drop(emu);
     // Whatever answers on the robot's address now hears nothing from a resume.
-    let robot = UdpSocket::bind(addr).unwrap();
-    robot
-        .set_read_timeout(Some(Duration::from_millis(300)))
-        .unwrap();
-    let restored = Session::restore(&journal, dir.path()).unwrap();
-    let mut buf = [0u8; 64];
-    assert!(
-        robot.recv_from(&mut buf).is_err(),
-        "a resume sent a datagram to the robot"
-    );
+    let restored = restore_hearing_nothing(&journal, dir.path(), addr);
     let mut s = restored.session;
     assert_eq!(saved(&mut s, &dir.path().join("b.json")), expected);
     assert!(text(&mut s, "history").contains("#1 takeover of execution 0"));

@@ -16,6 +16,40 @@ use advise::session::{Session, SessionOptions, script};
 use advise::task::TaskKind;
 use advise::trace::Pose;
 
+/// An RMP emulator on the loopback address, quick to initialise.
+pub fn emulator() -> advise::backend::rmp::EmulatorHandle {
+    advise::backend::rmp::Emulator::bind_sim(
+        "127.0.0.1:0".parse::<std::net::SocketAddr>().unwrap(),
+        advise::backend::rmp::EmulatorConfig {
+            init_s: 0.05,
+            ..advise::backend::rmp::EmulatorConfig::default()
+        },
+        SimParams::default(),
+        0,
+    )
+    .unwrap()
+}
+
+/// Resume `journal` while a socket sits on the robot's address `addr` (the emulator gone), and
+/// check that the resume sent it nothing: a resumed session never drives a robot by itself.
+pub fn restore_hearing_nothing(
+    journal: &Path,
+    dir: &Path,
+    addr: std::net::SocketAddr,
+) -> advise::session::Restored {
+    let robot = std::net::UdpSocket::bind(addr).unwrap();
+    robot
+        .set_read_timeout(Some(Duration::from_millis(300)))
+        .unwrap();
+    let restored = Session::restore(journal, dir).unwrap();
+    let mut buf = [0u8; 64];
+    assert!(
+        robot.recv_from(&mut buf).is_err(),
+        "a resume sent a datagram to the robot"
+    );
+    restored
+}
+
 /// A positioning session with `demos` teacher demonstrations.
 pub fn positioning(demos: usize) -> Session {
     Session::new(SessionOptions {

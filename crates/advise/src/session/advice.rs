@@ -21,15 +21,7 @@ impl Session {
         range: PointRange,
         execution: Option<usize>,
     ) -> Result<Reply, SessionError> {
-        let i = match execution {
-            Some(n) => n,
-            None => self
-                .state
-                .executions
-                .len()
-                .checked_sub(1)
-                .ok_or(SessionError::NoExecution)?,
-        };
+        let i = self.execution_or_last(execution)?;
         let rec = self.numbered(i)?;
         let chunk = range.resolve(rec.trace.len())?;
         self.commit(Effect::Select {
@@ -40,6 +32,19 @@ impl Session {
             execution: i,
             chunk,
         })
+    }
+
+    /// Execution `n` when given, else the last one; `NoExecution` when there is none.
+    pub(super) fn execution_or_last(&self, n: Option<usize>) -> Result<usize, SessionError> {
+        match n {
+            Some(n) => Ok(n),
+            None => self
+                .state
+                .executions
+                .len()
+                .checked_sub(1)
+                .ok_or(SessionError::NoExecution),
+        }
     }
 
     /// Execution `n`, or a diagnostic naming the executions there are.

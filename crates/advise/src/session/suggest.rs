@@ -203,15 +203,7 @@ struct Candidate {
 impl Session {
     /// `suggest [N]`.
     pub(super) fn suggest(&mut self, n: Option<usize>) -> Result<Reply, SessionError> {
-        let i = match n {
-            Some(n) => n,
-            None => self
-                .state
-                .executions
-                .len()
-                .checked_sub(1)
-                .ok_or(SessionError::NoExecution)?,
-        };
+        let i = self.execution_or_last(n)?;
         let rec = self.numbered(i)?.clone();
         let flawed = self.flawed(i, &rec)?;
         let mut cands = self.candidates(&rec, &flawed);
