@@ -449,15 +449,7 @@ fn run_arm(
     );
     let initial = evaluate(&learners[0]);
     bar.set_message("bc: oracles");
-    let oracle_reports: Vec<(usize, usize, Option<Report>)> = oracle_data
-        .into_iter()
-        .map(|(demos, ds)| {
-            let points = ds.len();
-            let report =
-                (points > 0).then(|| evaluate(&Learner::with_dataset(ds, LearnerKind::Bc, seed)));
-            (demos, points, report)
-        })
-        .collect();
+    let oracle_reports = evaluate_oracles(oracle_data, &evaluate, seed);
     bar.inc(1);
 
     let mut results: Vec<Rounds> = rules
@@ -517,7 +509,7 @@ fn run_arm(
     });
     let first = results.remove(0);
     let paired = paired_with(&first.last);
-    let mut oracles = oracle_reports.into_iter().map(|(demos, points, report)| {
+    let [successful_demos, perfect_critique] = oracle_reports.map(|(demos, points, report)| {
         let own = report.as_ref().map(&paired_with).unwrap_or_default();
         BcOracle {
             demos,
@@ -526,9 +518,6 @@ fn run_arm(
             paired_runs: own.len(),
         }
     });
-    let (Some(successful_demos), Some(perfect_critique)) = (oracles.next(), oracles.next()) else {
-        unreachable!("oracle_datasets makes two datasets")
-    };
     BcResult {
         experiment: "bc".into(),
         seed,
@@ -551,6 +540,20 @@ fn run_arm(
         hand: None,
         paper: PAPER,
     }
+}
+
+/// Each oracle's demonstrations, points and, when it has data, test-set report.
+fn evaluate_oracles(
+    data: [(usize, Dataset); 2],
+    evaluate: &dyn Fn(&Learner) -> Report,
+    seed: u64,
+) -> [(usize, usize, Option<Report>); 2] {
+    data.map(|(demos, ds)| {
+        let points = ds.len();
+        let report =
+            (points > 0).then(|| evaluate(&Learner::with_dataset(ds, LearnerKind::Bc, seed)));
+        (demos, points, report)
+    })
 }
 
 /// The oracles' datasets (S6), each with the number of demonstrations that kept a point:
