@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """Print docs/ablation.md's tables from docs/measured/{bc,aopi}-seeds-0-20.json (the protocol)
 and docs/measured/ablation-{bc,aopi}-CHOICE.json (one choice reverted alone), as they came out.
+A-OPI's protocol row is the first kernel rule's measurement (aopi-seeds-0-20-first-kernel.json),
+the one its ablation runs were measured beside.
 Run from the repository's root: python3 docs/measured/ablation.py"""
 import json, os
 
@@ -40,7 +42,7 @@ def bc():
 def aopi():
     print("| run | baseline | advised | hybrid | teleoperation | advised beats baseline | hybrid beats baseline | advised matches teleop | hybrid matches teleop | advised dataset smaller | hybrid dataset smaller | all six |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for name, file in [("protocol", "aopi-seeds-0-20.json")] + [
+    for name, file in [("protocol", "aopi-seeds-0-20-first-kernel.json")] + [
         (f"{n}. `--revert {c}`", f"ablation-aopi-{c}.json") for n, c in [(2, "teacher"), (5, "advisor"), (6, "stopping"), (7, "rate")]
     ]:
         d = load(file)
