@@ -345,6 +345,11 @@ fn the_calibration_figures_are_the_shipped_files() {
         after(3),
         f(cal, "loss_after"),
     ));
+    let at = aopi["calibration"]["targets"].as_array().unwrap();
+    quoted(&format!(
+        "the baseline makes {:.1}% (paper\n32%",
+        f(&at[1], "after") * 100.0
+    ));
     quoted(&format!(
         "set the arms' patience to {} validation evaluations",
         aopi["patience"]
