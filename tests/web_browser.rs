@@ -296,7 +296,9 @@ fn the_teacher_flow_on_interception() {
     flow(
         "interception",
         &["task interception", "load demos teacher:1"],
-        "start 3",
+        // A run that drives far (17 m) in the second protocol's world: a path long enough on
+        // the page to drag a selection on.
+        "start 0",
         "slow_down",
     );
 }
