@@ -12,34 +12,13 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use advise::policy::dataset::Provenance;
-use advise::session::{Session, SessionOptions, script};
+use advise::session::{Session, SessionOptions};
 
 mod common;
-use common::{emulator, positioning, restore_hearing_nothing};
+use common::{copy_of, emulator, positioning, restore_hearing_nothing, saved};
 
 fn run(s: &mut Session, lines: &str) {
-    for st in script::statements(lines) {
-        if let Err(e) = s.execute(&st.text, "<test>") {
-            panic!(
-                "{}: {}",
-                st.text,
-                advise_cli::repl::render(s.sources(), &e, false)
-            );
-        }
-    }
-}
-
-/// A copy of a journal beside it: what a second session resumes while the first holds the
-/// journal.
-fn copy_of(journal: &Path) -> PathBuf {
-    let copy = journal.with_extension("copy.jsonl");
-    std::fs::copy(journal, &copy).unwrap();
-    copy
-}
-
-fn saved(s: &mut Session, path: &Path) -> Vec<u8> {
-    run(s, &format!("save {}", path.display()));
-    std::fs::read(path).unwrap()
+    common::execute_all(s, lines);
 }
 
 const WORK: &str = "run goal 2 -1 0.5

@@ -4,41 +4,16 @@
 //!
 //! Sockets bind 127.0.0.1 only; every wait and every loop is bounded.
 
-use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use advise::session::{Reply, Session, script};
+use advise::session::{Reply, Session};
 
 mod common;
-use common::{emulator, positioning, restore_hearing_nothing};
-
-fn run(s: &mut Session, lines: &str) -> Vec<Reply> {
-    script::statements(lines)
-        .iter()
-        .map(|st| match s.execute(&st.text, "<test>") {
-            Ok(r) => r,
-            Err(e) => panic!(
-                "{}: {}",
-                st.text,
-                advise_cli::repl::render(s.sources(), &e, false)
-            ),
-        })
-        .collect()
-}
+use common::execute_all as run;
+use common::{copy_of, emulator, positioning, restore_hearing_nothing, saved};
 
 fn text(s: &mut Session, line: &str) -> String {
     run(s, line).remove(0).to_string()
-}
-
-fn copy_of(journal: &Path) -> PathBuf {
-    let copy = journal.with_extension("copy.jsonl");
-    std::fs::copy(journal, &copy).unwrap();
-    copy
-}
-
-fn saved(s: &mut Session, path: &Path) -> Vec<u8> {
-    run(s, &format!("save {}", path.display()));
-    std::fs::read(path).unwrap()
 }
 
 const WORK: &str = "run goal 2 -1 0.5 takeover 2..4

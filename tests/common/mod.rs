@@ -50,6 +50,36 @@ pub fn restore_hearing_nothing(
     restored
 }
 
+/// Run each statement of `lines` in `s`, panicking with the rendered diagnostic of the first that
+/// fails; the replies in order.
+pub fn execute_all(s: &mut Session, lines: &str) -> Vec<advise::session::Reply> {
+    script::statements(lines)
+        .iter()
+        .map(|st| match s.execute(&st.text, "<test>") {
+            Ok(r) => r,
+            Err(e) => panic!(
+                "{}: {}",
+                st.text,
+                advise_cli::repl::render(s.sources(), &e, false)
+            ),
+        })
+        .collect()
+}
+
+/// A copy of a journal beside it: what a second session resumes while the first holds the
+/// journal.
+pub fn copy_of(journal: &Path) -> PathBuf {
+    let copy = journal.with_extension("copy.jsonl");
+    std::fs::copy(journal, &copy).unwrap();
+    copy
+}
+
+/// What `save PATH` writes for `s`, as bytes.
+pub fn saved(s: &mut Session, path: &Path) -> Vec<u8> {
+    execute_all(s, &format!("save {}", path.display()));
+    std::fs::read(path).unwrap()
+}
+
 /// A positioning session with `demos` teacher demonstrations.
 pub fn positioning(demos: usize) -> Session {
     Session::new(SessionOptions {
