@@ -190,7 +190,8 @@ impl Report {
     }
 }
 
-fn ending_name(e: Ending) -> &'static str {
+/// The name an ending goes by in a report's `endings` (and the JSON).
+pub fn ending_name(e: Ending) -> &'static str {
     match e {
         Ending::Rested => "rested",
         Ending::TimeLimit => "time_limit",

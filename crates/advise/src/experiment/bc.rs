@@ -31,7 +31,7 @@ use std::fmt::Write as _;
 use serde::{Deserialize, Serialize};
 
 use crate::backend::sim::SimParams;
-use crate::eval::Report;
+use crate::eval::{Report, ending_name};
 use crate::experiment::critic::{self, CriticRules};
 use crate::experiment::protocol::{Revert, reverts};
 use crate::experiment::{Progress, eval_seed, evaluate_starts_in, opt_m, pct, practice_seed};
@@ -40,8 +40,8 @@ use crate::policy::dataset::{CritiqueRule, Dataset};
 use crate::policy::learner::{Learner, LearnerKind};
 use crate::task::interception::{StatelessInterceptionTeacher, practice_starts_in};
 use crate::task::{
-    Controller, Execution, InterceptionRules, InterceptionTeacher, Outcome, Start, TaskKind,
-    record_demos_in, run_sim_in,
+    Controller, Ending, Execution, InterceptionRules, InterceptionTeacher, Outcome, Start,
+    TaskKind, record_demos_in, run_sim_in,
 };
 use crate::trace::{Chunk, Episode};
 
@@ -876,16 +876,21 @@ fn render_oracles(s: &mut String, o: &BcOracles) {
     }
 }
 
+/// The endings of an interception episode, the paper's (and the robot leaving the arena) first,
+/// the safety limit last (the second protocol, S3).
+pub const ENDINGS: [Ending; 4] = [
+    Ending::Captured,
+    Ending::BallOut,
+    Ending::RobotOut,
+    Ending::TimeLimit,
+];
+
 /// How a policy's test episodes ended, the paper's endings first and the safety limit apart.
 pub(crate) fn endings_line(who: &str, endings: &BTreeMap<String, usize>, limit_s: f64) -> String {
-    let get = |k: &str| endings.get(k).copied().unwrap_or(0);
+    let [captured, ball_out, robot_out, limit] =
+        ENDINGS.map(|e| endings.get(ending_name(e)).copied().unwrap_or(0));
     format!(
-        "{who}'s endings: captured {}, ball out {}, robot out {}; at the {:.0} s safety limit {} (not an ending the paper has)",
-        get("captured"),
-        get("ball_out"),
-        get("robot_out"),
-        limit_s,
-        get("time_limit")
+        "{who}'s endings: captured {captured}, ball out {ball_out}, robot out {robot_out}; at the {limit_s:.0} s safety limit {limit} (not an ending the paper has)"
     )
 }
 

@@ -18,8 +18,9 @@ use std::fmt::Write as _;
 
 use serde::{Deserialize, Serialize};
 
+use crate::eval::ending_name;
 use crate::experiment::aopi::{AopiResult, ArmFigures};
-use crate::experiment::bc::{BcFigures, BcOracles, BcResult, BcRuleResult, TeacherKind};
+use crate::experiment::bc::{self, BcFigures, BcOracles, BcResult, BcRuleResult, TeacherKind};
 use crate::experiment::{mean_sd, pct};
 use crate::policy::dataset::CritiqueRule;
 
@@ -338,12 +339,13 @@ fn endings_summary(runs: &[BcResult]) -> BTreeMap<String, BTreeMap<String, Sprea
     policies
         .iter()
         .map(|(name, of)| {
-            let each = ["captured", "ball_out", "robot_out", "time_limit"]
+            let each = bc::ENDINGS
                 .iter()
-                .map(|k| {
+                .map(|&e| {
+                    let k = ending_name(e);
                     let v: Vec<f64> = runs
                         .iter()
-                        .map(|r| of(r).endings.get(*k).copied().unwrap_or(0) as f64)
+                        .map(|r| of(r).endings.get(k).copied().unwrap_or(0) as f64)
                         .collect();
                     (k.to_string(), Spread::of(&v))
                 })
@@ -524,14 +526,11 @@ impl BcSummary {
             );
         }
         for (who, e) in &self.endings {
-            let get = |k: &str| e.get(k).map_or(0.0, |v| v.mean);
+            let [captured, ball_out, robot_out, limit] =
+                bc::ENDINGS.map(|k| e.get(ending_name(k)).map_or(0.0, |v| v.mean));
             let _ = writeln!(
                 s,
-                "  {who}'s endings per test set (mean): captured {:.1}, ball out {:.1}, robot out {:.1}; safety limit {:.1}",
-                get("captured"),
-                get("ball_out"),
-                get("robot_out"),
-                get("time_limit")
+                "  {who}'s endings per test set (mean): captured {captured:.1}, ball out {ball_out:.1}, robot out {robot_out:.1}; safety limit {limit:.1}"
             );
         }
         s.push('\n');
