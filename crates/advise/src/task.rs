@@ -290,23 +290,22 @@ impl<P: Policy + ?Sized> Controller for &P {
 /// not a number at the end. An episode takes at most [`MAX_EPISODE_STEPS`] steps. A backend error
 /// stops the episode; the base is asked to stop and the execution so far comes back inside
 /// [`Interrupted`].
+///
+/// The one control loop is [`takeover::run_episode_with`]; this is it with no one taking over.
 pub fn run_episode(
     backend: &mut dyn Backend,
     task: &mut dyn Task,
     controller: &mut dyn Controller,
     episode_seed: u64,
 ) -> Result<Execution, Interrupted> {
-    let mut ep = Stepper::begin(backend, task)?;
-    controller.begin(episode_seed);
-    let mut a = vec![0.0; task.domain().act_dim()];
-    while !ep.is_over() {
-        a.iter_mut().for_each(|v| *v = 0.0);
-        controller.act(ep.observation(), &mut a);
-        if let Err(error) = ep.step(backend, task, &a) {
-            return Err(ep.interrupt(backend, task, error));
-        }
-    }
-    ep.finish(backend, task)
+    takeover::run_episode_with(
+        backend,
+        task,
+        controller,
+        &mut takeover::Never,
+        episode_seed,
+    )
+    .result
 }
 
 /// One episode, a step at a time: the loop of [`run_episode`], which drives it with a

@@ -200,7 +200,8 @@ pub fn driver_at(teacher: &[Chunk], k: usize) -> Driver {
     }
 }
 
-/// [`super::run_episode`] with `takeover` asked before every step whether the teacher drives it.
+/// The control loop of every episode ([`super::run_episode`] is it with [`Never`]), with
+/// `takeover` asked before every step whether the teacher drives it.
 /// The learner (`controller`) acts only on its own steps, so a stateful controller sees the run
 /// it drove; the teacher's actions go through the same clamp and base as the learner's.
 pub fn run_episode_with(
