@@ -4,9 +4,9 @@
 //!
 //! **Chunks.** The stretches where flaws held ([`crate::interp::flaws::find`]), overlapping ones
 //! joined (each named by all its flaws), in the order they happened, at most [`MAX_CHUNKS`]: a
-//! run's first flaws are where it began to go wrong. Each is cut to its first
-//! [`MAX_CHUNK_POINTS`] points, as the studies' advisor cuts its chunks: a person advises the
-//! moment things went wrong, not the whole stretch after it.
+//! run's first flaws are where it began to go wrong. Each is cut by the studies' one chunk rule
+//! ([`crate::experiment::chunk_rule`]: its first 25 points): a person advises the moment things
+//! went wrong, not the whole stretch after it.
 //!
 //! **Candidates.** Every operator of the task's domain, standard or the session's own, whose
 //! application to the chunk changes at least one point (a guard that skips every point, or an
@@ -37,6 +37,7 @@ use serde::Serialize;
 use super::{HeldExecution, Reply, Session, SessionError};
 use crate::check;
 use crate::diag::SourceMap;
+use crate::experiment::advisor;
 use crate::interp::{self, Synthesized};
 use crate::syntax::parse_invocation;
 use crate::task::{self, Execution, Start, TaskKind, episode_seed};
@@ -44,12 +45,15 @@ use crate::trace::{Chunk, PointRange};
 
 /// Flawed chunks suggested on, at most.
 pub const MAX_CHUNKS: usize = 4;
-/// A chunk's points, at most (the studies' advisor's `chunk_len`).
-pub const MAX_CHUNK_POINTS: usize = 25;
 /// Suggestions kept per chunk.
 pub const PER_CHUNK: usize = 3;
-/// The paper's "a little", "more", "much more", as rates.
-pub const RATES: [(f64, &str); 3] = [(0.1, "a little"), (0.25, "more"), (0.5, "much more")];
+/// The paper's "a little", "more", "much more", as rates: the studies' advisor's
+/// ([`crate::experiment::advisor::RATES`]), named.
+pub const RATES: [(f64, &str); 3] = [
+    (advisor::RATES[0], "a little"),
+    (advisor::RATES[1], "more"),
+    (advisor::RATES[2], "much more"),
+];
 /// Re-runs per `suggest`, at most (tried in turn across the chunks, so each gets its share).
 pub const MAX_RERUNS: usize = 96;
 /// Stretches of flaws at most this many points apart are one chunk (the studies' critic's
@@ -100,7 +104,7 @@ impl Measure {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Flawed {
     pub chunk: Chunk,
-    /// The stretch before it was cut to [`MAX_CHUNK_POINTS`].
+    /// The stretch before the chunk rule cut it.
     pub held: Chunk,
     pub flaws: Vec<String>,
 }
@@ -319,10 +323,7 @@ impl Session {
             .into_iter()
             .take(MAX_CHUNKS)
             .map(|(held, flaws)| Flawed {
-                chunk: Chunk {
-                    start: held.start,
-                    end: held.end.min(held.start + MAX_CHUNK_POINTS),
-                },
+                chunk: crate::experiment::chunk_rule(held),
                 held,
                 flaws,
             })
