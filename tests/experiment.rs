@@ -198,7 +198,7 @@ fn reduced_aopi_study_reports_every_arm() {
     assert_eq!(v["experiment"], "aopi");
     assert_eq!(v["seed"], 5);
     let seed_points = v["seed_demo_points"].as_u64().unwrap();
-    for arm in ["baseline", "advised", "hybrid", "teleop"] {
+    for arm in ["baseline", "advised", "hybrid", "teleop", "takeover"] {
         rate(&v, &format!("/arms/{arm}/success_rate"));
         let a = &v["arms"][arm];
         assert!(a["mean_position_error_m"].as_f64().unwrap() >= 0.0);
@@ -223,7 +223,7 @@ fn reduced_aopi_study_reports_every_arm() {
         );
     }
     // The stopping rule read validation goals at every evaluation.
-    for arm in ["advised", "hybrid", "teleop"] {
+    for arm in ["advised", "hybrid", "teleop", "takeover"] {
         for p in v["arms"][arm]["curve"].as_array().unwrap() {
             rate(p, "/validation_success_rate");
         }
@@ -247,15 +247,56 @@ fn reduced_aopi_study_reports_every_arm() {
             / arms.teleop.teleop_demos as f64;
         assert!(per_advised < per_demo, "{per_advised} vs {per_demo}");
     }
+    // Takeovers add only the teacher's windows, each one execution, and nothing else.
+    let takeover = arms
+        .takeover
+        .as_ref()
+        .expect("the takeover arm runs by default");
+    assert_eq!(
+        takeover.dataset_size,
+        result.seed_demo_points + takeover.takeover_points
+    );
+    assert_eq!(takeover.executions, 9 + takeover.takeovers);
+    assert_eq!(
+        (takeover.advice_given, takeover.teleop_demos),
+        (0, 0),
+        "the takeover arm neither advises nor demonstrates whole runs"
+    );
+    assert!(
+        takeover.takeovers > 0,
+        "the baseline's poor practice runs were taken over"
+    );
+    assert!(result.render().contains("takeover "));
     // Figure 11's curves grow with the executions.
-    for arm in [&arms.advised, &arms.hybrid, &arms.teleop] {
+    for arm in [&arms.advised, &arms.hybrid, &arms.teleop, takeover] {
         for w in arm.curve.windows(2) {
             assert!(w[1].executions >= w[0].executions);
             assert!(w[1].dataset_size >= w[0].dataset_size);
         }
         assert!(arm.practice_final <= arm.practice_run && arm.practice_run <= 12);
     }
-    assert_eq!(aopi::run(5, &params, false), result);
+    // The other arms do not depend on the takeover arm (docs/protocol.md, T7): without it they
+    // come out the same to the last bit (which also shows the study repeats itself), and the
+    // result has no takeover.
+    let without = aopi::run(
+        5,
+        &AopiParams {
+            takeover_arm: false,
+            ..params.clone()
+        },
+        false,
+    );
+    assert_eq!(without.arms.takeover, None);
+    assert_eq!(
+        (&without.arms.baseline, &without.arms.advised),
+        (&arms.baseline, &arms.advised)
+    );
+    assert_eq!(
+        (&without.arms.hybrid, &without.arms.teleop),
+        (&arms.hybrid, &arms.teleop)
+    );
+    let v = serde_json::to_value(&without).unwrap();
+    assert!(v["arms"].get("takeover").is_none());
 }
 
 #[test]

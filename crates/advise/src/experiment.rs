@@ -32,6 +32,7 @@ pub mod plot;
 pub mod protocol;
 pub mod study;
 pub mod summary;
+pub mod takeover_arm;
 
 /// Salts that keep the seed's streams apart: test-set noise, practice-execution noise.
 const EVAL_SALT: u64 = 0x7E57_0000_0000_0001;

@@ -981,6 +981,27 @@ pub fn run_sim_in(
     run_sim_task(start.task_in(world), controller, params, seed)
 }
 
+/// [`run_sim`] with `takeover` asked before every step whether the teacher drives it: the run
+/// and the windows of steps the teacher drove. Up to the first step the teacher takes, it is the
+/// run [`run_sim`] makes with the same arguments (one control loop).
+pub fn run_sim_with(
+    start: &Start,
+    controller: &mut dyn Controller,
+    takeover: &mut dyn takeover::Takeover,
+    params: &SimParams,
+    seed: u64,
+) -> (Execution, Vec<crate::trace::Chunk>) {
+    let mut task = start.task();
+    let mut backend = SimBackend::new(params.clone(), seed);
+    let driven =
+        takeover::run_episode_with(&mut backend, task.as_mut(), controller, takeover, seed);
+    match driven.result {
+        Ok(e) => (e, driven.teacher),
+        // The simulator never fails; keep what was recorded if that ever changes.
+        Err(i) => (*i.execution, driven.teacher),
+    }
+}
+
 fn run_sim_task(
     mut task: Box<dyn Task>,
     controller: &mut dyn Controller,

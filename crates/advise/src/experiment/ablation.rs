@@ -69,6 +69,8 @@ impl Revert {
             teacher,
             advisor,
             revert: Some(self),
+            // The ablation reverts choices of the paper's arms; the takeover arm came after it.
+            takeover_arm: false,
             ..params
         }
     }

@@ -294,16 +294,36 @@ pub fn advise(exec: &Execution, rules: &AdvisorRules) -> Vec<Advice> {
     out
 }
 
+/// Where a poor execution began to go wrong: the first point of the earliest chunk the advisor
+/// advises on it (the one chunk rule: a chunk begins where the flaw begins); `None` for a good
+/// execution or one on which it names no chunk. The takeover arm's teacher takes over there
+/// (docs/protocol.md, T2).
+pub fn went_wrong_at(exec: &Execution, rules: &AdvisorRules) -> Option<usize> {
+    advise(exec, rules).iter().map(|a| a.chunk.start).min()
+}
+
+/// Whether the advisor's arc rule (rule 2) judges point `t` of `trace` right: driving forward
+/// beyond [`ARC_NEAR_M`] of the goal on an arc that bends onto the goal pose, the path's
+/// curvature read from `path` (poses of the trace's points, and of the
+/// [`CURVE_WINDOW`] points after `t` when there are). What the takeover arm's teacher reads to
+/// hand back (docs/protocol.md, T4).
+pub fn arc_is_right(trace: &Trace, path: &[Pose], t: usize) -> bool {
+    t < trace.len()
+        && trace.obs_dim() > DHEADING
+        && trace.act_dim() > ROT
+        && arc_at(trace, path, t, false) == Some(Arc::Right)
+}
+
 /// Advice is not given on arcs nearer the goal than this, m: there the robot should be turning
 /// onto the goal heading in place or nearly.
-const ARC_NEAR_M: f64 = 0.6;
+pub const ARC_NEAR_M: f64 = 0.6;
 /// An arc is right when its curvature is within these factors of the arc that reaches the goal.
 const ARC_OK: (f64, f64) = (0.6, 1.7);
 /// With the goal this nearly straight ahead (curvature of the arc to it, 1/m), driving straight
 /// is right.
 const ARC_STRAIGHT: f64 = 0.12;
 /// The path's curvature at a point is measured over this many points of it.
-const CURVE_WINDOW: usize = 5;
+pub const CURVE_WINDOW: usize = 5;
 
 /// How a point of the approach curves, against the arc that would reach the goal.
 #[derive(Clone, Copy, Debug, PartialEq)]

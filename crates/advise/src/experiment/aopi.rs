@@ -1,7 +1,9 @@
 //! The A-OPI study (the paper's "Empirical Validation: A-OPI"): spatial positioning with an LWR
 //! learner, seeded with 9 teacher demonstrations (the baseline policy), then improved three ways
 //! from the same seed: advice only (A-OPI advised), more teleoperation then advice (A-OPI
-//! hybrid), and more teleoperation only.
+//! hybrid), more teleoperation only, and (issue 53, docs/protocol.md T1-T7) takeovers: the
+//! teacher takes over a poor run where it began to go wrong and drives until it recovers, and
+//! only the steps it drove join the data ([`takeover_arm`]).
 //!
 //! Protocol, per seed and arm: practice goals are drawn without replacement from the seed's
 //! practice stream (after the 9 demonstration goals, so none repeats and none is a test goal);
@@ -26,6 +28,7 @@
 //! `best`, labelled, for comparison.
 //!
 //! [`advisor`]: crate::experiment::advisor
+//! [`takeover_arm`]: crate::experiment::takeover_arm
 //! [`pilot`]: crate::experiment::pilot
 
 use std::collections::BTreeMap;
@@ -40,13 +43,16 @@ use crate::eval::Report;
 use crate::experiment::advisor::{self, AdvisorRules};
 use crate::experiment::pilot::PilotStyle;
 use crate::experiment::protocol::{Revert, reverts};
+use crate::experiment::takeover_arm::Recovery;
 use crate::experiment::{Progress, eval_seed, evaluate_starts, pct, practice_seed};
 use crate::interp;
 use crate::policy::Policy;
 use crate::policy::dataset::Dataset;
 use crate::policy::learner::{CoverageCounter, Learner, LearnerKind, Retune};
+use crate::task::takeover::window_trace;
 use crate::task::{
     Controller, Execution, Outcome, Start, TaskKind, episode_seed, recorded_at, run_sim,
+    run_sim_with,
 };
 use crate::trace::Episode;
 use rayon::prelude::*;
@@ -105,6 +111,22 @@ pub struct AopiParams {
     /// ([`crate::experiment::ablation`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub revert: Option<Revert>,
+    /// Whether the takeover arm runs (issue 53; on by default, written only when off: the
+    /// calibration, which fits the three arms the paper has, leaves it out).
+    #[serde(default = "yes", skip_serializing_if = "is_yes")]
+    pub takeover_arm: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn is_yes(b: &bool) -> bool {
+    *b
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 impl AopiParams {
@@ -140,6 +162,7 @@ impl Default for AopiParams {
             advisor: AdvisorRules::default(),
             sim: SimParams::default(),
             revert: None,
+            takeover_arm: true,
         }
     }
 }
@@ -181,6 +204,11 @@ pub struct ArmFigures {
     pub advised_executions: usize,
     pub advice_given: usize,
     pub advice_points: usize,
+    /// Takeovers whose window joined the data, and the points they added (the takeover arm).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub takeovers: usize,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub takeover_points: usize,
     /// Pieces of advice by operator, up to the final policy.
     pub operators: BTreeMap<String, usize>,
     pub curve: Vec<ArmPoint>,
@@ -225,13 +253,16 @@ impl Selected {
     }
 }
 
-/// The four policies.
+/// The policies: the paper's four and the takeover arm's (absent from results made before it,
+/// and when [`AopiParams::takeover_arm`] is off).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Arms {
     pub baseline: ArmFigures,
     pub advised: ArmFigures,
     pub hybrid: ArmFigures,
     pub teleop: ArmFigures,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub takeover: Option<ArmFigures>,
 }
 
 /// The study's result.
@@ -251,6 +282,7 @@ enum Mode {
     Advised,
     Hybrid,
     Teleop,
+    Takeover,
 }
 
 /// Run the A-OPI study. `progress` draws a bar on a terminal.
@@ -265,7 +297,7 @@ pub fn run(seed: u64, params: &AopiParams, progress: bool) -> AopiResult {
 pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) -> AopiResult {
     let bar = Progress::new(
         progress,
-        1 + 3 * params.max_practice as u64,
+        1 + (3 + u64::from(params.takeover_arm)) * params.max_practice as u64,
         "a-opi: demonstrations",
     );
     let (ds, _) = seed_dataset(params, seed);
@@ -299,10 +331,15 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
     };
     // The arms share nothing but their inputs: run them side by side (each also spreads its
     // evaluations over the cores), so a seed's serial stretches (practice runs, advice) overlap.
-    bar.set_message("a-opi: the three arms");
-    let (advised, (hybrid, teleop)) = rayon::join(
-        || setting.run(Mode::Advised),
-        || rayon::join(|| setting.run(Mode::Hybrid), || setting.run(Mode::Teleop)),
+    bar.set_message("a-opi: the arms");
+    let ((advised, hybrid), (teleop, takeover)) = rayon::join(
+        || rayon::join(|| setting.run(Mode::Advised), || setting.run(Mode::Hybrid)),
+        || {
+            rayon::join(
+                || setting.run(Mode::Teleop),
+                || params.takeover_arm.then(|| setting.run(Mode::Takeover)),
+            )
+        },
     );
     bar.finish();
     AopiResult {
@@ -314,6 +351,7 @@ pub fn run_on(seed: u64, params: &AopiParams, test: &[Start], progress: bool) ->
             advised,
             hybrid,
             teleop,
+            takeover,
         },
         seed_demo_points,
         paper: PAPER,
@@ -444,6 +482,7 @@ impl ArmSetting<'_> {
             Mode::Advised => false,
             Mode::Hybrid => i < self.params.hybrid_teleop,
             Mode::Teleop => true,
+            Mode::Takeover => return self.take_over(i, goal, exec, learner, tally),
         };
         if teleop {
             if learner
@@ -458,6 +497,60 @@ impl ArmSetting<'_> {
             return true;
         }
         false
+    }
+
+    /// The takeover arm's improvement on `exec`, a poor run of practice goal `i`
+    /// (docs/protocol.md, T2-T5): where the advisor judges it began to go wrong, the person
+    /// (the one the teleoperation arm meets on this goal, begun with the same seed) takes over
+    /// the same run, made again on the same noise, and drives until it recovers; the steps it
+    /// drove join the dataset at the demonstrations' rate. Whether they did.
+    fn take_over(
+        &self,
+        i: usize,
+        goal: &Start,
+        exec: &Execution,
+        learner: &mut Learner,
+        tally: &mut Tally,
+    ) -> bool {
+        let (params, sim, seed) = (self.params, &self.params.sim, self.seed);
+        let Some(from) = advisor::went_wrong_at(exec, &params.advisor) else {
+            return false;
+        };
+        let person = params
+            .teacher
+            .teacher(seed, (params.seed_demos + i) as u64, sim.period_s());
+        let mut hook = Recovery::new(
+            from,
+            person,
+            practice_seed(seed, (1 << 32) + i as u64),
+            &params.advisor,
+        );
+        let (taken, windows) = {
+            let mut policy: &dyn Policy = learner.policy();
+            let controller: &mut dyn Controller = &mut policy;
+            run_sim_with(
+                goal,
+                controller,
+                &mut hook,
+                sim,
+                practice_seed(seed, i as u64),
+            )
+        };
+        let Some(&window) = windows.first() else {
+            return false;
+        };
+        let trace = window_trace(&taken.trace, window, params.record_every());
+        let points = trace.len();
+        let demo = Episode {
+            name: format!("takeover-{i}"),
+            trace,
+        };
+        if points == 0 || learner.add_demonstrations(&[demo]).is_err() {
+            return false;
+        }
+        tally.takeovers += 1;
+        tally.takeover_points += points;
+        true
     }
 
     /// The person's own run of practice goal `i`, in the style drawn for it (the same in every
@@ -652,6 +745,8 @@ struct Tally {
     advised_executions: usize,
     advice_given: usize,
     advice_points: usize,
+    takeovers: usize,
+    takeover_points: usize,
     operators: BTreeMap<String, usize>,
 }
 
@@ -699,6 +794,8 @@ fn figures(
         advised_executions: t.advised_executions,
         advice_given: t.advice_given,
         advice_points: t.advice_points,
+        takeovers: t.takeovers,
+        takeover_points: t.takeover_points,
         operators: t.operators,
         curve: Vec::new(),
         halted: Selected::of(r, p),
@@ -727,27 +824,30 @@ impl AopiResult {
             "executions",
             "practice"
         );
-        let rows = [
-            ("Baseline", &a.baseline, PAPER.baseline_success, None),
+        let mut rows = vec![
+            ("Baseline", &a.baseline, Some(PAPER.baseline_success), None),
             (
                 "A-OPI Advised",
                 &a.advised,
-                PAPER.advised_success,
+                Some(PAPER.advised_success),
                 Some(PAPER.advised_executions),
             ),
             (
                 "A-OPI Hybrid",
                 &a.hybrid,
-                PAPER.hybrid_success,
+                Some(PAPER.hybrid_success),
                 Some(PAPER.hybrid_executions),
             ),
             (
                 "Teleoperation",
                 &a.teleop,
-                PAPER.teleop_success,
+                Some(PAPER.teleop_success),
                 Some(PAPER.teleop_executions),
             ),
         ];
+        if let Some(t) = &a.takeover {
+            rows.push(("Takeover", t, None, None));
+        }
         for (name, f, paper, paper_exec) in rows {
             let exec = match paper_exec {
                 Some(e) => format!("{} ({e})", f.executions),
@@ -758,7 +858,7 @@ impl AopiResult {
                 "  {:<16} {:>8} {:>8}  {:>13.3} {:>15.3}  {:>8} {:>11} {:>9}",
                 name,
                 pct(f.success_rate),
-                pct(paper),
+                paper.map_or_else(|| "-".to_string(), pct),
                 f.mean_position_error_m,
                 f.mean_heading_error_rad,
                 f.dataset_size,
@@ -790,6 +890,14 @@ impl AopiResult {
             share(&a.hybrid),
             share(&a.teleop)
         );
+        if let Some(t) = &a.takeover {
+            let _ = writeln!(
+                s,
+                "  takeover: best test-set evaluation {}, test-run steps whose kernel held data {}\n",
+                pct(t.best.success_rate),
+                share(t)
+            );
+        }
         let _ = writeln!(
             s,
             "  Figure 11: dataset size against executions in the dataset"
@@ -805,6 +913,14 @@ impl AopiResult {
                 .map(|c| format!("{}:{}", c.executions, c.dataset_size))
                 .collect();
             let _ = writeln!(s, "  {:<8} {}", name, pts.join(" "));
+        }
+        if let Some(t) = &a.takeover {
+            let pts: Vec<String> = t
+                .curve
+                .iter()
+                .map(|c| format!("{}:{}", c.executions, c.dataset_size))
+                .collect();
+            let _ = writeln!(s, "  {:<8} {}", "takeover", pts.join(" "));
         }
         let _ = writeln!(s, "\n  advice given (up to the final policy):");
         for (name, f) in [("advised", &a.advised), ("hybrid", &a.hybrid)] {
@@ -837,6 +953,13 @@ impl AopiResult {
             "  teleop   {} demonstrations kept",
             a.teleop.teleop_demos
         );
+        if let Some(t) = &a.takeover {
+            let _ = writeln!(
+                s,
+                "  takeover {} takeovers kept, {} points (the teacher's windows only)",
+                t.takeovers, t.takeover_points
+            );
+        }
         s
     }
 }

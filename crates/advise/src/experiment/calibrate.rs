@@ -530,6 +530,11 @@ fn aopi_arm_length(params: &AopiParams) -> f64 {
     let mut total = 0.0;
     for &seed in &AOPI_ARM_SEEDS {
         let held_out = TaskKind::Positioning.practice_set(seed ^ HELD_OUT_SALT, AOPI_HELD_OUT);
+        // The calibration fits the paper's three arms; the takeover arm is not run.
+        let params = &AopiParams {
+            takeover_arm: false,
+            ..params.clone()
+        };
         let r = aopi::run_on(seed, params, &held_out, false);
         let a = &r.arms;
         total += (a.advised.executions + a.hybrid.executions + a.teleop.executions) as f64 / 3.0;

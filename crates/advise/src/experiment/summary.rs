@@ -19,7 +19,7 @@ use std::fmt::Write as _;
 use serde::{Deserialize, Serialize};
 
 use crate::eval::ending_name;
-use crate::experiment::aopi::{AopiResult, ArmFigures};
+use crate::experiment::aopi::{AopiResult, ArmFigures, Arms};
 use crate::experiment::bc::{self, BcFigures, BcOracles, BcResult, BcRuleResult, TeacherKind};
 use crate::experiment::{mean_sd, pct};
 use crate::policy::dataset::CritiqueRule;
@@ -563,6 +563,9 @@ pub struct AopiArms {
     pub advised: ArmSpread,
     pub hybrid: ArmSpread,
     pub teleop: ArmSpread,
+    /// The takeover arm (issue 53), when every run has it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub takeover: Option<ArmSpread>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -571,7 +574,73 @@ pub struct AopiSummary {
     pub seeds: Vec<u64>,
     pub arms: AopiArms,
     pub shape: Shape,
+    /// The takeover arm's pre-registered claims (docs/protocol.md, T6), when every run has it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub takeover: Option<TakeoverClaims>,
     pub runs: Vec<AopiResult>,
+}
+
+/// The takeover arm's claims ([`TAKEOVER_CLAIMS`]) and, as figures beside them, its success
+/// minus the advised and the hybrid arms' (paired by seed, bootstrap 95% intervals).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TakeoverClaims {
+    pub shape: Shape,
+    pub minus_advised: Option<Interval>,
+    pub minus_hybrid: Option<Interval>,
+}
+
+pub const TAKEOVER_CLAIMS: [&str; 3] = [
+    "takeover beats the baseline on success",
+    "takeover matches or beats teleoperation on success",
+    "takeover dataset smaller than teleoperation's",
+];
+
+/// The paired differences the takeover claims read, in the order of [`TAKEOVER_CLAIMS`]
+/// (positive: in the claim's direction); `None` for a run without the arm.
+pub fn takeover_diffs(r: &AopiResult) -> Option<Vec<Option<f64>>> {
+    let a = &r.arms;
+    let t = a.takeover.as_ref()?;
+    Some(vec![
+        Some(t.success_rate - a.baseline.success_rate),
+        Some(t.success_rate - a.teleop.success_rate),
+        Some(a.teleop.dataset_size as f64 - t.dataset_size as f64),
+    ])
+}
+
+/// The takeover claims of one seed, in the order of [`TAKEOVER_CLAIMS`].
+pub fn takeover_checks(r: &AopiResult) -> Option<Vec<bool>> {
+    let a = &r.arms;
+    let t = a.takeover.as_ref()?;
+    Some(vec![
+        t.success_rate > a.baseline.success_rate,
+        t.success_rate >= a.teleop.success_rate,
+        t.dataset_size < a.teleop.dataset_size,
+    ])
+}
+
+fn takeover_claims(seeds: &[u64], runs: &[AopiResult]) -> Option<TakeoverClaims> {
+    let checks: Option<Vec<Vec<bool>>> = runs.iter().map(takeover_checks).collect();
+    let diffs: Option<Vec<Vec<Option<f64>>>> = runs.iter().map(takeover_diffs).collect();
+    let (checks, diffs) = (checks?, diffs?);
+    if runs.is_empty() {
+        return None;
+    }
+    let minus = |other: &dyn Fn(&Arms) -> &ArmFigures| {
+        Interval::of(
+            &runs
+                .iter()
+                .filter_map(|r| {
+                    let t = r.arms.takeover.as_ref()?;
+                    Some(t.success_rate - other(&r.arms).success_rate)
+                })
+                .collect::<Vec<_>>(),
+        )
+    };
+    Some(TakeoverClaims {
+        shape: Shape::from_checks(seeds, &TAKEOVER_CLAIMS, &checks, &diffs),
+        minus_advised: minus(&|a| &a.advised),
+        minus_hybrid: minus(&|a| &a.hybrid),
+    })
 }
 
 pub const AOPI_CLAIMS: [&str; 6] = [
@@ -630,7 +699,10 @@ pub fn aopi(runs: Vec<AopiResult>) -> AopiSummary {
         advised: arm(&|r| &r.arms.advised),
         hybrid: arm(&|r| &r.arms.hybrid),
         teleop: arm(&|r| &r.arms.teleop),
+        takeover: (!runs.is_empty() && runs.iter().all(|r| r.arms.takeover.is_some()))
+            .then(|| arm(&|r| r.arms.takeover.as_ref().unwrap_or(&r.arms.teleop))),
     };
+    let takeover = takeover_claims(&seeds, &runs);
     let checks: Vec<Vec<bool>> = runs.iter().map(aopi_checks).collect();
     AopiSummary {
         experiment: "aopi".into(),
@@ -641,6 +713,7 @@ pub fn aopi(runs: Vec<AopiResult>) -> AopiSummary {
             &checks,
             &runs.iter().map(aopi_diffs).collect::<Vec<_>>(),
         ),
+        takeover,
         seeds,
         runs,
     }
@@ -702,12 +775,55 @@ impl AopiSummary {
                 exec
             );
         }
+        if let Some(t) = &a.takeover {
+            let _ = writeln!(
+                s,
+                "  {:<14} {:>10} {:>6}  {:>13} {:>15}  {:>13} {:>14}",
+                "Takeover",
+                rate(t.success_rate),
+                "-",
+                num(t.mean_position_error_m, 2),
+                num(t.mean_heading_error_rad, 2),
+                num(t.dataset_size, 0),
+                num(t.executions, 0)
+            );
+        }
         let _ = writeln!(
             s,
             "  (executions in the final dataset; the paper's in brackets)\n"
         );
         self.shape.render(&mut s, "");
+        if let Some(t) = &self.takeover {
+            t.render(&mut s);
+        }
         s
+    }
+}
+
+impl TakeoverClaims {
+    fn render(&self, s: &mut String) {
+        let _ = writeln!(
+            s,
+            "\n  the takeover arm (issue 53, pre-registered in docs/protocol.md T6), per seed:"
+        );
+        let mut claims = String::new();
+        self.shape.render(&mut claims, "");
+        // The shape's own heading names the paper's result; these claims are ours.
+        for line in claims.lines().skip(1) {
+            let _ = writeln!(s, "{line}");
+        }
+        for (name, d) in [
+            ("takeover minus advised, success", &self.minus_advised),
+            ("takeover minus hybrid, success", &self.minus_hybrid),
+        ] {
+            if let Some(d) = d {
+                let _ = writeln!(
+                    s,
+                    "    {name:<52} (a figure, not a claim)   {:+.3} [{:+.3}, {:+.3}]",
+                    d.mean, d.lo95, d.hi95
+                );
+            }
+        }
     }
 }
 
