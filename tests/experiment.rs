@@ -384,8 +384,16 @@ fn plots_are_written() {
         a.arms.advised.executions
     );
     assert!(dataset.contains(&kept), "{kept}");
-    // Three legend entries, the axis note, and a "kept" beside each arm's ring.
-    assert_eq!(dataset.matches("kept").count(), 7);
+    // The takeover arm is drawn beside the paper's, with no paper value of its own.
+    let takeover = a.arms.takeover.as_ref().unwrap();
+    let kept = format!(
+        "Takeover: kept at {} executions (ours)",
+        takeover.executions
+    );
+    assert!(dataset.contains(&kept), "{kept}");
+    assert!(success.contains("Takeover"));
+    // Four legend entries, the axis note, and a "kept" beside each arm's ring.
+    assert_eq!(dataset.matches("kept").count(), 9);
 }
 
 #[test]
@@ -466,6 +474,37 @@ fn summaries_count_the_shape_claims_seed_by_seed() {
         assert_eq!(claim.seeds_held, expect, "{}", claim.claim);
     }
     assert!(s.render().contains("A-OPI Hybrid"));
+    // The takeover arm's pre-registered claims, counted the same way, and its comparisons.
+    let t = s.takeover.as_ref().expect("every run has the takeover arm");
+    assert_eq!(t.shape.claims.len(), summary::TAKEOVER_CLAIMS.len());
+    for (c, claim) in t.shape.claims.iter().enumerate() {
+        let expect: Vec<u64> = runs
+            .iter()
+            .filter(|r| summary::takeover_checks(r).unwrap()[c])
+            .map(|r| r.seed)
+            .collect();
+        assert_eq!(claim.seeds_held, expect, "{}", claim.claim);
+    }
+    let minus: Vec<f64> = runs
+        .iter()
+        .map(|r| r.arms.takeover.as_ref().unwrap().success_rate - r.arms.advised.success_rate)
+        .collect();
+    let d = t.minus_advised.unwrap();
+    assert!((d.mean - (minus[0] + minus[1]) / 2.0).abs() < 1e-12);
+    let text = s.render();
+    assert!(text.contains("Takeover"), "{text}");
+    assert!(
+        text.contains("takeover matches or beats teleoperation on success"),
+        "{text}"
+    );
+    // A summary of results made before the arm has no takeover part.
+    let mut older = runs.clone();
+    for r in &mut older {
+        r.arms.takeover = None;
+    }
+    let o = summary::aopi(older);
+    assert!(o.takeover.is_none() && o.arms.takeover.is_none());
+    assert!(!o.render().contains("Takeover"));
 }
 
 #[test]

@@ -142,7 +142,7 @@ type Bar = (
     &'static str,
     &'static str,
     fn(&ArmFigures) -> f64,
-    [Option<f64>; 4],
+    [Option<f64>; 5],
 );
 
 /// One bar: the arm, our value, the paper's value, the arm's colour.
@@ -152,12 +152,16 @@ type BarValue<'a> = (&'a str, f64, Option<f64>, RGBColor);
 /// (dataset size against executions, per arm). Returns the files written.
 pub fn aopi(result: &AopiResult, dir: &Path) -> Result<Vec<PathBuf>, ExperimentError> {
     let a = &result.arms;
-    let arms = [
+    let mut arms = vec![
         ("Baseline", &a.baseline, RGBColor(120, 120, 120)),
         ("Advised", &a.advised, RGBColor(31, 119, 180)),
         ("Hybrid", &a.hybrid, RGBColor(44, 160, 44)),
         ("Teleop", &a.teleop, RGBColor(214, 39, 40)),
     ];
+    // The takeover arm (issue 53) is ours, not the paper's: no paper value beside it.
+    if let Some(t) = &a.takeover {
+        arms.push(("Takeover", t, RGBColor(148, 103, 189)));
+    }
     let p = crate::experiment::aopi::PAPER;
     let paper_success = [
         p.baseline_success,
@@ -166,6 +170,13 @@ pub fn aopi(result: &AopiResult, dir: &Path) -> Result<Vec<PathBuf>, ExperimentE
         p.teleop_success,
     ]
     .map(|v| Some(100.0 * v));
+    let paper_success = [
+        paper_success[0],
+        paper_success[1],
+        paper_success[2],
+        paper_success[3],
+        None,
+    ];
     let mut written = Vec::new();
     let bars: [Bar; 3] = [
         (
@@ -178,13 +189,13 @@ pub fn aopi(result: &AopiResult, dir: &Path) -> Result<Vec<PathBuf>, ExperimentE
             "position-error",
             "mean position error (m)",
             |f| f.mean_position_error_m,
-            [None; 4],
+            [None; 5],
         ),
         (
             "heading-error",
             "mean heading error (rad)",
             |f| f.mean_heading_error_rad,
-            [None; 4],
+            [None; 5],
         ),
     ];
     for (file, label, value, paper) in bars {
@@ -374,9 +385,10 @@ fn dataset_chart(
             .map_err(|x| e(&x))?;
         let p = crate::experiment::aopi::PAPER;
         let paper = [
-            p.advised_executions,
-            p.hybrid_executions,
-            p.teleop_executions,
+            Some(p.advised_executions),
+            Some(p.hybrid_executions),
+            Some(p.teleop_executions),
+            None,
         ];
         for ((name, f, color), paper) in arms.iter().skip(1).zip(paper) {
             let color = *color;
@@ -392,10 +404,13 @@ fn dataset_chart(
             chart
                 .draw_series(LineSeries::new(upto.to_vec(), color.stroke_width(2)))
                 .map_err(|x| e(&x))?
-                .label(format!(
-                    "{name}: kept at {} executions (paper {paper})",
-                    f.executions
-                ))
+                .label(match paper {
+                    Some(paper) => format!(
+                        "{name}: kept at {} executions (paper {paper})",
+                        f.executions
+                    ),
+                    None => format!("{name}: kept at {} executions (ours)", f.executions),
+                })
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
             chart
                 .draw_series(upto.iter().map(|&p| Circle::new(p, 3, color.filled())))
