@@ -295,6 +295,32 @@ fn the_aopi_tables_are_the_measured_json() {
         quoted(&format!("| {name} | {s} | {diff} |"));
     }
     quoted(&format!("| all six | {} | |", all_held(&d["shape"])));
+    // The takeover arm (issue 53): its row, its pre-registered claims and the two comparisons.
+    quoted(&row("takeover (ours)", "takeover", best("takeover"), "-"));
+    let t = &d["takeover"];
+    for c in t["shape"]["claims"].as_array().unwrap() {
+        let name = c["claim"].as_str().unwrap();
+        let unit = if name.contains("dataset") {
+            " points"
+        } else {
+            ""
+        };
+        let (s, diff) = claim_cells(c, unit);
+        quoted(&format!("| {name} | {s} | {diff} |"));
+    }
+    quoted(&format!("| all three | {} | |", all_held(&t["shape"])));
+    for (name, key) in [
+        ("takeover minus advised", "minus_advised"),
+        ("takeover minus hybrid", "minus_hybrid"),
+    ] {
+        let d = &t[key];
+        quoted(&format!(
+            "| {name} (a figure, not a claim) | | {:+.3} [{:+.3}, {:+.3}] |",
+            f(d, "mean"),
+            f(d, "lo95"),
+            f(d, "hi95")
+        ));
+    }
     let base = &d["arms"]["baseline"]["dataset_size"];
     quoted(&format!(
         "(the baseline;\n{} ± {} points)",

@@ -898,6 +898,13 @@ impl AopiResult {
                 share(t)
             );
         }
+        self.render_growth(&mut s);
+        s
+    }
+
+    /// Figure 11's curves and the improvement each arm gave, as text.
+    fn render_growth(&self, s: &mut String) {
+        let a = &self.arms;
         let _ = writeln!(
             s,
             "  Figure 11: dataset size against executions in the dataset"
@@ -960,6 +967,5 @@ impl AopiResult {
                 t.takeovers, t.takeover_points
             );
         }
-        s
     }
 }
