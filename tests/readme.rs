@@ -284,31 +284,25 @@ fn the_aopi_tables_are_the_measured_json() {
     ));
     quoted(&row("A-OPI hybrid", "hybrid", best("hybrid"), "92% (68)"));
     quoted(&row("teleoperation", "teleop", best("teleop"), "80% (60)"));
-    for c in d["shape"]["claims"].as_array().unwrap() {
-        let name = c["claim"].as_str().unwrap();
-        let unit = if name.contains("dataset") {
-            " points"
-        } else {
-            ""
-        };
-        let (s, diff) = claim_cells(c, unit);
-        quoted(&format!("| {name} | {s} | {diff} |"));
-    }
-    quoted(&format!("| all six | {} | |", all_held(&d["shape"])));
+    // A shape's claims as the README's rows, differences of datasets in points.
+    let claim_rows = |shape: &Value, all: &str| {
+        for c in shape["claims"].as_array().unwrap() {
+            let name = c["claim"].as_str().unwrap();
+            let unit = if name.contains("dataset") {
+                " points"
+            } else {
+                ""
+            };
+            let (s, diff) = claim_cells(c, unit);
+            quoted(&format!("| {name} | {s} | {diff} |"));
+        }
+        quoted(&format!("| {all} | {} | |", all_held(shape)));
+    };
+    claim_rows(&d["shape"], "all six");
     // The takeover arm (issue 53): its row, its pre-registered claims and the two comparisons.
     quoted(&row("takeover (ours)", "takeover", best("takeover"), "-"));
     let t = &d["takeover"];
-    for c in t["shape"]["claims"].as_array().unwrap() {
-        let name = c["claim"].as_str().unwrap();
-        let unit = if name.contains("dataset") {
-            " points"
-        } else {
-            ""
-        };
-        let (s, diff) = claim_cells(c, unit);
-        quoted(&format!("| {name} | {s} | {diff} |"));
-    }
-    quoted(&format!("| all three | {} | |", all_held(&t["shape"])));
+    claim_rows(&t["shape"], "all three");
     for (name, key) in [
         ("takeover minus advised", "minus_advised"),
         ("takeover minus hybrid", "minus_hybrid"),
