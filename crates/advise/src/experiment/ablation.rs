@@ -139,6 +139,9 @@ mod tests {
             assert_eq!(p.revert, Some(c));
             let mut same = p.clone();
             same.revert = None;
+            // Every revert leaves the takeover arm out (it is not one of the paper's arms).
+            assert!(!p.takeover_arm && base.takeover_arm);
+            same.takeover_arm = true;
             if c == Revert::Teacher {
                 // Only the hand: fixed at 0.25 s and 0.03, no hesitation.
                 assert_eq!(p.teacher.hand.reaction_s, [0.25, 0.25]);
