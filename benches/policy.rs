@@ -108,6 +108,29 @@ fn write_csv(data: &Trace, qs: &[Vec<f64>]) {
     eprintln!("wrote {}", dir.display());
 }
 
+/// With `ADVISE_BENCH_CSV` set, the LWR learner's actions (in the points' order) and its index
+/// scale, tuned query bandwidth and k under `target/bench-data/`, for a profile of the kernel sum
+/// alone.
+fn write_lwr_csv(l: &Learner) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench-data");
+    let ds = l.dataset();
+    let act_dim = ds.domain().act_dim();
+    let actions: String = ds
+        .points()
+        .a
+        .chunks_exact(act_dim)
+        .map(|a| a.iter().map(|v| format!("{v:?}")).collect::<Vec<_>>().join(",") + "\n")
+        .collect();
+    std::fs::write(dir.join("policy_actions.csv"), actions).expect("write actions");
+    let meta = format!(
+        "{:?}\n{:?}\n{:?}\n",
+        l.index().scale(),
+        l.lwr_query_bandwidth(),
+        l.lwr_query_k()
+    );
+    std::fs::write(dir.join("policy_lwr.txt"), meta).expect("write meta");
+}
+
 /// With `ADVISE_BENCH_CPU` set, queries per second of this thread's CPU time (10 passes): on a
 /// loaded machine criterion's wall-clock figures measure the other processes too.
 fn cpu_rate(name: &str, qs: &[Vec<f64>], mut f: impl FnMut(&[f64])) -> Option<f64> {
@@ -207,6 +230,9 @@ fn bench(c: &mut Criterion) {
     // tuning of issue 33's protocol chose on this data), the kernel sum alone on an index of
     // range-scaled points with their action sums, as the learner's own LWR index is.
     let lwr = learner(LearnerKind::Lwr, &data, &critiqued);
+    if std::env::var_os("ADVISE_BENCH_CSV").is_some() {
+        write_lwr_csv(&lwr);
+    }
     let fixed = fixed_kernel(&lwr, FIXED_BANDWIDTH);
     let fixed_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
         lwr::query(&fixed.0, lwr.dataset(), &fixed.1, q, a, s)
