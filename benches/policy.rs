@@ -2,8 +2,9 @@
 //! N = 100,000 points of interception teacher demonstrations (data as the learners see it: dense
 //! along trajectories; uniform noise in 6-D would leave every kernel empty or huge), queried with
 //! the observations of 1,000 points from runs on other starts. `bc_query_100k`: weighted 1-NN after 1,000 critiqued points;
-//! `lwr_query_100k`: truncated-kernel regression at a fixed kernel of about 1,204 neighbours a
-//! query (the figure earlier versions measured); `lwr_query_100k_tuned`: at the kernel the tuning
+//! `lwr_query_100k`: truncated-kernel regression at a fixed kernel, bandwidth 0.018 (about 1,204
+//! neighbours a query when earlier figures were measured; 11,685 measured at f882d60: the data
+//! or its scaling has changed since); `lwr_query_100k_tuned`: at the kernel the tuning
 //! picks (issue 48), every point of it summed; with `ADVISE_BENCH_CPU=1` each prints its
 //! neighbours per query and kernel terms per CPU second; `rederive_30`: add 30 advised points and bring
 //! the policy up to date (one query included: the first query after a re-plan builds the index's
@@ -119,7 +120,13 @@ fn write_lwr_csv(l: &Learner) {
         .points()
         .a
         .chunks_exact(act_dim)
-        .map(|a| a.iter().map(|v| format!("{v:?}")).collect::<Vec<_>>().join(",") + "\n")
+        .map(|a| {
+            a.iter()
+                .map(|v| format!("{v:?}"))
+                .collect::<Vec<_>>()
+                .join(",")
+                + "\n"
+        })
         .collect();
     std::fs::write(dir.join("policy_actions.csv"), actions).expect("write actions");
     let meta = format!(
@@ -154,7 +161,8 @@ fn cpu_rate(name: &str, qs: &[Vec<f64>], mut f: impl FnMut(&[f64])) -> Option<f6
 }
 
 /// The bandwidth (range-scaled units, unit per-dimension scales) of the fixed kernel: about
-/// 1,204 neighbours a query on this data (1,270), the kernel earlier figures were measured at.
+/// 1,204 neighbours a query (1,270) when earlier figures were measured; 11,685 at f882d60 (the
+/// bench prints it).
 const FIXED_BANDWIDTH: f64 = 0.018;
 
 /// LWR's index over the learner's points in its range scaling, with action sums, and the fixed

@@ -40,8 +40,9 @@ const LEAF: usize = 64;
 /// id to its first point and scales its row (BC's 1-NN at 100,000 points: 455,000 queries per
 /// CPU second without the copy, 630,000 with it; LWR 58,000 and 68,000), and laid out a
 /// dimension at a time within a leaf, so a radius or k-nearest search measures a whole leaf's
-/// exact distances in vector arithmetic. A larger tree computes its exact rows from the dataset's, so the memory
-/// held per point at millions of points is unchanged. Either way the same bits.
+/// exact distances in vector arithmetic. A larger tree computes its exact rows from the
+/// dataset's, so the memory held per point at millions of points is unchanged. Either way the
+/// same bits.
 const EXACT_COPY_MAX: usize = 1 << 18;
 
 /// The size of the parts the points' order is split down to, below a leaf's: the order within
@@ -617,7 +618,8 @@ impl<const D: usize> Bulk<D> {
     /// leaf order (the wide tree walked depth first, left before right, with its own stack), the
     /// order the binary tree with [`SPLIT`]-point leaves reported them in, so kernel sums keep
     /// their bits. A leaf's points are first tested coarsely ([`Coarse`]); the few it cannot
-    /// rule out are measured exactly.
+    /// rule out are measured exactly (when they are most of the leaf and the tree keeps the
+    /// exact copy, the whole leaf in vector arithmetic).
     fn within(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize), ex: &Exact<D>) {
         self.within_by_leaf(
             q,
@@ -691,7 +693,8 @@ impl<const D: usize> Bulk<D> {
         k.points
     }
 
-    /// [`Bulk::within_any_visit`] for a visitor of leaves, compiled for AVX2 where the processor has it.
+    /// [`Bulk::within_any_visit`] for a visitor of leaves, compiled for AVX-512 or AVX2 where the
+    /// processor has it.
     fn within_dispatch(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f") {
