@@ -2,8 +2,9 @@
 //! N = 100,000 points of interception teacher demonstrations (data as the learners see it: dense
 //! along trajectories; uniform noise in 6-D would leave every kernel empty or huge), queried with
 //! the observations of 1,000 points from runs on other starts. `bc_query_100k`: weighted 1-NN after 1,000 critiqued points;
-//! `lwr_query_100k`: truncated-kernel regression at a fixed kernel of about 1,204 neighbours a
-//! query (the figure earlier versions measured); `lwr_query_100k_tuned`: at the kernel the tuning
+//! `lwr_query_100k`: truncated-kernel regression at a fixed kernel, bandwidth 0.018 (about 1,204
+//! neighbours a query when earlier figures were measured; 11,685 measured at f882d60: the data
+//! or its scaling has changed since); `lwr_query_100k_tuned`: at the kernel the tuning
 //! picks (issue 48), every point of it summed; with `ADVISE_BENCH_CPU=1` each prints its
 //! neighbours per query and kernel terms per CPU second; `rederive_30`: add 30 advised points and bring
 //! the policy up to date (one query included: the first query after a re-plan builds the index's
@@ -108,6 +109,35 @@ fn write_csv(data: &Trace, qs: &[Vec<f64>]) {
     eprintln!("wrote {}", dir.display());
 }
 
+/// With `ADVISE_BENCH_CSV` set, the LWR learner's actions (in the points' order) and its index
+/// scale, tuned query bandwidth and k under `target/bench-data/`, for a profile of the kernel sum
+/// alone.
+fn write_lwr_csv(l: &Learner) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/bench-data");
+    let ds = l.dataset();
+    let act_dim = ds.domain().act_dim();
+    let actions: String = ds
+        .points()
+        .a
+        .chunks_exact(act_dim)
+        .map(|a| {
+            a.iter()
+                .map(|v| format!("{v:?}"))
+                .collect::<Vec<_>>()
+                .join(",")
+                + "\n"
+        })
+        .collect();
+    std::fs::write(dir.join("policy_actions.csv"), actions).expect("write actions");
+    let meta = format!(
+        "{:?}\n{:?}\n{:?}\n",
+        l.index().scale(),
+        l.lwr_query_bandwidth(),
+        l.lwr_query_k()
+    );
+    std::fs::write(dir.join("policy_lwr.txt"), meta).expect("write meta");
+}
+
 /// With `ADVISE_BENCH_CPU` set, queries per second of this thread's CPU time (10 passes): on a
 /// loaded machine criterion's wall-clock figures measure the other processes too.
 fn cpu_rate(name: &str, qs: &[Vec<f64>], mut f: impl FnMut(&[f64])) -> Option<f64> {
@@ -131,7 +161,8 @@ fn cpu_rate(name: &str, qs: &[Vec<f64>], mut f: impl FnMut(&[f64])) -> Option<f6
 }
 
 /// The bandwidth (range-scaled units, unit per-dimension scales) of the fixed kernel: about
-/// 1,204 neighbours a query on this data (1,270), the kernel earlier figures were measured at.
+/// 1,204 neighbours a query (1,270) when earlier figures were measured; 11,685 at f882d60 (the
+/// bench prints it).
 const FIXED_BANDWIDTH: f64 = 0.018;
 
 /// LWR's index over the learner's points in its range scaling, with action sums, and the fixed
@@ -207,6 +238,9 @@ fn bench(c: &mut Criterion) {
     // tuning of issue 33's protocol chose on this data), the kernel sum alone on an index of
     // range-scaled points with their action sums, as the learner's own LWR index is.
     let lwr = learner(LearnerKind::Lwr, &data, &critiqued);
+    if std::env::var_os("ADVISE_BENCH_CSV").is_some() {
+        write_lwr_csv(&lwr);
+    }
     let fixed = fixed_kernel(&lwr, FIXED_BANDWIDTH);
     let fixed_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
         lwr::query(&fixed.0, lwr.dataset(), &fixed.1, q, a, s)

@@ -38,9 +38,11 @@ const LEAF: usize = 64;
 /// `8 * D` bytes a group (at most 16 MiB a tree at this size and [`MAX_DIM`]), for the speed of
 /// small datasets' queries: the copy is read in leaf order, where [`Exact`] follows the group's
 /// id to its first point and scales its row (BC's 1-NN at 100,000 points: 455,000 queries per
-/// CPU second without the copy, 630,000 with it; LWR 58,000 and 68,000). A larger tree computes
-/// its exact rows from the dataset's, so the memory held per point at millions of points is
-/// unchanged. Either way the same bits.
+/// CPU second without the copy, 630,000 with it; LWR 58,000 and 68,000), and laid out a
+/// dimension at a time within a leaf, so a radius or k-nearest search measures a whole leaf's
+/// exact distances in vector arithmetic. A larger tree computes its exact rows from the
+/// dataset's, so the memory held per point at millions of points is unchanged. Either way the
+/// same bits.
 const EXACT_COPY_MAX: usize = 1 << 18;
 
 /// The size of the parts the points' order is split down to, below a leaf's: the order within
@@ -116,6 +118,10 @@ fn span<const D: usize>(nodes: &[Node<D>], at: usize) -> u32 {
     nodes[right].end - nodes[left].first_or_right
 }
 
+/// Lanes of a leaf's exact distances computed together ([`Bulk::leaf_dist2`]): one AVX-512
+/// vector, two AVX2 ones.
+const CHUNK: usize = 8;
+
 /// Children of a wide node, at most.
 const WIDE: usize = 8;
 
@@ -156,8 +162,10 @@ struct Bulk<const D: usize> {
     /// Each leaf's points' range, by leaf number (leaves numbered in leaf order).
     leaves: Vec<[u32; 2]>,
     /// Up to [`EXACT_COPY_MAX`] groups, their exact scaled observations in leaf order (the
-    /// same bits [`Exact`] computes, read without its indirections); empty above that.
-    points: Vec<[f64; D]>,
+    /// same bits [`Exact`] computes, read without its indirections), laid out as
+    /// [`Bulk::coarse`] is (leaf by leaf, one dimension after another within a leaf, [`LEAF`]
+    /// lanes of +inf after the last leaf); empty above that.
+    points: Vec<f64>,
     /// The points again in `f32`, leaf by leaf, one dimension after another within a leaf: the
     /// leaf of points `first..first + len` has dimension `k` of its `j`-th point at
     /// `coarse[first * D + k * len + j]` (no padding between leaves; [`LEAF`] lanes of +inf
@@ -205,15 +213,23 @@ impl<const D: usize> Bulk<D> {
             }
         }
         leaves.shrink_to_fit();
+        let copy = n <= idx.exact_copy_max;
         // Each leaf's block of `D * len` values from `first * D` on; [`LEAF`] lanes past the
         // last block so that every leaf can be read [`LEAF`] lanes at a time.
         let mut coarse = vec![f32::INFINITY; n * D + LEAF];
+        let mut points = if copy {
+            vec![f64::INFINITY; n * D + LEAF]
+        } else {
+            Vec::new()
+        };
         for &[first, end] in &leaves {
             let (first, len) = (first as usize, (end - first) as usize);
-            let block = &mut coarse[first * D..][..len * D];
             for (j, (_, p)) in order[first..first + len].iter().enumerate() {
                 for k in 0..D {
-                    block[k * len + j] = p[k] as f32;
+                    coarse[first * D + k * len + j] = p[k] as f32;
+                    if copy {
+                        points[first * D + k * len + j] = p[k];
+                    }
                 }
             }
         }
@@ -227,11 +243,6 @@ impl<const D: usize> Bulk<D> {
         }
         drop(leaf_of);
         let ids: Vec<u32> = order.iter().map(|(g, _)| *g).collect();
-        let points: Vec<[f64; D]> = if n <= idx.exact_copy_max {
-            order.iter().map(|(_, p)| *p).collect()
-        } else {
-            Vec::new()
-        };
         drop(order);
         let (mut sums, mut at) = (Vec::new(), Vec::new());
         if let Some(act_dim) = idx.act_dim {
@@ -265,7 +276,7 @@ impl<const D: usize> Bulk<D> {
         self.nodes.capacity() * size_of::<Node<D>>()
             + self.wide.capacity() * size_of::<Wide<D>>()
             + self.leaves.capacity() * 8
-            + self.points.capacity() * size_of::<[f64; D]>()
+            + self.points.capacity() * 8
             + self.coarse.capacity() * 4
             + self.ids.capacity() * 4
             + self.sums.capacity() * 8
@@ -275,7 +286,7 @@ impl<const D: usize> Bulk<D> {
     /// The bytes of the exact copy (none above [`EXACT_COPY_MAX`] groups).
     #[cfg(test)]
     fn exact_copy_bytes(&self) -> usize {
-        self.points.capacity() * std::mem::size_of::<[f64; D]>()
+        self.points.capacity() * 8
     }
 
     fn build_node(nodes: &mut Vec<Node<D>>, part: &mut [(u32, [f64; D])], start: usize) {
@@ -376,13 +387,53 @@ impl<const D: usize> Bulk<D> {
         Self::order(right);
     }
 
-    /// The exact scaled observation at leaf position `i`: from the copy when the tree keeps one,
-    /// else computed from the points (the same bits).
+    /// The exact scaled observation at leaf position `i` of the leaf of points `first..first +
+    /// len`: from the copy when the tree keeps one, else computed from the points (the same
+    /// bits).
     #[inline(always)]
-    fn row(&self, i: usize, ex: &Exact<D>) -> [f64; D] {
-        match self.points.get(i) {
-            Some(p) => *p,
-            None => ex.row(self.ids[i]),
+    fn row(&self, i: usize, [first, len]: [usize; 2], ex: &Exact<D>) -> [f64; D] {
+        if self.points.is_empty() {
+            ex.row(self.ids[i])
+        } else {
+            let block = &self.points[first * D + i - first..];
+            std::array::from_fn(|k| block[k * len])
+        }
+    }
+
+    /// The exact squared distances from `q` of the leaf of points `first..first + len`, as
+    /// [`dist2`] sums them (the same bits), into `out[..len]` (lanes after `len` are garbage).
+    /// With the exact copy, a leaf's lanes [`CHUNK`] at a time in vector arithmetic.
+    #[inline(always)]
+    fn leaf_dist2(
+        &self,
+        q: &[f64; D],
+        [first, len]: [usize; 2],
+        ex: &Exact<D>,
+        out: &mut [f64; LEAF],
+    ) {
+        if self.points.is_empty() {
+            for (j, o) in out[..len].iter_mut().enumerate() {
+                *o = dist2(q, &ex.row(self.ids[first + j]));
+            }
+            return;
+        }
+        let block = &self.points[first * D..];
+        for (c, out) in out
+            .chunks_exact_mut(CHUNK)
+            .take(len.div_ceil(CHUNK))
+            .enumerate()
+        {
+            let mut s = [0.0f64; CHUNK];
+            for (k, qk) in q.iter().enumerate() {
+                let col: &[f64; CHUNK] = block[k * len + c * CHUNK..][..CHUNK]
+                    .try_into()
+                    .expect("a block is followed by LEAF lanes");
+                for (s, v) in s.iter_mut().zip(col) {
+                    let d = qk - v;
+                    *s += d * d;
+                }
+            }
+            out.copy_from_slice(&s);
         }
     }
 
@@ -395,8 +446,11 @@ impl<const D: usize> Bulk<D> {
     fn nearest_one_in(&self, at: usize, q: &[f64; D], best: &mut (f64, u64), ex: &Exact<D>) {
         let node = &self.nodes[at];
         if node.end != INNER {
-            for i in node.first_or_right as usize..node.end as usize {
-                let c = (dist2(q, &self.row(i, ex)), u64::from(self.ids[i]));
+            let (first, end) = (node.first_or_right as usize, node.end as usize);
+            let mut d2 = [0.0; LEAF];
+            self.leaf_dist2(q, [first, end - first], ex, &mut d2);
+            for (i, d) in (first..end).zip(d2) {
+                let c = (d, u64::from(self.ids[i]));
                 if before(c, *best) {
                     *best = c;
                 }
@@ -411,7 +465,8 @@ impl<const D: usize> Bulk<D> {
     }
 
     /// Inner node `at`'s two children with the squared distance from `q` to each one's box,
-    /// the nearer first (the left one on a tie): the order both nearest searches descend in.
+    /// the nearer first (the left one on a tie): the order the nearest searches descend in.
+    #[inline(always)]
     fn children_nearest_first(&self, at: usize, q: &[f64; D]) -> [(f64, usize); 2] {
         let (l, r) = (at + 1, self.nodes[at].first_or_right as usize);
         let dl = box_dist2(q, &self.nodes[l].lo, &self.nodes[l].hi);
@@ -430,46 +485,108 @@ impl<const D: usize> Bulk<D> {
         }
     }
 
-    /// [`Bulk::nearest_n`] among the points within squared distance `r2` only: a sparse
-    /// neighbourhood is not searched beyond it.
+    /// The `n` nearest points within squared distance `r2` of `q` (ties to the lower group):
+    /// `found` holds them in no set order, at most `n`; returns the `n`-th one's distance when
+    /// there are `n`, else `r2`. Unlike [`Bulk::nearest_n`]'s heap, which pays a sift of `log n`
+    /// unpredictable steps a candidate (the k-limited kernel's `n` is in the thousands), the
+    /// candidates are appended to `found`, and when it holds `2 n` it is cut to its `n` nearest
+    /// (a selection, linear), whose farthest bounds the rest of the search: the same points.
     fn nearest_n_within(
         &self,
         q: &[f64; D],
         n: usize,
         r2: f64,
-        heap: &mut Vec<(f64, u64)>,
+        found: &mut Vec<(f64, u64)>,
         ex: &Exact<D>,
-    ) {
-        if !self.nodes.is_empty() && n > 0 {
-            self.nearest_n_within_in(0, q, n, r2, heap, ex);
+    ) -> f64 {
+        found.clear();
+        if self.nodes.is_empty() || n == 0 {
+            return r2;
         }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: this processor has AVX-512F, checked just above.
+            return unsafe { self.nearest_n_within_avx512(q, n, r2, found, ex) };
+        } else if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: this processor has AVX2, checked just above.
+            return unsafe { self.nearest_n_within_avx2(q, n, r2, found, ex) };
+        }
+        self.nearest_n_within_any(q, n, r2, found, ex)
     }
 
-    fn nearest_n_within_in(
+    /// [`Bulk::nearest_n_within`] compiled for AVX2 (the same bits: see [`Bulk::within_dispatch`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn nearest_n_within_avx2(
         &self,
-        at: usize,
         q: &[f64; D],
         n: usize,
         r2: f64,
-        heap: &mut Vec<(f64, u64)>,
+        found: &mut Vec<(f64, u64)>,
         ex: &Exact<D>,
-    ) {
-        let node = &self.nodes[at];
-        if node.end != INNER {
-            for i in node.first_or_right as usize..node.end as usize {
-                let c = (dist2(q, &self.row(i, ex)), u64::from(self.ids[i]));
-                if c.0 <= r2 {
-                    heap_offer(heap, n, c);
+    ) -> f64 {
+        self.nearest_n_within_any(q, n, r2, found, ex)
+    }
+
+    /// [`Bulk::nearest_n_within`] compiled for AVX-512.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn nearest_n_within_avx512(
+        &self,
+        q: &[f64; D],
+        n: usize,
+        r2: f64,
+        found: &mut Vec<(f64, u64)>,
+        ex: &Exact<D>,
+    ) -> f64 {
+        self.nearest_n_within_any(q, n, r2, found, ex)
+    }
+
+    #[inline(always)]
+    fn nearest_n_within_any(
+        &self,
+        q: &[f64; D],
+        n: usize,
+        r2: f64,
+        found: &mut Vec<(f64, u64)>,
+        ex: &Exact<D>,
+    ) -> f64 {
+        let mut bound = r2;
+        // Nodes to visit with their boxes' squared distances, the next one last: the nearer
+        // child before the farther (the left one on a tie), each tested against the bound when
+        // its turn comes. Median splits bound the depth by 32, one pending sibling a level.
+        let mut stack = [(0usize, 0.0f64); 64];
+        let mut top = 1;
+        let mut d2 = [0.0; LEAF];
+        while top > 0 {
+            top -= 1;
+            let (at, d) = stack[top];
+            if d > bound {
+                continue;
+            }
+            let node = &self.nodes[at];
+            if node.end == INNER {
+                let [near, far] = self.children_nearest_first(at, q);
+                stack[top] = (far.1, far.0);
+                stack[top + 1] = (near.1, near.0);
+                top += 2;
+                continue;
+            }
+            let (first, end) = (node.first_or_right as usize, node.end as usize);
+            self.leaf_dist2(q, [first, end - first], ex, &mut d2);
+            for (i, d) in (first..end).zip(d2) {
+                if d <= bound {
+                    found.push((d, u64::from(self.ids[i])));
                 }
             }
-            return;
-        }
-        for (d, next) in self.children_nearest_first(at, q) {
-            let bound = if heap.len() < n { r2 } else { heap[0].0 };
-            if d <= bound {
-                self.nearest_n_within_in(next, q, n, r2, heap, ex);
+            if found.len() >= 2 * n {
+                bound = keep_nearest(found, n);
             }
         }
+        if found.len() > n {
+            bound = keep_nearest(found, n);
+        }
+        if found.len() < n { r2 } else { bound }
     }
 
     fn nearest_n_in(
@@ -482,9 +599,11 @@ impl<const D: usize> Bulk<D> {
     ) {
         let node = &self.nodes[at];
         if node.end != INNER {
-            for i in node.first_or_right as usize..node.end as usize {
-                let c = (dist2(q, &self.row(i, ex)), u64::from(self.ids[i]));
-                heap_offer(heap, n, c);
+            let (first, end) = (node.first_or_right as usize, node.end as usize);
+            let mut d2 = [0.0; LEAF];
+            self.leaf_dist2(q, [first, end - first], ex, &mut d2);
+            for (i, d) in (first..end).zip(d2) {
+                heap_offer(heap, n, (d, u64::from(self.ids[i])));
             }
             return;
         }
@@ -499,7 +618,8 @@ impl<const D: usize> Bulk<D> {
     /// leaf order (the wide tree walked depth first, left before right, with its own stack), the
     /// order the binary tree with [`SPLIT`]-point leaves reported them in, so kernel sums keep
     /// their bits. A leaf's points are first tested coarsely ([`Coarse`]); the few it cannot
-    /// rule out are measured exactly.
+    /// rule out are measured exactly (when they are most of the leaf and the tree keeps the
+    /// exact copy, the whole leaf in vector arithmetic).
     fn within(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize), ex: &Exact<D>) {
         self.within_by_leaf(
             q,
@@ -573,13 +693,25 @@ impl<const D: usize> Bulk<D> {
         k.points
     }
 
-    /// [`Bulk::within_any_visit`] for a visitor of leaves, compiled for AVX2 where the processor has it.
+    /// [`Bulk::within_any_visit`] for a visitor of leaves, compiled for AVX-512 or AVX2 where the
+    /// processor has it.
     fn within_dispatch(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: this processor has AVX-512F, checked just above.
+            return unsafe { self.within_visit_avx512(q, r2, f, ex) };
+        } else if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: this processor has AVX2, checked just above.
             return unsafe { self.within_visit_avx2(q, r2, f, ex) };
         }
+        self.within_any_visit(q, r2, f, ex)
+    }
+
+    /// [`Bulk::within_dispatch`] compiled for AVX-512: eight `f64` lanes at a time. The same
+    /// bits as every other copy (the tests compare them).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn within_visit_avx512(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
         self.within_any_visit(q, r2, f, ex)
     }
 
@@ -606,24 +738,43 @@ impl<const D: usize> Bulk<D> {
         let mut top = 1;
         let mut d2s = [0.0f64; LEAF];
         let mut ats = [0u32; LEAF];
+        let mut all = [0.0f64; LEAF];
         while top > 0 {
             top -= 1;
             let (at, leaf) = stack[top];
             if leaf {
                 let [first, end] = self.leaves[at as usize];
                 let (first, end) = (first as usize, end as usize);
+                let len = end - first;
+                let mut m = 0;
                 // Candidates as bits, then visited bit by bit: a branch per point inside the
                 // radius or not was mispredicted about as often as not.
                 let mut maybe = match &coarse {
-                    Some(c) => c.candidates(&self.coarse[first * D..], end - first),
+                    Some(c) => c.candidates(&self.coarse[first * D..], len),
                     None => u64::MAX,
                 };
                 // A leaf holds 1 to LEAF <= 64 points.
-                maybe &= u64::MAX >> (64 - (end - first));
-                let mut m = 0;
+                maybe &= u64::MAX >> (64 - len);
+                if !self.points.is_empty() && 2 * maybe.count_ones() as usize > len {
+                    // Most of the leaf may be inside: its exact distances in vector arithmetic
+                    // (the exact copy), then the ones inside kept in order, each written and
+                    // kept or not without a branch. The coarse test never rules out a point
+                    // inside, so the same points.
+                    self.leaf_dist2(q, [first, len], ex, &mut all);
+                    for (i, d) in (first..end).zip(all) {
+                        // `m <= i - first < LEAF`: the mask only spares a bounds check.
+                        d2s[m & (LEAF - 1)] = d;
+                        ats[m & (LEAF - 1)] = i as u32;
+                        m += usize::from(d <= r2);
+                    }
+                    if m > 0 {
+                        f.leaf(&d2s, &ats[..m]);
+                    }
+                    continue;
+                }
                 while maybe != 0 {
                     let i = first + maybe.trailing_zeros() as usize;
-                    let d = dist2(q, &self.row(i, ex));
+                    let d = dist2(q, &self.row(i, [first, len], ex));
                     // Written unconditionally, kept when inside: no branch to mispredict.
                     d2s[m] = d;
                     ats[m] = i as u32;
@@ -631,7 +782,7 @@ impl<const D: usize> Bulk<D> {
                     maybe &= maybe - 1;
                 }
                 if m > 0 {
-                    f.leaf(&d2s[..m], &ats[..m]);
+                    f.leaf(&d2s, &ats[..m]);
                 }
                 continue;
             }
@@ -658,7 +809,8 @@ impl<const D: usize> Bulk<D> {
 /// [`Bulk::within_by_leaf`]). A trait rather than a closure so that [`KernelLeaf`]'s
 /// `#[inline(always)]` reaches into the AVX2-compiled search.
 trait VisitLeaf {
-    fn leaf(&mut self, d2: &[f64], at: &[u32]);
+    /// `d2[..at.len()]` are the points' squared distances (the lanes after them are garbage).
+    fn leaf(&mut self, d2: &[f64; LEAF], at: &[u32]);
 }
 
 /// A closure as a [`VisitLeaf`].
@@ -666,8 +818,8 @@ struct Leaves<'f, F>(&'f mut F);
 
 impl<F: FnMut(&[f64], &[u32])> VisitLeaf for Leaves<'_, F> {
     #[inline(always)]
-    fn leaf(&mut self, d2: &[f64], at: &[u32]) {
-        (self.0)(d2, at)
+    fn leaf(&mut self, d2: &[f64; LEAF], at: &[u32]) {
+        (self.0)(&d2[..at.len()], at)
     }
 }
 
@@ -682,23 +834,56 @@ struct KernelLeaf<'a, A> {
     weights: [f64; LEAF],
 }
 
-impl<A: AsMut<[f64]>> VisitLeaf for KernelLeaf<'_, A> {
+impl<A: AsMut<[f64]>> KernelLeaf<'_, A> {
+    /// The leaf's weights, `exp(-d2 * inv)`, in one loop that vectorizes: over `d2`'s length
+    /// rounded up to [`CHUNK`] lanes (the ones past it are garbage and unused), so that no
+    /// weight is left to a scalar remainder loop (a scalar `exp` is a chain of a dozen dependent
+    /// multiply-adds: the few of each leaf took as long as its vector part).
     #[inline(always)]
-    fn leaf(&mut self, d2: &[f64], at: &[u32]) {
-        let weights = &mut self.weights[..d2.len()];
-        for (x, d) in weights.iter_mut().zip(d2) {
+    fn weights(&mut self, d2: &[f64; LEAF], m: usize) -> &[f64] {
+        let lanes = m.div_ceil(CHUNK) * CHUNK;
+        for (x, d) in self.weights[..lanes].iter_mut().zip(&d2[..lanes]) {
             *x = -d * self.inv;
         }
-        exp::exp_in_place(weights);
-        let acc = self.acc.as_mut();
-        let w = acc.len();
-        for (x, &i) in weights.iter().zip(at) {
-            let row = &self.sums[i as usize * w..][..w];
+        exp::exp_in_place(&mut self.weights[..lanes]);
+        &self.weights[..m]
+    }
+}
+
+impl<const W: usize> VisitLeaf for KernelLeaf<'_, [f64; W]> {
+    #[inline(always)]
+    fn leaf(&mut self, d2: &[f64; LEAF], at: &[u32]) {
+        // The sums in locals for the leaf: kept in the fields, they went through memory at
+        // every term (a store and its reload on each addition's path).
+        let (mut acc, mut points) = (self.acc, self.points);
+        let sums = self.sums;
+        for (x, &i) in self.weights(d2, at.len()).iter().zip(at) {
+            let row: &[f64; W] = sums[i as usize * W..][..W]
+                .try_into()
+                .expect("rows of W values");
             for (a, v) in acc.iter_mut().zip(row) {
                 *a += x * v;
             }
-            self.points += row[w - 1];
+            points += row[W - 1];
         }
+        (self.acc, self.points) = (acc, points);
+    }
+}
+
+impl VisitLeaf for KernelLeaf<'_, Vec<f64>> {
+    #[inline(always)]
+    fn leaf(&mut self, d2: &[f64; LEAF], at: &[u32]) {
+        let w = self.acc.len();
+        let (sums, mut points) = (self.sums, self.points);
+        let mut acc = std::mem::take(&mut self.acc);
+        for (x, &i) in self.weights(d2, at.len()).iter().zip(at) {
+            let row = &sums[i as usize * w..][..w];
+            for (a, v) in acc.iter_mut().zip(row) {
+                *a += x * v;
+            }
+            points += row[w - 1];
+        }
+        (self.acc, self.points) = (acc, points);
     }
 }
 
@@ -781,6 +966,76 @@ impl<const D: usize> Coarse<D> {
         }
         maybe
     }
+}
+
+/// `(distance, group)` as one integer pair ordered as [`before`] orders them (`f64::total_cmp`'s
+/// key, then the group): a sort on it compares integers.
+#[inline(always)]
+fn order_key((d, g): (f64, u64)) -> (i64, u64) {
+    let b = d.to_bits() as i64;
+    (b ^ (((b >> 63) as u64) >> 1) as i64, g)
+}
+
+/// Sort `(distance, group)` pairs as [`before`] orders them, as `sort_unstable_by_key` on
+/// [`order_key`] would (the order is total: the same result). A k-limited kernel sorts its
+/// thousands of neighbours a query, and a comparison sort's unpredictable branches were a
+/// third of its time: a least-significant-digit radix sort on the distance's bits (a byte at a
+/// time, skipping the bytes every distance shares), then each run of equal distances by group.
+fn sort_nearest_first(v: &mut Vec<(f64, u64)>) {
+    let n = v.len();
+    if n <= 64 {
+        v.sort_unstable_by_key(|c| order_key(*c));
+        return;
+    }
+    // `f64::total_cmp`'s order as an unsigned integer's.
+    let key = |d: f64| -> u64 {
+        let b = d.to_bits();
+        if b >> 63 == 1 { !b } else { b | 1 << 63 }
+    };
+    let mut counts = [[0usize; 256]; 8];
+    for &(d, _) in v.iter() {
+        let k = key(d);
+        for (byte, c) in counts.iter_mut().enumerate() {
+            c[(k >> (8 * byte)) as usize & 255] += 1;
+        }
+    }
+    let mut from = std::mem::take(v);
+    let mut to = vec![(0.0, 0); n];
+    for (byte, c) in counts.iter().enumerate() {
+        if c.contains(&n) {
+            continue;
+        }
+        let mut at = [0usize; 256];
+        let mut sum = 0;
+        for (a, c) in at.iter_mut().zip(c) {
+            *a = sum;
+            sum += c;
+        }
+        for &e in &from {
+            let digit = (key(e.0) >> (8 * byte)) as usize & 255;
+            to[at[digit]] = e;
+            at[digit] += 1;
+        }
+        std::mem::swap(&mut from, &mut to);
+    }
+    *v = from;
+    let mut i = 0;
+    while i < n {
+        let bits = v[i].0.to_bits();
+        let run = v[i..].iter().take_while(|e| e.0.to_bits() == bits).count();
+        if run > 1 {
+            v[i..i + run].sort_unstable_by_key(|e| e.1);
+        }
+        i += run;
+    }
+}
+
+/// Cut `found` (more than `n > 0` entries) to its `n` first under [`before`], in no set order;
+/// returns the distance of the `n`-th.
+fn keep_nearest(found: &mut Vec<(f64, u64)>, n: usize) -> f64 {
+    found.select_nth_unstable_by_key(n - 1, |c| order_key(*c));
+    found.truncate(n);
+    found[n - 1].0
 }
 
 /// Offer `c` to the max-heap `heap` (under [`before`]) of at most `n` entries.
@@ -939,14 +1194,17 @@ impl Tree {
         out.clear();
         each_tree!(self, t => {
             let q = q.try_into().expect("dimension checked at construction");
-            plan.bulk(t).nearest_n_within(q, n, r2, out, &plan.exact());
+            // The bulk's `n` nearest and the distance of its `n`-th (`r2` with fewer).
+            let bound = plan.bulk(t).nearest_n_within(q, n, r2, out, &plan.exact());
             if plan.recent > 0 {
-                let bound = if out.len() < n { r2 } else { out[0].0.min(r2) };
-                out.extend(t.recent.within_unsorted::<SquaredEuclidean>(q, bound).into_iter().map(|n| (n.distance, n.item)));
+                // As in `nearest_one`: only groups within the bulk's n-th can take part.
+                out.extend(t.recent.within_unsorted::<SquaredEuclidean>(q, bound.min(r2)).into_iter().map(|n| (n.distance, n.item)));
             }
         });
-        out.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        out.truncate(n);
+        if out.len() > n {
+            keep_nearest(out, n);
+        }
+        sort_nearest_first(out);
     }
 
     fn within(&self, plan: &Plan, q: &[f64], r2: f64, out: &mut Vec<(f64, u64)>) {
@@ -1607,6 +1865,16 @@ mod tree_tests {
                     idx.nearest_n(&q, n, &mut found, pts(&zs));
                     assert_eq!(found, want[..n.min(want.len())], "n {n} after {i} points");
                 }
+                // The k-limited kernel's search: the `n` nearest within a radius, nearest
+                // first, with `n` large enough that its candidates are cut more than once.
+                let r2 = rng.random_range(0.0..4.0);
+                for n in [1, 17, 150, 700] {
+                    idx.tree
+                        .nearest_n_within(&idx.plan(pts(&zs)), &q, n, r2, &mut found);
+                    let inside: Vec<(f64, u64)> =
+                        want.iter().copied().filter(|w| w.0 <= r2).take(n).collect();
+                    assert_eq!(found, inside, "n {n} within {r2} after {i} points");
+                }
                 let r2 = rng.random_range(0.0..0.6);
                 assert_within_is_the_scan(
                     (&idx, &zs),
@@ -1747,6 +2015,239 @@ mod sums_tests {
                 let mut batched = vec![0.0; 3];
                 let got_points = idx.kernel_within(&q, r2, inv, pts, &mut batched);
                 assert_eq!((batched, got_points), (acc, points), "after {i} points");
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod compiled_copies_tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The radius and k-nearest searches are compiled three times (the baseline, AVX2 and
+    /// AVX-512, chosen at run time): every copy gives the same bits, kernel sums and neighbours,
+    /// on this processor's copies (the baseline always). Points along random walks (trajectory
+    /// data: many leaves wholly or partly inside a kernel), in 3 and 6 dimensions, with the
+    /// exact copy and without.
+    #[test]
+    fn every_compiled_copy_gives_the_same_bits() {
+        for copy_max in [EXACT_COPY_MAX, 0] {
+            same_bits::<3>(copy_max);
+            same_bits::<6>(copy_max);
+        }
+    }
+
+    fn bulk_of<const D: usize>(tree: &Tree) -> &Trees<D> {
+        let any: &dyn std::any::Any = match tree {
+            Tree::D3(t) => t,
+            Tree::D6(t) => t,
+            _ => unreachable!("the test's dimensions"),
+        };
+        any.downcast_ref().expect("the index's dimension")
+    }
+
+    fn same_bits<const D: usize>(copy_max: usize) {
+        let mut rng = ChaCha8Rng::seed_from_u64(48 + D as u64);
+        let mut idx = Index::with_action_sums(vec![1.0; D], 2)
+            .unwrap()
+            .keeping_exact_copies_up_to(copy_max);
+        let (mut zs, mut acts) = (Vec::new(), Vec::new());
+        let mut z = [0.0f64; D];
+        for i in 0..6000u32 {
+            if i % 300 == 0 {
+                z = std::array::from_fn(|_| rng.random_range(0.0..1.0));
+            }
+            z.iter_mut()
+                .for_each(|v| *v += rng.random_range(-0.01..0.01));
+            zs.extend_from_slice(&z);
+            acts.extend_from_slice(&[rng.random_range(-1.0..1.0), z[0]]);
+        }
+        let pts = Points { z: &zs, a: &acts };
+        for i in 0..6000 {
+            idx.add_with_action(i, pts);
+        }
+        let plan = idx.plan(pts);
+        let bulk = plan.bulk(bulk_of::<D>(&idx.tree));
+        let ex = plan.exact();
+        let mut copies: Vec<(&str, KernelFn<D>, NearestFn<D>)> =
+            vec![("baseline", kernel_any::<D>, nearest_any::<D>)];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                copies.push(("avx2", kernel_avx2::<D>, nearest_avx2::<D>));
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                copies.push(("avx512", kernel_avx512::<D>, nearest_avx512::<D>));
+            }
+        }
+        for _ in 0..60 {
+            let at = rng.random_range(0..6000);
+            let q: [f64; D] =
+                std::array::from_fn(|k| zs[at * D + k] + rng.random_range(-0.02..0.02));
+            let r2 = rng.random_range(0.0..0.05f64).powi(2) * D as f64;
+            let inv = rng.random_range(10.0..5000.0);
+            let n = [1, 40, 500][at % 3];
+            let mut answers = Vec::new();
+            for (name, kernel, nearest) in &copies {
+                let (acc, points) = kernel(bulk, &q, r2, inv, &ex);
+                let mut found = Vec::new();
+                let bound = nearest(bulk, &q, n, r2, &mut found, &ex);
+                found.sort_unstable_by_key(|c| order_key(*c));
+                let bits: Vec<u64> = acc.iter().map(|v| v.to_bits()).collect();
+                answers.push((*name, bits, points.to_bits(), found, bound.to_bits()));
+            }
+            let (_, bits, points, found, bound) = &answers[0];
+            assert!(!found.is_empty() || *points == 0.0f64.to_bits());
+            for (name, b, p, f, n) in &answers[1..] {
+                assert_eq!(
+                    (b, p, f, n),
+                    (bits, points, found, bound),
+                    "{name} against the baseline"
+                );
+            }
+        }
+    }
+
+    type KernelFn<const D: usize> = fn(&Bulk<D>, &[f64; D], f64, f64, &Exact<D>) -> ([f64; 3], f64);
+    type NearestFn<const D: usize> =
+        fn(&Bulk<D>, &[f64; D], usize, f64, &mut Vec<(f64, u64)>, &Exact<D>) -> f64;
+
+    fn leaf_of<'a, const D: usize>(bulk: &'a Bulk<D>, inv: f64) -> KernelLeaf<'a, [f64; 3]> {
+        KernelLeaf {
+            sums: &bulk.sums,
+            inv,
+            acc: [0.0; 3],
+            points: 0.0,
+            weights: [0.0; LEAF],
+        }
+    }
+
+    fn kernel_any<const D: usize>(
+        b: &Bulk<D>,
+        q: &[f64; D],
+        r2: f64,
+        inv: f64,
+        ex: &Exact<D>,
+    ) -> ([f64; 3], f64) {
+        let mut k = leaf_of(b, inv);
+        b.within_any_visit(q, r2, &mut k, ex);
+        (k.acc, k.points)
+    }
+
+    fn nearest_any<const D: usize>(
+        b: &Bulk<D>,
+        q: &[f64; D],
+        n: usize,
+        r2: f64,
+        found: &mut Vec<(f64, u64)>,
+        ex: &Exact<D>,
+    ) -> f64 {
+        found.clear();
+        b.nearest_n_within_any(q, n, r2, found, ex)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    fn kernel_avx2<const D: usize>(
+        b: &Bulk<D>,
+        q: &[f64; D],
+        r2: f64,
+        inv: f64,
+        ex: &Exact<D>,
+    ) -> ([f64; 3], f64) {
+        let mut k = leaf_of(b, inv);
+        assert!(std::arch::is_x86_feature_detected!("avx2"));
+        // SAFETY: this processor has AVX2, asserted just above.
+        unsafe { b.within_visit_avx2(q, r2, &mut k, ex) };
+        (k.acc, k.points)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    fn nearest_avx2<const D: usize>(
+        b: &Bulk<D>,
+        q: &[f64; D],
+        n: usize,
+        r2: f64,
+        found: &mut Vec<(f64, u64)>,
+        ex: &Exact<D>,
+    ) -> f64 {
+        found.clear();
+        assert!(std::arch::is_x86_feature_detected!("avx2"));
+        // SAFETY: this processor has AVX2, asserted just above.
+        unsafe { b.nearest_n_within_avx2(q, n, r2, found, ex) }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    fn kernel_avx512<const D: usize>(
+        b: &Bulk<D>,
+        q: &[f64; D],
+        r2: f64,
+        inv: f64,
+        ex: &Exact<D>,
+    ) -> ([f64; 3], f64) {
+        let mut k = leaf_of(b, inv);
+        assert!(std::arch::is_x86_feature_detected!("avx512f"));
+        // SAFETY: this processor has AVX-512F, asserted just above.
+        unsafe { b.within_visit_avx512(q, r2, &mut k, ex) };
+        (k.acc, k.points)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    fn nearest_avx512<const D: usize>(
+        b: &Bulk<D>,
+        q: &[f64; D],
+        n: usize,
+        r2: f64,
+        found: &mut Vec<(f64, u64)>,
+        ex: &Exact<D>,
+    ) -> f64 {
+        found.clear();
+        assert!(std::arch::is_x86_feature_detected!("avx512f"));
+        // SAFETY: this processor has AVX-512F, asserted just above.
+        unsafe { b.nearest_n_within_avx512(q, n, r2, found, ex) }
+    }
+}
+
+#[cfg(test)]
+mod sort_tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The radix sort orders as a comparison sort on [`order_key`]: distances with many ties, a
+    /// narrow range (bytes shared by all), a wide one, zeros of both signs, infinities and NaNs.
+    #[test]
+    fn the_radix_sort_orders_as_the_comparison_sort() {
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let special = [
+            0.0,
+            -0.0,
+            f64::INFINITY,
+            f64::NAN,
+            -f64::NAN,
+            1e-300,
+            5e-324,
+        ];
+        for len in [0, 1, 63, 64, 65, 200, 3000] {
+            for kind in 0..4 {
+                let mut v: Vec<(f64, u64)> = (0..len)
+                    .map(|_| {
+                        let d = match kind {
+                            0 => f64::from(rng.random_range(0..20u8)) / 8.0,
+                            1 => 0.25 + rng.random_range(0.0..1e-9),
+                            2 => rng.random_range(-300.0..300.0f64).exp2(),
+                            _ => special[rng.random_range(0..special.len())],
+                        };
+                        (d, rng.random_range(0..1000))
+                    })
+                    .collect();
+                let mut want = v.clone();
+                want.sort_unstable_by_key(|c| order_key(*c));
+                sort_nearest_first(&mut v);
+                let bits =
+                    |v: &[(f64, u64)]| v.iter().map(|e| (e.0.to_bits(), e.1)).collect::<Vec<_>>();
+                assert_eq!(bits(&v), bits(&want), "len {len}, kind {kind}");
             }
         }
     }
