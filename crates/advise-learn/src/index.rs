@@ -2148,65 +2148,56 @@ mod compiled_copies_tests {
         b.nearest_n_within_any(q, n, r2, found, ex)
     }
 
-    #[cfg(target_arch = "x86_64")]
-    fn kernel_avx2<const D: usize>(
-        b: &Bulk<D>,
-        q: &[f64; D],
-        r2: f64,
-        inv: f64,
-        ex: &Exact<D>,
-    ) -> ([f64; 3], f64) {
-        let mut k = leaf_of(b, inv);
-        assert!(std::arch::is_x86_feature_detected!("avx2"));
-        // SAFETY: this processor has AVX2, asserted just above.
-        unsafe { b.within_visit_avx2(q, r2, &mut k, ex) };
-        (k.acc, k.points)
+    /// The test's entry points into one vector copy of the searches: the kernel sum and the
+    /// k-nearest search, each after asserting the processor has the copy's feature.
+    macro_rules! vector_copy {
+        ($kernel:ident, $nearest:ident, $feature:tt, $visit:ident, $within:ident) => {
+            #[cfg(target_arch = "x86_64")]
+            fn $kernel<const D: usize>(
+                b: &Bulk<D>,
+                q: &[f64; D],
+                r2: f64,
+                inv: f64,
+                ex: &Exact<D>,
+            ) -> ([f64; 3], f64) {
+                let mut k = leaf_of(b, inv);
+                assert!(std::arch::is_x86_feature_detected!($feature));
+                // SAFETY: this processor has the copy's feature, asserted just above.
+                unsafe { b.$visit(q, r2, &mut k, ex) };
+                (k.acc, k.points)
+            }
+
+            #[cfg(target_arch = "x86_64")]
+            fn $nearest<const D: usize>(
+                b: &Bulk<D>,
+                q: &[f64; D],
+                n: usize,
+                r2: f64,
+                found: &mut Vec<(f64, u64)>,
+                ex: &Exact<D>,
+            ) -> f64 {
+                found.clear();
+                assert!(std::arch::is_x86_feature_detected!($feature));
+                // SAFETY: this processor has the copy's feature, asserted just above.
+                unsafe { b.$within(q, n, r2, found, ex) }
+            }
+        };
     }
 
-    #[cfg(target_arch = "x86_64")]
-    fn nearest_avx2<const D: usize>(
-        b: &Bulk<D>,
-        q: &[f64; D],
-        n: usize,
-        r2: f64,
-        found: &mut Vec<(f64, u64)>,
-        ex: &Exact<D>,
-    ) -> f64 {
-        found.clear();
-        assert!(std::arch::is_x86_feature_detected!("avx2"));
-        // SAFETY: this processor has AVX2, asserted just above.
-        unsafe { b.nearest_n_within_avx2(q, n, r2, found, ex) }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    fn kernel_avx512<const D: usize>(
-        b: &Bulk<D>,
-        q: &[f64; D],
-        r2: f64,
-        inv: f64,
-        ex: &Exact<D>,
-    ) -> ([f64; 3], f64) {
-        let mut k = leaf_of(b, inv);
-        assert!(std::arch::is_x86_feature_detected!("avx512f"));
-        // SAFETY: this processor has AVX-512F, asserted just above.
-        unsafe { b.within_visit_avx512(q, r2, &mut k, ex) };
-        (k.acc, k.points)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    fn nearest_avx512<const D: usize>(
-        b: &Bulk<D>,
-        q: &[f64; D],
-        n: usize,
-        r2: f64,
-        found: &mut Vec<(f64, u64)>,
-        ex: &Exact<D>,
-    ) -> f64 {
-        found.clear();
-        assert!(std::arch::is_x86_feature_detected!("avx512f"));
-        // SAFETY: this processor has AVX-512F, asserted just above.
-        unsafe { b.nearest_n_within_avx512(q, n, r2, found, ex) }
-    }
+    vector_copy!(
+        kernel_avx2,
+        nearest_avx2,
+        "avx2",
+        within_visit_avx2,
+        nearest_n_within_avx2
+    );
+    vector_copy!(
+        kernel_avx512,
+        nearest_avx512,
+        "avx512f",
+        within_visit_avx512,
+        nearest_n_within_avx512
+    );
 }
 
 #[cfg(test)]
