@@ -991,7 +991,25 @@ pub fn run_sim_with(
     params: &SimParams,
     seed: u64,
 ) -> (Execution, Vec<crate::trace::Chunk>) {
-    let mut task = start.task();
+    run_sim_task_with(start.task(), controller, takeover, params, seed)
+}
+
+fn run_sim_task(
+    task: Box<dyn Task>,
+    controller: &mut dyn Controller,
+    params: &SimParams,
+    seed: u64,
+) -> Execution {
+    run_sim_task_with(task, controller, &mut takeover::Never, params, seed).0
+}
+
+fn run_sim_task_with(
+    mut task: Box<dyn Task>,
+    controller: &mut dyn Controller,
+    takeover: &mut dyn takeover::Takeover,
+    params: &SimParams,
+    seed: u64,
+) -> (Execution, Vec<crate::trace::Chunk>) {
     let mut backend = SimBackend::new(params.clone(), seed);
     let driven =
         takeover::run_episode_with(&mut backend, task.as_mut(), controller, takeover, seed);
@@ -999,20 +1017,6 @@ pub fn run_sim_with(
         Ok(e) => (e, driven.teacher),
         // The simulator never fails; keep what was recorded if that ever changes.
         Err(i) => (*i.execution, driven.teacher),
-    }
-}
-
-fn run_sim_task(
-    mut task: Box<dyn Task>,
-    controller: &mut dyn Controller,
-    params: &SimParams,
-    seed: u64,
-) -> Execution {
-    let mut backend = SimBackend::new(params.clone(), seed);
-    match run_episode(&mut backend, task.as_mut(), controller, seed) {
-        Ok(e) => e,
-        // The simulator never fails; keep what was recorded if that ever changes.
-        Err(i) => *i.execution,
     }
 }
 

@@ -164,19 +164,13 @@ pub fn aopi(result: &AopiResult, dir: &Path) -> Result<Vec<PathBuf>, ExperimentE
     }
     let p = crate::experiment::aopi::PAPER;
     let paper_success = [
-        p.baseline_success,
-        p.advised_success,
-        p.hybrid_success,
-        p.teleop_success,
-    ]
-    .map(|v| Some(100.0 * v));
-    let paper_success = [
-        paper_success[0],
-        paper_success[1],
-        paper_success[2],
-        paper_success[3],
+        Some(p.baseline_success),
+        Some(p.advised_success),
+        Some(p.hybrid_success),
+        Some(p.teleop_success),
         None,
-    ];
+    ]
+    .map(|v| v.map(|v| 100.0 * v));
     let mut written = Vec::new();
     let bars: [Bar; 3] = [
         (

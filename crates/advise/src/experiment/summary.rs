@@ -738,27 +738,32 @@ impl AopiSummary {
             "executions"
         );
         let a = &self.arms;
-        for (name, f, paper, paper_exec) in [
-            ("Baseline", &a.baseline, p.baseline_success, None),
+        let mut rows = vec![
+            ("Baseline", &a.baseline, Some(p.baseline_success), None),
             (
                 "A-OPI Advised",
                 &a.advised,
-                p.advised_success,
+                Some(p.advised_success),
                 Some(p.advised_executions),
             ),
             (
                 "A-OPI Hybrid",
                 &a.hybrid,
-                p.hybrid_success,
+                Some(p.hybrid_success),
                 Some(p.hybrid_executions),
             ),
             (
                 "Teleoperation",
                 &a.teleop,
-                p.teleop_success,
+                Some(p.teleop_success),
                 Some(p.teleop_executions),
             ),
-        ] {
+        ];
+        // The takeover arm is ours: no paper figure beside it.
+        if let Some(t) = &a.takeover {
+            rows.push(("Takeover", t, None, None));
+        }
+        for (name, f, paper, paper_exec) in rows {
             let exec = match paper_exec {
                 Some(e) => format!("{} ({e})", num(f.executions, 0)),
                 None => num(f.executions, 0),
@@ -768,24 +773,11 @@ impl AopiSummary {
                 "  {:<14} {:>10} {:>6}  {:>13} {:>15}  {:>13} {:>14}",
                 name,
                 rate(f.success_rate),
-                pct(paper),
+                paper.map_or_else(|| "-".to_string(), pct),
                 num(f.mean_position_error_m, 2),
                 num(f.mean_heading_error_rad, 2),
                 num(f.dataset_size, 0),
                 exec
-            );
-        }
-        if let Some(t) = &a.takeover {
-            let _ = writeln!(
-                s,
-                "  {:<14} {:>10} {:>6}  {:>13} {:>15}  {:>13} {:>14}",
-                "Takeover",
-                rate(t.success_rate),
-                "-",
-                num(t.mean_position_error_m, 2),
-                num(t.mean_heading_error_rad, 2),
-                num(t.dataset_size, 0),
-                num(t.executions, 0)
             );
         }
         let _ = writeln!(
