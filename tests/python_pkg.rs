@@ -27,7 +27,7 @@ const PACKAGES: [&str; 8] = [
     "pandas==2.3.3",
     // A rosbag2 bag for `advise.load_demos` (test_advise_demos.py), the version tests/bags.rs pins.
     "rosbags==0.11.9",
-    // The README's Ray example (test_advise_studies.py): 11 s to install here.
+    // The README's Ray example (test_advise_readme.py runs it): 11 s to install here.
     "ray==2.60.0",
 ];
 

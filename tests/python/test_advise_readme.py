@@ -5,6 +5,7 @@ file of one's own (``my_ops.adv``), the docking task (``dock.adv``), teacher dem
 (``demos.csv``), a rosbag2 bag of a namespaced robot (``run1/``), a LeRobot dataset
 (``path/to/dataset``), and ``$ADVISE_HOME`` for the journal. A traceback names the README's line."""
 
+import json
 import os
 import re
 import shutil
@@ -26,6 +27,9 @@ for m in re.finditer(r"^```python\n(.*?)^```", text, re.M | re.S):
     code = compile("\n" * line + m.group(1), "README.md", "exec")
     print(f"README.md:{line + 1}: running", flush=True)
     exec(code, namespace)
+# What the README's Ray example mapped over seeds, for the test to hold against the command line.
+import json
+json.dump(namespace.get("results"), open("ray_results.json", "w"))
 print("all blocks ran", flush=True)
 """
 
@@ -74,3 +78,14 @@ def test_every_python_block_of_the_readme_runs_as_written(tmp_path):
     assert out.stdout.rstrip().endswith("all blocks ran")
     # The journal went where the block's `journal=True` and $ADVISE_HOME say.
     assert any(p.suffix == ".jsonl" for p in (tmp_path / "home").rglob("*"))
+    # The Ray example (a local cluster on loopback) mapped the A-OPI study over seeds 0 and 1:
+    # what `advise experiment aopi --seed N --practice 3 --json` prints, to the bit.
+    with open(tmp_path / "ray_results.json") as f:
+        results = json.load(f)
+    assert results == [cli_aopi(seed) for seed in range(2)]
+
+
+def cli_aopi(seed):
+    out = subprocess.run([ADVISE, "experiment", "aopi", "--seed", str(seed), "--practice", "3",
+                          "--json"], check=True, capture_output=True, timeout=600)
+    return json.loads(out.stdout)

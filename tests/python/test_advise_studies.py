@@ -21,18 +21,19 @@ def test_the_bc_study_is_the_command_lines():
         "bc", "--seed", "2", "--critique", "paper", "--teacher", "hand")
 
 
-# The A-OPI study's arms are capped at 10 practice goals (`--practice`): a whole seed takes
-# minutes since the kernel is tuned over whole held-out demonstrations (issue 48), and the
-# equality is the same one.
+# The A-OPI study's arms are capped at 3 practice goals (`--practice`): a whole seed takes
+# minutes since the kernel is tuned over whole held-out demonstrations (issue 48), 10 goals about
+# 17 s in the tests' build against 4 s, and the equality is the same one: every arm runs, is
+# evaluated and reported.
 def test_the_aopi_study_is_the_command_lines():
-    assert advise.studies.aopi(1, practice=10) == cli("aopi", "--seed", "1", "--practice", "10")
+    assert advise.studies.aopi(1, practice=3) == cli("aopi", "--seed", "1", "--practice", "3")
 
 
 def test_a_reverted_choice_is_the_command_lines():
     assert advise.study("bc", 1, revert="ball", critique="paper") == cli(
         "bc", "--seed", "1", "--revert", "ball", "--critique", "paper")
-    assert advise.studies.aopi(2, revert="advisor", practice=10) == cli(
-        "aopi", "--seed", "2", "--revert", "advisor", "--practice", "10")
+    assert advise.studies.aopi(2, revert="advisor", practice=3) == cli(
+        "aopi", "--seed", "2", "--revert", "advisor", "--practice", "3")
 
 
 def test_bad_arguments_raise_coded_errors():
@@ -50,19 +51,3 @@ def test_bad_arguments_raise_coded_errors():
     with pytest.raises(advise.AdviseError) as e:
         advise.studies.bc(0, sim_params="/nonexistent/sim.json")
     assert e.value.code.startswith("advise::")
-
-
-def test_the_readmes_ray_example_maps_a_study_over_seeds():
-    # The README's example, on a local Ray cluster bound to the loopback address only.
-    import ray  # pinned in the test venv: a missing Ray fails here, it does not skip
-
-    import advise.studies
-
-    ray.init(num_cpus=2, include_dashboard=False, _node_ip_address="127.0.0.1",
-             log_to_driver=False)
-    try:
-        run = ray.remote(advise.studies.aopi)
-        results = ray.get([run.remote(seed, practice=10) for seed in range(2)])
-    finally:
-        ray.shutdown()
-    assert results == [cli("aopi", "--seed", str(seed), "--practice", "10") for seed in range(2)]

@@ -22,6 +22,7 @@
 
 use std::fmt::Write as _;
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::backend::sim::SimParams;
@@ -194,10 +195,15 @@ struct Descent<T, F> {
 /// Coordinate descent over `params`' grids from `start`, at most [`PASSES`] passes, minimising
 /// `loss` of the figures `measure` gives (ties keep the current value, so the result depends
 /// only on the grids and the loss). Each candidate is measured once.
-fn descend<T: Clone, F: Clone>(
+///
+/// A constant's candidates differ from the best so far in that constant alone, whichever of
+/// them became the best before (a move changes only that constant), so they are measured in
+/// parallel and then taken in grid order: the same choices, the same file, on every number of
+/// threads (`measure` is a function of its candidate: its seeds are fixed).
+fn descend<T: Clone + Send + Sync, F: Clone + Send>(
     start: &T,
     params: &[Param<T>],
-    measure: &dyn Fn(&T) -> F,
+    measure: &(dyn Fn(&T) -> F + Sync),
     loss: &dyn Fn(&F) -> f64,
     bar: &Progress,
     evaluations: &mut usize,
@@ -211,13 +217,16 @@ fn descend<T: Clone, F: Clone>(
         let mut moved = false;
         for p in params {
             let current = (p.get)(&best);
-            for &v in &p.grid {
-                if v == current {
-                    continue;
-                }
-                let mut cand = best.clone();
-                (p.set)(&mut cand, v);
-                let f = measure(&cand);
+            let candidates: Vec<T> = (p.grid.iter())
+                .filter(|&&v| v != current)
+                .map(|&v| {
+                    let mut cand = best.clone();
+                    (p.set)(&mut cand, v);
+                    cand
+                })
+                .collect();
+            let measured: Vec<F> = candidates.par_iter().map(measure).collect();
+            for (cand, f) in candidates.into_iter().zip(measured) {
                 let l = loss(&f);
                 *evaluations += 1;
                 bar.inc(1);
