@@ -151,11 +151,18 @@ fn cpu_rate(name: &str, qs: &[Vec<f64>], mut f: impl FnMut(&[f64])) -> Option<f6
         unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
         t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
     };
+    if std::env::var("ADVISE_BENCH_ONLY").is_ok_and(|only| only.split(',').all(|o| o != name)) {
+        return None;
+    }
+    let passes: u32 = std::env::var("ADVISE_BENCH_PASSES")
+        .ok()
+        .and_then(|p| p.parse().ok())
+        .unwrap_or(10);
     let start = cpu();
-    for _ in 0..10 {
+    for _ in 0..passes {
         qs.iter().for_each(|q| f(q));
     }
-    let rate = 10.0 * qs.len() as f64 / (cpu() - start);
+    let rate = f64::from(passes) * qs.len() as f64 / (cpu() - start);
     eprintln!("{name}: {rate:.0} queries per CPU second");
     Some(rate)
 }
@@ -241,7 +248,11 @@ fn bench(c: &mut Criterion) {
     if std::env::var_os("ADVISE_BENCH_CSV").is_some() {
         write_lwr_csv(&lwr);
     }
-    let fixed = fixed_kernel(&lwr, FIXED_BANDWIDTH);
+    let bandwidth = std::env::var("ADVISE_BENCH_LWR_BANDWIDTH")
+        .ok()
+        .and_then(|b| b.parse().ok())
+        .unwrap_or(FIXED_BANDWIDTH);
+    let fixed = fixed_kernel(&lwr, bandwidth);
     let fixed_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
         lwr::query(&fixed.0, lwr.dataset(), &fixed.1, q, a, s)
     };
