@@ -663,8 +663,10 @@ impl<const D: usize> Bulk<D> {
     /// the processor has it.
     fn within_dispatch(&self, q: &[f64; D], r2: f64, f: &mut impl VisitBatch, ex: &Exact<D>) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: this processor has AVX-512F, checked just above.
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("popcnt")
+        {
+            // SAFETY: this processor has AVX-512F and POPCNT, checked just above.
             return unsafe { self.within_visit_avx512(q, r2, f, ex) };
         } else if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: this processor has AVX2, checked just above.
@@ -677,7 +679,7 @@ impl<const D: usize> Bulk<D> {
     /// inside kept with one `vcompresspd` per [`CHUNK`] lanes. The same bits as every other copy
     /// (the tests compare them).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
+    #[target_feature(enable = "avx512f,popcnt")]
     fn within_visit_avx512(&self, q: &[f64; D], r2: f64, f: &mut impl VisitBatch, ex: &Exact<D>) {
         // SAFETY: this function runs only where the processor has AVX-512F.
         let chunks = unsafe { Avx512::new() };
@@ -732,11 +734,14 @@ impl<const D: usize> Bulk<D> {
                 // Candidates as bits (a branch per point inside the radius or not was
                 // mispredicted about as often as not). A leaf holds 1 to LEAF <= 64 points.
                 let mut maybe = match (&coarse, inside) {
-                    (Some(c), false) => c.candidates(&self.coarse[first * D..], len),
+                    (Some(c), false) => chunks.candidates(c, &self.coarse[first * D..], len),
                     _ => u64::MAX,
                 };
                 maybe &= u64::MAX >> (64 - len);
                 let mut kept = 0u64;
+                // The batch's length in a local: kept in the field, each chunk's update went
+                // through memory (a store and its reload on the next chunk's path).
+                let mut n = batch.len;
                 if exact_copy {
                     // The exact distances CHUNK lanes at a time (the exact copy), chunks without
                     // a candidate skipped; the lanes inside appended in order.
@@ -746,8 +751,11 @@ impl<const D: usize> Bulk<D> {
                         if cand == 0 {
                             continue;
                         }
-                        let m = chunks.keep(q, block, [len, c], r2, cand, batch.tail());
-                        batch.len += m.count_ones() as usize;
+                        let out = (&mut batch.d2[n..n + CHUNK])
+                            .try_into()
+                            .expect("a batch has room for a leaf past BATCH");
+                        let m = chunks.keep(q, block, [len, c], r2, cand, out);
+                        n += m.count_ones() as usize;
                         kept |= u64::from(m) << (c * CHUNK);
                     }
                 } else {
@@ -756,12 +764,13 @@ impl<const D: usize> Bulk<D> {
                         let d = dist2(q, &self.row(first + j, [first, len], ex));
                         // Written unconditionally, kept when inside: no branch to mispredict.
                         let inside = d <= r2;
-                        batch.d2[batch.len] = d;
-                        batch.len += usize::from(inside);
+                        batch.d2[n] = d;
+                        n += usize::from(inside);
                         kept |= u64::from(inside) << j;
                         maybe &= maybe - 1;
                     }
                 }
+                batch.len = n;
                 if kept != 0 {
                     batch.segments[batch.leaves] = (first as u32, kept);
                     batch.leaves += 1;
@@ -835,14 +844,6 @@ impl Batch {
         self.leaves = 0;
     }
 
-    /// The [`CHUNK`] lanes after the points held (room for a leaf's next chunk).
-    #[inline(always)]
-    fn tail(&mut self) -> &mut [f64; CHUNK] {
-        (&mut self.d2[self.len..self.len + CHUNK])
-            .try_into()
-            .expect("a batch has room for a leaf past BATCH")
-    }
-
     /// The points' leaf positions in order, with their squared distances.
     #[inline(always)]
     fn points(&self) -> impl Iterator<Item = (f64, usize)> + '_ {
@@ -877,6 +878,12 @@ impl Iterator for Bits {
 /// inside `r2` to the start of `out`, in order, and returns their mask (the rest of `out` is
 /// garbage).
 trait Chunks: Copy {
+    /// [`Coarse::candidates`].
+    #[inline(always)]
+    fn candidates<const D: usize>(&self, c: &Coarse<D>, block: &[f32], len: usize) -> u64 {
+        c.candidates(block, len)
+    }
+
     fn keep<const D: usize>(
         &self,
         q: &[f64; D],
@@ -947,6 +954,35 @@ impl Avx512 {
 
 #[cfg(target_arch = "x86_64")]
 impl Chunks for Avx512 {
+    /// [`Coarse::candidates`]'s arithmetic (the same bits) in four vectors of sixteen lanes,
+    /// whose comparisons are the mask's four quarters.
+    #[inline(always)]
+    fn candidates<const D: usize>(&self, c: &Coarse<D>, block: &[f32], len: usize) -> u64 {
+        use std::arch::x86_64::*;
+        const { assert!(LEAF == 64) };
+        // SAFETY: an `Avx512` exists only where the processor has AVX-512F (`Avx512::new`);
+        // every pointer is to sixteen `f32`s (a quarter of a slice of LEAF, checked).
+        unsafe {
+            let mut s = [_mm512_setzero_ps(); 4];
+            for (k, qk) in c.q.iter().enumerate() {
+                let col: &[f32; LEAF] = block[k * len..][..LEAF]
+                    .try_into()
+                    .expect("a block holds LEAF lanes of each dimension");
+                let qv = _mm512_set1_ps(*qk);
+                for (v, s) in s.iter_mut().enumerate() {
+                    let d = _mm512_sub_ps(qv, _mm512_loadu_ps(col[16 * v..].as_ptr()));
+                    *s = _mm512_add_ps(*s, _mm512_mul_ps(d, d));
+                }
+            }
+            let r2 = _mm512_set1_ps(c.r2);
+            let mut maybe = 0u64;
+            for (v, s) in s.iter().enumerate() {
+                maybe |= u64::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(*s, r2)) << (16 * v);
+            }
+            maybe
+        }
+    }
+
     #[inline(always)]
     fn keep<const D: usize>(
         &self,
@@ -2265,7 +2301,9 @@ mod compiled_copies_tests {
             if std::arch::is_x86_feature_detected!("avx2") {
                 copies.push(("avx2", kernel_avx2::<D>, nearest_avx2::<D>));
             }
-            if std::arch::is_x86_feature_detected!("avx512f") {
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("popcnt")
+            {
                 copies.push(("avx512", kernel_avx512::<D>, nearest_avx512::<D>));
             }
         }
@@ -2273,7 +2311,10 @@ mod compiled_copies_tests {
             let at = rng.random_range(0..6000);
             let q: [f64; D] =
                 std::array::from_fn(|k| zs[at * D + k] + rng.random_range(-0.02..0.02));
-            let r2 = rng.random_range(0.0..0.05f64).powi(2) * D as f64;
+            // Narrow kernels (leaves partly inside), and wide ones (whole subtrees inside the
+            // radius, which skip the box and coarse tests).
+            let reach: f64 = [0.05, 0.05, 0.4][at % 3];
+            let r2 = rng.random_range(0.0..reach).powi(2) * D as f64;
             let inv = rng.random_range(10.0..5000.0);
             let n = [1, 40, 500][at % 3];
             let mut answers = Vec::new();
@@ -2332,7 +2373,7 @@ mod compiled_copies_tests {
     /// The test's entry points into one vector copy of the searches: the kernel sum and the
     /// k-nearest search, each after asserting the processor has the copy's feature.
     macro_rules! vector_copy {
-        ($kernel:ident, $nearest:ident, $feature:tt, $visit:ident, $within:ident) => {
+        ($kernel:ident, $nearest:ident, [$($feature:tt),+], $visit:ident, $within:ident) => {
             #[cfg(target_arch = "x86_64")]
             fn $kernel<const D: usize>(
                 b: &Bulk<D>,
@@ -2342,7 +2383,7 @@ mod compiled_copies_tests {
                 ex: &Exact<D>,
             ) -> ([f64; 3], f64) {
                 let mut k = leaf_of(b, inv);
-                assert!(std::arch::is_x86_feature_detected!($feature));
+                $(assert!(std::arch::is_x86_feature_detected!($feature));)+
                 // SAFETY: this processor has the copy's feature, asserted just above.
                 unsafe { b.$visit(q, r2, &mut k, ex) };
                 (k.acc, k.points)
@@ -2358,7 +2399,7 @@ mod compiled_copies_tests {
                 ex: &Exact<D>,
             ) -> f64 {
                 found.clear();
-                assert!(std::arch::is_x86_feature_detected!($feature));
+                $(assert!(std::arch::is_x86_feature_detected!($feature));)+
                 // SAFETY: this processor has the copy's feature, asserted just above.
                 unsafe { b.$within(q, n, r2, found, ex) }
             }
@@ -2368,14 +2409,14 @@ mod compiled_copies_tests {
     vector_copy!(
         kernel_avx2,
         nearest_avx2,
-        "avx2",
+        ["avx2"],
         within_visit_avx2,
         nearest_n_within_avx2
     );
     vector_copy!(
         kernel_avx512,
         nearest_avx512,
-        "avx512f",
+        ["avx512f", "popcnt"],
         within_visit_avx512,
         nearest_n_within_avx512
     );
