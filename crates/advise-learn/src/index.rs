@@ -636,7 +636,7 @@ impl<const D: usize> Bulk<D> {
             4 => self.kernel_w::<4>(q, r2, inv, acc, ex),
             5 => self.kernel_w::<5>(q, r2, inv, acc, ex),
             _ => {
-                let mut k = KernelSum::new(&self.sums, inv, acc.to_vec());
+                let mut k = KernelSum::new(&self.sums, inv, r2, acc.to_vec());
                 self.within_dispatch(q, r2, &mut k, ex);
                 acc.copy_from_slice(&k.acc);
                 k.points
@@ -653,7 +653,7 @@ impl<const D: usize> Bulk<D> {
         ex: &Exact<D>,
     ) -> f64 {
         let acc_w = <[f64; W]>::try_from(&*acc).expect("a row of W values");
-        let mut k = KernelSum::new(&self.sums, inv, acc_w);
+        let mut k = KernelSum::new(&self.sums, inv, r2, acc_w);
         self.within_dispatch(q, r2, &mut k, ex);
         acc.copy_from_slice(&k.acc);
         k.points
@@ -1036,6 +1036,9 @@ impl<F: FnMut(f64, usize)> VisitBatch for EachPoint<'_, F> {
 struct KernelSum<'a, A> {
     sums: &'a [f64],
     inv: f64,
+    /// Every exponent `-d2 * inv` of a point inside the radius is in [`exp::exp_in_range`]'s
+    /// range (see [`KernelSum::new`]).
+    in_range: bool,
     acc: A,
     points: f64,
     /// A batch's weights (kept here so that a batch costs no clearing of a fresh array).
@@ -1043,10 +1046,18 @@ struct KernelSum<'a, A> {
 }
 
 impl<'a, A> KernelSum<'a, A> {
-    fn new(sums: &'a [f64], inv: f64, acc: A) -> Self {
+    /// The sum of `exp(-d2 * inv) * row` over points within `r2`. When `r2` and `inv` are finite,
+    /// `inv` positive and `r2 * inv` at most `-IN_RANGE_MIN`, every point's exponent is in
+    /// [`exp::exp_in_range`]'s range: `0 <= d2 <= r2` (a point inside), so `d2 * inv <= r2 *
+    /// inv` (rounding is monotonic), and the weights skip [`exp::exp`]'s handling of the ends
+    /// (the same bits).
+    fn new(sums: &'a [f64], inv: f64, r2: f64, acc: A) -> Self {
+        let in_range =
+            r2.is_finite() && inv.is_finite() && inv > 0.0 && r2 * inv <= -exp::IN_RANGE_MIN;
         KernelSum {
             sums,
             inv,
+            in_range,
             acc,
             points: 0.0,
             weights: [0.0; BATCH + LEAF + CHUNK],
@@ -1063,7 +1074,11 @@ impl<'a, A> KernelSum<'a, A> {
         for (x, d) in self.weights[..lanes].iter_mut().zip(&b.d2[..lanes]) {
             *x = -d * self.inv;
         }
-        exp::exp_in_place(&mut self.weights[..lanes]);
+        if self.in_range {
+            exp::exp_in_place_in_range(&mut self.weights[..lanes]);
+        } else {
+            exp::exp_in_place(&mut self.weights[..lanes]);
+        }
         &self.weights[..b.len]
     }
 }
@@ -1077,10 +1092,10 @@ impl<const W: usize> VisitBatch for KernelSum<'_, [f64; W]> {
         let sums = self.sums;
         let mut xs = self.weights(b).iter();
         for &(first, mask) in &b.segments[..b.leaves] {
-            let rows = &sums[first as usize * W..];
+            let (rows, _) = sums[first as usize * W..].as_chunks::<W>();
             for j in Bits(mask) {
                 let x = xs.next().expect("a weight for each point");
-                let row: &[f64; W] = rows[j * W..][..W].try_into().expect("rows of W values");
+                let row = &rows[j];
                 for (a, v) in acc.iter_mut().zip(row) {
                     *a += x * v;
                 }
@@ -2342,8 +2357,12 @@ mod compiled_copies_tests {
     type NearestFn<const D: usize> =
         fn(&Bulk<D>, &[f64; D], usize, f64, &mut Vec<(f64, u64)>, &Exact<D>) -> f64;
 
-    fn leaf_of<'a, const D: usize>(bulk: &'a Bulk<D>, inv: f64) -> KernelSum<'a, [f64; 3]> {
-        KernelSum::new(&bulk.sums, inv, [0.0; 3])
+    fn leaf_of<'a, const D: usize>(
+        bulk: &'a Bulk<D>,
+        inv: f64,
+        r2: f64,
+    ) -> KernelSum<'a, [f64; 3]> {
+        KernelSum::new(&bulk.sums, inv, r2, [0.0; 3])
     }
 
     fn kernel_any<const D: usize>(
@@ -2353,7 +2372,7 @@ mod compiled_copies_tests {
         inv: f64,
         ex: &Exact<D>,
     ) -> ([f64; 3], f64) {
-        let mut k = leaf_of(b, inv);
+        let mut k = leaf_of(b, inv, r2);
         b.within_any_visit(q, r2, &mut k, ex, Scalar);
         (k.acc, k.points)
     }
@@ -2382,7 +2401,7 @@ mod compiled_copies_tests {
                 inv: f64,
                 ex: &Exact<D>,
             ) -> ([f64; 3], f64) {
-                let mut k = leaf_of(b, inv);
+                let mut k = leaf_of(b, inv, r2);
                 $(assert!(std::arch::is_x86_feature_detected!($feature));)+
                 // SAFETY: this processor has the copy's feature, asserted just above.
                 unsafe { b.$visit(q, r2, &mut k, ex) };
