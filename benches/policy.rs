@@ -2,14 +2,20 @@
 //! N = 100,000 points of interception teacher demonstrations (data as the learners see it: dense
 //! along trajectories; uniform noise in 6-D would leave every kernel empty or huge), queried with
 //! the observations of 1,000 points from runs on other starts. `bc_query_100k`: weighted 1-NN after 1,000 critiqued points;
-//! `lwr_query_100k`: truncated-kernel regression at a fixed kernel, bandwidth 0.018 (about 1,204
-//! neighbours a query when earlier figures were measured; 11,685 measured at f882d60: the data
-//! or its scaling has changed since); `lwr_query_100k_tuned`: at the kernel the tuning
-//! picks (issue 48), every point of it summed; with `ADVISE_BENCH_CPU=1` each prints its
-//! neighbours per query and kernel terms per CPU second; `rederive_30`: add 30 advised points and bring
-//! the policy up to date (one query included: the first query after a re-plan builds the index's
-//! bulk tree). Throughput is set so criterion prints queries (or advice points) per
+//! `lwr_query_100k`: truncated-kernel regression at a fixed kernel of about 1,250 neighbours a
+//! query (issue 48's "today's kernel", [`FIXED_BANDWIDTH`]); `lwr_query_100k_wide`: a fixed wide
+//! kernel (bandwidth 0.018, 11,685 neighbours); `lwr_query_100k_tuned`: at the kernel the tuning
+//! picks (issue 48), every point of it summed; `lwr_query_100k_k`: the learner as it answers, its
+//! kernel limited to the k nearest. With `ADVISE_BENCH_CPU=1` each prints its neighbours per
+//! query and queries and kernel terms per CPU second; `rederive_30`: add 30 advised points and
+//! bring the policy up to date (one query included: the first query after a re-plan builds the
+//! index's bulk tree). Throughput is set so criterion prints queries (or advice points) per
 //! second.
+//!
+//! For a profile of one kernel's queries: `ADVISE_BENCH_ONLY=lwr_query_100k` (names, comma
+//! separated) runs only those per-CPU-second measurements, `ADVISE_BENCH_PASSES=N` (default 10)
+//! makes each N passes over the queries, and `ADVISE_BENCH_LWR_BANDWIDTH=h` moves the fixed
+//! kernel.
 
 use advise::diag::SourceMap;
 use advise::domain::Domain;
@@ -151,19 +157,32 @@ fn cpu_rate(name: &str, qs: &[Vec<f64>], mut f: impl FnMut(&[f64])) -> Option<f6
         unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
         t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
     };
+    if std::env::var("ADVISE_BENCH_ONLY").is_ok_and(|only| only.split(',').all(|o| o != name)) {
+        return None;
+    }
+    let passes: u32 = std::env::var("ADVISE_BENCH_PASSES")
+        .ok()
+        .and_then(|p| p.parse().ok())
+        .unwrap_or(10);
     let start = cpu();
-    for _ in 0..10 {
+    for _ in 0..passes {
         qs.iter().for_each(|q| f(q));
     }
-    let rate = 10.0 * qs.len() as f64 / (cpu() - start);
+    let rate = f64::from(passes) * qs.len() as f64 / (cpu() - start);
     eprintln!("{name}: {rate:.0} queries per CPU second");
     Some(rate)
 }
 
-/// The bandwidth (range-scaled units, unit per-dimension scales) of the fixed kernel: about
-/// 1,204 neighbours a query (1,270) when earlier figures were measured; 11,685 at f882d60 (the
-/// bench prints it).
-const FIXED_BANDWIDTH: f64 = 0.018;
+/// The bandwidth (range-scaled units, unit per-dimension scales) of the fixed kernel: 1,253.6
+/// neighbours a query on this data (measured at 32d6921; the bench prints it), the size of issue
+/// 48's "today's kernel" (1,204-1,270 neighbours when its figures were measured, at bandwidth
+/// 0.018 on the data of then). About a third of the queries find no data in it and fall back to
+/// the nearest point's action.
+const FIXED_BANDWIDTH: f64 = 0.0036;
+
+/// The wide fixed kernel: 11,685 neighbours a query on this data (the fixed kernel's bandwidth
+/// before 32d6921's figures).
+const WIDE_BANDWIDTH: f64 = 0.018;
 
 /// LWR's index over the learner's points in its range scaling, with action sums, and the fixed
 /// kernel's parameters.
@@ -234,14 +253,17 @@ fn bench(c: &mut Criterion) {
         })
     });
 
-    // The kernel of earlier figures, fixed: about 1,204 neighbours a query (the bandwidth the
-    // tuning of issue 33's protocol chose on this data), the kernel sum alone on an index of
+    // Issue 48's kernel of about 1,250 neighbours, fixed: the kernel sum alone on an index of
     // range-scaled points with their action sums, as the learner's own LWR index is.
     let lwr = learner(LearnerKind::Lwr, &data, &critiqued);
     if std::env::var_os("ADVISE_BENCH_CSV").is_some() {
         write_lwr_csv(&lwr);
     }
-    let fixed = fixed_kernel(&lwr, FIXED_BANDWIDTH);
+    let bandwidth = std::env::var("ADVISE_BENCH_LWR_BANDWIDTH")
+        .ok()
+        .and_then(|b| b.parse().ok())
+        .unwrap_or(FIXED_BANDWIDTH);
+    let fixed = fixed_kernel(&lwr, bandwidth);
     let fixed_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
         lwr::query(&fixed.0, lwr.dataset(), &fixed.1, q, a, s)
     };
@@ -260,6 +282,30 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             for q in &qs {
                 fixed_query(q, &mut a, &mut s);
+            }
+            a
+        })
+    });
+
+    // A wide fixed kernel, 0.018: 11,685 neighbours a query.
+    let wide = fixed_kernel(&lwr, WIDE_BANDWIDTH);
+    let wide_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
+        lwr::query(&wide.0, lwr.dataset(), &wide.1, q, a, s)
+    };
+    let per_query = neighbours_per_query(&qs, |q, a| wide_query(q, a, &mut s));
+    eprintln!(
+        "lwr wide kernel: bandwidth {} in range-scaled units; {per_query:.1} neighbours per query",
+        wide.1.bandwidth
+    );
+    cpu_rate_terms("lwr_query_100k_wide", &qs, per_query, |q| {
+        wide_query(q, &mut [0.0; 2], &mut s);
+    });
+    g.bench_function("lwr_query_100k_wide", |b| {
+        let mut a = [0.0; 2];
+        let mut s = lwr::Scratch::default();
+        b.iter(|| {
+            for q in &qs {
+                wide_query(q, &mut a, &mut s);
             }
             a
         })

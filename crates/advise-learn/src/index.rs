@@ -618,38 +618,15 @@ impl<const D: usize> Bulk<D> {
     /// leaf order (the wide tree walked depth first, left before right, with its own stack), the
     /// order the binary tree with [`SPLIT`]-point leaves reported them in, so kernel sums keep
     /// their bits. A leaf's points are first tested coarsely ([`Coarse`]); the few it cannot
-    /// rule out are measured exactly (when they are most of the leaf and the tree keeps the
-    /// exact copy, the whole leaf in vector arithmetic).
+    /// rule out are measured exactly (with the exact copy, [`CHUNK`] lanes at a time in vector
+    /// arithmetic).
     fn within(&self, q: &[f64; D], r2: f64, f: &mut impl FnMut(f64, usize), ex: &Exact<D>) {
-        self.within_by_leaf(
-            q,
-            r2,
-            &mut |d2: &[f64], at: &[u32]| {
-                for (d, i) in d2.iter().zip(at) {
-                    f(*d, *i as usize);
-                }
-            },
-            ex,
-        )
-    }
-
-    /// [`Bulk::within`], a leaf at a time: `f(squared distances, leaf positions)` with the points
-    /// of one leaf inside the radius (at least one, at most [`LEAF`]), in the same order. A
-    /// kernel sum computes a leaf's weights in one vectorized loop ([`crate::exp`]) instead of
-    /// one call a point.
-    fn within_by_leaf(
-        &self,
-        q: &[f64; D],
-        r2: f64,
-        f: &mut impl FnMut(&[f64], &[u32]),
-        ex: &Exact<D>,
-    ) {
-        self.within_dispatch(q, r2, &mut Leaves(f), ex)
+        self.within_dispatch(q, r2, &mut EachPoint(f), ex)
     }
 
     /// The Gaussian kernel's sums over the points within `r2` of `q` (the tree keeps action
     /// sums, `acc.len()` values a row): `acc[c] += exp(-d2 * inv) * sums[c]`, in leaf order, a
-    /// leaf's weights computed in one loop that vectorizes ([`exp::exp_in_place`]). Returns the
+    /// batch's weights computed in one loop that vectorizes ([`exp::exp_in_place`]). Returns the
     /// points summed (the rows' last values).
     fn kernel(&self, q: &[f64; D], r2: f64, inv: f64, acc: &mut [f64], ex: &Exact<D>) -> f64 {
         // Rows of a fixed width keep the sums in registers: actions of 1 to 4 dimensions.
@@ -659,13 +636,7 @@ impl<const D: usize> Bulk<D> {
             4 => self.kernel_w::<4>(q, r2, inv, acc, ex),
             5 => self.kernel_w::<5>(q, r2, inv, acc, ex),
             _ => {
-                let mut k = KernelLeaf {
-                    sums: &self.sums,
-                    inv,
-                    acc: acc.to_vec(),
-                    points: 0.0,
-                    weights: [0.0; LEAF],
-                };
+                let mut k = KernelSum::new(&self.sums, inv, r2, acc.to_vec());
                 self.within_dispatch(q, r2, &mut k, ex);
                 acc.copy_from_slice(&k.acc);
                 k.points
@@ -681,38 +652,38 @@ impl<const D: usize> Bulk<D> {
         acc: &mut [f64],
         ex: &Exact<D>,
     ) -> f64 {
-        let mut k = KernelLeaf {
-            sums: &self.sums,
-            inv,
-            acc: <[f64; W]>::try_from(&*acc).expect("a row of W values"),
-            points: 0.0,
-            weights: [0.0; LEAF],
-        };
+        let acc_w = <[f64; W]>::try_from(&*acc).expect("a row of W values");
+        let mut k = KernelSum::new(&self.sums, inv, r2, acc_w);
         self.within_dispatch(q, r2, &mut k, ex);
         acc.copy_from_slice(&k.acc);
         k.points
     }
 
-    /// [`Bulk::within_any_visit`] for a visitor of leaves, compiled for AVX-512 or AVX2 where the
-    /// processor has it.
-    fn within_dispatch(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
+    /// [`Bulk::within_any_visit`] for a visitor of batches, compiled for AVX-512 or AVX2 where
+    /// the processor has it.
+    fn within_dispatch(&self, q: &[f64; D], r2: f64, f: &mut impl VisitBatch, ex: &Exact<D>) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: this processor has AVX-512F, checked just above.
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("popcnt")
+        {
+            // SAFETY: this processor has AVX-512F and POPCNT, checked just above.
             return unsafe { self.within_visit_avx512(q, r2, f, ex) };
         } else if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: this processor has AVX2, checked just above.
             return unsafe { self.within_visit_avx2(q, r2, f, ex) };
         }
-        self.within_any_visit(q, r2, f, ex)
+        self.within_any_visit(q, r2, f, ex, Scalar)
     }
 
-    /// [`Bulk::within_dispatch`] compiled for AVX-512: eight `f64` lanes at a time. The same
-    /// bits as every other copy (the tests compare them).
+    /// [`Bulk::within_dispatch`] compiled for AVX-512: eight `f64` lanes at a time, the points
+    /// inside kept with one `vcompresspd` per [`CHUNK`] lanes. The same bits as every other copy
+    /// (the tests compare them).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn within_visit_avx512(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
-        self.within_any_visit(q, r2, f, ex)
+    #[target_feature(enable = "avx512f,popcnt")]
+    fn within_visit_avx512(&self, q: &[f64; D], r2: f64, f: &mut impl VisitBatch, ex: &Exact<D>) {
+        // SAFETY: this function runs only where the processor has AVX-512F.
+        let chunks = unsafe { Avx512::new() };
+        self.within_any_visit(q, r2, f, ex, chunks)
     }
 
     /// [`Bulk::within_dispatch`] compiled for AVX2: eight `f32` lanes of a leaf's coarse
@@ -722,162 +693,429 @@ impl<const D: usize> Bulk<D> {
     /// the same bits.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn within_visit_avx2(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
-        self.within_any_visit(q, r2, f, ex)
+    fn within_visit_avx2(&self, q: &[f64; D], r2: f64, f: &mut impl VisitBatch, ex: &Exact<D>) {
+        self.within_any_visit(q, r2, f, ex, Scalar)
     }
 
+    /// The radius search: the wide tree walked depth first, left before right; each leaf's
+    /// points inside the radius appended to a [`Batch`], which the visitor gets when it holds
+    /// [`BATCH`] points or [`SEGMENTS`] leaves, and at the end.
+    ///
+    /// A child whose box lies wholly inside the radius (its corner farthest from `q` is), and
+    /// everything under it, skips the box and coarse tests: every point is measured exactly,
+    /// and kept by the exact test as every other point is (the box only spares the work; a point
+    /// it would wrongly include, a NaN's, fails the exact test).
     #[inline(always)]
-    fn within_any_visit(&self, q: &[f64; D], r2: f64, f: &mut impl VisitLeaf, ex: &Exact<D>) {
+    fn within_any_visit(
+        &self,
+        q: &[f64; D],
+        r2: f64,
+        f: &mut impl VisitBatch,
+        ex: &Exact<D>,
+        chunks: impl Chunks,
+    ) {
         if self.wide.is_empty() {
             return;
         }
         let coarse = Coarse::new(q, r2, self.max_abs);
-        // Pending children, the next one last. Each wide node adds at most WIDE - 1 pending
-        // siblings, and median splits bound the depth by 32.
-        let mut stack = [(0u32, false); 32 * WIDE];
+        // Pending children, the next one last: (node or leaf, a leaf, wholly inside). Each wide
+        // node adds at most WIDE - 1 pending siblings, and median splits bound the depth by 32.
+        let mut stack = [(0u32, false, false); 32 * WIDE];
         let mut top = 1;
-        let mut d2s = [0.0f64; LEAF];
-        let mut ats = [0u32; LEAF];
-        let mut all = [0.0f64; LEAF];
+        let mut batch = Batch::new();
+        let exact_copy = !self.points.is_empty();
         while top > 0 {
             top -= 1;
-            let (at, leaf) = stack[top];
+            let (at, leaf, inside) = stack[top];
             if leaf {
                 let [first, end] = self.leaves[at as usize];
                 let (first, end) = (first as usize, end as usize);
                 let len = end - first;
-                let mut m = 0;
-                // Candidates as bits, then visited bit by bit: a branch per point inside the
-                // radius or not was mispredicted about as often as not.
-                let mut maybe = match &coarse {
-                    Some(c) => c.candidates(&self.coarse[first * D..], len),
-                    None => u64::MAX,
+                // Candidates as bits (a branch per point inside the radius or not was
+                // mispredicted about as often as not). A leaf holds 1 to LEAF <= 64 points.
+                let mut maybe = match (&coarse, inside) {
+                    (Some(c), false) => chunks.candidates(c, &self.coarse[first * D..], len),
+                    _ => u64::MAX,
                 };
-                // A leaf holds 1 to LEAF <= 64 points.
                 maybe &= u64::MAX >> (64 - len);
-                if !self.points.is_empty() && 2 * maybe.count_ones() as usize > len {
-                    // Most of the leaf may be inside: its exact distances in vector arithmetic
-                    // (the exact copy), then the ones inside kept in order, each written and
-                    // kept or not without a branch. The coarse test never rules out a point
-                    // inside, so the same points.
-                    self.leaf_dist2(q, [first, len], ex, &mut all);
-                    for (i, d) in (first..end).zip(all) {
-                        // `m <= i - first < LEAF`: the mask only spares a bounds check.
-                        d2s[m & (LEAF - 1)] = d;
-                        ats[m & (LEAF - 1)] = i as u32;
-                        m += usize::from(d <= r2);
+                let mut kept = 0u64;
+                // The batch's length in a local: kept in the field, each chunk's update went
+                // through memory (a store and its reload on the next chunk's path).
+                let mut n = batch.len;
+                if exact_copy {
+                    // The exact distances CHUNK lanes at a time (the exact copy), chunks without
+                    // a candidate skipped; the lanes inside appended in order.
+                    let block = &self.points[first * D..];
+                    for c in 0..len.div_ceil(CHUNK) {
+                        let cand = (maybe >> (c * CHUNK)) as u8;
+                        if cand == 0 {
+                            continue;
+                        }
+                        let out = (&mut batch.d2[n..n + CHUNK])
+                            .try_into()
+                            .expect("a batch has room for a leaf past BATCH");
+                        let m = chunks.keep(q, block, [len, c], r2, cand, out);
+                        n += m.count_ones() as usize;
+                        kept |= u64::from(m) << (c * CHUNK);
                     }
-                    if m > 0 {
-                        f.leaf(&d2s, &ats[..m]);
+                } else {
+                    while maybe != 0 {
+                        let j = maybe.trailing_zeros() as usize;
+                        let d = dist2(q, &self.row(first + j, [first, len], ex));
+                        // Written unconditionally, kept when inside: no branch to mispredict.
+                        let inside = d <= r2;
+                        batch.d2[n] = d;
+                        n += usize::from(inside);
+                        kept |= u64::from(inside) << j;
+                        maybe &= maybe - 1;
                     }
-                    continue;
                 }
-                while maybe != 0 {
-                    let i = first + maybe.trailing_zeros() as usize;
-                    let d = dist2(q, &self.row(i, [first, len], ex));
-                    // Written unconditionally, kept when inside: no branch to mispredict.
-                    d2s[m] = d;
-                    ats[m] = i as u32;
-                    m += usize::from(d <= r2);
-                    maybe &= maybe - 1;
-                }
-                if m > 0 {
-                    f.leaf(&d2s, &ats[..m]);
+                batch.len = n;
+                if kept != 0 {
+                    batch.segments[batch.leaves] = (first as u32, kept);
+                    batch.leaves += 1;
+                    if batch.len >= BATCH || batch.leaves == SEGMENTS {
+                        f.batch(&batch);
+                        batch.clear();
+                    }
                 }
                 continue;
             }
             let node = &self.wide[at as usize];
-            // Each child's box's squared distance from `q`, as `box_dist2` sums it.
+            // Each child's box's squared distance from `q`, as `box_dist2` sums it, and its
+            // farthest corner's, as `dist2` would sum a point's there: the exact distance of
+            // every point in the box is at most that (each difference is rounded monotonically).
             let mut to_box = [0.0f64; WIDE];
+            let mut to_far = [0.0f64; WIDE];
             for ((qk, lo), hi) in q.iter().zip(&node.lo).zip(&node.hi) {
-                for ((s, lo), hi) in to_box.iter_mut().zip(lo).zip(hi) {
-                    let d = gap(f64::from(*lo), *qk, f64::from(*hi));
+                for (((s, t), lo), hi) in to_box.iter_mut().zip(&mut to_far).zip(lo).zip(hi) {
+                    let (lo, hi) = (f64::from(*lo), f64::from(*hi));
+                    let d = gap(lo, *qk, hi);
                     *s += d * d;
+                    let (below, above) = (*qk - lo, hi - *qk);
+                    let e = if below > above { below } else { above };
+                    *t += e * e;
                 }
             }
             for c in (0..WIDE).rev() {
                 if to_box[c] <= r2 {
-                    stack[top] = node.child[c];
+                    let (child, leaf) = node.child[c];
+                    stack[top] = (child, leaf, inside || to_far[c] <= r2);
                     top += 1;
                 }
             }
         }
+        if batch.leaves > 0 {
+            f.batch(&batch);
+        }
     }
 }
 
-/// What a radius search does with each leaf's points inside the radius (see
-/// [`Bulk::within_by_leaf`]). A trait rather than a closure so that [`KernelLeaf`]'s
-/// `#[inline(always)]` reaches into the AVX2-compiled search.
-trait VisitLeaf {
-    /// `d2[..at.len()]` are the points' squared distances (the lanes after them are garbage).
-    fn leaf(&mut self, d2: &[f64; LEAF], at: &[u32]);
+/// Points inside the radius a batch holds at most before its visitor is called (the last leaf
+/// may take it past, by [`LEAF`] at most).
+const BATCH: usize = 256;
+/// Leaves a batch holds at most.
+const SEGMENTS: usize = 64;
+
+/// Points inside a radius from consecutive leaves, in leaf order: their squared distances side
+/// by side, and each leaf's first position with the mask of its points inside. A kernel sum
+/// computes the weights of a whole batch in one loop: a leaf's few points inside no longer
+/// cost a vector of exponentials each, and no positions are copied.
+struct Batch {
+    /// `d2[..len]`: the points' squared distances (the lanes after them are garbage).
+    d2: [f64; BATCH + LEAF + CHUNK],
+    len: usize,
+    segments: [(u32, u64); SEGMENTS],
+    leaves: usize,
 }
 
-/// A closure as a [`VisitLeaf`].
-struct Leaves<'f, F>(&'f mut F);
+impl Batch {
+    fn new() -> Batch {
+        Batch {
+            d2: [0.0; BATCH + LEAF + CHUNK],
+            len: 0,
+            segments: [(0, 0); SEGMENTS],
+            leaves: 0,
+        }
+    }
 
-impl<F: FnMut(&[f64], &[u32])> VisitLeaf for Leaves<'_, F> {
+    fn clear(&mut self) {
+        self.len = 0;
+        self.leaves = 0;
+    }
+
+    /// The points' leaf positions in order, with their squared distances.
     #[inline(always)]
-    fn leaf(&mut self, d2: &[f64; LEAF], at: &[u32]) {
-        (self.0)(&d2[..at.len()], at)
+    fn points(&self) -> impl Iterator<Item = (f64, usize)> + '_ {
+        self.segments[..self.leaves]
+            .iter()
+            .flat_map(|&(first, mask)| Bits(mask).map(move |j| first as usize + j))
+            .zip(&self.d2[..self.len])
+            .map(|(i, d)| (*d, i))
     }
 }
 
-/// A Gaussian kernel sum over the bulk tree's action sums, rows of `acc.len()` values: a leaf's
-/// weights in one loop, then added row by row in leaf order.
-struct KernelLeaf<'a, A> {
+/// The set bits of a mask, lowest first.
+struct Bits(u64);
+
+impl Iterator for Bits {
+    type Item = usize;
+    #[inline(always)]
+    fn next(&mut self) -> Option<usize> {
+        if self.0 == 0 {
+            return None;
+        }
+        let j = self.0.trailing_zeros() as usize;
+        self.0 &= self.0 - 1;
+        Some(j)
+    }
+}
+
+/// How a radius search measures a leaf's points [`CHUNK`] lanes at a time with the exact copy:
+/// `keep(q, block, [len, c], r2, cand, out)` computes the exact squared distances of lanes
+/// `c * CHUNK..` of the leaf of `len` points whose block of the copy starts `block`, as [`dist2`]
+/// sums them (the same bits), writes those of the lanes whose bit of `cand` is set that are
+/// inside `r2` to the start of `out`, in order, and returns their mask (the rest of `out` is
+/// garbage).
+trait Chunks: Copy {
+    /// [`Coarse::candidates`].
+    #[inline(always)]
+    fn candidates<const D: usize>(&self, c: &Coarse<D>, block: &[f32], len: usize) -> u64 {
+        c.candidates(block, len)
+    }
+
+    fn keep<const D: usize>(
+        &self,
+        q: &[f64; D],
+        block: &[f64],
+        len_chunk: [usize; 2],
+        r2: f64,
+        cand: u8,
+        out: &mut [f64; CHUNK],
+    ) -> u8;
+}
+
+/// Plain arithmetic the compiler vectorizes; each lane written and kept or not without a branch.
+#[derive(Clone, Copy)]
+struct Scalar;
+
+impl Chunks for Scalar {
+    #[inline(always)]
+    fn keep<const D: usize>(
+        &self,
+        q: &[f64; D],
+        block: &[f64],
+        [len, c]: [usize; 2],
+        r2: f64,
+        cand: u8,
+        out: &mut [f64; CHUNK],
+    ) -> u8 {
+        let mut s = [0.0f64; CHUNK];
+        for (k, qk) in q.iter().enumerate() {
+            let col: &[f64; CHUNK] = block[k * len + c * CHUNK..][..CHUNK]
+                .try_into()
+                .expect("a block is followed by LEAF lanes");
+            for (s, v) in s.iter_mut().zip(col) {
+                let d = qk - v;
+                *s += d * d;
+            }
+        }
+        let mut m = 0u8;
+        for (j, s) in s.iter().enumerate() {
+            m |= u8::from(*s <= r2) << j;
+        }
+        m &= cand;
+        let mut n = 0;
+        for (j, v) in s.iter().enumerate() {
+            // `n <= j < CHUNK`: the mask only spares a bounds check.
+            out[n & (CHUNK - 1)] = *v;
+            n += usize::from((m >> j) & 1 == 1);
+        }
+        m
+    }
+}
+
+/// AVX-512: a chunk is one vector a dimension, its comparison a mask, and the lanes inside kept
+/// with `vcompresspd` (its register form: the memory form is microcoded and slow on some
+/// processors), then one store. Multiplications and additions apart (no fused multiply-add), in
+/// [`dist2`]'s order: the same bits.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+struct Avx512(());
+
+#[cfg(target_arch = "x86_64")]
+impl Avx512 {
+    /// # Safety
+    /// The processor has AVX-512F.
+    unsafe fn new() -> Avx512 {
+        Avx512(())
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Chunks for Avx512 {
+    /// [`Coarse::candidates`]'s arithmetic (the same bits) in four vectors of sixteen lanes,
+    /// whose comparisons are the mask's four quarters.
+    #[inline(always)]
+    fn candidates<const D: usize>(&self, c: &Coarse<D>, block: &[f32], len: usize) -> u64 {
+        use std::arch::x86_64::*;
+        const { assert!(LEAF == 64) };
+        // SAFETY: an `Avx512` exists only where the processor has AVX-512F (`Avx512::new`);
+        // every pointer is to sixteen `f32`s (a quarter of a slice of LEAF, checked).
+        unsafe {
+            let mut s = [_mm512_setzero_ps(); 4];
+            for (k, qk) in c.q.iter().enumerate() {
+                let col: &[f32; LEAF] = block[k * len..][..LEAF]
+                    .try_into()
+                    .expect("a block holds LEAF lanes of each dimension");
+                let qv = _mm512_set1_ps(*qk);
+                for (v, s) in s.iter_mut().enumerate() {
+                    let d = _mm512_sub_ps(qv, _mm512_loadu_ps(col[16 * v..].as_ptr()));
+                    *s = _mm512_add_ps(*s, _mm512_mul_ps(d, d));
+                }
+            }
+            let r2 = _mm512_set1_ps(c.r2);
+            let mut maybe = 0u64;
+            for (v, s) in s.iter().enumerate() {
+                maybe |= u64::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(*s, r2)) << (16 * v);
+            }
+            maybe
+        }
+    }
+
+    #[inline(always)]
+    fn keep<const D: usize>(
+        &self,
+        q: &[f64; D],
+        block: &[f64],
+        [len, c]: [usize; 2],
+        r2: f64,
+        cand: u8,
+        out: &mut [f64; CHUNK],
+    ) -> u8 {
+        use std::arch::x86_64::*;
+        // SAFETY: an `Avx512` exists only where the processor has AVX-512F (`Avx512::new`);
+        // every pointer is to eight `f64`s (checked by the slices' conversions).
+        unsafe {
+            let mut s = _mm512_setzero_pd();
+            for (k, qk) in q.iter().enumerate() {
+                let col: &[f64; CHUNK] = block[k * len + c * CHUNK..][..CHUNK]
+                    .try_into()
+                    .expect("a block is followed by LEAF lanes");
+                let d = _mm512_sub_pd(_mm512_set1_pd(*qk), _mm512_loadu_pd(col.as_ptr()));
+                s = _mm512_add_pd(s, _mm512_mul_pd(d, d));
+            }
+            let m = _mm512_mask_cmp_pd_mask::<_CMP_LE_OQ>(cand, s, _mm512_set1_pd(r2));
+            _mm512_storeu_pd(out.as_mut_ptr(), _mm512_maskz_compress_pd(m, s));
+            m
+        }
+    }
+}
+
+/// What a radius search does with the points inside the radius, a [`Batch`] at a time (at least
+/// one point, in leaf order). A trait rather than a closure so that [`KernelSum`]'s
+/// `#[inline(always)]` reaches into the AVX2- and AVX-512-compiled searches.
+trait VisitBatch {
+    fn batch(&mut self, b: &Batch);
+}
+
+/// A closure of `(squared distance, leaf position)` as a [`VisitBatch`].
+struct EachPoint<'f, F>(&'f mut F);
+
+impl<F: FnMut(f64, usize)> VisitBatch for EachPoint<'_, F> {
+    #[inline(always)]
+    fn batch(&mut self, b: &Batch) {
+        for (d, i) in b.points() {
+            (self.0)(d, i)
+        }
+    }
+}
+
+/// A Gaussian kernel sum over the bulk tree's action sums, rows of `acc.len()` values: a
+/// batch's weights in one loop, then added row by row in leaf order.
+struct KernelSum<'a, A> {
     sums: &'a [f64],
     inv: f64,
+    /// Every exponent `-d2 * inv` of a point inside the radius is in [`exp::exp_in_range`]'s
+    /// range (see [`KernelSum::new`]).
+    in_range: bool,
     acc: A,
     points: f64,
-    /// A leaf's weights (kept here so that a leaf costs no clearing of a fresh array).
-    weights: [f64; LEAF],
+    /// A batch's weights (kept here so that a batch costs no clearing of a fresh array).
+    weights: [f64; BATCH + LEAF + CHUNK],
 }
 
-impl<A: AsMut<[f64]>> KernelLeaf<'_, A> {
-    /// The leaf's weights, `exp(-d2 * inv)`, in one loop that vectorizes: over `d2`'s length
+impl<'a, A> KernelSum<'a, A> {
+    /// The sum of `exp(-d2 * inv) * row` over points within `r2`. When `r2` and `inv` are finite,
+    /// `inv` positive and `r2 * inv` at most `-IN_RANGE_MIN`, every point's exponent is in
+    /// [`exp::exp_in_range`]'s range: `0 <= d2 <= r2` (a point inside), so `d2 * inv <= r2 *
+    /// inv` (rounding is monotonic), and the weights skip [`exp::exp`]'s handling of the ends
+    /// (the same bits).
+    fn new(sums: &'a [f64], inv: f64, r2: f64, acc: A) -> Self {
+        let in_range =
+            r2.is_finite() && inv.is_finite() && inv > 0.0 && r2 * inv <= -exp::IN_RANGE_MIN;
+        KernelSum {
+            sums,
+            inv,
+            in_range,
+            acc,
+            points: 0.0,
+            weights: [0.0; BATCH + LEAF + CHUNK],
+        }
+    }
+
+    /// The batch's weights, `exp(-d2 * inv)`, in one loop that vectorizes: over its length
     /// rounded up to [`CHUNK`] lanes (the ones past it are garbage and unused), so that no
     /// weight is left to a scalar remainder loop (a scalar `exp` is a chain of a dozen dependent
-    /// multiply-adds: the few of each leaf took as long as its vector part).
+    /// multiply-adds).
     #[inline(always)]
-    fn weights(&mut self, d2: &[f64; LEAF], m: usize) -> &[f64] {
-        let lanes = m.div_ceil(CHUNK) * CHUNK;
-        for (x, d) in self.weights[..lanes].iter_mut().zip(&d2[..lanes]) {
+    fn weights(&mut self, b: &Batch) -> &[f64] {
+        let lanes = b.len.div_ceil(CHUNK) * CHUNK;
+        for (x, d) in self.weights[..lanes].iter_mut().zip(&b.d2[..lanes]) {
             *x = -d * self.inv;
         }
-        exp::exp_in_place(&mut self.weights[..lanes]);
-        &self.weights[..m]
+        if self.in_range {
+            exp::exp_in_place_in_range(&mut self.weights[..lanes]);
+        } else {
+            exp::exp_in_place(&mut self.weights[..lanes]);
+        }
+        &self.weights[..b.len]
     }
 }
 
-impl<const W: usize> VisitLeaf for KernelLeaf<'_, [f64; W]> {
+impl<const W: usize> VisitBatch for KernelSum<'_, [f64; W]> {
     #[inline(always)]
-    fn leaf(&mut self, d2: &[f64; LEAF], at: &[u32]) {
-        // The sums in locals for the leaf: kept in the fields, they went through memory at
+    fn batch(&mut self, b: &Batch) {
+        // The sums in locals for the batch: kept in the fields, they went through memory at
         // every term (a store and its reload on each addition's path).
         let (mut acc, mut points) = (self.acc, self.points);
         let sums = self.sums;
-        for (x, &i) in self.weights(d2, at.len()).iter().zip(at) {
-            let row: &[f64; W] = sums[i as usize * W..][..W]
-                .try_into()
-                .expect("rows of W values");
-            for (a, v) in acc.iter_mut().zip(row) {
-                *a += x * v;
+        let mut xs = self.weights(b).iter();
+        for &(first, mask) in &b.segments[..b.leaves] {
+            let (rows, _) = sums[first as usize * W..].as_chunks::<W>();
+            for j in Bits(mask) {
+                let x = xs.next().expect("a weight for each point");
+                let row = &rows[j];
+                for (a, v) in acc.iter_mut().zip(row) {
+                    *a += x * v;
+                }
+                points += row[W - 1];
             }
-            points += row[W - 1];
         }
         (self.acc, self.points) = (acc, points);
     }
 }
 
-impl VisitLeaf for KernelLeaf<'_, Vec<f64>> {
+impl VisitBatch for KernelSum<'_, Vec<f64>> {
     #[inline(always)]
-    fn leaf(&mut self, d2: &[f64; LEAF], at: &[u32]) {
+    fn batch(&mut self, b: &Batch) {
         let w = self.acc.len();
         let (sums, mut points) = (self.sums, self.points);
         let mut acc = std::mem::take(&mut self.acc);
-        for (x, &i) in self.weights(d2, at.len()).iter().zip(at) {
-            let row = &sums[i as usize * w..][..w];
+        let mut xs = self.weights(b).iter();
+        for (_, i) in b.points() {
+            let x = xs.next().expect("a weight for each point");
+            let row = &sums[i * w..][..w];
             for (a, v) in acc.iter_mut().zip(row) {
                 *a += x * v;
             }
@@ -2078,7 +2316,9 @@ mod compiled_copies_tests {
             if std::arch::is_x86_feature_detected!("avx2") {
                 copies.push(("avx2", kernel_avx2::<D>, nearest_avx2::<D>));
             }
-            if std::arch::is_x86_feature_detected!("avx512f") {
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("popcnt")
+            {
                 copies.push(("avx512", kernel_avx512::<D>, nearest_avx512::<D>));
             }
         }
@@ -2086,7 +2326,10 @@ mod compiled_copies_tests {
             let at = rng.random_range(0..6000);
             let q: [f64; D] =
                 std::array::from_fn(|k| zs[at * D + k] + rng.random_range(-0.02..0.02));
-            let r2 = rng.random_range(0.0..0.05f64).powi(2) * D as f64;
+            // Narrow kernels (leaves partly inside), and wide ones (whole subtrees inside the
+            // radius, which skip the box and coarse tests).
+            let reach: f64 = [0.05, 0.05, 0.4][at % 3];
+            let r2 = rng.random_range(0.0..reach).powi(2) * D as f64;
             let inv = rng.random_range(10.0..5000.0);
             let n = [1, 40, 500][at % 3];
             let mut answers = Vec::new();
@@ -2114,14 +2357,12 @@ mod compiled_copies_tests {
     type NearestFn<const D: usize> =
         fn(&Bulk<D>, &[f64; D], usize, f64, &mut Vec<(f64, u64)>, &Exact<D>) -> f64;
 
-    fn leaf_of<'a, const D: usize>(bulk: &'a Bulk<D>, inv: f64) -> KernelLeaf<'a, [f64; 3]> {
-        KernelLeaf {
-            sums: &bulk.sums,
-            inv,
-            acc: [0.0; 3],
-            points: 0.0,
-            weights: [0.0; LEAF],
-        }
+    fn leaf_of<'a, const D: usize>(
+        bulk: &'a Bulk<D>,
+        inv: f64,
+        r2: f64,
+    ) -> KernelSum<'a, [f64; 3]> {
+        KernelSum::new(&bulk.sums, inv, r2, [0.0; 3])
     }
 
     fn kernel_any<const D: usize>(
@@ -2131,8 +2372,8 @@ mod compiled_copies_tests {
         inv: f64,
         ex: &Exact<D>,
     ) -> ([f64; 3], f64) {
-        let mut k = leaf_of(b, inv);
-        b.within_any_visit(q, r2, &mut k, ex);
+        let mut k = leaf_of(b, inv, r2);
+        b.within_any_visit(q, r2, &mut k, ex, Scalar);
         (k.acc, k.points)
     }
 
@@ -2151,7 +2392,7 @@ mod compiled_copies_tests {
     /// The test's entry points into one vector copy of the searches: the kernel sum and the
     /// k-nearest search, each after asserting the processor has the copy's feature.
     macro_rules! vector_copy {
-        ($kernel:ident, $nearest:ident, $feature:tt, $visit:ident, $within:ident) => {
+        ($kernel:ident, $nearest:ident, [$($feature:tt),+], $visit:ident, $within:ident) => {
             #[cfg(target_arch = "x86_64")]
             fn $kernel<const D: usize>(
                 b: &Bulk<D>,
@@ -2160,8 +2401,8 @@ mod compiled_copies_tests {
                 inv: f64,
                 ex: &Exact<D>,
             ) -> ([f64; 3], f64) {
-                let mut k = leaf_of(b, inv);
-                assert!(std::arch::is_x86_feature_detected!($feature));
+                let mut k = leaf_of(b, inv, r2);
+                $(assert!(std::arch::is_x86_feature_detected!($feature));)+
                 // SAFETY: this processor has the copy's feature, asserted just above.
                 unsafe { b.$visit(q, r2, &mut k, ex) };
                 (k.acc, k.points)
@@ -2177,7 +2418,7 @@ mod compiled_copies_tests {
                 ex: &Exact<D>,
             ) -> f64 {
                 found.clear();
-                assert!(std::arch::is_x86_feature_detected!($feature));
+                $(assert!(std::arch::is_x86_feature_detected!($feature));)+
                 // SAFETY: this processor has the copy's feature, asserted just above.
                 unsafe { b.$within(q, n, r2, found, ex) }
             }
@@ -2187,14 +2428,14 @@ mod compiled_copies_tests {
     vector_copy!(
         kernel_avx2,
         nearest_avx2,
-        "avx2",
+        ["avx2"],
         within_visit_avx2,
         nearest_n_within_avx2
     );
     vector_copy!(
         kernel_avx512,
         nearest_avx512,
-        "avx512f",
+        ["avx512f", "popcnt"],
         within_visit_avx512,
         nearest_n_within_avx512
     );
