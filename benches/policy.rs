@@ -28,7 +28,8 @@ use advise::policy::lwr::{self, LwrAnswer, LwrParams};
 use advise::syntax::parse_invocation;
 use advise::task::{TaskKind, record_demos};
 use advise::trace::{Chunk, Trace};
-use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use criterion::measurement::WallTime;
+use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -231,6 +232,39 @@ fn cpu_rate_terms(name: &str, qs: &[Vec<f64>], per_query: f64, f: impl FnMut(&[f
     }
 }
 
+/// One kernel summed whole at `bandwidth` ([`fixed_kernel`]) under `name`: its neighbours per
+/// query printed after `label`, its per-CPU-second rates ([`cpu_rate_terms`]), and criterion's
+/// figure.
+fn bench_kernel(
+    g: &mut BenchmarkGroup<'_, WallTime>,
+    name: &str,
+    label: &str,
+    lwr: &Learner,
+    bandwidth: f64,
+    qs: &[Vec<f64>],
+) {
+    let (idx, params) = fixed_kernel(lwr, bandwidth);
+    let query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
+        lwr::query(&idx, lwr.dataset(), &params, q, a, s)
+    };
+    let mut s = lwr::Scratch::default();
+    let per_query = neighbours_per_query(qs, |q, a| query(q, a, &mut s));
+    eprintln!("{label}; {per_query:.1} neighbours per query");
+    cpu_rate_terms(name, qs, per_query, |q| {
+        query(q, &mut [0.0; 2], &mut s);
+    });
+    g.bench_function(name, |b| {
+        let mut a = [0.0; 2];
+        let mut s = lwr::Scratch::default();
+        b.iter(|| {
+            for q in qs {
+                query(q, &mut a, &mut s);
+            }
+            a
+        })
+    });
+}
+
 fn bench(c: &mut Criterion) {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let (data, qs) = data();
@@ -263,82 +297,32 @@ fn bench(c: &mut Criterion) {
         .ok()
         .and_then(|b| b.parse().ok())
         .unwrap_or(FIXED_BANDWIDTH);
-    let fixed = fixed_kernel(&lwr, bandwidth);
-    let fixed_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
-        lwr::query(&fixed.0, lwr.dataset(), &fixed.1, q, a, s)
-    };
-    let mut s = lwr::Scratch::default();
-    let per_query = neighbours_per_query(&qs, |q, a| fixed_query(q, a, &mut s));
-    eprintln!(
-        "lwr fixed kernel: bandwidth {} in range-scaled units; {per_query:.1} neighbours per query",
-        fixed.1.bandwidth
-    );
-    cpu_rate_terms("lwr_query_100k", &qs, per_query, |q| {
-        fixed_query(q, &mut [0.0; 2], &mut s);
-    });
-    g.bench_function("lwr_query_100k", |b| {
-        let mut a = [0.0; 2];
-        let mut s = lwr::Scratch::default();
-        b.iter(|| {
-            for q in &qs {
-                fixed_query(q, &mut a, &mut s);
-            }
-            a
-        })
-    });
+    let label = format!("lwr fixed kernel: bandwidth {bandwidth} in range-scaled units");
+    bench_kernel(&mut g, "lwr_query_100k", &label, &lwr, bandwidth, &qs);
 
     // A wide fixed kernel, 0.018: 11,685 neighbours a query.
-    let wide = fixed_kernel(&lwr, WIDE_BANDWIDTH);
-    let wide_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
-        lwr::query(&wide.0, lwr.dataset(), &wide.1, q, a, s)
-    };
-    let per_query = neighbours_per_query(&qs, |q, a| wide_query(q, a, &mut s));
-    eprintln!(
-        "lwr wide kernel: bandwidth {} in range-scaled units; {per_query:.1} neighbours per query",
-        wide.1.bandwidth
+    let label = format!("lwr wide kernel: bandwidth {WIDE_BANDWIDTH} in range-scaled units");
+    bench_kernel(
+        &mut g,
+        "lwr_query_100k_wide",
+        &label,
+        &lwr,
+        WIDE_BANDWIDTH,
+        &qs,
     );
-    cpu_rate_terms("lwr_query_100k_wide", &qs, per_query, |q| {
-        wide_query(q, &mut [0.0; 2], &mut s);
-    });
-    g.bench_function("lwr_query_100k_wide", |b| {
-        let mut a = [0.0; 2];
-        let mut s = lwr::Scratch::default();
-        b.iter(|| {
-            for q in &qs {
-                wide_query(q, &mut a, &mut s);
-            }
-            a
-        })
-    });
 
     // The kernel the tuning picks on this data (issue 48's rule), every point of it summed (the
     // learner itself limits it to its k nearest beyond 20,000 points, docs/protocol.md).
-    let tuned = fixed_kernel(&lwr, lwr.lwr_query_bandwidth());
-    let tuned_query = |q: &[f64], a: &mut [f64], s: &mut lwr::Scratch| {
-        lwr::query(&tuned.0, lwr.dataset(), &tuned.1, q, a, s)
-    };
-    let per_query = neighbours_per_query(&qs, |q, a| tuned_query(q, a, &mut s));
-    eprintln!(
-        "lwr tuned: {:?} (queried at bandwidth {}, the learner's k {:?}); {} distinct observations; {} bulk; {per_query:.1} neighbours per query without k",
+    let label = format!(
+        "lwr tuned: {:?} (queried at bandwidth {}, the learner's k {:?}); {} distinct observations; {} bulk; without k",
         lwr.lwr_params(),
         lwr.lwr_query_bandwidth(),
         lwr.lwr_query_k(),
         lwr.index().groups(),
         lwr.index().bulk_groups(),
     );
-    cpu_rate_terms("lwr_query_100k_tuned", &qs, per_query, |q| {
-        tuned_query(q, &mut [0.0; 2], &mut s);
-    });
-    g.bench_function("lwr_query_100k_tuned", |b| {
-        let mut a = [0.0; 2];
-        let mut s = lwr::Scratch::default();
-        b.iter(|| {
-            for q in &qs {
-                tuned_query(q, &mut a, &mut s);
-            }
-            a
-        })
-    });
+    let tuned = lwr.lwr_query_bandwidth();
+    bench_kernel(&mut g, "lwr_query_100k_tuned", &label, &lwr, tuned, &qs);
     // The learner as it answers by default at this size: the k-limited kernel.
     let mut lwr = lwr;
     let per_query = neighbours_per_query(&qs, |q, a| lwr.regress(q, a));
