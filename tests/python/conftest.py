@@ -38,3 +38,16 @@ def scripted_session(tmp_path_factory):
         return d, out, saved, runs
 
     return run
+
+
+@pytest.fixture(scope="session")
+def experiment_cli():
+    """``experiment_cli(*args)``: what ``advise experiment ARGS --json`` prints, parsed."""
+    advise_bin = os.environ["ADVISE_BIN"]
+
+    def run(*args):
+        out = subprocess.run([advise_bin, "experiment", *args, "--json"], check=True,
+                             capture_output=True, timeout=600)
+        return json.loads(out.stdout)
+
+    return run

@@ -68,7 +68,7 @@ def test_the_readme_has_python_blocks():
     assert any("tasks=" in b and "LWR(" in b for b in blocks), "the declared task from Python"
 
 
-def test_every_python_block_of_the_readme_runs_as_written(tmp_path):
+def test_every_python_block_of_the_readme_runs_as_written(tmp_path, experiment_cli):
     folder(tmp_path)
     env = dict(os.environ, ADVISE_HOME=str(tmp_path / "home"), MPLBACKEND="Agg")
     env.pop("PYTHONPATH", None)
@@ -82,10 +82,6 @@ def test_every_python_block_of_the_readme_runs_as_written(tmp_path):
     # what `advise experiment aopi --seed N --practice 3 --json` prints, to the bit.
     with open(tmp_path / "ray_results.json") as f:
         results = json.load(f)
-    assert results == [cli_aopi(seed) for seed in range(2)]
+    assert results == [experiment_cli("aopi", "--seed", str(seed), "--practice", "3")
+                       for seed in range(2)]
 
-
-def cli_aopi(seed):
-    out = subprocess.run([ADVISE, "experiment", "aopi", "--seed", str(seed), "--practice", "3",
-                          "--json"], check=True, capture_output=True, timeout=600)
-    return json.loads(out.stdout)

@@ -1,23 +1,13 @@
 """The studies as functions: ``advise.study`` / ``advise.studies`` return what
 ``advise experiment STUDY --seed SEED --json`` prints, and refuse what the command line refuses."""
 
-import json
-import os
-import subprocess
-
 import pytest
 
 import advise
 
 
-def cli(*args):
-    out = subprocess.run([os.environ["ADVISE_BIN"], "experiment", *args, "--json"],
-                         check=True, capture_output=True, timeout=600)
-    return json.loads(out.stdout)
-
-
-def test_the_bc_study_is_the_command_lines():
-    assert advise.studies.bc(2, critique="paper", teacher="hand") == cli(
+def test_the_bc_study_is_the_command_lines(experiment_cli):
+    assert advise.studies.bc(2, critique="paper", teacher="hand") == experiment_cli(
         "bc", "--seed", "2", "--critique", "paper", "--teacher", "hand")
 
 
@@ -25,14 +15,14 @@ def test_the_bc_study_is_the_command_lines():
 # minutes since the kernel is tuned over whole held-out demonstrations (issue 48), 10 goals about
 # 17 s in the tests' build against 4 s, and the equality is the same one: every arm runs, is
 # evaluated and reported.
-def test_the_aopi_study_is_the_command_lines():
-    assert advise.studies.aopi(1, practice=3) == cli("aopi", "--seed", "1", "--practice", "3")
+def test_the_aopi_study_is_the_command_lines(experiment_cli):
+    assert advise.studies.aopi(1, practice=3) == experiment_cli("aopi", "--seed", "1", "--practice", "3")
 
 
-def test_a_reverted_choice_is_the_command_lines():
-    assert advise.study("bc", 1, revert="ball", critique="paper") == cli(
+def test_a_reverted_choice_is_the_command_lines(experiment_cli):
+    assert advise.study("bc", 1, revert="ball", critique="paper") == experiment_cli(
         "bc", "--seed", "1", "--revert", "ball", "--critique", "paper")
-    assert advise.studies.aopi(2, revert="advisor", practice=3) == cli(
+    assert advise.studies.aopi(2, revert="advisor", practice=3) == experiment_cli(
         "aopi", "--seed", "2", "--revert", "advisor", "--practice", "3")
 
 
