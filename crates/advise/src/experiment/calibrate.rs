@@ -217,7 +217,9 @@ fn descend<T: Clone + Send + Sync, F: Clone + Send>(
         let mut moved = false;
         for p in params {
             let current = (p.get)(&best);
-            let candidates: Vec<T> = (p.grid.iter())
+            let candidates: Vec<T> = p
+                .grid
+                .iter()
                 .filter(|&&v| v != current)
                 .map(|&v| {
                     let mut cand = best.clone();
