@@ -139,6 +139,11 @@ fn make_venv(name: &str, packages: &[&str], probe: &str) -> Result<PathBuf, Stri
 
 /// Build the wheel of the Python package `advise` with the venv's maturin, in the target directory
 /// `cargo test` uses (see tests/python_pkg.rs), into `target/WHEELS`, and install it in that venv.
+///
+/// The wheel is built for the interpreter the venv was made from, not for the venv's own path:
+/// every venv here comes from the same `python3`, so the Python package's test and LeRobot's
+/// build the extension with one PyO3 configuration, and the second build reuses the first's
+/// artifacts instead of compiling the extension again (13 s warm here, more cold).
 pub fn install_advise(python: &Path, wheels: &str) -> Result<(), String> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let target = Path::new(env!("CARGO_TARGET_TMPDIR"))
@@ -146,6 +151,7 @@ pub fn install_advise(python: &Path, wheels: &str) -> Result<(), String> {
         .map_or_else(|| root.join("target"), Path::to_path_buf);
     let wheels = target.join(wheels);
     let _ = std::fs::remove_dir_all(&wheels);
+    let interpreter = base_interpreter(python);
     let mut build = Command::new(python);
     build
         .args([
@@ -156,7 +162,7 @@ pub fn install_advise(python: &Path, wheels: &str) -> Result<(), String> {
             "dev",
             "--interpreter",
         ])
-        .arg(python)
+        .arg(&interpreter)
         .arg("--out")
         .arg(&wheels)
         .current_dir(root)
@@ -181,6 +187,25 @@ pub fn install_advise(python: &Path, wheels: &str) -> Result<(), String> {
             .arg(&wheel),
         Duration::from_secs(300),
     )
+}
+
+/// The interpreter the venv of `python` was made from (`sys._base_executable`), or `python`
+/// itself where that cannot be told.
+fn base_interpreter(python: &Path) -> PathBuf {
+    let out = Command::new(python)
+        .args(["-c", "import sys; print(sys._base_executable)"])
+        .output();
+    match out {
+        Ok(o) if o.status.success() => {
+            let base = PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
+            if base.is_file() {
+                base
+            } else {
+                python.to_path_buf()
+            }
+        }
+        _ => python.to_path_buf(),
+    }
 }
 
 /// What the Python peer `tests/python/SCRIPT` prints as JSON for `arg`; it must succeed.
