@@ -19,7 +19,7 @@ README = os.path.join(HERE, "..", "..", "README.md")
 # The blocks run in order in one namespace; each is compiled under the README's name at its own
 # line, so a failure points at the README.
 RUNNER = r"""
-import re, sys
+import json, re, sys
 text = open(sys.argv[1]).read()
 namespace = {"__name__": "__main__"}
 for m in re.finditer(r"^```python\n(.*?)^```", text, re.M | re.S):
@@ -28,8 +28,8 @@ for m in re.finditer(r"^```python\n(.*?)^```", text, re.M | re.S):
     print(f"README.md:{line + 1}: running", flush=True)
     exec(code, namespace)
 # What the README's Ray example mapped over seeds, for the test to hold against the command line.
-import json
-json.dump(namespace.get("results"), open("ray_results.json", "w"))
+with open("ray_results.json", "w") as f:
+    json.dump(namespace.get("results"), f)
 print("all blocks ran", flush=True)
 """
 
@@ -84,4 +84,3 @@ def test_every_python_block_of_the_readme_runs_as_written(tmp_path, experiment_c
         results = json.load(f)
     assert results == [experiment_cli("aopi", "--seed", str(seed), "--practice", "3")
                        for seed in range(2)]
-
